@@ -1,0 +1,352 @@
+// The `meshmux` command: convert, info, sample. Each command parses its own flags, runs the
+// stages in order and maps a failed Status to an exit code. Progress and warnings go to
+// stderr; data (info) goes to stdout.
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "condition/clean.h"
+#include "exporters/gltf.h"
+#include "importers/import.h"
+#include "scene/file_io.h"
+#include "scene/sample.h"
+
+#ifndef MESHMUX_VERSION
+#define MESHMUX_VERSION "0.0.0"
+#endif
+
+namespace meshmux {
+namespace {
+
+// Exit codes, documented in --help.
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 1;
+constexpr int kExitInput = 2;
+constexpr int kExitOutput = 3;
+constexpr int kExitInternal = 4;
+
+const char* kUsage =
+    "meshmux " MESHMUX_VERSION " - turns COLLADA and glTF scenes into web-ready glTF\n"
+    "\n"
+    "usage:\n"
+    "  meshmux convert IN -o OUT [options]   clean IN and write web-ready output\n"
+    "      OUT ending in .glb: that one file (full quality, Draco-compressed)\n"
+    "      otherwise OUT is a folder that receives model.glb\n"
+    "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
+    "                                        textures, draw calls, bytes\n"
+    "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
+    "  meshmux --help | --version\n"
+    "\n"
+    "convert options:\n"
+    "  --position-bits N   Draco position quantization bits (default 14)\n"
+    "  --normal-bits N     Draco normal quantization bits (default 10)\n"
+    "  --uv-bits N         Draco texture coordinate quantization bits (default 12)\n"
+    "  --no-draco          write plain (uncompressed) accessors\n"
+    "  --crease DEGREES    crease angle for generated normals (default 60)\n"
+    "  -q, --quiet         no progress or warnings on stderr\n"
+    "\n"
+    "inputs: .gltf (external or embedded buffers and images), .glb, .dae (COLLADA 1.4/1.5)\n"
+    "\n"
+    "exit codes:\n"
+    "  0  success\n"
+    "  1  usage error (unknown command or flag, missing argument)\n"
+    "  2  input error (missing, empty, truncated, malformed or unsupported input)\n"
+    "  3  output error (the output could not be written; nothing partial is left)\n"
+    "  4  internal error\n";
+
+int exit_code(const Status& s) {
+  switch (s.kind()) {
+    case ErrorKind::kNone: return kExitOk;
+    case ErrorKind::kInput: return kExitInput;
+    case ErrorKind::kOutput: return kExitOutput;
+    case ErrorKind::kInternal: return kExitInternal;
+  }
+  return kExitInternal;
+}
+
+int fail(const Status& s) {
+  std::fprintf(stderr, "meshmux: %s\n", s.message().c_str());
+  return exit_code(s);
+}
+
+int usage_error(const std::string& message) {
+  std::fprintf(stderr, "meshmux: %s\n(see meshmux --help)\n", message.c_str());
+  return kExitUsage;
+}
+
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), start_(now()) {}
+  void step(const std::string& what) {
+    if (!quiet_) std::fprintf(stderr, "meshmux: [%6.2f s] %s\n", seconds(), what.c_str());
+  }
+  void warnings(const Warnings& w, size_t from) {
+    if (quiet_) return;
+    for (size_t i = from; i < w.items().size(); ++i)
+      std::fprintf(stderr, "meshmux: warning: %s\n", w.items()[i].c_str());
+  }
+  double seconds() const { return std::chrono::duration<double>(now() - start_).count(); }
+
+ private:
+  static std::chrono::steady_clock::time_point now() { return std::chrono::steady_clock::now(); }
+  bool quiet_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  return std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),
+                    [](char a, char b) { return std::tolower(a) == std::tolower(b); });
+}
+
+// Parses an integer flag value within [lo, hi].
+bool parse_int(const std::string& flag, const std::string& text, int lo, int hi, int* out,
+               std::string* error) {
+  char* end = nullptr;
+  long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < lo || v > hi) {
+    *error = flag + " expects a whole number from " + std::to_string(lo) + " to " +
+             std::to_string(hi) + ", got '" + text + "'";
+    return false;
+  }
+  *out = int(v);
+  return true;
+}
+
+std::string human_bytes(uint64_t b) {
+  char buf[64];
+  if (b >= 1000000)
+    std::snprintf(buf, sizeof buf, "%.2f MB", double(b) / 1e6);
+  else if (b >= 1000)
+    std::snprintf(buf, sizeof buf, "%.1f kB", double(b) / 1e3);
+  else
+    std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
+  return buf;
+}
+
+int cmd_convert(const std::vector<std::string>& args) {
+  std::string in, out;
+  bool quiet = false;
+  GltfExportOptions gopts;
+  CleanOptions copts;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&](std::string* v) {
+      if (i + 1 >= args.size()) return false;
+      *v = args[++i];
+      return true;
+    };
+    std::string v, err;
+    if (a == "-o" || a == "--output") {
+      if (!value(&out)) return usage_error("convert: " + a + " needs a path");
+    } else if (a == "-q" || a == "--quiet") {
+      quiet = true;
+    } else if (a == "--no-draco") {
+      gopts.draco = false;
+    } else if (a == "--position-bits" || a == "--normal-bits" || a == "--uv-bits") {
+      if (!value(&v)) return usage_error("convert: " + a + " needs a value");
+      int* target = a == "--position-bits" ? &gopts.position_bits
+                    : a == "--normal-bits" ? &gopts.normal_bits
+                                           : &gopts.uv_bits;
+      if (!parse_int(a, v, 1, 30, target, &err)) return usage_error("convert: " + err);
+    } else if (a == "--crease") {
+      int deg;
+      if (!value(&v)) return usage_error("convert: --crease needs a value");
+      if (!parse_int(a, v, 0, 180, &deg, &err)) return usage_error("convert: " + err);
+      copts.crease_angle_degrees = float(deg);
+    } else if (a == "-h" || a == "--help") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    } else if (!a.empty() && a[0] == '-') {
+      return usage_error("convert: unknown option " + a);
+    } else if (in.empty()) {
+      in = a;
+    } else {
+      return usage_error("convert: more than one input given ('" + in + "' and '" + a + "')");
+    }
+  }
+  if (in.empty()) return usage_error("convert: no input file given");
+  if (out.empty()) return usage_error("convert: no output given (-o OUT.glb or -o FOLDER)");
+
+  Progress progress(quiet);
+  Warnings warnings;
+  progress.step("importing " + in);
+  auto scene = import_scene(in, ImportOptions{}, &warnings);
+  progress.warnings(warnings, 0);
+  if (!scene.ok()) return fail(scene.status());
+  SceneStats before = compute_stats(*scene);
+  progress.step("imported " + std::to_string(before.meshes) + " meshes, " +
+                std::to_string(before.instances) + " instances, " +
+                std::to_string(before.scene_triangles) + " triangles");
+
+  size_t seen = warnings.items().size();
+  CleanReport report;
+  Scene cleaned = clean(*scene, copts, &report);
+  progress.step("cleaned: " + std::to_string(report.triangles_out) + " unique triangles (" +
+                std::to_string(report.degenerate_removed) + " degenerate, " +
+                std::to_string(report.duplicates_removed) + " duplicate removed), " +
+                std::to_string(report.vertices_out) + " vertices");
+
+  progress.step("encoding glTF");
+  auto bytes = export_glb_bytes(cleaned, gopts, &warnings);
+  progress.warnings(warnings, seen);
+  if (!bytes.ok()) return fail(bytes.status());
+
+  std::string target = out;
+  if (!ends_with(out, ".glb")) {
+    std::error_code ec;
+    std::filesystem::create_directories(out, ec);
+    if (ec || !std::filesystem::is_directory(out))
+      return fail(Status::error(out + ": cannot create output folder" +
+                                    (ec ? ": " + ec.message() : std::string()),
+                                ErrorKind::kOutput));
+    target = out + "/model.glb";
+  }
+  Status s = write_file_atomic(target, *bytes);
+  if (!s) return fail(s);
+  SceneStats after = compute_stats(cleaned);
+  progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
+                std::to_string(after.scene_triangles) + " triangles, " +
+                std::to_string(after.draw_calls) + " draw calls)");
+  if (!quiet) std::fprintf(stderr, "meshmux: result: %s\n", target.c_str());
+  return kExitOk;
+}
+
+int cmd_info(const std::vector<std::string>& args) {
+  std::string file;
+  bool json = false;
+  for (const std::string& a : args) {
+    if (a == "--json")
+      json = true;
+    else if (a == "-h" || a == "--help") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    } else if (!a.empty() && a[0] == '-')
+      return usage_error("info: unknown option " + a);
+    else if (file.empty())
+      file = a;
+    else
+      return usage_error("info: more than one file given");
+  }
+  if (file.empty()) return usage_error("info: no file given");
+  Warnings warnings;
+  auto scene = import_scene(file, ImportOptions{}, &warnings);
+  if (!scene.ok()) return fail(scene.status());
+  SceneStats s = compute_stats(*scene);
+  std::error_code ec;
+  uint64_t bytes = std::filesystem::file_size(file, ec);
+  Bounds b = scene_bounds(*scene);
+  if (json) {
+    nlohmann::ordered_json j;
+    j["file"] = file;
+    j["meshes"] = s.meshes;
+    j["primitives"] = s.primitives;
+    j["instances"] = s.instances;
+    j["scene_triangles"] = s.scene_triangles;
+    j["unique_triangles"] = s.unique_triangles;
+    j["vertices"] = s.vertices;
+    j["materials"] = s.materials;
+    j["textures"] = s.textures;
+    j["texture_pixels"] = s.texture_pixels;
+    j["draw_calls"] = s.draw_calls;
+    j["bytes"] = bytes;
+    if (!b.empty()) {
+      j["bounds"] = {{"min", {b.min.x, b.min.y, b.min.z}}, {"max", {b.max.x, b.max.y, b.max.z}}};
+    }
+    j["warnings"] = warnings.items();
+    std::printf("%s\n", j.dump(1).c_str());
+  } else {
+    for (const auto& w : warnings.items()) std::fprintf(stderr, "meshmux: warning: %s\n", w.c_str());
+    std::printf("file              %s\n", file.c_str());
+    std::printf("bytes             %llu (%s)\n", static_cast<unsigned long long>(bytes),
+                human_bytes(bytes).c_str());
+    std::printf("meshes            %zu (%zu primitives)\n", s.meshes, s.primitives);
+    std::printf("instances         %zu\n", s.instances);
+    std::printf("scene triangles   %llu\n", static_cast<unsigned long long>(s.scene_triangles));
+    std::printf("unique triangles  %llu\n", static_cast<unsigned long long>(s.unique_triangles));
+    std::printf("vertices          %llu\n", static_cast<unsigned long long>(s.vertices));
+    std::printf("materials         %zu\n", s.materials);
+    std::printf("textures          %zu (%.1f Mpx)\n", s.textures, double(s.texture_pixels) / 1e6);
+    std::printf("draw calls        %llu\n", static_cast<unsigned long long>(s.draw_calls));
+    if (!b.empty())
+      std::printf("bounds            [%g %g %g] .. [%g %g %g]\n", b.min.x, b.min.y, b.min.z,
+                  b.max.x, b.max.y, b.max.z);
+  }
+  return kExitOk;
+}
+
+int cmd_sample(const std::vector<std::string>& args) {
+  std::string out;
+  bool quiet = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "-o" || args[i] == "--output") {
+      if (i + 1 >= args.size()) return usage_error("sample: -o needs a path");
+      out = args[++i];
+    } else if (args[i] == "-q" || args[i] == "--quiet") {
+      quiet = true;
+    } else if (args[i] == "-h" || args[i] == "--help") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    } else {
+      return usage_error("sample: unexpected argument " + args[i]);
+    }
+  }
+  if (out.empty()) return usage_error("sample: no output given (-o FILE.glb)");
+  if (!ends_with(out, ".glb")) return usage_error("sample: output must end in .glb");
+  Warnings warnings;
+  Scene scene = make_sample_scene();
+  GltfExportOptions gopts;
+  gopts.draco = false;  // the sample is an input: keep it exact and readable by anything
+  auto bytes = export_glb_bytes(scene, gopts, &warnings);
+  if (!bytes.ok()) return fail(bytes.status());
+  Status s = write_file_atomic(out, *bytes);
+  if (!s) return fail(s);
+  if (!quiet) {
+    SceneStats st = compute_stats(scene);
+    std::fprintf(stderr, "meshmux: wrote %s (%zu meshes, %zu instances, %llu triangles, %s)\n",
+                 out.c_str(), st.meshes, st.instances,
+                 static_cast<unsigned long long>(st.scene_triangles),
+                 human_bytes(bytes->size()).c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+}  // namespace meshmux
+
+int meshmux_main(int argc, char** argv) {
+  using namespace meshmux;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty()) {
+    std::fputs(kUsage, stderr);
+    return kExitUsage;
+  }
+  std::string cmd = args[0];
+  std::vector<std::string> rest(args.begin() + 1, args.end());
+  try {
+    if (cmd == "-h" || cmd == "--help" || cmd == "help") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    }
+    if (cmd == "--version" || cmd == "version") {
+      std::printf("meshmux %s\n", MESHMUX_VERSION);
+      return kExitOk;
+    }
+    if (cmd == "convert") return cmd_convert(rest);
+    if (cmd == "info") return cmd_info(rest);
+    if (cmd == "sample") return cmd_sample(rest);
+    return usage_error("unknown command '" + cmd + "'");
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "meshmux: out of memory\n");
+    return kExitInternal;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "meshmux: internal error: %s\n", e.what());
+    return kExitInternal;
+  }
+}

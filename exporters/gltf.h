@@ -1,0 +1,44 @@
+// Scene → binary glTF (.glb) with KHR_draco_mesh_compression.
+//
+// Contract:
+// - Each Mesh becomes one glTF mesh with one primitive per Primitive, Draco-compressed
+//   (quantization bits settable); accessors carry count, min/max as the spec requires.
+// - Meshes shared by several instances stay shared: nodes reference the same mesh; a mesh
+//   with at least `min_gpu_instances` instances becomes one node with EXT_mesh_gpu_instancing
+//   (TRANSLATION/ROTATION/SCALE), except instances whose transform has shear, which keep
+//   their own node with a matrix.
+// - Materials are written in full (factors, textures with samplers, KHR_texture_transform,
+//   alpha mode and cutoff, double-sided, unlit). Images are embedded in their original
+//   encoding when that is PNG or JPEG (or WebP); anything else (TGA, BMP, ...) is re-encoded
+//   to PNG from the decoded pixels. Images that cannot be embedded are dropped with a warning.
+// - The output is validator-clean (Khronos gltf-validator: 0 errors) and deterministic:
+//   the same scene and options give the same bytes.
+// - export_glb writes through write_file_atomic: no partial file on failure.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace meshmux {
+
+struct GltfExportOptions {
+  bool draco = true;             // compress meshes with KHR_draco_mesh_compression
+  int position_bits = 14;        // Draco quantization bits for positions (1-30)
+  int normal_bits = 10;          // for normals
+  int uv_bits = 12;              // for texture coordinates
+  int color_bits = 8;            // for vertex colours
+  int draco_speed = 3;           // Draco encoder speed 0 (smallest) .. 10 (fastest)
+  size_t min_gpu_instances = kMinGpuInstances;  // instances per mesh for EXT_mesh_gpu_instancing
+  std::string generator = "meshmux";            // asset.generator
+};
+
+Result<std::vector<uint8_t>> export_glb_bytes(const Scene& scene, const GltfExportOptions& options,
+                                              Warnings* warnings);
+
+Status export_glb(const Scene& scene, const std::string& path, const GltfExportOptions& options,
+                  Warnings* warnings);
+
+}  // namespace meshmux

@@ -1,0 +1,715 @@
+// glTF 2.0 importer (tinygltf). Implements the import half of paper 000 §4.1's "clean and
+// normalize" input stage: every accessor layout glTF allows is read into plain float/uint32
+// arrays, the node hierarchy is flattened to world-transformed instances while shared meshes
+// stay shared (paper 001 needs the instances intact), and every offset is bounds-checked
+// before use because uploads are untrusted.
+#include "importers/gltf.h"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <set>
+
+#include "draco/compression/decode.h"
+#include "importers/image_decode.h"
+#include "scene/file_io.h"
+
+namespace meshmux {
+
+namespace {
+
+// Extensions whose presence in extensionsRequired we can honour.
+const std::set<std::string> kSupportedRequired = {
+    "KHR_draco_mesh_compression", "KHR_mesh_quantization", "KHR_texture_transform",
+    "EXT_mesh_gpu_instancing",    "KHR_materials_unlit",   "KHR_materials_emissive_strength",
+};
+
+constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
+
+int component_size(int type) {
+  switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+  }
+}
+
+int component_count(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+    default: return 0;
+  }
+}
+
+// One component as float, normalized when asked (glTF 2.0 §3.11 normalization rules).
+float read_component(const uint8_t* p, int type, bool normalized) {
+  switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      int8_t v;
+      std::memcpy(&v, p, 1);
+      return normalized ? std::max(v / 127.0f, -1.0f) : float(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0f : float(p[0]);
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? std::max(v / 32767.0f, -1.0f) : float(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? v / 65535.0f : float(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t v;
+      std::memcpy(&v, p, 4);
+      return float(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+  }
+  return 0;
+}
+
+uint32_t read_index(const uint8_t* p, int type) {
+  switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[0];
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+  }
+  return 0;
+}
+
+class Reader {
+ public:
+  Reader(const tinygltf::Model& model, std::string file) : m_(model), file_(std::move(file)) {}
+
+  Status err(const std::string& where, const std::string& what) const {
+    return Status::error("gltf: " + file_ + ": " + where + (where.empty() ? "" : ": ") + what);
+  }
+
+  // Locates `count` elements of `elem_size` bytes with `stride` in a buffer view; checks
+  // every byte lies inside the view and the buffer.
+  Status locate(int view_index, size_t offset, size_t count, size_t elem_size, size_t stride,
+                const std::string& where, const uint8_t** out) const {
+    if (view_index < 0 || size_t(view_index) >= m_.bufferViews.size())
+      return err(where, "bufferView " + std::to_string(view_index) + " does not exist");
+    const tinygltf::BufferView& view = m_.bufferViews[size_t(view_index)];
+    if (view.buffer < 0 || size_t(view.buffer) >= m_.buffers.size())
+      return err(where, "bufferView " + std::to_string(view_index) + ": buffer " +
+                            std::to_string(view.buffer) + " does not exist");
+    const auto& data = m_.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > data.size() || view.byteLength > data.size() - view.byteOffset)
+      return err(where, "bufferView " + std::to_string(view_index) + " out of bounds of buffer " +
+                            std::to_string(view.buffer) + " (" + std::to_string(data.size()) +
+                            " bytes)");
+    if (count > 0) {
+      // Last byte read: offset + stride*(count-1) + elem_size, in 128-bit-safe arithmetic.
+      unsigned __int128 end = (unsigned __int128)offset + (unsigned __int128)stride * (count - 1) +
+                              elem_size;
+      if (end > view.byteLength)
+        return err(where, "accessor data out of bounds of bufferView " +
+                              std::to_string(view_index) + " (" +
+                              std::to_string(view.byteLength) + " bytes)");
+    }
+    *out = data.data() + view.byteOffset + offset;
+    return Status::ok();
+  }
+
+  // Reads an accessor into floats, `comps` per element (fewer source components are padded
+  // with `pad`, e.g. alpha 1 for VEC3 colours). Applies sparse substitution.
+  Status floats(int index, int comps, float pad, const std::string& where,
+                std::vector<float>* out) const {
+    std::string w = where + ": accessor " + std::to_string(index);
+    if (index < 0 || size_t(index) >= m_.accessors.size()) return err(w, "does not exist");
+    const tinygltf::Accessor& a = m_.accessors[size_t(index)];
+    int csize = component_size(a.componentType);
+    int ccount = component_count(a.type);
+    if (csize == 0 || ccount == 0) return err(w, "invalid componentType or type");
+    if (ccount > comps + 1 || ccount > 4) return err(w, "unexpected type for this attribute");
+    if (a.count > kMaxAccessorCount) return err(w, "count " + std::to_string(a.count) + " too large");
+    size_t elem = size_t(csize) * size_t(ccount);
+    out->assign(a.count * size_t(comps), pad);
+    auto put = [&](size_t i, const uint8_t* src) {
+      for (int c = 0; c < comps; ++c)
+        (*out)[i * size_t(comps) + size_t(c)] =
+            c < ccount ? read_component(src + c * csize, a.componentType, a.normalized) : pad;
+    };
+    if (a.bufferView >= 0) {
+      if (size_t(a.bufferView) >= m_.bufferViews.size())
+        return err(w, "bufferView " + std::to_string(a.bufferView) + " does not exist");
+      size_t stride = m_.bufferViews[size_t(a.bufferView)].byteStride;
+      if (stride == 0) stride = elem;
+      if (stride < elem)
+        return err(w, "byteStride " + std::to_string(stride) + " smaller than its element");
+      const uint8_t* base;
+      Status s = locate(a.bufferView, a.byteOffset, a.count, elem, stride, w, &base);
+      if (!s) return s;
+      for (size_t i = 0; i < a.count; ++i) put(i, base + i * stride);
+    } else {
+      // No bufferView: zeros (then sparse substitution, if any).
+      for (size_t i = 0; i < out->size(); ++i)
+        (*out)[i] = (i % size_t(comps)) < size_t(ccount) ? 0.0f : pad;
+    }
+    if (a.sparse.isSparse) {
+      size_t n = size_t(std::max(a.sparse.count, 0));
+      if (n > a.count) return err(w, "sparse count exceeds accessor count");
+      int icsize = component_size(a.sparse.indices.componentType);
+      if (a.sparse.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+          a.sparse.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          a.sparse.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        return err(w, "invalid sparse index componentType");
+      const uint8_t *ip, *vp;
+      Status s = locate(a.sparse.indices.bufferView, size_t(std::max(a.sparse.indices.byteOffset, 0)),
+                        n, size_t(icsize), size_t(icsize), w + " sparse indices", &ip);
+      if (!s) return s;
+      s = locate(a.sparse.values.bufferView, size_t(std::max(a.sparse.values.byteOffset, 0)), n,
+                 elem, elem, w + " sparse values", &vp);
+      if (!s) return s;
+      for (size_t k = 0; k < n; ++k) {
+        uint32_t target = read_index(ip + k * size_t(icsize), a.sparse.indices.componentType);
+        if (target >= a.count) return err(w, "sparse index " + std::to_string(target) + " out of range");
+        put(target, vp + k * elem);
+      }
+    }
+    return Status::ok();
+  }
+
+  Status indices(int index, const std::string& where, std::vector<uint32_t>* out) const {
+    std::string w = where + ": accessor " + std::to_string(index);
+    if (index < 0 || size_t(index) >= m_.accessors.size()) return err(w, "does not exist");
+    const tinygltf::Accessor& a = m_.accessors[size_t(index)];
+    if (a.type != TINYGLTF_TYPE_SCALAR ||
+        (a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+         a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+         a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+      return err(w, "indices must be unsigned integer scalars");
+    if (a.sparse.isSparse || a.bufferView < 0) {
+      // Rare but legal: read through the general path.
+      std::vector<float> f;
+      Status s = floats(index, 1, 0, where, &f);
+      if (!s) return s;
+      out->resize(f.size());
+      for (size_t i = 0; i < f.size(); ++i) (*out)[i] = uint32_t(f[i]);
+      return Status::ok();
+    }
+    if (a.count > kMaxAccessorCount) return err(w, "count too large");
+    size_t csize = size_t(component_size(a.componentType));
+    if (size_t(a.bufferView) >= m_.bufferViews.size())
+      return err(w, "bufferView " + std::to_string(a.bufferView) + " does not exist");
+    size_t stride = m_.bufferViews[size_t(a.bufferView)].byteStride;
+    if (stride == 0) stride = csize;
+    const uint8_t* base;
+    Status s = locate(a.bufferView, a.byteOffset, a.count, csize, stride, w, &base);
+    if (!s) return s;
+    out->resize(a.count);
+    for (size_t i = 0; i < a.count; ++i) (*out)[i] = read_index(base + i * stride, a.componentType);
+    return Status::ok();
+  }
+
+  const tinygltf::Model& m_;
+  std::string file_;
+};
+
+Mat4 node_local(const tinygltf::Node& n) {
+  if (n.matrix.size() == 16) {
+    Mat4 r;
+    for (int i = 0; i < 16; ++i) r.m[size_t(i)] = n.matrix[size_t(i)];
+    return r;
+  }
+  double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+  if (n.translation.size() == 3) std::copy(n.translation.begin(), n.translation.end(), t);
+  if (n.rotation.size() == 4) std::copy(n.rotation.begin(), n.rotation.end(), q);
+  if (n.scale.size() == 3) std::copy(n.scale.begin(), n.scale.end(), s);
+  return Mat4::trs(t, q, s);
+}
+
+TextureTransform read_transform(const tinygltf::ExtensionMap& ext, uint32_t* tex_coord) {
+  TextureTransform t;
+  auto it = ext.find("KHR_texture_transform");
+  if (it == ext.end() || !it->second.IsObject()) return t;
+  const tinygltf::Value& v = it->second;
+  if (v.Has("offset") && v.Get("offset").ArrayLen() == 2) {
+    t.offset[0] = float(v.Get("offset").Get(0).GetNumberAsDouble());
+    t.offset[1] = float(v.Get("offset").Get(1).GetNumberAsDouble());
+  }
+  if (v.Has("scale") && v.Get("scale").ArrayLen() == 2) {
+    t.scale[0] = float(v.Get("scale").Get(0).GetNumberAsDouble());
+    t.scale[1] = float(v.Get("scale").Get(1).GetNumberAsDouble());
+  }
+  if (v.Has("rotation") && v.Get("rotation").IsNumber())
+    t.rotation = float(v.Get("rotation").GetNumberAsDouble());
+  if (v.Has("texCoord") && v.Get("texCoord").IsNumber())
+    *tex_coord = uint32_t(std::max(0, v.Get("texCoord").GetNumberAsInt()));
+  return t;
+}
+
+// tinygltf hands us the encoded bytes; decoding happens later with OpenImageIO so that an
+// image that fails to decode is a warning, not a failed load.
+bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                        const unsigned char* bytes, int size, void*) {
+  image->image.assign(bytes, bytes + std::max(size, 0));
+  image->width = image->height = -1;
+  image->as_is = true;
+  return true;
+}
+
+}  // namespace
+
+// Decodes one KHR_draco_mesh_compression primitive (implemented in gltf_draco.cpp).
+Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
+                              const std::vector<std::pair<std::string, int>>& attributes,
+                              const std::vector<std::pair<std::string, bool>>& normalized,
+                              Primitive* out, std::string* error);
+
+namespace {
+
+class Importer {
+ public:
+  Importer(const tinygltf::Model& model, const std::string& file, const ImportOptions& opts,
+           Warnings* warnings)
+      : m_(model), r_(model, file), file_(file), opts_(opts), warnings_(warnings) {}
+
+  Result<Scene> run() {
+    Status s = check_extensions();
+    if (!s) return s;
+    s = images();
+    if (!s) return s;
+    materials();
+    s = meshes();
+    if (!s) return s;
+    s = nodes();
+    if (!s) return s;
+    if (!m_.skins.empty())
+      warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.skins.size()) +
+                          " skin(s) dropped; meshes are kept in their bind pose");
+    if (!m_.animations.empty())
+      warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.animations.size()) +
+                          " animation(s) dropped");
+    return std::move(scene_);
+  }
+
+ private:
+  Status check_extensions() {
+    for (const std::string& e : m_.extensionsRequired)
+      if (!kSupportedRequired.count(e))
+        return r_.err("", "required extension " + e + " is not supported");
+    return Status::ok();
+  }
+
+  Status images() {
+    image_map_.assign(m_.images.size(), -1);
+    for (size_t i = 0; i < m_.images.size(); ++i) {
+      const tinygltf::Image& src = m_.images[i];
+      std::string label = "image " + std::to_string(i) +
+                          (src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? "" : " '" + src.uri + "'");
+      if (src.image.empty() || src.width != -1) {
+        warn(warnings_, "gltf: " + file_ + ": " + label + ": could not be loaded; textures using it are dropped");
+        continue;
+      }
+      Image img;
+      img.name = src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? (src.name.empty() ? label : src.name) : src.uri;
+      img.encoded = src.image;
+      img.mime_type = sniff_image_mime(img.encoded, src.uri);
+      if (img.mime_type.empty()) img.mime_type = src.mimeType;
+      if (opts_.decode_images) {
+        Status s = decode_image(img, opts_.max_image_pixels);
+        if (!s) {
+          warn(warnings_, "gltf: " + file_ + ": " + label + ": " + s.message() +
+                              "; textures using it are dropped");
+          continue;
+        }
+      }
+      image_map_[i] = int32_t(scene_.images.size());
+      scene_.images.push_back(std::move(img));
+    }
+    return Status::ok();
+  }
+
+  TextureRef texture(int index, int tex_coord, const tinygltf::ExtensionMap& ext,
+                     const std::string& where) {
+    TextureRef ref;
+    if (index < 0) return ref;
+    if (size_t(index) >= m_.textures.size()) {
+      warn(warnings_, "gltf: " + file_ + ": " + where + ": texture " + std::to_string(index) +
+                          " does not exist; dropped");
+      return ref;
+    }
+    const tinygltf::Texture& t = m_.textures[size_t(index)];
+    if (t.source < 0 || size_t(t.source) >= m_.images.size() || image_map_[size_t(t.source)] < 0)
+      return ref;  // no usable image (already warned about, or none given)
+    ref.image = image_map_[size_t(t.source)];
+    if (t.sampler >= 0 && size_t(t.sampler) < m_.samplers.size()) {
+      const tinygltf::Sampler& s = m_.samplers[size_t(t.sampler)];
+      auto wrap = [](int w) {
+        return w == int(Wrap::kClampToEdge)      ? Wrap::kClampToEdge
+               : w == int(Wrap::kMirroredRepeat) ? Wrap::kMirroredRepeat
+                                                 : Wrap::kRepeat;
+      };
+      ref.sampler.wrap_s = wrap(s.wrapS);
+      ref.sampler.wrap_t = wrap(s.wrapT);
+      ref.sampler.mag_filter = std::max(s.magFilter, 0);
+      ref.sampler.min_filter = std::max(s.minFilter, 0);
+    }
+    ref.tex_coord = uint32_t(std::max(tex_coord, 0));
+    ref.transform = read_transform(ext, &ref.tex_coord);
+    return ref;
+  }
+
+  void materials() {
+    for (size_t i = 0; i < m_.materials.size(); ++i) {
+      const tinygltf::Material& src = m_.materials[i];
+      std::string where = "material " + std::to_string(i);
+      Material mat;
+      mat.name = src.name;
+      const auto& pbr = src.pbrMetallicRoughness;
+      if (pbr.baseColorFactor.size() == 4)
+        mat.base_color_factor = {float(pbr.baseColorFactor[0]), float(pbr.baseColorFactor[1]),
+                                 float(pbr.baseColorFactor[2]), float(pbr.baseColorFactor[3])};
+      mat.base_color = texture(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
+                               pbr.baseColorTexture.extensions, where);
+      mat.metallic_factor = float(pbr.metallicFactor);
+      mat.roughness_factor = float(pbr.roughnessFactor);
+      mat.metallic_roughness =
+          texture(pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
+                  pbr.metallicRoughnessTexture.extensions, where);
+      mat.normal = texture(src.normalTexture.index, src.normalTexture.texCoord,
+                           src.normalTexture.extensions, where);
+      mat.normal.scale = float(src.normalTexture.scale);
+      mat.occlusion = texture(src.occlusionTexture.index, src.occlusionTexture.texCoord,
+                              src.occlusionTexture.extensions, where);
+      mat.occlusion.scale = float(src.occlusionTexture.strength);
+      mat.emissive = texture(src.emissiveTexture.index, src.emissiveTexture.texCoord,
+                             src.emissiveTexture.extensions, where);
+      if (src.emissiveFactor.size() == 3)
+        mat.emissive_factor = {float(src.emissiveFactor[0]), float(src.emissiveFactor[1]),
+                               float(src.emissiveFactor[2])};
+      mat.alpha_mode = src.alphaMode == "MASK"    ? AlphaMode::kMask
+                       : src.alphaMode == "BLEND" ? AlphaMode::kBlend
+                                                  : AlphaMode::kOpaque;
+      mat.alpha_cutoff = float(src.alphaCutoff);
+      mat.double_sided = src.doubleSided;
+      mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
+      scene_.materials.push_back(std::move(mat));
+    }
+  }
+
+  Status primitive(const tinygltf::Primitive& p, const std::string& where, Primitive* out,
+                   bool* skip) {
+    *skip = false;
+    int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+      warn(warnings_, "gltf: " + file_ + ": " + where + ": points/lines primitive skipped");
+      *skip = true;
+      return Status::ok();
+    }
+    if (p.material >= int(m_.materials.size()))
+      return r_.err(where, "material " + std::to_string(p.material) + " does not exist");
+    out->material = p.material;
+    auto draco = p.extensions.find("KHR_draco_mesh_compression");
+    if (draco != p.extensions.end()) return draco_primitive(p, draco->second, where, out);
+
+    auto pos = p.attributes.find("POSITION");
+    if (pos == p.attributes.end()) return r_.err(where, "has no POSITION attribute");
+    std::vector<float> f;
+    Status s = r_.floats(pos->second, 3, 0, where, &f);
+    if (!s) return s;
+    size_t n = f.size() / 3;
+    out->positions.resize(n);
+    for (size_t i = 0; i < n; ++i) out->positions[i] = {f[3 * i], f[3 * i + 1], f[3 * i + 2]};
+    auto attribute = [&](const std::string& name, int comps, float pad) -> Status {
+      auto it = p.attributes.find(name);
+      if (it == p.attributes.end()) return Status::ok();
+      Status st = r_.floats(it->second, comps, pad, where + ": " + name, &f);
+      if (!st) return st;
+      if (f.size() / size_t(comps) != n)
+        return r_.err(where, name + " has " + std::to_string(f.size() / size_t(comps)) +
+                                 " elements for " + std::to_string(n) + " positions");
+      return Status::ok();
+    };
+    if (!(s = attribute("NORMAL", 3, 0))) return s;
+    if (p.attributes.count("NORMAL")) {
+      out->normals.resize(n);
+      for (size_t i = 0; i < n; ++i)
+        out->normals[i] = normalize(Vec3{f[3 * i], f[3 * i + 1], f[3 * i + 2]});
+    }
+    for (int set = 0;; ++set) {
+      std::string name = "TEXCOORD_" + std::to_string(set);
+      if (!p.attributes.count(name)) break;
+      if (!(s = attribute(name, 2, 0))) return s;
+      out->uvs.emplace_back(n);
+      for (size_t i = 0; i < n; ++i) out->uvs.back()[i] = {f[2 * i], f[2 * i + 1]};
+    }
+    if (p.attributes.count("COLOR_0")) {
+      if (!(s = attribute("COLOR_0", 4, 1))) return s;
+      out->colors.resize(n);
+      for (size_t i = 0; i < n; ++i)
+        out->colors[i] = {f[4 * i], f[4 * i + 1], f[4 * i + 2], f[4 * i + 3]};
+    }
+    std::vector<uint32_t> idx;
+    if (p.indices >= 0) {
+      if (!(s = r_.indices(p.indices, where + ": indices", &idx))) return s;
+    } else {
+      idx.resize(n);
+      for (size_t i = 0; i < n; ++i) idx[i] = uint32_t(i);
+    }
+    for (uint32_t i : idx)
+      if (i >= n)
+        return r_.err(where, "index " + std::to_string(i) + " out of range (" +
+                                 std::to_string(n) + " vertices)");
+    to_triangles(mode, idx, &out->indices);
+    return Status::ok();
+  }
+
+  static void to_triangles(int mode, const std::vector<uint32_t>& idx, std::vector<uint32_t>* tri) {
+    tri->clear();
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      tri->assign(idx.begin(), idx.begin() + long(idx.size() / 3 * 3));
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      for (size_t i = 2; i < idx.size(); ++i) {
+        if (i % 2 == 0)
+          tri->insert(tri->end(), {idx[i - 2], idx[i - 1], idx[i]});
+        else
+          tri->insert(tri->end(), {idx[i - 1], idx[i - 2], idx[i]});
+      }
+    } else {
+      for (size_t i = 2; i < idx.size(); ++i) tri->insert(tri->end(), {idx[i - 1], idx[i], idx[0]});
+    }
+  }
+
+  Status draco_primitive(const tinygltf::Primitive& p, const tinygltf::Value& ext,
+                         const std::string& where, Primitive* out) {
+    if (!ext.IsObject() || !ext.Has("bufferView") || !ext.Has("attributes"))
+      return r_.err(where, "KHR_draco_mesh_compression lacks bufferView or attributes");
+    int view = ext.Get("bufferView").GetNumberAsInt();
+    if (view < 0 || size_t(view) >= m_.bufferViews.size())
+      return r_.err(where, "KHR_draco_mesh_compression: bufferView " + std::to_string(view) + " does not exist");
+    const uint8_t* data;
+    size_t len = m_.bufferViews[size_t(view)].byteLength;
+    Status s = r_.locate(view, 0, len > 0 ? 1 : 0, len, len, where, &data);
+    if (!s) return s;
+    std::vector<std::pair<std::string, int>> attrs;
+    std::vector<std::pair<std::string, bool>> norm;
+    const tinygltf::Value& a = ext.Get("attributes");
+    for (const std::string& key : a.Keys()) {
+      attrs.emplace_back(key, a.Get(key).GetNumberAsInt());
+      auto acc = p.attributes.find(key);
+      bool normalized = acc != p.attributes.end() && acc->second >= 0 &&
+                        size_t(acc->second) < m_.accessors.size() &&
+                        m_.accessors[size_t(acc->second)].normalized;
+      norm.emplace_back(key, normalized);
+    }
+    std::vector<uint8_t> bytes(data, data + len);
+    std::string e;
+    s = decode_draco_primitive(bytes, attrs, norm, out, &e);
+    if (!s) return r_.err(where, "KHR_draco_mesh_compression: " + s.message());
+    return Status::ok();
+  }
+
+  Status meshes() {
+    mesh_map_.assign(m_.meshes.size(), -1);
+    for (size_t mi = 0; mi < m_.meshes.size(); ++mi) {
+      const tinygltf::Mesh& src = m_.meshes[mi];
+      Mesh mesh;
+      mesh.name = src.name;
+      for (size_t pi = 0; pi < src.primitives.size(); ++pi) {
+        std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+        Primitive prim;
+        bool skip;
+        Status s = primitive(src.primitives[pi], where, &prim, &skip);
+        if (!s) return s;
+        if (skip) continue;
+        if (prim.indices.empty()) {
+          warn(warnings_, "gltf: " + file_ + ": " + where + ": no triangles; skipped");
+          continue;
+        }
+        mesh.primitives.push_back(std::move(prim));
+      }
+      if (mesh.primitives.empty()) continue;
+      mesh_map_[mi] = int32_t(scene_.meshes.size());
+      scene_.meshes.push_back(std::move(mesh));
+    }
+    return Status::ok();
+  }
+
+  Status instancing(const tinygltf::Node& node, int node_index, const Mat4& world, uint32_t mesh) {
+    const tinygltf::Value& ext = node.extensions.at("EXT_mesh_gpu_instancing");
+    std::string where = "node " + std::to_string(node_index) + ": EXT_mesh_gpu_instancing";
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
+      return r_.err(where, "has no attributes");
+    const tinygltf::Value& a = ext.Get("attributes");
+    std::vector<float> t, r, s;
+    size_t count = SIZE_MAX;
+    auto read = [&](const char* name, int comps, std::vector<float>* out) -> Status {
+      if (!a.Has(name)) return Status::ok();
+      Status st = r_.floats(a.Get(name).GetNumberAsInt(), comps, 0, where + ": " + name, out);
+      if (!st) return st;
+      count = std::min(count, out->size() / size_t(comps));
+      return Status::ok();
+    };
+    Status st;
+    if (!(st = read("TRANSLATION", 3, &t)) || !(st = read("ROTATION", 4, &r)) ||
+        !(st = read("SCALE", 3, &s)))
+      return st;
+    if (count == SIZE_MAX) return r_.err(where, "has no TRANSLATION, ROTATION or SCALE");
+    if ((!t.empty() && t.size() / 3 != count) || (!r.empty() && r.size() / 4 != count) ||
+        (!s.empty() && s.size() / 3 != count))
+      return r_.err(where, "attribute counts differ");
+    for (size_t i = 0; i < count; ++i) {
+      double tt[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, ss[3] = {1, 1, 1};
+      for (int k = 0; k < 3 && !t.empty(); ++k) tt[k] = t[3 * i + size_t(k)];
+      for (int k = 0; k < 4 && !r.empty(); ++k) q[k] = r[4 * i + size_t(k)];
+      for (int k = 0; k < 3 && !s.empty(); ++k) ss[k] = s[3 * i + size_t(k)];
+      Instance inst;
+      inst.mesh = mesh;
+      inst.world = world * Mat4::trs(tt, q, ss);
+      inst.name = node.name;
+      scene_.instances.push_back(std::move(inst));
+    }
+    return Status::ok();
+  }
+
+  Status visit(int index, const Mat4& parent, std::vector<char>& on_path, int depth) {
+    if (index < 0 || size_t(index) >= m_.nodes.size())
+      return r_.err("", "node " + std::to_string(index) + " does not exist");
+    if (on_path[size_t(index)] || depth > 1024)
+      return r_.err("node " + std::to_string(index), "node hierarchy has a cycle");
+    on_path[size_t(index)] = 1;
+    const tinygltf::Node& node = m_.nodes[size_t(index)];
+    Mat4 world = parent * node_local(node);
+    if (node.mesh >= 0) {
+      if (size_t(node.mesh) >= m_.meshes.size())
+        return r_.err("node " + std::to_string(index), "mesh " + std::to_string(node.mesh) + " does not exist");
+      int32_t mesh = mesh_map_[size_t(node.mesh)];
+      if (mesh >= 0) {
+        if (node.extensions.count("EXT_mesh_gpu_instancing")) {
+          Status s = instancing(node, index, world, uint32_t(mesh));
+          if (!s) return s;
+        } else {
+          scene_.instances.push_back({uint32_t(mesh), world, node.name});
+        }
+      }
+    }
+    for (int child : node.children) {
+      Status s = visit(child, world, on_path, depth + 1);
+      if (!s) return s;
+    }
+    on_path[size_t(index)] = 0;
+    return Status::ok();
+  }
+
+  Status nodes() {
+    std::vector<int> roots;
+    if (!m_.scenes.empty()) {
+      int si = m_.defaultScene >= 0 && size_t(m_.defaultScene) < m_.scenes.size() ? m_.defaultScene : 0;
+      roots = m_.scenes[size_t(si)].nodes;
+    } else {
+      std::vector<char> is_child(m_.nodes.size(), 0);
+      for (const auto& n : m_.nodes)
+        for (int c : n.children)
+          if (c >= 0 && size_t(c) < is_child.size()) is_child[size_t(c)] = 1;
+      for (size_t i = 0; i < m_.nodes.size(); ++i)
+        if (!is_child[i]) roots.push_back(int(i));
+    }
+    std::vector<char> on_path(m_.nodes.size(), 0);
+    for (int root : roots) {
+      Status s = visit(root, Mat4::identity(), on_path, 0);
+      if (!s) return s;
+    }
+    return Status::ok();
+  }
+
+  const tinygltf::Model& m_;
+  Reader r_;
+  std::string file_;
+  const ImportOptions& opts_;
+  Warnings* warnings_;
+  Scene scene_;
+  std::vector<int32_t> image_map_;  // glTF image → scene image (-1: unusable)
+  std::vector<int32_t> mesh_map_;   // glTF mesh → scene mesh (-1: nothing drawable)
+};
+
+}  // namespace
+
+Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
+                          Warnings* warnings) {
+  std::string file = base_name(path);
+  auto bytes = read_whole_file(path, options.max_file_bytes);
+  if (!bytes.ok()) return Status::error("gltf: " + bytes.status().message());
+  const std::vector<uint8_t>& data = *bytes;
+  if (data.empty()) return Status::error("gltf: " + file + ": file is empty");
+  if (data.size() > 0xFFFFFFFFu) return Status::error("gltf: " + file + ": file too large");
+
+  std::string dir = ".";
+  size_t slash = path.find_last_of('/');
+  if (slash != std::string::npos) dir = path.substr(0, slash);
+
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(keep_encoded_image, nullptr);
+  tinygltf::Model model;
+  std::string err, warn_text;
+  bool ok;
+  bool binary = data.size() >= 4 && std::memcmp(data.data(), "glTF", 4) == 0;
+  try {
+    if (binary) {
+      if (data.size() < 20)
+        return Status::error("gltf: " + file + ": truncated GLB (" + std::to_string(data.size()) + " bytes)");
+      uint32_t declared;
+      std::memcpy(&declared, data.data() + 8, 4);
+      if (declared > data.size())
+        return Status::error("gltf: " + file + ": truncated GLB: header declares " +
+                             std::to_string(declared) + " bytes, file has " +
+                             std::to_string(data.size()));
+      ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(),
+                                       unsigned(data.size()), dir);
+    } else {
+      ok = loader.LoadASCIIFromString(&model, &err, &warn_text,
+                                      reinterpret_cast<const char*>(data.data()),
+                                      unsigned(data.size()), dir);
+    }
+  } catch (const std::exception& e) {
+    return Status::error("gltf: " + file + ": cannot parse: " + e.what());
+  }
+  if (!ok) {
+    std::string reason = err.empty() ? warn_text : err;
+    while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
+    for (char& c : reason)
+      if (c == '\n') c = ';';
+    return Status::error("gltf: " + file + ": cannot parse: " + (reason.empty() ? "invalid glTF" : reason));
+  }
+  // tinygltf reports missing external images as warnings; the image pass turns those into
+  // per-image warnings, so its raw text is not repeated here.
+  Importer importer(model, file, options, warnings);
+  auto scene = importer.run();
+  if (!scene.ok()) return scene.status();
+  scene->source = path;
+  Status s = validate(*scene, "gltf: " + file);
+  if (!s) return s;
+  return scene;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,38 @@
+#include "importers/import.h"
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+
+#include "importers/collada.h"
+#include "importers/gltf.h"
+#include "scene/file_io.h"
+
+namespace meshmux {
+
+Result<Scene> import_scene(const std::string& path, const ImportOptions& options,
+                           Warnings* warnings) {
+  std::string ext;
+  size_t dot = path.find_last_of('.');
+  if (dot != std::string::npos && path.find('/', dot) == std::string::npos) ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == "gltf" || ext == "glb") return import_gltf(path, options, warnings);
+  if (ext == "dae" || ext == "xml") return import_collada(path, options, warnings);
+  // Unknown extension: look at the first bytes.
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    auto r = read_whole_file(path, 1);  // for the precise reason (missing, directory, ...)
+    return Status::error("import: " + (r.ok() ? path + ": cannot open" : r.status().message()));
+  }
+  char head[512] = {0};
+  in.read(head, sizeof head);
+  std::string h(head, size_t(in.gcount()));
+  if (h.empty()) return Status::error("import: " + base_name(path) + ": file is empty");
+  if (h.compare(0, 4, "glTF") == 0 || h.find("\"asset\"") != std::string::npos)
+    return import_gltf(path, options, warnings);
+  if (h.find("<COLLADA") != std::string::npos) return import_collada(path, options, warnings);
+  return Status::error("import: " + base_name(path) +
+                       ": unknown format (expected .gltf, .glb or .dae)");
+}
+
+}  // namespace meshmux

@@ -1,0 +1,88 @@
+#include "scene/file_io.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+namespace meshmux {
+
+std::string base_name(const std::string& path) {
+  size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t max_bytes) {
+  struct stat st;
+  if (stat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT) return Status::error(path + ": no such file");
+    return Status::error(path + ": cannot open: " + std::strerror(errno));
+  }
+  if (S_ISDIR(st.st_mode)) return Status::error(path + ": is a directory, not a file");
+  if (uint64_t(st.st_size) > max_bytes)
+    return Status::error(path + ": file is " + std::to_string(st.st_size) +
+                         " bytes, over the limit of " + std::to_string(max_bytes));
+  int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Status::error(path + ": cannot open: " + std::strerror(errno));
+  std::vector<uint8_t> bytes;
+  bytes.reserve(size_t(st.st_size));
+  uint8_t buf[1 << 16];
+  for (;;) {
+    ssize_t n = read(fd, buf, sizeof buf);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      int e = errno;
+      close(fd);
+      return Status::error(path + ": cannot read: " + std::strerror(e));
+    }
+    if (n == 0) break;
+    bytes.insert(bytes.end(), buf, buf + n);
+    if (bytes.size() > max_bytes) {
+      close(fd);
+      return Status::error(path + ": file is over the limit of " + std::to_string(max_bytes) +
+                           " bytes");
+    }
+  }
+  close(fd);
+  return bytes;
+}
+
+Status write_file_atomic(const std::string& path, const void* data, size_t size) {
+  std::string tmp = path + ".tmp-" + std::to_string(getpid());
+  int fd = open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0)
+    return Status::error(path + ": cannot create: " + std::strerror(errno), ErrorKind::kOutput);
+  const uint8_t* p = static_cast<const uint8_t*>(data);
+  size_t left = size;
+  while (left > 0) {
+    ssize_t n = write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      int e = errno;
+      close(fd);
+      unlink(tmp.c_str());
+      return Status::error(path + ": cannot write: " + std::strerror(e), ErrorKind::kOutput);
+    }
+    p += n;
+    left -= size_t(n);
+  }
+  if (fsync(fd) != 0 && errno != EINVAL) {
+    int e = errno;
+    close(fd);
+    unlink(tmp.c_str());
+    return Status::error(path + ": cannot write: " + std::strerror(e), ErrorKind::kOutput);
+  }
+  close(fd);
+  if (rename(tmp.c_str(), path.c_str()) != 0) {
+    int e = errno;
+    unlink(tmp.c_str());
+    return Status::error(path + ": cannot rename into place: " + std::strerror(e),
+                         ErrorKind::kOutput);
+  }
+  return Status::ok();
+}
+
+}  // namespace meshmux

@@ -1,0 +1,33 @@
+// Whole-file reads and all-or-nothing writes. Every output of meshmux goes through
+// write_file_atomic: the bytes go to "<path>.tmp-<pid>" first and are renamed onto `path` only
+// when completely written, so a failure never leaves a partial file behind.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scene/status.h"
+
+namespace meshmux {
+
+// Reads a whole file. Errors (kInput) name the file: "scene.glb: no such file",
+// "scene.glb: is a directory", "scene.glb: cannot read: <reason>". Files larger than
+// `max_bytes` are refused.
+Result<std::vector<uint8_t>> read_whole_file(const std::string& path,
+                                             uint64_t max_bytes = uint64_t(4) << 30);
+
+// Writes bytes to a temporary name beside `path`, flushes, then renames onto `path`.
+// Errors are kOutput and name the file. On failure the temporary is removed.
+Status write_file_atomic(const std::string& path, const void* data, size_t size);
+inline Status write_file_atomic(const std::string& path, const std::vector<uint8_t>& bytes) {
+  return write_file_atomic(path, bytes.data(), bytes.size());
+}
+inline Status write_file_atomic(const std::string& path, const std::string& text) {
+  return write_file_atomic(path, text.data(), text.size());
+}
+
+// The file name without folders, for messages ("models/duck.dae" → "duck.dae").
+std::string base_name(const std::string& path);
+
+}  // namespace meshmux

@@ -1,0 +1,151 @@
+// The plain data model every stage reads and writes. Indices, not pointers; no third-party
+// types. Units: positions in the author's units as imported (glTF metres, COLLADA converted
+// to metres and Y-up by the importer); uv in glTF convention (origin top-left, v down);
+// colours linear RGBA in [0,1] (base colour texture pixels stay sRGB-encoded as stored).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scene/math.h"
+#include "scene/status.h"
+
+namespace meshmux {
+
+// GL enum values, as glTF stores them.
+enum class Wrap : int { kRepeat = 10497, kClampToEdge = 33071, kMirroredRepeat = 33648 };
+
+struct Sampler {
+  Wrap wrap_s = Wrap::kRepeat;  // horizontal wrap
+  Wrap wrap_t = Wrap::kRepeat;  // vertical wrap
+  int mag_filter = 0;           // GL enum (9728 NEAREST, 9729 LINEAR); 0 = unspecified
+  int min_filter = 0;           // GL enum incl. mipmap modes; 0 = unspecified
+};
+
+// KHR_texture_transform: uv' = T(offset) * R(rotation) * S(scale) * uv.
+struct TextureTransform {
+  float offset[2] = {0, 0};  // uv units
+  float rotation = 0;        // radians, counter-clockwise in uv space
+  float scale[2] = {1, 1};   // uv units
+  bool is_identity() const {
+    return offset[0] == 0 && offset[1] == 0 && rotation == 0 && scale[0] == 1 && scale[1] == 1;
+  }
+};
+
+// A material's use of an image.
+struct TextureRef {
+  int32_t image = -1;            // index into Scene::images; -1 = no texture
+  Sampler sampler;               // how to sample it
+  uint32_t tex_coord = 0;        // which uv set of the primitive
+  TextureTransform transform;    // identity unless KHR_texture_transform was given
+  float scale = 1;               // normalTexture.scale or occlusionTexture.strength
+  bool present() const { return image >= 0; }
+};
+
+enum class AlphaMode { kOpaque, kMask, kBlend };
+
+// glTF metallic-roughness material. COLLADA's common profile maps onto it (diffuse → base
+// colour, transparency → alpha).
+struct Material {
+  std::string name;
+  Vec4 base_color_factor{1, 1, 1, 1};  // linear RGBA
+  TextureRef base_color;               // sRGB texture, multiplied by the factor
+  float metallic_factor = 1;           // [0,1]
+  float roughness_factor = 1;          // [0,1]
+  TextureRef metallic_roughness;       // linear; G = roughness, B = metallic
+  TextureRef normal;                   // tangent-space normal map
+  TextureRef occlusion;                // linear; R = occlusion
+  TextureRef emissive;                 // sRGB
+  Vec3 emissive_factor{0, 0, 0};       // linear RGB
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
+  bool double_sided = false;  // render back faces
+  bool unlit = false;         // KHR_materials_unlit
+};
+
+// An image: the bytes as they came (so unchanged images are passed through, not re-encoded)
+// and, when decoding succeeded, RGBA8 pixels.
+struct Image {
+  std::string name;               // for messages; the uri or the glTF image name
+  std::string mime_type;          // e.g. "image/png"; as detected from the bytes
+  std::vector<uint8_t> encoded;   // original file bytes; may be empty for generated images
+  int width = 0, height = 0;      // pixels; 0 when not decoded
+  std::vector<uint8_t> rgba;      // width*height*4 bytes, row 0 at the top; empty when not decoded
+  bool decoded() const { return width > 0 && height > 0 && !rgba.empty(); }
+};
+
+// Triangles sharing one material and one vertex layout (a glTF primitive, a COLLADA
+// <triangles>/<polylist> block). Every attribute array is either empty or has one entry per
+// vertex.
+struct Primitive {
+  std::vector<Vec3> positions;         // required
+  std::vector<Vec3> normals;           // unit length; empty = to be generated
+  std::vector<std::vector<Vec2>> uvs;  // uv sets TEXCOORD_0, TEXCOORD_1, ...
+  std::vector<Vec4> colors;            // COLOR_0, linear RGBA
+  std::vector<uint32_t> indices;       // 3 per triangle, counter-clockwise front faces
+  int32_t material = -1;               // index into Scene::materials; -1 = default material
+
+  size_t vertex_count() const { return positions.size(); }
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+// A mesh: one or more primitives drawn together (a glTF mesh, a COLLADA <geometry>). Shared
+// by every instance that references it.
+struct Mesh {
+  std::string name;
+  std::vector<Primitive> primitives;
+};
+
+// One placement of a mesh in the world. Hierarchies are flattened into these.
+struct Instance {
+  uint32_t mesh = 0;  // index into Scene::meshes
+  Mat4 world;         // mesh space → world space
+  std::string name;   // the node's name, for messages and round trips
+};
+
+struct Scene {
+  std::vector<Mesh> meshes;
+  std::vector<Material> materials;
+  std::vector<Image> images;
+  std::vector<Instance> instances;
+  std::string source;  // file the scene came from, for messages ("" for generated scenes)
+  // Set by clean(): multiply world positions by this to give the scene a bounding-box
+  // diagonal of 1, the unit in which later stages measure geometric error. 1 until then.
+  double normalization_scale = 1;
+};
+
+// Meshes with at least this many instances count as one instanced draw per primitive
+// (EXT_mesh_gpu_instancing); the exporter uses the same threshold.
+constexpr size_t kMinGpuInstances = 4;
+
+struct SceneStats {
+  size_t meshes = 0;             // meshes referenced or not
+  size_t primitives = 0;         // over all meshes
+  size_t instances = 0;          // placements
+  uint64_t scene_triangles = 0;  // every instance expanded
+  uint64_t unique_triangles = 0; // every mesh counted once
+  uint64_t vertices = 0;         // every mesh counted once
+  size_t materials = 0;
+  size_t textures = 0;           // images referenced by any material
+  uint64_t texture_pixels = 0;   // sum of width*height over referenced, decoded images
+  uint64_t draw_calls = 0;       // see kMinGpuInstances
+};
+
+SceneStats compute_stats(const Scene& scene);
+
+// Number of instances per mesh.
+std::vector<size_t> instance_counts(const Scene& scene);
+
+// World-space bounds over every instance. O(total instanced vertices).
+Bounds scene_bounds(const Scene& scene);
+
+// Bounds of one mesh in its own space.
+Bounds mesh_bounds(const Mesh& mesh);
+
+// Checks every index is in range, every attribute array has the vertex count, triangles come
+// in threes, transforms and positions are finite. Messages name the element, prefixed with
+// `stage`: "validate: mesh 3 primitive 1: index 7 out of range (5 vertices)".
+Status validate(const Scene& scene, const std::string& stage = "validate");
+
+}  // namespace meshmux

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Installs every Debian and npm dependency meshmux needs. Idempotent: packages already
+# present are skipped, node_modules is reused. Run as root it calls apt-get itself;
+# otherwise it prints the exact command to run and exits non-zero.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+
+debs=(
+  build-essential cmake ninja-build pkg-config ccache git
+  libtinygltf-dev nlohmann-json3-dev libstb-dev
+  libdraco-dev libmeshoptimizer-dev gltfpack
+  libopenmesh-dev libeigen3-dev
+  libopenimageio-dev openimageio-tools libturbojpeg0-dev
+  libassimp-dev libpugixml-dev
+  libgtest-dev libgmock-dev
+  libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+  chromium
+)
+# Node.js: any install that provides node and npm will do (Debian's nodejs+npm, or NodeSource's nodejs,
+# which conflicts with Debian's npm package).
+command -v node >/dev/null || debs+=(nodejs)
+command -v npm >/dev/null || debs+=(npm)
+
+missing=()
+for p in "${debs[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -gt 0 ]; then
+  cmd="apt-get install -y --no-install-recommends ${missing[*]}"
+  if [ "$(id -u)" = 0 ]; then
+    echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}" >&2
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -q >/dev/null
+    apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "setup: missing Debian packages. Run as root:" >&2
+    echo "  sudo apt-get update && sudo $cmd" >&2
+    exit 1
+  fi
+else
+  echo "setup: Debian packages present" >&2
+fi
+
+# npm: Khronos' glTF validator (run through node by the tests). Pinned in package-lock.json.
+if [ ! -d "$here/node_modules/gltf-validator" ]; then
+  echo "setup: installing npm packages" >&2
+  (cd "$here" && npm ci --no-audit --no-fund --loglevel=error)
+else
+  echo "setup: npm packages present" >&2
+fi

@@ -1,0 +1,135 @@
+#include "test_util.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace meshmux::testing {
+
+TempDir::TempDir() {
+  std::string tmpl = (fs::temp_directory_path() / "meshmux-test-XXXXXX").string();
+  std::vector<char> buf(tmpl.begin(), tmpl.end());
+  buf.push_back('\0');
+  char* p = mkdtemp(buf.data());
+  if (!p) throw std::runtime_error("mkdtemp failed");
+  path_ = p;
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+std::vector<std::string> TempDir::list() const {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(path_)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+static std::string slurp_fd(int fd) {
+  std::string s;
+  char buf[65536];
+  ssize_t n;
+  while ((n = read(fd, buf, sizeof buf)) > 0) s.append(buf, size_t(n));
+  return s;
+}
+
+CommandResult run_program(const std::string& program, const std::vector<std::string>& args) {
+  // stdout and stderr go to temp files (avoids pipe deadlocks without threads).
+  TempDir tmp;
+  std::string out_path = tmp.file("out"), err_path = tmp.file("err");
+  pid_t pid = fork();
+  if (pid == 0) {
+    int o = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int e = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    int in = open("/dev/null", O_RDONLY);
+    dup2(o, 1);
+    dup2(e, 2);
+    dup2(in, 0);
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(program.c_str()));
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execvp(program.c_str(), argv.data());
+    _exit(127);
+  }
+  CommandResult r;
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (WIFEXITED(status))
+    r.exit_code = WEXITSTATUS(status);
+  else if (WIFSIGNALED(status))
+    r.exit_code = 128 + WTERMSIG(status);
+  int o = open(out_path.c_str(), O_RDONLY), e = open(err_path.c_str(), O_RDONLY);
+  if (o >= 0) r.out = slurp_fd(o), close(o);
+  if (e >= 0) r.err = slurp_fd(e), close(e);
+  return r;
+}
+
+CommandResult run_meshmux(const std::vector<std::string>& args) {
+  return run_program(MESHMUX_BINARY, args);
+}
+
+bool have_shared_models() { return fs::is_directory(std::string(MESHMUX_SHARED_DIR) + "/models"); }
+
+std::string shared_model(const std::string& rel) {
+  if (!have_shared_models()) return "";
+  return std::string(MESHMUX_SHARED_DIR) + "/models/" + rel;
+}
+
+std::vector<std::string> shared_model_files() {
+  std::vector<std::string> files;
+  if (!have_shared_models()) return files;
+  for (const auto& dir : fs::directory_iterator(std::string(MESHMUX_SHARED_DIR) + "/models")) {
+    if (!dir.is_directory()) continue;
+    for (const auto& f : fs::directory_iterator(dir.path())) {
+      std::string ext = f.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+      if (ext == ".dae" || ext == ".gltf" || ext == ".glb") files.push_back(f.path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::vector<uint8_t> read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+int gltf_validator_errors(const std::string& path, std::string* report) {
+  std::string validator = std::string(MESHMUX_SOURCE_DIR) + "/tests/tools/validate_gltf.mjs";
+  if (!fs::exists(std::string(MESHMUX_SOURCE_DIR) + "/node_modules/gltf-validator")) return -1;
+  CommandResult r = run_program("node", {validator, path});
+  if (report) *report = r.out + r.err;
+  if (r.exit_code != 0 && r.exit_code != 1) return -1;
+  try {
+    auto j = nlohmann::json::parse(r.out);
+    return j["issues"]["numErrors"].get<int>();
+  } catch (...) {
+    return -1;
+  }
+}
+
+}  // namespace meshmux::testing
