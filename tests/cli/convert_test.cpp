@@ -1,0 +1,322 @@
+// End-to-end tests of the meshmux binary: every shared model converts to a validator-clean
+// .glb whose re-import keeps the counts that matter, and bad input fails cleanly.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "condition/clean.h"
+#include "importers/import.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using nlohmann::json;
+using testing::run_meshmux;
+using testing::TempDir;
+
+const char* kModels[] = {
+    "2CylinderEngine-dae/2CylinderEngine.dae",
+    "2CylinderEngine-glb/2CylinderEngine.glb",
+    "Avocado-gltf/Avocado.gltf",
+    "BoxVertexColors-glb/BoxVertexColors.glb",
+    "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+    "ConcavePolygon-dae/ConcavePolygon.dae",
+    "DamagedHelmet-glb/DamagedHelmet.glb",
+    "Duck-dae/duck.dae",
+    "Fox-glb/Fox.glb",
+    "SheenChair-gltf/SheenChair.gltf",
+    "SimpleInstancing-gltf/SimpleInstancing.gltf",
+    "StanfordBunny-glb/bunny.glb",
+    "TeapotInstanceNodes-dae/teapot_instancenodes.DAE",
+};
+
+class ConvertSharedModel : public ::testing::TestWithParam<const char*> {};
+
+// The acceptance round trip: convert, validate, re-import, compare with the cleaned input.
+TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  std::string in = testing::shared_model(GetParam());
+  TempDir dir;
+  std::string out = dir.file("out.glb");
+  auto start = std::chrono::steady_clock::now();
+  auto r = run_meshmux({"convert", in, "-o", out, "--quiet"});
+  double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_TRUE(std::filesystem::exists(out));
+
+  std::string report;
+  int errors = testing::gltf_validator_errors(out, &report);
+  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  EXPECT_EQ(errors, 0) << report.substr(0, 4000);
+
+  Scene original = import_scene(in, {}, nullptr).take();
+  CleanReport cr;
+  Scene cleaned = clean(original, {}, &cr);
+  auto back = import_scene(out, {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  SceneStats a = compute_stats(cleaned), b = compute_stats(*back), o = compute_stats(original);
+  EXPECT_EQ(b.scene_triangles, a.scene_triangles);
+  EXPECT_EQ(b.unique_triangles, a.unique_triangles);
+  EXPECT_EQ(o.unique_triangles - cr.degenerate_removed - cr.duplicates_removed, a.unique_triangles);
+  EXPECT_EQ(b.instances, o.instances);
+  EXPECT_EQ(b.meshes, a.meshes);
+  EXPECT_EQ(b.materials, o.materials);
+  EXPECT_EQ(b.textures, a.textures);
+  Bounds ba = scene_bounds(cleaned), bb = scene_bounds(*back);
+  float tol = ba.diagonal() * 2e-3f;  // 14-bit position quantization, with margin
+  EXPECT_NEAR(ba.min.x, bb.min.x, tol);
+  EXPECT_NEAR(ba.min.y, bb.min.y, tol);
+  EXPECT_NEAR(ba.min.z, bb.min.z, tol);
+  EXPECT_NEAR(ba.max.x, bb.max.x, tol);
+  EXPECT_NEAR(ba.max.y, bb.max.y, tol);
+  EXPECT_NEAR(ba.max.z, bb.max.z, tol);
+  std::printf("[ model ] %-48s in %9ju B  out %9ju B  scene %7ju  unique %7ju  removed %ju  %.2f s\n",
+              GetParam(), uintmax_t(std::filesystem::file_size(in)),
+              uintmax_t(std::filesystem::file_size(out)), uintmax_t(b.scene_triangles),
+              uintmax_t(b.unique_triangles),
+              uintmax_t(cr.degenerate_removed + cr.duplicates_removed), secs);
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, ConvertSharedModel, ::testing::ValuesIn(kModels),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           n = n.substr(0, n.find('/'));
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+json info_json(const std::string& file) {
+  auto r = run_meshmux({"info", file, "--json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return json::parse(r.out);
+}
+
+// The instancing counts named in the acceptance criteria, before and after conversion.
+TEST(ConvertInstancing, CylinderEngineDaeKeeps29MeshesAnd67Instances) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  std::string in = testing::shared_model("2CylinderEngine-dae/2CylinderEngine.dae");
+  TempDir dir;
+  ASSERT_EQ(run_meshmux({"convert", in, "-o", dir.path() + "/out", "-q"}).exit_code, 0);
+  for (const std::string& f : {in, dir.path() + "/out/model.glb"}) {
+    json j = info_json(f);
+    EXPECT_EQ(j["meshes"], 29) << f;
+    EXPECT_EQ(j["instances"], 67) << f;
+    EXPECT_EQ(j["scene_triangles"], 121496) << f;
+  }
+}
+
+TEST(ConvertInstancing, SimpleInstancingKeeps125Instances) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  std::string out = dir.file("x.glb");
+  ASSERT_EQ(run_meshmux({"convert", testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"), "-o", out, "-q"}).exit_code, 0);
+  json j = info_json(out);
+  EXPECT_EQ(j["instances"], 125);
+  EXPECT_EQ(j["meshes"], 1);
+  EXPECT_EQ(j["draw_calls"], 1);
+}
+
+TEST(ConvertInstancing, TeapotInstanceNodesKeeps2Instances) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  std::string out = dir.file("x.glb");
+  ASSERT_EQ(run_meshmux({"convert", testing::shared_model("TeapotInstanceNodes-dae/teapot_instancenodes.DAE"), "-o", out, "-q"}).exit_code, 0);
+  json j = info_json(out);
+  EXPECT_EQ(j["instances"], 2);
+  EXPECT_EQ(j["meshes"], 1);
+}
+
+// Same input and options, byte-identical output.
+TEST(ConvertDeterminism, SameInputGivesSameBytes) {
+  TempDir dir;
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
+  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("a.glb"), "-q"}).exit_code, 0);
+  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("b.glb"), "-q"}).exit_code, 0);
+  EXPECT_EQ(testing::read_file(dir.file("a.glb")), testing::read_file(dir.file("b.glb")));
+}
+
+// The built-in sample: textured, one submesh instanced many times, valid before and after.
+TEST(SampleCommand, WritesValidInstancedTexturedScene) {
+  TempDir dir;
+  auto r = run_meshmux({"sample", "-o", dir.file("s.glb")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json j = info_json(dir.file("s.glb"));
+  EXPECT_GE(j["instances"].get<int>(), 100);
+  EXPECT_EQ(j["textures"], 1);
+  int errors = testing::gltf_validator_errors(dir.file("s.glb"));
+  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  EXPECT_EQ(errors, 0);
+  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("out"), "-q"}).exit_code, 0);
+  EXPECT_EQ(testing::gltf_validator_errors(dir.file("out/model.glb")), 0);
+}
+
+TEST(Cli, HelpAndVersion) {
+  auto h = run_meshmux({"--help"});
+  EXPECT_EQ(h.exit_code, 0);
+  EXPECT_NE(h.out.find("exit codes"), std::string::npos);
+  auto v = run_meshmux({"--version"});
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_NE(v.out.find("meshmux "), std::string::npos);
+  EXPECT_EQ(run_meshmux({"frobnicate"}).exit_code, 1);
+  EXPECT_EQ(run_meshmux({"convert", "x.glb"}).exit_code, 1);  // no -o
+}
+
+// ---- Bad input: one line naming the file and the problem, exit 2, nothing written. ----
+
+struct BadInputCase {
+  std::string file;       // input file name inside the temp dir
+  std::string expect;     // substring of the error line
+};
+
+void expect_clean_failure(const TempDir& dir, const std::string& input, const std::string& expect) {
+  std::string outdir = dir.file("outdir");
+  std::filesystem::create_directory(outdir);
+  for (const std::string& out : {outdir + "/model.glb", outdir + "/sub"}) {
+    auto r = run_meshmux({"convert", input, "-o", out});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    // Progress lines start with "meshmux: [", warnings with "meshmux: warning:"; exactly one
+    // error line remains.
+    std::vector<std::string> errors;
+    size_t at = 0;
+    while (at < r.err.size()) {
+      size_t nl = r.err.find('\n', at);
+      std::string line = r.err.substr(at, nl == std::string::npos ? std::string::npos : nl - at);
+      at = nl == std::string::npos ? r.err.size() : nl + 1;
+      if (line.rfind("meshmux: [", 0) == 0 || line.rfind("meshmux: warning:", 0) == 0) continue;
+      errors.push_back(line);
+    }
+    ASSERT_EQ(errors.size(), 1u) << r.err;
+    EXPECT_NE(errors[0].find(std::filesystem::path(input).filename().string()), std::string::npos)
+        << errors[0];
+    EXPECT_NE(errors[0].find(expect), std::string::npos) << errors[0];
+    EXPECT_TRUE(std::filesystem::is_empty(outdir)) << "output left behind for " << input;
+  }
+}
+
+TEST(BadInput, MissingFile) {
+  TempDir dir;
+  expect_clean_failure(dir, dir.file("nothere.glb"), "no such file");
+}
+
+TEST(BadInput, EmptyFile) {
+  TempDir dir;
+  testing::write_text(dir.file("empty.glb"), "");
+  expect_clean_failure(dir, dir.file("empty.glb"), "file is empty");
+}
+
+TEST(BadInput, GlbTruncatedAtHalf) {
+  TempDir dir;
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("whole.glb"), "-q"}).exit_code, 0);
+  auto bytes = testing::read_file(dir.file("whole.glb"));
+  bytes.resize(bytes.size() / 2);
+  testing::write_file(dir.file("half.glb"), bytes);
+  std::filesystem::remove(dir.file("whole.glb"));
+  expect_clean_failure(dir, dir.file("half.glb"), "truncated");
+}
+
+TEST(BadInput, GltfAccessorOutOfBufferRange) {
+  TempDir dir;
+  // 3 positions declared, but the accessor claims 1000 of them.
+  testing::write_text(dir.file("oob.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 1000, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+  expect_clean_failure(dir, dir.file("oob.gltf"), "accessor 0");
+}
+
+TEST(BadInput, DaeWithMalformedXml) {
+  TempDir dir;
+  testing::write_text(dir.file("broken.dae"),
+                      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+                      "version=\"1.4.1\">\n<library_geometries>\n<geometry id=\"g\"><mesh>\n"
+                      "</library_geometries>\n");
+  expect_clean_failure(dir, dir.file("broken.dae"), "broken.dae");
+}
+
+TEST(BadInput, UnknownRequiredExtension) {
+  TempDir dir;
+  testing::write_text(dir.file("ext.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["EXT_teleport"], "extensionsRequired": ["EXT_teleport"],
+    "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0})");
+  expect_clean_failure(dir, dir.file("ext.gltf"), "EXT_teleport");
+}
+
+// A COLLADA file with a texture that is not there: warning, colour kept, success.
+const char* kTexturedDae = R"(<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="meter" meter="1"/><up_axis>Y_UP</up_axis></asset>
+  <library_images><image id="img"><init_from>TEXTURE</init_from></image></library_images>
+  <library_effects><effect id="fx"><profile_COMMON>
+    <newparam sid="surf"><surface type="2D"><init_from>img</init_from></surface></newparam>
+    <newparam sid="samp"><sampler2D><source>surf</source></sampler2D></newparam>
+    <technique sid="common"><lambert>
+      <diffuse><texture texture="samp" texcoord="UV0"/></diffuse>
+    </lambert></technique></profile_COMMON></effect></library_effects>
+  <library_materials><material id="mat" name="mat"><instance_effect url="#fx"/></material></library_materials>
+  <library_geometries><geometry id="tri"><mesh>
+    <source id="p"><float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array>
+      <technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>
+    <source id="t"><float_array id="ta" count="6">0 0 1 0 0 1</float_array>
+      <technique_common><accessor source="#ta" count="3" stride="2"><param name="S" type="float"/><param name="T" type="float"/></accessor></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles material="m" count="1"><input semantic="VERTEX" source="#v" offset="0"/><input semantic="TEXCOORD" source="#t" offset="1" set="0"/><p>0 0 1 1 2 2</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#tri">
+    <bind_material><technique_common><instance_material symbol="m" target="#mat"><bind_vertex_input semantic="UV0" input_semantic="TEXCOORD" input_set="0"/></instance_material></technique_common></bind_material>
+  </instance_geometry></node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>
+)";
+
+std::string textured_dae(const std::string& texture) {
+  std::string s = kTexturedDae;
+  s.replace(s.find("TEXTURE"), 7, texture);
+  return s;
+}
+
+TEST(BadInput, DaeWithMissingTextureWarnsAndConverts) {
+  TempDir dir;
+  testing::write_text(dir.file("m.dae"), textured_dae("missing.png"));
+  auto r = run_meshmux({"convert", dir.file("m.dae"), "-o", dir.file("m.glb")});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("missing.png"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("m.glb")));
+  json j = info_json(dir.file("m.glb"));
+  EXPECT_EQ(j["materials"], 1);
+  EXPECT_EQ(j["textures"], 0);
+}
+
+TEST(BadInput, ImageThatFailsToDecodeWarnsAndConverts) {
+  TempDir dir;
+  testing::write_text(dir.file("bad.png"), "\x89PNG\r\n\x1a\n but then garbage");
+  testing::write_text(dir.file("m.dae"), textured_dae("bad.png"));
+  auto r = run_meshmux({"convert", dir.file("m.dae"), "-o", dir.file("m.glb")});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("bad.png"), std::string::npos) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("m.glb")));
+}
+
+// An output that cannot be written: exit 3, nothing partial.
+TEST(BadOutput, UnwritableOutputFails) {
+  TempDir dir;
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
+  testing::write_text(dir.file("afile"), "x");
+  auto r = run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("afile") + "/sub/out.glb"});
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+}
+
+}  // namespace
+}  // namespace meshmux

@@ -1,0 +1,380 @@
+#include "importers/gltf.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using nlohmann::json;
+using testing::TempDir;
+
+std::string base64(const std::vector<uint8_t>& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    uint32_t v = uint32_t(in[i]) << 16 | uint32_t(in[i + 1]) << 8 | in[i + 2];
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], t[v & 63]};
+  }
+  if (i + 1 == in.size()) {
+    uint32_t v = uint32_t(in[i]) << 16;
+    out += {t[v >> 18], t[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == in.size()) {
+    uint32_t v = uint32_t(in[i]) << 16 | uint32_t(in[i + 1]) << 8;
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], '='};
+  }
+  return out;
+}
+
+// Appends plain values to a byte blob, returning the offset they start at.
+struct Blob {
+  std::vector<uint8_t> bytes;
+  template <class T>
+  size_t add(std::initializer_list<T> values) {
+    while (bytes.size() % 4) bytes.push_back(0);
+    size_t at = bytes.size();
+    for (T v : values) {
+      uint8_t b[sizeof(T)];
+      std::memcpy(b, &v, sizeof(T));
+      bytes.insert(bytes.end(), b, b + sizeof(T));
+    }
+    return at;
+  }
+};
+
+// A .gltf with one data-URI buffer holding `blob`.
+std::string write_gltf(const TempDir& dir, const std::string& name, json doc, const Blob& blob) {
+  doc["asset"] = {{"version", "2.0"}};
+  doc["buffers"] = json::array({{{"byteLength", blob.bytes.size()},
+                                 {"uri", "data:application/octet-stream;base64," + base64(blob.bytes)}}});
+  std::string path = dir.file(name);
+  testing::write_text(path, doc.dump());
+  return path;
+}
+
+// One triangle: positions at offset 0 (36 bytes), indices at 36 (6 bytes).
+json triangle_doc(const Blob& blob, size_t pos_at, size_t idx_at) {
+  return {{"bufferViews", {{{"buffer", 0}, {"byteOffset", pos_at}, {"byteLength", 36}},
+                           {{"buffer", 0}, {"byteOffset", idx_at}, {"byteLength", 6}}}},
+          {"accessors",
+           {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
+             {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+            {{"bufferView", 1}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}}}},
+          {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
+          {"nodes", {{{"mesh", 0}}}},
+          {"scenes", {{{"nodes", {0}}}}},
+          {"scene", 0}};
+}
+
+Blob triangle_blob(size_t* pos_at, size_t* idx_at) {
+  Blob b;
+  *pos_at = b.add<float>({0, 0, 0, 1, 0, 0, 0, 1, 0});
+  *idx_at = b.add<uint16_t>({0, 1, 2});
+  return b;
+}
+
+// The simplest valid file: the baseline every other case varies.
+TEST(GltfImport, ReadsOneTriangle) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  std::string path = write_gltf(dir, "tri.gltf", triangle_doc(b, p, i), b);
+  Warnings w;
+  auto s = import_gltf(path, {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->meshes.size(), 1u);
+  ASSERT_EQ(s->instances.size(), 1u);
+  const Primitive& prim = s->meshes[0].primitives[0];
+  EXPECT_EQ(prim.indices, (std::vector<uint32_t>{0, 1, 2}));
+  EXPECT_FLOAT_EQ(prim.positions[1].x, 1);
+}
+
+// Interleaved vertex data (byteStride) with normalized unsigned-byte colours and
+// unsigned-short uvs: exporters like this layout and it must decode exactly.
+TEST(GltfImport, ReadsInterleavedNormalizedAttributes) {
+  TempDir dir;
+  Blob b;
+  // Per vertex: float3 position (12) + ushort2 uv (4) + ubyte4 colour (4) = 20 bytes.
+  std::vector<uint8_t> v;
+  auto put = [&](const void* d, size_t n) {
+    v.insert(v.end(), static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n);
+  };
+  for (int k = 0; k < 3; ++k) {
+    float pos[3] = {float(k == 1), float(k == 2), 0};
+    uint16_t uv[2] = {uint16_t(k == 1 ? 65535 : 0), uint16_t(k == 2 ? 32768 : 0)};
+    uint8_t col[4] = {255, uint8_t(k * 100), 0, 255};
+    put(pos, 12), put(uv, 4), put(col, 4);
+  }
+  b.bytes = v;
+  json doc = {
+      {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 60}, {"byteStride", 20}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"byteOffset", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
+         {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+        {{"bufferView", 0}, {"byteOffset", 12}, {"componentType", 5123}, {"normalized", true},
+         {"count", 3}, {"type", "VEC2"}},
+        {{"bufferView", 0}, {"byteOffset", 16}, {"componentType", 5121}, {"normalized", true},
+         {"count", 3}, {"type", "VEC4"}}}},
+      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}, {"COLOR_0", 2}}}}}}}}},
+      {"nodes", {{{"mesh", 0}}}}};
+  std::string path = write_gltf(dir, "interleaved.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  const Primitive& prim = s->meshes[0].primitives[0];
+  ASSERT_EQ(prim.vertex_count(), 3u);
+  EXPECT_FLOAT_EQ(prim.positions[2].y, 1);
+  EXPECT_FLOAT_EQ(prim.uvs[0][1].x, 1.0f);
+  EXPECT_NEAR(prim.uvs[0][2].y, 32768 / 65535.0f, 1e-6);
+  EXPECT_NEAR(prim.colors[1].y, 100 / 255.0f, 1e-6);
+  // No indices: vertices are taken in order.
+  EXPECT_EQ(prim.indices, (std::vector<uint32_t>{0, 1, 2}));
+}
+
+// Sparse accessors substitute a few elements; morph-target-free files use them too.
+TEST(GltfImport, AppliesSparseSubstitution) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  size_t sp_idx = b.add<uint16_t>({2, 0});
+  size_t sp_val = b.add<float>({5, 6, 7});
+  json doc = triangle_doc(b, p, i);
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", sp_idx}, {"byteLength", 2}});
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", sp_val}, {"byteLength", 12}});
+  doc["accessors"][0]["sparse"] = {{"count", 1},
+                                   {"indices", {{"bufferView", 2}, {"componentType", 5123}}},
+                                   {"values", {{"bufferView", 3}}}};
+  doc["accessors"][0]["max"] = {5, 6, 7};
+  std::string path = write_gltf(dir, "sparse.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  Vec3 v = s->meshes[0].primitives[0].positions[2];
+  EXPECT_EQ(v, (Vec3{5, 6, 7}));
+}
+
+// A mesh referenced by two nodes stays one mesh; transforms compose down the hierarchy.
+TEST(GltfImport, SharedMeshStaysSharedAndTransformsCompose) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  doc["nodes"] = {{{"children", {1, 2}}, {"translation", {10, 0, 0}}},
+                  {{"mesh", 0}, {"scale", {2, 2, 2}}},
+                  {{"mesh", 0}, {"translation", {0, 5, 0}}}};
+  std::string path = write_gltf(dir, "shared.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->meshes.size(), 1u);
+  ASSERT_EQ(s->instances.size(), 2u);
+  Vec3 a = s->instances[0].world.transform_point({1, 0, 0});
+  Vec3 c = s->instances[1].world.transform_point({1, 0, 0});
+  EXPECT_EQ(a, (Vec3{12, 0, 0}));
+  EXPECT_EQ(c, (Vec3{11, 5, 0}));
+}
+
+// EXT_mesh_gpu_instancing: one node, many instances.
+TEST(GltfImport, ExpandsGpuInstancing) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  size_t t = b.add<float>({0, 0, 0, 3, 0, 0, 6, 0, 0});
+  json doc = triangle_doc(b, p, i);
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", t}, {"byteLength", 36}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}});
+  doc["nodes"][0]["extensions"] = {{"EXT_mesh_gpu_instancing", {{"attributes", {{"TRANSLATION", 2}}}}}};
+  doc["extensionsUsed"] = {"EXT_mesh_gpu_instancing"};
+  std::string path = write_gltf(dir, "inst.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->instances.size(), 3u);
+  EXPECT_EQ(s->instances[2].world.transform_point({0, 0, 0}), (Vec3{6, 0, 0}));
+}
+
+// Triangle strips are unrolled with alternating winding so every face keeps its front.
+TEST(GltfImport, UnrollsTriangleStrips) {
+  TempDir dir;
+  Blob b;
+  size_t p = b.add<float>({0, 0, 0, 0, 1, 0, 1, 0, 0, 1, 1, 0});
+  json doc = {{"bufferViews", {{{"buffer", 0}, {"byteOffset", p}, {"byteLength", 48}}}},
+              {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
+                              {"min", {0, 0, 0}}, {"max", {1, 1, 0}}}}},
+              {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"mode", 5}}}}}}},
+              {"nodes", {{{"mesh", 0}}}}};
+  std::string path = write_gltf(dir, "strip.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_EQ(s->meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));
+}
+
+// KHR_texture_transform must be carried to the material so the atlas can honour it.
+TEST(GltfImport, ReadsTextureTransform) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  // A 1x1 PNG made by the exporter's encoder would pull in another module; a data-URI PNG
+  // of 1x1 red is small enough to inline.
+  const std::vector<uint8_t> png = {
+      0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48, 0x44,
+      0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00, 0x00, 0x90,
+      0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08, 0xD7, 0x63, 0xF8,
+      0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D, 0xB0, 0x00, 0x00, 0x00,
+      0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
+  doc["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
+  doc["textures"] = {{{"source", 0}}};
+  json transform = {{"offset", {0.5, 0.25}}, {"scale", {2, 3}}, {"rotation", 0.5}};
+  json info = {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}};
+  json material;
+  material["pbrMetallicRoughness"]["baseColorTexture"] = info;
+  doc["materials"] = json::array({material});
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  doc["extensionsUsed"] = {"KHR_texture_transform"};
+  std::string path = write_gltf(dir, "tt.gltf", doc, b);
+  Warnings w;
+  auto s = import_gltf(path, {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  const TextureRef& t = s->materials[0].base_color;
+  ASSERT_TRUE(t.present());
+  EXPECT_FLOAT_EQ(t.transform.offset[0], 0.5f);
+  EXPECT_FLOAT_EQ(t.transform.scale[1], 3.0f);
+  EXPECT_FLOAT_EQ(t.transform.rotation, 0.5f);
+  ASSERT_TRUE(s->images[0].decoded()) << (w.empty() ? "" : w.items()[0]);
+  EXPECT_EQ(s->images[0].rgba[0], 255);  // red
+}
+
+// Bad input: an accessor reaching past its buffer must be refused with a message naming the
+// file, the mesh, the primitive and the accessor.
+TEST(GltfImport, AccessorOutOfBoundsIsAnError) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  doc["accessors"][0]["count"] = 300;
+  std::string path = write_gltf(dir, "oob.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  const std::string& m = s.status().message();
+  EXPECT_NE(m.find("oob.gltf"), std::string::npos) << m;
+  EXPECT_NE(m.find("mesh 0 primitive 0"), std::string::npos) << m;
+  EXPECT_NE(m.find("accessor 0"), std::string::npos) << m;
+  EXPECT_NE(m.find("out of bounds"), std::string::npos) << m;
+}
+
+TEST(GltfImport, IndexOutOfRangeIsAnError) {
+  TempDir dir;
+  size_t p, i;
+  Blob b;
+  p = b.add<float>({0, 0, 0, 1, 0, 0, 0, 1, 0});
+  i = b.add<uint16_t>({0, 1, 7});
+  std::string path = write_gltf(dir, "badindex.gltf", triangle_doc(b, p, i), b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("index 7 out of range"), std::string::npos) << s.status().message();
+}
+
+TEST(GltfImport, UnknownRequiredExtensionIsAnError) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  doc["extensionsUsed"] = {"EXT_made_up"};
+  doc["extensionsRequired"] = {"EXT_made_up"};
+  std::string path = write_gltf(dir, "ext.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("required extension EXT_made_up is not supported"),
+            std::string::npos)
+      << s.status().message();
+}
+
+// An image whose bytes do not decode: a warning, the material keeps its factor, the import
+// succeeds.
+TEST(GltfImport, UndecodableImageIsAWarning) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  testing::write_text(dir.file("broken.png"), "\x89PNG\r\n\x1a\nthis is not a png");
+  doc["images"] = {{{"uri", "broken.png"}}};
+  doc["textures"] = {{{"source", 0}}};
+  json material;
+  material["pbrMetallicRoughness"]["baseColorFactor"] = {0.2, 0.4, 0.6, 1};
+  material["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  doc["materials"] = json::array({material});
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  std::string path = write_gltf(dir, "img.gltf", doc, b);
+  Warnings w;
+  auto s = import_gltf(path, {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_FALSE(w.empty());
+  EXPECT_NE(w.items()[0].find("broken.png"), std::string::npos) << w.items()[0];
+  EXPECT_FALSE(s->materials[0].base_color.present());
+  EXPECT_FLOAT_EQ(s->materials[0].base_color_factor.y, 0.4f);
+}
+
+TEST(GltfImport, MissingFileIsAnError) {
+  auto s = import_gltf("/nonexistent/dir/model.glb", {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("model.glb: no such file"), std::string::npos) << s.status().message();
+}
+
+TEST(GltfImport, EmptyFileIsAnError) {
+  TempDir dir;
+  testing::write_text(dir.file("empty.gltf"), "");
+  auto s = import_gltf(dir.file("empty.gltf"), {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("empty.gltf: file is empty"), std::string::npos) << s.status().message();
+}
+
+// A .glb cut in half (an interrupted upload) must be refused, not read past its end.
+TEST(GltfImport, TruncatedGlbIsAnError) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto bytes = testing::read_file(testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"));
+  ASSERT_GT(bytes.size(), 1000u);
+  bytes.resize(bytes.size() / 2);
+  TempDir dir;
+  testing::write_file(dir.file("half.glb"), bytes);
+  auto s = import_gltf(dir.file("half.glb"), {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.status().message().find("half.glb"), std::string::npos) << s.status().message();
+  EXPECT_NE(s.status().message().find("truncated"), std::string::npos) << s.status().message();
+}
+
+// Real files: the instancing counts the acceptance criteria name.
+TEST(GltfImport, SharedModelCylinderEngineKeepsInstancing) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto s = import_gltf(testing::shared_model("2CylinderEngine-glb/2CylinderEngine.glb"), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  SceneStats st = compute_stats(*s);
+  EXPECT_EQ(st.meshes, 29u);
+  EXPECT_EQ(st.instances, 67u);
+  EXPECT_EQ(st.scene_triangles, 121496u);
+  EXPECT_EQ(st.unique_triangles, 75730u);
+}
+
+TEST(GltfImport, SharedModelSimpleInstancingHas125Instances) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto s = import_gltf(testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  SceneStats st = compute_stats(*s);
+  EXPECT_EQ(st.meshes, 1u);
+  EXPECT_EQ(st.instances, 125u);
+  EXPECT_EQ(st.scene_triangles, 1500u);
+}
+
+TEST(GltfImport, SharedModelHelmetDecodesEmbeddedJpegs) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto s = import_gltf(testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  SceneStats st = compute_stats(*s);
+  EXPECT_EQ(st.scene_triangles, 15452u);
+  EXPECT_EQ(st.textures, 5u);
+  EXPECT_EQ(st.texture_pixels, 5u * 2048u * 2048u);
+}
+
+}  // namespace
+}  // namespace meshmux
