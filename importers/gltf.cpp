@@ -7,6 +7,8 @@
 
 #include <tiny_gltf.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -274,6 +276,68 @@ bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::st
   image->image.assign(bytes, bytes + std::max(size, 0));
   image->width = image->height = -1;
   image->as_is = true;
+  return true;
+}
+
+
+// tinygltf 2.7 (Debian 12) rejects an indices accessor without a bufferView, which is exactly
+// what KHR_draco_mesh_compression primitives carry. Their indices come from the Draco stream
+// anyway, so such "indices" entries are dropped from the JSON before tinygltf sees it. The
+// GLB container is rebuilt around the patched JSON chunk. Returns false if nothing changed.
+bool drop_draco_index_accessors(std::vector<uint8_t>& data, bool binary) {
+  static const char kNeedle[] = "KHR_draco_mesh_compression";
+  if (std::search(data.begin(), data.end(), kNeedle, kNeedle + sizeof kNeedle - 1) == data.end())
+    return false;
+  size_t json_at = 0, json_len = data.size();
+  if (binary) {
+    if (data.size() < 20) return false;
+    uint32_t len, type;
+    std::memcpy(&len, data.data() + 12, 4);
+    std::memcpy(&type, data.data() + 16, 4);
+    if (type != 0x4E4F534Au || size_t(len) > data.size() - 20) return false;
+    json_at = 20;
+    json_len = len;
+  }
+  nlohmann::json doc = nlohmann::json::parse(data.begin() + long(json_at),
+                                             data.begin() + long(json_at + json_len), nullptr,
+                                             /*allow_exceptions=*/false);
+  if (doc.is_discarded() || !doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array())
+    return false;
+  bool changed = false;
+  const nlohmann::json* accessors = doc.contains("accessors") ? &doc["accessors"] : nullptr;
+  for (auto& mesh : doc["meshes"]) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+    for (auto& prim : mesh["primitives"]) {
+      if (!prim.is_object() || !prim.contains("indices") || !prim.contains("extensions")) continue;
+      const auto& ext = prim["extensions"];
+      if (!ext.is_object() || !ext.contains("KHR_draco_mesh_compression")) continue;
+      const auto& idx = prim["indices"];
+      bool has_view = idx.is_number_integer() && accessors && accessors->is_array() &&
+                      idx.get<int64_t>() >= 0 && size_t(idx.get<int64_t>()) < accessors->size() &&
+                      (*accessors)[size_t(idx.get<int64_t>())].contains("bufferView");
+      if (has_view) continue;
+      prim.erase("indices");
+      changed = true;
+    }
+  }
+  if (!changed) return false;
+  std::string text = doc.dump();
+  if (!binary) {
+    data.assign(text.begin(), text.end());
+    return true;
+  }
+  while (text.size() % 4) text.push_back(' ');
+  std::vector<uint8_t> out(data.begin(), data.begin() + 12);
+  uint32_t len = uint32_t(text.size()), type = 0x4E4F534Au;
+  out.insert(out.end(), reinterpret_cast<uint8_t*>(&len), reinterpret_cast<uint8_t*>(&len) + 4);
+  out.insert(out.end(), reinterpret_cast<uint8_t*>(&type), reinterpret_cast<uint8_t*>(&type) + 4);
+  out.insert(out.end(), text.begin(), text.end());
+  size_t rest = 20 + json_len;
+  while (rest % 4 && rest < data.size()) ++rest;  // JSON chunk padding in the original
+  out.insert(out.end(), data.begin() + long(std::min(rest, data.size())), data.end());
+  uint32_t total = uint32_t(out.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  data.swap(out);
   return true;
 }
 
@@ -660,7 +724,7 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   std::string file = base_name(path);
   auto bytes = read_whole_file(path, options.max_file_bytes);
   if (!bytes.ok()) return Status::error("gltf: " + bytes.status().message());
-  const std::vector<uint8_t>& data = *bytes;
+  std::vector<uint8_t>& data = *bytes;
   if (data.empty()) return Status::error("gltf: " + file + ": file is empty");
   if (data.size() > 0xFFFFFFFFu) return Status::error("gltf: " + file + ": file too large");
 
@@ -684,9 +748,11 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
         return Status::error("gltf: " + file + ": truncated GLB: header declares " +
                              std::to_string(declared) + " bytes, file has " +
                              std::to_string(data.size()));
+      drop_draco_index_accessors(data, true);
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(),
                                        unsigned(data.size()), dir);
     } else {
+      drop_draco_index_accessors(data, false);
       ok = loader.LoadASCIIFromString(&model, &err, &warn_text,
                                       reinterpret_cast<const char*>(data.data()),
                                       unsigned(data.size()), dir);
