@@ -194,6 +194,37 @@ TEST(GltfImport, ExpandsGpuInstancing) {
   EXPECT_EQ(s->instances[2].world.transform_point({0, 0, 0}), (Vec3{6, 0, 0}));
 }
 
+// KHR_mesh_quantization: integer positions (here int16, not normalized) and byte normals
+// (normalized) are legal and must come out as the floats they stand for.
+TEST(GltfImport, ReadsQuantizedAttributes) {
+  TempDir dir;
+  Blob b;
+  size_t p = b.add<int16_t>({0, 0, 0, 0, 1000, 0, 0, 0, 0, 1000, 0, 0});  // VEC3 padded to 8 bytes
+  size_t n = b.add<int8_t>({0, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0});
+  size_t i = b.add<uint16_t>({0, 1, 2});
+  json doc = {
+      {"extensionsUsed", {"KHR_mesh_quantization"}},
+      {"extensionsRequired", {"KHR_mesh_quantization"}},
+      {"bufferViews", {{{"buffer", 0}, {"byteOffset", p}, {"byteLength", 24}, {"byteStride", 8}},
+                       {{"buffer", 0}, {"byteOffset", n}, {"byteLength", 12}, {"byteStride", 4}},
+                       {{"buffer", 0}, {"byteOffset", i}, {"byteLength", 6}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"componentType", 5122}, {"count", 3}, {"type", "VEC3"},
+         {"min", {0, 0, 0}}, {"max", {1000, 1000, 0}}},
+        {{"bufferView", 1}, {"componentType", 5120}, {"normalized", true}, {"count", 3}, {"type", "VEC3"}},
+        {{"bufferView", 2}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}}}},
+      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}}}}}}},
+      {"nodes", {{{"mesh", 0}, {"scale", {0.001, 0.001, 0.001}}}}}};
+  std::string path = write_gltf(dir, "quant.gltf", doc, b);
+  auto s = import_gltf(path, {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  const Primitive& prim = s->meshes[0].primitives[0];
+  EXPECT_EQ(prim.positions[1], (Vec3{1000, 0, 0}));
+  EXPECT_EQ(prim.normals[2], (Vec3{0, 0, 1}));
+  Vec3 world = s->instances[0].world.transform_point(prim.positions[2]);
+  EXPECT_NEAR(world.y, 1.0f, 1e-6);
+}
+
 // Triangle strips are unrolled with alternating winding so every face keeps its front.
 TEST(GltfImport, UnrollsTriangleStrips) {
   TempDir dir;
