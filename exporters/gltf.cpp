@@ -1,0 +1,671 @@
+// Scene → .glb. The JSON is built with nlohmann_json and the GLB container is written here:
+// tinygltf is not used for writing because libdraco.so exports its own, older copy of
+// tinygltf's symbols, and a writer that resolves into the wrong copy is a hazard we need not take.
+#include "exporters/gltf.h"
+
+// GCC 12 reports a false -Wmaybe-uninitialized inside Eigen's 3x3 JacobiSVD.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <eigen3/Eigen/Geometry>
+#include <eigen3/Eigen/SVD>
+#pragma GCC diagnostic pop
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <map>
+#include <set>
+#include <utility>
+
+#include "exporters/draco_encode.h"
+#include "exporters/image_encode.h"
+#include "scene/file_io.h"
+
+namespace meshmux {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr int kUnsignedShort = 5123;
+constexpr int kUnsignedInt = 5125;
+constexpr int kFloat = 5126;
+constexpr int kArrayBuffer = 34962;
+constexpr int kElementArrayBuffer = 34963;
+constexpr int kMaxTexCoord = 7;  // highest TEXCOORD_n we are willing to pad a primitive up to
+
+const char* const kDraco = "KHR_draco_mesh_compression";
+const char* const kInstancing = "EXT_mesh_gpu_instancing";
+const char* const kTextureTransform = "KHR_texture_transform";
+const char* const kUnlit = "KHR_materials_unlit";
+
+// The JSON number that prints as the shortest decimal reading back to exactly `f`.
+json num(float f) {
+  if (!std::isfinite(f)) return 0.0;
+  char buf[64];
+  auto r = std::to_chars(buf, buf + sizeof buf, f);
+  double d = f;
+  if (r.ec == std::errc()) std::from_chars(buf, r.ptr, d);
+  return d;
+}
+
+json num(double d) { return std::isfinite(d) ? json(d) : json(0.0); }
+
+bool is_png(const std::vector<uint8_t>& b) {
+  static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  return b.size() >= 8 && std::memcmp(b.data(), sig, 8) == 0;
+}
+
+bool is_jpeg(const std::vector<uint8_t>& b) {
+  return b.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF;
+}
+
+// Everything about an instance's transform the node writer needs.
+struct Placement {
+  Mat4 world;  // affine part of the instance transform
+  bool trs = false;
+  double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+};
+
+// Rotation matrix → unit quaternion (x, y, z, w) with w >= 0.
+std::array<double, 4> quaternion(const Eigen::Matrix3d& r) {
+  Eigen::Quaterniond q(r);
+  q.normalize();
+  std::array<double, 4> out = {q.x(), q.y(), q.z(), q.w()};
+  if (out[3] < 0)
+    for (double& v : out) v = -v;
+  return out;
+}
+
+class Exporter {
+ public:
+  Exporter(const Scene& scene, const GltfExportOptions& options, Warnings* warnings)
+      : scene_(scene), opt_(options), warnings_(warnings) {}
+
+  Result<std::vector<uint8_t>> run() {
+    prepare_images();
+    write_materials();
+    write_meshes();
+    write_nodes();
+    return assemble();
+  }
+
+ private:
+  void note(const std::string& message) { warn(warnings_, "gltf export: " + message); }
+
+  // Appends bytes to the binary chunk, 4-byte aligned; returns the bufferView index.
+  int add_view(const void* data, size_t size, int target) {
+    while (bin_.size() % 4) bin_.push_back(0);
+    json v = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}};
+    if (target) v["target"] = target;
+    const uint8_t* p = static_cast<const uint8_t*>(data);
+    bin_.insert(bin_.end(), p, p + size);
+    views_.push_back(std::move(v));
+    return int(views_.size() - 1);
+  }
+
+  int add_accessor(int view, int component, const char* type, size_t count,
+                   json min = nullptr, json max = nullptr) {
+    json a = {{"componentType", component}, {"type", type}, {"count", count}};
+    if (view >= 0) a["bufferView"] = view;
+    if (!min.is_null()) a["min"] = std::move(min);
+    if (!max.is_null()) a["max"] = std::move(max);
+    accessors_.push_back(std::move(a));
+    return int(accessors_.size() - 1);
+  }
+
+  template <class T>
+  int add_float_accessor(const std::vector<T>& values, const char* type, int target) {
+    int view = add_view(values.data(), values.size() * sizeof(T), target);
+    return add_accessor(view, kFloat, type, values.size());
+  }
+
+  // ---- images, samplers, textures ----
+
+  void prepare_images() {
+    std::set<int32_t> referenced;
+    for (const Material& m : scene_.materials)
+      for (const TextureRef* t : {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion,
+                                  &m.emissive})
+        if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
+    image_map_.assign(scene_.images.size(), -1);
+    for (int32_t i : referenced) {
+      const Image& img = scene_.images[i];
+      const std::string label = "image " + std::to_string(i) + " '" + img.name + "'";
+      std::vector<uint8_t> png;
+      const std::vector<uint8_t>* bytes = nullptr;
+      std::string mime;
+      if (img.mime_type == "image/png" && is_png(img.encoded)) {
+        bytes = &img.encoded, mime = "image/png";
+      } else if (img.mime_type == "image/jpeg" && is_jpeg(img.encoded)) {
+        bytes = &img.encoded, mime = "image/jpeg";
+      } else if (img.decoded()) {
+        auto r = encode_png(img);
+        if (!r.ok()) {
+          note(label + ": cannot embed (" + r.status().message() + ")");
+          continue;
+        }
+        png = r.take();
+        bytes = &png, mime = "image/png";
+      } else {
+        note(label + ": cannot embed (not decoded)");
+        continue;
+      }
+      json j = {{"bufferView", add_view(bytes->data(), bytes->size(), 0)}, {"mimeType", mime}};
+      if (!img.name.empty()) j["name"] = img.name;
+      image_map_[i] = int(images_.size());
+      images_.push_back(std::move(j));
+    }
+  }
+
+  // Sampler index, or -1 when every field has glTF's default.
+  int sampler_index(const Sampler& s, const std::string& where) {
+    auto wrap = [](Wrap w) {
+      int v = int(w);
+      return v == 10497 || v == 33071 || v == 33648 ? v : 10497;
+    };
+    int mag = s.mag_filter, min = s.min_filter;
+    if (mag != 0 && mag != 9728 && mag != 9729) {
+      note(where + ": magFilter " + std::to_string(mag) + " invalid; left unspecified");
+      mag = 0;
+    }
+    if (min != 0 && !(min == 9728 || min == 9729 || (min >= 9984 && min <= 9987))) {
+      note(where + ": minFilter " + std::to_string(min) + " invalid; left unspecified");
+      min = 0;
+    }
+    std::array<int, 4> key = {wrap(s.wrap_s), wrap(s.wrap_t), mag, min};
+    if (key == std::array<int, 4>{10497, 10497, 0, 0}) return -1;
+    auto it = samplers_index_.find(key);
+    if (it != samplers_index_.end()) return it->second;
+    json j = json::object();
+    if (key[0] != 10497) j["wrapS"] = key[0];
+    if (key[1] != 10497) j["wrapT"] = key[1];
+    if (mag) j["magFilter"] = mag;
+    if (min) j["minFilter"] = min;
+    samplers_.push_back(std::move(j));
+    return samplers_index_[key] = int(samplers_.size() - 1);
+  }
+
+  // textureInfo JSON, or null when the texture is absent or was dropped.
+  json texture_info(const TextureRef& t, const std::string& where) {
+    if (!t.present()) return nullptr;
+    int image = size_t(t.image) < image_map_.size() ? image_map_[t.image] : -1;
+    if (image < 0) return nullptr;  // warned about in prepare_images
+    if (t.tex_coord > uint32_t(kMaxTexCoord)) {
+      note(where + ": texCoord " + std::to_string(t.tex_coord) + " unsupported; texture dropped");
+      return nullptr;
+    }
+    int sampler = sampler_index(t.sampler, where);
+    std::pair<int, int> key(image, sampler);
+    auto it = textures_index_.find(key);
+    int texture;
+    if (it != textures_index_.end()) {
+      texture = it->second;
+    } else {
+      json j = {{"source", image}};
+      if (sampler >= 0) j["sampler"] = sampler;
+      textures_.push_back(std::move(j));
+      texture = textures_index_[key] = int(textures_.size() - 1);
+    }
+    json info = {{"index", texture}};
+    if (t.tex_coord) info["texCoord"] = t.tex_coord;
+    const TextureTransform& x = t.transform;
+    if (!x.is_identity()) {
+      if (!std::isfinite(x.offset[0]) || !std::isfinite(x.offset[1]) ||
+          !std::isfinite(x.rotation) || !std::isfinite(x.scale[0]) ||
+          !std::isfinite(x.scale[1])) {
+        note(where + ": texture transform is not finite; left out");
+      } else {
+        json e = json::object();
+        if (x.offset[0] != 0 || x.offset[1] != 0)
+          e["offset"] = {num(x.offset[0]), num(x.offset[1])};
+        if (x.rotation != 0) e["rotation"] = num(x.rotation);
+        if (x.scale[0] != 1 || x.scale[1] != 1) e["scale"] = {num(x.scale[0]), num(x.scale[1])};
+        info["extensions"][kTextureTransform] = std::move(e);
+        used_.insert(kTextureTransform);
+      }
+    }
+    return info;
+  }
+
+  // ---- materials ----
+
+  // v clamped to [lo, hi]; NaN becomes `def`. Warns when the value changes.
+  float bounded(float v, float lo, float hi, float def, const std::string& what) {
+    float r = std::isnan(v) ? def : std::clamp(v, lo, hi);
+    if (!(r == v)) note(what + " " + std::to_string(v) + " out of range; written as " +
+                        std::to_string(r));
+    return r;
+  }
+
+  void write_materials() {
+    material_uv_sets_.assign(scene_.materials.size(), 0);
+    for (size_t i = 0; i < scene_.materials.size(); ++i) {
+      const Material& m = scene_.materials[i];
+      const std::string where = "material " + std::to_string(i) + " '" + m.name + "'";
+      json j = json::object();
+      if (!m.name.empty()) j["name"] = m.name;
+      int& uv_sets = material_uv_sets_[i];
+      auto tex = [&](const TextureRef& t, const char* slot) {
+        json info = texture_info(t, where + " " + slot);
+        if (!info.is_null()) uv_sets = std::max(uv_sets, int(t.tex_coord) + 1);
+        return info;
+      };
+      json pbr = json::object();
+      float c[4] = {m.base_color_factor.x, m.base_color_factor.y, m.base_color_factor.z,
+                    m.base_color_factor.w};
+      for (float& v : c) v = bounded(v, 0, 1, 1, where + ": baseColorFactor component");
+      if (c[0] != 1 || c[1] != 1 || c[2] != 1 || c[3] != 1)
+        pbr["baseColorFactor"] = {num(c[0]), num(c[1]), num(c[2]), num(c[3])};
+      if (json t = tex(m.base_color, "baseColorTexture"); !t.is_null())
+        pbr["baseColorTexture"] = std::move(t);
+      float metallic = bounded(m.metallic_factor, 0, 1, 1, where + ": metallicFactor");
+      if (metallic != 1) pbr["metallicFactor"] = num(metallic);
+      float roughness = bounded(m.roughness_factor, 0, 1, 1, where + ": roughnessFactor");
+      if (roughness != 1) pbr["roughnessFactor"] = num(roughness);
+      if (json t = tex(m.metallic_roughness, "metallicRoughnessTexture"); !t.is_null())
+        pbr["metallicRoughnessTexture"] = std::move(t);
+      if (!pbr.empty()) j["pbrMetallicRoughness"] = std::move(pbr);
+      if (json t = tex(m.normal, "normalTexture"); !t.is_null()) {
+        float scale = std::isfinite(m.normal.scale) ? m.normal.scale : 1.0f;
+        if (scale != 1) t["scale"] = num(scale);
+        j["normalTexture"] = std::move(t);
+      }
+      if (json t = tex(m.occlusion, "occlusionTexture"); !t.is_null()) {
+        float strength = bounded(m.occlusion.scale, 0, 1, 1, where + ": occlusion strength");
+        if (strength != 1) t["strength"] = num(strength);
+        j["occlusionTexture"] = std::move(t);
+      }
+      if (json t = tex(m.emissive, "emissiveTexture"); !t.is_null())
+        j["emissiveTexture"] = std::move(t);
+      float e[3] = {m.emissive_factor.x, m.emissive_factor.y, m.emissive_factor.z};
+      for (float& v : e) v = bounded(v, 0, 1, 0, where + ": emissiveFactor component");
+      if (e[0] != 0 || e[1] != 0 || e[2] != 0) j["emissiveFactor"] = {num(e[0]), num(e[1]), num(e[2])};
+      if (m.alpha_mode == AlphaMode::kMask) {
+        j["alphaMode"] = "MASK";
+        float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;
+        j["alphaCutoff"] = num(bounded(cutoff, 0, INFINITY, 0.5f, where + ": alphaCutoff"));
+      } else if (m.alpha_mode == AlphaMode::kBlend) {
+        j["alphaMode"] = "BLEND";
+      }
+      if (m.double_sided) j["doubleSided"] = true;
+      if (m.unlit) {
+        j["extensions"][kUnlit] = json::object();
+        used_.insert(kUnlit);
+      }
+      materials_.push_back(std::move(j));
+    }
+  }
+
+  // ---- meshes ----
+
+  // Attribute arrays of one primitive, made safe to write.
+  struct Clean {
+    std::vector<Vec3> normals;
+    std::vector<std::vector<Vec2>> uvs;
+    std::vector<Vec4> colors;
+  };
+
+  Clean clean_primitive(const Primitive& p, const std::string& where) {
+    Clean c;
+    const size_t n = p.positions.size();
+    size_t fixed = 0;
+    c.normals.reserve(p.normals.size());
+    for (Vec3 v : p.normals) {
+      double l = std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
+      if (!(l > 1e-20) || !std::isfinite(l)) {
+        c.normals.push_back({0, 0, 1});
+        ++fixed;
+      } else {
+        c.normals.push_back({float(v.x / l), float(v.y / l), float(v.z / l)});
+      }
+    }
+    if (fixed)
+      note(where + ": " + std::to_string(fixed) + " zero or non-finite normals written as +Z");
+    c.uvs = p.uvs;
+    for (auto& set : c.uvs)
+      for (Vec2& v : set) {
+        if (!std::isfinite(v.x)) v.x = 0;
+        if (!std::isfinite(v.y)) v.y = 0;
+      }
+    int need = p.material >= 0 && size_t(p.material) < material_uv_sets_.size()
+                   ? material_uv_sets_[p.material]
+                   : 0;
+    if (c.uvs.size() < size_t(need)) {
+      note(where + ": material " + std::to_string(p.material) + " uses TEXCOORD_" +
+           std::to_string(need - 1) + ", which the primitive lacks; zeros written");
+      c.uvs.resize(size_t(need), std::vector<Vec2>(n));
+    }
+    c.colors = p.colors;
+    for (Vec4& v : c.colors)
+      for (float* f : {&v.x, &v.y, &v.z, &v.w}) *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
+    return c;
+  }
+
+  json plain_primitive(const Primitive& p, const Clean& c) {
+    json attrs = json::object();
+    const size_t n = p.positions.size();
+    Bounds b;
+    for (Vec3 v : p.positions) b.add(v);
+    int view = add_view(p.positions.data(), n * sizeof(Vec3), kArrayBuffer);
+    attrs["POSITION"] = add_accessor(view, kFloat, "VEC3", n, {num(b.min.x), num(b.min.y), num(b.min.z)},
+                                     {num(b.max.x), num(b.max.y), num(b.max.z)});
+    if (!c.normals.empty()) attrs["NORMAL"] = add_float_accessor(c.normals, "VEC3", kArrayBuffer);
+    for (size_t u = 0; u < c.uvs.size(); ++u)
+      attrs["TEXCOORD_" + std::to_string(u)] = add_float_accessor(c.uvs[u], "VEC2", kArrayBuffer);
+    if (!c.colors.empty()) attrs["COLOR_0"] = add_float_accessor(c.colors, "VEC4", kArrayBuffer);
+    int indices;
+    if (n <= 65535) {
+      std::vector<uint16_t> idx(p.indices.begin(), p.indices.end());
+      int v = add_view(idx.data(), idx.size() * 2, kElementArrayBuffer);
+      indices = add_accessor(v, kUnsignedShort, "SCALAR", idx.size());
+    } else {
+      int v = add_view(p.indices.data(), p.indices.size() * 4, kElementArrayBuffer);
+      indices = add_accessor(v, kUnsignedInt, "SCALAR", p.indices.size());
+    }
+    return {{"attributes", std::move(attrs)}, {"indices", indices}};
+  }
+
+  json draco_primitive(const DracoOutput& d) {
+    json attrs = json::object(), ids = json::object();
+    const auto& mn = d.position_min;
+    const auto& mx = d.position_max;
+    attrs["POSITION"] = add_accessor(-1, kFloat, "VEC3", d.num_points,
+                                     {num(mn[0]), num(mn[1]), num(mn[2])},
+                                     {num(mx[0]), num(mx[1]), num(mx[2])});
+    ids["POSITION"] = d.position_id;
+    if (d.normal_id >= 0) {
+      attrs["NORMAL"] = add_accessor(-1, kFloat, "VEC3", d.num_points);
+      ids["NORMAL"] = d.normal_id;
+    }
+    for (size_t u = 0; u < d.uv_ids.size(); ++u) {
+      std::string name = "TEXCOORD_" + std::to_string(u);
+      attrs[name] = add_accessor(-1, kFloat, "VEC2", d.num_points);
+      ids[name] = d.uv_ids[u];
+    }
+    if (d.color_id >= 0) {
+      attrs["COLOR_0"] = add_accessor(-1, kFloat, "VEC4", d.num_points);
+      ids["COLOR_0"] = d.color_id;
+    }
+    int indices = add_accessor(-1, d.num_points <= 65535 ? kUnsignedShort : kUnsignedInt,
+                               "SCALAR", size_t(d.num_faces) * 3);
+    int view = add_view(d.bytes.data(), d.bytes.size(), 0);
+    used_.insert(kDraco);
+    required_.insert(kDraco);
+    json prim = {{"attributes", std::move(attrs)}, {"indices", indices}};
+    prim["extensions"][kDraco] = {{"bufferView", view}, {"attributes", std::move(ids)}};
+    return prim;
+  }
+
+  void write_meshes() {
+    DracoSettings ds;
+    ds.position_bits = opt_.position_bits;
+    ds.normal_bits = opt_.normal_bits;
+    ds.uv_bits = opt_.uv_bits;
+    ds.color_bits = opt_.color_bits;
+    ds.speed = opt_.draco_speed;
+    mesh_map_.assign(scene_.meshes.size(), -1);
+    for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+      const Mesh& mesh = scene_.meshes[m];
+      json prims = json::array();
+      for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+        const Primitive& p = mesh.primitives[pi];
+        const std::string where = "mesh " + std::to_string(m) + " primitive " + std::to_string(pi);
+        if (p.positions.empty() || p.triangle_count() == 0) {
+          note(where + ": no triangles; primitive left out");
+          continue;
+        }
+        Clean c = clean_primitive(p, where);
+        json prim;
+        if (opt_.draco) {
+          DracoInput in;
+          in.positions = &p.positions;
+          in.normals = &c.normals;
+          in.uvs = &c.uvs;
+          in.colors = &c.colors;
+          in.indices = &p.indices;
+          auto r = draco_encode(in, ds);
+          if (r.ok())
+            prim = draco_primitive(*r);
+          else
+            note(where + ": draco: " + r.status().message() + "; written uncompressed");
+        }
+        if (prim.is_null()) prim = plain_primitive(p, c);
+        if (p.material >= 0) prim["material"] = p.material;
+        prims.push_back(std::move(prim));
+      }
+      if (prims.empty()) {
+        note("mesh " + std::to_string(m) + " '" + mesh.name + "': no triangles; mesh left out");
+        continue;
+      }
+      json j = {{"primitives", std::move(prims)}};
+      if (!mesh.name.empty()) j["name"] = mesh.name;
+      mesh_map_[m] = int(meshes_.size());
+      meshes_.push_back(std::move(j));
+    }
+  }
+
+  // ---- nodes ----
+
+  Placement place(size_t i) {
+    const Instance& inst = scene_.instances[i];
+    Placement p;
+    p.world = inst.world;
+    const Mat4& w = inst.world;
+    if (w.at(3, 0) != 0 || w.at(3, 1) != 0 || w.at(3, 2) != 0 || w.at(3, 3) != 1) {
+      if (w.at(3, 3) != 0 && std::isfinite(1 / w.at(3, 3)) && w.at(3, 0) == 0 &&
+          w.at(3, 1) == 0 && w.at(3, 2) == 0) {
+        for (double& v : p.world.m) v /= w.at(3, 3);  // homogeneous scale only
+      } else {
+        note("instance " + std::to_string(i) + " '" + inst.name +
+             "': projective transform; perspective part dropped");
+      }
+      p.world.at(3, 0) = p.world.at(3, 1) = p.world.at(3, 2) = 0;
+      p.world.at(3, 3) = 1;
+    }
+    p.trs = decompose_trs(p.world, p.t, p.q, p.s);
+    return p;
+  }
+
+  int add_instanced_node(uint32_t mesh, const std::vector<Placement>& places) {
+    std::vector<float> t, r, s;
+    for (size_t i = 0; i < scene_.instances.size(); ++i) {
+      if (scene_.instances[i].mesh != mesh || !places[i].trs) continue;
+      const Placement& p = places[i];
+      for (int k = 0; k < 3; ++k) t.push_back(float(p.t[k]));
+      for (int k = 0; k < 4; ++k) r.push_back(float(p.q[k]));
+      for (int k = 0; k < 3; ++k) s.push_back(float(p.s[k]));
+    }
+    const size_t count = t.size() / 3;
+    json attrs = {
+        {"TRANSLATION", add_accessor(add_view(t.data(), t.size() * 4, 0), kFloat, "VEC3", count)},
+        {"ROTATION", add_accessor(add_view(r.data(), r.size() * 4, 0), kFloat, "VEC4", count)},
+        {"SCALE", add_accessor(add_view(s.data(), s.size() * 4, 0), kFloat, "VEC3", count)}};
+    json node = {{"mesh", mesh_map_[mesh]}};
+    node["extensions"][kInstancing] = {{"attributes", std::move(attrs)}};
+    if (!scene_.meshes[mesh].name.empty()) node["name"] = scene_.meshes[mesh].name;
+    used_.insert(kInstancing);
+    nodes_.push_back(std::move(node));
+    return int(nodes_.size() - 1);
+  }
+
+  // A transform glTF cannot hold in one node (shear): split by SVD, A = U S V^T, into a parent
+  // node T * R(U) * S and a child node R(V^T) holding the mesh. Both are plain TRS.
+  int add_sheared_node(const Instance& inst, const Placement& p) {
+    Eigen::Matrix3d a;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) a(r, c) = p.world.at(r, c);
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d u = svd.matrixU(), v = svd.matrixV();
+    Eigen::Vector3d s = svd.singularValues();
+    if (u.determinant() < 0) u.col(2) *= -1, s(2) *= -1;
+    if (v.determinant() < 0) v.col(2) *= -1, s(2) *= -1;
+    json parent = json::object();
+    if (!inst.name.empty()) parent["name"] = inst.name;
+    double tx = p.world.at(0, 3), ty = p.world.at(1, 3), tz = p.world.at(2, 3);
+    if (tx != 0 || ty != 0 || tz != 0) parent["translation"] = {num(tx), num(ty), num(tz)};
+    auto rot = [](const std::array<double, 4>& q) {
+      return json{num(q[0]), num(q[1]), num(q[2]), num(q[3])};
+    };
+    std::array<double, 4> qu = quaternion(u), qv = quaternion(v.transpose());
+    if (qu != std::array<double, 4>{0, 0, 0, 1}) parent["rotation"] = rot(qu);
+    parent["scale"] = {num(s(0)), num(s(1)), num(s(2))};
+    int index = int(nodes_.size());
+    parent["children"] = {index + 1};
+    json child = {{"mesh", mesh_map_[inst.mesh]}};
+    if (qv != std::array<double, 4>{0, 0, 0, 1}) child["rotation"] = rot(qv);
+    nodes_.push_back(std::move(parent));
+    nodes_.push_back(std::move(child));
+    return index;
+  }
+
+  void write_nodes() {
+    const std::vector<size_t> counts = instance_counts(scene_);
+    std::vector<Placement> places;
+    places.reserve(scene_.instances.size());
+    for (size_t i = 0; i < scene_.instances.size(); ++i) places.push_back(place(i));
+    std::vector<bool> instanced(scene_.meshes.size(), false), warned(scene_.meshes.size(), false);
+    const size_t min_gpu = std::max<size_t>(opt_.min_gpu_instances, 1);
+    for (size_t i = 0; i < scene_.instances.size(); ++i) {
+      const Instance& inst = scene_.instances[i];
+      const Placement& p = places[i];
+      if (mesh_map_[inst.mesh] < 0) {
+        if (!warned[inst.mesh])
+          note("mesh " + std::to_string(inst.mesh) + ": left out; its instances are dropped");
+        warned[inst.mesh] = true;
+        continue;
+      }
+      if (counts[inst.mesh] >= min_gpu && p.trs) {
+        if (!instanced[inst.mesh]) roots_.push_back(add_instanced_node(inst.mesh, places));
+        instanced[inst.mesh] = true;
+        continue;
+      }
+      if (!p.trs) {
+        roots_.push_back(add_sheared_node(inst, p));
+        continue;
+      }
+      json node = {{"mesh", mesh_map_[inst.mesh]}};
+      if (!inst.name.empty()) node["name"] = inst.name;
+      if (!p.world.is_identity()) {
+        json m = json::array();
+        for (double v : p.world.m) m.push_back(num(v));
+        node["matrix"] = std::move(m);
+      }
+      nodes_.push_back(std::move(node));
+      roots_.push_back(int(nodes_.size() - 1));
+    }
+  }
+
+  // ---- container ----
+
+  Result<std::vector<uint8_t>> assemble() {
+    json root = json::object();
+    root["asset"] = {{"version", "2.0"}, {"generator", opt_.generator}};
+    root["scene"] = 0;
+    json scene = json::object();
+    if (!roots_.empty()) scene["nodes"] = roots_;
+    root["scenes"] = json::array({std::move(scene)});
+    auto put = [&](const char* key, json& arr) {
+      if (!arr.empty()) root[key] = std::move(arr);
+    };
+    put("nodes", nodes_);
+    put("meshes", meshes_);
+    put("materials", materials_);
+    put("textures", textures_);
+    put("samplers", samplers_);
+    put("images", images_);
+    put("accessors", accessors_);
+    put("bufferViews", views_);
+    while (bin_.size() % 4) bin_.push_back(0);
+    if (!bin_.empty()) root["buffers"] = json::array({{{"byteLength", bin_.size()}}});
+    if (!used_.empty()) root["extensionsUsed"] = used_;
+    if (!required_.empty()) root["extensionsRequired"] = required_;
+
+    std::string text = root.dump(-1, ' ', false, json::error_handler_t::replace);
+    while (text.size() % 4) text.push_back(' ');
+    const uint64_t total = 12 + 8 + text.size() + (bin_.empty() ? 0 : 8 + bin_.size());
+    if (total > 0xFFFFFFFFull)
+      return Status::error("gltf export: output of " + std::to_string(total) +
+                               " bytes is over the GLB limit of 4 GiB",
+                           ErrorKind::kOutput);
+    std::vector<uint8_t> out;
+    out.reserve(size_t(total));
+    auto u32 = [&](uint32_t v) {
+      for (int k = 0; k < 4; ++k) out.push_back(uint8_t(v >> (8 * k)));
+    };
+    u32(0x46546C67);  // "glTF"
+    u32(2);
+    u32(uint32_t(total));
+    u32(uint32_t(text.size()));
+    u32(0x4E4F534A);  // "JSON"
+    out.insert(out.end(), text.begin(), text.end());
+    if (!bin_.empty()) {
+      u32(uint32_t(bin_.size()));
+      u32(0x004E4942);  // "BIN\0"
+      out.insert(out.end(), bin_.begin(), bin_.end());
+    }
+    return out;
+  }
+
+  const Scene& scene_;
+  const GltfExportOptions& opt_;
+  Warnings* warnings_;
+
+  std::vector<uint8_t> bin_;
+  json views_ = json::array(), accessors_ = json::array(), meshes_ = json::array();
+  json nodes_ = json::array(), materials_ = json::array(), textures_ = json::array();
+  json samplers_ = json::array(), images_ = json::array();
+  std::vector<int> roots_;
+  std::set<std::string> used_, required_;
+  std::vector<int> image_map_;         // scene image → glTF image, -1 when not embedded
+  std::vector<int> material_uv_sets_;  // per material: uv sets its textures need
+  std::vector<int> mesh_map_;          // scene mesh → glTF mesh, -1 when left out
+  std::map<std::pair<int, int>, int> textures_index_;
+  std::map<std::array<int, 4>, int> samplers_index_;
+};
+
+Status check_options(const GltfExportOptions& o) {
+  if (!o.draco) return Status::ok();
+  const std::pair<const char*, int> bits[] = {{"position_bits", o.position_bits},
+                                              {"normal_bits", o.normal_bits},
+                                              {"uv_bits", o.uv_bits},
+                                              {"color_bits", o.color_bits}};
+  for (const auto& [name, v] : bits)
+    if (v < 1 || v > 30)
+      return Status::error("gltf export: " + std::string(name) + " " + std::to_string(v) +
+                           " out of range 1-30");
+  if (o.draco_speed < 0 || o.draco_speed > 10)
+    return Status::error("gltf export: draco_speed " + std::to_string(o.draco_speed) +
+                         " out of range 0-10");
+  return Status::ok();
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> export_glb_bytes(const Scene& scene, const GltfExportOptions& options,
+                                              Warnings* warnings) {
+  Status s = check_options(options);
+  if (!s) return s;
+  s = validate(scene, "gltf export");
+  if (!s) return s;
+  try {
+    return Exporter(scene, options, warnings).run();
+  } catch (const std::exception& e) {
+    return Status::error(std::string("gltf export: ") + e.what(), ErrorKind::kInternal);
+  }
+}
+
+Status export_glb(const Scene& scene, const std::string& path, const GltfExportOptions& options,
+                  Warnings* warnings) {
+  auto bytes = export_glb_bytes(scene, options, warnings);
+  if (!bytes.ok()) return bytes.status();
+  Status s = write_file_atomic(path, *bytes);
+  if (!s) return s.with_prefix("gltf export");
+  return Status::ok();
+}
+
+}  // namespace meshmux

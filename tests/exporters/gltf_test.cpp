@@ -1,0 +1,552 @@
+#include "exporters/gltf.h"
+
+#include <draco/compression/decode.h>
+#include <draco/core/decoder_buffer.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "exporters/image_encode.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using json = nlohmann::json;
+using testing::TempDir;
+
+// ---- scenes built in code ----
+
+// A small RGBA checker with partly transparent texels.
+Image checker_image(int size = 8, bool opaque = false) {
+  Image img;
+  img.name = "checker";
+  img.width = img.height = size;
+  img.rgba.resize(size_t(size) * size * 4);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      uint8_t* p = &img.rgba[(size_t(y) * size + x) * 4];
+      bool on = ((x / 2) + (y / 2)) % 2 == 0;
+      p[0] = on ? 230 : 20;
+      p[1] = uint8_t(x * 30);
+      p[2] = uint8_t(y * 30);
+      p[3] = opaque ? 255 : (on ? 255 : 128);
+    }
+  return img;
+}
+
+// Unit cube, 24 vertices (normals and uvs per face), 12 triangles.
+Mesh cube_mesh(int32_t material) {
+  Mesh mesh;
+  mesh.name = "cube";
+  Primitive p;
+  const Vec3 normals[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (const Vec3& n : normals) {
+    // Two axes spanning the face, chosen so (u x v) = n.
+    Vec3 u = std::abs(n.y) > 0.5f ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    Vec3 v = cross(n, u);
+    u = cross(v, n);
+    uint32_t base = uint32_t(p.positions.size());
+    const float corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (const auto& c : corners) {
+      Vec3 pos = n * 0.5f + u * (0.5f * c[0]) + v * (0.5f * c[1]);
+      p.positions.push_back(pos);
+      p.normals.push_back(n);
+    }
+    p.uvs.resize(1);
+    for (const auto& c : corners) p.uvs[0].push_back({0.5f * (c[0] + 1), 0.5f * (1 - c[1])});
+    for (uint32_t k : {0u, 1u, 2u, 0u, 2u, 3u}) p.indices.push_back(base + k);
+  }
+  p.material = material;
+  mesh.primitives.push_back(std::move(p));
+  return mesh;
+}
+
+Scene textured_cube_scene() {
+  Scene scene;
+  Image img = checker_image();
+  auto png = encode_png(img);
+  EXPECT_TRUE(png.ok()) << png.status().message();
+  if (png.ok()) img.encoded = png.take();
+  img.mime_type = "image/png";
+  scene.images.push_back(std::move(img));
+  Material mat;
+  mat.name = "checker";
+  mat.base_color.image = 0;
+  mat.base_color.sampler.wrap_s = Wrap::kClampToEdge;
+  mat.base_color.sampler.mag_filter = 9729;
+  mat.metallic_factor = 0;
+  scene.materials.push_back(mat);
+  scene.meshes.push_back(cube_mesh(0));
+  Instance inst;
+  inst.mesh = 0;
+  inst.name = "cube";
+  scene.instances.push_back(inst);
+  return scene;
+}
+
+// One untextured cube placed `n` times with distinct translation, rotation and scale.
+Scene instanced_scene(int n) {
+  Scene scene;
+  Material mat;
+  mat.base_color_factor = {0.8f, 0.2f, 0.1f, 1};
+  scene.materials.push_back(mat);
+  scene.meshes.push_back(cube_mesh(0));
+  for (int i = 0; i < n; ++i) {
+    double t[3] = {2.0 * i, 0.5 * i, -1.0 * i};
+    double a = 0.3 * i, q[4] = {0, std::sin(a / 2), 0, std::cos(a / 2)};
+    double s[3] = {1 + 0.1 * i, 1, 1 + 0.05 * i};
+    Instance inst;
+    inst.mesh = 0;
+    inst.world = Mat4::trs(t, q, s);
+    inst.name = "cube." + std::to_string(i);
+    scene.instances.push_back(inst);
+  }
+  return scene;
+}
+
+Mat4 shear_matrix() {
+  Mat4 m = Mat4::translation(3, -2, 1);
+  m.at(0, 1) = 0.5;  // x += 0.5 y
+  m.at(2, 0) = 0.25;
+  return m;
+}
+
+// ---- reading a .glb back ----
+
+struct Glb {
+  json doc;
+  std::vector<uint8_t> bin;
+};
+
+uint32_t u32_at(const std::vector<uint8_t>& b, size_t at) {
+  uint32_t v = 0;
+  std::memcpy(&v, b.data() + at, 4);
+  return v;
+}
+
+Glb parse_glb(const std::vector<uint8_t>& bytes) {
+  Glb glb;
+  EXPECT_GE(bytes.size(), 20u);
+  if (bytes.size() < 20) return glb;
+  EXPECT_EQ(u32_at(bytes, 0), 0x46546C67u);
+  EXPECT_EQ(u32_at(bytes, 4), 2u);
+  EXPECT_EQ(u32_at(bytes, 8), bytes.size());
+  uint32_t json_len = u32_at(bytes, 12);
+  EXPECT_EQ(u32_at(bytes, 16), 0x4E4F534Au);
+  EXPECT_EQ(json_len % 4, 0u);
+  glb.doc = json::parse(bytes.begin() + 20, bytes.begin() + 20 + json_len);
+  size_t at = 20 + json_len;
+  if (at + 8 <= bytes.size()) {
+    uint32_t bin_len = u32_at(bytes, at);
+    EXPECT_EQ(u32_at(bytes, at + 4), 0x004E4942u);
+    glb.bin.assign(bytes.begin() + at + 8, bytes.begin() + at + 8 + bin_len);
+  }
+  return glb;
+}
+
+std::vector<uint8_t> export_ok(const Scene& scene, const GltfExportOptions& options = {},
+                               Warnings* warnings = nullptr) {
+  auto r = export_glb_bytes(scene, options, warnings);
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  return r.ok() ? r.take() : std::vector<uint8_t>{};
+}
+
+// Writes the bytes to a file and runs Khronos' validator on it.
+void expect_valid(const std::vector<uint8_t>& bytes, const std::string& name) {
+  TempDir dir;
+  std::string path = dir.file(name);
+  testing::write_file(path, bytes);
+  std::string report;
+  int errors = testing::gltf_validator_errors(path, &report);
+  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  EXPECT_EQ(errors, 0) << report;
+}
+
+bool has(const json& arr, const std::string& s) {
+  if (!arr.is_array()) return false;
+  for (const auto& v : arr)
+    if (v == s) return true;
+  return false;
+}
+
+// ---- tests ----
+
+TEST(GltfExport, TexturedCubeIsValid) {
+  auto bytes = export_ok(textured_cube_scene());
+  expect_valid(bytes, "cube.glb");
+}
+
+TEST(GltfExport, UncompressedTexturedCubeIsValid) {
+  GltfExportOptions options;
+  options.draco = false;
+  auto bytes = export_ok(textured_cube_scene(), options);
+  Glb glb = parse_glb(bytes);
+  EXPECT_FALSE(glb.doc.contains("extensionsRequired"));
+  expect_valid(bytes, "cube-plain.glb");
+}
+
+TEST(GltfExport, EmptySceneIsValid) {
+  auto bytes = export_ok(Scene{});
+  Glb glb = parse_glb(bytes);
+  EXPECT_EQ(glb.doc["asset"]["version"], "2.0");
+  EXPECT_EQ(glb.doc["asset"]["generator"], "meshmux");
+  expect_valid(bytes, "empty.glb");
+}
+
+TEST(GltfExport, TenInstancesUseGpuInstancing) {
+  auto bytes = export_ok(instanced_scene(10));
+  Glb glb = parse_glb(bytes);
+  const json& doc = glb.doc;
+  ASSERT_EQ(doc["nodes"].size(), 1u);
+  const json& node = doc["nodes"][0];
+  ASSERT_TRUE(node["extensions"].contains("EXT_mesh_gpu_instancing"));
+  const json& attrs = node["extensions"]["EXT_mesh_gpu_instancing"]["attributes"];
+  for (const char* a : {"TRANSLATION", "ROTATION", "SCALE"}) {
+    ASSERT_TRUE(attrs.contains(a)) << a;
+    EXPECT_EQ(doc["accessors"][attrs[a].get<int>()]["count"], 10) << a;
+  }
+  EXPECT_TRUE(has(doc["extensionsUsed"], "EXT_mesh_gpu_instancing"));
+  EXPECT_FALSE(has(doc["extensionsRequired"], "EXT_mesh_gpu_instancing"));
+  expect_valid(bytes, "ten.glb");
+}
+
+TEST(GltfExport, TwoInstancesGetSeparateNodes) {
+  auto bytes = export_ok(instanced_scene(2));
+  Glb glb = parse_glb(bytes);
+  const json& doc = glb.doc;
+  ASSERT_EQ(doc["nodes"].size(), 2u);
+  EXPECT_EQ(doc["scenes"][0]["nodes"], json({0, 1}));
+  EXPECT_FALSE(doc["nodes"][0].contains("matrix"));  // identity is left out
+  EXPECT_TRUE(doc["nodes"][1].contains("matrix"));
+  for (const auto& n : doc["nodes"]) {
+    EXPECT_EQ(n["mesh"], 0);
+    EXPECT_FALSE(n.contains("extensions"));
+  }
+  EXPECT_FALSE(has(doc["extensionsUsed"], "EXT_mesh_gpu_instancing"));
+  expect_valid(bytes, "two.glb");
+}
+
+// glTF forbids a non-TRS node matrix (validator error NODE_MATRIX_NON_TRS), so a sheared
+// instance leaves the instanced node and becomes a parent TRS node with a rotated child node
+// (SVD split) whose combined transform is the instance's matrix.
+TEST(GltfExport, ShearedInstanceFallsBackToOwnNodes) {
+  Scene scene = instanced_scene(5);
+  scene.instances[2].world = shear_matrix();
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& doc = glb.doc;
+  const json& roots = doc["scenes"][0]["nodes"];
+  ASSERT_EQ(roots.size(), 2u);
+  const json& inst = doc["nodes"][roots[0].get<int>()];
+  int count = doc["accessors"][inst["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]
+                                   ["TRANSLATION"].get<int>()]["count"];
+  EXPECT_EQ(count, 4);
+  const json& parent = doc["nodes"][roots[1].get<int>()];
+  EXPECT_FALSE(parent.contains("extensions"));
+  EXPECT_FALSE(parent.contains("matrix"));
+  ASSERT_EQ(parent["children"].size(), 1u);
+  const json& child = doc["nodes"][parent["children"][0].get<int>()];
+  EXPECT_EQ(child["mesh"], 0);
+  // Parent TRS * child rotation reproduces the sheared matrix.
+  auto vec = [](const json& j, const char* key, std::vector<double> def) {
+    return j.contains(key) ? j[key].get<std::vector<double>>() : def;
+  };
+  auto t = vec(parent, "translation", {0, 0, 0}), s = vec(parent, "scale", {1, 1, 1});
+  auto q1 = vec(parent, "rotation", {0, 0, 0, 1}), q2 = vec(child, "rotation", {0, 0, 0, 1});
+  Mat4 world = Mat4::translation(t[0], t[1], t[2]) * Mat4::rotation(q1[0], q1[1], q1[2], q1[3]) *
+               Mat4::scale(s[0], s[1], s[2]) * Mat4::rotation(q2[0], q2[1], q2[2], q2[3]);
+  Mat4 want = shear_matrix();
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(world.m[i], want.m[i], 1e-9) << i;
+  expect_valid(bytes, "sheared.glb");
+}
+
+TEST(GltfExport, LoneShearedInstanceIsValid) {
+  Scene scene = instanced_scene(1);
+  scene.instances[0].world = shear_matrix();
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  EXPECT_EQ(glb.doc["nodes"].size(), 2u);
+  for (const auto& n : glb.doc["nodes"]) EXPECT_FALSE(n.contains("matrix"));
+  expect_valid(bytes, "lone-shear.glb");
+}
+
+TEST(GltfExport, OutputIsDeterministic) {
+  Scene scene = textured_cube_scene();
+  Scene more = instanced_scene(6);
+  scene.meshes.push_back(more.meshes[0]);
+  for (Instance inst : more.instances) {
+    inst.mesh = 1;
+    scene.instances.push_back(inst);
+  }
+  scene.meshes[1].primitives[0].material = -1;
+  auto a = export_ok(scene);
+  auto b = export_ok(scene);
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(a, b);
+  expect_valid(a, "mixed.glb");
+}
+
+TEST(GltfExport, MissingFolderIsAnOutputError) {
+  TempDir dir;
+  std::string path = dir.file("no/such/folder/out.glb");
+  Status s = export_glb(textured_cube_scene(), path, {}, nullptr);
+  EXPECT_FALSE(s.is_ok());
+  EXPECT_EQ(s.kind(), ErrorKind::kOutput);
+  EXPECT_NE(s.message().find("gltf export"), std::string::npos) << s.message();
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_TRUE(dir.list().empty());
+}
+
+TEST(GltfExport, ExportLeavesNoTemporaryFile) {
+  TempDir dir;
+  std::string path = dir.file("cube.glb");
+  Status s = export_glb(textured_cube_scene(), path, {}, nullptr);
+  ASSERT_TRUE(s.is_ok()) << s.message();
+  EXPECT_EQ(dir.list(), std::vector<std::string>{"cube.glb"});
+  EXPECT_EQ(testing::read_file(path), export_ok(textured_cube_scene()));
+}
+
+TEST(GltfExport, MaterialFieldsSurvive) {
+  Scene scene = textured_cube_scene();
+  Material& m = scene.materials[0];
+  m.base_color_factor = {0.5f, 0.25f, 1, 0.75f};
+  m.alpha_mode = AlphaMode::kMask;
+  m.alpha_cutoff = 0.3f;
+  m.double_sided = true;
+  m.roughness_factor = 0.4f;
+  m.emissive_factor = {0.1f, 0.2f, 0.3f};
+  m.base_color.transform.offset[0] = 0.5f;
+  m.base_color.transform.scale[1] = 2;
+  m.occlusion = m.base_color;
+  m.occlusion.transform = {};
+  m.occlusion.scale = 0.6f;
+  Material unlit;
+  unlit.name = "flat";
+  unlit.unlit = true;
+  unlit.alpha_mode = AlphaMode::kBlend;
+  scene.materials.push_back(unlit);
+  scene.meshes.push_back(cube_mesh(1));
+  scene.instances.push_back({1, Mat4::translation(2, 0, 0), "flat"});
+
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& doc = glb.doc;
+  ASSERT_EQ(doc["materials"].size(), 2u);
+  const json& j = doc["materials"][0];
+  EXPECT_EQ(j["name"], "checker");
+  EXPECT_EQ(j["alphaMode"], "MASK");
+  EXPECT_FLOAT_EQ(j["alphaCutoff"].get<float>(), 0.3f);
+  EXPECT_EQ(j["doubleSided"], true);
+  EXPECT_EQ(j["pbrMetallicRoughness"]["baseColorFactor"], json({0.5, 0.25, 1.0, 0.75}));
+  EXPECT_FLOAT_EQ(j["pbrMetallicRoughness"]["metallicFactor"].get<float>(), 0.0f);
+  EXPECT_FLOAT_EQ(j["pbrMetallicRoughness"]["roughnessFactor"].get<float>(), 0.4f);
+  EXPECT_FLOAT_EQ(j["emissiveFactor"][2].get<float>(), 0.3f);
+  EXPECT_FLOAT_EQ(j["occlusionTexture"]["strength"].get<float>(), 0.6f);
+  const json& base = j["pbrMetallicRoughness"]["baseColorTexture"];
+  const json& xf = base["extensions"]["KHR_texture_transform"];
+  EXPECT_EQ(xf["offset"], json({0.5, 0.0}));
+  EXPECT_EQ(xf["scale"], json({1.0, 2.0}));
+  EXPECT_TRUE(has(doc["extensionsUsed"], "KHR_texture_transform"));
+  // Same image, same sampler: one texture, one sampler.
+  EXPECT_EQ(doc["textures"].size(), 1u);
+  EXPECT_EQ(doc["samplers"].size(), 1u);
+  EXPECT_EQ(doc["samplers"][0]["wrapS"], 33071);
+  EXPECT_EQ(doc["samplers"][0]["magFilter"], 9729);
+  const json& flat = doc["materials"][1];
+  EXPECT_TRUE(flat["extensions"].contains("KHR_materials_unlit"));
+  EXPECT_EQ(flat["alphaMode"], "BLEND");
+  EXPECT_FALSE(flat.contains("alphaCutoff"));
+  EXPECT_FALSE(flat.contains("doubleSided"));
+  EXPECT_TRUE(has(doc["extensionsUsed"], "KHR_materials_unlit"));
+  expect_valid(bytes, "materials.glb");
+}
+
+TEST(GltfExport, UnsupportedImageFormatIsReencodedToPng) {
+  Scene scene = textured_cube_scene();
+  Image& img = scene.images[0];
+  img.mime_type = "image/x-tga";
+  img.encoded = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 8, 0, 8, 0, 32, 8};  // a TGA header
+  Warnings warnings;
+  auto bytes = export_ok(scene, {}, &warnings);
+  Glb glb = parse_glb(bytes);
+  ASSERT_EQ(glb.doc["images"].size(), 1u);
+  const json& image = glb.doc["images"][0];
+  EXPECT_EQ(image["mimeType"], "image/png");
+  const json& view = glb.doc["bufferViews"][image["bufferView"].get<int>()];
+  size_t offset = view["byteOffset"], length = view["byteLength"];
+  ASSERT_LE(offset + length, glb.bin.size());
+  const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  EXPECT_EQ(std::memcmp(glb.bin.data() + offset, sig, 8), 0);
+  EXPECT_TRUE(warnings.empty());
+  expect_valid(bytes, "tga.glb");
+}
+
+TEST(GltfExport, UndecodedImageIsDroppedWithWarning) {
+  Scene scene = textured_cube_scene();
+  Image& img = scene.images[0];
+  img.mime_type = "image/x-tga";
+  img.encoded = {0, 0, 2, 0};
+  img.width = img.height = 0;
+  img.rgba.clear();
+  Warnings warnings;
+  auto bytes = export_ok(scene, {}, &warnings);
+  Glb glb = parse_glb(bytes);
+  EXPECT_FALSE(glb.doc.contains("images"));
+  EXPECT_FALSE(glb.doc.contains("textures"));
+  EXPECT_FALSE(glb.doc["materials"][0]["pbrMetallicRoughness"].contains("baseColorTexture"));
+  ASSERT_EQ(warnings.items().size(), 1u);
+  EXPECT_EQ(warnings.items()[0], "gltf export: image 0 'checker': cannot embed (not decoded)");
+  expect_valid(bytes, "dropped.glb");
+}
+
+TEST(GltfExport, DracoDecodedCountMatchesAccessors) {
+  Scene scene = textured_cube_scene();
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& doc = glb.doc;
+  EXPECT_TRUE(has(doc["extensionsUsed"], "KHR_draco_mesh_compression"));
+  EXPECT_TRUE(has(doc["extensionsRequired"], "KHR_draco_mesh_compression"));
+  const json& prim = doc["meshes"][0]["primitives"][0];
+  const json& ext = prim["extensions"]["KHR_draco_mesh_compression"];
+  const json& view = doc["bufferViews"][ext["bufferView"].get<int>()];
+  size_t offset = view["byteOffset"], length = view["byteLength"];
+  ASSERT_LE(offset + length, glb.bin.size());
+
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(glb.bin.data() + offset), length);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().error_msg_string();
+  std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
+
+  for (const char* name : {"POSITION", "NORMAL", "TEXCOORD_0"}) {
+    ASSERT_TRUE(prim["attributes"].contains(name)) << name;
+    const json& acc = doc["accessors"][prim["attributes"][name].get<int>()];
+    EXPECT_FALSE(acc.contains("bufferView"));
+    EXPECT_EQ(acc["count"].get<uint32_t>(), mesh->num_points()) << name;
+    EXPECT_NE(mesh->GetAttributeByUniqueId(ext["attributes"][name].get<uint32_t>()), nullptr)
+        << name;
+  }
+  const json& idx = doc["accessors"][prim["indices"].get<int>()];
+  EXPECT_EQ(idx["count"].get<uint32_t>(), mesh->num_faces() * 3);
+  EXPECT_EQ(mesh->num_faces(), 12u);
+  // POSITION min/max are the decoded extremes.
+  const json& pos = doc["accessors"][prim["attributes"]["POSITION"].get<int>()];
+  const draco::PointAttribute* att =
+      mesh->GetAttributeByUniqueId(ext["attributes"]["POSITION"].get<uint32_t>());
+  ASSERT_NE(att, nullptr);
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (draco::PointIndex p(0); p < mesh->num_points(); ++p) {
+    std::array<float, 3> v{};
+    ASSERT_TRUE((att->GetValue<float, 3>(att->mapped_index(p), &v)));
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], v[k]), hi[k] = std::max(hi[k], v[k]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(pos["min"][k].get<float>(), lo[k]);
+    EXPECT_EQ(pos["max"][k].get<float>(), hi[k]);
+    EXPECT_NEAR(hi[k], 0.5f, 1e-3);
+  }
+}
+
+// More than 65535 vertices: 32-bit indices, in both encodings.
+TEST(GltfExport, LargeMeshUsesUnsignedIntIndices) {
+  Scene scene;
+  Mesh mesh;
+  Primitive p;
+  const uint32_t n = 300;  // 90,000 vertices
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) {
+      p.positions.push_back({float(x), float(y), std::sin(0.1f * x) * std::cos(0.1f * y)});
+      p.normals.push_back({0, 0, 1});
+    }
+  for (uint32_t y = 0; y + 1 < n; ++y)
+    for (uint32_t x = 0; x + 1 < n; ++x) {
+      uint32_t a = y * n + x;
+      for (uint32_t k : {a, a + 1, a + n + 1, a, a + n + 1, a + n}) p.indices.push_back(k);
+    }
+  mesh.primitives.push_back(std::move(p));
+  scene.meshes.push_back(std::move(mesh));
+  scene.instances.push_back({0, Mat4{}, "grid"});
+  for (bool draco : {true, false}) {
+    GltfExportOptions options;
+    options.draco = draco;
+    auto bytes = export_ok(scene, options);
+    Glb glb = parse_glb(bytes);
+    const json& prim = glb.doc["meshes"][0]["primitives"][0];
+    const json& idx = glb.doc["accessors"][prim["indices"].get<int>()];
+    EXPECT_EQ(idx["componentType"], 5125) << "draco " << draco;
+    EXPECT_EQ(idx["count"], 6 * (n - 1) * (n - 1)) << "draco " << draco;
+    expect_valid(bytes, draco ? "grid.glb" : "grid-plain.glb");
+  }
+}
+
+// Inputs a glTF file cannot hold as they are still give a valid file, with warnings: a
+// primitive without triangles, a mesh left empty, zero normals, a texture on a uv set the
+// primitive lacks, an invalid filter, a projective transform.
+TEST(GltfExport, OddInputStillGivesValidFile) {
+  Scene scene = textured_cube_scene();
+  Primitive& cube = scene.meshes[0].primitives[0];
+  cube.normals[0] = {0, 0, 0};
+  cube.normals[1] = {NAN, 0, 0};
+  scene.materials[0].base_color.tex_coord = 1;
+  scene.materials[0].base_color.sampler.min_filter = 1234;
+  Primitive empty;
+  empty.positions = {{0, 0, 0}};
+  scene.meshes[0].primitives.push_back(empty);
+  Mesh hollow;
+  hollow.name = "hollow";
+  hollow.primitives.push_back(empty);
+  scene.meshes.push_back(hollow);
+  scene.instances.push_back({1, Mat4{}, "hollow"});
+  Mat4 projective;
+  projective.at(3, 0) = 0.5;
+  scene.instances.push_back({0, projective, "projective"});
+  for (bool draco : {true, false}) {
+    GltfExportOptions options;
+    options.draco = draco;
+    Warnings warnings;
+    auto bytes = export_ok(scene, options, &warnings);
+    EXPECT_GE(warnings.items().size(), 6u);
+    for (const std::string& w : warnings.items()) EXPECT_EQ(w.rfind("gltf export: ", 0), 0u) << w;
+    Glb glb = parse_glb(bytes);
+    EXPECT_EQ(glb.doc["meshes"].size(), 1u);
+    EXPECT_EQ(glb.doc["meshes"][0]["primitives"].size(), 1u);
+    EXPECT_TRUE(glb.doc["meshes"][0]["primitives"][0]["attributes"].contains("TEXCOORD_1"));
+    expect_valid(bytes, draco ? "odd.glb" : "odd-plain.glb");
+  }
+}
+
+TEST(GltfExport, BadOptionsAndScenesAreErrors) {
+  GltfExportOptions options;
+  options.position_bits = 0;
+  auto r = export_glb_bytes(textured_cube_scene(), options, nullptr);
+  EXPECT_FALSE(r.ok());
+  Scene scene = textured_cube_scene();
+  scene.meshes[0].primitives[0].indices[4] = 999;
+  r = export_glb_bytes(scene, {}, nullptr);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().message().rfind("gltf export: mesh 0 primitive 0", 0), 0u)
+      << r.status().message();
+}
+
+TEST(GltfExport, EncodePngDropsAlphaOnlyWhenOpaque) {
+  // PNG colour type is byte 25 of the file (IHDR): 2 = RGB, 6 = RGBA.
+  auto opaque = encode_png(checker_image(4, true));
+  ASSERT_TRUE(opaque.ok()) << opaque.status().message();
+  ASSERT_GT(opaque->size(), 26u);
+  EXPECT_EQ((*opaque)[25], 2);
+  auto alpha = encode_png(checker_image(4, false));
+  ASSERT_TRUE(alpha.ok()) << alpha.status().message();
+  ASSERT_GT(alpha->size(), 26u);
+  EXPECT_EQ((*alpha)[25], 6);
+  EXPECT_FALSE(encode_png(Image{}).ok());
+}
+
+}  // namespace
+}  // namespace meshmux
