@@ -1,0 +1,606 @@
+// COLLADA → Scene through Assimp. This is the first half of paper 000 §4.1 (cleaning and
+// normalizing): polygons become triangles here; welding, degenerate removal and normals are
+// left to condition/clean.
+//
+// Why Assimp (Debian libassimp-dev 5.2) rather than a hand-written pugixml reader:
+// - it keeps instancing: each <instance_geometry>/<instance_node> is an aiNode listing indices
+//   into one shared aiScene::mMeshes, so a geometry placed 20 times is stored once;
+// - aiProcess_Triangulate ear-clips polygons in their projected plane, correctly on concave and
+//   "keyhole" polygons (ConcavePolygon-dae: 66 corners → 64 triangles with the polygon's area);
+// - it applies <up_axis> and <unit> as a rotation and scale on the root node, so the
+//   accumulated world transforms come out Y-up in metres.
+// Assimp splits a <geometry> with k material blocks into k aiMeshes that its nodes reference
+// together; we regroup them: nodes with identical mesh lists share one Mesh, one Primitive per
+// triangle aiMesh. Assimp leaves one vertex per face corner; the clean stage welds them.
+//
+// Isolation: Assimp 5.2 crashes (SIGSEGV, abort) on some corrupt files, e.g. a <float_array>
+// without its count, and can allocate without bound on others (a stray '"' inside <p>: 19 GB
+// in 70 s). So Assimp runs in a forked child with an address-space limit and a deadline; the
+// child sends the converted geometry and materials back through a pipe, and a crash becomes an
+// ordinary error. Textures are read and decoded in the caller's process, after the child ends.
+//
+// Known Assimp 5.2 limits: <sampler2D><wrap_s>/<wrap_t> are not read (only the MAYA <extra>
+// wrapU/wrapV reach aiTextureMapMode), so most textures come out REPEAT; malformed XML gives
+// only "Unable to read file, malformed XML", without a line number.
+#include "importers/collada.h"
+
+#include <assimp/config.h>
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <assimp/Importer.hpp>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <new>
+#include <type_traits>
+
+#include "importers/image_decode.h"
+#include "scene/file_io.h"
+
+namespace meshmux {
+namespace {
+
+namespace fs = std::filesystem;
+
+// "who: reason" → "reason" (our file and image helpers prefix their messages with the name).
+std::string strip_prefix(const std::string& message, const std::string& who) {
+  std::string p = who + ": ";
+  return message.compare(0, p.size(), p) == 0 ? message.substr(p.size()) : message;
+}
+
+// One line: Assimp's messages sometimes carry newlines.
+std::string one_line(std::string s) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  std::replace(s.begin(), s.end(), '\r', ' ');
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+// "%20" → " ". Malformed escapes are kept as they are.
+std::string percent_decode(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    bool escape = s[i] == '%' && i + 2 < s.size() && std::isxdigit(uint8_t(s[i + 1])) &&
+                  std::isxdigit(uint8_t(s[i + 2]));
+    out += escape ? char(std::stoi(s.substr(i + 1, 2), nullptr, 16)) : s[i];
+    if (escape) i += 2;
+  }
+  return out;
+}
+
+Mat4 to_mat4(const aiMatrix4x4& a) {
+  Mat4 m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m.at(r, c) = a[r][c];  // aiMatrix4x4 is row-major
+  return m;
+}
+
+float clamp01(float x) { return std::isfinite(x) ? std::min(1.0f, std::max(0.0f, x)) : 0.0f; }
+
+Wrap to_wrap(aiTextureMapMode m) {
+  if (m == aiTextureMapMode_Clamp || m == aiTextureMapMode_Decal) return Wrap::kClampToEdge;
+  return m == aiTextureMapMode_Mirror ? Wrap::kMirroredRepeat : Wrap::kRepeat;
+}
+
+// A material's diffuse texture, to be loaded by the caller's process.
+struct TextureRequest {
+  int32_t material = -1;
+  std::string path;  // as Assimp gives it
+  uint32_t uv = 0;
+  Wrap wrap_s = Wrap::kRepeat, wrap_t = Wrap::kRepeat;
+};
+
+// What the Assimp side produces: a Scene without images, and what to load into it.
+struct Parsed {
+  Scene scene;
+  std::vector<TextureRequest> textures;
+  std::vector<std::string> warnings;
+};
+
+class Converter {
+ public:
+  Converter(const std::string& file, const aiScene& ai) : file_(file), ai_(ai) {}
+
+  Parsed run() {
+    if (ai_.mRootNode) visit(*ai_.mRootNode, Mat4::identity());
+    if (out_.scene.instances.empty()) warn(prefix() + ": no triangle geometry in the scene");
+    return std::move(out_);
+  }
+
+ private:
+  std::string prefix() const { return "collada: " + file_; }
+  void warn(std::string message) { out_.warnings.push_back(std::move(message)); }
+
+  void visit(const aiNode& node, const Mat4& parent) {
+    Mat4 world = parent * to_mat4(node.mTransformation);
+    if (node.mNumMeshes > 0 && node.mMeshes) {
+      std::vector<unsigned> key(node.mMeshes, node.mMeshes + node.mNumMeshes);
+      auto it = mesh_by_list_.find(key);
+      int32_t mesh = it != mesh_by_list_.end() ? it->second : build_mesh(key);
+      mesh_by_list_[key] = mesh;
+      if (mesh >= 0) out_.scene.instances.push_back({uint32_t(mesh), world, node.mName.C_Str()});
+    }
+    for (unsigned i = 0; i < node.mNumChildren; ++i)
+      if (node.mChildren && node.mChildren[i]) visit(*node.mChildren[i], world);
+  }
+
+  // One Mesh from the aiMeshes a node lists; -1 when none of them has triangles.
+  int32_t build_mesh(const std::vector<unsigned>& list) {
+    Mesh mesh;
+    for (unsigned index : list) {
+      if (index >= ai_.mNumMeshes || !ai_.mMeshes[index]) continue;
+      const aiMesh& am = *ai_.mMeshes[index];
+      if (mesh.name.empty()) mesh.name = am.mName.C_Str();
+      Primitive prim;
+      if (convert_primitive(am, prim)) mesh.primitives.push_back(std::move(prim));
+    }
+    if (mesh.primitives.empty()) return -1;
+    out_.scene.meshes.push_back(std::move(mesh));
+    return int32_t(out_.scene.meshes.size() - 1);
+  }
+
+  // Copies the triangles of one aiMesh; warns about the line and point faces it drops.
+  bool convert_primitive(const aiMesh& am, Primitive& prim) {
+    size_t lines = 0, others = 0;
+    for (unsigned f = 0; am.mFaces && f < am.mNumFaces; ++f) {
+      const aiFace& face = am.mFaces[f];
+      if (face.mNumIndices == 3 && face.mIndices) {
+        prim.indices.insert(prim.indices.end(), face.mIndices, face.mIndices + 3);
+      } else if (face.mNumIndices == 2) {
+        ++lines;
+      } else {
+        ++others;  // points, or polygons aiProcess_Triangulate gave up on
+      }
+    }
+    std::string geometry = prefix() + ": geometry '" + am.mName.C_Str() + "': ";
+    if (lines) warn(geometry + "<lines> skipped (" + std::to_string(lines) + " lines)");
+    if (others)
+      warn(geometry + std::to_string(others) + " points or untriangulated polygons skipped");
+    if (prim.indices.empty() || !am.mVertices) return false;
+
+    size_t n = am.mNumVertices;
+    prim.positions.resize(n);
+    for (size_t v = 0; v < n; ++v)
+      prim.positions[v] = {am.mVertices[v].x, am.mVertices[v].y, am.mVertices[v].z};
+    if (am.mNormals) {
+      prim.normals.resize(n);
+      for (size_t v = 0; v < n; ++v) {
+        prim.normals[v] = normalize({am.mNormals[v].x, am.mNormals[v].y, am.mNormals[v].z});
+        if (!(std::fabs(dot(prim.normals[v], prim.normals[v]) - 1) < 1e-3f)) {  // zero or NaN
+          prim.normals.clear();  // broken normals: let the clean stage generate them all
+          break;
+        }
+      }
+    }
+    // uv sets in order, stopping at the first gap; COLLADA's v points up, glTF's down.
+    for (unsigned k = 0; k < AI_MAX_NUMBER_OF_TEXTURECOORDS && am.mTextureCoords[k]; ++k) {
+      std::vector<Vec2> uv(n);
+      for (size_t v = 0; v < n; ++v)
+        uv[v] = {am.mTextureCoords[k][v].x, 1.0f - am.mTextureCoords[k][v].y};
+      prim.uvs.push_back(std::move(uv));
+    }
+    if (am.mColors[0]) {
+      prim.colors.resize(n);
+      for (size_t v = 0; v < n; ++v) {
+        const aiColor4D& c = am.mColors[0][v];
+        prim.colors[v] = {c.r, c.g, c.b, c.a};
+      }
+    }
+    prim.material = material(am.mMaterialIndex);
+    return true;
+  }
+
+  int32_t material(unsigned index) {
+    if (index >= ai_.mNumMaterials || !ai_.mMaterials[index]) return -1;
+    auto it = material_by_ai_.find(index);
+    if (it != material_by_ai_.end()) return it->second;
+    int32_t id = int32_t(out_.scene.materials.size());
+    out_.scene.materials.push_back(convert_material(*ai_.mMaterials[index], id));
+    material_by_ai_[index] = id;
+    return id;
+  }
+
+  // COLLADA common profile → metallic-roughness:
+  // - base colour = diffuse colour (its alpha is ignored: COLLADA's transparency lives in
+  //   <transparent>/<transparency>, which Assimp folds into AI_MATKEY_OPACITY); a diffuse
+  //   texture, once loaded, replaces the factor with (1, 1, 1, opacity);
+  // - opacity < 1 → BLEND; double_sided from AI_MATKEY_TWOSIDED (read from <extra>);
+  // - metallic 0 (the common profile describes dielectrics); roughness from the Blinn-Phong
+  //   exponent n through the Beckmann match α = sqrt(2 / (n + 2)) and glTF's α = roughness²,
+  //   i.e. roughness = (2 / (n + 2))^¼; lambert and constant shading (no highlight) → 1;
+  // - emissive factor = <emission> colour.
+  Material convert_material(const aiMaterial& am, int32_t id) {
+    Material mat;
+    aiString name;
+    if (am.Get(AI_MATKEY_NAME, name) == AI_SUCCESS) mat.name = name.C_Str();
+
+    aiColor4D diffuse(1, 1, 1, 1);
+    am.Get(AI_MATKEY_COLOR_DIFFUSE, diffuse);
+    float opacity = 1;
+    if (am.Get(AI_MATKEY_OPACITY, opacity) != AI_SUCCESS || !std::isfinite(opacity)) opacity = 1;
+    opacity = clamp01(opacity);
+    if (opacity <= 0) {  // fully invisible is nearly always an exporter's inverted transparency
+      warn(prefix() + ": material '" + mat.name + "': transparency makes it invisible; opaque");
+      opacity = 1;
+    }
+    mat.base_color_factor = {clamp01(diffuse.r), clamp01(diffuse.g), clamp01(diffuse.b), opacity};
+    if (opacity < 1) mat.alpha_mode = AlphaMode::kBlend;
+
+    int two_sided = 0;
+    if (am.Get(AI_MATKEY_TWOSIDED, two_sided) == AI_SUCCESS) mat.double_sided = two_sided != 0;
+
+    mat.metallic_factor = 0;
+    mat.roughness_factor = 1;
+    int shading = 0;
+    float shininess = 0;
+    bool has_highlight = am.Get(AI_MATKEY_SHADING_MODEL, shading) != AI_SUCCESS ||
+                         shading == aiShadingMode_Phong || shading == aiShadingMode_Blinn;
+    if (has_highlight && am.Get(AI_MATKEY_SHININESS, shininess) == AI_SUCCESS &&
+        std::isfinite(shininess) && shininess >= 0)
+      mat.roughness_factor = clamp01(float(std::pow(2.0 / (double(shininess) + 2.0), 0.25)));
+
+    aiColor3D emissive(0, 0, 0);
+    if (am.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS)
+      mat.emissive_factor = {clamp01(emissive.r), clamp01(emissive.g), clamp01(emissive.b)};
+
+    aiString path;
+    aiTextureMapMode modes[2] = {aiTextureMapMode_Wrap, aiTextureMapMode_Wrap};
+    unsigned uv = 0;
+    if (am.GetTextureCount(aiTextureType_DIFFUSE) > 0 &&
+        am.GetTexture(aiTextureType_DIFFUSE, 0, &path, nullptr, &uv, nullptr, nullptr, modes) ==
+            AI_SUCCESS) {
+      out_.textures.push_back({id, path.C_Str(), uv, to_wrap(modes[0]), to_wrap(modes[1])});
+    }
+    return mat;
+  }
+
+  std::string file_;
+  const aiScene& ai_;
+  Parsed out_;
+  std::map<std::vector<unsigned>, int32_t> mesh_by_list_;
+  std::map<unsigned, int32_t> material_by_ai_;
+};
+
+// Runs Assimp in this process.
+Result<Parsed> parse(const std::string& path, const std::string& stage) {
+  try {
+    Assimp::Importer importer;
+    importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, false);
+    // <unit> is always applied: 5.2 has no IGNORE_UNIT_SIZE switch (later versions do).
+    importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_USE_COLLADA_NAMES, true);
+    // Triangulate + sort by primitive type only: nothing that merges meshes, pre-transforms
+    // vertices or flattens the node graph, so instancing survives.
+    const aiScene* ai = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType);
+    if (!ai) {
+      std::string reason = one_line(importer.GetErrorString());
+      if (reason == "std::bad_alloc") reason = "Assimp ran out of memory on it";
+      return Status::error(stage + ": malformed file: " + (reason.empty() ? "unreadable" : reason));
+    }
+    return Converter(base_name(path), *ai).run();
+  } catch (const std::bad_alloc&) {
+    return Status::error(stage + ": malformed file: out of memory while parsing");
+  } catch (const std::exception& e) {
+    return Status::error(stage + ": malformed file: " + one_line(e.what()));
+  } catch (...) {
+    return Status::error(stage + ": unknown failure in Assimp", ErrorKind::kInternal);
+  }
+}
+
+// ---- passing Parsed from the child to the parent -------------------------------------------
+// Writer and Reader share one description of the data (transfer), so the two cannot drift.
+struct Writer {
+  std::string out;
+  void bytes(void* p, size_t n) { out.append(static_cast<const char*>(p), n); }
+  bool count(size_t& n, size_t) {
+    uint64_t v = n;
+    return bytes(&v, sizeof v), true;
+  }
+};
+
+struct Reader {
+  const std::string& in;
+  size_t pos = 1;  // after the 'K'
+  bool ok = true;
+  void bytes(void* p, size_t n) {
+    ok = ok && n <= in.size() - pos;
+    if (ok && n) std::memcpy(p, in.data() + pos, n);
+    pos += ok ? n : 0;
+  }
+  bool count(size_t& n, size_t element_bytes) {
+    uint64_t v = 0;
+    bytes(&v, sizeof v);
+    if (!ok || v > (in.size() - pos) / std::max<size_t>(element_bytes, 1)) return ok = false;
+    n = size_t(v);
+    return true;
+  }
+};
+
+template <class S, class T>
+void pod(S& s, T& v) {
+  static_assert(std::is_trivially_copyable<T>::value, "raw bytes only");
+  s.bytes(&v, sizeof v);
+}
+template <class S, class C>  // C: std::string, or std::vector of a trivially copyable type
+void array(S& s, C& v) {
+  using T = typename C::value_type;
+  static_assert(std::is_trivially_copyable<T>::value, "raw bytes only");
+  size_t n = v.size();
+  if (!s.count(n, sizeof(T))) return;
+  v.resize(n);
+  s.bytes(v.data(), n * sizeof(T));
+}
+template <class S, class T, class F>
+void list(S& s, std::vector<T>& v, F each) {
+  size_t n = v.size();
+  if (!s.count(n, 1)) return;
+  v.resize(n);
+  for (T& x : v) each(x);
+}
+
+template <class S>
+void transfer(S& s, Parsed& p) {
+  list(s, p.scene.meshes, [&](Mesh& m) {
+    array(s, m.name);
+    list(s, m.primitives, [&](Primitive& q) {
+      array(s, q.positions);
+      array(s, q.normals);
+      list(s, q.uvs, [&](std::vector<Vec2>& uv) { array(s, uv); });
+      array(s, q.colors);
+      array(s, q.indices);
+      pod(s, q.material);
+    });
+  });
+  list(s, p.scene.materials, [&](Material& m) {
+    array(s, m.name);
+    pod(s, m.base_color_factor), pod(s, m.metallic_factor), pod(s, m.roughness_factor);
+    pod(s, m.emissive_factor), pod(s, m.alpha_mode), pod(s, m.double_sided);
+  });
+  list(s, p.scene.instances,
+       [&](Instance& i) { pod(s, i.mesh), pod(s, i.world), array(s, i.name); });
+  list(s, p.textures, [&](TextureRequest& t) {
+    pod(s, t.material), array(s, t.path);
+    pod(s, t.uv), pod(s, t.wrap_s), pod(s, t.wrap_t);
+  });
+  list(s, p.warnings, [&](std::string& w) { array(s, w); });
+}
+
+bool write_all(int fd, const std::string& data) {
+  for (size_t done = 0; done < data.size();) {
+    ssize_t n = write(fd, data.data() + done, data.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += size_t(n);
+  }
+  return true;
+}
+
+// Our address-space size now, from /proc/self/statm; 0 when unknown.
+uint64_t current_address_space() {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0;
+  statm >> pages;
+  return pages * uint64_t(sysconf(_SC_PAGESIZE));
+}
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kLimitAddressSpace = false;  // sanitizers reserve terabytes of shadow memory
+#else
+constexpr bool kLimitAddressSpace = true;
+#endif
+
+// The last line of the child's stderr (ai_assert says there why Assimp aborted).
+std::string last_line(FILE* f) {
+  std::string text(4096, '\0');
+  if (fseek(f, -long(text.size()), SEEK_END) != 0) rewind(f);
+  text.resize(fread(&text[0], 1, text.size(), f));
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  size_t cut = text.find_last_of('\n');
+  return cut == std::string::npos ? text : text.substr(cut + 1);
+}
+
+// Runs parse() in a forked child: Assimp gets 1 GiB + 32 bytes per input byte of address
+// space, and 60 s + 10 s per MB of input. A crash, a kill or a timeout becomes an error.
+Result<Parsed> parse_isolated(const std::string& path, uint64_t file_bytes,
+                              const std::string& stage) {
+  std::unique_ptr<FILE, int (*)(FILE*)> err(tmpfile(), fclose);
+  int fds[2];
+  if (!err || pipe(fds) != 0) return parse(path, stage);
+  uint64_t limit = current_address_space() + (uint64_t(1) << 30) + 32 * file_bytes;
+  pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    return parse(path, stage);  // no process to spare: run unprotected
+  }
+  if (pid == 0) {  // the child: parse, write the answer, leave without running destructors
+    close(fds[0]);
+    dup2(fileno(err.get()), 2);
+    rlimit rl{rlim_t(limit), rlim_t(limit)};
+    if (kLimitAddressSpace) setrlimit(RLIMIT_AS, &rl);
+    int code = 2;
+    try {
+      Result<Parsed> r = parse(path, stage);
+      Writer w;
+      w.out = r ? "K" : "E" + r.status().message();
+      if (r) transfer(w, r.value());
+      code = write_all(fds[1], w.out) ? 0 : 1;
+    } catch (...) {
+    }
+    _exit(code);
+  }
+  close(fds[1]);
+  auto start = std::chrono::steady_clock::now();
+  const double seconds = 60 + 10 * double(file_bytes) / 1e6;
+  std::string data;
+  bool timed_out = false;
+  for (char buf[1 << 16];;) {
+    double left =
+        seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (left <= 0) {
+      timed_out = true;
+      kill(pid, SIGKILL);
+      break;
+    }
+    pollfd p{fds[0], POLLIN, 0};
+    int ready = poll(&p, 1, int(std::min(left * 1000, 1e9)) + 1);
+    if (ready < 0 && errno != EINTR) break;
+    if (ready <= 0) continue;
+    ssize_t n = read(fds[0], buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    data.append(buf, size_t(n));
+  }
+  close(fds[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  std::string why = last_line(err.get());
+  why = why.empty() ? "" : ": " + why.substr(0, 300);
+  if (timed_out)
+    return Status::error(stage + ": malformed file: Assimp gave no answer in " +
+                         std::to_string(int(seconds)) + " s");
+  if (WIFSIGNALED(status))
+    return Status::error(stage + ": malformed file: Assimp crashed on it (" +
+                         strsignal(WTERMSIG(status)) + why + ")");
+  if (data.empty())  // e.g. a sanitizer caught the crash and exited
+    return Status::error(stage + ": malformed file: Assimp failed on it (exit status " +
+                         std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + why + ")");
+  if (data[0] == 'E') return Status::error(data.substr(1));
+  Parsed parsed;
+  Reader reader{data};
+  if (data[0] == 'K') transfer(reader, parsed);
+  if (data[0] != 'K' || !reader.ok || reader.pos != data.size())
+    return Status::error(stage + ": garbled answer from the Assimp process", ErrorKind::kInternal);
+  return parsed;
+}
+
+// ---- textures, in the caller's process -----------------------------------------------------
+class TextureLoader {
+ public:
+  TextureLoader(const std::string& path, Scene& scene, const ImportOptions& options,
+                Warnings* warnings)
+      : file_(base_name(path)),
+        dir_(fs::path(path).parent_path()),
+        scene_(scene),
+        options_(options),
+        warnings_(warnings) {}
+
+  void attach(const TextureRequest& t) {
+    if (t.material < 0 || size_t(t.material) >= scene_.materials.size()) return;
+    Material& mat = scene_.materials[size_t(t.material)];
+    std::string where =
+        "collada: " + file_ + ": material '" + mat.name + "': texture '" + t.path + "'";
+    int32_t image = load(t, where);
+    if (image < 0) return;  // warned; the material keeps its colour
+    mat.base_color.image = image;
+    mat.base_color.tex_coord = t.uv;
+    mat.base_color.sampler.wrap_s = t.wrap_s;
+    mat.base_color.sampler.wrap_t = t.wrap_t;
+    mat.base_color_factor = {1, 1, 1, mat.base_color_factor.w};
+  }
+
+ private:
+  // Index of the image, loaded on first use; -1 (with a warning) when missing or undecodable.
+  int32_t load(const TextureRequest& t, const std::string& where) {
+    std::string key = resolve(t.path);
+    auto it = loaded_.find(key);
+    if (it == loaded_.end()) it = loaded_.emplace(key, read(t, key)).first;
+    if (it->second.first < 0) warn(warnings_, where + ": " + it->second.second);
+    return it->second.first;
+  }
+
+  // Reads and decodes an image file: {index, ""} or {-1, reason}.
+  std::pair<int32_t, std::string> read(const TextureRequest& t, const std::string& file) {
+    Image image;
+    image.name = t.path;
+    if (t.path.empty()) return {-1, "empty path"};
+    if (t.path[0] == '*') return {-1, "embedded images are not supported"};  // Assimp's "*N"
+    auto bytes = read_whole_file(file, options_.max_file_bytes);
+    if (!bytes) return {-1, strip_prefix(bytes.status().message(), file)};
+    image.encoded = bytes.take();
+    if (options_.decode_images) {
+      Status s = decode_image(image, options_.max_image_pixels);
+      if (!s) return {-1, strip_prefix(s.message(), image.name)};
+    }
+    if (image.mime_type.empty()) image.mime_type = sniff_image_mime(image.encoded, t.path);
+    if (image.mime_type.empty()) return {-1, "unknown image format"};
+    scene_.images.push_back(std::move(image));
+    return {int32_t(scene_.images.size() - 1), ""};
+  }
+
+  // The file a texture path names: relative to the .dae's folder, "file://" stripped, "%20"
+  // decoded (Assimp usually did both already), and as a last resort the bare file name beside
+  // the .dae (absolute paths from the author's machine are common).
+  std::string resolve(const std::string& raw) const {
+    std::string p = raw;
+    std::replace(p.begin(), p.end(), '\\', '/');
+    std::string q = p.compare(0, 7, "file://") == 0 ? p.substr(7) : p;
+    if (q.size() > 3 && q[0] == '/' && q[2] == ':') q = q.substr(1);  // "/C:/x.png"
+    q = percent_decode(q);
+    std::vector<std::string> full;
+    for (const std::string& c : {p, q, fs::path(q).filename().string()}) {
+      if (c.empty()) continue;
+      fs::path f = fs::path(c).is_absolute() ? fs::path(c) : dir_ / c;
+      full.push_back(f.lexically_normal().string());
+      std::error_code ec;
+      if (fs::is_regular_file(full.back(), ec)) return full.back();
+    }
+    return full.size() > 1 ? full[1] : (full.empty() ? p : full[0]);
+  }
+
+  std::string file_;
+  fs::path dir_;
+  Scene& scene_;
+  const ImportOptions& options_;
+  Warnings* warnings_;
+  std::map<std::string, std::pair<int32_t, std::string>> loaded_;  // by resolved path
+};
+
+}  // namespace
+
+Result<Scene> import_collada(const std::string& path, const ImportOptions& options,
+                             Warnings* warnings) {
+  const std::string stage = "collada: " + base_name(path);
+  try {
+    // Our own checks first, for our own messages; Assimp then reads the file by path so that
+    // it knows the folder textures are relative to.
+    uint64_t file_bytes = 0;
+    {
+      auto bytes = read_whole_file(path, options.max_file_bytes);
+      if (!bytes) return Status::error(stage + ": " + strip_prefix(bytes.status().message(), path));
+      if (bytes->empty()) return Status::error(stage + ": file is empty");
+      file_bytes = bytes->size();
+    }
+    Result<Parsed> parsed = parse_isolated(path, file_bytes, stage);
+    if (!parsed) return parsed.status();
+    for (std::string& w : parsed->warnings) warn(warnings, std::move(w));
+    Scene scene = std::move(parsed->scene);
+    scene.source = path;
+    TextureLoader loader(path, scene, options, warnings);
+    for (const TextureRequest& t : parsed->textures) loader.attach(t);
+    Status valid = validate(scene, stage);
+    if (!valid) return valid;
+    return scene;
+  } catch (const std::bad_alloc&) {
+    return Status::error(stage + ": out of memory while importing");
+  } catch (const std::exception& e) {
+    return Status::error(stage + ": " + one_line(e.what()), ErrorKind::kInternal);
+  }
+}
+
+}  // namespace meshmux
