@@ -39,7 +39,8 @@ const char* kUsage =
     "      OUT ending in .glb: that one file (full quality, Draco-compressed)\n"
     "      otherwise OUT is a folder that receives model.glb\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
-    "                                        textures, draw calls, bytes\n"
+    "                                        textures, draw calls, bytes (a .gltf counts\n"
+    "                                        its external buffers and images too)\n"
     "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
     "  meshmux --help | --version\n"
     "\n"
@@ -218,6 +219,32 @@ int cmd_convert(const std::vector<std::string>& args) {
   return kExitOk;
 }
 
+// Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
+// images it references (data: URIs are inside the file already). COLLADA textures are not
+// followed (the file size alone is reported).
+uint64_t asset_bytes(const std::string& file) {
+  std::error_code ec;
+  uint64_t total = std::filesystem::file_size(file, ec);
+  if (ec) return 0;
+  if (!ends_with(file, ".gltf")) return total;
+  auto text = read_whole_file(file, uint64_t(256) << 20);
+  if (!text.ok()) return total;
+  auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
+  if (!doc.is_object()) return total;
+  std::filesystem::path dir = std::filesystem::path(file).parent_path();
+  for (const char* key : {"buffers", "images"}) {
+    if (!doc.contains(key) || !doc[key].is_array()) continue;
+    for (const auto& item : doc[key]) {
+      if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
+      std::string uri = item["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      uint64_t n = std::filesystem::file_size(dir / uri, ec);
+      if (!ec) total += n;
+    }
+  }
+  return total;
+}
+
 int cmd_info(const std::vector<std::string>& args) {
   std::string file;
   bool json = false;
@@ -239,8 +266,7 @@ int cmd_info(const std::vector<std::string>& args) {
   auto scene = import_scene(file, ImportOptions{}, &warnings);
   if (!scene.ok()) return fail(scene.status());
   SceneStats s = compute_stats(*scene);
-  std::error_code ec;
-  uint64_t bytes = std::filesystem::file_size(file, ec);
+  uint64_t bytes = asset_bytes(file);
   Bounds b = scene_bounds(*scene);
   if (json) {
     nlohmann::ordered_json j;
