@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "condition/clean.h"
+#include "condition/lod.h"
+#include "condition/simplify.h"
 #include "exporters/gltf.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
@@ -37,10 +39,15 @@ const char* kUsage =
     "usage:\n"
     "  meshmux convert IN -o OUT [options]   clean IN and write web-ready output\n"
     "      OUT ending in .glb: that one file (full quality, Draco-compressed)\n"
-    "      otherwise OUT is a folder that receives model.glb\n"
+    "      otherwise OUT is a folder that receives model.glb (full quality) and base.glb\n"
+    "      (the base level of detail that displays first)\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
     "                                        textures, draw calls, bytes (a .gltf counts\n"
     "                                        its external buffers and images too)\n"
+    "  meshmux simplify IN -o OUT.glb (--ratio R | --triangles N | --error E)\n"
+    "                                        one level of detail: R of the scene triangles,\n"
+    "                                        at most N scene triangles, or geometric error E\n"
+    "                                        (fraction of the bounding-box diagonal)\n"
     "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
     "  meshmux --help | --version\n"
     "\n"
@@ -209,8 +216,32 @@ int cmd_convert(const std::vector<std::string>& args) {
                                 ErrorKind::kOutput));
     target = out + "/model.glb";
   }
+  std::vector<uint8_t> base_bytes;
+  if (!ends_with(out, ".glb")) {
+    progress.step("simplifying (instance-aware progressive record)");
+    SimplifyReport sr;
+    ProgressiveScene ps = build_progressive(cleaned, SimplifyOptions{}, &sr);
+    Scene base = materialize(ps, select_base(ps));
+    SceneStats bs = compute_stats(base);
+    progress.step("base level: " + std::to_string(bs.scene_triangles) + " of " +
+                  std::to_string(sr.input_triangles) + " triangles" +
+                  (sr.flattened ? " (flattened: few instances per submesh)" : "") + ", " +
+                  std::to_string(sr.collapses) + " collapses recorded in " +
+                  std::to_string(int(sr.seconds * 1000)) + " ms");
+    auto b = export_glb_bytes(base, gopts, &warnings);
+    if (!b.ok()) return fail(b.status());
+    base_bytes = b.take();
+  }
   Status s = write_file_atomic(target, *bytes);
   if (!s) return fail(s);
+  if (!base_bytes.empty()) {
+    s = write_file_atomic(out + "/base.glb", base_bytes);
+    if (!s) {
+      std::remove(target.c_str());
+      return fail(s);
+    }
+    progress.step("wrote " + out + "/base.glb (" + human_bytes(base_bytes.size()) + ")");
+  }
   SceneStats after = compute_stats(cleaned);
   progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
                 std::to_string(after.scene_triangles) + " triangles, " +
@@ -307,6 +338,91 @@ int cmd_info(const std::vector<std::string>& args) {
   return kExitOk;
 }
 
+int cmd_simplify(const std::vector<std::string>& args) {
+  std::string in, out;
+  bool quiet = false;
+  double ratio = -1, error = -1;
+  long long triangles = -1;
+  int targets = 0;
+  GltfExportOptions gopts;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&](std::string* v) {
+      if (i + 1 >= args.size()) return false;
+      *v = args[++i];
+      return true;
+    };
+    std::string v;
+    char* end = nullptr;
+    if (a == "-o" || a == "--output") {
+      if (!value(&out)) return usage_error("simplify: " + a + " needs a path");
+    } else if (a == "-q" || a == "--quiet") {
+      quiet = true;
+    } else if (a == "--ratio") {
+      if (!value(&v)) return usage_error("simplify: --ratio needs a value");
+      ratio = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(ratio > 0 && ratio <= 1))
+        return usage_error("simplify: --ratio expects a number in (0, 1], got '" + v + "'");
+      ++targets;
+    } else if (a == "--triangles") {
+      if (!value(&v)) return usage_error("simplify: --triangles needs a value");
+      triangles = std::strtoll(v.c_str(), &end, 10);
+      if (v.empty() || *end || triangles < 1)
+        return usage_error("simplify: --triangles expects a whole number >= 1, got '" + v + "'");
+      ++targets;
+    } else if (a == "--error") {
+      if (!value(&v)) return usage_error("simplify: --error needs a value");
+      error = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end || !(error >= 0))
+        return usage_error("simplify: --error expects a number >= 0, got '" + v + "'");
+      ++targets;
+    } else if (a == "-h" || a == "--help") {
+      std::fputs(kUsage, stdout);
+      return kExitOk;
+    } else if (!a.empty() && a[0] == '-') {
+      return usage_error("simplify: unknown option " + a);
+    } else if (in.empty()) {
+      in = a;
+    } else {
+      return usage_error("simplify: more than one input given");
+    }
+  }
+  if (in.empty()) return usage_error("simplify: no input file given");
+  if (out.empty() || !ends_with(out, ".glb")) return usage_error("simplify: -o OUT.glb is required");
+  if (targets != 1) return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
+  Progress progress(quiet);
+  Warnings warnings;
+  progress.step("importing " + in);
+  auto scene = import_scene(in, ImportOptions{}, &warnings);
+  progress.warnings(warnings, 0);
+  if (!scene.ok()) return fail(scene.status());
+  Scene cleaned = clean(*scene, CleanOptions{});
+  progress.step("simplifying");
+  SimplifyReport sr;
+  ProgressiveScene ps = build_progressive(cleaned, SimplifyOptions{}, &sr);
+  LodSelection sel;
+  if (error >= 0)
+    sel = select_error(ps, float(error));
+  else if (triangles >= 0)
+    sel = select_triangles(ps, uint64_t(triangles));
+  else
+    sel = select_triangles(ps, uint64_t(std::floor(ratio * double(sr.input_triangles))));
+  Scene level = materialize(ps, sel);
+  SceneStats ls = compute_stats(level);
+  progress.step("level: " + std::to_string(ls.scene_triangles) + " of " +
+                std::to_string(sr.input_triangles) + " scene triangles, " +
+                std::to_string(ls.unique_triangles) + " unique, " + std::to_string(ls.instances) +
+                " instances" + (sr.flattened ? " (flattened)" : ""));
+  size_t seen = warnings.items().size();
+  auto bytes = export_glb_bytes(level, gopts, &warnings);
+  progress.warnings(warnings, seen);
+  if (!bytes.ok()) return fail(bytes.status());
+  Status s = write_file_atomic(out, *bytes);
+  if (!s) return fail(s);
+  progress.step("wrote " + out + " (" + human_bytes(bytes->size()) + ")");
+  return kExitOk;
+}
+
 int cmd_sample(const std::vector<std::string>& args) {
   std::string out;
   bool quiet = false;
@@ -367,6 +483,7 @@ int meshmux_main(int argc, char** argv) {
     if (cmd == "convert") return cmd_convert(rest);
     if (cmd == "info") return cmd_info(rest);
     if (cmd == "sample") return cmd_sample(rest);
+    if (cmd == "simplify") return cmd_simplify(rest);
     return usage_error("unknown command '" + cmd + "'");
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "meshmux: out of memory\n");

@@ -1,0 +1,885 @@
+// Instance-aware progressive simplification.
+// - Paper 001 (IAS) §3.2: vertex quadrics summed over instance transforms (equation 5),
+//   boundary constraint planes weighted by edge length, no vanishing submeshes, the < 1.75
+//   instances-per-submesh flatten fallback (§4).
+// - Paper 002: half-edge collapses only, so every level is a prefix of one vertex buffer with a
+//   parent per vertex; seam duplicates collapse together (no cracks).
+// - Paper 000 §4.5: the base level stops at log(1+E)/log(1+Emax) ≥ 0.9 (formula 1); small
+//   models ship whole.
+// - Attribute terms after Hoppe 1999 ("New quadric metric for simplifying meshes with
+//   appearance attributes"): per face, each attribute channel is a linear function of position
+//   over the face; its squared deviation, area-weighted, is folded into the wedge's quadric.
+//
+// The collapse loop runs in passes (all candidate collapses costed, sorted, then applied in
+// order while skipping any that touch a neighbourhood already changed in this pass); only
+// positions whose neighbourhood changed are re-costed in the next pass. This keeps the work
+// near O(T log T) and the result deterministic.
+#include "condition/simplify.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+namespace meshmux {
+
+namespace {
+
+// Symmetric 4x4 quadric on homogeneous positions: E(p) = pᵀAp + 2bᵀp + c.
+struct Quadric {
+  double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
+  double b0 = 0, b1 = 0, b2 = 0, c = 0;
+  double w = 0;  // total weight (area) folded in
+
+  void add(const Quadric& q) {
+    a00 += q.a00, a01 += q.a01, a02 += q.a02, a11 += q.a11, a12 += q.a12, a22 += q.a22;
+    b0 += q.b0, b1 += q.b1, b2 += q.b2, c += q.c, w += q.w;
+  }
+  double eval(double x, double y, double z) const {
+    return a00 * x * x + a11 * y * y + a22 * z * z + 2 * (a01 * x * y + a02 * x * z + a12 * y * z) +
+           2 * (b0 * x + b1 * y + b2 * z) + c;
+  }
+  // weight * (n·p + d)², n unit.
+  static Quadric plane(double nx, double ny, double nz, double d, double weight) {
+    Quadric q;
+    q.a00 = weight * nx * nx, q.a01 = weight * nx * ny, q.a02 = weight * nx * nz;
+    q.a11 = weight * ny * ny, q.a12 = weight * ny * nz, q.a22 = weight * nz * nz;
+    q.b0 = weight * nx * d, q.b1 = weight * ny * d, q.b2 = weight * nz * d;
+    q.c = weight * d * d;
+    q.w = weight;
+    return q;
+  }
+  // Mᵀ Q M for an affine M (column-major 4x4): the quadric in M's source space.
+  Quadric pulled_back(const Mat4& M) const {
+    double Q[4][4] = {{a00, a01, a02, b0}, {a01, a11, a12, b1}, {a02, a12, a22, b2}, {b0, b1, b2, c}};
+    double QM[4][4];
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k) {
+        double s = 0;
+        for (int j = 0; j < 4; ++j) s += Q[r][j] * M.at(j, k);
+        QM[r][k] = s;
+      }
+    double R[4][4];
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k) {
+        double s = 0;
+        for (int j = 0; j < 4; ++j) s += M.at(j, r) * QM[j][k];
+        R[r][k] = s;
+      }
+    Quadric out;
+    out.a00 = R[0][0], out.a01 = R[0][1], out.a02 = R[0][2], out.a11 = R[1][1];
+    out.a12 = R[1][2], out.a22 = R[2][2], out.b0 = R[0][3], out.b1 = R[1][3], out.b2 = R[2][3];
+    out.c = R[3][3], out.w = w;
+    return out;
+  }
+};
+
+struct V3 {
+  double x = 0, y = 0, z = 0;
+};
+V3 sub(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3 crs(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double dt(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 to3(Vec3 v) { return {v.x, v.y, v.z}; }
+
+uint32_t fbits(float f) {
+  if (f == 0) f = 0;
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+// The face P (mesh space) placed by M: world corners Q, unit normal, world area, and its
+// area-weighted plane quadric pulled back to mesh space (paper 001 equation 4: Tᵀ Q T).
+bool instance_plane(const V3 P[3], const Mat4& M, V3 Q[3], V3* un, double* area, Quadric* pq) {
+  for (int i = 0; i < 3; ++i)
+    Q[i] = {M.at(0, 0) * P[i].x + M.at(0, 1) * P[i].y + M.at(0, 2) * P[i].z + M.at(0, 3),
+            M.at(1, 0) * P[i].x + M.at(1, 1) * P[i].y + M.at(1, 2) * P[i].z + M.at(1, 3),
+            M.at(2, 0) * P[i].x + M.at(2, 1) * P[i].y + M.at(2, 2) * P[i].z + M.at(2, 3)};
+  V3 n = crs(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
+  double len = std::sqrt(dt(n, n));
+  if (!(len > 0)) return false;
+  *area = 0.5 * len;
+  *un = {n.x / len, n.y / len, n.z / len};
+  Quadric q = Quadric::plane(un->x, un->y, un->z, -dt(*un, Q[0]), *area);
+  *pq = M.is_identity() ? q : q.pulled_back(M);
+  return true;
+}
+
+// One submesh prepared for simplification: wedges (the mesh's vertices) over welded positions.
+struct Unit {
+  // Wedges, concatenated over the mesh's primitives.
+  std::vector<uint32_t> wedge_pos;     // wedge → position
+  std::vector<uint32_t> wedge_group;   // wedge → (position, non-normal attributes) class
+  std::vector<uint32_t> wedge_prim;    // wedge → source primitive
+  std::vector<Vec3> wedge_normal;      // may be empty
+  std::vector<double> attr;            // wedge × channels, weighted attribute values
+  int channels = 0;
+  std::vector<V3> pos;                 // position → mesh-space point
+  std::vector<uint32_t> corners;       // face × 3 wedges (current, remapped as we go)
+  std::vector<uint32_t> face_prim;
+};
+
+// Per-collapse record.
+struct Collapse {
+  uint32_t first_map = 0, map_count = 0;  // range in the (wedge, target) list
+  uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
+  float error = 0;
+  float queue_max = 0;  // the largest candidate error in the pass (paper 000's E_max)
+};
+
+struct Candidate {
+  float error;
+  uint32_t u, v;
+  bool operator<(const Candidate& o) const {
+    return error != o.error ? error < o.error : (u != o.u ? u < o.u : v < o.v);
+  }
+};
+
+class Simplifier {
+ public:
+  Simplifier(Unit& unit, const std::vector<Mat4>& transforms, const SimplifyOptions& opt,
+             SimplifyReport& report)
+      : u_(unit), opt_(opt), report_(report), original_corners_(unit.corners) {
+    init_quadrics(transforms);
+  }
+
+  void run() {
+    size_t np = u_.pos.size();
+    alive_.assign(u_.corners.size() / 3, 1);
+    live_faces_ = alive_.size();
+    dead_pos_.assign(np, 0);
+    dirty_.assign(np, 1);
+    best_.assign(np, Candidate{INFINITY, 0, 0});
+    for (;;) {
+      build_adjacency();
+      // Re-cost positions whose neighbourhood changed in the last pass.
+      for (uint32_t p = 0; p < np; ++p) {
+        if (dead_pos_[p] || !dirty_[p]) continue;
+        best_[p] = best_candidate(p);
+        dirty_[p] = 0;
+      }
+      std::vector<Candidate> list;
+      for (uint32_t p = 0; p < np; ++p)
+        if (!dead_pos_[p] && std::isfinite(best_[p].error)) list.push_back(best_[p]);
+      if (list.empty()) break;
+      std::sort(list.begin(), list.end());
+      float queue_max = list.back().error;
+      size_t budget = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
+      locked_.assign(np, 0);
+      size_t removed = 0, done = 0;
+      for (const Candidate& c : list) {
+        if (removed >= budget) break;
+        if (locked_[c.u] || locked_[c.v] || dead_pos_[c.u] || dead_pos_[c.v]) continue;
+        size_t r = collapse(c, queue_max);
+        if (r == 0) {
+          best_[c.u].error = INFINITY;  // refused now; re-costed when its neighbourhood changes
+          continue;
+        }
+        removed += r;
+        ++done;
+      }
+      if (done == 0) break;
+    }
+  }
+
+  // Builds the ProgressiveMesh from the collapse history.
+  void record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const;
+
+ private:
+  void init_quadrics(const std::vector<Mat4>& transforms);
+  void build_adjacency();
+  Candidate best_candidate(uint32_t p);
+  // Fills map_ (wedge → target) for collapsing position a onto b; returns false if refused.
+  bool map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared);
+  float cost(uint32_t a, uint32_t b) const;
+  size_t collapse(const Candidate& c, float queue_max);
+  void gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const;
+  bool is_border(uint32_t p, bool* locked) const;
+
+  Unit& u_;
+  const SimplifyOptions& opt_;
+  SimplifyReport& report_;
+  std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
+  std::vector<Quadric> pos_q_;      // per position
+  std::vector<Quadric> attr_q_;     // per wedge: the position-dependent part of the attribute error
+  std::vector<double> attr_gd_;     // per wedge × channel: G (3) and D (1)
+  std::vector<uint8_t> alive_;      // per face
+  size_t live_faces_ = 0;
+  std::vector<uint8_t> dead_pos_, dirty_, locked_;
+  std::vector<Candidate> best_;
+  std::vector<uint32_t> adj_start_, adj_faces_;  // position → faces, rebuilt every pass
+  std::vector<std::pair<uint32_t, uint32_t>> map_;  // scratch: (wedge of a, wedge of b)
+  std::vector<std::pair<uint32_t, uint32_t>> nb_a_, nb_b_;
+  // History.
+  std::vector<Collapse> collapses_;
+  std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order
+  std::vector<uint32_t> removed_faces_;
+};
+
+void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
+  size_t np = u_.pos.size(), nw = u_.wedge_pos.size(), nf = u_.corners.size() / 3;
+  int k = u_.channels;
+  pos_q_.assign(np, Quadric{});
+  attr_q_.assign(nw, Quadric{});
+  attr_gd_.assign(nw * size_t(k) * 4, 0.0);
+  // Boundary edges (position level) for the constraint planes: count faces per undirected edge.
+  std::unordered_map<uint64_t, uint32_t> edge_faces;
+  edge_faces.reserve(nf * 3);
+  auto key = [](uint32_t a, uint32_t b) { return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a); };
+  for (size_t f = 0; f < nf; ++f)
+    for (int e = 0; e < 3; ++e)
+      ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]], u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
+
+  std::vector<double> g(size_t(k) * 4);
+  for (size_t f = 0; f < nf; ++f) {
+    uint32_t w[3] = {u_.corners[3 * f], u_.corners[3 * f + 1], u_.corners[3 * f + 2]};
+    uint32_t p[3] = {u_.wedge_pos[w[0]], u_.wedge_pos[w[1]], u_.wedge_pos[w[2]]};
+    V3 P[3] = {u_.pos[p[0]], u_.pos[p[1]], u_.pos[p[2]]};
+    double world_area = 0;
+    Quadric face_q;  // Σ over instances, pulled back to mesh space
+    for (const Mat4& M : transforms) {
+      V3 Q[3], un;
+      double area;
+      Quadric pq;
+      if (!instance_plane(P, M, Q, &un, &area, &pq)) continue;
+      world_area += area;
+      bool identity = M.is_identity();
+      face_q.add(pq);
+      // Boundary constraint planes: through the edge, perpendicular to the face.
+      for (int e = 0; e < 3; ++e) {
+        if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
+        V3 d = sub(Q[(e + 1) % 3], Q[e]);
+        double l2 = dt(d, d);
+        if (!(l2 > 0)) continue;
+        V3 c = crs(d, un);
+        double cl = std::sqrt(dt(c, c));
+        if (!(cl > 0)) continue;
+        V3 cn{c.x / cl, c.y / cl, c.z / cl};
+        Quadric bq = Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
+        bq.w = 0;  // constraint planes add no area
+        if (!identity) bq = bq.pulled_back(M);
+        pos_q_[p[e]].add(bq);
+        pos_q_[p[(e + 1) % 3]].add(bq);
+      }
+    }
+    for (int i = 0; i < 3; ++i) pos_q_[p[i]].add(face_q);
+    if (k == 0 || !(world_area > 0)) continue;
+    // Attribute gradients in mesh space (Hoppe 1999), weighted by the world area.
+    V3 e1 = sub(P[1], P[0]), e2 = sub(P[2], P[0]), n = crs(e1, e2);
+    double n2 = dt(n, n);
+    if (!(n2 > 0)) continue;
+    V3 a = crs(e2, n), b = crs(n, e1);
+    Quadric aq;
+    for (int j = 0; j < k; ++j) {
+      double s0 = u_.attr[w[0] * size_t(k) + size_t(j)], s1 = u_.attr[w[1] * size_t(k) + size_t(j)],
+             s2 = u_.attr[w[2] * size_t(k) + size_t(j)];
+      V3 gr{((s1 - s0) * a.x + (s2 - s0) * b.x) / n2, ((s1 - s0) * a.y + (s2 - s0) * b.y) / n2,
+            ((s1 - s0) * a.z + (s2 - s0) * b.z) / n2};
+      double d = s0 - dt(gr, P[0]);
+      double A = world_area;
+      aq.a00 += A * gr.x * gr.x, aq.a01 += A * gr.x * gr.y, aq.a02 += A * gr.x * gr.z;
+      aq.a11 += A * gr.y * gr.y, aq.a12 += A * gr.y * gr.z, aq.a22 += A * gr.z * gr.z;
+      aq.b0 += A * gr.x * d, aq.b1 += A * gr.y * d, aq.b2 += A * gr.z * d, aq.c += A * d * d;
+      g[size_t(j) * 4 + 0] = A * gr.x, g[size_t(j) * 4 + 1] = A * gr.y;
+      g[size_t(j) * 4 + 2] = A * gr.z, g[size_t(j) * 4 + 3] = A * d;
+    }
+    aq.w = world_area;
+    for (int i = 0; i < 3; ++i) {
+      attr_q_[w[i]].add(aq);
+      double* dst = &attr_gd_[w[i] * size_t(k) * 4];
+      for (size_t t = 0; t < size_t(k) * 4; ++t) dst[t] += g[t];
+    }
+  }
+}
+
+void Simplifier::build_adjacency() {
+  size_t np = u_.pos.size(), nf = alive_.size();
+  adj_start_.assign(np + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
+    if (alive_[f])
+      for (int i = 0; i < 3; ++i) ++adj_start_[u_.wedge_pos[u_.corners[3 * f + i]] + 1];
+  for (size_t p = 0; p < np; ++p) adj_start_[p + 1] += adj_start_[p];
+  adj_faces_.resize(adj_start_[np]);
+  std::vector<uint32_t> fill(adj_start_.begin(), adj_start_.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
+    if (alive_[f])
+      for (int i = 0; i < 3; ++i) adj_faces_[fill[u_.wedge_pos[u_.corners[3 * f + i]]]++] = uint32_t(f);
+}
+
+// Neighbour positions of p with the number of live faces on each edge (p, neighbour).
+void Simplifier::gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const {
+  out.clear();
+  for (uint32_t k = adj_start_[p]; k < adj_start_[p + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    for (int i = 0; i < 3; ++i) {
+      uint32_t q = u_.wedge_pos[u_.corners[3 * f + i]];
+      if (q == p) continue;
+      auto it = std::find_if(out.begin(), out.end(), [q](const auto& e) { return e.first == q; });
+      if (it == out.end())
+        out.push_back({q, 1});
+      else
+        ++it->second;
+    }
+  }
+}
+
+float Simplifier::cost(uint32_t a, uint32_t b) const {
+  const V3& P = u_.pos[b];
+  Quadric q = pos_q_[a];
+  q.add(pos_q_[b]);
+  double e = q.eval(P.x, P.y, P.z);
+  double w = q.w;
+  int k = u_.channels;
+  if (k > 0) {
+    for (const auto& m : map_) {
+      for (uint32_t src : {m.first, m.second}) {
+        const Quadric& aq = attr_q_[src];
+        double s = aq.eval(P.x, P.y, P.z);
+        const double* gd = &attr_gd_[src * size_t(k) * 4];
+        const double* val = &u_.attr[m.second * size_t(k)];
+        for (int j = 0; j < k; ++j) {
+          double lin = gd[4 * j] * P.x + gd[4 * j + 1] * P.y + gd[4 * j + 2] * P.z + gd[4 * j + 3];
+          s += -2 * val[j] * lin + val[j] * val[j] * aq.w;
+        }
+        e += s;
+      }
+    }
+  }
+  if (!(w > 0)) w = 1e-30;
+  return float(std::sqrt(std::max(0.0, e) / w));
+}
+
+bool Simplifier::is_border(uint32_t p, bool* locked) const {
+  // Uses nb_a_ when p is the position it was gathered for.
+  int border_edges = 0;
+  *locked = false;
+  for (const auto& n : nb_a_) {
+    if (n.second == 1) ++border_edges;
+    if (n.second > 2) *locked = true;
+  }
+  size_t faces = adj_start_[p + 1] - adj_start_[p];
+  // A single fan: interior has as many edges as faces, a border fan one more.
+  if (border_edges == 0 && nb_a_.size() != faces) *locked = true;
+  if (border_edges > 0 && (border_edges != 2 || nb_a_.size() != faces + 1)) *locked = true;
+  return border_edges > 0;
+}
+
+bool Simplifier::map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared) {
+  map_.clear();
+  // Faces around a that contain b, and the corner wedges at a and at b in them.
+  *shared = 0;
+  uint32_t fa[2], fb[2], ff[2];
+  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    uint32_t wa = UINT32_MAX, wb = UINT32_MAX;
+    for (int i = 0; i < 3; ++i) {
+      uint32_t w = u_.corners[3 * f + i];
+      if (u_.wedge_pos[w] == a) wa = w;
+      if (u_.wedge_pos[w] == b) wb = w;
+    }
+    if (wb == UINT32_MAX) continue;
+    if (*shared == 2) return false;  // non-manifold edge
+    fa[*shared] = wa, fb[*shared] = wb, ff[*shared] = f;
+    ++*shared;
+  }
+  if (*shared == 0) return false;
+  *faceL = ff[0];
+  *faceR = *shared == 2 ? ff[1] : UINT32_MAX;
+  uint32_t ga0 = u_.wedge_group[fa[0]], gb0 = u_.wedge_group[fb[0]];
+  uint32_t ga1 = *shared == 2 ? u_.wedge_group[fa[1]] : ga0;
+  uint32_t gb1 = *shared == 2 ? u_.wedge_group[fb[1]] : gb0;
+  if (ga0 == ga1 && gb0 != gb1) return false;  // a's one class would need two targets
+  if (ga0 != ga1 && gb0 == gb1) return false;  // two classes of a would merge into one
+  // Every wedge of a, mapped.
+  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    uint32_t w = UINT32_MAX;
+    for (int i = 0; i < 3; ++i)
+      if (u_.wedge_pos[u_.corners[3 * f + i]] == a) w = u_.corners[3 * f + i];
+    if (std::any_of(map_.begin(), map_.end(), [w](const auto& m) { return m.first == w; })) continue;
+    uint32_t target;
+    if (w == fa[0]) {
+      target = fb[0];
+    } else if (*shared == 2 && w == fa[1]) {
+      target = fb[1];
+    } else {
+      uint32_t g = u_.wedge_group[w];
+      uint32_t tg;
+      if (g == ga0)
+        tg = gb0;
+      else if (g == ga1)
+        tg = gb1;
+      else
+        return false;  // a seam of a that does not run along this edge
+      // The wedge of b in class tg with the closest normal (ties: lowest index).
+      target = UINT32_MAX;
+      float best = -INFINITY;
+      for (uint32_t kb = adj_start_[b]; kb < adj_start_[b + 1]; ++kb) {
+        uint32_t fb2 = adj_faces_[kb];
+        for (int i = 0; i < 3; ++i) {
+          uint32_t wb = u_.corners[3 * fb2 + i];
+          if (u_.wedge_pos[wb] != b || u_.wedge_group[wb] != tg) continue;
+          float d = u_.wedge_normal.empty() ? 0.0f : dot(u_.wedge_normal[w], u_.wedge_normal[wb]);
+          if (d > best || (d == best && wb < target)) best = d, target = wb;
+        }
+      }
+      if (target == UINT32_MAX) return false;
+    }
+    map_.push_back({w, target});
+  }
+  return true;
+}
+
+Candidate Simplifier::best_candidate(uint32_t a) {
+  Candidate best{INFINITY, a, a};
+  gather_neighbours(a, nb_a_);
+  bool locked;
+  bool border = is_border(a, &locked);
+  if (locked || nb_a_.empty()) return best;
+  std::vector<std::pair<uint32_t, uint32_t>> nbs = nb_a_;
+  for (const auto& n : nbs) {
+    uint32_t b = n.first;
+    if (border && n.second != 1) continue;  // border vertices slide along the border only
+    uint32_t L, R;
+    int shared;
+    if (!map_wedges(a, b, &L, &R, &shared)) continue;
+    float e = cost(a, b);
+    if (e < best.error || (e == best.error && b < best.v)) best = {e, a, b};
+  }
+  return best;
+}
+
+size_t Simplifier::collapse(const Candidate& c, float queue_max) {
+  uint32_t a = c.u, b = c.v;
+  gather_neighbours(a, nb_a_);
+  bool locked;
+  bool border = is_border(a, &locked);
+  if (locked) return 0;
+  auto edge = std::find_if(nb_a_.begin(), nb_a_.end(), [b](const auto& e) { return e.first == b; });
+  if (edge == nb_a_.end() || (border && edge->second != 1)) return 0;
+  uint32_t L, R;
+  int shared;
+  if (!map_wedges(a, b, &L, &R, &shared)) {
+    ++report_.refused_wedge;
+    return 0;
+  }
+  // Link condition: the common neighbours of a and b are exactly the far corners of L and R.
+  gather_neighbours(b, nb_b_);
+  size_t common = 0;
+  for (const auto& n : nb_a_)
+    if (n.first != b && std::any_of(nb_b_.begin(), nb_b_.end(), [&](const auto& m) { return m.first == n.first; }))
+      ++common;
+  if (common != size_t(shared)) {
+    ++report_.refused_link;
+    return 0;
+  }
+  if (live_faces_ - size_t(shared) < std::max<uint32_t>(1, opt_.min_submesh_triangles)) {
+    ++report_.refused_vanish;
+    return 0;
+  }
+  // Flip check on the faces that move.
+  const V3 &Pa = u_.pos[a], &Pb = u_.pos[b];
+  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    if (f == L || f == R) continue;
+    V3 P[3], Q[3];
+    for (int i = 0; i < 3; ++i) {
+      uint32_t p = u_.wedge_pos[u_.corners[3 * f + i]];
+      P[i] = u_.pos[p];
+      Q[i] = p == a ? Pb : P[i];
+    }
+    V3 n0 = crs(sub(P[1], P[0]), sub(P[2], P[0])), n1 = crs(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
+    double d = dt(n0, n1);
+    if (!(d > 1e-3 * std::sqrt(dt(n0, n0) * dt(n1, n1))) || !(dt(n1, n1) > 0)) {
+      ++report_.refused_flip;
+      return 0;
+    }
+  }
+  float e = cost(a, b);
+  (void)Pa;
+  // Apply: remap a's wedges in its faces, kill L and R, merge quadrics.
+  Collapse rec;
+  rec.first_map = uint32_t(maps_.size());
+  rec.map_count = uint32_t(map_.size());
+  rec.first_face = uint32_t(removed_faces_.size());
+  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    if (f == L || f == R) {
+      alive_[f] = 0;
+      removed_faces_.push_back(f);
+      continue;
+    }
+    for (int i = 0; i < 3; ++i) {
+      uint32_t& w = u_.corners[3 * f + i];
+      if (u_.wedge_pos[w] != a) continue;
+      for (const auto& m : map_)
+        if (m.first == w) {
+          w = m.second;
+          break;
+        }
+    }
+  }
+  rec.face_count = uint32_t(removed_faces_.size()) - rec.first_face;
+  for (const auto& m : map_) {
+    maps_.push_back(m);
+    attr_q_[m.second].add(attr_q_[m.first]);
+    int k = u_.channels;
+    for (size_t t = 0; t < size_t(k) * 4; ++t)
+      attr_gd_[m.second * size_t(k) * 4 + t] += attr_gd_[m.first * size_t(k) * 4 + t];
+  }
+  pos_q_[b].add(pos_q_[a]);
+  live_faces_ -= rec.face_count;
+  rec.error = e;
+  rec.queue_max = queue_max;
+  collapses_.push_back(rec);
+  ++report_.collapses;
+  dead_pos_[a] = 1;
+  locked_[a] = locked_[b] = 1;
+  dirty_[b] = 1;
+  for (const auto& n : nb_a_) locked_[n.first] = dirty_[n.first] = 1;
+  for (const auto& n : nb_b_) locked_[n.first] = dirty_[n.first] = 1;
+  return rec.face_count;
+}
+
+void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const {
+  size_t nw = u_.wedge_pos.size(), nf = alive_.size();
+  // Appearance order of wedges: base wedges (never collapsed, in index order), then the
+  // wedges of each collapse from the last collapse to the first.
+  std::vector<uint8_t> collapsed(nw, 0);
+  for (const auto& m : maps_) collapsed[m.first] = 1;
+  std::vector<uint32_t> order;  // new index → wedge
+  order.reserve(nw);
+  for (uint32_t w = 0; w < nw; ++w)
+    if (!collapsed[w]) order.push_back(w);
+  // A wedge that no face ever used would not be reachable; clean() removed those.
+  uint32_t base_vertices = uint32_t(order.size());
+  std::vector<uint32_t> parent_of(nw, UINT32_MAX);
+  for (const auto& m : maps_) parent_of[m.first] = m.second;
+  std::vector<uint32_t> face_order;
+  face_order.reserve(nf);
+  for (uint32_t f = 0; f < nf; ++f)
+    if (alive_[f]) face_order.push_back(f);
+  uint32_t base_faces = uint32_t(face_order.size());
+  pm.levels.clear();
+  pm.levels.push_back({base_vertices, base_faces, base_faces, 0});
+  for (size_t i = collapses_.size(); i-- > 0;) {
+    const Collapse& c = collapses_[i];
+    for (uint32_t k = 0; k < c.map_count; ++k) order.push_back(maps_[c.first_map + k].first);
+    for (uint32_t k = 0; k < c.face_count; ++k) face_order.push_back(removed_faces_[c.first_face + k]);
+    pm.levels.push_back({uint32_t(order.size()), uint32_t(face_order.size()),
+                         uint32_t(face_order.size()), 0});
+  }
+  // Errors: level r (r collapses undone) keeps collapses [0, m - r): its error is their max.
+  size_t m = collapses_.size();
+  std::vector<float> prefix_max(m + 1, 0.0f);
+  for (size_t i = 0; i < m; ++i) prefix_max[i + 1] = std::max(prefix_max[i], collapses_[i].error);
+  for (size_t r = 0; r <= m; ++r) pm.levels[r].error = prefix_max[m - r];
+
+  // Base level: paper 000 formula 1 walked over the collapse sequence in time order: the
+  // base is the state before the first collapse whose log-ratio reaches the threshold.
+  size_t stop = m;  // collapses applied in the base
+  for (size_t i = 0; i < m; ++i) {
+    double ec = collapses_[i].error, em = std::max(collapses_[i].queue_max, collapses_[i].error);
+    if (em > 0 && std::log1p(ec) / std::log1p(em) >= opt_.stop_ratio) {
+      stop = i;
+      break;
+    }
+  }
+  pm.base_level = m - stop;
+
+  // Write vertices in appearance order.
+  std::vector<uint32_t> new_index(nw);
+  for (uint32_t i = 0; i < order.size(); ++i) new_index[order[i]] = i;
+  pm.source_mesh = mesh_index;
+  pm.positions.resize(nw);
+  pm.parent.resize(nw);
+  bool has_normals = !u_.wedge_normal.empty();
+  pm.normals.assign(has_normals ? nw : 0, Vec3{});
+  size_t uv_sets = 0;
+  bool colors = false;
+  for (const Primitive& p : mesh.primitives) {
+    uv_sets = std::max(uv_sets, p.uvs.size());
+    colors = colors || !p.colors.empty();
+  }
+  pm.uvs.assign(uv_sets, std::vector<Vec2>(nw));
+  pm.colors.assign(colors ? nw : 0, Vec4{1, 1, 1, 1});
+  // Source attributes per wedge, from the primitives (wedges are primitives' vertices, concatenated).
+  std::vector<uint32_t> prim_first;
+  uint32_t acc = 0;
+  for (const Primitive& p : mesh.primitives) prim_first.push_back(acc), acc += uint32_t(p.vertex_count());
+  for (uint32_t i = 0; i < nw; ++i) {
+    uint32_t w = order[i];
+    uint32_t pi = u_.wedge_prim[w];
+    const Primitive& src = mesh.primitives[pi];
+    uint32_t v = w - prim_first[pi];
+    pm.positions[i] = src.positions[v];
+    if (has_normals && !src.normals.empty()) pm.normals[i] = src.normals[v];
+    for (size_t s = 0; s < src.uvs.size(); ++s) pm.uvs[s][i] = src.uvs[s][v];
+    if (colors && !src.colors.empty()) pm.colors[i] = src.colors[v];
+    pm.parent[i] = parent_of[w] == UINT32_MAX ? i : new_index[parent_of[w]];
+  }
+  pm.indices.resize(nf * 3);
+  pm.face_primitive.resize(nf);
+  // Faces keep their full-mesh corners: the original wedges.
+  for (uint32_t i = 0; i < face_order.size(); ++i) {
+    uint32_t f = face_order[i];
+    for (int k = 0; k < 3; ++k) pm.indices[3 * i + k] = new_index[original_corners_[3 * f + k]];
+    pm.face_primitive[i] = u_.face_prim[f];
+  }
+  pm.primitive_material.clear();
+  pm.primitive_uv_sets.clear();
+  pm.primitive_has_colors.clear();
+  for (const Primitive& p : mesh.primitives) {
+    pm.primitive_material.push_back(p.material);
+    pm.primitive_uv_sets.push_back(uint8_t(p.uvs.size()));
+    pm.primitive_has_colors.push_back(p.colors.empty() ? 0 : 1);
+  }
+}
+
+
+// Builds the simplification unit for one mesh: wedges = the primitives' vertices, positions
+// welded exactly, attribute classes (position + everything but the normal) for wedge mapping.
+Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
+  Unit u;
+  size_t uv_sets = 0;
+  bool colors = false, normals = true;
+  for (const Primitive& p : mesh.primitives) {
+    uv_sets = std::max(uv_sets, p.uvs.size());
+    colors = colors || !p.colors.empty();
+    normals = normals && !p.normals.empty();
+  }
+  u.channels = int((normals ? 3 : 0) + 2 * uv_sets + (colors ? 4 : 0));
+  std::unordered_map<uint64_t, std::vector<uint32_t>> pos_of;  // hash → candidate positions
+  std::unordered_map<uint64_t, std::vector<uint32_t>> group_of;
+  std::vector<uint32_t> group_first_wedge;
+  for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+    const Primitive& p = mesh.primitives[pi];
+    uint32_t first = uint32_t(u.wedge_pos.size());
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+      Vec3 x = p.positions[v];
+      uint64_t h = (uint64_t(fbits(x.x)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(fbits(x.y)) * 0xC2B2AE3D27D4EB4Full) ^
+                   (uint64_t(fbits(x.z)) * 0x165667B19E3779F9ull);
+      auto& bucket = pos_of[h];
+      uint32_t pid = UINT32_MAX;
+      for (uint32_t c : bucket)
+        if (u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z) pid = c;
+      if (pid == UINT32_MAX) {
+        pid = uint32_t(u.pos.size());
+        u.pos.push_back(to3(x));
+        bucket.push_back(pid);
+      }
+      uint32_t w = uint32_t(u.wedge_pos.size());
+      u.wedge_pos.push_back(pid);
+      u.wedge_prim.push_back(pi);
+      if (normals) u.wedge_normal.push_back(p.normals[v]);
+      // Weighted attribute channels.
+      if (normals)
+        for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z}) u.attr.push_back(c * opt.normal_weight);
+      for (size_t s = 0; s < uv_sets; ++s) {
+        Vec2 t = s < p.uvs.size() ? p.uvs[s][v] : Vec2{};
+        u.attr.push_back(t.x * opt.uv_weight);
+        u.attr.push_back(t.y * opt.uv_weight);
+      }
+      if (colors) {
+        Vec4 c = p.colors.empty() ? Vec4{1, 1, 1, 1} : p.colors[v];
+        for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
+      }
+      // Class: position, primitive, uv and colour bits (normal excluded).
+      uint64_t g = uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
+      size_t skip = normals ? 3 : 0;
+      size_t k = size_t(u.channels);
+      for (size_t c = skip; c < k; ++c) {
+        double val = u.attr[size_t(w) * k + c];
+        uint64_t b;
+        std::memcpy(&b, &val, 8);
+        g = (g ^ b) * 0x100000001B3ull;
+      }
+      auto& gb = group_of[g];
+      uint32_t gid = UINT32_MAX;
+      for (uint32_t cand : gb) {
+        uint32_t w0 = group_first_wedge[cand];
+        if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) continue;
+        bool same = true;
+        for (size_t c = skip; c < k && same; ++c) same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
+        if (same) gid = cand;
+      }
+      if (gid == UINT32_MAX) {
+        gid = uint32_t(group_first_wedge.size());
+        group_first_wedge.push_back(w);
+        gb.push_back(gid);
+      }
+      u.wedge_group.push_back(gid);
+    }
+    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+      for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
+      u.face_prim.push_back(pi);
+    }
+  }
+  return u;
+}
+
+// Flattens every instance into one mesh in world space, one primitive per material.
+Scene flatten(const Scene& in) {
+  Scene out;
+  out.materials = in.materials;
+  out.images = in.images;
+  out.source = in.source;
+  out.normalization_scale = in.normalization_scale;
+  Mesh flat;
+  flat.name = "flattened";
+  std::vector<int32_t> materials;
+  for (const Instance& inst : in.instances) {
+    for (const Primitive& src : in.meshes[inst.mesh].primitives) {
+      auto it = std::find(materials.begin(), materials.end(), src.material);
+      size_t slot = size_t(it - materials.begin());
+      if (it == materials.end()) {
+        materials.push_back(src.material);
+        flat.primitives.emplace_back();
+        flat.primitives.back().material = src.material;
+      }
+      Primitive& dst = flat.primitives[slot];
+      // Layouts must agree within a primitive: pad missing attributes.
+      uint32_t base = uint32_t(dst.positions.size());
+      bool mirror = inst.world.det3() < 0;
+      for (size_t v = 0; v < src.vertex_count(); ++v) {
+        dst.positions.push_back(inst.world.transform_point(src.positions[v]));
+        if (!src.normals.empty()) dst.normals.push_back(inst.world.transform_normal(src.normals[v]));
+      }
+      if (dst.uvs.size() < src.uvs.size()) dst.uvs.resize(src.uvs.size(), std::vector<Vec2>(base));
+      for (size_t s = 0; s < dst.uvs.size(); ++s)
+        for (size_t v = 0; v < src.vertex_count(); ++v) dst.uvs[s].push_back(s < src.uvs.size() ? src.uvs[s][v] : Vec2{});
+      if (!src.colors.empty() && dst.colors.empty()) dst.colors.assign(base, Vec4{1, 1, 1, 1});
+      if (!dst.colors.empty())
+        for (size_t v = 0; v < src.vertex_count(); ++v) dst.colors.push_back(src.colors.empty() ? Vec4{1, 1, 1, 1} : src.colors[v]);
+      for (size_t t = 0; t + 2 < src.indices.size(); t += 3) {
+        uint32_t a = base + src.indices[t], b = base + src.indices[t + 1], c = base + src.indices[t + 2];
+        if (mirror) std::swap(b, c);  // keep front faces front
+        dst.indices.insert(dst.indices.end(), {a, b, c});
+      }
+    }
+  }
+  // Primitives that mixed normal/no-normal sources lose normals (clean() gives all normals).
+  for (Primitive& p : flat.primitives)
+    if (p.normals.size() != p.positions.size()) p.normals.clear();
+  out.meshes.push_back(std::move(flat));
+  out.instances.push_back({0, Mat4::identity(), "flattened"});
+  return out;
+}
+
+size_t counts_for(const Scene& scene, uint32_t mesh) {
+  size_t n = 0;
+  for (const Instance& inst : scene.instances) n += inst.mesh == mesh;
+  return n;
+}
+
+uint64_t splitmix(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+// Instance order for thinning: instances that stay inside the scene bounds when scaled up 2x
+// about their centre come first, then the rest; within each, a fixed pseudo-random order so
+// the kept ones spread over the scene (paper 001 §3.2's stochastic simplification).
+InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& scene_box) {
+  InstanceOrder io;
+  io.mesh = mesh;
+  Bounds local = mesh_bounds(scene.meshes[mesh]);
+  struct Entry {
+    int outside;
+    uint64_t key;
+    uint32_t index;
+    Vec3 centre;
+  };
+  std::vector<Entry> entries;
+  for (uint32_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    if (inst.mesh != mesh) continue;
+    Bounds wb;
+    for (int c = 0; c < 8; ++c)
+      wb.add(inst.world.transform_point({c & 1 ? local.max.x : local.min.x, c & 2 ? local.max.y : local.min.y,
+                                         c & 4 ? local.max.z : local.min.z}));
+    Vec3 centre = wb.center();
+    Vec3 half = (wb.max - wb.min) * 0.5f * 2.0f;  // scaled up 2x
+    bool inside = centre.x - half.x >= scene_box.min.x && centre.x + half.x <= scene_box.max.x &&
+                  centre.y - half.y >= scene_box.min.y && centre.y + half.y <= scene_box.max.y &&
+                  centre.z - half.z >= scene_box.min.z && centre.z + half.z <= scene_box.max.z;
+    entries.push_back({inside ? 0 : 1, splitmix(i), i, centre});
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.outside != b.outside ? a.outside < b.outside : (a.key != b.key ? a.key < b.key : a.index < b.index);
+  });
+  for (const Entry& e : entries) {
+    io.order.push_back(e.index);
+    io.centres.push_back(e.centre);
+  }
+  return io;
+}
+
+}  // namespace
+
+std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
+                                            const std::vector<Mat4>& transforms) {
+  V3 P[3] = {to3(a), to3(b), to3(c)};
+  Quadric sum;
+  for (const Mat4& M : transforms) {
+    V3 Q[3], un;
+    double area;
+    Quadric pq;
+    if (instance_plane(P, M, Q, &un, &area, &pq)) sum.add(pq);
+  }
+  return {sum.a00, sum.a01, sum.a02, sum.b0, sum.a01, sum.a11, sum.a12, sum.b1,
+          sum.a02, sum.a12, sum.a22, sum.b2, sum.b0,  sum.b1,  sum.b2,  sum.c};
+}
+
+ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
+                                   SimplifyReport* report) {
+  auto start = std::chrono::steady_clock::now();
+  SimplifyReport r;
+  SceneStats st = compute_stats(cleaned);
+  r.input_triangles = st.scene_triangles;
+  std::vector<size_t> counts = instance_counts(cleaned);
+  size_t used = size_t(std::count_if(counts.begin(), counts.end(), [](size_t c) { return c > 0; }));
+  r.instances_per_submesh = used ? double(st.instances) / double(used) : 0.0;
+  ProgressiveScene ps;
+  ps.flattened = used > 0 && r.instances_per_submesh < options.flatten_below_ips && st.instances > 1;
+  ps.scene = ps.flattened ? flatten(cleaned) : cleaned;
+  r.flattened = ps.flattened;
+  const Scene& scene = ps.scene;
+  double norm = scene.normalization_scale > 0 ? scene.normalization_scale : 1.0;
+  Mat4 normalize_m = Mat4::scale(norm, norm, norm);
+  Bounds box = scene_bounds(scene);
+  ps.meshes.resize(scene.meshes.size());
+  ps.instance_orders.resize(scene.meshes.size());
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+    std::vector<Mat4> transforms;
+    for (const Instance& inst : scene.instances)
+      if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
+    if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
+    Unit unit = make_unit(scene.meshes[m], options);
+    Simplifier s(unit, transforms, options, r);
+    s.run();
+    s.record(scene.meshes[m], m, ps.meshes[m]);
+    ps.instance_orders[m] = instance_order(scene, m, box);
+  }
+  // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,
+  // ship whole: the base level is the full mesh.
+  uint64_t base_tris = 0, full_tris = 0;
+  for (uint32_t m = 0; m < ps.meshes.size(); ++m) {
+    const ProgressiveMesh& pm = ps.meshes[m];
+    base_tris += uint64_t(pm.levels[pm.base_level].triangles) * counts_for(ps.scene, m);
+    full_tris += uint64_t(pm.levels.back().triangles) * counts_for(ps.scene, m);
+  }
+  if (full_tris < options.ship_whole_below ||
+      double(full_tris - base_tris) < options.ship_whole_fraction * double(full_tris))
+    for (ProgressiveMesh& pm : ps.meshes) pm.base_level = pm.levels.size() - 1;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (report) *report = r;
+  return ps;
+}
+
+}  // namespace meshmux
