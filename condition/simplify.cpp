@@ -22,6 +22,8 @@
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
+#include <cstdio>
+#include <cstdlib>
 
 namespace meshmux {
 
@@ -127,7 +129,8 @@ struct Collapse {
   uint32_t first_map = 0, map_count = 0;  // range in the (wedge, target) list
   uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
   float error = 0;
-  float queue_max = 0;  // the largest candidate error in the pass (paper 000's E_max)
+  float queue_min = 0;  // the smallest candidate error of the pass (the greedy's E_current)
+  float queue_max = 0;  // the largest candidate error of the pass (paper 000's E_max)
 };
 
 struct Candidate {
@@ -166,14 +169,14 @@ class Simplifier {
         if (!dead_pos_[p] && std::isfinite(best_[p].error)) list.push_back(best_[p]);
       if (list.empty()) break;
       std::sort(list.begin(), list.end());
-      float queue_max = list.back().error;
+      float queue_min = list.front().error, queue_max = list.back().error;
       size_t budget = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
       locked_.assign(np, 0);
       size_t removed = 0, done = 0;
       for (const Candidate& c : list) {
         if (removed >= budget) break;
         if (locked_[c.u] || locked_[c.v] || dead_pos_[c.u] || dead_pos_[c.v]) continue;
-        size_t r = collapse(c, queue_max);
+        size_t r = collapse(c, queue_min, queue_max);
         if (r == 0) {
           best_[c.u].error = INFINITY;  // refused now; re-costed when its neighbourhood changes
           continue;
@@ -181,6 +184,7 @@ class Simplifier {
         removed += r;
         ++done;
       }
+      if (std::getenv("MESHMUX_DEBUG_PASS")) std::fprintf(stderr, "pass: live %zu cands %zu min %g max %g done %zu\n", live_faces_, list.size(), queue_min, queue_max, done);
       if (done == 0) break;
     }
   }
@@ -193,11 +197,12 @@ class Simplifier {
   void build_adjacency();
   Candidate best_candidate(uint32_t p);
   // Fills map_ (wedge → target) for collapsing position a onto b; returns false if refused.
-  bool map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared);
+  bool map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared);
+  void load_fan(uint32_t a);
   float cost(uint32_t a, uint32_t b) const;
-  size_t collapse(const Candidate& c, float queue_max);
+  size_t collapse(const Candidate& c, float queue_min, float queue_max);
   void gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const;
-  bool is_border(uint32_t p, bool* locked) const;
+  bool is_border(bool* locked) const;
 
   Unit& u_;
   const SimplifyOptions& opt_;
@@ -213,6 +218,12 @@ class Simplifier {
   std::vector<uint32_t> adj_start_, adj_faces_;  // position → faces, rebuilt every pass
   std::vector<std::pair<uint32_t, uint32_t>> map_;  // scratch: (wedge of a, wedge of b)
   std::vector<std::pair<uint32_t, uint32_t>> nb_a_, nb_b_;
+  struct FanFace {
+    uint32_t face, wa, p1, w1, p2, w2;  // the face, its wedge at a, then the next two corners
+  };
+  std::vector<FanFace> fan_;
+  std::vector<uint32_t> a_wedges_;
+  std::vector<Candidate> bounds_;  // scratch: per neighbour, the geometric lower bound
   // History.
   std::vector<Collapse> collapses_;
   std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order
@@ -259,7 +270,7 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
         if (!(cl > 0)) continue;
         V3 cn{c.x / cl, c.y / cl, c.z / cl};
         Quadric bq = Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
-        bq.w = 0;  // constraint planes add no area
+        // The constraint plane counts in the weight, so errors stay a weighted mean distance.
         if (!identity) bq = bq.pulled_back(M);
         pos_q_[p[e]].add(bq);
         pos_q_[p[(e + 1) % 3]].add(bq);
@@ -309,6 +320,33 @@ void Simplifier::build_adjacency() {
       for (int i = 0; i < 3; ++i) adj_faces_[fill[u_.wedge_pos[u_.corners[3 * f + i]]]++] = uint32_t(f);
 }
 
+// Loads the fan of faces around position a: per face the corner wedge at a and the next two
+// corners (positions and wedges) in winding order; the neighbour positions with the number of
+// faces on each edge; a's distinct wedges.
+void Simplifier::load_fan(uint32_t a) {
+  fan_.clear();
+  nb_a_.clear();
+  a_wedges_.clear();
+  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
+    uint32_t f = adj_faces_[k];
+    const uint32_t* c = &u_.corners[3 * f];
+    int i = u_.wedge_pos[c[0]] == a ? 0 : u_.wedge_pos[c[1]] == a ? 1 : 2;
+    FanFace ff{f, c[i], u_.wedge_pos[c[(i + 1) % 3]], c[(i + 1) % 3], u_.wedge_pos[c[(i + 2) % 3]], c[(i + 2) % 3]};
+    fan_.push_back(ff);
+    for (uint32_t q : {ff.p1, ff.p2}) {
+      bool found = false;
+      for (auto& e : nb_a_)
+        if (e.first == q) {
+          ++e.second;
+          found = true;
+          break;
+        }
+      if (!found) nb_a_.push_back({q, 1});
+    }
+    if (std::find(a_wedges_.begin(), a_wedges_.end(), ff.wa) == a_wedges_.end()) a_wedges_.push_back(ff.wa);
+  }
+}
+
 // Neighbour positions of p with the number of live faces on each edge (p, neighbour).
 void Simplifier::gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const {
   out.clear();
@@ -328,21 +366,20 @@ void Simplifier::gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, u
 
 float Simplifier::cost(uint32_t a, uint32_t b) const {
   const V3& P = u_.pos[b];
-  Quadric q = pos_q_[a];
-  q.add(pos_q_[b]);
-  double e = q.eval(P.x, P.y, P.z);
-  double w = q.w;
+  const Quadric &qa = pos_q_[a], &qb = pos_q_[b];
+  double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
+  double w = qa.w + qb.w;
   int k = u_.channels;
   if (k > 0) {
     for (const auto& m : map_) {
+      const double* val = &u_.attr[m.second * size_t(k)];
       for (uint32_t src : {m.first, m.second}) {
         const Quadric& aq = attr_q_[src];
         double s = aq.eval(P.x, P.y, P.z);
         const double* gd = &attr_gd_[src * size_t(k) * 4];
-        const double* val = &u_.attr[m.second * size_t(k)];
         for (int j = 0; j < k; ++j) {
           double lin = gd[4 * j] * P.x + gd[4 * j + 1] * P.y + gd[4 * j + 2] * P.z + gd[4 * j + 3];
-          s += -2 * val[j] * lin + val[j] * val[j] * aq.w;
+          s += val[j] * (val[j] * aq.w - 2 * lin);
         }
         e += s;
       }
@@ -352,61 +389,51 @@ float Simplifier::cost(uint32_t a, uint32_t b) const {
   return float(std::sqrt(std::max(0.0, e) / w));
 }
 
-bool Simplifier::is_border(uint32_t p, bool* locked) const {
-  // Uses nb_a_ when p is the position it was gathered for.
+// Classifies the loaded fan's position: border (has open edges) and locked (non-manifold
+// edge, or not a single fan).
+bool Simplifier::is_border(bool* locked) const {
   int border_edges = 0;
   *locked = false;
   for (const auto& n : nb_a_) {
     if (n.second == 1) ++border_edges;
     if (n.second > 2) *locked = true;
   }
-  size_t faces = adj_start_[p + 1] - adj_start_[p];
-  // A single fan: interior has as many edges as faces, a border fan one more.
+  size_t faces = fan_.size();
   if (border_edges == 0 && nb_a_.size() != faces) *locked = true;
   if (border_edges > 0 && (border_edges != 2 || nb_a_.size() != faces + 1)) *locked = true;
   return border_edges > 0;
 }
 
-bool Simplifier::map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared) {
+// For collapsing the loaded fan's position a onto neighbour b: finds the faces L (and R) on the
+// edge and fills map_ with each wedge of a and its target wedge of b. False when refused.
+bool Simplifier::map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared) {
   map_.clear();
-  // Faces around a that contain b, and the corner wedges at a and at b in them.
   *shared = 0;
-  uint32_t fa[2], fb[2], ff[2];
-  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
-    uint32_t wa = UINT32_MAX, wb = UINT32_MAX;
-    for (int i = 0; i < 3; ++i) {
-      uint32_t w = u_.corners[3 * f + i];
-      if (u_.wedge_pos[w] == a) wa = w;
-      if (u_.wedge_pos[w] == b) wb = w;
-    }
+  uint32_t fa[2] = {0, 0}, fb[2] = {0, 0}, ff[2] = {0, 0};
+  for (const FanFace& f : fan_) {
+    uint32_t wb = f.p1 == b ? f.w1 : f.p2 == b ? f.w2 : UINT32_MAX;
     if (wb == UINT32_MAX) continue;
     if (*shared == 2) return false;  // non-manifold edge
-    fa[*shared] = wa, fb[*shared] = wb, ff[*shared] = f;
+    fa[*shared] = f.wa, fb[*shared] = wb, ff[*shared] = f.face;
     ++*shared;
   }
   if (*shared == 0) return false;
   *faceL = ff[0];
   *faceR = *shared == 2 ? ff[1] : UINT32_MAX;
-  uint32_t ga0 = u_.wedge_group[fa[0]], gb0 = u_.wedge_group[fb[0]];
-  uint32_t ga1 = *shared == 2 ? u_.wedge_group[fa[1]] : ga0;
-  uint32_t gb1 = *shared == 2 ? u_.wedge_group[fb[1]] : gb0;
+  const uint32_t* group = u_.wedge_group.data();
+  uint32_t ga0 = group[fa[0]], gb0 = group[fb[0]];
+  uint32_t ga1 = *shared == 2 ? group[fa[1]] : ga0;
+  uint32_t gb1 = *shared == 2 ? group[fb[1]] : gb0;
   if (ga0 == ga1 && gb0 != gb1) return false;  // a's one class would need two targets
   if (ga0 != ga1 && gb0 == gb1) return false;  // two classes of a would merge into one
-  // Every wedge of a, mapped.
-  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
-    uint32_t w = UINT32_MAX;
-    for (int i = 0; i < 3; ++i)
-      if (u_.wedge_pos[u_.corners[3 * f + i]] == a) w = u_.corners[3 * f + i];
-    if (std::any_of(map_.begin(), map_.end(), [w](const auto& m) { return m.first == w; })) continue;
+  for (uint32_t w : a_wedges_) {
     uint32_t target;
     if (w == fa[0]) {
       target = fb[0];
     } else if (*shared == 2 && w == fa[1]) {
       target = fb[1];
     } else {
-      uint32_t g = u_.wedge_group[w];
+      uint32_t g = group[w];
       uint32_t tg;
       if (g == ga0)
         tg = gb0;
@@ -418,10 +445,10 @@ bool Simplifier::map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* f
       target = UINT32_MAX;
       float best = -INFINITY;
       for (uint32_t kb = adj_start_[b]; kb < adj_start_[b + 1]; ++kb) {
-        uint32_t fb2 = adj_faces_[kb];
+        const uint32_t* c = &u_.corners[3 * adj_faces_[kb]];
         for (int i = 0; i < 3; ++i) {
-          uint32_t wb = u_.corners[3 * fb2 + i];
-          if (u_.wedge_pos[wb] != b || u_.wedge_group[wb] != tg) continue;
+          uint32_t wb = c[i];
+          if (u_.wedge_pos[wb] != b || group[wb] != tg) continue;
           float d = u_.wedge_normal.empty() ? 0.0f : dot(u_.wedge_normal[w], u_.wedge_normal[wb]);
           if (d > best || (d == best && wb < target)) best = d, target = wb;
         }
@@ -435,34 +462,47 @@ bool Simplifier::map_wedges(uint32_t a, uint32_t b, uint32_t* faceL, uint32_t* f
 
 Candidate Simplifier::best_candidate(uint32_t a) {
   Candidate best{INFINITY, a, a};
-  gather_neighbours(a, nb_a_);
+  load_fan(a);
   bool locked;
-  bool border = is_border(a, &locked);
+  bool border = is_border(&locked);
   if (locked || nb_a_.empty()) return best;
-  std::vector<std::pair<uint32_t, uint32_t>> nbs = nb_a_;
-  for (const auto& n : nbs) {
+  // The geometric part of the cost is a lower bound of the whole (attribute terms are sums of
+  // squares): cost neighbours cheapest-bound first and stop once the bound passes the best.
+  bounds_.clear();
+  const Quadric& qa = pos_q_[a];
+  for (const auto& n : nb_a_) {
     uint32_t b = n.first;
     if (border && n.second != 1) continue;  // border vertices slide along the border only
+    const V3& P = u_.pos[b];
+    const Quadric& qb = pos_q_[b];
+    double w = qa.w + qb.w;
+    double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
+    bounds_.push_back({float(std::sqrt(std::max(0.0, e) / (w > 0 ? w : 1e-30))), b, b});
+  }
+  std::sort(bounds_.begin(), bounds_.end());
+  for (const Candidate& lb : bounds_) {
+    if (lb.error > best.error) break;
+    uint32_t b = lb.u;
     uint32_t L, R;
     int shared;
-    if (!map_wedges(a, b, &L, &R, &shared)) continue;
-    float e = cost(a, b);
+    if (!map_wedges(b, &L, &R, &shared)) continue;
+    float e = u_.channels > 0 ? cost(a, b) : lb.error;
     if (e < best.error || (e == best.error && b < best.v)) best = {e, a, b};
   }
   return best;
 }
 
-size_t Simplifier::collapse(const Candidate& c, float queue_max) {
+size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max) {
   uint32_t a = c.u, b = c.v;
-  gather_neighbours(a, nb_a_);
+  load_fan(a);
   bool locked;
-  bool border = is_border(a, &locked);
+  bool border = is_border(&locked);
   if (locked) return 0;
   auto edge = std::find_if(nb_a_.begin(), nb_a_.end(), [b](const auto& e) { return e.first == b; });
   if (edge == nb_a_.end() || (border && edge->second != 1)) return 0;
   uint32_t L, R;
   int shared;
-  if (!map_wedges(a, b, &L, &R, &shared)) {
+  if (!map_wedges(b, &L, &R, &shared)) {
     ++report_.refused_wedge;
     return 0;
   }
@@ -482,42 +522,34 @@ size_t Simplifier::collapse(const Candidate& c, float queue_max) {
   }
   // Flip check on the faces that move.
   const V3 &Pa = u_.pos[a], &Pb = u_.pos[b];
-  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
-    if (f == L || f == R) continue;
-    V3 P[3], Q[3];
-    for (int i = 0; i < 3; ++i) {
-      uint32_t p = u_.wedge_pos[u_.corners[3 * f + i]];
-      P[i] = u_.pos[p];
-      Q[i] = p == a ? Pb : P[i];
-    }
-    V3 n0 = crs(sub(P[1], P[0]), sub(P[2], P[0])), n1 = crs(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
-    double d = dt(n0, n1);
-    if (!(d > 1e-3 * std::sqrt(dt(n0, n0) * dt(n1, n1))) || !(dt(n1, n1) > 0)) {
+  for (const FanFace& f : fan_) {
+    if (f.face == L || f.face == R) continue;
+    const V3 &P1 = u_.pos[f.p1], &P2 = u_.pos[f.p2];
+    V3 n0 = crs(sub(P1, Pa), sub(P2, Pa)), n1 = crs(sub(P1, Pb), sub(P2, Pb));
+    double d = dt(n0, n1), l1 = dt(n1, n1);
+    if (!(d > 1e-3 * std::sqrt(dt(n0, n0) * l1)) || !(l1 > 0)) {
       ++report_.refused_flip;
       return 0;
     }
   }
   float e = cost(a, b);
-  (void)Pa;
   // Apply: remap a's wedges in its faces, kill L and R, merge quadrics.
   Collapse rec;
   rec.first_map = uint32_t(maps_.size());
   rec.map_count = uint32_t(map_.size());
   rec.first_face = uint32_t(removed_faces_.size());
-  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
-    if (f == L || f == R) {
-      alive_[f] = 0;
-      removed_faces_.push_back(f);
+  for (const FanFace& f : fan_) {
+    if (f.face == L || f.face == R) {
+      alive_[f.face] = 0;
+      removed_faces_.push_back(f.face);
       continue;
     }
+    uint32_t* corner = &u_.corners[3 * f.face];
     for (int i = 0; i < 3; ++i) {
-      uint32_t& w = u_.corners[3 * f + i];
-      if (u_.wedge_pos[w] != a) continue;
+      if (corner[i] != f.wa) continue;
       for (const auto& m : map_)
-        if (m.first == w) {
-          w = m.second;
+        if (m.first == f.wa) {
+          corner[i] = m.second;
           break;
         }
     }
@@ -533,6 +565,7 @@ size_t Simplifier::collapse(const Candidate& c, float queue_max) {
   pos_q_[b].add(pos_q_[a]);
   live_faces_ -= rec.face_count;
   rec.error = e;
+  rec.queue_min = queue_min;
   rec.queue_max = queue_max;
   collapses_.push_back(rec);
   ++report_.collapses;
@@ -578,12 +611,18 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (size_t i = 0; i < m; ++i) prefix_max[i + 1] = std::max(prefix_max[i], collapses_[i].error);
   for (size_t r = 0; r <= m; ++r) pm.levels[r].error = prefix_max[m - r];
 
-  // Base level: paper 000 formula 1 walked over the collapse sequence in time order: the
-  // base is the state before the first collapse whose log-ratio reaches the threshold.
+  // Base level: paper 000 formula 1, log(1+E_current)/log(1+E_max) ≥ threshold. A true
+  // greedy's E_current is the cheapest collapse left and E_max the dearest; a pass of sorted
+  // candidates has both at its two ends, so the rule is checked per pass and the base is the
+  // state before the first pass where it holds. On errors normalized to a unit diagonal the
+  // rule fires only near the very end (the dearest candidates are outliers: corners, rims), so
+  // the base also stops once the cheapest collapse left exceeds `base_max_error`.
   size_t stop = m;  // collapses applied in the base
   for (size_t i = 0; i < m; ++i) {
-    double ec = collapses_[i].error, em = std::max(collapses_[i].queue_max, collapses_[i].error);
-    if (em > 0 && std::log1p(ec) / std::log1p(em) >= opt_.stop_ratio) {
+    double ec = collapses_[i].queue_min, em = collapses_[i].queue_max;
+    bool ratio = em > 0 && std::log1p(ec) / std::log1p(em) >= opt_.stop_ratio;
+    if (ratio || ec > opt_.base_max_error) {
+      if (std::getenv("MESHMUX_DEBUG_STOP")) std::fprintf(stderr, "stop at %zu/%zu: e=%g max=%g\n", i, m, ec, em);
       stop = i;
       break;
     }
@@ -860,10 +899,20 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
     for (const Instance& inst : scene.instances)
       if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
     if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
+    auto t0 = std::chrono::steady_clock::now();
     Unit unit = make_unit(scene.meshes[m], options);
+    auto t1 = std::chrono::steady_clock::now();
     Simplifier s(unit, transforms, options, r);
+    auto t2 = std::chrono::steady_clock::now();
     s.run();
+    auto t3 = std::chrono::steady_clock::now();
     s.record(scene.meshes[m], m, ps.meshes[m]);
+    auto t4 = std::chrono::steady_clock::now();
+    if (std::getenv("MESHMUX_DEBUG_TIME")) {
+      auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+      std::fprintf(stderr, "mesh %u: unit %.1f ms, quadrics %.1f ms, collapses %.1f ms, record %.1f ms\n", m,
+                   ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4));
+    }
     ps.instance_orders[m] = instance_order(scene, m, box);
   }
   // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,

@@ -34,13 +34,15 @@
 namespace meshmux {
 
 struct SimplifyOptions {
-  float normal_weight = 0.25f;         // attribute error weight for normals (unit vectors)
-  float uv_weight = 1.0f;              // attribute error weight for texture coordinates
-  float color_weight = 0.5f;           // attribute error weight for vertex colours
+  float normal_weight = 0.02f;         // attribute error weight for normals: 30° ≈ 1% of the diagonal
+  float uv_weight = 0.5f;              // for texture coordinates: 2% of the texture ≈ 1% of the diagonal
+  float color_weight = 0.1f;           // for vertex colours (RGBA in [0,1])
   float boundary_weight = 1.0f;        // constraint-plane weight on open boundaries (× length²)
   double flatten_below_ips = 1.75;     // flatten when instances per submesh are below this
   uint32_t min_submesh_triangles = 1;  // no collapse takes a submesh below this many triangles
   float stop_ratio = 0.9f;             // paper 000 formula 1 threshold for the base level
+  float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left
+                                       // costs more than this (fraction of the diagonal)
   uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
   double ship_whole_fraction = 0.10;   // refinements under this fraction of the mesh: ship whole
   float pass_fraction = 0.2f;          // collapses per pass, as a fraction of live triangles

@@ -352,3 +352,65 @@ TEST(InfoCommand, CountsExternalResourcesOfGltf) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// `simplify` writes one level: at most the asked share of the scene triangles, validator-clean,
+// instancing kept (the bunny is one mesh; the engine keeps its 67 instances).
+TEST(SimplifyCommand, RatioTargetIsMetAndValid) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  for (const char* model : {"StanfordBunny-glb/bunny.glb", "2CylinderEngine-dae/2CylinderEngine.dae"}) {
+    std::string in = testing::shared_model(model), out = dir.file("s.glb");
+    auto r = run_meshmux({"simplify", in, "-o", out, "--ratio", "0.2", "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    json before = info_json(in), after = info_json(out);
+    EXPECT_LE(after["scene_triangles"].get<double>(), 0.2 * before["scene_triangles"].get<double>()) << model;
+    EXPECT_GE(after["scene_triangles"].get<double>(), 0.15 * before["scene_triangles"].get<double>()) << model;
+    EXPECT_EQ(after["instances"], before["instances"]) << model;
+    int errors = testing::gltf_validator_errors(out);
+    if (errors >= 0) {
+      EXPECT_EQ(errors, 0) << model;
+    }
+  }
+}
+
+TEST(SimplifyCommand, RejectsMissingOrDoubleTarget) {
+  TempDir dir;
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
+  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb")}).exit_code, 1);
+  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "0.5", "--triangles", "10"}).exit_code, 1);
+  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "1.5"}).exit_code, 1);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("o.glb")));
+}
+
+// convert into a folder writes the base level beside the full model; for a model above
+// 10,000 triangles it is a real reduction, and both files are valid.
+TEST(ConvertFolder, WritesBaseLevel) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  std::string in = testing::shared_model("StanfordBunny-glb/bunny.glb");
+  auto r = run_meshmux({"convert", in, "-o", dir.file("out"), "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json full = info_json(dir.file("out/model.glb")), base = info_json(dir.file("out/base.glb"));
+  EXPECT_LT(base["scene_triangles"].get<double>(), 0.5 * full["scene_triangles"].get<double>());
+  EXPECT_GT(base["scene_triangles"].get<int>(), 100);
+  EXPECT_LT(base["bytes"].get<double>(), full["bytes"].get<double>());
+  int errors = testing::gltf_validator_errors(dir.file("out/base.glb"));
+  if (errors >= 0) {
+    EXPECT_EQ(errors, 0);
+  }
+}
+
+// A model under 10,000 triangles ships whole: the base is the full mesh (paper 000 §4.5).
+TEST(ConvertFolder, SmallModelBaseIsWhole) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  auto r = run_meshmux({"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(info_json(dir.file("out/base.glb"))["scene_triangles"], info_json(dir.file("out/model.glb"))["scene_triangles"]);
+}
+
+}  // namespace
+}  // namespace meshmux
