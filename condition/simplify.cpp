@@ -527,7 +527,7 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
     const V3 &P1 = u_.pos[f.p1], &P2 = u_.pos[f.p2];
     V3 n0 = crs(sub(P1, Pa), sub(P2, Pa)), n1 = crs(sub(P1, Pb), sub(P2, Pb));
     double d = dt(n0, n1), l1 = dt(n1, n1);
-    if (!(d > 1e-3 * std::sqrt(dt(n0, n0) * l1)) || !(l1 > 0)) {
+    if (!(d > double(opt_.min_flip_cos) * std::sqrt(dt(n0, n0) * l1)) || !(l1 > 0)) {
       ++report_.refused_flip;
       return 0;
     }

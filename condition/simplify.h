@@ -34,9 +34,12 @@
 namespace meshmux {
 
 struct SimplifyOptions {
-  float normal_weight = 0.02f;         // attribute error weight for normals: 30° ≈ 1% of the diagonal
-  float uv_weight = 0.5f;              // for texture coordinates: 2% of the texture ≈ 1% of the diagonal
-  float color_weight = 0.1f;           // for vertex colours (RGBA in [0,1])
+  // Attribute weights turn attribute deviations into distances (fractions of the diagonal).
+  // They trade shading and texture fidelity against geometric error; these defaults were
+  // chosen on the shared models with bench/simplify (Hausdorff vs meshopt_simplify).
+  float normal_weight = 0.005f;        // normals: a 30° error counts like 0.25% of the diagonal
+  float uv_weight = 0.05f;             // texture coordinates: 2% of the texture ≈ 0.1%
+  float color_weight = 0.05f;          // vertex colours (RGBA in [0,1])
   float boundary_weight = 1.0f;        // constraint-plane weight on open boundaries (× length²)
   double flatten_below_ips = 1.75;     // flatten when instances per submesh are below this
   uint32_t min_submesh_triangles = 1;  // no collapse takes a submesh below this many triangles
@@ -45,7 +48,9 @@ struct SimplifyOptions {
                                        // costs more than this (fraction of the diagonal)
   uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
   double ship_whole_fraction = 0.10;   // refinements under this fraction of the mesh: ship whole
-  float pass_fraction = 0.2f;          // collapses per pass, as a fraction of live triangles
+  float pass_fraction = 0.05f;         // triangles removed per pass, as a fraction of live ones
+                                       // (smaller: closer to a true greedy order, more passes)
+  float min_flip_cos = 0.25f;          // refuse collapses that turn a face by more than ~75°
 };
 
 struct SimplifyReport {
