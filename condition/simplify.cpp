@@ -149,43 +149,44 @@ class Simplifier {
     init_quadrics(transforms);
   }
 
+  // True greedy: a min-heap of each live position's cheapest valid collapse, invalidated
+  // lazily by a per-position stamp; after each collapse only the positions around it are
+  // re-costed. A parallel max-heap tracks the dearest candidate for paper 000's E_max.
   void run() {
     size_t np = u_.pos.size();
     alive_.assign(u_.corners.size() / 3, 1);
     live_faces_ = alive_.size();
     dead_pos_.assign(np, 0);
-    dirty_.assign(np, 1);
-    best_.assign(np, Candidate{INFINITY, 0, 0});
-    for (;;) {
-      build_adjacency();
-      // Re-cost positions whose neighbourhood changed in the last pass.
-      for (uint32_t p = 0; p < np; ++p) {
-        if (dead_pos_[p] || !dirty_[p]) continue;
-        best_[p] = best_candidate(p);
-        dirty_[p] = 0;
-      }
-      std::vector<Candidate> list;
-      for (uint32_t p = 0; p < np; ++p)
-        if (!dead_pos_[p] && std::isfinite(best_[p].error)) list.push_back(best_[p]);
-      if (list.empty()) break;
-      std::sort(list.begin(), list.end());
-      float queue_min = list.front().error, queue_max = list.back().error;
-      size_t budget = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
-      locked_.assign(np, 0);
-      size_t removed = 0, done = 0;
-      for (const Candidate& c : list) {
-        if (removed >= budget) break;
-        if (locked_[c.u] || locked_[c.v] || dead_pos_[c.u] || dead_pos_[c.v]) continue;
-        size_t r = collapse(c, queue_min, queue_max);
-        if (r == 0) {
-          best_[c.u].error = INFINITY;  // refused now; re-costed when its neighbourhood changes
-          continue;
+    stamp_.assign(np, 0);
+    target_.assign(np, UINT32_MAX);
+    build_adjacency();
+    for (uint32_t p = 0; p < np; ++p) push(p);
+    std::make_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+    std::make_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+    heaped_ = true;
+    while (!min_heap_.empty()) {
+      std::pop_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+      Entry e = min_heap_.back();
+      min_heap_.pop_back();
+      if (dead_pos_[e.c.u] || e.stamp != stamp_[e.c.u]) continue;  // stale
+      float queue_max = dearest();
+      ++stamp_[e.c.u];  // consumed: re-costed when its neighbourhood changes
+      if (collapse(e.c, e.c.error, std::max(queue_max, e.c.error)) == 0) continue;
+      // Re-cost the neighbourhood: the target, and every neighbour of either end.
+      // Neighbours of b alone only saw their option "onto b" change (b's quadric grew), so
+      // they are re-costed only when that was their choice.
+      touched_.clear();
+      touched_.push_back(e.c.v);
+      for (const auto& n : nb_a_) touched_.push_back(n.first);
+      for (const auto& n : nb_b_)
+        if (target_[n.first] == e.c.v || target_[n.first] == e.c.u) touched_.push_back(n.first);
+      std::sort(touched_.begin(), touched_.end());
+      touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+      for (uint32_t p : touched_)
+        if (!dead_pos_[p]) {
+          ++stamp_[p];
+          push(p);
         }
-        removed += r;
-        ++done;
-      }
-      if (std::getenv("MESHMUX_DEBUG_PASS")) std::fprintf(stderr, "pass: live %zu cands %zu min %g max %g done %zu\n", live_faces_, list.size(), queue_min, queue_max, done);
-      if (done == 0) break;
     }
   }
 
@@ -196,6 +197,36 @@ class Simplifier {
   void init_quadrics(const std::vector<Mat4>& transforms);
   void build_adjacency();
   Candidate best_candidate(uint32_t p);
+  struct Entry {
+    Candidate c;
+    uint32_t stamp;
+  };
+  struct MinFirst {  // std heaps are max-heaps: "less" means "comes out later"
+    bool operator()(const Entry& a, const Entry& b) const { return b.c < a.c; }
+  };
+  struct MaxFirst {
+    bool operator()(const Entry& a, const Entry& b) const { return a.c.error < b.c.error; }
+  };
+  void push(uint32_t p) {
+    Candidate c = best_candidate(p);
+    target_[p] = std::isfinite(c.error) ? c.v : UINT32_MAX;
+    if (!std::isfinite(c.error)) return;
+    min_heap_.push_back({c, stamp_[p]});
+    max_heap_.push_back({c, stamp_[p]});
+    if (heaped_) {
+      std::push_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+      std::push_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+    }
+  }
+  float dearest() {
+    while (!max_heap_.empty()) {
+      const Entry& t = max_heap_.front();
+      if (!dead_pos_[t.c.u] && t.stamp == stamp_[t.c.u]) return t.c.error;
+      std::pop_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+      max_heap_.pop_back();
+    }
+    return 0;
+  }
   // Fills map_ (wedge → target) for collapsing position a onto b; returns false if refused.
   bool map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared);
   void load_fan(uint32_t a);
@@ -213,9 +244,13 @@ class Simplifier {
   std::vector<double> attr_gd_;     // per wedge × channel: G (3) and D (1)
   std::vector<uint8_t> alive_;      // per face
   size_t live_faces_ = 0;
-  std::vector<uint8_t> dead_pos_, dirty_, locked_;
-  std::vector<Candidate> best_;
-  std::vector<uint32_t> adj_start_, adj_faces_;  // position → faces, rebuilt every pass
+  std::vector<uint8_t> dead_pos_;
+  std::vector<uint32_t> stamp_;     // per position: bumped whenever its heap entries go stale
+  std::vector<Entry> min_heap_, max_heap_;
+  bool heaped_ = false;
+  std::vector<uint32_t> touched_;
+  std::vector<uint32_t> target_;    // per position: the target of its queued candidate
+  std::vector<std::vector<uint32_t>> pos_faces_;  // position → live faces, kept up to date
   std::vector<std::pair<uint32_t, uint32_t>> map_;  // scratch: (wedge of a, wedge of b)
   std::vector<std::pair<uint32_t, uint32_t>> nb_a_, nb_b_;
   struct FanFace {
@@ -307,17 +342,10 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
 }
 
 void Simplifier::build_adjacency() {
-  size_t np = u_.pos.size(), nf = alive_.size();
-  adj_start_.assign(np + 1, 0);
-  for (size_t f = 0; f < nf; ++f)
+  pos_faces_.assign(u_.pos.size(), {});
+  for (size_t f = 0; f < alive_.size(); ++f)
     if (alive_[f])
-      for (int i = 0; i < 3; ++i) ++adj_start_[u_.wedge_pos[u_.corners[3 * f + i]] + 1];
-  for (size_t p = 0; p < np; ++p) adj_start_[p + 1] += adj_start_[p];
-  adj_faces_.resize(adj_start_[np]);
-  std::vector<uint32_t> fill(adj_start_.begin(), adj_start_.end() - 1);
-  for (size_t f = 0; f < nf; ++f)
-    if (alive_[f])
-      for (int i = 0; i < 3; ++i) adj_faces_[fill[u_.wedge_pos[u_.corners[3 * f + i]]]++] = uint32_t(f);
+      for (int i = 0; i < 3; ++i) pos_faces_[u_.wedge_pos[u_.corners[3 * f + i]]].push_back(uint32_t(f));
 }
 
 // Loads the fan of faces around position a: per face the corner wedge at a and the next two
@@ -327,8 +355,7 @@ void Simplifier::load_fan(uint32_t a) {
   fan_.clear();
   nb_a_.clear();
   a_wedges_.clear();
-  for (uint32_t k = adj_start_[a]; k < adj_start_[a + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
+  for (uint32_t f : pos_faces_[a]) {
     const uint32_t* c = &u_.corners[3 * f];
     int i = u_.wedge_pos[c[0]] == a ? 0 : u_.wedge_pos[c[1]] == a ? 1 : 2;
     FanFace ff{f, c[i], u_.wedge_pos[c[(i + 1) % 3]], c[(i + 1) % 3], u_.wedge_pos[c[(i + 2) % 3]], c[(i + 2) % 3]};
@@ -350,8 +377,7 @@ void Simplifier::load_fan(uint32_t a) {
 // Neighbour positions of p with the number of live faces on each edge (p, neighbour).
 void Simplifier::gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const {
   out.clear();
-  for (uint32_t k = adj_start_[p]; k < adj_start_[p + 1]; ++k) {
-    uint32_t f = adj_faces_[k];
+  for (uint32_t f : pos_faces_[p]) {
     for (int i = 0; i < 3; ++i) {
       uint32_t q = u_.wedge_pos[u_.corners[3 * f + i]];
       if (q == p) continue;
@@ -444,8 +470,8 @@ bool Simplifier::map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* s
       // The wedge of b in class tg with the closest normal (ties: lowest index).
       target = UINT32_MAX;
       float best = -INFINITY;
-      for (uint32_t kb = adj_start_[b]; kb < adj_start_[b + 1]; ++kb) {
-        const uint32_t* c = &u_.corners[3 * adj_faces_[kb]];
+      for (uint32_t fb2 : pos_faces_[b]) {
+        const uint32_t* c = &u_.corners[3 * fb2];
         for (int i = 0; i < 3; ++i) {
           uint32_t wb = c[i];
           if (u_.wedge_pos[wb] != b || group[wb] != tg) continue;
@@ -538,12 +564,20 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
   rec.first_map = uint32_t(maps_.size());
   rec.map_count = uint32_t(map_.size());
   rec.first_face = uint32_t(removed_faces_.size());
+  auto drop = [this](uint32_t p, uint32_t face) {
+    auto& list = pos_faces_[p];
+    auto it = std::find(list.begin(), list.end(), face);
+    if (it != list.end()) *it = list.back(), list.pop_back();
+  };
   for (const FanFace& f : fan_) {
     if (f.face == L || f.face == R) {
       alive_[f.face] = 0;
       removed_faces_.push_back(f.face);
+      drop(f.p1, f.face);
+      drop(f.p2, f.face);
       continue;
     }
+    pos_faces_[b].push_back(f.face);
     uint32_t* corner = &u_.corners[3 * f.face];
     for (int i = 0; i < 3; ++i) {
       if (corner[i] != f.wa) continue;
@@ -570,10 +604,8 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
   collapses_.push_back(rec);
   ++report_.collapses;
   dead_pos_[a] = 1;
-  locked_[a] = locked_[b] = 1;
-  dirty_[b] = 1;
-  for (const auto& n : nb_a_) locked_[n.first] = dirty_[n.first] = 1;
-  for (const auto& n : nb_b_) locked_[n.first] = dirty_[n.first] = 1;
+  pos_faces_[a].clear();
+  pos_faces_[a].shrink_to_fit();
   return rec.face_count;
 }
 
