@@ -22,8 +22,6 @@
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
-#include <cstdio>
-#include <cstdlib>
 
 namespace meshmux {
 
@@ -654,7 +652,6 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
     double ec = collapses_[i].queue_min, em = collapses_[i].queue_max;
     bool ratio = em > 0 && std::log1p(ec) / std::log1p(em) >= opt_.stop_ratio;
     if (ratio || ec > opt_.base_max_error) {
-      if (std::getenv("MESHMUX_DEBUG_STOP")) std::fprintf(stderr, "stop at %zu/%zu: e=%g max=%g\n", i, m, ec, em);
       stop = i;
       break;
     }
@@ -931,20 +928,10 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
     for (const Instance& inst : scene.instances)
       if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
     if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
-    auto t0 = std::chrono::steady_clock::now();
     Unit unit = make_unit(scene.meshes[m], options);
-    auto t1 = std::chrono::steady_clock::now();
     Simplifier s(unit, transforms, options, r);
-    auto t2 = std::chrono::steady_clock::now();
     s.run();
-    auto t3 = std::chrono::steady_clock::now();
     s.record(scene.meshes[m], m, ps.meshes[m]);
-    auto t4 = std::chrono::steady_clock::now();
-    if (std::getenv("MESHMUX_DEBUG_TIME")) {
-      auto ms = [](auto a, auto b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
-      std::fprintf(stderr, "mesh %u: unit %.1f ms, quadrics %.1f ms, collapses %.1f ms, record %.1f ms\n", m,
-                   ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4));
-    }
     ps.instance_orders[m] = instance_order(scene, m, box);
   }
   // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,
