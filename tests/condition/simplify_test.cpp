@@ -342,3 +342,56 @@ TEST(Simplify, SmallModelsShipWhole) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Every shared model (CAD with slivers, scans with holes, seams, instancing, skins): the
+// record builds, every sampled level is a valid mesh with the promised triangle count, and the
+// full level is the cleaned input.
+class SimplifySharedModel : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(SimplifySharedModel, RecordIsValidAtEveryLevel) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  Scene cleaned = clean(*in, {});
+  ProgressiveScene ps = build_progressive(cleaned, {});
+  EXPECT_EQ(compute_stats(materialize(ps, select_full(ps))).scene_triangles,
+            compute_stats(ps.scene).scene_triangles);
+  for (const ProgressiveMesh& pm : ps.meshes) {
+    ASSERT_FALSE(pm.levels.empty());
+    EXPECT_LE(pm.base_level, pm.levels.size() - 1);
+    for (size_t l : sample_levels(pm)) {
+      Scene one;
+      one.materials = ps.scene.materials;
+      one.images = ps.scene.images;
+      one.meshes.push_back(extract_level(pm, l));
+      one.instances.push_back({0, Mat4::identity(), ""});
+      ASSERT_TRUE(validate(one).is_ok()) << validate(one).message();
+      ASSERT_EQ(compute_stats(one).unique_triangles, pm.levels[l].triangles) << "level " << l;
+    }
+  }
+  Scene base = materialize(ps, select_base(ps));
+  EXPECT_TRUE(validate(base).is_ok());
+  EXPECT_GT(compute_stats(base).scene_triangles, 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, SimplifySharedModel,
+                         ::testing::Values("2CylinderEngine-dae/2CylinderEngine.dae", "Avocado-gltf/Avocado.gltf",
+                                           "BoxVertexColors-glb/BoxVertexColors.glb",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "ConcavePolygon-dae/ConcavePolygon.dae", "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "Duck-dae/duck.dae", "Fox-glb/Fox.glb", "SheenChair-gltf/SheenChair.gltf",
+                                           "SimpleInstancing-gltf/SimpleInstancing.gltf", "StanfordBunny-glb/bunny.glb",
+                                           "TeapotInstanceNodes-dae/teapot_instancenodes.DAE"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           n = n.substr(0, n.find('/'));
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+}  // namespace
+}  // namespace meshmux
