@@ -108,6 +108,69 @@ bool instance_plane(const V3 P[3], const Mat4& M, V3 Q[3], V3* un, double* area,
   return true;
 }
 
+// An instance transform prepared for the instance quadric (see init_quadrics).
+struct Placement {
+  double cof[3][3];  // A⁻ᵀ
+  double absdet;
+  bool similar;      // rotation, uniform scale, translation (mirrors allowed)
+  double s2;         // the uniform scale squared, when similar
+};
+
+// Placements of the non-singular transforms, in order (singular ones place nothing).
+std::vector<Placement> make_placements(const std::vector<Mat4>& transforms) {
+  std::vector<Placement> places;
+  for (const Mat4& M : transforms) {
+    Placement pl{};
+    double det = M.det3();
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) {
+      pl.absdet = 0;
+      places.push_back(pl);
+      continue;
+    }
+    // A⁻ᵀ = cofactor(A) / det.
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) {
+        int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+        pl.cof[r][c] = (M.at(r1, c1) * M.at(r2, c2) - M.at(r1, c2) * M.at(r2, c1)) / det;
+      }
+    pl.absdet = std::abs(det);
+    double col[3][3];
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) col[c][r] = M.at(r, c);
+    auto d = [&](int a, int b) { return col[a][0] * col[b][0] + col[a][1] * col[b][1] + col[a][2] * col[b][2]; };
+    double n0 = d(0, 0), tol = 1e-6 * n0;
+    pl.similar = std::abs(d(1, 1) - n0) <= tol && std::abs(d(2, 2) - n0) <= tol && std::abs(d(0, 1)) <= tol &&
+                 std::abs(d(0, 2)) <= tol && std::abs(d(1, 2)) <= tol;
+    pl.s2 = n0;
+    places.push_back(pl);
+  }
+  return places;
+}
+
+// Σᵢ |det Aᵢ| / |Aᵢ⁻ᵀ n̂|: the factor that turns the mesh-space plane quadric of a face (unit
+// normal n̂, weighted by its area) into the instance-summed one; adds the placed areas
+// (area₀ Σ |det Aᵢ| |Aᵢ⁻ᵀ n̂|) to *world_area.
+double placement_factor(const std::vector<Placement>& places, V3 un, double area0, double* world_area) {
+  double factor = 0;
+  for (const Placement& pl : places) {
+    if (pl.absdet == 0) continue;
+    V3 m{pl.cof[0][0] * un.x + pl.cof[0][1] * un.y + pl.cof[0][2] * un.z,
+         pl.cof[1][0] * un.x + pl.cof[1][1] * un.y + pl.cof[1][2] * un.z,
+         pl.cof[2][0] * un.x + pl.cof[2][1] * un.y + pl.cof[2][2] * un.z};
+    double len = std::sqrt(dt(m, m));
+    factor += pl.absdet / len;
+    *world_area += area0 * pl.absdet * len;
+  }
+  return factor;
+}
+
+Quadric scaled(Quadric q, double f, double w) {
+  q.a00 *= f, q.a01 *= f, q.a02 *= f, q.a11 *= f, q.a12 *= f, q.a22 *= f;
+  q.b0 *= f, q.b1 *= f, q.b2 *= f, q.c *= f;
+  q.w = w;
+  return q;
+}
+
 // One submesh prepared for simplification: wedges (the mesh's vertices) over welded positions.
 struct Unit {
   // Wedges, concatenated over the mesh's primitives.
@@ -277,6 +340,50 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
     for (int e = 0; e < 3; ++e)
       ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]], u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
 
+  // Pulled back to mesh space, a placed face's plane is still the face's own plane: for
+  // x = A v + t, the distance of x to the placed plane is n̂ᵀ(v − p₀) / |A⁻ᵀ n̂| and the placed
+  // area is area₀ |det A| |A⁻ᵀ n̂|. So Σᵢ Tᵢᵀ Qᵢ Tᵢ = area₀ Σᵢ (|det Aᵢ| / |Aᵢ⁻ᵀ n̂|) · Q(n̂, p₀):
+  // one 3x3 product per instance and face instead of two 4x4 products (paper 001 eq. 5,
+  // evaluated exactly). Boundary constraint planes are not preserved by non-uniform scale, so
+  // they take the general pull-back unless the transform is a similarity.
+  std::vector<Placement> places = make_placements(transforms);
+  double sim_s2 = 0, sim_s4 = 0;  // Σ s², Σ s⁴ over the similarity placements
+  for (const Placement& pl : places)
+    if (pl.similar) sim_s2 += pl.s2, sim_s4 += pl.s2 * pl.s2;
+  // Constraint planes on the open edges of face (corners P, positions p, unit normal un):
+  // for similarities the mesh-space plane scaled by Σ s⁴ (weight Σ s² l²), else pulled back.
+  auto boundary = [&](const uint32_t p[3], const V3 P[3], const V3& un) {
+    for (int e = 0; e < 3; ++e) {
+      if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
+      auto plane = [&](const V3 Q[3], const V3& n) {
+        V3 dv = sub(Q[(e + 1) % 3], Q[e]);
+        double l2 = dt(dv, dv);
+        V3 c = crs(dv, n);
+        double cl = std::sqrt(dt(c, c));
+        if (!(l2 > 0) || !(cl > 0)) return Quadric{};
+        V3 cn{c.x / cl, c.y / cl, c.z / cl};
+        // The constraint plane counts in the weight, so errors stay a weighted mean distance.
+        return Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
+      };
+      Quadric sum;
+      if (sim_s4 > 0) {
+        Quadric bq = plane(P, un);
+        sum.add(scaled(bq, sim_s4, bq.w * sim_s2));
+      }
+      for (size_t i = 0; i < places.size(); ++i) {
+        if (places[i].similar || places[i].absdet == 0) continue;
+        const Mat4& M = transforms[i];
+        V3 Q[3], n;
+        double area;
+        Quadric pq;
+        if (!instance_plane(P, M, Q, &n, &area, &pq)) continue;
+        sum.add(plane(Q, n).pulled_back(M));
+      }
+      pos_q_[p[e]].add(sum);
+      pos_q_[p[(e + 1) % 3]].add(sum);
+    }
+  };
+  const Mat4 identity;
   std::vector<double> g(size_t(k) * 4);
   for (size_t f = 0; f < nf; ++f) {
     uint32_t w[3] = {u_.corners[3 * f], u_.corners[3 * f + 1], u_.corners[3 * f + 2]};
@@ -284,30 +391,14 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
     V3 P[3] = {u_.pos[p[0]], u_.pos[p[1]], u_.pos[p[2]]};
     double world_area = 0;
     Quadric face_q;  // Σ over instances, pulled back to mesh space
-    for (const Mat4& M : transforms) {
-      V3 Q[3], un;
-      double area;
-      Quadric pq;
-      if (!instance_plane(P, M, Q, &un, &area, &pq)) continue;
-      world_area += area;
-      bool identity = M.is_identity();
-      face_q.add(pq);
-      // Boundary constraint planes: through the edge, perpendicular to the face.
-      for (int e = 0; e < 3; ++e) {
-        if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
-        V3 d = sub(Q[(e + 1) % 3], Q[e]);
-        double l2 = dt(d, d);
-        if (!(l2 > 0)) continue;
-        V3 c = crs(d, un);
-        double cl = std::sqrt(dt(c, c));
-        if (!(cl > 0)) continue;
-        V3 cn{c.x / cl, c.y / cl, c.z / cl};
-        Quadric bq = Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
-        // The constraint plane counts in the weight, so errors stay a weighted mean distance.
-        if (!identity) bq = bq.pulled_back(M);
-        pos_q_[p[e]].add(bq);
-        pos_q_[p[(e + 1) % 3]].add(bq);
-      }
+    V3 Q0[3], un;
+    double area0;
+    Quadric unit_q;
+    if (instance_plane(P, identity, Q0, &un, &area0, &unit_q)) {
+      double factor = placement_factor(places, un, area0, &world_area);
+      // unit_q carries area₀ already (instance_plane weights by area).
+      face_q = scaled(unit_q, factor, world_area);
+      boundary(p, P, un);
     }
     for (int i = 0; i < 3; ++i) pos_q_[p[i]].add(face_q);
     if (k == 0 || !(world_area > 0)) continue;
@@ -892,14 +983,11 @@ InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& sc
 
 std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
                                             const std::vector<Mat4>& transforms) {
-  V3 P[3] = {to3(a), to3(b), to3(c)};
-  Quadric sum;
-  for (const Mat4& M : transforms) {
-    V3 Q[3], un;
-    double area;
-    Quadric pq;
-    if (instance_plane(P, M, Q, &un, &area, &pq)) sum.add(pq);
-  }
+  V3 P[3] = {to3(a), to3(b), to3(c)}, Q[3], un;
+  double area0, world_area = 0;
+  Quadric unit_q, sum;
+  if (instance_plane(P, Mat4::identity(), Q, &un, &area0, &unit_q))
+    sum = scaled(unit_q, placement_factor(make_placements(transforms), un, area0, &world_area), world_area);
   return {sum.a00, sum.a01, sum.a02, sum.b0, sum.a01, sum.a11, sum.a12, sum.b1,
           sum.a02, sum.a12, sum.a22, sum.b2, sum.b0,  sum.b1,  sum.b2,  sum.c};
 }

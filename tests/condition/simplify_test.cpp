@@ -212,6 +212,36 @@ TEST(Simplify, InstanceQuadricWithIdentityEqualsPlainQuadric) {
   EXPECT_NEAR(e, 18.0 * 9.0, 1e-9);
 }
 
+// Paper 001 equation 4 for a general affine placement (non-uniform scale and shear): the
+// simplifier's factorized form must equal Tᵀ Q(T·face) T computed the long way.
+TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
+  Vec3 a{0.1f, 0.2f, 0.3f}, b{1.5f, -0.4f, 0.2f}, c{0.3f, 1.1f, 0.9f};
+  Mat4 M = Mat4::translation(2, -1, 4) * Mat4::scale(1, 3, 0.5);
+  M.at(0, 1) = 0.7;  // shear
+  Mat4 N = Mat4::scale(-2, 1, 1);  // a mirror
+  auto fast = instance_face_quadric(a, b, c, {M, N});
+  std::array<double, 16> brute{};
+  for (const Mat4& T : {M, N}) {
+    Vec3 A = T.transform_point(a), B = T.transform_point(b), C = T.transform_point(c);
+    double e1[3] = {double(B.x) - A.x, double(B.y) - A.y, double(B.z) - A.z};
+    double e2[3] = {double(C.x) - A.x, double(C.y) - A.y, double(C.z) - A.z};
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double p[4] = {n[0] / len, n[1] / len, n[2] / len, 0};
+    p[3] = -(p[0] * A.x + p[1] * A.y + p[2] * A.z);
+    double area = 0.5 * len, Q[4][4], R[4][4] = {};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) Q[i][j] = area * p[i] * p[j];
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j)
+        for (int k = 0; k < 4; ++k)
+          for (int l = 0; l < 4; ++l) R[i][j] += T.at(k, i) * Q[k][l] * T.at(l, j);
+    for (int i = 0; i < 16; ++i) brute[size_t(i)] += R[i / 4][i % 4];
+  }
+  // The corners went through float on the brute-force side: compare relatively.
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(fast[size_t(i)], brute[size_t(i)], 1e-5 * (1 + std::abs(brute[size_t(i)]))) << i;
+}
+
 // A submesh never vanishes: a 4-triangle tetrahedron instanced 500 times keeps at least one
 // triangle per submesh at its coarsest, and a tiny target thins instances instead.
 TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
