@@ -16,6 +16,8 @@
 // near O(T log T) and the result deterministic.
 #include "condition/simplify.h"
 
+#include "condition/flatten.h"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -878,54 +880,6 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     }
   }
   return u;
-}
-
-// Flattens every instance into one mesh in world space, one primitive per material.
-Scene flatten(const Scene& in) {
-  Scene out;
-  out.materials = in.materials;
-  out.images = in.images;
-  out.source = in.source;
-  out.normalization_scale = in.normalization_scale;
-  Mesh flat;
-  flat.name = "flattened";
-  std::vector<int32_t> materials;
-  for (const Instance& inst : in.instances) {
-    for (const Primitive& src : in.meshes[inst.mesh].primitives) {
-      auto it = std::find(materials.begin(), materials.end(), src.material);
-      size_t slot = size_t(it - materials.begin());
-      if (it == materials.end()) {
-        materials.push_back(src.material);
-        flat.primitives.emplace_back();
-        flat.primitives.back().material = src.material;
-      }
-      Primitive& dst = flat.primitives[slot];
-      // Layouts must agree within a primitive: pad missing attributes.
-      uint32_t base = uint32_t(dst.positions.size());
-      bool mirror = inst.world.det3() < 0;
-      for (size_t v = 0; v < src.vertex_count(); ++v) {
-        dst.positions.push_back(inst.world.transform_point(src.positions[v]));
-        if (!src.normals.empty()) dst.normals.push_back(inst.world.transform_normal(src.normals[v]));
-      }
-      if (dst.uvs.size() < src.uvs.size()) dst.uvs.resize(src.uvs.size(), std::vector<Vec2>(base));
-      for (size_t s = 0; s < dst.uvs.size(); ++s)
-        for (size_t v = 0; v < src.vertex_count(); ++v) dst.uvs[s].push_back(s < src.uvs.size() ? src.uvs[s][v] : Vec2{});
-      if (!src.colors.empty() && dst.colors.empty()) dst.colors.assign(base, Vec4{1, 1, 1, 1});
-      if (!dst.colors.empty())
-        for (size_t v = 0; v < src.vertex_count(); ++v) dst.colors.push_back(src.colors.empty() ? Vec4{1, 1, 1, 1} : src.colors[v]);
-      for (size_t t = 0; t + 2 < src.indices.size(); t += 3) {
-        uint32_t a = base + src.indices[t], b = base + src.indices[t + 1], c = base + src.indices[t + 2];
-        if (mirror) std::swap(b, c);  // keep front faces front
-        dst.indices.insert(dst.indices.end(), {a, b, c});
-      }
-    }
-  }
-  // Primitives that mixed normal/no-normal sources lose normals (clean() gives all normals).
-  for (Primitive& p : flat.primitives)
-    if (p.normals.size() != p.positions.size()) p.normals.clear();
-  out.meshes.push_back(std::move(flat));
-  out.instances.push_back({0, Mat4::identity(), "flattened"});
-  return out;
 }
 
 size_t counts_for(const Scene& scene, uint32_t mesh) {
