@@ -13,3 +13,12 @@ namespace meshmux {
 Result<std::vector<uint8_t>> encode_png(const Image& image);
 
 }  // namespace meshmux
+
+namespace meshmux {
+
+// Baseline JPEG bytes of image.rgba (alpha ignored) through libjpeg-turbo, 4:2:0 chroma,
+// accurate DCT. `quality` 1..100. Errors when the image is not decoded or the quality is out
+// of range. Deterministic.
+Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality);
+
+}  // namespace meshmux

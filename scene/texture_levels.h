@@ -1,0 +1,21 @@
+// Texture levels: the power-of-two pyramid of one texture (the atlas), each level encoded on
+// its own so a client can show any level without the others (DESIGN.md "Texture levels").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace meshmux {
+
+struct TextureLevel {
+  int width = 0, height = 0;       // pixels
+  std::string mime_type;           // "image/jpeg", or "image/png" when the texture has alpha
+  std::vector<uint8_t> encoded;    // the level's file bytes, independently decodable
+};
+
+struct TextureLevels {
+  std::vector<TextureLevel> levels;  // smallest first; levels.back() is the full size
+};
+
+}  // namespace meshmux
