@@ -1,0 +1,36 @@
+// Chart packing (paper 000 §4.4): rectangles placed in decreasing size order into a square
+// power-of-two atlas such that no rectangle crosses a power-of-two boundary of the atlas (at
+// any level: a rectangle inside the atlas of size S, placed at (x, y) with size (w, h), lies
+// within one cell of the grid of spacing s for every power of two s ≥ its own rounded-up size),
+// so every mip level keeps charts apart. A tree of free regions is split as rectangles are
+// placed. Deterministic.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace meshmux {
+
+struct PackRect {
+  int w = 0, h = 0;  // texels, gutters included
+};
+
+struct PackPlacement {
+  int x = 0, y = 0;  // top-left texel
+};
+
+struct PackResult {
+  bool ok = false;                    // everything fitted
+  int size = 0;                       // the atlas side (power of two)
+  std::vector<PackPlacement> placed;  // one per input rectangle, input order
+  double utilization = 0;             // Σ w·h / size²
+};
+
+// Packs into the smallest power-of-two square from `min_size` up to `max_size` that holds
+// every rectangle. ok = false when even max_size does not.
+PackResult pack_charts(const std::vector<PackRect>& rects, int min_size, int max_size);
+
+// True when the rectangle does not cross a power-of-two boundary (the property above).
+bool respects_power_of_two(int x, int y, int w, int h);
+
+}  // namespace meshmux
