@@ -24,11 +24,20 @@ struct PackResult {
   int size = 0;                       // the atlas side (power of two)
   std::vector<PackPlacement> placed;  // one per input rectangle, input order
   double utilization = 0;             // Σ w·h / size²
+  std::vector<PackRect> cells;        // pack_cells only: each rectangle's own cell, input order
 };
 
 // Packs into the smallest power-of-two square from `min_size` up to `max_size` that holds
 // every rectangle. ok = false when even max_size does not.
 PackResult pack_charts(const std::vector<PackRect>& rects, int min_size, int max_size);
+
+// Exclusive cells: every rectangle gets an aligned power-of-two cell of its own, sides
+// next_pow2(w) × next_pow2(h), x a multiple of the cell width and y of its height, placed at the
+// cell's corner (2D buddy allocation, largest first). Then at every mip level at which a chart
+// still spans at least one texel in both directions, the texels that filter into it come only
+// from its own cell: no bleeding from smaller charts tucked beside it, which pack_charts allows.
+// The caller may scale each chart up to fill its cell. Same size search as pack_charts.
+PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_size);
 
 // True when the rectangle does not cross a power-of-two boundary (the property above).
 bool respects_power_of_two(int x, int y, int w, int h);
