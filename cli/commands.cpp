@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "condition/atlas.h"
 #include "condition/clean.h"
 #include "condition/lod.h"
 #include "condition/simplify.h"
@@ -56,6 +57,7 @@ const char* kUsage =
     "  --normal-bits N     Draco normal quantization bits (default 10)\n"
     "  --uv-bits N         Draco texture coordinate quantization bits (default 12)\n"
     "  --no-draco          write plain (uncompressed) accessors\n"
+    "  --no-atlas          keep the source materials and textures (no single-texture atlas)\n"
     "  --crease DEGREES    crease angle for generated normals (default 60)\n"
     "  -q, --quiet         no progress or warnings on stderr\n"
     "\n"
@@ -140,7 +142,7 @@ std::string human_bytes(uint64_t b) {
 
 int cmd_convert(const std::vector<std::string>& args) {
   std::string in, out;
-  bool quiet = false;
+  bool quiet = false, atlas = true;
   GltfExportOptions gopts;
   CleanOptions copts;
   for (size_t i = 0; i < args.size(); ++i) {
@@ -157,6 +159,8 @@ int cmd_convert(const std::vector<std::string>& args) {
       quiet = true;
     } else if (a == "--no-draco") {
       gopts.draco = false;
+    } else if (a == "--no-atlas") {
+      atlas = false;
     } else if (a == "--position-bits" || a == "--normal-bits" || a == "--uv-bits") {
       if (!value(&v)) return usage_error("convert: " + a + " needs a value");
       int* target = a == "--position-bits" ? &gopts.position_bits
@@ -200,6 +204,26 @@ int cmd_convert(const std::vector<std::string>& args) {
                 std::to_string(report.degenerate_removed) + " degenerate, " +
                 std::to_string(report.duplicates_removed) + " duplicate removed), " +
                 std::to_string(report.vertices_out) + " vertices");
+
+  if (atlas) {
+    progress.step("building the atlas (charts, parameterization, packing, baking)");
+    AtlasReport ar;
+    auto atlased = build_atlas(cleaned, AtlasOptions{}, &ar, &warnings);
+    progress.warnings(warnings, seen);
+    seen = warnings.items().size();
+    if (!atlased.ok()) return fail(atlased.status());
+    cleaned = atlased.take();
+    if (ar.built) {
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 stretch mean %.3f max %.3f, %.2f s",
+                    ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization, ar.mean_stretch_l2,
+                    ar.max_stretch_l2, ar.seconds);
+      progress.step(line);
+    } else {
+      progress.step("atlas: not needed (one material, no texture)");
+    }
+  }
 
   progress.step("encoding glTF");
   auto bytes = export_glb_bytes(cleaned, gopts, &warnings);

@@ -35,14 +35,15 @@ const char* kModels[] = {
 
 class ConvertSharedModel : public ::testing::TestWithParam<const char*> {};
 
-// The acceptance round trip: convert, validate, re-import, compare with the cleaned input.
+// The acceptance round trip of issue 1: convert (without the atlas, which replaces the
+// materials on purpose), validate, re-import, compare with the cleaned input.
 TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   std::string in = testing::shared_model(GetParam());
   TempDir dir;
   std::string out = dir.file("out.glb");
   auto start = std::chrono::steady_clock::now();
-  auto r = run_meshmux({"convert", in, "-o", out, "--quiet"});
+  auto r = run_meshmux({"convert", in, "-o", out, "--quiet", "--no-atlas"});
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ASSERT_TRUE(std::filesystem::exists(out));

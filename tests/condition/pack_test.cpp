@@ -138,3 +138,42 @@ TEST(Pack, Deterministic) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Exclusive cells: every rectangle sits at the corner of an aligned power-of-two cell of its
+// own (sides next_pow2 of its own), cells never overlap, all inside the atlas.
+TEST(PackCells, EveryRectangleOwnsAnAlignedPowerOfTwoCell) {
+  std::vector<PackRect> rects;
+  uint64_t state = 42;
+  for (int i = 0; i < 300; ++i) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    int w = 1 + int((state >> 33) % 200), h = 1 + int((state >> 17) % 120);
+    rects.push_back({w, h});
+  }
+  PackResult r = pack_cells(rects, 64, 4096);
+  ASSERT_TRUE(r.ok);
+  ASSERT_EQ(r.cells.size(), rects.size());
+  for (size_t i = 0; i < rects.size(); ++i) {
+    const PackRect& c = r.cells[i];
+    EXPECT_EQ(c.w & (c.w - 1), 0);
+    EXPECT_EQ(c.h & (c.h - 1), 0);
+    EXPECT_GE(c.w, rects[i].w);
+    EXPECT_GE(c.h, rects[i].h);
+    EXPECT_EQ(r.placed[i].x % c.w, 0);
+    EXPECT_EQ(r.placed[i].y % c.h, 0);
+    EXPECT_LE(r.placed[i].x + c.w, r.size);
+    EXPECT_LE(r.placed[i].y + c.h, r.size);
+    for (size_t j = 0; j < i; ++j) {
+      const PackRect& d = r.cells[j];
+      bool apart = r.placed[i].x + c.w <= r.placed[j].x || r.placed[j].x + d.w <= r.placed[i].x ||
+                   r.placed[i].y + c.h <= r.placed[j].y || r.placed[j].y + d.h <= r.placed[i].y;
+      ASSERT_TRUE(apart) << i << " overlaps " << j;
+    }
+  }
+  std::printf("[ pack_cells ] 300 rects: %dx%d, utilization %.2f\n", r.size, r.size, r.utilization);
+}
+
+}  // namespace
+}  // namespace meshmux
