@@ -13,6 +13,7 @@
 
 #include "condition/atlas.h"
 #include "condition/clean.h"
+#include "condition/flatten.h"
 #include "condition/lod.h"
 #include "condition/simplify.h"
 #include "exporters/gltf.h"
@@ -213,6 +214,12 @@ int cmd_convert(const std::vector<std::string>& args) {
     seen = warnings.items().size();
     if (!atlased.ok()) return fail(atlased.status());
     cleaned = atlased.take();
+    // Paper 001: below 1.75 instances per submesh instancing is not worth keeping; with one
+    // material, the flattened model is one draw call.
+    if (ar.built && cleaned.instances.size() > 1 && instances_per_submesh(cleaned) < 1.75) {
+      cleaned = flatten(cleaned);
+      progress.step("flattened (fewer than 1.75 instances per submesh): one mesh, one draw call");
+    }
     if (ar.built) {
       char line[256];
       std::snprintf(line, sizeof line,

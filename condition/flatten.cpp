@@ -5,7 +5,11 @@
 
 namespace meshmux {
 
-Scene flatten(const Scene& in) {
+namespace {
+
+// Flattens the instances for which `take` is true into one mesh (mesh 0 of the result); the
+// other instances keep their meshes, renumbered after it.
+Scene flatten_where(const Scene& in, const std::vector<char>& take) {
   Scene out;
   out.materials = in.materials;
   out.images = in.images;
@@ -14,8 +18,9 @@ Scene flatten(const Scene& in) {
   Mesh mesh;
   mesh.name = "flattened";
   std::map<std::tuple<int32_t, bool, size_t, bool>, size_t> slot;
-  for (const Instance& inst : in.instances) {
-    if (inst.mesh >= in.meshes.size()) continue;
+  for (size_t ii = 0; ii < in.instances.size(); ++ii) {
+    const Instance& inst = in.instances[ii];
+    if (inst.mesh >= in.meshes.size() || !take[ii]) continue;
     bool mirror = inst.world.det3() < 0;
     for (const Primitive& p : in.meshes[inst.mesh].primitives) {
       auto key = std::make_tuple(p.material, !p.normals.empty(), p.uvs.size(), !p.colors.empty());
@@ -40,9 +45,36 @@ Scene flatten(const Scene& in) {
       }
     }
   }
-  out.meshes.push_back(std::move(mesh));
-  out.instances.push_back({0, Mat4::identity(), "flattened"});
+  bool merged = !mesh.primitives.empty();
+  if (merged) {
+    out.meshes.push_back(std::move(mesh));
+    out.instances.push_back({0, Mat4::identity(), "flattened"});
+  }
+  std::vector<int32_t> remap(in.meshes.size(), -1);
+  for (size_t ii = 0; ii < in.instances.size(); ++ii) {
+    const Instance& inst = in.instances[ii];
+    if (inst.mesh >= in.meshes.size() || take[ii]) continue;
+    if (remap[inst.mesh] < 0) {
+      remap[inst.mesh] = int32_t(out.meshes.size());
+      out.meshes.push_back(in.meshes[inst.mesh]);
+    }
+    Instance copy = inst;
+    copy.mesh = uint32_t(remap[inst.mesh]);
+    out.instances.push_back(std::move(copy));
+  }
   return out;
 }
+
+}  // namespace
+
+Scene flatten(const Scene& in) { return flatten_where(in, std::vector<char>(in.instances.size(), 1)); }
+
+double instances_per_submesh(const Scene& scene) {
+  std::vector<size_t> counts = instance_counts(scene);
+  size_t used = 0;
+  for (size_t c : counts) used += c > 0;
+  return used ? double(scene.instances.size()) / double(used) : 0.0;
+}
+
 
 }  // namespace meshmux

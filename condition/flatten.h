@@ -11,4 +11,8 @@ namespace meshmux {
 
 Scene flatten(const Scene& scene);
 
+// Instances per used submesh (paper 001's IPS): instances / meshes with at least one instance.
+double instances_per_submesh(const Scene& scene);
+
+
 }  // namespace meshmux

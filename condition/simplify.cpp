@@ -952,11 +952,10 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   SimplifyReport r;
   SceneStats st = compute_stats(cleaned);
   r.input_triangles = st.scene_triangles;
-  std::vector<size_t> counts = instance_counts(cleaned);
-  size_t used = size_t(std::count_if(counts.begin(), counts.end(), [](size_t c) { return c > 0; }));
-  r.instances_per_submesh = used ? double(st.instances) / double(used) : 0.0;
+  r.instances_per_submesh = instances_per_submesh(cleaned);
   ProgressiveScene ps;
-  ps.flattened = used > 0 && r.instances_per_submesh < options.flatten_below_ips && st.instances > 1;
+  ps.flattened = r.instances_per_submesh > 0 && r.instances_per_submesh < options.flatten_below_ips &&
+                 st.instances > 1;
   ps.scene = ps.flattened ? flatten(cleaned) : cleaned;
   r.flattened = ps.flattened;
   const Scene& scene = ps.scene;

@@ -415,3 +415,54 @@ TEST(ConvertFolder, SmallModelBaseIsWhole) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Issue 3/5 acceptance through the binary: textured and multi-material models leave with one
+// material and one base-colour texture, one primitive per mesh, validator-clean; models under
+// 1.75 instances per submesh are one draw call, instanced ones one per submesh.
+class ConvertAtlas : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(ConvertAtlas, OneMaterialOneTextureValid) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  std::string in = testing::shared_model(GetParam()), out = dir.file("m.glb");
+  auto r = run_meshmux({"convert", in, "-o", out, "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  json j = info_json(out);
+  EXPECT_EQ(j["materials"], 1);
+  EXPECT_EQ(j["textures"], 1);
+  EXPECT_EQ(j["primitives"], j["meshes"]);
+  json src = info_json(in);
+  double ips = src["instances"].get<double>() / src["meshes"].get<double>();
+  if (ips < 1.75) {
+    EXPECT_EQ(j["draw_calls"], 1) << GetParam();
+  } else {
+    EXPECT_EQ(j["meshes"], src["meshes"]);
+    EXPECT_EQ(j["instances"], src["instances"]);
+  }
+  EXPECT_EQ(j["scene_triangles"].get<uint64_t>() > 0, true);
+  int errors = testing::gltf_validator_errors(out);
+  if (errors >= 0) {
+    EXPECT_EQ(errors, 0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, ConvertAtlas,
+                         ::testing::Values("Duck-dae/duck.dae", "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb", "Avocado-gltf/Avocado.gltf",
+                                           "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb",
+                                           "2CylinderEngine-dae/2CylinderEngine.dae",
+                                           "2CylinderEngine-glb/2CylinderEngine.glb",
+                                           "BoxVertexColors-glb/BoxVertexColors.glb"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           n = n.substr(0, n.find('/'));
+                           for (char& c : n)
+                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                           return n;
+                         });
+
+}  // namespace
+}  // namespace meshmux
