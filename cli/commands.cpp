@@ -141,49 +141,80 @@ std::string human_bytes(uint64_t b) {
   return buf;
 }
 
+// Walks one command's arguments. The flags every command shares (-o/--output, -q/--quiet,
+// -h/--help) and the positional input are handled by common(); the command handles its own
+// flags, reading their values with value().
+class Args {
+ public:
+  Args(std::string cmd, const std::vector<std::string>& args) : cmd_(std::move(cmd)), args_(args) {}
+  bool next() { return ++i_ < args_.size(); }
+  const std::string& current() const { return args_[i_]; }
+  // The value following the current flag.
+  bool value(std::string* v) {
+    if (i_ + 1 >= args_.size()) return fail(current() + " needs a value");
+    *v = args_[++i_];
+    return true;
+  }
+  // 1: a shared flag or the input, handled; 0: not a shared flag (the command's, or unknown);
+  // -1: a usage error, see error.
+  int common() {
+    const std::string& a = current();
+    if (a == "-o" || a == "--output") return value(&out) ? 1 : -1;
+    if (a == "-q" || a == "--quiet") return quiet = true, 1;
+    if (a == "-h" || a == "--help") return help = true, 1;
+    if (!a.empty() && a[0] == '-') return 0;
+    if (!in.empty()) return fail("more than one input given ('" + in + "' and '" + a + "')") ? 1 : -1;
+    in = a;
+    return 1;
+  }
+  bool fail(const std::string& message) {
+    error = cmd_ + ": " + message;
+    return false;
+  }
+  std::string in, out, error;
+  bool quiet = false, help = false;
+
+ private:
+  std::string cmd_;
+  const std::vector<std::string>& args_;
+  size_t i_ = size_t(-1);
+};
+
 int cmd_convert(const std::vector<std::string>& args) {
-  std::string in, out;
-  bool quiet = false, atlas = true;
+  bool atlas = true;
   GltfExportOptions gopts;
   CleanOptions copts;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](std::string* v) {
-      if (i + 1 >= args.size()) return false;
-      *v = args[++i];
-      return true;
-    };
+  Args p("convert", args);
+  while (p.next()) {
+    const std::string& a = p.current();
     std::string v, err;
-    if (a == "-o" || a == "--output") {
-      if (!value(&out)) return usage_error("convert: " + a + " needs a path");
-    } else if (a == "-q" || a == "--quiet") {
-      quiet = true;
-    } else if (a == "--no-draco") {
+    if (a == "--no-draco") {
       gopts.draco = false;
     } else if (a == "--no-atlas") {
       atlas = false;
     } else if (a == "--position-bits" || a == "--normal-bits" || a == "--uv-bits") {
-      if (!value(&v)) return usage_error("convert: " + a + " needs a value");
+      if (!p.value(&v)) return usage_error(p.error);
       int* target = a == "--position-bits" ? &gopts.position_bits
                     : a == "--normal-bits" ? &gopts.normal_bits
                                            : &gopts.uv_bits;
       if (!parse_int(a, v, 1, 30, target, &err)) return usage_error("convert: " + err);
     } else if (a == "--crease") {
       int deg;
-      if (!value(&v)) return usage_error("convert: --crease needs a value");
+      if (!p.value(&v)) return usage_error(p.error);
       if (!parse_int(a, v, 0, 180, &deg, &err)) return usage_error("convert: " + err);
       copts.crease_angle_degrees = float(deg);
-    } else if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
-    } else if (!a.empty() && a[0] == '-') {
+    } else if (int r = p.common(); r < 0) {
+      return usage_error(p.error);
+    } else if (r == 0) {
       return usage_error("convert: unknown option " + a);
-    } else if (in.empty()) {
-      in = a;
-    } else {
-      return usage_error("convert: more than one input given ('" + in + "' and '" + a + "')");
     }
   }
+  if (p.help) {
+    std::fputs(kUsage, stdout);
+    return kExitOk;
+  }
+  const std::string &in = p.in, &out = p.out;
+  bool quiet = p.quiet;
   if (in.empty()) return usage_error("convert: no input file given");
   if (out.empty()) return usage_error("convert: no output given (-o OUT.glb or -o FOLDER)");
 
@@ -370,54 +401,45 @@ int cmd_info(const std::vector<std::string>& args) {
 }
 
 int cmd_simplify(const std::vector<std::string>& args) {
-  std::string in, out;
-  bool quiet = false;
   double ratio = -1, error = -1;
   long long triangles = -1;
   int targets = 0;
   GltfExportOptions gopts;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](std::string* v) {
-      if (i + 1 >= args.size()) return false;
-      *v = args[++i];
-      return true;
-    };
+  Args p("simplify", args);
+  while (p.next()) {
+    const std::string& a = p.current();
     std::string v;
     char* end = nullptr;
-    if (a == "-o" || a == "--output") {
-      if (!value(&out)) return usage_error("simplify: " + a + " needs a path");
-    } else if (a == "-q" || a == "--quiet") {
-      quiet = true;
-    } else if (a == "--ratio") {
-      if (!value(&v)) return usage_error("simplify: --ratio needs a value");
+    if (a == "--ratio") {
+      if (!p.value(&v)) return usage_error(p.error);
       ratio = std::strtod(v.c_str(), &end);
       if (v.empty() || *end || !(ratio > 0 && ratio <= 1))
         return usage_error("simplify: --ratio expects a number in (0, 1], got '" + v + "'");
       ++targets;
     } else if (a == "--triangles") {
-      if (!value(&v)) return usage_error("simplify: --triangles needs a value");
+      if (!p.value(&v)) return usage_error(p.error);
       triangles = std::strtoll(v.c_str(), &end, 10);
       if (v.empty() || *end || triangles < 1)
         return usage_error("simplify: --triangles expects a whole number >= 1, got '" + v + "'");
       ++targets;
     } else if (a == "--error") {
-      if (!value(&v)) return usage_error("simplify: --error needs a value");
+      if (!p.value(&v)) return usage_error(p.error);
       error = std::strtod(v.c_str(), &end);
       if (v.empty() || *end || !(error >= 0))
         return usage_error("simplify: --error expects a number >= 0, got '" + v + "'");
       ++targets;
-    } else if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
-    } else if (!a.empty() && a[0] == '-') {
+    } else if (int r = p.common(); r < 0) {
+      return usage_error(p.error);
+    } else if (r == 0) {
       return usage_error("simplify: unknown option " + a);
-    } else if (in.empty()) {
-      in = a;
-    } else {
-      return usage_error("simplify: more than one input given");
     }
   }
+  if (p.help) {
+    std::fputs(kUsage, stdout);
+    return kExitOk;
+  }
+  const std::string &in = p.in, &out = p.out;
+  bool quiet = p.quiet;
   if (in.empty()) return usage_error("simplify: no input file given");
   if (out.empty() || !ends_with(out, ".glb")) return usage_error("simplify: -o OUT.glb is required");
   if (targets != 1) return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
@@ -455,21 +477,18 @@ int cmd_simplify(const std::vector<std::string>& args) {
 }
 
 int cmd_sample(const std::vector<std::string>& args) {
-  std::string out;
-  bool quiet = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "-o" || args[i] == "--output") {
-      if (i + 1 >= args.size()) return usage_error("sample: -o needs a path");
-      out = args[++i];
-    } else if (args[i] == "-q" || args[i] == "--quiet") {
-      quiet = true;
-    } else if (args[i] == "-h" || args[i] == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
-    } else {
-      return usage_error("sample: unexpected argument " + args[i]);
-    }
+  Args p("sample", args);
+  while (p.next()) {
+    int r = p.common();
+    if (r < 0) return usage_error(p.error);
+    if (r == 0 || !p.in.empty()) return usage_error("sample: unexpected argument " + p.current());
   }
+  if (p.help) {
+    std::fputs(kUsage, stdout);
+    return kExitOk;
+  }
+  const std::string& out = p.out;
+  bool quiet = p.quiet;
   if (out.empty()) return usage_error("sample: no output given (-o FILE.glb)");
   if (!ends_with(out, ".glb")) return usage_error("sample: output must end in .glb");
   Warnings warnings;

@@ -88,6 +88,13 @@ std::string shared_model(const std::string& rel) {
   return std::string(MESHMUX_SHARED_DIR) + "/models/" + rel;
 }
 
+std::string model_test_name(const std::string& relative_path) {
+  std::string n = relative_path.substr(0, relative_path.find('/'));
+  for (char& c : n)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return n;
+}
+
 std::vector<std::string> shared_model_files() {
   std::vector<std::string> files;
   if (!have_shared_models()) return files;

@@ -41,6 +41,10 @@ std::string shared_model(const std::string& rel);
 // True when ../shared/models exists. Tests that need it call GTEST_SKIP with a message otherwise.
 bool have_shared_models();
 
+// A GoogleTest-safe name for a parameterized test over a shared model path: the model's folder
+// with anything but letters and digits turned into '_' ("Duck-dae/duck.dae" → "Duck_dae").
+std::string model_test_name(const std::string& relative_path);
+
 // Every main model file in ../shared/models (one per folder), sorted.
 std::vector<std::string> shared_model_files();
 

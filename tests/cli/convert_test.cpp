@@ -82,13 +82,7 @@ TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, ConvertSharedModel, ::testing::ValuesIn(kModels),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 json info_json(const std::string& file) {
   auto r = run_meshmux({"info", file, "--json"});
@@ -456,13 +450,7 @@ INSTANTIATE_TEST_SUITE_P(Shared, ConvertAtlas,
                                            "2CylinderEngine-dae/2CylinderEngine.dae",
                                            "2CylinderEngine-glb/2CylinderEngine.glb",
                                            "BoxVertexColors-glb/BoxVertexColors.glb"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 }  // namespace
 }  // namespace meshmux

@@ -135,13 +135,7 @@ INSTANTIATE_TEST_SUITE_P(Shared, AtlasSharedModel,
                                            "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb",
                                            "2CylinderEngine-glb/2CylinderEngine.glb",
                                            "BoxVertexColors-glb/BoxVertexColors.glb"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 // A scene that needs no atlas (one material, no texture, no vertex colour) passes through.
 TEST(Atlas, SingleUntexturedMaterialPassesThrough) {
@@ -234,13 +228,7 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
 INSTANTIATE_TEST_SUITE_P(Shared, AtlasMipLevels,
                          ::testing::Values("Duck-dae/duck.dae", "Fox-glb/Fox.glb", "DamagedHelmet-glb/DamagedHelmet.glb",
                                            "CesiumMilkTruck-dae/CesiumMilkTruck.dae"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 }  // namespace
 }  // namespace meshmux

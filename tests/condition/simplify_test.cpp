@@ -415,13 +415,7 @@ INSTANTIATE_TEST_SUITE_P(Shared, SimplifySharedModel,
                                            "Duck-dae/duck.dae", "Fox-glb/Fox.glb", "SheenChair-gltf/SheenChair.gltf",
                                            "SimpleInstancing-gltf/SimpleInstancing.gltf", "StanfordBunny-glb/bunny.glb",
                                            "TeapotInstanceNodes-dae/teapot_instancenodes.DAE"),
-                         [](const auto& info) {
-                           std::string n = info.param;
-                           n = n.substr(0, n.find('/'));
-                           for (char& c : n)
-                             if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                           return n;
-                         });
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 }  // namespace
 }  // namespace meshmux
