@@ -220,9 +220,11 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     double share = sum_src > 0 ? std::cbrt((l2[i] / sum_l2) * (a3[i] / sum_a) * (src[i] > 0 ? src[i] / sum_src : 0.0))
                                : std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));
     if (!(share > 0)) share = std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // an untextured piece in a textured scene
+    if (!std::isfinite(share) || !(share > 0)) share = 1e-6;  // degenerate input: a token size
     double texels = share * T;
     double uv_area = std::max(1e-30, uvs[i].area_3d);
-    item_scale.push_back(std::sqrt(texels / uv_area));
+    double scale = std::sqrt(texels / uv_area);
+    item_scale.push_back(std::isfinite(scale) && scale > 0 ? scale : 1.0);
     item_chart.push_back(i);
     chart_item[i] = rects.size();
     rects.push_back({});
@@ -242,8 +244,12 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       if (item_scale[k] == 0) continue;
       const ChartUv& u = uvs[item_chart[k]];
       double sc = item_scale[k] * f;
-      rects[k].w = std::max(1, int(std::ceil(u.size.x * sc))) + 2 * gutter;
-      rects[k].h = std::max(1, int(std::ceil(u.size.y * sc))) + 2 * gutter;
+      auto texels = [&](double extent) {
+        double t = std::ceil(extent * sc);
+        return std::isfinite(t) ? int(std::clamp(t, 1.0, double(o.max_size))) : 1;
+      };
+      rects[k].w = texels(u.size.x) + 2 * gutter;
+      rects[k].h = texels(u.size.y) + 2 * gutter;
     }
   };
   auto fits = [&](double f, int side) {

@@ -232,3 +232,47 @@ INSTANTIATE_TEST_SUITE_P(Shared, AtlasMipLevels,
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Degenerate texture coordinates (every corner at one uv) and an image that is not decoded
+// must not break sizing or packing: the atlas still builds and validates.
+TEST(Atlas, DegenerateUvsAndUndecodedImagesStillBuild) {
+  Scene s;
+  Image img;
+  img.name = "tiny";
+  img.width = img.height = 2;
+  img.rgba = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255};
+  s.images.push_back(img);
+  Image broken;
+  broken.name = "broken";  // not decoded
+  s.images.push_back(broken);
+  Material a, b;
+  a.base_color.image = 0;
+  b.base_color.image = 1;
+  s.materials = {a, b};
+  Mesh m;
+  for (int k = 0; k < 2; ++k) {
+    Primitive p;
+    float x = float(k) * 2;
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {std::vector<Vec2>(4, Vec2{0.5f, 0.5f})};  // every corner at one uv
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    m.primitives.push_back(p);
+  }
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  Scene cleaned = clean(s, {});
+  AtlasReport rep;
+  auto out = build_atlas(cleaned, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(validate(*out).is_ok()) << validate(*out).message();
+  EXPECT_EQ(out->materials.size(), 1u);
+  EXPECT_GT(rep.size, 0);
+}
+
+}  // namespace
+}  // namespace meshmux
