@@ -13,7 +13,7 @@ debs=(
   libopenimageio-dev openimageio-tools libturbojpeg0-dev
   libassimp-dev libpugixml-dev
   libgtest-dev libgmock-dev
-  libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+  libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   chromium
 )
 # Node.js: any install that provides node and npm will do (Debian's nodejs+npm, or NodeSource's nodejs,

@@ -1,0 +1,52 @@
+// The multiplexer (paper 004 §3): builds the mesh layers (refinement batches of the
+// progressive record, with the bytes meshoptimizer's order-preserving codecs give them) and the
+// texture layers (the atlas's mip levels, with their JPEG/PNG bytes), renders states (i, j)
+// from the views of a viewing sphere, measures their distortion against the full-quality
+// render, and orders the stream by steepest descent; the three baselines of paper 004 come
+// from the same cached renders.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "condition/texture_levels.h"
+#include "multiplex/render.h"
+#include "multiplex/schedule.h"
+#include "multiplex/viewpoints.h"
+#include "scene/progressive.h"
+
+namespace meshmux {
+
+struct MultiplexOptions {
+  int view_layers = 1;          // viewing sphere subdivision: 1 → 10 views
+  RenderOptions render{};       // image size and shading (256² by default)
+  ViewOptions views{};          // framing
+  TextureLevelOptions textures{};
+  int min_mesh_layers = 4;      // the refinements are cut into this many batches at least
+  int max_mesh_layers = 12;     // and at most this many
+  uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
+};
+
+struct MultiplexResult {
+  std::vector<uint64_t> mesh_bytes;     // per mesh layer (0: the base geometry)
+  std::vector<uint64_t> texture_bytes;  // per texture level (0: the 128² level)
+  std::vector<uint32_t> layer_triangles;  // scene triangles after each mesh layer
+  RdPath rd, mesh_first, texture_first, constant_ratio;
+  std::string metric = "ciede2000";     // mean CIEDE2000 over covered pixels, averaged over views
+  size_t views = 0;
+  size_t renders = 0;                   // images rendered (cells evaluated × views, plus references)
+  size_t cells_evaluated = 0;           // grid cells whose distortion was computed
+  size_t cells_total = 0;               // m × n
+  double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
+};
+
+// `ps` is the progressive record of the atlased scene; `atlas` its decoded base-colour texture
+// (or an undecoded Image for an untextured scene: one empty texture layer).
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas,
+                                  const MultiplexOptions& options = {});
+
+// report.json's "curves" and summary as JSON text, and rd.svg plotting the four curves.
+std::string report_json(const MultiplexResult& r);
+std::string rd_svg(const MultiplexResult& r);
+
+}  // namespace meshmux
