@@ -16,6 +16,7 @@
 #include "condition/flatten.h"
 #include "condition/lod.h"
 #include "condition/simplify.h"
+#include "multiplex/multiplex.h"
 #include "exporters/gltf.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
@@ -41,8 +42,9 @@ const char* kUsage =
     "usage:\n"
     "  meshmux convert IN -o OUT [options]   clean IN and write web-ready output\n"
     "      OUT ending in .glb: that one file (full quality, Draco-compressed)\n"
-    "      otherwise OUT is a folder that receives model.glb (full quality) and base.glb\n"
-    "      (the base level of detail that displays first)\n"
+    "      otherwise OUT is a folder that receives model.glb (full quality), base.glb (the\n"
+    "      base level of detail that displays first), report.json and rd.svg (the\n"
+    "      rate-distortion order of mesh and texture levels, measured by rendering)\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
     "                                        textures, draw calls, bytes (a .gltf counts\n"
     "                                        its external buffers and images too)\n"
@@ -59,6 +61,7 @@ const char* kUsage =
     "  --uv-bits N         Draco texture coordinate quantization bits (default 12)\n"
     "  --no-draco          write plain (uncompressed) accessors\n"
     "  --no-atlas          keep the source materials and textures (no single-texture atlas)\n"
+    "  --no-report         folder output: skip the rendered rate-distortion report\n"
     "  --crease DEGREES    crease angle for generated normals (default 60)\n"
     "  -q, --quiet         no progress or warnings on stderr\n"
     "\n"
@@ -181,7 +184,7 @@ class Args {
 };
 
 int cmd_convert(const std::vector<std::string>& args) {
-  bool atlas = true;
+  bool atlas = true, want_report = true;
   GltfExportOptions gopts;
   CleanOptions copts;
   Args p("convert", args);
@@ -192,6 +195,8 @@ int cmd_convert(const std::vector<std::string>& args) {
       gopts.draco = false;
     } else if (a == "--no-atlas") {
       atlas = false;
+    } else if (a == "--no-report") {
+      want_report = false;
     } else if (a == "--position-bits" || a == "--normal-bits" || a == "--uv-bits") {
       if (!p.value(&v)) return usage_error(p.error);
       int* target = a == "--position-bits" ? &gopts.position_bits
@@ -279,6 +284,7 @@ int cmd_convert(const std::vector<std::string>& args) {
     target = out + "/model.glb";
   }
   std::vector<uint8_t> base_bytes;
+  std::string report_text, svg_text;
   if (!ends_with(out, ".glb")) {
     progress.step("simplifying (instance-aware progressive record)");
     SimplifyReport sr;
@@ -293,6 +299,26 @@ int cmd_convert(const std::vector<std::string>& args) {
     auto b = export_glb_bytes(base, gopts, &warnings);
     if (!b.ok()) return fail(b.status());
     base_bytes = b.take();
+    if (want_report) {
+      progress.step("multiplexing (rendering levels from the viewing sphere)");
+      Image atlas_image;
+      if (!cleaned.materials.empty() && cleaned.materials[0].base_color.present())
+        atlas_image = cleaned.images[size_t(cleaned.materials[0].base_color.image)];
+      auto mx = multiplex(ps, atlas_image, MultiplexOptions{});
+      if (!mx.ok()) {
+        warnings.add("report: " + mx.status().message() + "; report.json and rd.svg not written");
+        progress.warnings(warnings, warnings.items().size() - 1);
+      } else {
+        char line[256];
+        std::snprintf(line, sizeof line,
+                      "multiplexed: %zu mesh x %zu texture layers, %zu views, %zu of %zu cells rendered (%zu images), %.1f s",
+                      mx->mesh_bytes.size(), mx->texture_bytes.size(), mx->views, mx->cells_evaluated,
+                      mx->cells_total, mx->renders, mx->seconds_total);
+        progress.step(line);
+        report_text = report_json(*mx);
+        svg_text = rd_svg(*mx);
+      }
+    }
   }
   Status s = write_file_atomic(target, *bytes);
   if (!s) return fail(s);
@@ -303,6 +329,14 @@ int cmd_convert(const std::vector<std::string>& args) {
       return fail(s);
     }
     progress.step("wrote " + out + "/base.glb (" + human_bytes(base_bytes.size()) + ")");
+  }
+  if (!report_text.empty()) {
+    for (const auto& [name, text] : {std::make_pair(std::string("report.json"), report_text),
+                                     std::make_pair(std::string("rd.svg"), svg_text)}) {
+      s = write_file_atomic(out + "/" + name, text);
+      if (!s) return fail(s);
+    }
+    progress.step("wrote " + out + "/report.json and " + out + "/rd.svg");
   }
   SceneStats after = compute_stats(cleaned);
   progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +

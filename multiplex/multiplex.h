@@ -35,7 +35,8 @@ struct MultiplexResult {
   std::string metric = "ciede2000";     // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;
   size_t renders = 0;                   // images rendered (cells evaluated × views, plus references)
-  size_t cells_evaluated = 0;           // grid cells whose distortion was computed
+  size_t cells_descent = 0;             // cells the steepest descent alone evaluated (lazily)
+  size_t cells_evaluated = 0;           // cells evaluated once the baselines ran too
   size_t cells_total = 0;               // m × n
   double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
 };

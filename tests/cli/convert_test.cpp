@@ -454,3 +454,34 @@ INSTANTIATE_TEST_SUITE_P(Shared, ConvertAtlas,
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// convert into a folder writes report.json (the four curves, metric, views, renders, seconds)
+// and rd.svg beside the models.
+TEST(ConvertFolder, WritesRateDistortionReport) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  auto r = run_meshmux({"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  if (!std::filesystem::exists(dir.file("out/report.json"))) GTEST_SKIP() << "no renderer here: " << r.err;
+  std::string text;
+  for (uint8_t c : testing::read_file(dir.file("out/report.json"))) text.push_back(char(c));
+  json j = json::parse(text);
+  for (const char* curve : {"rd", "mesh_first", "texture_first", "constant_ratio"}) {
+    ASSERT_TRUE(j["curves"].contains(curve)) << curve;
+    ASSERT_GE(j["curves"][curve].size(), 2u) << curve;
+    EXPECT_EQ(j["curves"][curve][0][0], j["curves"]["rd"][0][0]);  // same start
+  }
+  EXPECT_EQ(j["distortion_metric"], "ciede2000");
+  EXPECT_EQ(j["views"], 10);
+  EXPECT_GT(j["renders"].get<int>(), 0);
+  EXPECT_TRUE(j["seconds"].contains("total"));
+  auto svg = testing::read_file(dir.file("out/rd.svg"));
+  ASSERT_GT(svg.size(), 100u);
+  EXPECT_EQ(std::string(svg.begin(), svg.begin() + 4), "<svg");
+}
+
+}  // namespace
+}  // namespace meshmux

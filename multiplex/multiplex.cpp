@@ -1,0 +1,276 @@
+// The multiplexer, paper 004 §3: layers with their stream bytes, renders from the viewing
+// sphere, distortion against the full-quality render, steepest descent and the baselines.
+// Mesh-layer bytes use meshoptimizer's order-preserving codecs (DESIGN.md "Package": the
+// refinement chunks keep the vertex order the progressive mesh defines).
+#include "multiplex/multiplex.h"
+
+#include <meshoptimizer.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+#include "condition/lod.h"
+#include "importers/image_decode.h"
+#include "multiplex/distortion.h"
+
+namespace meshmux {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh, as a
+// refinement chunk would carry them: 20-byte vertices (16-bit positions over the mesh bounds,
+// 8-bit normal, 16-bit uv, 32-bit parent) through meshopt_encodeVertexBuffer, and the faces'
+// indices through meshopt_encodeIndexBuffer.
+uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1, uint32_t f0, uint32_t f1) {
+  struct Packed {
+    uint16_t p[4];
+    int8_t n[4];
+    uint16_t t[2];
+    uint32_t parent;
+  };
+  static_assert(sizeof(Packed) == 20, "packed vertex is 20 bytes");
+  uint64_t total = 0;
+  if (v1 > v0) {
+    std::vector<Packed> verts(v1 - v0);
+    Vec3 ext = box.max - box.min;
+    auto q16 = [](float x, float lo, float e) {
+      float t = e > 0 ? (x - lo) / e : 0;
+      return uint16_t(std::lround(std::clamp(t, 0.0f, 1.0f) * 65535));
+    };
+    for (uint32_t v = v0; v < v1; ++v) {
+      Packed& q = verts[v - v0];
+      Vec3 p = pm.positions[v];
+      q.p[0] = q16(p.x, box.min.x, ext.x), q.p[1] = q16(p.y, box.min.y, ext.y), q.p[2] = q16(p.z, box.min.z, ext.z);
+      q.p[3] = 0;
+      Vec3 n = pm.normals.empty() ? Vec3{0, 0, 1} : pm.normals[v];
+      q.n[0] = int8_t(std::lround(n.x * 127)), q.n[1] = int8_t(std::lround(n.y * 127));
+      q.n[2] = int8_t(std::lround(n.z * 127)), q.n[3] = 0;
+      Vec2 t = pm.uvs.empty() ? Vec2{} : pm.uvs[0][v];
+      q.t[0] = q16(t.x, 0, 1), q.t[1] = q16(t.y, 0, 1);
+      q.parent = pm.parent[v];
+    }
+    std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(verts.size(), sizeof(Packed)));
+    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), verts.data(), verts.size(), sizeof(Packed));
+  }
+  if (f1 > f0) {
+    size_t count = size_t(f1 - f0) * 3;
+    std::vector<unsigned char> buf(meshopt_encodeIndexBufferBound(count, pm.vertex_count()));
+    total += meshopt_encodeIndexBuffer(buf.data(), buf.size(), &pm.indices[size_t(f0) * 3], count);
+  }
+  return total;
+}
+
+// Bytes to go from one selection to the next (previous == nullptr: the base from nothing).
+uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxes, const LodSelection* previous,
+                     const LodSelection& next) {
+  uint64_t total = 0;
+  for (size_t m = 0; m < ps.meshes.size(); ++m) {
+    const ProgressiveMesh& pm = ps.meshes[m];
+    const ProgressiveLevel& b = pm.levels[next.level[m]];
+    uint32_t v0 = 0, f0 = 0;
+    if (previous) {
+      const ProgressiveLevel& a = pm.levels[previous->level[m]];
+      v0 = a.vertex_end, f0 = a.face_end;
+    }
+    total += chunk_bytes(pm, boxes[m], v0, b.vertex_end, f0, b.face_end);
+  }
+  return total;
+}
+
+}  // namespace
+
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas, const MultiplexOptions& o) {
+  auto start = Clock::now();
+  MultiplexResult r;
+  // --- Mesh layers: scene-wide selections from the base to the full detail. ---
+  std::vector<Bounds> boxes;
+  for (const ProgressiveMesh& pm : ps.meshes) {
+    Bounds b;
+    for (Vec3 p : pm.positions) b.add(p);
+    boxes.push_back(b);
+  }
+  LodSelection base = select_base(ps), full = select_full(ps);
+  uint64_t base_tris = selection_triangles(ps, base), full_tris = selection_triangles(ps, full);
+  uint64_t refine_bytes = layer_bytes(ps, boxes, &base, full);
+  int m = 1;
+  if (full_tris > base_tris) {
+    m = int(std::ceil(double(refine_bytes) / double(std::max<uint64_t>(1, o.layer_bytes))));
+    m = std::clamp(m, o.min_mesh_layers, o.max_mesh_layers) + 1;
+  }
+  std::vector<LodSelection> layers{base};
+  for (int k = 1; k < m; ++k) {
+    LodSelection s = k == m - 1 ? full
+                                : select_triangles(ps, base_tris + (full_tris - base_tris) * uint64_t(k) / uint64_t(m - 1));
+    for (size_t i = 0; i < s.level.size(); ++i) {
+      s.level[i] = std::max(s.level[i], layers.back().level[i]);  // refinements only add
+      s.instances[i] = full.instances[i];
+    }
+    layers.push_back(s);
+  }
+  for (int k = 0; k < m; ++k) {
+    r.mesh_bytes.push_back(layer_bytes(ps, boxes, k ? &layers[size_t(k - 1)] : nullptr, layers[size_t(k)]));
+    r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
+  }
+  // --- Texture layers: the atlas's mip levels as the stream carries them. ---
+  std::vector<Image> textures;
+  if (atlas.decoded()) {
+    auto levels = make_texture_levels(atlas, o.textures);
+    if (!levels.ok()) return levels.status().with_prefix("multiplex");
+    for (const TextureLevel& l : levels->levels) {
+      Image img;
+      img.name = "level " + std::to_string(l.width);
+      img.encoded = l.encoded;
+      img.mime_type = l.mime_type;
+      Status s = decode_image(img);  // render what the client decodes, JPEG losses included
+      if (!s) return s.with_prefix("multiplex");
+      r.texture_bytes.push_back(l.encoded.size());
+      textures.push_back(std::move(img));
+    }
+  } else {
+    r.texture_bytes.push_back(0);
+  }
+  r.seconds_layers = since(start);
+
+  // --- Renders. ---
+  auto renderer = Renderer::create(o.render);
+  if (!renderer.ok()) return renderer.status();
+  Renderer& gl = **renderer;
+  std::vector<int> geometry(size_t(m), -1);
+  auto geometry_of = [&](int i) {
+    if (geometry[size_t(i)] < 0) geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
+    return geometry[size_t(i)];
+  };
+  std::vector<int> texture(textures.size(), -1);
+  auto texture_of = [&](int j) {
+    if (textures.empty()) return -1;
+    if (texture[size_t(j)] < 0) texture[size_t(j)] = gl.add_texture(textures[size_t(j)]);
+    return texture[size_t(j)];
+  };
+  ViewingSphere sphere = viewing_sphere(o.view_layers);
+  Bounds box = scene_bounds(materialize(ps, full));
+  float aspect = float(o.render.width) / float(std::max(1, o.render.height));
+  std::vector<Camera> cameras;
+  for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, o.views));
+  r.views = cameras.size();
+  int n = int(r.texture_bytes.size());
+  auto render_start = Clock::now();
+  std::vector<RenderImage> reference;
+  for (const Camera& c : cameras) reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
+  r.renders += cameras.size();
+  RdGrid grid;
+  grid.mesh_bytes = r.mesh_bytes;
+  grid.texture_bytes = r.texture_bytes;
+  grid.distortion = [&](int i, int j) {
+    if (i == m - 1 && j == n - 1) return 0.0;
+    double sum = 0;
+    for (size_t v = 0; v < cameras.size(); ++v) {
+      RenderImage img = gl.render(geometry_of(i), texture_of(j), cameras[v]);
+      ++r.renders;
+      sum += measure_distortion(reference[v], img).ciede2000;
+    }
+    return sum / double(cameras.size());
+  };
+  RdCache cache(grid);
+  r.rd = steepest_descent(cache);
+  r.cells_descent = cache.evaluated();
+  r.mesh_first = mesh_first(cache);
+  r.texture_first = texture_first(cache);
+  r.constant_ratio = constant_ratio(cache);
+  r.cells_evaluated = cache.evaluated();
+  r.cells_total = size_t(m) * size_t(n);
+  r.seconds_render = since(render_start);
+  r.seconds_total = since(start);
+  return r;
+}
+
+namespace {
+
+void curve(std::ostringstream& out, const RdPath& p) {
+  out << "[";
+  for (size_t k = 0; k < p.bytes.size(); ++k) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s[%llu, %.6g]", k ? ", " : "", static_cast<unsigned long long>(p.bytes[k]), p.distortion[k]);
+    out << buf;
+  }
+  out << "]";
+}
+
+}  // namespace
+
+std::string report_json(const MultiplexResult& r) {
+  std::ostringstream out;
+  out << "{\n  \"curves\": {\n    \"rd\": ";
+  curve(out, r.rd);
+  out << ",\n    \"mesh_first\": ";
+  curve(out, r.mesh_first);
+  out << ",\n    \"texture_first\": ";
+  curve(out, r.texture_first);
+  out << ",\n    \"constant_ratio\": ";
+  curve(out, r.constant_ratio);
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "\n  },\n  \"areas\": {\"rd\": %.6g, \"mesh_first\": %.6g, \"texture_first\": %.6g, \"constant_ratio\": %.6g},"
+                "\n  \"distortion_metric\": \"%s\",\n  \"views\": %zu,\n  \"renders\": %zu,"
+                "\n  \"cells_descent\": %zu,\n  \"cells_evaluated\": %zu,\n  \"cells_total\": %zu,",
+                area_under(r.rd), area_under(r.mesh_first), area_under(r.texture_first), area_under(r.constant_ratio),
+                r.metric.c_str(), r.views, r.renders, r.cells_descent, r.cells_evaluated, r.cells_total);
+  out << buf;
+  out << "\n  \"mesh_layer_bytes\": [";
+  for (size_t k = 0; k < r.mesh_bytes.size(); ++k) out << (k ? ", " : "") << r.mesh_bytes[k];
+  out << "],\n  \"mesh_layer_triangles\": [";
+  for (size_t k = 0; k < r.layer_triangles.size(); ++k) out << (k ? ", " : "") << r.layer_triangles[k];
+  out << "],\n  \"texture_level_bytes\": [";
+  for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
+  out << "],\n  \"order\": [";
+  for (size_t k = 0; k < r.rd.cells.size(); ++k)
+    out << (k ? ", " : "") << "[" << r.rd.cells[k].first << ", " << r.rd.cells[k].second << "]";
+  std::snprintf(buf, sizeof buf, "],\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",
+                r.seconds_layers, r.seconds_render, r.seconds_total);
+  out << buf;
+  return out.str();
+}
+
+std::string rd_svg(const MultiplexResult& r) {
+  const int W = 640, H = 400, L = 60, R = 20, T = 20, B = 50;
+  const RdPath* paths[4] = {&r.rd, &r.mesh_first, &r.texture_first, &r.constant_ratio};
+  const char* names[4] = {"steepest descent", "mesh first", "texture first", "constant ratio"};
+  const char* colors[4] = {"#d62728", "#1f77b4", "#2ca02c", "#9467bd"};
+  double max_b = 1, max_d = 1e-9;
+  for (const RdPath* p : paths)
+    for (size_t k = 0; k < p->bytes.size(); ++k)
+      max_b = std::max(max_b, double(p->bytes[k])), max_d = std::max(max_d, p->distortion[k]);
+  std::ostringstream out;
+  out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+  out << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  out << "<line x1=\"" << L << "\" y1=\"" << H - B << "\" x2=\"" << W - R << "\" y2=\"" << H - B << "\" stroke=\"black\"/>\n";
+  out << "<line x1=\"" << L << "\" y1=\"" << T << "\" x2=\"" << L << "\" y2=\"" << H - B << "\" stroke=\"black\"/>\n";
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" text-anchor=\"middle\">stream bytes (0 … %.0f kB)</text>\n", (L + W - R) / 2, H - 15, max_b / 1000);
+  out << buf;
+  std::snprintf(buf, sizeof buf, "<text x=\"15\" y=\"%d\" transform=\"rotate(-90 15 %d)\" text-anchor=\"middle\">%s (0 … %.2f)</text>\n", (T + H - B) / 2, (T + H - B) / 2, r.metric.c_str(), max_d);
+  out << buf;
+  for (int c = 0; c < 4; ++c) {
+    out << "<polyline fill=\"none\" stroke=\"" << colors[c] << "\" stroke-width=\"" << (c == 0 ? 2.5 : 1.5) << "\" points=\"";
+    for (size_t k = 0; k < paths[c]->bytes.size(); ++k) {
+      double x = L + (W - L - R) * double(paths[c]->bytes[k]) / max_b;
+      double y = (H - B) - (H - B - T) * paths[c]->distortion[k] / max_d;
+      std::snprintf(buf, sizeof buf, "%.1f,%.1f ", x, y);
+      out << buf;
+    }
+    out << "\"/>\n";
+    std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" fill=\"%s\">%s: area %.3g</text>\n", W - R - 220, T + 15 + 16 * c, colors[c], names[c], area_under(*paths[c]));
+    out << buf;
+  }
+  out << "</svg>\n";
+  return out.str();
+}
+
+}  // namespace meshmux

@@ -1,0 +1,654 @@
+// Offscreen renderer for the rate-distortion multiplexer (see render.h).
+//
+// Context: EGL on Mesa's surfaceless platform (EGL_MESA_platform_surfaceless), an OpenGL 4.5
+// core context made current without any surface, and a framebuffer object of its own (RGBA8
+// colour + DEPTH24 renderbuffers, single-sampled: no MSAA, so llvmpipe's output is
+// bit-for-bit deterministic). When the surfaceless platform is missing, the default EGL display
+// is tried with EGL_KHR_surfaceless_context (again no pbuffer).
+//
+// Drawing: one program; one draw call per (instance, primitive) with the instance's
+// model-view-projection matrix (computed in double on the CPU, so large world coordinates keep
+// their bits) and world-space normal matrix as uniforms. No culling; two-sided lighting flips the
+// normal of back faces (gl_FrontFacing; instances with mirroring transforms get glFrontFace(CW)
+// so "front" still means counter-clockwise in mesh space). Shading:
+//   base = texture(uv0) * base_color_factor  (factor alone when untextured)
+//   rgb  = base.rgb * (ambient + diffuse * max(dot(N, L), 0)),  alpha = 1.
+// Colour space: texels are sRGB-encoded bytes and are used as stored (no sRGB decode, no
+// framebuffer sRGB encode); factors multiply them directly. This is what a viewer without colour
+// management shows and is close to three.js's default output; it keeps mip averaging in the
+// stored byte space too. Alpha modes are ignored (everything is drawn opaque).
+//
+// Texture: the one texture passed to render() is applied to every primitive (the pipeline bakes
+// one material / one texture per model before multiplexing). Rows are uploaded top row first, so
+// GL's t = 0 is the image's top row, which is exactly glTF's v = 0: uvs are used unflipped.
+// Trilinear mipmapping + anisotropic filtering, clamp-to-edge. llvmpipe's anisotropic filter
+// (Mesa 22.3) also kicks in under magnification, where it blurs and jitters texels (a 2x2
+// texture magnified 64x comes out noisy); GPUs filter magnified texels bilinearly. So the texture
+// is bound twice, with an anisotropic and a plain trilinear sampler object, and the shader uses
+// the anisotropic one only where a pixel's footprint spans more than one texel.
+//
+// Readback: glReadPixels (bottom row first) is flipped so row 0 is the top of the image.
+
+#define GL_GLEXT_PROTOTYPES 1
+#include "multiplex/render.h"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/glcorearb.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+
+#ifndef GL_MAX_TEXTURE_MAX_ANISOTROPY
+#define GL_MAX_TEXTURE_MAX_ANISOTROPY 0x84FF
+#endif
+#ifndef GL_TEXTURE_MAX_ANISOTROPY
+#define GL_TEXTURE_MAX_ANISOTROPY 0x84FE
+#endif
+
+namespace meshmux {
+namespace {
+
+// ---- EGL helpers -------------------------------------------------------------------------
+
+std::string egl_error_name() {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "EGL error 0x%04X", unsigned(eglGetError()));
+  return buf;
+}
+
+bool has_extension(const char* list, const char* name) {
+  if (!list) return false;
+  size_t n = std::strlen(name);
+  for (const char* p = list; (p = std::strstr(p, name)) != nullptr; p += n)
+    if ((p == list || p[-1] == ' ') && (p[n] == ' ' || p[n] == '\0')) return true;
+  return false;
+}
+
+Status egl_failure(const std::string& what) {
+  return Status::error("render: EGL: " + what, ErrorKind::kInternal);
+}
+
+// EGL displays are process-wide and eglTerminate destroys every context on them, so several
+// Renderers sharing one display count their uses; the last one out terminates it.
+std::mutex& display_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::map<EGLDisplay, int>& display_uses() {
+  static std::map<EGLDisplay, int> uses;
+  return uses;
+}
+
+// ---- Matrices (double, column-major like Mat4) ---------------------------------------------
+
+struct D3 {
+  double x, y, z;
+};
+D3 sub(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+double dot3(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+D3 cross3(D3 a, D3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+D3 norm3(D3 a) {
+  double l = std::sqrt(dot3(a, a));
+  return l > 0 ? D3{a.x / l, a.y / l, a.z / l} : D3{0, 0, 0};
+}
+D3 to_d(Vec3 v) { return {v.x, v.y, v.z}; }
+
+// Look-at view matrix; `rows` receives the camera's right, up and backward axes in world space.
+Mat4 look_at(const Camera& c, D3 rows[3]) {
+  D3 eye = to_d(c.eye);
+  D3 f = norm3(sub(to_d(c.target), eye));
+  if (dot3(f, f) == 0) f = {0, 0, -1};
+  D3 up = norm3(to_d(c.up));
+  D3 s = norm3(cross3(f, up));
+  if (dot3(s, s) < 1e-12) {  // up parallel to the view direction: pick another up
+    up = std::abs(f.y) < 0.9 ? D3{0, 1, 0} : D3{1, 0, 0};
+    s = norm3(cross3(f, up));
+  }
+  D3 u = cross3(s, f);
+  D3 b{-f.x, -f.y, -f.z};
+  rows[0] = s;
+  rows[1] = u;
+  rows[2] = b;
+  Mat4 v;
+  for (int i = 0; i < 3; ++i) {
+    v.at(i, 0) = rows[i].x;
+    v.at(i, 1) = rows[i].y;
+    v.at(i, 2) = rows[i].z;
+    v.at(i, 3) = -dot3(rows[i], eye);
+  }
+  return v;
+}
+
+Mat4 perspective(double fov_y_degrees, double aspect, double n, double f) {
+  double t = 1.0 / std::tan(fov_y_degrees * 3.14159265358979323846 / 360.0);
+  Mat4 p;
+  p.m.fill(0);
+  p.at(0, 0) = t / aspect;
+  p.at(1, 1) = t;
+  p.at(2, 2) = (f + n) / (n - f);
+  p.at(2, 3) = 2 * f * n / (n - f);
+  p.at(3, 2) = -1;
+  return p;
+}
+
+// ---- Shaders -------------------------------------------------------------------------------
+
+const char* kVertexShader = R"(#version 450 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in vec2 a_uv;
+uniform mat4 u_mvp;     // projection * view * model
+uniform mat3 u_normal;  // model's inverse transpose (world-space normals)
+out vec3 v_normal;
+out vec2 v_uv;
+void main() {
+  gl_Position = u_mvp * vec4(a_position, 1.0);
+  v_normal = u_normal * a_normal;
+  v_uv = a_uv;
+}
+)";
+
+const char* kFragmentShader = R"(#version 450 core
+in vec3 v_normal;
+in vec2 v_uv;
+uniform sampler2D u_texture;        // trilinear + anisotropic (minification)
+uniform sampler2D u_texture_plain;  // the same texture, trilinear only (magnification)
+uniform vec2 u_texture_size;
+uniform bool u_textured;
+uniform vec4 u_factor;
+uniform vec3 u_light;   // unit, world space, towards the light
+uniform float u_ambient;
+uniform float u_diffuse;
+out vec4 o_color;
+void main() {
+  // Texels are sRGB bytes used as stored (see render.cpp's top comment).
+  // llvmpipe's anisotropic filter blurs and perturbs magnified textures (GPUs filter those
+  // bilinearly), so the anisotropic sampler is used only where the pixel footprint spans more
+  // than one texel. Both samples are taken in uniform control flow (implicit derivatives).
+  vec4 base = u_factor;
+  if (u_textured) {
+    vec2 t = v_uv * u_texture_size;
+    vec2 dx = dFdx(t), dy = dFdy(t);
+    bool minified = max(dot(dx, dx), dot(dy, dy)) > 1.0;
+    vec4 a = texture(u_texture, v_uv), p = texture(u_texture_plain, v_uv);
+    base *= minified ? a : p;
+  }
+  float len = length(v_normal);
+  vec3 n = len > 1e-20 ? v_normal / len : vec3(0.0, 0.0, 1.0);
+  if (!gl_FrontFacing) n = -n;  // two-sided lighting
+  float lambert = max(dot(n, u_light), 0.0);
+  o_color = vec4(base.rgb * (u_ambient + u_diffuse * lambert), 1.0);
+}
+)";
+
+Result<GLuint> compile(GLenum type, const char* source) {
+  GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &source, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048] = {0};
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    glDeleteShader(s);
+    return Status::error(std::string("render: shader compile failed: ") + log,
+                         ErrorKind::kInternal);
+  }
+  return s;
+}
+
+struct Vertex {
+  float position[3];
+  float normal[3];
+  float uv[2];
+};
+
+struct GpuPrimitive {
+  GLuint vao = 0, vbo = 0, ibo = 0;
+  GLsizei index_count = 0;
+  Vec4 factor{1, 1, 1, 1};
+};
+
+struct GpuInstance {
+  uint32_t mesh = 0;
+  Mat4 world;
+};
+
+struct GpuGeometry {
+  bool live = false;
+  std::vector<std::vector<GpuPrimitive>> meshes;  // per mesh, its primitives
+  std::vector<GpuInstance> instances;
+};
+
+}  // namespace
+
+struct Renderer::Impl {
+  RenderOptions options;
+  EGLDisplay display = EGL_NO_DISPLAY;
+  EGLContext context = EGL_NO_CONTEXT;
+  GLuint fbo = 0, color_rb = 0, depth_rb = 0;
+  GLuint program = 0;
+  GLint u_mvp = -1, u_normal = -1, u_texture = -1, u_texture_plain = -1, u_texture_size = -1,
+        u_textured = -1, u_factor = -1, u_light = -1, u_ambient = -1, u_diffuse = -1;
+  GLuint sampler_aniso = 0, sampler_plain = 0;  // texture units 0 and 1
+  float max_anisotropy = 1;
+  std::vector<GpuGeometry> geometries;
+  struct Texture {
+    GLuint id = 0;  // 0 = freed
+    int width = 0, height = 0;
+  };
+  std::vector<Texture> textures;
+
+  void make_current() {
+    if (eglGetCurrentContext() != context)
+      eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context);
+  }
+  Status init_egl();
+  Status init_gl();
+};
+
+Status Renderer::Impl::init_egl() {
+  const char* client_ext = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+  bool surfaceless = false;
+  if (has_extension(client_ext, "EGL_MESA_platform_surfaceless")) {
+    auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+        eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    if (get_platform_display) {
+      display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA,
+                                     reinterpret_cast<void*>(EGL_DEFAULT_DISPLAY), nullptr);
+      surfaceless = display != EGL_NO_DISPLAY;
+    }
+  }
+  std::string missing =
+      "no surfaceless platform (install libegl-mesa0 libgl1-mesa-dri)";
+  if (!surfaceless) display = eglGetDisplay(EGL_DEFAULT_DISPLAY);
+  if (display == EGL_NO_DISPLAY) return egl_failure(missing + "; no default display either");
+  {
+    std::lock_guard<std::mutex> lock(display_mutex());
+    EGLint major = 0, minor = 0;
+    if (!eglInitialize(display, &major, &minor)) {
+      std::string why = egl_error_name();
+      display = EGL_NO_DISPLAY;
+      return egl_failure((surfaceless ? std::string("eglInitialize failed on the surfaceless "
+                                                    "platform")
+                                      : missing + "; eglInitialize on the default display "
+                                                  "failed") + " (" + why + ")");
+    }
+    ++display_uses()[display];
+  }
+  const char* ext = eglQueryString(display, EGL_EXTENSIONS);
+  if (!surfaceless && !has_extension(ext, "EGL_KHR_surfaceless_context"))
+    return egl_failure(missing + "; the default display lacks EGL_KHR_surfaceless_context");
+  if (!eglBindAPI(EGL_OPENGL_API)) return egl_failure("no desktop OpenGL API (eglBindAPI)");
+
+  EGLConfig config = EGL_NO_CONFIG_KHR;
+  if (!has_extension(ext, "EGL_KHR_no_config_context") &&
+      !has_extension(ext, "EGL_MESA_configless_context")) {
+    const EGLint attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0,
+                              EGL_NONE};
+    EGLint count = 0;
+    if (!eglChooseConfig(display, attribs, &config, 1, &count) || count < 1)
+      return egl_failure("no OpenGL-renderable config (" + egl_error_name() + ")");
+  }
+  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4,
+                                    EGL_CONTEXT_MINOR_VERSION, 5,
+                                    EGL_CONTEXT_OPENGL_PROFILE_MASK,
+                                    EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                                    EGL_NONE};
+  context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
+  if (context == EGL_NO_CONTEXT)
+    return egl_failure("cannot create an OpenGL 4.5 core context (" + egl_error_name() + ")");
+  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
+    return egl_failure("cannot make the context current without a surface (" +
+                       egl_error_name() + ")");
+  return Status::ok();
+}
+
+Status Renderer::Impl::init_gl() {
+  auto fail = [](const std::string& what) {
+    return Status::error("render: GL: " + what, ErrorKind::kInternal);
+  };
+  GLint major = 0, minor = 0;
+  glGetIntegerv(GL_MAJOR_VERSION, &major);
+  glGetIntegerv(GL_MINOR_VERSION, &minor);
+  if (major * 10 + minor < 45)
+    return fail("OpenGL 4.5 needed, got " + std::to_string(major) + "." + std::to_string(minor));
+  GLint max_rb = 0;
+  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+  if (options.width < 1 || options.height < 1 || options.width > max_rb ||
+      options.height > max_rb)
+    return Status::error("render: image size " + std::to_string(options.width) + "x" +
+                             std::to_string(options.height) + " outside 1.." +
+                             std::to_string(max_rb),
+                         ErrorKind::kInput);
+  glGetFloatv(GL_MAX_TEXTURE_MAX_ANISOTROPY, &max_anisotropy);
+  if (!(max_anisotropy >= 1)) max_anisotropy = 1;
+  glGetError();  // anisotropy is core in 4.6 only; ignore an error from the query above
+
+  glGenRenderbuffers(1, &color_rb);
+  glBindRenderbuffer(GL_RENDERBUFFER, color_rb);
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, options.width, options.height);
+  glGenRenderbuffers(1, &depth_rb);
+  glBindRenderbuffer(GL_RENDERBUFFER, depth_rb);
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, options.width, options.height);
+  glGenFramebuffers(1, &fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color_rb);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_rb);
+  GLenum fb = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+  if (fb != GL_FRAMEBUFFER_COMPLETE) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "0x%04X", unsigned(fb));
+    return fail(std::string("framebuffer incomplete (") + buf + ")");
+  }
+
+  auto vs = compile(GL_VERTEX_SHADER, kVertexShader);
+  if (!vs) return vs.status();
+  auto fs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+  if (!fs) {
+    glDeleteShader(*vs);
+    return fs.status();
+  }
+  program = glCreateProgram();
+  glAttachShader(program, *vs);
+  glAttachShader(program, *fs);
+  glLinkProgram(program);
+  glDeleteShader(*vs);
+  glDeleteShader(*fs);
+  GLint linked = 0;
+  glGetProgramiv(program, GL_LINK_STATUS, &linked);
+  if (!linked) {
+    char log[2048] = {0};
+    glGetProgramInfoLog(program, sizeof log, nullptr, log);
+    return fail(std::string("program link failed: ") + log);
+  }
+  u_mvp = glGetUniformLocation(program, "u_mvp");
+  u_normal = glGetUniformLocation(program, "u_normal");
+  u_texture = glGetUniformLocation(program, "u_texture");
+  u_texture_plain = glGetUniformLocation(program, "u_texture_plain");
+  u_texture_size = glGetUniformLocation(program, "u_texture_size");
+  u_textured = glGetUniformLocation(program, "u_textured");
+  u_factor = glGetUniformLocation(program, "u_factor");
+  u_light = glGetUniformLocation(program, "u_light");
+  u_ambient = glGetUniformLocation(program, "u_ambient");
+  u_diffuse = glGetUniformLocation(program, "u_diffuse");
+
+  // Sampling state lives in sampler objects (they override the textures' own parameters).
+  glGenSamplers(1, &sampler_aniso);
+  glGenSamplers(1, &sampler_plain);
+  for (GLuint smp : {sampler_aniso, sampler_plain}) {
+    glSamplerParameteri(smp, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glSamplerParameteri(smp, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glSamplerParameteri(smp, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glSamplerParameteri(smp, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  glSamplerParameterf(sampler_aniso, GL_TEXTURE_MAX_ANISOTROPY,
+                      std::clamp(options.anisotropy, 1.0f, max_anisotropy));
+  glGetError();  // tolerate a driver without anisotropic filtering
+  glBindSampler(0, sampler_aniso);
+  glBindSampler(1, sampler_plain);
+
+  // Fixed state: depth test, no culling, no blending, no dithering, no sRGB conversion.
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  glDisable(GL_DITHER);
+  glDisable(GL_MULTISAMPLE);
+  glDisable(GL_FRAMEBUFFER_SRGB);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  GLenum err = glGetError();
+  if (err != GL_NO_ERROR) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "0x%04X", unsigned(err));
+    return fail(std::string("setup failed (error ") + buf + ")");
+  }
+  return Status::ok();
+}
+
+Renderer::Renderer() : impl_(new Impl) {}
+
+Result<std::unique_ptr<Renderer>> Renderer::create(const RenderOptions& options) {
+  std::unique_ptr<Renderer> r(new Renderer());
+  r->impl_->options = options;
+  Status s = r->impl_->init_egl();
+  if (s) s = r->impl_->init_gl();
+  if (!s) return s;  // ~Renderer releases whatever was created
+  return r;
+}
+
+Renderer::~Renderer() {
+  Impl& m = *impl_;
+  if (m.display == EGL_NO_DISPLAY) return;
+  if (m.context != EGL_NO_CONTEXT) {
+    m.make_current();
+    for (size_t g = 0; g < m.geometries.size(); ++g) remove_geometry(int(g));
+    for (size_t t = 0; t < m.textures.size(); ++t) remove_texture(int(t));
+    if (m.program) glDeleteProgram(m.program);
+    if (m.sampler_aniso) glDeleteSamplers(1, &m.sampler_aniso);
+    if (m.sampler_plain) glDeleteSamplers(1, &m.sampler_plain);
+    if (m.fbo) glDeleteFramebuffers(1, &m.fbo);
+    if (m.color_rb) glDeleteRenderbuffers(1, &m.color_rb);
+    if (m.depth_rb) glDeleteRenderbuffers(1, &m.depth_rb);
+    eglMakeCurrent(m.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(m.display, m.context);
+  }
+  std::lock_guard<std::mutex> lock(display_mutex());
+  auto it = display_uses().find(m.display);
+  if (it != display_uses().end() && --it->second == 0) {
+    display_uses().erase(it);
+    eglTerminate(m.display);
+  }
+}
+
+const RenderOptions& Renderer::options() const { return impl_->options; }
+
+int Renderer::add_geometry(const Scene& scene) {
+  Impl& m = *impl_;
+  m.make_current();
+  GpuGeometry geo;
+  geo.live = true;
+  geo.meshes.resize(scene.meshes.size());
+  std::vector<Vertex> vertices;
+  std::vector<uint32_t> indices;
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+    for (const Primitive& p : scene.meshes[mi].primitives) {
+      size_t n = p.positions.size();
+      if (n == 0) continue;
+      bool has_normals = p.normals.size() == n;
+      bool has_uvs = !p.uvs.empty() && p.uvs[0].size() == n;
+      vertices.resize(n);
+      for (size_t i = 0; i < n; ++i) {
+        Vertex& v = vertices[i];
+        Vec3 pos = p.positions[i];
+        Vec3 nor = has_normals ? p.normals[i] : Vec3{0, 0, 1};
+        Vec2 uv = has_uvs ? p.uvs[0][i] : Vec2{0, 0};
+        v = Vertex{{pos.x, pos.y, pos.z}, {nor.x, nor.y, nor.z}, {uv.x, uv.y}};
+      }
+      // Whole triangles with in-range indices only (out-of-range indices would make the
+      // driver read outside the buffer); no indices at all means a plain triangle list.
+      indices.clear();
+      if (p.indices.empty()) {
+        for (uint32_t i = 0; i + 2 < n; i += 3) indices.insert(indices.end(), {i, i + 1, i + 2});
+      } else {
+        for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+          uint32_t a = p.indices[i], b = p.indices[i + 1], c = p.indices[i + 2];
+          if (a < n && b < n && c < n) indices.insert(indices.end(), {a, b, c});
+        }
+      }
+      if (indices.empty()) continue;
+      GpuPrimitive gp;
+      gp.index_count = GLsizei(indices.size());
+      if (p.material >= 0 && size_t(p.material) < scene.materials.size())
+        gp.factor = scene.materials[p.material].base_color_factor;
+      glGenVertexArrays(1, &gp.vao);
+      glBindVertexArray(gp.vao);
+      glGenBuffers(1, &gp.vbo);
+      glBindBuffer(GL_ARRAY_BUFFER, gp.vbo);
+      glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(n * sizeof(Vertex)), vertices.data(),
+                   GL_STATIC_DRAW);
+      glGenBuffers(1, &gp.ibo);
+      glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gp.ibo);
+      glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(uint32_t)),
+                   indices.data(), GL_STATIC_DRAW);
+      glEnableVertexAttribArray(0);
+      glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                            reinterpret_cast<void*>(offsetof(Vertex, position)));
+      glEnableVertexAttribArray(1);
+      glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                            reinterpret_cast<void*>(offsetof(Vertex, normal)));
+      glEnableVertexAttribArray(2);
+      glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, sizeof(Vertex),
+                            reinterpret_cast<void*>(offsetof(Vertex, uv)));
+      glBindVertexArray(0);
+      geo.meshes[mi].push_back(gp);
+    }
+  }
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < scene.meshes.size()) geo.instances.push_back({inst.mesh, inst.world});
+  m.geometries.push_back(std::move(geo));
+  return int(m.geometries.size() - 1);
+}
+
+int Renderer::add_texture(const Image& image) {
+  Impl& m = *impl_;
+  if (!image.decoded() || image.rgba.size() < size_t(image.width) * image.height * 4) return -1;
+  m.make_current();
+  GLint max_size = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+  if (image.width > max_size || image.height > max_size) return -1;
+  GLuint tex = 0;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_2D, tex);
+  // Top row first: GL's t = 0 is the image's top row, i.e. glTF's v = 0.
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA,
+               GL_UNSIGNED_BYTE, image.rgba.data());
+  glGenerateMipmap(GL_TEXTURE_2D);
+  // Filtering and wrapping come from the sampler objects made in init_gl().
+  glBindTexture(GL_TEXTURE_2D, 0);
+  m.textures.push_back({tex, image.width, image.height});
+  return int(m.textures.size() - 1);
+}
+
+void Renderer::remove_geometry(int handle) {
+  Impl& m = *impl_;
+  if (handle < 0 || size_t(handle) >= m.geometries.size() || !m.geometries[handle].live) return;
+  m.make_current();
+  GpuGeometry& geo = m.geometries[handle];
+  for (auto& prims : geo.meshes)
+    for (GpuPrimitive& p : prims) {
+      glDeleteVertexArrays(1, &p.vao);
+      glDeleteBuffers(1, &p.vbo);
+      glDeleteBuffers(1, &p.ibo);
+    }
+  geo = GpuGeometry{};  // handles are not reused: a stale handle draws nothing
+}
+
+void Renderer::remove_texture(int handle) {
+  Impl& m = *impl_;
+  if (handle < 0 || size_t(handle) >= m.textures.size() || m.textures[handle].id == 0) return;
+  m.make_current();
+  glDeleteTextures(1, &m.textures[handle].id);
+  m.textures[handle] = {};
+}
+
+RenderImage Renderer::render(int g, int t, const Camera& camera) {
+  Impl& m = *impl_;
+  const RenderOptions& o = m.options;
+  m.make_current();
+  const int w = o.width, h = o.height;
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glViewport(0, 0, w, h);
+  glDepthMask(GL_TRUE);
+  glClearColor(0, 0, 0, 0);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+  bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
+  bool textured = t >= 0 && size_t(t) < m.textures.size() && m.textures[t].id != 0;
+  if (geometry_ok) {
+    D3 axes[3];
+    Mat4 view = look_at(camera, axes);
+    Mat4 view_proj =
+        perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) *
+        view;
+    D3 l = norm3(to_d(o.light_direction));
+    if (o.light_follows_camera)  // camera space → world: inverse (= transposed) view rotation
+      l = norm3({axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
+                 axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
+                 axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
+
+    glUseProgram(m.program);
+    glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
+    glUniform1f(m.u_ambient, o.ambient);
+    glUniform1f(m.u_diffuse, o.diffuse);
+    glUniform1i(m.u_texture, 0);
+    glUniform1i(m.u_texture_plain, 1);
+    glUniform1i(m.u_textured, textured ? 1 : 0);
+    GLuint tex = textured ? m.textures[t].id : 0;
+    glUniform2f(m.u_texture_size, textured ? float(m.textures[t].width) : 1.0f,
+                textured ? float(m.textures[t].height) : 1.0f);
+    for (GLenum unit : {GL_TEXTURE0, GL_TEXTURE1}) {
+      glActiveTexture(unit);
+      glBindTexture(GL_TEXTURE_2D, tex);
+    }
+
+    const GpuGeometry& geo = m.geometries[g];
+    for (const GpuInstance& inst : geo.instances) {
+      const auto& prims = geo.meshes[inst.mesh];
+      if (prims.empty()) continue;
+      Mat4 mvp = view_proj * inst.world;
+      float mvp_f[16];
+      for (int i = 0; i < 16; ++i) mvp_f[i] = float(mvp.m[i]);
+      // Normal matrix: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
+      // so mirrored transforms keep outward normals; the shader renormalizes.
+      const Mat4& a = inst.world;
+      double det = a.det3();
+      double sign = det < 0 ? -1 : 1;
+      float nm[9];  // column-major mat3
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) {
+          int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+          double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
+          nm[c * 3 + r] = float(sign * cof);
+        }
+      glUniformMatrix4fv(m.u_mvp, 1, GL_FALSE, mvp_f);
+      glUniformMatrix3fv(m.u_normal, 1, GL_FALSE, nm);
+      // Mirroring transforms reverse the screen-space winding of front faces.
+      glFrontFace(det < 0 ? GL_CW : GL_CCW);
+      for (const GpuPrimitive& p : prims) {
+        glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
+        glBindVertexArray(p.vao);
+        glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+      }
+    }
+    glBindVertexArray(0);
+    glFrontFace(GL_CCW);
+  }
+  glFinish();
+
+  RenderImage img;
+  img.width = w;
+  img.height = h;
+  img.rgba.resize(size_t(w) * h * 4);
+  std::vector<uint8_t> raw(img.rgba.size());
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
+  const size_t row = size_t(w) * 4;
+  for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
+    std::memcpy(&img.rgba[size_t(y) * row], &raw[size_t(h - 1 - y) * row], row);
+  img.coverage.resize(size_t(w) * h);
+  for (size_t i = 0; i < img.coverage.size(); ++i) img.coverage[i] = img.rgba[i * 4 + 3] > 0;
+  return img;
+}
+
+}  // namespace meshmux
