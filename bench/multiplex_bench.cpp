@@ -1,0 +1,69 @@
+// Multiplexer benchmark: the whole conditioning pipeline (clean → atlas → flatten when < 1.75
+// instances per submesh → progressive record) then paper 004's multiplexing, on a generated
+// textured scene of ~112,000 triangles (the DESIGN.md "100k-triangle model" figure: target
+// ≤ 60 s on 2 cores) and on every textured shared model given on the command line. Prints the
+// four areas under the rendered distortion-vs-bytes curves and the gain over the best baseline.
+// usage: meshmux_bench_multiplex [MODEL ...]
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "condition/atlas.h"
+#include "condition/clean.h"
+#include "condition/flatten.h"
+#include "condition/simplify.h"
+#include "importers/import.h"
+#include "multiplex/multiplex.h"
+#include "scene/sample.h"
+
+using namespace meshmux;
+
+namespace {
+
+void run(const std::string& name, const Scene& input) {
+  auto t0 = std::chrono::steady_clock::now();
+  auto atlased = build_atlas(clean(input, {}), {}, nullptr, nullptr);
+  if (!atlased.ok()) {
+    std::printf("| %s | atlas failed: %s |\n", name.c_str(), atlased.status().message().c_str());
+    return;
+  }
+  Scene s = atlased.take();
+  if (s.instances.size() > 1 && instances_per_submesh(s) < 1.75) s = flatten(s);
+  ProgressiveScene ps = build_progressive(s, {});
+  auto t1 = std::chrono::steady_clock::now();
+  Image atlas;
+  if (!s.materials.empty() && s.materials[0].base_color.present()) atlas = s.images[0];
+  auto r = multiplex(ps, atlas, {});
+  auto t2 = std::chrono::steady_clock::now();
+  if (!r.ok()) {
+    std::printf("| %s | multiplex failed: %s |\n", name.c_str(), r.status().message().c_str());
+    return;
+  }
+  double rd = area_under(r->rd), mf = area_under(r->mesh_first), tf = area_under(r->texture_first),
+         cr = area_under(r->constant_ratio), best = std::min({mf, tf, cr});
+  std::printf("| %s | %llu | %zu x %zu | %.4g | %.4g | %.4g | %.4g | %.1f%% | %zu | %zu / %zu / %zu | %zu | %.1f | %.1f |\n",
+              name.c_str(), static_cast<unsigned long long>(compute_stats(s).scene_triangles), r->mesh_bytes.size(),
+              r->texture_bytes.size(), rd, mf, tf, cr, 100 * (1 - rd / best), r->views, r->cells_descent,
+              r->cells_evaluated, r->cells_total, r->renders, std::chrono::duration<double>(t1 - t0).count(),
+              std::chrono::duration<double>(t2 - t1).count());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::printf("| model | scene tris | mesh x texture layers | area rd | mesh first | texture first | constant ratio | gain vs best | views | cells descent / all / grid | renders | condition s | multiplex s |\n");
+  std::printf("|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n");
+  SampleOptions big;
+  big.columns_per_side = 18;
+  big.ground_cells = 64;
+  big.texture_size = 1024;
+  run("generated textured scene", make_sample_scene(big));
+  for (int i = 1; i < argc; ++i) {
+    auto in = import_scene(argv[i], {}, nullptr);
+    if (!in.ok()) {
+      std::printf("| %s | import failed: %s |\n", argv[i], in.status().message().c_str());
+      continue;
+    }
+    run(argv[i], *in);
+  }
+}
