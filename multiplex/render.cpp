@@ -75,8 +75,8 @@ Status egl_failure(const std::string& what) {
   return Status::error("render: EGL: " + what, ErrorKind::kInternal);
 }
 
-// EGL displays are process-wide and eglTerminate destroys every context on them, so several
-// Renderers sharing one display count their uses; the last one out terminates it.
+// EGL displays are process-wide; several Renderers share one and count their uses. The display
+// is never terminated (see ~Renderer).
 std::mutex& display_mutex() {
   static std::mutex m;
   return m;
@@ -443,12 +443,12 @@ Renderer::~Renderer() {
     eglMakeCurrent(m.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(m.display, m.context);
   }
+  // The display stays initialized for the life of the process: eglTerminate would unload the
+  // Mesa driver, whose few process-lifetime allocations then show as leaks (LeakSanitizer),
+  // and the next Renderer would pay the driver start-up again.
   std::lock_guard<std::mutex> lock(display_mutex());
   auto it = display_uses().find(m.display);
-  if (it != display_uses().end() && --it->second == 0) {
-    display_uses().erase(it);
-    eglTerminate(m.display);
-  }
+  if (it != display_uses().end()) --it->second;
 }
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
