@@ -13,17 +13,12 @@
 #include <unordered_map>
 
 #include "exporters/image_encode.h"
+#include "scene/position_key.h"
 
 namespace meshmux {
 
 namespace {
 
-uint32_t fbits(float f) {
-  if (f == 0) f = 0;
-  uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
 
 // Corner positions of a mesh face.
 struct MeshView {
@@ -43,8 +38,8 @@ struct MeshView {
 std::vector<std::vector<uint32_t>> components(const MeshView& mv, const std::vector<uint32_t>& faces) {
   std::unordered_map<uint64_t, std::vector<uint32_t>> by_edge;
   auto pos_key = [](Vec3 p) {
-    return (uint64_t(fbits(p.x)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(fbits(p.y)) * 0xC2B2AE3D27D4EB4Full) ^
-           (uint64_t(fbits(p.z)) * 0x165667B19E3779F9ull);
+    return (uint64_t(float_bits(p.x)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(float_bits(p.y)) * 0xC2B2AE3D27D4EB4Full) ^
+           (uint64_t(float_bits(p.z)) * 0x165667B19E3779F9ull);
   };
   for (uint32_t i = 0; i < faces.size(); ++i)
     for (int k = 0; k < 3; ++k) {
@@ -206,7 +201,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   for (size_t i = 0; i < charts.charts.size(); ++i) {
     const Chart& c = charts.charts[i];
     if (!c.textured) {
-      std::array<uint32_t, 4> key{fbits(c.color.x), fbits(c.color.y), fbits(c.color.z), fbits(c.color.w)};
+      std::array<uint32_t, 4> key{float_bits(c.color.x), float_bits(c.color.y), float_bits(c.color.z), float_bits(c.color.w)};
       auto [it, fresh] = flat_slot.emplace(key, rects.size());
       if (fresh) {
         int side = o.flat_block + 2 * std::max(0, o.bake.gutter);  // the block and its dilation rings
@@ -411,7 +406,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
         uint32_t v = mv.corner(f, k);
         Vec3 pos = src.positions[v];
         Vec3 nrm = normals ? src.normals[v] : Vec3{};
-        uint32_t key[8] = {fbits(pos.x), fbits(pos.y), fbits(pos.z), fbits(nrm.x), fbits(nrm.y), fbits(nrm.z), fbits(t.x), fbits(t.y)};
+        uint32_t key[8] = {float_bits(pos.x), float_bits(pos.y), float_bits(pos.z), float_bits(nrm.x), float_bits(nrm.y), float_bits(nrm.z), float_bits(t.x), float_bits(t.y)};
         uint64_t h = 1469598103934665603ull;
         for (uint32_t w : key) h = (h ^ w) * 1099511628211ull;
         auto& bucket = weld[h];

@@ -40,6 +40,8 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "scene/position_key.h"
+
 namespace meshmux {
 
 std::vector<FaceRef> mesh_faces(const Mesh& mesh) {
@@ -74,24 +76,8 @@ constexpr double kFreeCompactness = 1.0;
 constexpr uint32_t kNone = 0xffffffffu;
 constexpr int kDirs = 26;
 
-uint32_t fbits(float f) {
-  if (f == 0) f = 0;  // -0 and +0 are one position
-  uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
 
-struct PosKey {
-  uint32_t x, y, z;
-  bool operator==(const PosKey& o) const { return x == o.x && y == o.y && z == o.z; }
-};
-struct PosKeyHash {
-  size_t operator()(const PosKey& k) const {
-    uint64_t h = 1469598103934665603ull;
-    for (uint32_t w : {k.x, k.y, k.z}) h = (h ^ w) * 1099511628211ull;
-    return size_t(h ^ (h >> 29));
-  }
-};
+
 
 const std::array<Vector3d, kDirs>& directions() {
   static const std::array<Vector3d, kDirs> dirs = [] {
@@ -225,7 +211,7 @@ void Segmenter::build_faces() {
   diag2_ = diag > 0 && std::isfinite(diag) ? diag * diag : 1.0;
   Vector3d origin = b.empty() ? Vector3d::Zero() : to_d(b.center());
 
-  std::unordered_map<PosKey, uint32_t, PosKeyHash> pos_ids;
+  std::unordered_map<PositionKey, uint32_t, PositionKeyHash> pos_ids;
   colors_.assign(1, Vec4{1, 1, 1, 1});
   auto color_class = [&](Vec4 c) -> uint32_t {
     // Exact colour identity: all four channels equal.
@@ -260,7 +246,7 @@ void Segmenter::build_faces() {
       Vector3d v[3];
       for (int k = 0; k < 3; ++k) {
         Vec3 q = p.positions[p.indices[3 * t + k]];
-        PosKey key{fbits(q.x), fbits(q.y), fbits(q.z)};
+        PositionKey key(Vec3{q.x, q.y, q.z});
         auto it = pos_ids.emplace(key, uint32_t(pos_ids.size())).first;
         f.pos[k] = it->second;
         v[k] = to_d(q) - origin;

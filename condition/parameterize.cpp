@@ -27,6 +27,8 @@
 #include <cstring>
 #include <unordered_map>
 
+#include "scene/position_key.h"
+
 namespace meshmux {
 
 namespace {
@@ -34,23 +36,7 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-struct PosKey {
-  uint32_t x, y, z;
-  bool operator==(const PosKey& o) const { return x == o.x && y == o.y && z == o.z; }
-};
-struct PosKeyHash {
-  size_t operator()(const PosKey& k) const {
-    uint64_t h = 1469598103934665603ull;
-    for (uint32_t w : {k.x, k.y, k.z}) h = (h ^ w) * 1099511628211ull;
-    return size_t(h ^ (h >> 29));
-  }
-};
-uint32_t fbits(float f) {
-  if (f == 0) f = 0;  // -0 and +0 are one position
-  uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
+
 
 double cross2(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
@@ -530,7 +516,7 @@ ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const Paramet
 
   // The chart as an indexed mesh over welded positions.
   ChartMesh m;
-  std::unordered_map<PosKey, uint32_t, PosKeyHash> ids;
+  std::unordered_map<PositionKey, uint32_t, PositionKeyHash> ids;
   Vector3d origin;
   bool have_origin = false;
   m.tris.reserve(chart.faces.size());
@@ -547,7 +533,7 @@ ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const Paramet
       Vec3 q = prim.positions[prim.indices[3 * t + k]];
       Vector3d qd(q.x, q.y, q.z);
       if (!have_origin) origin = qd, have_origin = true;
-      auto it = ids.emplace(PosKey{fbits(q.x), fbits(q.y), fbits(q.z)}, uint32_t(m.pos.size()));
+      auto it = ids.emplace(PositionKey(Vec3{q.x, q.y, q.z}), uint32_t(m.pos.size()));
       if (it.second) m.pos.push_back(qd - origin);
       tri.v[k] = it.first->second;
     }
