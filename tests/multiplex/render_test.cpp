@@ -223,7 +223,8 @@ TEST(Render, TextureOrientationMatchesGltf) {
   s.meshes[0].primitives[0].material = 0;
   int g2 = r->add_geometry(s);
   EXPECT_NEAR(pixel(r->render(g2, t, head_on(1)), 96, 96)[0], 128, 2);
-  const uint8_t* flat = pixel(r->render(g2, -1, head_on(1)), 96, 96);
+  RenderImage flat_image = r->render(g2, -1, head_on(1));  // keep the image alive for the pointer
+  const uint8_t* flat = pixel(flat_image, 96, 96);
   EXPECT_NEAR(flat[0], 128, 2);
   EXPECT_NEAR(flat[1], 255, 1);
 }
