@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/serve.h"
 #include "condition/atlas.h"
 #include "condition/clean.h"
 #include "condition/flatten.h"
@@ -18,6 +19,7 @@
 #include "condition/simplify.h"
 #include "multiplex/multiplex.h"
 #include "exporters/gltf.h"
+#include "exporters/package.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
@@ -43,8 +45,9 @@ const char* kUsage =
     "  meshmux convert IN -o OUT [options]   clean IN and write web-ready output\n"
     "      OUT ending in .glb: that one file (full quality, Draco-compressed)\n"
     "      otherwise OUT is a folder that receives model.glb (full quality), base.glb (the\n"
-    "      base level of detail that displays first), report.json and rd.svg (the\n"
-    "      rate-distortion order of mesh and texture levels, measured by rendering)\n"
+    "      base level of detail that displays first), model.mmxp (the stream package: the\n"
+    "      base, then mesh refinements and texture levels in rate-distortion order),\n"
+    "      report.json and rd.svg (that order's curves beside three baselines)\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
     "                                        textures, draw calls, bytes (a .gltf counts\n"
     "                                        its external buffers and images too)\n"
@@ -53,6 +56,7 @@ const char* kUsage =
     "                                        at most N scene triangles, or geometric error E\n"
     "                                        (fraction of the bounding-box diagonal)\n"
     "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
+    "  meshmux serve DIR [--port P] [--host H]   HTTP with Range requests for the viewer (loopback by default)\n"
     "  meshmux --help | --version\n"
     "\n"
     "convert options:\n"
@@ -285,6 +289,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   }
   std::vector<uint8_t> base_bytes;
   std::string report_text, svg_text;
+  std::vector<uint8_t> package_bytes;
   if (!ends_with(out, ".glb")) {
     progress.step("simplifying (instance-aware progressive record)");
     SimplifyReport sr;
@@ -317,6 +322,45 @@ int cmd_convert(const std::vector<std::string>& args) {
         progress.step(line);
         report_text = report_json(*mx);
         svg_text = rd_svg(*mx);
+        // The stream package: the base (mesh layer 0 with texture level 0, no Draco so the
+        // vertex order stays the progressive one), then every step of the descent's order.
+        LodSelection base0 = select_base(ps);
+        base0.level = mx->layer_levels[0];
+        Scene pkg_base = materialize(ps, base0);
+        if (!mx->texture_levels.levels.empty() && !pkg_base.images.empty()) {
+          const TextureLevel& l0 = mx->texture_levels.levels[0];
+          Image level0;
+          level0.name = "texture level 0";
+          level0.encoded = l0.encoded;
+          level0.mime_type = l0.mime_type;
+          level0.width = l0.width;
+          level0.height = l0.height;
+          pkg_base.images[0] = std::move(level0);
+        }
+        GltfExportOptions plain = gopts;
+        plain.draco = false;
+        auto pb = export_glb_bytes(pkg_base, plain, &warnings);
+        if (!pb.ok()) return fail(pb.status());
+        PackageInput pin;
+        pin.scene = &ps;
+        pin.base_levels = mx->layer_levels[0];
+        pin.base_glb = pb.take();
+        pin.textures = mx->texture_levels.levels.empty() ? nullptr : &mx->texture_levels;
+        for (size_t k = 1; k < mx->rd.cells.size(); ++k) {
+          StreamStep st;
+          if (mx->rd.cells[k].first != mx->rd.cells[k - 1].first) {
+            st.kind = StreamStep::kMesh;
+            st.levels = mx->layer_levels[size_t(mx->rd.cells[k].first)];
+          } else {
+            st.kind = StreamStep::kTexture;
+            st.texture_level = size_t(mx->rd.cells[k].second);
+          }
+          st.distortion = mx->rd.distortion[k];
+          pin.steps.push_back(std::move(st));
+        }
+        auto pkg = write_package(pin);
+        if (!pkg.ok()) return fail(pkg.status());
+        package_bytes = pkg.take();
       }
     }
   }
@@ -337,6 +381,11 @@ int cmd_convert(const std::vector<std::string>& args) {
       if (!s) return fail(s);
     }
     progress.step("wrote " + out + "/report.json and " + out + "/rd.svg");
+  }
+  if (!package_bytes.empty()) {
+    s = write_file_atomic(out + "/model.mmxp", package_bytes);
+    if (!s) return fail(s);
+    progress.step("wrote " + out + "/model.mmxp (the stream package, " + human_bytes(package_bytes.size()) + ")");
   }
   SceneStats after = compute_stats(cleaned);
   progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
@@ -568,6 +617,7 @@ int meshmux_main(int argc, char** argv) {
     if (cmd == "info") return cmd_info(rest);
     if (cmd == "sample") return cmd_sample(rest);
     if (cmd == "simplify") return cmd_simplify(rest);
+    if (cmd == "serve") return cmd_serve(rest);
     return usage_error("unknown command '" + cmd + "'");
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "meshmux: out of memory\n");

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "condition/lod.h"
+#include "exporters/package.h"
 #include "importers/image_decode.h"
 #include "multiplex/distortion.h"
 
@@ -25,40 +26,16 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh, as a
-// refinement chunk would carry them: 20-byte vertices (16-bit positions over the mesh bounds,
-// 8-bit normal, 16-bit uv, 32-bit parent) through meshopt_encodeVertexBuffer, and the faces'
-// indices through meshopt_encodeIndexBuffer.
+// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh exactly as
+// the stream package carries them (exporters/package: packed vertices through
+// meshopt_encodeVertexBuffer, faces through meshopt_encodeIndexBuffer).
 uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1, uint32_t f0, uint32_t f1) {
-  struct Packed {
-    uint16_t p[4];
-    int8_t n[4];
-    uint16_t t[2];
-    uint32_t parent;
-  };
-  static_assert(sizeof(Packed) == 20, "packed vertex is 20 bytes");
   uint64_t total = 0;
   if (v1 > v0) {
-    std::vector<Packed> verts(v1 - v0);
-    Vec3 ext = box.max - box.min;
-    auto q16 = [](float x, float lo, float e) {
-      float t = e > 0 ? (x - lo) / e : 0;
-      return uint16_t(std::lround(std::clamp(t, 0.0f, 1.0f) * 65535));
-    };
-    for (uint32_t v = v0; v < v1; ++v) {
-      Packed& q = verts[v - v0];
-      Vec3 p = pm.positions[v];
-      q.p[0] = q16(p.x, box.min.x, ext.x), q.p[1] = q16(p.y, box.min.y, ext.y), q.p[2] = q16(p.z, box.min.z, ext.z);
-      q.p[3] = 0;
-      Vec3 n = pm.normals.empty() ? Vec3{0, 0, 1} : pm.normals[v];
-      q.n[0] = int8_t(std::lround(n.x * 127)), q.n[1] = int8_t(std::lround(n.y * 127));
-      q.n[2] = int8_t(std::lround(n.z * 127)), q.n[3] = 0;
-      Vec2 t = pm.uvs.empty() ? Vec2{} : pm.uvs[0][v];
-      q.t[0] = q16(t.x, 0, 1), q.t[1] = q16(t.y, 0, 1);
-      q.parent = pm.parent[v];
-    }
-    std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(verts.size(), sizeof(Packed)));
-    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), verts.data(), verts.size(), sizeof(Packed));
+    std::vector<uint8_t> packed = pack_vertices(pm, box, v0, v1);
+    size_t count = v1 - v0;
+    std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(count, kPackedVertexBytes));
+    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), packed.data(), count, kPackedVertexBytes);
   }
   if (f1 > f0) {
     size_t count = size_t(f1 - f0) * 3;
@@ -92,11 +69,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
   MultiplexResult r;
   // --- Mesh layers: scene-wide selections from the base to the full detail. ---
   std::vector<Bounds> boxes;
-  for (const ProgressiveMesh& pm : ps.meshes) {
-    Bounds b;
-    for (Vec3 p : pm.positions) b.add(p);
-    boxes.push_back(b);
-  }
+  for (const ProgressiveMesh& pm : ps.meshes) boxes.push_back(package_bounds(pm));
   LodSelection base = select_base(ps), full = select_full(ps);
   uint64_t base_tris = selection_triangles(ps, base), full_tris = selection_triangles(ps, full);
   uint64_t refine_bytes = layer_bytes(ps, boxes, &base, full);
@@ -118,12 +91,14 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
   for (int k = 0; k < m; ++k) {
     r.mesh_bytes.push_back(layer_bytes(ps, boxes, k ? &layers[size_t(k - 1)] : nullptr, layers[size_t(k)]));
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
+    r.layer_levels.push_back(layers[size_t(k)].level);
   }
   // --- Texture layers: the atlas's mip levels as the stream carries them. ---
   std::vector<Image> textures;
   if (atlas.decoded()) {
     auto levels = make_texture_levels(atlas, o.textures);
     if (!levels.ok()) return levels.status().with_prefix("multiplex");
+    r.texture_levels = *levels;
     for (const TextureLevel& l : levels->levels) {
       Image img;
       img.name = "level " + std::to_string(l.width);

@@ -31,6 +31,8 @@ struct MultiplexResult {
   std::vector<uint64_t> mesh_bytes;     // per mesh layer (0: the base geometry)
   std::vector<uint64_t> texture_bytes;  // per texture level (0: the 128² level)
   std::vector<uint32_t> layer_triangles;  // scene triangles after each mesh layer
+  std::vector<std::vector<size_t>> layer_levels;  // per mesh layer: per mesh its progressive level
+  TextureLevels texture_levels;           // the texture layers (empty for untextured scenes)
   RdPath rd, mesh_first, texture_first, constant_ratio;
   std::string metric = "ciede2000";     // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;

@@ -12,7 +12,7 @@ debs=(
   libopenmesh-dev libeigen3-dev
   libopenimageio-dev openimageio-tools libturbojpeg0-dev
   libassimp-dev libpugixml-dev
-  libgtest-dev libgmock-dev
+  libgtest-dev libgmock-dev libcpp-httplib-dev
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   chromium
 )

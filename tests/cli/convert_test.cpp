@@ -485,3 +485,44 @@ TEST(ConvertFolder, WritesRateDistortionReport) {
 
 }  // namespace
 }  // namespace meshmux
+
+#include "exporters/package.h"
+
+namespace meshmux {
+namespace {
+
+// convert into a folder writes the stream package: it reads back, its base is a valid .glb on
+// its own, and every mesh part decodes.
+TEST(ConvertFolder, WritesStreamPackage) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  TempDir dir;
+  auto r = run_meshmux({"convert", testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"), "-o", dir.file("out"), "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  if (!std::filesystem::exists(dir.file("out/model.mmxp"))) GTEST_SKIP() << "no renderer here: " << r.err;
+  auto bytes = testing::read_file(dir.file("out/model.mmxp"));
+  auto pkg = read_package(bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_GT(pkg->chunks.size(), 2u);
+  size_t mesh_chunks = 0, texture_chunks = 0;
+  for (const PackageChunk& c : pkg->chunks) {
+    if (c.kind == StreamStep::kMesh) {
+      ++mesh_chunks;
+      for (size_t p = 0; p < c.parts.size(); ++p) ASSERT_TRUE(decode_part(bytes, *pkg, c, p).ok());
+    } else {
+      ++texture_chunks;
+    }
+  }
+  EXPECT_GT(mesh_chunks, 0u);
+  EXPECT_GT(texture_chunks, 0u);
+  std::vector<uint8_t> base(bytes.begin() + long(pkg->base_offset), bytes.begin() + long(pkg->base_offset + pkg->base_size));
+  testing::write_file(dir.file("base_from_package.glb"), base);
+  int errors = testing::gltf_validator_errors(dir.file("base_from_package.glb"));
+  if (errors >= 0) {
+    EXPECT_EQ(errors, 0);
+  }
+  std::printf("[ package ] %zu bytes: base %llu, %zu mesh + %zu texture chunks\n", bytes.size(),
+              static_cast<unsigned long long>(pkg->base_size), mesh_chunks, texture_chunks);
+}
+
+}  // namespace
+}  // namespace meshmux

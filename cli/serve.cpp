@@ -1,0 +1,457 @@
+// `meshmux serve DIR`: a small static HTTP server for a converted output folder, so the
+// browser viewer can stream it (GET, HEAD, single Range requests, CORS preflight).
+//
+// Every request goes through one pre-routing handler. Paths are decoded once (by httplib) and
+// refused with 403 when they could leave DIR: "..", backslash, NUL, an absolute path, a '%'
+// escape still left after the one decoding (double encoding), or a canonical file outside the
+// canonical DIR (symbolic links included).
+//
+// Ranges are answered here, not by httplib: cpp-httplib 0.11 neither clamps a range that runs
+// past the end of the content (its Content-Range then names bytes that do not exist) nor
+// answers a range that starts past the end with a correct 416. The handler therefore clears
+// the request's parsed ranges before httplib's post-processing sees them and writes the 206 or
+// 416 response itself. A request with several ranges gets the whole file (200), which RFC 9110
+// allows.
+#include "cli/serve.h"
+
+#include <fcntl.h>
+#include <httplib.h>
+#include <pthread.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace meshmux {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 1;
+constexpr int kExitOutput = 3;
+
+const char* kServeUsage =
+    "usage: meshmux serve DIR [--port P] [--host H] [-q]\n"
+    "  serves the files under DIR over HTTP (GET, HEAD, Range requests, CORS) for the viewer\n"
+    "  --port P   TCP port, 0 picks a free one (default 8080)\n"
+    "  --host H   address to listen on (default 127.0.0.1, loopback only)\n"
+    "  -q         do not log requests on stderr\n";
+
+int usage_error(const std::string& message) {
+  std::fprintf(stderr, "meshmux: serve: %s\n(see meshmux --help)\n", message.c_str());
+  return kExitUsage;
+}
+
+// File name extension → Content-Type.
+std::string content_type_for(const fs::path& file) {
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  struct Entry {
+    const char* ext;
+    const char* type;
+  };
+  static const Entry kTypes[] = {
+      {".glb", "model/gltf-binary"},
+      {".gltf", "model/gltf+json"},
+      {".json", "application/json"},
+      {".svg", "image/svg+xml"},
+      {".html", "text/html; charset=utf-8"},
+      {".htm", "text/html; charset=utf-8"},
+      {".js", "text/javascript"},
+      {".mjs", "text/javascript"},
+      {".css", "text/css"},
+      {".png", "image/png"},
+      {".jpg", "image/jpeg"},
+      {".jpeg", "image/jpeg"},
+      {".mmxp", "application/octet-stream"},
+  };
+  for (const Entry& e : kTypes)
+    if (ext == e.ext) return e.type;
+  return "application/octet-stream";
+}
+
+bool is_hex(char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; }
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// Percent-encodes everything but RFC 3986 unreserved characters (for links in the listing).
+std::string url_escape(const std::string& s) {
+  static const char* kHex = "0123456789ABCDEF";
+  std::string out;
+  for (unsigned char c : s) {
+    if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~') {
+      out += char(c);
+    } else {
+      out += '%';
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    }
+  }
+  return out;
+}
+
+// Request text for the log: control and non-ASCII bytes as \xHH.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (unsigned char c : s) {
+    if (c < 0x20 || c >= 0x7f || c == '\\') {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02X", c);
+      out += buf;
+    } else {
+      out += char(c);
+    }
+  }
+  return out;
+}
+
+void set_text(httplib::Response& res, int status, const std::string& text) {
+  res.status = status;
+  res.set_content(text + "\n", "text/plain; charset=utf-8");
+}
+
+// An open file shared by the content provider calls of one response.
+struct OpenFile {
+  int fd = -1;
+  ~OpenFile() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// Streams [offset, offset + length) of the file as the response body.
+void set_file_body(httplib::Response& res, const std::shared_ptr<OpenFile>& file, uint64_t offset,
+                   uint64_t length, const std::string& type) {
+  if (length == 0) {
+    res.set_content(std::string(), type);
+    return;
+  }
+  res.set_content_provider(
+      size_t(length), type, [file, offset](size_t pos, size_t want, httplib::DataSink& sink) {
+        char buf[1 << 16];
+        size_t n = std::min(want, sizeof buf);
+        ssize_t got = ::pread(file->fd, buf, n, off_t(offset + pos));
+        if (got <= 0) return false;  // read error or the file shrank: abort the connection
+        return sink.write(buf, size_t(got));
+      });
+}
+
+class Site {
+ public:
+  Site(fs::path root, bool quiet) : root_(std::move(root)), quiet_(quiet) {
+    root_str_ = root_.string();
+    prefix_ = root_str_;
+    if (prefix_.empty() || prefix_.back() != '/') prefix_ += '/';
+  }
+
+  void handle(const httplib::Request& req, httplib::Response& res) const {
+    // httplib parsed the Range header into req.ranges; it would apply them to whatever this
+    // handler answers, wrongly past the end of the content (see the top of the file). Take them
+    // and leave none behind. The request object is not const where httplib owns it.
+    httplib::Ranges ranges = req.ranges;
+    const_cast<httplib::Request&>(req).ranges.clear();
+
+    res.set_header("Accept-Ranges", "bytes");
+    if (req.method == "OPTIONS") {
+      res.status = 204;
+      res.set_header("Allow", "GET, HEAD, OPTIONS");
+      res.set_header("Access-Control-Allow-Methods", "GET, HEAD, OPTIONS");
+      res.set_header("Access-Control-Allow-Headers", "Range");
+      res.set_header("Access-Control-Max-Age", "86400");
+      return;
+    }
+    if (req.method != "GET" && req.method != "HEAD") {
+      res.set_header("Allow", "GET, HEAD, OPTIONS");
+      return set_text(res, 405, "405 method not allowed");
+    }
+
+    fs::path target;
+    int status = resolve(req.path, &target);
+    if (status != 200) return set_text(res, status, status == 403 ? "403 forbidden" : "404 not found");
+
+    std::error_code ec;
+    if (fs::is_directory(target, ec)) {
+      if (req.path.back() != '/') {
+        // Relative links inside the folder need the trailing slash.
+        std::string location = req.target.substr(0, req.target.find('?')) + "/";
+        res.set_redirect(location, 301);
+        return;
+      }
+      fs::path index;
+      if (resolve_inside(target / "index.html", &index) == 200 && fs::is_regular_file(index, ec))
+        return serve_file(req, res, index, ranges);
+      return serve_listing(req, res, target);
+    }
+    if (!fs::is_regular_file(target, ec)) return set_text(res, 403, "403 forbidden");
+    serve_file(req, res, target, ranges);
+  }
+
+  void log(const httplib::Request& req, const httplib::Response& res) const {
+    if (quiet_) return;
+    std::string length = res.get_header_value("Content-Length");
+    std::fprintf(stderr, "meshmux: %s \"%s %s\" %d %s\n", req.remote_addr.c_str(),
+                 printable(req.method).c_str(), printable(req.target).c_str(), res.status,
+                 length.empty() ? "-" : length.c_str());
+  }
+
+ private:
+  // The decoded request path → a canonical file or folder inside the root. Returns 200, 403
+  // (refused) or 404 (absent).
+  int resolve(const std::string& path, fs::path* out) const {
+    if (path.empty() || path[0] != '/') return 403;
+    if (path.find('\0') != std::string::npos || path.find('\\') != std::string::npos ||
+        path.find("..") != std::string::npos)
+      return 403;
+    // The path was decoded once; an escape left over means it was encoded twice.
+    for (size_t i = 0; i + 2 < path.size(); ++i)
+      if (path[i] == '%' && is_hex(path[i + 1]) && is_hex(path[i + 2])) return 403;
+    std::string rel = path.substr(1);
+    if (!rel.empty() && rel[0] == '/') return 403;  // "//etc/passwd": absolute once decoded
+    if (fs::path(rel).is_absolute() || fs::path(rel).has_root_name()) return 403;
+    return resolve_inside(rel.empty() ? root_ : root_ / rel, out);
+  }
+
+  int resolve_inside(const fs::path& candidate, fs::path* out) const {
+    std::error_code ec;
+    fs::path canon = fs::canonical(candidate, ec);
+    if (ec) return 404;
+    std::string s = canon.string();
+    if (s != root_str_ && s.compare(0, prefix_.size(), prefix_) != 0) return 403;
+    *out = canon;
+    return 200;
+  }
+
+  void serve_file(const httplib::Request& req, httplib::Response& res, const fs::path& file,
+                  const httplib::Ranges& ranges) const {
+    auto open = std::make_shared<OpenFile>();
+    open->fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    if (open->fd < 0 || ::fstat(open->fd, &st) != 0 || !S_ISREG(st.st_mode))
+      return set_text(res, 403, "403 forbidden");
+    const uint64_t size = uint64_t(st.st_size);
+    const std::string type = content_type_for(file);
+
+    // Only a single range is answered with 206; several ranges, or an If-Range whose
+    // validator cannot match (none is sent), get the whole file.
+    if (ranges.size() == 1 && !req.has_header("If-Range")) {
+      uint64_t first = 0, last = 0;
+      if (!satisfiable(ranges[0], size, &first, &last)) {
+        res.status = 416;
+        res.set_header("Content-Range", "bytes */" + std::to_string(size));
+        return;
+      }
+      res.status = 206;
+      res.set_header("Content-Range", "bytes " + std::to_string(first) + "-" +
+                                          std::to_string(last) + "/" + std::to_string(size));
+      set_file_body(res, open, first, last - first + 1, type);
+      return;
+    }
+    res.status = 200;
+    set_file_body(res, open, 0, size, type);
+  }
+
+  // One parsed range (first, last; -1 for a missing end) against the file size: the bytes to
+  // send, clamped to the file, or false when none of them exists.
+  static bool satisfiable(const std::pair<ssize_t, ssize_t>& r, uint64_t size, uint64_t* first,
+                          uint64_t* last) {
+    if (size == 0) return false;
+    if (r.first < 0) {  // suffix: the last r.second bytes
+      if (r.second <= 0) return false;
+      uint64_t n = std::min<uint64_t>(uint64_t(r.second), size);
+      *first = size - n;
+      *last = size - 1;
+      return true;
+    }
+    if (uint64_t(r.first) >= size) return false;
+    if (r.second >= 0 && r.second < r.first) return false;
+    *first = uint64_t(r.first);
+    *last = r.second < 0 ? size - 1 : std::min<uint64_t>(uint64_t(r.second), size - 1);
+    return true;
+  }
+
+  void serve_listing(const httplib::Request& req, httplib::Response& res,
+                     const fs::path& folder) const {
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+      std::error_code dec;
+      std::string name = it->path().filename().string();
+      if (it->is_directory(dec)) name += '/';
+      names.push_back(name);
+    }
+    std::sort(names.begin(), names.end());
+    std::string title = "Index of " + html_escape(req.path);
+    std::string html = "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>" + title +
+                       "</title></head>\n<body><h1>" + title + "</h1>\n<ul>\n";
+    for (const std::string& name : names) {
+      bool dir = name.back() == '/';
+      std::string bare = dir ? name.substr(0, name.size() - 1) : name;
+      html += "<li><a href=\"" + url_escape(bare) + (dir ? "/" : "") + "\">" + html_escape(name) +
+              "</a></li>\n";
+    }
+    html += "</ul>\n</body></html>\n";
+    res.status = 200;
+    res.set_content(html, "text/html; charset=utf-8");
+  }
+
+  fs::path root_;
+  std::string root_str_, prefix_;
+  bool quiet_;
+};
+
+bool parse_port(const std::string& text, int* port) {
+  if (text.empty() || text.size() > 5) return false;
+  for (char c : text)
+    if (c < '0' || c > '9') return false;
+  long v = std::strtol(text.c_str(), nullptr, 10);
+  if (v < 0 || v > 65535) return false;
+  *port = int(v);
+  return true;
+}
+
+std::string url_host(const std::string& host) {
+  return host.find(':') != std::string::npos ? "[" + host + "]" : host;
+}
+
+}  // namespace
+
+int cmd_serve(const std::vector<std::string>& args) {
+  std::string dir, host = "127.0.0.1";
+  int port = 8080;
+  bool quiet = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      std::fputs(kServeUsage, stdout);
+      return kExitOk;
+    } else if (a == "-q" || a == "--quiet") {
+      quiet = true;
+    } else if (a == "--port" || a == "--host") {
+      if (i + 1 >= args.size()) return usage_error(a + " needs a value");
+      const std::string& v = args[++i];
+      if (a == "--host") {
+        if (v.empty()) return usage_error("--host needs a non-empty address");
+        host = v;
+      } else if (!parse_port(v, &port)) {
+        return usage_error("--port expects a whole number from 0 to 65535, got '" + v + "'");
+      }
+    } else if (!a.empty() && a[0] == '-') {
+      return usage_error("unknown option " + a);
+    } else if (!dir.empty()) {
+      return usage_error("more than one folder given ('" + dir + "' and '" + a + "')");
+    } else {
+      dir = a;
+    }
+  }
+  if (dir.empty()) return usage_error("no folder given (meshmux serve DIR)");
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) return usage_error(dir + ": no such folder");
+  if (!fs::is_directory(dir, ec)) return usage_error(dir + ": not a folder");
+  fs::path root = fs::canonical(dir, ec);
+  if (ec) return usage_error(dir + ": " + ec.message());
+
+  // SIGINT and SIGTERM are taken by one waiting thread (blocked everywhere else, including
+  // httplib's worker threads, which inherit this mask), which stops the server. They stay
+  // blocked afterwards: the process is about to exit.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  Site site(root, quiet);
+  httplib::Server svr;
+  svr.set_default_headers({{"Access-Control-Allow-Origin", "*"},
+                           {"Access-Control-Expose-Headers",
+                            "Content-Range, Content-Length, Accept-Ranges"},
+                           {"Cache-Control", "no-cache"}});
+  svr.set_pre_routing_handler([&site](const httplib::Request& req, httplib::Response& res) {
+    site.handle(req, res);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+  svr.set_logger([&site](const httplib::Request& req, const httplib::Response& res) {
+    site.log(req, res);
+  });
+
+  // httplib's default socket options include SO_REUSEPORT, which lets a second server bind a
+  // port already in use (the kernel then splits the connections between them). Keep only
+  // SO_REUSEADDR: a restart binds despite TIME_WAIT, a busy port fails.
+  svr.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+
+  std::string address = url_host(host) + ":" + std::to_string(port);
+  errno = 0;
+  if (port == 0) {
+    int bound = svr.bind_to_any_port(host);
+    if (bound > 0) port = bound;
+    else port = -1;
+  } else if (!svr.bind_to_port(host, port)) {
+    port = -1;
+  }
+  if (port < 0) {
+    int err = errno;
+    std::fprintf(stderr, "meshmux: serve: cannot listen on %s%s%s\n", address.c_str(),
+                 err ? ": " : "", err ? std::strerror(err) : "");
+    return kExitOutput;
+  }
+
+  std::printf("meshmux: serving %s at http://%s:%d/ (Ctrl-C to stop)\n", root.c_str(),
+              url_host(host).c_str(), port);
+  std::fflush(stdout);
+
+  std::atomic<bool> listening_done{false}, got_signal{false};
+  std::thread waiter([&] {
+    int sig = 0;
+    sigwait(&stop_signals, &sig);
+    if (listening_done) return;  // woken by the main thread below
+    got_signal = true;
+    // stop() only acts once listen_after_bind is running; repeat until it has returned.
+    while (!listening_done) {
+      svr.stop();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  bool ok = svr.listen_after_bind();
+  listening_done = true;
+  if (!got_signal) pthread_kill(waiter.native_handle(), SIGTERM);
+  waiter.join();
+  if (got_signal) {
+    if (!quiet) std::fprintf(stderr, "meshmux: serve: stopped\n");
+    return kExitOk;
+  }
+  std::fprintf(stderr, "meshmux: serve: the server on %s:%d stopped unexpectedly%s\n",
+               url_host(host).c_str(), port, ok ? "" : " (listen failed)");
+  return kExitOutput;
+}
+
+}  // namespace meshmux

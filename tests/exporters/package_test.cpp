@@ -1,0 +1,484 @@
+// The stream package: round trip through the real pipeline (clean → build_progressive → texture
+// levels → base .glb → package), determinism, and robustness against corrupted packages.
+#include "exporters/package.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <cstdio>
+#include <cstring>
+#include <random>
+
+#include "condition/clean.h"
+#include "condition/lod.h"
+#include "condition/simplify.h"
+#include "condition/texture_levels.h"
+#include "exporters/gltf.h"
+
+namespace meshmux {
+namespace {
+
+// A UV sphere with a seam and smooth normals: 2·(rings-1)·segments triangles.
+Primitive uv_sphere(int rings, int segments) {
+  Primitive p;
+  p.uvs.resize(1);
+  for (int r = 0; r <= rings; ++r)
+    for (int s = 0; s <= segments; ++s) {
+      float th = float(M_PI) * float(r) / float(rings), ph = 2 * float(M_PI) * float(s % segments) / float(segments);
+      Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
+      if (r == 0 || r == rings) n = {0, r == 0 ? 1.0f : -1.0f, 0};
+      p.positions.push_back(n * 2.0f + Vec3{1, -3, 0.5f});
+      p.normals.push_back(n);
+      p.uvs[0].push_back({float(s) / float(segments), float(r) / float(rings)});
+    }
+  auto id = [&](int r, int s) { return uint32_t(r * (segments + 1) + s); };
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
+      if (r < rings - 1) p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
+    }
+  p.material = 0;
+  return p;
+}
+
+Image texture_image(int size) {
+  Image img;
+  img.name = "generated";
+  img.width = img.height = size;
+  img.rgba.resize(size_t(size) * size_t(size) * 4);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      uint8_t* p = &img.rgba[(size_t(y) * size_t(size) + size_t(x)) * 4];
+      p[0] = uint8_t(x), p[1] = uint8_t(y), p[2] = uint8_t(128 + 100 * std::sin(x * 0.1) * std::cos(y * 0.13)), p[3] = 255;
+    }
+  return img;
+}
+
+// Everything a package is made from, built once.
+struct Fixture {
+  ProgressiveScene ps;
+  TextureLevels textures;
+  PackageInput input;
+  std::vector<size_t> step_levels;  // per mesh step: the level of mesh 0
+};
+
+const Fixture& fixture() {
+  static Fixture* f = [] {
+    auto* f = new Fixture;
+    Scene s;
+    Mesh m;
+    m.primitives.push_back(uv_sphere(32, 32));
+    s.meshes.push_back(m);
+    s.instances.push_back({0, Mat4::identity(), "sphere"});
+    Material mat;
+    mat.base_color.image = 0;
+    s.materials.push_back(mat);
+    s.images.push_back(texture_image(256));
+    Scene cleaned = clean(s, {});
+    SimplifyOptions so;
+    so.ship_whole_below = 0;  // a small scene, streamed anyway
+    so.ship_whole_fraction = 0;
+    f->ps = build_progressive(cleaned, so);
+    TextureLevelOptions to;
+    to.base_size = 64;
+    auto levels = make_texture_levels(s.images[0], to);
+    if (levels.ok()) f->textures = levels.take();
+    LodSelection base = select_base(f->ps);
+    auto glb = export_glb_bytes(materialize(f->ps, base), [] {
+      GltfExportOptions o;
+      o.draco = false;
+      return o;
+    }(), nullptr);
+    if (glb.ok()) f->input.base_glb = glb.take();
+    f->input.scene = &f->ps;
+    f->input.base_levels = base.level;
+    f->input.textures = &f->textures;
+    f->input.base_texture_level = 0;
+    size_t b = base.level[0], full = f->ps.meshes[0].levels.size() - 1;
+    auto mesh_step = [&](size_t level, double d) {
+      StreamStep st;
+      st.kind = StreamStep::kMesh, st.levels = {level}, st.distortion = d;
+      f->input.steps.push_back(st);
+      f->step_levels.push_back(level);
+    };
+    auto texture_step = [&](size_t level, double d) {
+      StreamStep st;
+      st.kind = StreamStep::kTexture, st.texture_level = level, st.distortion = d;
+      f->input.steps.push_back(st);
+    };
+    mesh_step(b + (full - b) / 4, 5.5);
+    texture_step(1, 4.25);
+    mesh_step(b + (full - b) / 2, 3);
+    mesh_step(b + (full - b) / 2, 3);  // nothing changes: an empty chunk
+    texture_step(2, 1.5);
+    mesh_step(full, 0);
+    return f;
+  }();
+  return *f;
+}
+
+Bounds bounds_of(const PackageMesh& m) {
+  Bounds b;
+  b.min = {m.bounds[0], m.bounds[1], m.bounds[2]};
+  b.max = {m.bounds[3], m.bounds[4], m.bounds[5]};
+  return b;
+}
+
+TEST(Package, FixtureIsStreamable) {
+  const Fixture& f = fixture();
+  ASSERT_EQ(f.ps.meshes.size(), 1u);
+  const ProgressiveMesh& pm = f.ps.meshes[0];
+  EXPECT_GT(pm.face_count(), 1500u);
+  EXPECT_LT(f.input.base_levels[0] + 10, pm.levels.size()) << "base must be coarser than the full mesh";
+  ASSERT_EQ(f.textures.levels.size(), 3u);
+  EXPECT_FALSE(f.input.base_glb.empty());
+  auto bytes = write_package(f.input);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  const ProgressiveLevel& base = pm.levels[f.input.base_levels[0]];
+  std::printf("[ Package  ] %zu vertices, %zu faces, %zu levels; base %u vertices, %u faces, %zu-byte glb; package %zu bytes\n",
+              pm.vertex_count(), pm.face_count(), pm.levels.size(), base.vertex_end, base.face_end,
+              f.input.base_glb.size(), bytes->size());
+}
+
+TEST(Package, RoundTripDecodesEveryPart) {
+  const Fixture& f = fixture();
+  const ProgressiveMesh& pm = f.ps.meshes[0];
+  auto bytes = write_package(f.input);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_EQ(pkg->version, kPackageVersion);
+  // Header: JSON padded to a multiple of 4, the base right after it.
+  uint32_t json_size = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 | uint32_t((*bytes)[10]) << 16 | uint32_t((*bytes)[11]) << 24;
+  EXPECT_EQ(json_size % 4, 0u);
+  EXPECT_EQ(pkg->base_offset, 12u + json_size);
+  ASSERT_EQ(pkg->base_size, f.input.base_glb.size());
+  EXPECT_TRUE(std::equal(f.input.base_glb.begin(), f.input.base_glb.end(), bytes->begin() + long(pkg->base_offset)));
+  // The mesh table.
+  ASSERT_EQ(pkg->meshes.size(), 1u);
+  const PackageMesh& mesh = pkg->meshes[0];
+  const ProgressiveLevel& base = pm.levels[f.input.base_levels[0]];
+  EXPECT_EQ(mesh.vertices, pm.vertex_count());
+  EXPECT_EQ(mesh.faces, pm.face_count());
+  EXPECT_EQ(mesh.base_vertices, base.vertex_end);
+  EXPECT_EQ(mesh.base_faces, base.face_end);
+  Bounds box = bounds_of(mesh), expect = package_bounds(pm);
+  EXPECT_EQ(box.min.x, expect.min.x);
+  EXPECT_EQ(box.max.z, expect.max.z);
+  EXPECT_EQ(pkg->texture_width, 256);
+  EXPECT_EQ(pkg->texture_height, 256);
+  // The chunks, in step order; the last chunk ends the file.
+  ASSERT_EQ(pkg->chunks.size(), f.input.steps.size());
+  EXPECT_EQ(pkg->chunks.back().offset + pkg->chunks.back().size, bytes->size());
+  uint32_t v = base.vertex_end, fc = base.face_end;
+  size_t mesh_step = 0;
+  std::vector<uint8_t> all_vertices;
+  for (size_t i = 0; i < pkg->chunks.size(); ++i) {
+    const PackageChunk& c = pkg->chunks[i];
+    const StreamStep& step = f.input.steps[i];
+    EXPECT_EQ(c.distortion, step.distortion);
+    if (step.kind == StreamStep::kTexture) {
+      ASSERT_EQ(c.kind, StreamStep::kTexture);
+      const TextureLevel& l = f.textures.levels[step.texture_level];
+      EXPECT_EQ(c.width, l.width);
+      EXPECT_EQ(c.height, l.height);
+      EXPECT_EQ(c.mime, l.mime_type);
+      ASSERT_EQ(c.size, l.encoded.size());
+      EXPECT_TRUE(std::equal(l.encoded.begin(), l.encoded.end(), bytes->begin() + long(c.offset)));
+      continue;
+    }
+    ASSERT_EQ(c.kind, StreamStep::kMesh);
+    const ProgressiveLevel& to = pm.levels[f.step_levels[mesh_step++]];
+    size_t level = f.step_levels[mesh_step - 1];
+    if (level == (mesh_step >= 2 ? f.step_levels[mesh_step - 2] : f.input.base_levels[0])) {
+      EXPECT_TRUE(c.parts.empty()) << "chunk " << i;
+      EXPECT_EQ(c.size, 0u);
+      continue;
+    }
+    ASSERT_EQ(c.parts.size(), 1u) << "chunk " << i;
+    const PackagePart& p = c.parts[0];
+    EXPECT_EQ(p.mesh, 0u);
+    EXPECT_EQ(p.vertex_begin, v);
+    EXPECT_EQ(p.vertex_end, to.vertex_end);
+    EXPECT_EQ(p.face_begin, fc);
+    EXPECT_EQ(p.face_end, to.face_end);
+    EXPECT_EQ(p.vertex_bytes + p.index_bytes, c.size);
+    auto d = decode_part(*bytes, *pkg, c, 0);
+    ASSERT_TRUE(d.ok()) << d.status().message();
+    EXPECT_EQ(d->vertices, pack_vertices(pm, box, v, to.vertex_end)) << "chunk " << i;
+    std::vector<uint32_t> faces(pm.indices.begin() + long(fc) * 3, pm.indices.begin() + long(to.face_end) * 3);
+    // meshopt's index codec keeps triangle order and winding but may rotate a triangle's corners.
+    ASSERT_EQ(d->indices.size(), faces.size());
+    for (size_t t = 0; t < faces.size(); t += 3) {
+      const uint32_t* a = &d->indices[t];
+      const uint32_t* e = &faces[t];
+      bool same = false;
+      for (int r = 0; r < 3; ++r) same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
+      ASSERT_TRUE(same) << "chunk " << i << " face " << t / 3;
+    }
+    all_vertices.insert(all_vertices.end(), d->vertices.begin(), d->vertices.end());
+    v = to.vertex_end, fc = to.face_end;
+    EXPECT_FALSE(decode_part(*bytes, *pkg, c, 1).ok());
+  }
+  EXPECT_EQ(v, pm.vertex_count());
+  EXPECT_EQ(fc, pm.face_count());
+  // The packed vertices dequantize to the positions (to 16 bits over the bounds), carry parents.
+  ASSERT_EQ(all_vertices.size(), size_t(pm.vertex_count() - base.vertex_end) * kPackedVertexBytes);
+  for (uint32_t k = base.vertex_end; k < pm.vertex_count(); ++k) {
+    const uint8_t* q = &all_vertices[size_t(k - base.vertex_end) * kPackedVertexBytes];
+    uint16_t x = uint16_t(q[0] | q[1] << 8);
+    float px = box.min.x + (box.max.x - box.min.x) * float(x) / 65535.0f;
+    ASSERT_NEAR(px, pm.positions[k].x, (box.max.x - box.min.x) / 65535.0f);
+    uint32_t parent = uint32_t(q[16]) | uint32_t(q[17]) << 8 | uint32_t(q[18]) << 16 | uint32_t(q[19]) << 24;
+    ASSERT_EQ(parent, pm.parent[k]);
+  }
+  // Texture chunks and decode_part.
+  EXPECT_FALSE(decode_part(*bytes, *pkg, pkg->chunks[1], 0).ok());
+  // Determinism.
+  auto again = write_package(f.input);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(*again, *bytes);
+}
+
+TEST(Package, WriterRejectsInconsistentInput) {
+  const Fixture& f = fixture();
+  PackageInput in = f.input;
+  in.base_levels.clear();
+  EXPECT_FALSE(write_package(in).ok());
+  in = f.input;
+  in.steps[2].levels = {f.input.base_levels[0]};  // back below the first step
+  auto r = write_package(in);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("goes back"), std::string::npos) << r.status().message();
+  in = f.input;
+  in.textures = nullptr;
+  EXPECT_FALSE(write_package(in).ok());  // texture steps without textures
+  in = f.input;
+  in.scene = nullptr;
+  EXPECT_FALSE(write_package(in).ok());
+  // No textures, no texture steps: "texture": null.
+  in = f.input;
+  in.textures = nullptr;
+  std::vector<StreamStep> mesh_only;
+  for (const StreamStep& s : in.steps)
+    if (s.kind == StreamStep::kMesh) mesh_only.push_back(s);
+  in.steps = mesh_only;
+  auto bytes = write_package(in);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_EQ(pkg->texture_width, 0);
+  EXPECT_EQ(pkg->chunks.size(), mesh_only.size());
+}
+
+std::vector<uint8_t> with_header(const std::vector<uint8_t>& original, const std::string& json, size_t min_size) {
+  std::string text = json;
+  size_t size = std::max(min_size, (text.size() + 3) / 4 * 4);
+  text.resize(size, ' ');
+  uint32_t old = uint32_t(original[8]) | uint32_t(original[9]) << 8 | uint32_t(original[10]) << 16 | uint32_t(original[11]) << 24;
+  std::vector<uint8_t> out(12 + size + (original.size() - 12 - old));
+  std::copy(original.begin(), original.begin() + 8, out.begin());
+  for (int i = 0; i < 4; ++i) out[8 + size_t(i)] = uint8_t(size >> (8 * i));
+  std::copy(text.begin(), text.end(), out.begin() + 12);
+  std::copy(original.begin() + 12 + long(old), original.end(), out.begin() + 12 + long(size));
+  return out;
+}
+
+void collect(nlohmann::json& j, std::vector<nlohmann::json*>& numbers, std::vector<nlohmann::json*>& all) {
+  all.push_back(&j);
+  if (j.is_number()) numbers.push_back(&j);
+  if (j.is_structured())
+    for (auto& e : j) collect(e, numbers, all);
+}
+
+// Corrupted packages are rejected with a message or decode cleanly; never a crash or a hang.
+TEST(Package, SurvivesThousandCorruptions) {
+  const Fixture& f = fixture();
+  auto valid = write_package(f.input);
+  ASSERT_TRUE(valid.ok()) << valid.status().message();
+  const std::vector<uint8_t>& good = *valid;
+  uint32_t json_size = uint32_t(good[8]) | uint32_t(good[9]) << 8 | uint32_t(good[10]) << 16 | uint32_t(good[11]) << 24;
+  nlohmann::json table = nlohmann::json::parse(good.begin() + 12, good.begin() + 12 + json_size);
+  std::mt19937_64 rng(20240611);
+  auto below = [&](uint64_t n) { return n ? rng() % n : 0; };
+  int kinds[6] = {0, 0, 0, 0, 0, 0};
+  int rejected_read = 0, rejected_decode = 0, accepted = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    std::vector<uint8_t> bytes = good;
+    int kind = int(below(6));
+    ++kinds[kind];
+    switch (kind) {
+      case 0:  // truncation
+        bytes.resize(size_t(below(good.size())));
+        break;
+      case 1:  // byte flips anywhere
+      case 2: {  // byte flips inside the JSON
+        int n = 1 + int(below(8));
+        for (int i = 0; i < n; ++i) {
+          size_t at = kind == 1 ? size_t(below(bytes.size())) : 12 + size_t(below(json_size));
+          bytes[at] ^= uint8_t(1 + below(255));
+        }
+        break;
+      }
+      case 3: {  // JSON length field
+        const uint32_t values[] = {0xffffffffu, 0x80000000u, uint32_t(good.size()), uint32_t(good.size() - 12),
+                                   uint32_t(good.size() - 11), json_size + 4, json_size - 4, json_size + 1, 0,
+                                   uint32_t(below(0xffffffffu))};
+        uint32_t v = values[below(sizeof values / sizeof values[0])];
+        for (int i = 0; i < 4; ++i) bytes[8 + size_t(i)] = uint8_t(v >> (8 * i));
+        break;
+      }
+      case 4: {  // numbers in the table rewritten (offsets, sizes, counts, ranges, bounds)
+        nlohmann::json j = table;
+        std::vector<nlohmann::json*> numbers, all;
+        collect(j, numbers, all);
+        int n = 1 + int(below(3));
+        for (int i = 0; i < n; ++i) {
+          nlohmann::json& x = *numbers[size_t(below(numbers.size()))];
+          int64_t old = x.is_number_integer() ? x.get<int64_t>() : 0;
+          switch (below(9)) {
+            case 0: x = 0; break;
+            case 1: x = -1; break;
+            case 2: x = old + 1; break;
+            case 3: x = old - 1; break;
+            case 4: x = old + int64_t(below(2000)) - 1000; break;
+            case 5: x = uint64_t(good.size()); break;
+            case 6: x = uint64_t(1) << (28 + below(36)); break;
+            case 7: x = 1.5; break;
+            default: x = std::numeric_limits<uint64_t>::max(); break;
+          }
+        }
+        bytes = with_header(good, j.dump(), below(2) ? json_size : 0);
+        break;
+      }
+      default: {  // values replaced by other types, entries dropped or duplicated
+        nlohmann::json j = table;
+        std::vector<nlohmann::json*> numbers, all;
+        collect(j, numbers, all);
+        nlohmann::json& x = *all[1 + size_t(below(all.size() - 1))];
+        switch (below(5)) {
+          case 0: x = nullptr; break;
+          case 1: x = "text"; break;
+          case 2: x = nlohmann::json::array(); break;
+          case 3: x = nlohmann::json::object(); break;
+          default: {
+            auto& chunks = j["chunks"];
+            size_t a = size_t(below(chunks.size())), b = size_t(below(chunks.size()));
+            std::swap(chunks[a], chunks[b]);
+            if (below(2)) {
+              nlohmann::json copy = chunks[a];
+              chunks.push_back(copy);
+            }
+          }
+        }
+        bytes = with_header(good, j.dump(), json_size);
+      }
+    }
+    auto pkg = read_package(bytes);
+    if (!pkg.ok()) {
+      ++rejected_read;
+      ASSERT_EQ(pkg.status().message().rfind("package: ", 0), 0u) << pkg.status().message();
+      continue;
+    }
+    bool all_ok = true;
+    for (const PackageChunk& c : pkg->chunks) {
+      ASSERT_LE(c.offset + c.size, bytes.size());
+      for (size_t p = 0; p < c.parts.size(); ++p) {
+        auto d = decode_part(bytes, *pkg, c, p);
+        if (!d.ok()) {
+          all_ok = false;
+          ASSERT_FALSE(d.status().message().empty());
+          continue;
+        }
+        const PackagePart& part = c.parts[p];
+        ASSERT_EQ(d->vertices.size(), size_t(part.vertex_end - part.vertex_begin) * kPackedVertexBytes);
+        ASSERT_EQ(d->indices.size(), size_t(part.face_end - part.face_begin) * 3);
+        for (uint32_t i : d->indices) ASSERT_LT(i, pkg->meshes[part.mesh].vertices);
+      }
+    }
+    ++(all_ok ? accepted : rejected_decode);
+  }
+  std::printf("[ Package  ] 1000 corruptions (truncate %d, flip %d, flip JSON %d, JSON length %d, numbers %d, types %d): "
+              "%d rejected at read, %d rejected at decode, %d accepted\n",
+              kinds[0], kinds[1], kinds[2], kinds[3], kinds[4], kinds[5], rejected_read, rejected_decode, accepted);
+  EXPECT_EQ(rejected_read + rejected_decode + accepted, 1000);
+  EXPECT_GT(rejected_read, 300);
+}
+
+TEST(Package, RejectsBadHeadersWithClearMessages) {
+  const Fixture& f = fixture();
+  auto valid = write_package(f.input);
+  ASSERT_TRUE(valid.ok());
+  auto message = [](const std::vector<uint8_t>& b) {
+    auto r = read_package(b);
+    return r.ok() ? std::string("accepted") : r.status().message();
+  };
+  EXPECT_EQ(message({}), "package: empty file");
+  std::vector<uint8_t> eleven(valid->begin(), valid->begin() + 11);
+  EXPECT_NE(message(eleven).find("11 bytes"), std::string::npos) << message(eleven);
+  std::vector<uint8_t> b = *valid;
+  b[0] = 'X';
+  EXPECT_NE(message(b).find("magic"), std::string::npos) << message(b);
+  b = *valid;
+  b[4] = 2;
+  EXPECT_EQ(message(b), "package: version 2 not supported");
+  b = *valid;
+  b[11] = 0x7f;
+  EXPECT_NE(message(b).find("past the end"), std::string::npos) << message(b);
+  b = std::vector<uint8_t>(valid->begin(), valid->begin() + 12);  // header only
+  EXPECT_NE(message(b).find("past the end"), std::string::npos) << message(b);
+  b = *valid;
+  b[12] = '[';
+  EXPECT_NE(message(b).find("JSON"), std::string::npos) << message(b);
+  // A package cut at a chunk boundary no longer holds the chunks after it: rejected as a whole.
+  auto pkg = read_package(*valid);
+  ASSERT_TRUE(pkg.ok());
+  b.assign(valid->begin(), valid->begin() + long(pkg->chunks.back().offset));
+  EXPECT_NE(message(b).find("chunk " + std::to_string(pkg->chunks.size() - 1)), std::string::npos) << message(b);
+}
+
+// decode_part trusts neither the Package nor the bytes it is given.
+TEST(Package, DecodeChecksItsArguments) {
+  const Fixture& f = fixture();
+  auto bytes = write_package(f.input);
+  ASSERT_TRUE(bytes.ok());
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok());
+  const PackageChunk& good = pkg->chunks[0];
+  ASSERT_EQ(good.kind, StreamStep::kMesh);
+  ASSERT_TRUE(decode_part(*bytes, *pkg, good, 0).ok());
+  auto fails = [&](const PackageChunk& c, const Package& p, const std::vector<uint8_t>& b) {
+    auto r = decode_part(b, p, c, 0);
+    return !r.ok() && r.status().message().rfind("package: ", 0) == 0;
+  };
+  PackageChunk c = good;
+  c.offset = bytes->size();
+  EXPECT_TRUE(fails(c, *pkg, *bytes));
+  c = good;
+  c.parts[0].vertex_end = 1u << 27;  // far more vertices than the bytes can hold
+  EXPECT_TRUE(fails(c, *pkg, *bytes));
+  c = good;
+  c.parts[0].mesh = 7;
+  EXPECT_TRUE(fails(c, *pkg, *bytes));
+  c = good;
+  c.parts[0].vertex_bytes += 1000000;
+  EXPECT_TRUE(fails(c, *pkg, *bytes));
+  Package p = *pkg;
+  p.meshes[0].vertices = 10;  // decoded indices out of range
+  EXPECT_TRUE(fails(good, p, *bytes));
+  std::vector<uint8_t> cut(bytes->begin(), bytes->begin() + long(good.offset + good.size - 1));
+  EXPECT_TRUE(fails(good, *pkg, cut));
+  std::vector<uint8_t> flipped = *bytes;
+  for (uint64_t i = 0; i < good.size; ++i) flipped[good.offset + i] = 0xff;
+  auto r = decode_part(flipped, *pkg, good, 0);  // garbage decodes or fails, never crashes
+  if (!r.ok()) {
+    EXPECT_FALSE(r.status().message().empty());
+  }
+}
+
+}  // namespace
+}  // namespace meshmux
