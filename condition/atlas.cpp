@@ -189,7 +189,21 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     sum_l2 += l2[i], sum_a += a3[i], sum_src += src[i];
   }
   double max_t = double(o.max_size) * o.max_size;
-  double T = sum_src > 0 ? std::min(sum_src, max_t) : double(o.vertex_color_target) * o.vertex_color_target;
+  // "The total original texture area referenced by all triangles": Σ A'_c counts texels that
+  // several charts reuse (mirrored halves, repeated decals) once per use, so it is also capped
+  // by the pixels of the images the materials reference.
+  double referenced_pixels = 0;
+  {
+    std::vector<char> seen(scene.images.size(), 0);
+    for (const Material& mat : scene.materials)
+      if (mat.base_color.present() && size_t(mat.base_color.image) < seen.size() && !seen[size_t(mat.base_color.image)]) {
+        seen[size_t(mat.base_color.image)] = 1;
+        const Image& img = scene.images[size_t(mat.base_color.image)];
+        referenced_pixels += double(img.width) * img.height;
+      }
+  }
+  double T = sum_src > 0 ? std::min({sum_src, referenced_pixels > 0 ? referenced_pixels : sum_src, max_t})
+                         : double(o.vertex_color_target) * o.vertex_color_target;
   rep.target_texels = T;
 
   // Flat colours share one block per distinct colour.
