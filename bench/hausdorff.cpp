@@ -159,8 +159,10 @@ class Bvh {
     double q[3] = {p.x, p.y, p.z}, d2 = 0;
     for (int a = 0; a < 3; ++a) {
       double d = 0;
-      if (q[a] < n.lo[a]) d = n.lo[a] - q[a];
-      else if (q[a] > n.hi[a]) d = q[a] - n.hi[a];
+      if (q[a] < n.lo[a])
+        d = n.lo[a] - q[a];
+      else if (q[a] > n.hi[a])
+        d = q[a] - n.hi[a];
       d2 += d * d;
     }
     return d2;

@@ -22,13 +22,13 @@ struct HausdorffOptions {
 };
 
 struct HausdorffResult {
-  double hausdorff = 0;    // max(forward, backward), relative to the reference diagonal
-  double forward = 0;      // max over the reference's samples of the distance to `other`
-  double backward = 0;     // max over `other`'s samples of the distance to the reference
-  double mean = 0;         // mean of all 2N sample distances, relative
-  double rms = 0;          // root mean square of all 2N sample distances, relative
-  double diagonal = 0;     // the reference's bounding-box diagonal, author's units
-  bool valid = false;      // false when either surface has no area
+  double hausdorff = 0;  // max(forward, backward), relative to the reference diagonal
+  double forward = 0;    // max over the reference's samples of the distance to `other`
+  double backward = 0;   // max over `other`'s samples of the distance to the reference
+  double mean = 0;       // mean of all 2N sample distances, relative
+  double rms = 0;        // root mean square of all 2N sample distances, relative
+  double diagonal = 0;   // the reference's bounding-box diagonal, author's units
+  bool valid = false;    // false when either surface has no area
 };
 
 // World-space triangles of a scene, instances expanded: 9 floats per triangle.

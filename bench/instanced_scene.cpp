@@ -60,7 +60,8 @@ Primitive bush(int slices, int stacks) {
     Vec3 a = p.positions[p.indices[i]], b = p.positions[p.indices[i + 1]],
          c = p.positions[p.indices[i + 2]];
     Vec3 n = cross(b - a, c - a);
-    for (int k = 0; k < 3; ++k) sum[spot[p.indices[i + size_t(k)]]] = sum[spot[p.indices[i + size_t(k)]]] + n;
+    for (int k = 0; k < 3; ++k)
+      sum[spot[p.indices[i + size_t(k)]]] = sum[spot[p.indices[i + size_t(k)]]] + n;
   }
   for (uint32_t id : spot) p.normals.push_back(normalize(sum[id]));
   return p;

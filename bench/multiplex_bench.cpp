@@ -41,17 +41,23 @@ void run(const std::string& name, const Scene& input) {
   }
   double rd = area_under(r->rd), mf = area_under(r->mesh_first), tf = area_under(r->texture_first),
          cr = area_under(r->constant_ratio), best = std::min({mf, tf, cr});
-  std::printf("| %s | %llu | %zu x %zu | %.4g | %.4g | %.4g | %.4g | %.1f%% | %zu | %zu / %zu / %zu | %zu | %.1f | %.1f |\n",
-              name.c_str(), static_cast<unsigned long long>(compute_stats(s).scene_triangles), r->mesh_bytes.size(),
-              r->texture_bytes.size(), rd, mf, tf, cr, 100 * (1 - rd / best), r->views, r->cells_descent,
-              r->cells_evaluated, r->cells_total, r->renders, std::chrono::duration<double>(t1 - t0).count(),
-              std::chrono::duration<double>(t2 - t1).count());
+  std::printf(
+      "| %s | %llu | %zu x %zu | %.4g | %.4g | %.4g | %.4g | %.1f%% | %zu | %zu / %zu / %zu | %zu "
+      "| %.1f | %.1f |\n",
+      name.c_str(), static_cast<unsigned long long>(compute_stats(s).scene_triangles),
+      r->mesh_bytes.size(), r->texture_bytes.size(), rd, mf, tf, cr, 100 * (1 - rd / best),
+      r->views, r->cells_descent, r->cells_evaluated, r->cells_total, r->renders,
+      std::chrono::duration<double>(t1 - t0).count(),
+      std::chrono::duration<double>(t2 - t1).count());
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::printf("| model | scene tris | mesh x texture layers | area rd | mesh first | texture first | constant ratio | gain vs best | views | cells descent / all / grid | renders | condition s | multiplex s |\n");
+  std::printf(
+      "| model | scene tris | mesh x texture layers | area rd | mesh first | texture first | "
+      "constant ratio | gain vs best | views | cells descent / all / grid | renders | condition s "
+      "| multiplex s |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n");
   SampleOptions big;
   big.columns_per_side = 18;

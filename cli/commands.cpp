@@ -17,10 +17,10 @@
 #include "condition/flatten.h"
 #include "condition/lod.h"
 #include "condition/simplify.h"
-#include "multiplex/multiplex.h"
 #include "exporters/gltf.h"
 #include "exporters/package.h"
 #include "importers/import.h"
+#include "multiplex/multiplex.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
 
@@ -39,7 +39,8 @@ constexpr int kExitOutput = 3;
 constexpr int kExitInternal = 4;
 
 const char* kUsage =
-    "meshmux " MESHMUX_VERSION " - turns COLLADA and glTF scenes into web-ready glTF\n"
+    "meshmux " MESHMUX_VERSION
+    " - turns COLLADA and glTF scenes into web-ready glTF\n"
     "\n"
     "usage:\n"
     "  meshmux convert IN -o OUT [options]   clean IN and write web-ready output\n"
@@ -56,7 +57,8 @@ const char* kUsage =
     "                                        at most N scene triangles, or geometric error E\n"
     "                                        (fraction of the bounding-box diagonal)\n"
     "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
-    "  meshmux serve DIR [--port P] [--host H]   HTTP with Range requests for the viewer (loopback by default)\n"
+    "  meshmux serve DIR [--port P] [--host H]   HTTP with Range requests for the viewer (loopback "
+    "by default)\n"
     "  meshmux --help | --version\n"
     "\n"
     "convert options:\n"
@@ -80,10 +82,14 @@ const char* kUsage =
 
 int exit_code(const Status& s) {
   switch (s.kind()) {
-    case ErrorKind::kNone: return kExitOk;
-    case ErrorKind::kInput: return kExitInput;
-    case ErrorKind::kOutput: return kExitOutput;
-    case ErrorKind::kInternal: return kExitInternal;
+    case ErrorKind::kNone:
+      return kExitOk;
+    case ErrorKind::kInput:
+      return kExitInput;
+    case ErrorKind::kOutput:
+      return kExitOutput;
+    case ErrorKind::kInternal:
+      return kExitInternal;
   }
   return kExitInternal;
 }
@@ -170,7 +176,8 @@ class Args {
     if (a == "-q" || a == "--quiet") return quiet = true, 1;
     if (a == "-h" || a == "--help") return help = true, 1;
     if (!a.empty() && a[0] == '-') return 0;
-    if (!in.empty()) return fail("more than one input given ('" + in + "' and '" + a + "')") ? 1 : -1;
+    if (!in.empty())
+      return fail("more than one input given ('" + in + "' and '" + a + "')") ? 1 : -1;
     in = a;
     return 1;
   }
@@ -263,9 +270,10 @@ int cmd_convert(const std::vector<std::string>& args) {
     if (ar.built) {
       char line[256];
       std::snprintf(line, sizeof line,
-                    "atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 stretch mean %.3f max %.3f, %.2f s",
-                    ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization, ar.mean_stretch_l2,
-                    ar.max_stretch_l2, ar.seconds);
+                    "atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 stretch mean "
+                    "%.3f max %.3f, %.2f s",
+                    ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
+                    ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds);
       progress.step(line);
     } else {
       progress.step("atlas: not needed (one material, no texture)");
@@ -282,9 +290,9 @@ int cmd_convert(const std::vector<std::string>& args) {
     std::error_code ec;
     std::filesystem::create_directories(out, ec);
     if (ec || !std::filesystem::is_directory(out))
-      return fail(Status::error(out + ": cannot create output folder" +
-                                    (ec ? ": " + ec.message() : std::string()),
-                                ErrorKind::kOutput));
+      return fail(Status::error(
+          out + ": cannot create output folder" + (ec ? ": " + ec.message() : std::string()),
+          ErrorKind::kOutput));
     target = out + "/model.glb";
   }
   std::vector<uint8_t> base_bytes;
@@ -316,9 +324,10 @@ int cmd_convert(const std::vector<std::string>& args) {
       } else {
         char line[256];
         std::snprintf(line, sizeof line,
-                      "multiplexed: %zu mesh x %zu texture layers, %zu views, %zu of %zu cells rendered (%zu images), %.1f s",
-                      mx->mesh_bytes.size(), mx->texture_bytes.size(), mx->views, mx->cells_evaluated,
-                      mx->cells_total, mx->renders, mx->seconds_total);
+                      "multiplexed: %zu mesh x %zu texture layers, %zu views, %zu of %zu cells "
+                      "rendered (%zu images), %.1f s",
+                      mx->mesh_bytes.size(), mx->texture_bytes.size(), mx->views,
+                      mx->cells_evaluated, mx->cells_total, mx->renders, mx->seconds_total);
         progress.step(line);
         report_text = report_json(*mx);
         svg_text = rd_svg(*mx);
@@ -385,7 +394,8 @@ int cmd_convert(const std::vector<std::string>& args) {
   if (!package_bytes.empty()) {
     s = write_file_atomic(out + "/model.mmxp", package_bytes);
     if (!s) return fail(s);
-    progress.step("wrote " + out + "/model.mmxp (the stream package, " + human_bytes(package_bytes.size()) + ")");
+    progress.step("wrote " + out + "/model.mmxp (the stream package, " +
+                  human_bytes(package_bytes.size()) + ")");
   }
   SceneStats after = compute_stats(cleaned);
   progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
@@ -464,7 +474,8 @@ int cmd_info(const std::vector<std::string>& args) {
     j["warnings"] = warnings.items();
     std::printf("%s\n", j.dump(1).c_str());
   } else {
-    for (const auto& w : warnings.items()) std::fprintf(stderr, "meshmux: warning: %s\n", w.c_str());
+    for (const auto& w : warnings.items())
+      std::fprintf(stderr, "meshmux: warning: %s\n", w.c_str());
     std::printf("file              %s\n", file.c_str());
     std::printf("bytes             %llu (%s)\n", static_cast<unsigned long long>(bytes),
                 human_bytes(bytes).c_str());
@@ -524,8 +535,10 @@ int cmd_simplify(const std::vector<std::string>& args) {
   const std::string &in = p.in, &out = p.out;
   bool quiet = p.quiet;
   if (in.empty()) return usage_error("simplify: no input file given");
-  if (out.empty() || !ends_with(out, ".glb")) return usage_error("simplify: -o OUT.glb is required");
-  if (targets != 1) return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
+  if (out.empty() || !ends_with(out, ".glb"))
+    return usage_error("simplify: -o OUT.glb is required");
+  if (targets != 1)
+    return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
   Progress progress(quiet);
   Warnings warnings;
   progress.step("importing " + in);

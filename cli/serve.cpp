@@ -91,12 +91,23 @@ std::string html_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -153,14 +164,15 @@ void set_file_body(httplib::Response& res, const std::shared_ptr<OpenFile>& file
     res.set_content(std::string(), type);
     return;
   }
-  res.set_content_provider(
-      size_t(length), type, [file, offset](size_t pos, size_t want, httplib::DataSink& sink) {
-        char buf[1 << 16];
-        size_t n = std::min(want, sizeof buf);
-        ssize_t got = ::pread(file->fd, buf, n, off_t(offset + pos));
-        if (got <= 0) return false;  // read error or the file shrank: abort the connection
-        return sink.write(buf, size_t(got));
-      });
+  res.set_content_provider(size_t(length), type,
+                           [file, offset](size_t pos, size_t want, httplib::DataSink& sink) {
+                             char buf[1 << 16];
+                             size_t n = std::min(want, sizeof buf);
+                             ssize_t got = ::pread(file->fd, buf, n, off_t(offset + pos));
+                             if (got <= 0)
+                               return false;  // read error or the file shrank: abort the connection
+                             return sink.write(buf, size_t(got));
+                           });
 }
 
 class Site {
@@ -194,7 +206,8 @@ class Site {
 
     fs::path target;
     int status = resolve(req.path, &target);
-    if (status != 200) return set_text(res, status, status == 403 ? "403 forbidden" : "404 not found");
+    if (status != 200)
+      return set_text(res, status, status == 403 ? "403 forbidden" : "404 not found");
 
     std::error_code ec;
     if (fs::is_directory(target, ec)) {
@@ -389,17 +402,16 @@ int cmd_serve(const std::vector<std::string>& args) {
 
   Site site(root, quiet);
   httplib::Server svr;
-  svr.set_default_headers({{"Access-Control-Allow-Origin", "*"},
-                           {"Access-Control-Expose-Headers",
-                            "Content-Range, Content-Length, Accept-Ranges"},
-                           {"Cache-Control", "no-cache"}});
+  svr.set_default_headers(
+      {{"Access-Control-Allow-Origin", "*"},
+       {"Access-Control-Expose-Headers", "Content-Range, Content-Length, Accept-Ranges"},
+       {"Cache-Control", "no-cache"}});
   svr.set_pre_routing_handler([&site](const httplib::Request& req, httplib::Response& res) {
     site.handle(req, res);
     return httplib::Server::HandlerResponse::Handled;
   });
-  svr.set_logger([&site](const httplib::Request& req, const httplib::Response& res) {
-    site.log(req, res);
-  });
+  svr.set_logger(
+      [&site](const httplib::Request& req, const httplib::Response& res) { site.log(req, res); });
 
   // httplib's default socket options include SO_REUSEPORT, which lets a second server bind a
   // port already in use (the kernel then splits the connections between them). Keep only
@@ -413,8 +425,10 @@ int cmd_serve(const std::vector<std::string>& args) {
   errno = 0;
   if (port == 0) {
     int bound = svr.bind_to_any_port(host);
-    if (bound > 0) port = bound;
-    else port = -1;
+    if (bound > 0)
+      port = bound;
+    else
+      port = -1;
   } else if (!svr.bind_to_port(host, port)) {
     port = -1;
   }

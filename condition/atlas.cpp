@@ -19,7 +19,6 @@ namespace meshmux {
 
 namespace {
 
-
 // Corner positions of a mesh face.
 struct MeshView {
   const Mesh& mesh;
@@ -35,15 +34,18 @@ struct MeshView {
 };
 
 // Splits a chart's faces into edge-connected components (faces sharing two positions).
-std::vector<std::vector<uint32_t>> components(const MeshView& mv, const std::vector<uint32_t>& faces) {
+std::vector<std::vector<uint32_t>> components(const MeshView& mv,
+                                              const std::vector<uint32_t>& faces) {
   std::unordered_map<uint64_t, std::vector<uint32_t>> by_edge;
   auto pos_key = [](Vec3 p) {
-    return (uint64_t(float_bits(p.x)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(float_bits(p.y)) * 0xC2B2AE3D27D4EB4Full) ^
+    return (uint64_t(float_bits(p.x)) * 0x9E3779B97F4A7C15ull) ^
+           (uint64_t(float_bits(p.y)) * 0xC2B2AE3D27D4EB4Full) ^
            (uint64_t(float_bits(p.z)) * 0x165667B19E3779F9ull);
   };
   for (uint32_t i = 0; i < faces.size(); ++i)
     for (int k = 0; k < 3; ++k) {
-      uint64_t a = pos_key(mv.position(faces[i], k)), b = pos_key(mv.position(faces[i], (k + 1) % 3));
+      uint64_t a = pos_key(mv.position(faces[i], k)),
+               b = pos_key(mv.position(faces[i], (k + 1) % 3));
       by_edge[a < b ? a * 31 + b : b * 31 + a].push_back(i);
     }
   std::vector<uint32_t> parent(faces.size());
@@ -62,11 +64,13 @@ std::vector<std::vector<uint32_t>> components(const MeshView& mv, const std::vec
 }
 
 // Halves a face set along the longest axis of its centroids' bounding box (median split).
-std::pair<std::vector<uint32_t>, std::vector<uint32_t>> bisect(const MeshView& mv, std::vector<uint32_t> faces) {
+std::pair<std::vector<uint32_t>, std::vector<uint32_t>> bisect(const MeshView& mv,
+                                                               std::vector<uint32_t> faces) {
   Bounds b;
   std::vector<Vec3> c(faces.size());
   for (size_t i = 0; i < faces.size(); ++i) {
-    c[i] = (mv.position(faces[i], 0) + mv.position(faces[i], 1) + mv.position(faces[i], 2)) * (1.0f / 3);
+    c[i] = (mv.position(faces[i], 0) + mv.position(faces[i], 1) + mv.position(faces[i], 2)) *
+           (1.0f / 3);
     b.add(c[i]);
   }
   Vec3 e = b.max - b.min;
@@ -74,9 +78,11 @@ std::pair<std::vector<uint32_t>, std::vector<uint32_t>> bisect(const MeshView& m
   std::vector<uint32_t> order(faces.size());
   std::iota(order.begin(), order.end(), 0);
   auto coord = [&](uint32_t i) { return axis == 0 ? c[i].x : axis == 1 ? c[i].y : c[i].z; };
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b2) { return coord(a) < coord(b2); });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](uint32_t a, uint32_t b2) { return coord(a) < coord(b2); });
   std::vector<uint32_t> lo, hi;
-  for (size_t i = 0; i < order.size(); ++i) (i < order.size() / 2 ? lo : hi).push_back(faces[order[i]]);
+  for (size_t i = 0; i < order.size(); ++i)
+    (i < order.size() / 2 ? lo : hi).push_back(faces[order[i]]);
   std::sort(lo.begin(), lo.end());
   std::sort(hi.begin(), hi.end());
   return {lo, hi};
@@ -84,8 +90,9 @@ std::pair<std::vector<uint32_t>, std::vector<uint32_t>> bisect(const MeshView& m
 
 // Parameterizes a textured chart, splitting it (components, then halves) until every piece
 // flattens without flips or overlap.
-void flatten_chart(const Scene& scene, const MeshView& mv, const Chart& chart, const AtlasOptions& o,
-                   std::vector<Chart>& out_charts, std::vector<ChartUv>& out_uvs, size_t* split) {
+void flatten_chart(const Scene& scene, const MeshView& mv, const Chart& chart,
+                   const AtlasOptions& o, std::vector<Chart>& out_charts,
+                   std::vector<ChartUv>& out_uvs, size_t* split) {
   std::vector<std::vector<uint32_t>> work;
   auto comps = components(mv, chart.faces);
   if (comps.size() > 1) ++*split;
@@ -140,7 +147,8 @@ bool needs_atlas(const Scene& scene) {
 
 }  // namespace
 
-Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report, Warnings* warnings) {
+Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+                          Warnings* warnings) {
   auto start = std::chrono::steady_clock::now();
   AtlasReport rep;
   if (!needs_atlas(scene)) {
@@ -156,7 +164,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   ChartSet charts;
   std::vector<ChartUv> uvs;
   charts.face_chart.resize(scene.meshes.size());
-  for (size_t m = 0; m < scene.meshes.size(); ++m) charts.face_chart[m].assign(views[m].faces.size(), 0);
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    charts.face_chart[m].assign(views[m].faces.size(), 0);
   for (const Chart& c : seg.charts) {
     if (!c.textured) {
       charts.charts.push_back(c);
@@ -196,14 +205,16 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   {
     std::vector<char> seen(scene.images.size(), 0);
     for (const Material& mat : scene.materials)
-      if (mat.base_color.present() && size_t(mat.base_color.image) < seen.size() && !seen[size_t(mat.base_color.image)]) {
+      if (mat.base_color.present() && size_t(mat.base_color.image) < seen.size() &&
+          !seen[size_t(mat.base_color.image)]) {
         seen[size_t(mat.base_color.image)] = 1;
         const Image& img = scene.images[size_t(mat.base_color.image)];
         referenced_pixels += double(img.width) * img.height;
       }
   }
-  double T = sum_src > 0 ? std::min({sum_src, referenced_pixels > 0 ? referenced_pixels : sum_src, max_t})
-                         : double(o.vertex_color_target) * o.vertex_color_target;
+  double T = sum_src > 0
+                 ? std::min({sum_src, referenced_pixels > 0 ? referenced_pixels : sum_src, max_t})
+                 : double(o.vertex_color_target) * o.vertex_color_target;
   rep.target_texels = T;
 
   // Flat colours share one block per distinct colour.
@@ -215,10 +226,12 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   for (size_t i = 0; i < charts.charts.size(); ++i) {
     const Chart& c = charts.charts[i];
     if (!c.textured) {
-      std::array<uint32_t, 4> key{float_bits(c.color.x), float_bits(c.color.y), float_bits(c.color.z), float_bits(c.color.w)};
+      std::array<uint32_t, 4> key{float_bits(c.color.x), float_bits(c.color.y),
+                                  float_bits(c.color.z), float_bits(c.color.w)};
       auto [it, fresh] = flat_slot.emplace(key, rects.size());
       if (fresh) {
-        int side = o.flat_block + 2 * std::max(0, o.bake.gutter);  // the block and its dilation rings
+        int side =
+            o.flat_block + 2 * std::max(0, o.bake.gutter);  // the block and its dilation rings
         rects.push_back({side, side});
         item_scale.push_back(0);
         item_chart.push_back(i);
@@ -226,9 +239,13 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       chart_item[i] = it->second;
       continue;
     }
-    double share = sum_src > 0 ? std::cbrt((l2[i] / sum_l2) * (a3[i] / sum_a) * (src[i] > 0 ? src[i] / sum_src : 0.0))
-                               : std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));
-    if (!(share > 0)) share = std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // an untextured piece in a textured scene
+    double share =
+        sum_src > 0
+            ? std::cbrt((l2[i] / sum_l2) * (a3[i] / sum_a) * (src[i] > 0 ? src[i] / sum_src : 0.0))
+            : std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));
+    if (!(share > 0))
+      share =
+          std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // an untextured piece in a textured scene
     if (!std::isfinite(share) || !(share > 0)) share = 1e-6;  // degenerate input: a token size
     double texels = share * T;
     double uv_area = std::max(1e-30, uvs[i].area_3d);
@@ -270,8 +287,10 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     while (fits(hi, side) && hi < 1024) lo = hi, hi *= 2;
     for (int it = 0; it < 24; ++it) {
       double mid = 0.5 * (lo + hi);
-      if (fits(mid, side)) lo = mid;
-      else hi = mid;
+      if (fits(mid, side))
+        lo = mid;
+      else
+        hi = mid;
     }
     return lo;
   };
@@ -290,7 +309,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     side *= 2;
     shrink = best_factor(side);
   }
-  if (!(shrink > 0)) return Status::error("atlas: charts do not fit in " + std::to_string(side) + "²", ErrorKind::kInternal);
+  if (!(shrink > 0))
+    return Status::error("atlas: charts do not fit in " + std::to_string(side) + "²",
+                         ErrorKind::kInternal);
   rects_for(shrink);
   PackResult packed = pack_cells(rects, side, side);
   if (!packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);
@@ -362,8 +383,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   mat.name = "atlas";
   mat.base_color.image = 0;
   mat.base_color.sampler.wrap_s = mat.base_color.sampler.wrap_t = Wrap::kClampToEdge;
-  mat.base_color.sampler.mag_filter = 9729;   // LINEAR
-  mat.base_color.sampler.min_filter = 9987;   // LINEAR_MIPMAP_LINEAR
+  mat.base_color.sampler.mag_filter = 9729;  // LINEAR
+  mat.base_color.sampler.min_filter = 9987;  // LINEAR_MIPMAP_LINEAR
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
@@ -381,7 +402,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     std::vector<uint32_t> face_slot(mv.faces.size());
     for (uint32_t ci = 0; ci < charts.charts.size(); ++ci)
       if (charts.charts[ci].mesh == m)
-        for (uint32_t k = 0; k < charts.charts[ci].faces.size(); ++k) face_slot[charts.charts[ci].faces[k]] = k;
+        for (uint32_t k = 0; k < charts.charts[ci].faces.size(); ++k)
+          face_slot[charts.charts[ci].faces[k]] = k;
     for (uint32_t f = 0; f < mv.faces.size(); ++f) {
       uint32_t ci = charts.face_chart[m][f];
       const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
@@ -393,11 +415,12 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
         mat.metallic_factor += float(area * sm.metallic_factor);
         mat.roughness_factor += float(area * sm.roughness_factor);
         any_blend |= sm.alpha_mode == AlphaMode::kBlend;
-        if (sm.alpha_mode == AlphaMode::kMask) any_mask = true, cutoff = std::min(cutoff, sm.alpha_cutoff);
+        if (sm.alpha_mode == AlphaMode::kMask)
+          any_mask = true, cutoff = std::min(cutoff, sm.alpha_cutoff);
         any_double |= sm.double_sided;
         all_unlit &= sm.unlit;
-        dropped |= sm.normal.present() || sm.occlusion.present() || sm.metallic_roughness.present() ||
-                   sm.emissive.present();
+        dropped |= sm.normal.present() || sm.occlusion.present() ||
+                   sm.metallic_roughness.present() || sm.emissive.present();
       } else {
         all_unlit = false;
         Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
@@ -420,13 +443,17 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
         uint32_t v = mv.corner(f, k);
         Vec3 pos = src.positions[v];
         Vec3 nrm = normals ? src.normals[v] : Vec3{};
-        uint32_t key[8] = {float_bits(pos.x), float_bits(pos.y), float_bits(pos.z), float_bits(nrm.x), float_bits(nrm.y), float_bits(nrm.z), float_bits(t.x), float_bits(t.y)};
+        uint32_t key[8] = {float_bits(pos.x), float_bits(pos.y), float_bits(pos.z),
+                           float_bits(nrm.x), float_bits(nrm.y), float_bits(nrm.z),
+                           float_bits(t.x),   float_bits(t.y)};
         uint64_t h = 1469598103934665603ull;
         for (uint32_t w : key) h = (h ^ w) * 1099511628211ull;
         auto& bucket = weld[h];
         uint32_t found = UINT32_MAX;
         for (uint32_t cand : bucket)
-          if (prim.positions[cand] == pos && (!normals || prim.normals[cand] == nrm) && prim.uvs[0][cand] == t) found = cand;
+          if (prim.positions[cand] == pos && (!normals || prim.normals[cand] == nrm) &&
+              prim.uvs[0][cand] == t)
+            found = cand;
         if (found == UINT32_MAX) {
           found = uint32_t(prim.positions.size());
           prim.positions.push_back(pos);
@@ -454,7 +481,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   mat.double_sided = any_double;
   mat.unlit = all_unlit && !scene.materials.empty();
   if (dropped)
-    warn(warnings, "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into the atlas; dropped");
+    warn(warnings,
+         "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into "
+         "the atlas; dropped");
   out.materials.push_back(mat);
 
   Image atlas = std::move(baked.atlas);

@@ -24,13 +24,13 @@
 namespace meshmux {
 
 struct AtlasOptions {
-  ChartOptions charts;              // segmentation
-  ParameterizeOptions parameterize; // flattening
-  BakeOptions bake;                 // resampling and gutters
-  int max_size = 4096;              // largest atlas side
-  int min_size = 64;                // smallest atlas side
-  int flat_block = 4;               // side of one flat-colour block, texels (gutters around it)
-  int vertex_color_target = 512;    // T (side) for scenes whose only texture is vertex colour
+  ChartOptions charts;               // segmentation
+  ParameterizeOptions parameterize;  // flattening
+  BakeOptions bake;                  // resampling and gutters
+  int max_size = 4096;               // largest atlas side
+  int min_size = 64;                 // smallest atlas side
+  int flat_block = 4;                // side of one flat-colour block, texels (gutters around it)
+  int vertex_color_target = 512;     // T (side) for scenes whose only texture is vertex colour
 };
 
 struct AtlasReport {

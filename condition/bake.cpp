@@ -146,7 +146,8 @@ class Source {
         continue;
       }
       const Vec2 &a = set[idx_[0]], &b = set[idx_[1]], &c = set[idx_[2]];
-      uv_[s] = {float(a.x * w[0] + b.x * w[1] + c.x * w[2]), float(a.y * w[0] + b.y * w[1] + c.y * w[2])};
+      uv_[s] = {float(a.x * w[0] + b.x * w[1] + c.x * w[2]),
+                float(a.y * w[0] + b.y * w[1] + c.y * w[2])};
     }
     Vec4 vc{1, 1, 1, 1};
     if (!prim_->colors.empty() && prim_->colors.size() >= prim_->vertex_count())
@@ -172,7 +173,8 @@ constexpr double kMargin = 0.5;  // conservative coverage margin, texels
 
 // Pass 1 for one face: every texel whose centre is within kMargin of the triangle and nearer to
 // it than to any face seen so far takes the face (job) as its owner.
-void cover_face(const P2 c[3], int32_t job, int n, std::vector<int32_t>& owner, std::vector<float>& dist) {
+void cover_face(const P2 c[3], int32_t job, int n, std::vector<int32_t>& owner,
+                std::vector<float>& dist) {
   double minx = std::min({c[0].x, c[1].x, c[2].x}) - kMargin;
   double maxx = std::max({c[0].x, c[1].x, c[2].x}) + kMargin;
   double miny = std::min({c[0].y, c[1].y, c[2].y}) - kMargin;
@@ -217,12 +219,12 @@ void encode(Vec4 c, uint8_t* p) {
 
 // Ring-by-ring dilation from the filled texels of `rgba` (sRGB bytes; averages are taken in
 // linear light). Each ring's texels are computed from the texels filled before the ring, so the
-// result does not depend on visiting order (which is deterministic anyway). With `per_chart`, a new texel joins the majority
-// chart of its filled 8-neighbours (ties: the smaller index) and averages only that chart's
-// neighbours; otherwise it averages all filled neighbours and keeps chart -1. Stops after
-// `rings` rings (< 0: when nothing is left to fill).
-void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart, std::vector<uint8_t>& filled,
-            int rings, bool per_chart) {
+// result does not depend on visiting order (which is deterministic anyway). With `per_chart`, a new
+// texel joins the majority chart of its filled 8-neighbours (ties: the smaller index) and averages
+// only that chart's neighbours; otherwise it averages all filled neighbours and keeps chart -1.
+// Stops after `rings` rings (< 0: when nothing is left to fill).
+void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
+            std::vector<uint8_t>& filled, int rings, bool per_chart) {
   std::vector<uint8_t> queued(filled.size(), 0);
   std::vector<size_t> frontier;
   auto enqueue_neighbours = [&](size_t i) {
@@ -243,7 +245,8 @@ void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart, std:
     const int x = int(i % size_t(n)), y = int(i / size_t(n));
     for (int k = 0; k < 8; ++k) {
       int nx = x + kDx[k], ny = y + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= n || ny >= n || !filled[size_t(ny) * size_t(n) + size_t(nx)]) continue;
+      if (nx < 0 || ny < 0 || nx >= n || ny >= n || !filled[size_t(ny) * size_t(n) + size_t(nx)])
+        continue;
       queued[i] = 1;
       frontier.push_back(i);
       break;
@@ -290,7 +293,8 @@ void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart, std:
         ++used;
       }
       if (used > 0)
-        encode({float(sum[0] / used), float(sum[1] / used), float(sum[2] / used), float(sum[3] / used)},
+        encode({float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
+                float(sum[3] / used)},
                &new_rgba[f * 4]);
       new_chart[f] = who;
     }
@@ -406,7 +410,8 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
             sum[3] += c.w;
           }
         const double inv = 1.0 / (ss * ss);
-        color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv), float(sum[3] * inv)};
+        color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
+                 float(sum[3] * inv)};
       }
       encode(color, &img.rgba[i * 4]);
     }

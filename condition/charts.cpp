@@ -30,12 +30,11 @@
 // Deterministic: costs tie-break on chart indices, charts come out ordered by first face.
 #include "condition/charts.h"
 
-#include <eigen3/Eigen/Dense>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <eigen3/Eigen/Dense>
 #include <queue>
 #include <tuple>
 #include <unordered_map>
@@ -75,9 +74,6 @@ constexpr double kFreePlanarity = 1e-6;
 constexpr double kFreeCompactness = 1.0;
 constexpr uint32_t kNone = 0xffffffffu;
 constexpr int kDirs = 26;
-
-
-
 
 const std::array<Vector3d, kDirs>& directions() {
   static const std::array<Vector3d, kDirs> dirs = [] {
@@ -195,9 +191,9 @@ class Segmenter {
   std::vector<Vec4> colors_;  // flat colour per class id (index 0 unused: textured)
   std::vector<std::vector<uint32_t>> twin_groups_;
   std::vector<ChartState> charts_;  // one per face at the start; chart i starts as face i
-  std::vector<uint32_t> next_;       // per face: next face of its chart
-  std::vector<uint32_t> chart_of_;   // per face: its chart
-  std::vector<uint32_t> pool_;       // extremes of multi-face charts, kDirs per slot
+  std::vector<uint32_t> next_;      // per face: next face of its chart
+  std::vector<uint32_t> chart_of_;  // per face: its chart
+  std::vector<uint32_t> pool_;      // extremes of multi-face charts, kDirs per slot
   std::vector<uint32_t> free_slots_;
   std::vector<uint32_t> slot_;  // scratch for merge(): kNone except during a merge
   std::priority_queue<Candidate, std::vector<Candidate>, MinOrder> min_heap_;
@@ -289,7 +285,9 @@ void Segmenter::build_faces() {
   });
   for (size_t i = 0; i < tris.size();) {
     size_t j = i + 1;
-    while (j < tris.size() && tris[j].a == tris[i].a && tris[j].b == tris[i].b && tris[j].c == tris[i].c) ++j;
+    while (j < tris.size() && tris[j].a == tris[i].a && tris[j].b == tris[i].b &&
+           tris[j].c == tris[i].c)
+      ++j;
     if (j - i > 1) {
       std::vector<uint32_t> group;
       for (size_t k = i; k < j; ++k) {
@@ -334,7 +332,8 @@ void Segmenter::build_adjacency() {
         uint32_t a = f.pos[k], b = f.pos[(k + 1) % 3];
         if (a == b) continue;
         uint64_t key = (uint64_t(std::min(a, b)) << 32) | std::max(a, b);
-        Vec3 pa = p.positions[p.indices[3 * t + k]], pb = p.positions[p.indices[3 * t + (k + 1) % 3]];
+        Vec3 pa = p.positions[p.indices[3 * t + k]],
+             pb = p.positions[p.indices[3 * t + (k + 1) % 3]];
         edges.push_back({key, fi, double(length(pa - pb))});
       }
     }

@@ -32,10 +32,10 @@ struct FaceRef {
 std::vector<FaceRef> mesh_faces(const Mesh& mesh);
 
 struct Chart {
-  uint32_t mesh = 0;             // Scene mesh the chart belongs to
-  std::vector<uint32_t> faces;   // mesh face numbers, ascending
-  bool textured = true;          // false: one flat colour (see `color`)
-  Vec4 color{1, 1, 1, 1};        // the flat colour (linear RGBA) when !textured
+  uint32_t mesh = 0;            // Scene mesh the chart belongs to
+  std::vector<uint32_t> faces;  // mesh face numbers, ascending
+  bool textured = true;         // false: one flat colour (see `color`)
+  Vec4 color{1, 1, 1, 1};       // the flat colour (linear RGBA) when !textured
 };
 
 struct ChartOptions {
@@ -45,7 +45,7 @@ struct ChartOptions {
 };
 
 struct ChartSet {
-  std::vector<Chart> charts;                    // all meshes' charts, mesh by mesh
+  std::vector<Chart> charts;                      // all meshes' charts, mesh by mesh
   std::vector<std::vector<uint32_t>> face_chart;  // per Scene mesh, per face: its chart index
 };
 

@@ -101,8 +101,10 @@ void filter_triangles(Primitive& p, const CleanOptions& o, CleanReport& r) {
     if (o.remove_duplicates) {
       // Rotate so the smallest index leads; winding is preserved.
       TriKey k{a, b, c};
-      if (b < a && b < c) k = {b, c, a};
-      else if (c < a && c < b) k = {c, a, b};
+      if (b < a && b < c)
+        k = {b, c, a};
+      else if (c < a && c < b)
+        k = {c, a, b};
       if (!seen.emplace(k, 0).second) {
         ++r.duplicates_removed;
         continue;

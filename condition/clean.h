@@ -33,8 +33,8 @@ struct CleanOptions {
 struct CleanReport {
   uint64_t vertices_in = 0, vertices_out = 0;    // over unique meshes
   uint64_t triangles_in = 0, triangles_out = 0;  // over unique meshes
-  uint64_t degenerate_removed = 0;  // triangles with a repeated corner or zero area
-  uint64_t duplicates_removed = 0;  // repeated triangles
+  uint64_t degenerate_removed = 0;               // triangles with a repeated corner or zero area
+  uint64_t duplicates_removed = 0;               // repeated triangles
   uint64_t primitives_with_generated_normals = 0;
   uint64_t primitives_dropped = 0;  // left without triangles
   uint64_t meshes_dropped = 0;      // left without primitives (their instances go too)

@@ -3,8 +3,8 @@
 // References implemented:
 // - Linear sRGB → CIE XYZ: the IEC 61966-2-1 primaries with the D65 white point (the usual
 //   matrix 0.4124564 0.3575761 0.1804375 / 0.2126729 0.7151522 0.0721750 / 0.0193339 0.1191920
-//   0.9503041); the reference white is the matrix's image of (1, 1, 1), so white maps to a* = b* = 0
-//   exactly.
+//   0.9503041); the reference white is the matrix's image of (1, 1, 1), so white maps to a* = b* =
+//   0 exactly.
 // - XYZ → L*a*b*: CIE 15:2004 (f(t) = t^(1/3) above (6/29)^3, linear below).
 // - CIEDE2000: G. Sharma, W. Wu, E. N. Dalal, "The CIEDE2000 color-difference formula:
 //   implementation notes, supplementary test data, and mathematical observations", Color Research
@@ -68,8 +68,10 @@ double ciede2000(const Lab& x, const Lab& y) {
   double dhp = 0;
   if (cprod != 0) {
     dhp = h2p - h1p;
-    if (dhp > 180) dhp -= 360;
-    else if (dhp < -180) dhp += 360;
+    if (dhp > 180)
+      dhp -= 360;
+    else if (dhp < -180)
+      dhp += 360;
   }
   const double dHp = 2 * std::sqrt(cprod) * std::sin(rad(dhp) / 2);
 

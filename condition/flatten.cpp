@@ -67,7 +67,9 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
 
 }  // namespace
 
-Scene flatten(const Scene& in) { return flatten_where(in, std::vector<char>(in.instances.size(), 1)); }
+Scene flatten(const Scene& in) {
+  return flatten_where(in, std::vector<char>(in.instances.size(), 1));
+}
 
 double instances_per_submesh(const Scene& scene) {
   std::vector<size_t> counts = instance_counts(scene);
@@ -75,6 +77,5 @@ double instances_per_submesh(const Scene& scene) {
   for (size_t c : counts) used += c > 0;
   return used ? double(scene.instances.size()) / double(used) : 0.0;
 }
-
 
 }  // namespace meshmux

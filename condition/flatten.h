@@ -14,5 +14,4 @@ Scene flatten(const Scene& scene);
 // Instances per used submesh (paper 001's IPS): instances / meshes with at least one instance.
 double instances_per_submesh(const Scene& scene);
 
-
 }  // namespace meshmux

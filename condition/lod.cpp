@@ -20,7 +20,8 @@ std::vector<uint32_t> level_indices(const ProgressiveMesh& pm, size_t level) {
     return v;
   };
   for (uint32_t f = 0; f < lv.face_end; ++f) {
-    uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]), c = map(pm.indices[3 * f + 2]);
+    uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]),
+             c = map(pm.indices[3 * f + 2]);
     if (a == b || b == c || a == c) continue;
     out.insert(out.end(), {a, b, c});
   }
@@ -39,7 +40,8 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level) {
   size_t nprim = pm.primitive_material.size();
   std::vector<std::vector<uint32_t>> faces(nprim);
   for (uint32_t f = 0; f < lv.face_end; ++f) {
-    uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]), c = map(pm.indices[3 * f + 2]);
+    uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]),
+             c = map(pm.indices[3 * f + 2]);
     if (a == b || b == c || a == c) continue;
     faces[pm.face_primitive[f]].insert(faces[pm.face_primitive[f]].end(), {a, b, c});
   }
@@ -50,7 +52,8 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level) {
     prim.material = pm.primitive_material[p];
     size_t sets = p < pm.primitive_uv_sets.size() ? pm.primitive_uv_sets[p] : pm.uvs.size();
     prim.uvs.resize(std::min(sets, pm.uvs.size()));
-    bool colors = p < pm.primitive_has_colors.size() ? pm.primitive_has_colors[p] != 0 : !pm.colors.empty();
+    bool colors =
+        p < pm.primitive_has_colors.size() ? pm.primitive_has_colors[p] != 0 : !pm.colors.empty();
     // Vertices in ascending shared-buffer order: deterministic, and coherent with the stream.
     std::vector<uint32_t> used(faces[p]);
     std::sort(used.begin(), used.end());
@@ -147,7 +150,8 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
     std::vector<uint32_t> n = all_instances(ps);
     auto apply = [&](double f) {
       for (size_t m = 0; m < n.size(); ++m)
-        s.instances[m] = n[m] <= 1 ? n[m] : std::max<uint32_t>(1, uint32_t(std::floor(double(n[m]) * f)));
+        s.instances[m] =
+            n[m] <= 1 ? n[m] : std::max<uint32_t>(1, uint32_t(std::floor(double(n[m]) * f)));
       return selection_triangles(ps, s);
     };
     double flo = 0, fhi = 1;
@@ -166,7 +170,8 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
     };
     std::vector<Step> heap;
     for (size_t m = 0; m < ps.meshes.size(); ++m)
-      if (ps.meshes[m].levels.size() > 1 && s.instances[m] > 0) heap.push_back({ps.meshes[m].levels[0].error, m});
+      if (ps.meshes[m].levels.size() > 1 && s.instances[m] > 0)
+        heap.push_back({ps.meshes[m].levels[0].error, m});
     std::make_heap(heap.begin(), heap.end(), cmp);
     while (!heap.empty()) {
       std::pop_heap(heap.begin(), heap.end(), cmp);
@@ -184,7 +189,8 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
       }
     }
   }
-  for (size_t m = 0; m < ps.meshes.size(); ++m) s.error = std::max(s.error, ps.meshes[m].levels[s.level[m]].error);
+  for (size_t m = 0; m < ps.meshes.size(); ++m)
+    s.error = std::max(s.error, ps.meshes[m].levels[s.level[m]].error);
   return s;
 }
 

@@ -23,7 +23,7 @@ std::vector<uint32_t> level_indices(const ProgressiveMesh& pm, size_t level);
 // Level lookups. Each returns an index into pm.levels.
 size_t level_for_vertices(const ProgressiveMesh& pm, uint32_t vertices);    // largest ≤ vertices
 size_t level_for_triangles(const ProgressiveMesh& pm, uint32_t triangles);  // largest ≤ triangles
-size_t level_for_error(const ProgressiveMesh& pm, float error);             // smallest with ≤ error
+size_t level_for_error(const ProgressiveMesh& pm, float error);  // smallest with ≤ error
 
 // A scene-wide choice: per submesh, a level and how many of its instances to show.
 struct LodSelection {

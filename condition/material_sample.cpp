@@ -58,7 +58,8 @@ std::array<uint8_t, kEncodeBuckets + 1> make_encode_start() {
   std::array<uint8_t, kEncodeBuckets + 1> s{};
   const auto& t = encode_thresholds();
   for (int j = 0; j <= kEncodeBuckets; ++j)
-    s[size_t(j)] = uint8_t(std::upper_bound(t.begin(), t.end(), double(j) / kEncodeBuckets) - t.begin());
+    s[size_t(j)] =
+        uint8_t(std::upper_bound(t.begin(), t.end(), double(j) / kEncodeBuckets) - t.begin());
   return s;
 }
 

@@ -310,7 +310,8 @@ PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_
   std::vector<size_t> order(rects.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    long long aa = (long long)r.cells[a].w * r.cells[a].h, bb = (long long)r.cells[b].w * r.cells[b].h;
+    long long aa = (long long)r.cells[a].w * r.cells[a].h,
+              bb = (long long)r.cells[b].w * r.cells[b].h;
     if (aa != bb) return aa > bb;
     return std::max(r.cells[a].w, r.cells[a].h) > std::max(r.cells[b].w, r.cells[b].h);
   });

@@ -18,13 +18,12 @@
 // its front shows the texture the right way round, i.e. its signed uv area (u, v) is negative.
 #include "condition/parameterize.h"
 
-#include <eigen3/Eigen/Dense>
-#include <eigen3/Eigen/Sparse>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <eigen3/Eigen/Dense>
+#include <eigen3/Eigen/Sparse>
 #include <unordered_map>
 
 #include "scene/position_key.h"
@@ -35,8 +34,6 @@ namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-
-
 
 double cross2(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
@@ -60,8 +57,10 @@ double signed_area(const std::vector<Vector2d>& uv, const Tri& t) {
 void stretch_terms(const Vector3d& q0, const Vector3d& q1, const Vector3d& q2, const Vector2d& p0,
                    const Vector2d& p1, const Vector2d& p2, double A, double* a, double* b,
                    double* c) {
-  Vector3d ss = (q0 * (p1.y() - p2.y()) + q1 * (p2.y() - p0.y()) + q2 * (p0.y() - p1.y())) / (2 * A);
-  Vector3d st = (q0 * (p2.x() - p1.x()) + q1 * (p0.x() - p2.x()) + q2 * (p1.x() - p0.x())) / (2 * A);
+  Vector3d ss =
+      (q0 * (p1.y() - p2.y()) + q1 * (p2.y() - p0.y()) + q2 * (p0.y() - p1.y())) / (2 * A);
+  Vector3d st =
+      (q0 * (p2.x() - p1.x()) + q1 * (p0.x() - p2.x()) + q2 * (p1.x() - p0.x())) / (2 * A);
   *a = ss.dot(ss);
   *b = ss.dot(st);
   *c = st.dot(st);
@@ -72,8 +71,8 @@ double weighted_l2sq(const ChartMesh& m, const std::vector<Vector2d>& uv, const 
   double A = signed_area(uv, t);
   if (!(A > 0)) return INFINITY;
   double a, b, c;
-  stretch_terms(m.pos[t.v[0]], m.pos[t.v[1]], m.pos[t.v[2]], uv[t.v[0]], uv[t.v[1]], uv[t.v[2]],
-                A, &a, &b, &c);
+  stretch_terms(m.pos[t.v[0]], m.pos[t.v[1]], m.pos[t.v[2]], uv[t.v[0]], uv[t.v[1]], uv[t.v[2]], A,
+                &a, &b, &c);
   return t.area3 * 0.5 * (a + c);
 }
 
@@ -418,7 +417,8 @@ bool has_overlap(const ChartMesh& m, const std::vector<Vector2d>& uv) {
   Vector2d size = all.sizes();
   double cell = std::sqrt(std::max(size.x() * size.y(), 1e-300) / double(F)) * 1.5;
   if (!(cell > 0)) return false;
-  int gx = std::clamp(int(size.x() / cell) + 1, 1, 1024), gy = std::clamp(int(size.y() / cell) + 1, 1, 1024);
+  int gx = std::clamp(int(size.x() / cell) + 1, 1, 1024),
+      gy = std::clamp(int(size.y() / cell) + 1, 1, 1024);
   double cx = size.x() / gx, cy = size.y() / gy;
   auto cell_range = [&](size_t i, int* x0, int* x1, int* y0, int* y1) {
     auto cl = [](double v, int g) { return std::clamp(int(v), 0, g - 1); };
@@ -503,7 +503,8 @@ std::vector<Vector2d> flatten(const ChartMesh& m, int iterations) {
 
 }  // namespace
 
-ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const ParameterizeOptions& options) {
+ChartUv parameterize_chart(const Scene& scene, const Chart& chart,
+                           const ParameterizeOptions& options) {
   ChartUv out;
   if (chart.mesh >= scene.meshes.size() || chart.faces.empty()) {
     out.valid = chart.faces.empty();
@@ -521,7 +522,9 @@ ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const Paramet
   bool have_origin = false;
   m.tris.reserve(chart.faces.size());
   for (uint32_t f : chart.faces) {
-    size_t p = size_t(std::upper_bound(first_face.begin(), first_face.end(), size_t(f)) - first_face.begin()) - 1;
+    size_t p = size_t(std::upper_bound(first_face.begin(), first_face.end(), size_t(f)) -
+                      first_face.begin()) -
+               1;
     if (p >= mesh.primitives.size()) {
       out.valid = false;
       return out;
@@ -537,7 +540,8 @@ ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const Paramet
       if (it.second) m.pos.push_back(qd - origin);
       tri.v[k] = it.first->second;
     }
-    tri.area3 = 0.5 * (m.pos[tri.v[1]] - m.pos[tri.v[0]]).cross(m.pos[tri.v[2]] - m.pos[tri.v[0]]).norm();
+    tri.area3 =
+        0.5 * (m.pos[tri.v[1]] - m.pos[tri.v[0]]).cross(m.pos[tri.v[2]] - m.pos[tri.v[0]]).norm();
     m.area3 += tri.area3;
     m.tris.push_back(tri);
   }
@@ -595,8 +599,8 @@ ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const Paramet
     double A = std::abs(signed_area(uv, t));
     if (!(A > 0)) continue;
     double a, b, c;
-    stretch_terms(m.pos[t.v[0]], m.pos[t.v[1]], m.pos[t.v[2]], uv[t.v[0]], uv[t.v[1]], uv[t.v[2]], A,
-                  &a, &b, &c);
+    stretch_terms(m.pos[t.v[0]], m.pos[t.v[1]], m.pos[t.v[2]], uv[t.v[0]], uv[t.v[1]], uv[t.v[2]],
+                  A, &a, &b, &c);
     sum_l2 += t.area3 * 0.5 * (a + c);
     sum_a += t.area3;
     linf = std::max(linf, std::sqrt(0.5 * ((a + c) + std::sqrt((a - c) * (a - c) + 4 * b * b))));

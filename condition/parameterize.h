@@ -29,6 +29,7 @@ struct ParameterizeOptions {
   int stretch_iterations = 10;  // rounds of per-vertex stretch optimization (0: LSCM only)
 };
 
-ChartUv parameterize_chart(const Scene& scene, const Chart& chart, const ParameterizeOptions& options = {});
+ChartUv parameterize_chart(const Scene& scene, const Chart& chart,
+                           const ParameterizeOptions& options = {});
 
 }  // namespace meshmux

@@ -16,14 +16,14 @@
 // near O(T log T) and the result deterministic.
 #include "condition/simplify.h"
 
-#include "condition/flatten.h"
-
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
+
+#include "condition/flatten.h"
 
 namespace meshmux {
 
@@ -55,7 +55,8 @@ struct Quadric {
   }
   // Mᵀ Q M for an affine M (column-major 4x4): the quadric in M's source space.
   Quadric pulled_back(const Mat4& M) const {
-    double Q[4][4] = {{a00, a01, a02, b0}, {a01, a11, a12, b1}, {a02, a12, a22, b2}, {b0, b1, b2, c}};
+    double Q[4][4] = {
+        {a00, a01, a02, b0}, {a01, a11, a12, b1}, {a02, a12, a22, b2}, {b0, b1, b2, c}};
     double QM[4][4];
     for (int r = 0; r < 4; ++r)
       for (int k = 0; k < 4; ++k) {
@@ -114,8 +115,8 @@ bool instance_plane(const V3 P[3], const Mat4& M, V3 Q[3], V3* un, double* area,
 struct Placement {
   double cof[3][3];  // A⁻ᵀ
   double absdet;
-  bool similar;      // rotation, uniform scale, translation (mirrors allowed)
-  double s2;         // the uniform scale squared, when similar
+  bool similar;  // rotation, uniform scale, translation (mirrors allowed)
+  double s2;     // the uniform scale squared, when similar
 };
 
 // Placements of the non-singular transforms, in order (singular ones place nothing).
@@ -139,10 +140,12 @@ std::vector<Placement> make_placements(const std::vector<Mat4>& transforms) {
     double col[3][3];
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) col[c][r] = M.at(r, c);
-    auto d = [&](int a, int b) { return col[a][0] * col[b][0] + col[a][1] * col[b][1] + col[a][2] * col[b][2]; };
+    auto d = [&](int a, int b) {
+      return col[a][0] * col[b][0] + col[a][1] * col[b][1] + col[a][2] * col[b][2];
+    };
     double n0 = d(0, 0), tol = 1e-6 * n0;
-    pl.similar = std::abs(d(1, 1) - n0) <= tol && std::abs(d(2, 2) - n0) <= tol && std::abs(d(0, 1)) <= tol &&
-                 std::abs(d(0, 2)) <= tol && std::abs(d(1, 2)) <= tol;
+    pl.similar = std::abs(d(1, 1) - n0) <= tol && std::abs(d(2, 2) - n0) <= tol &&
+                 std::abs(d(0, 1)) <= tol && std::abs(d(0, 2)) <= tol && std::abs(d(1, 2)) <= tol;
     pl.s2 = n0;
     places.push_back(pl);
   }
@@ -152,7 +155,8 @@ std::vector<Placement> make_placements(const std::vector<Mat4>& transforms) {
 // Σᵢ |det Aᵢ| / |Aᵢ⁻ᵀ n̂|: the factor that turns the mesh-space plane quadric of a face (unit
 // normal n̂, weighted by its area) into the instance-summed one; adds the placed areas
 // (area₀ Σ |det Aᵢ| |Aᵢ⁻ᵀ n̂|) to *world_area.
-double placement_factor(const std::vector<Placement>& places, V3 un, double area0, double* world_area) {
+double placement_factor(const std::vector<Placement>& places, V3 un, double area0,
+                        double* world_area) {
   double factor = 0;
   for (const Placement& pl : places) {
     if (pl.absdet == 0) continue;
@@ -176,20 +180,20 @@ Quadric scaled(Quadric q, double f, double w) {
 // One submesh prepared for simplification: wedges (the mesh's vertices) over welded positions.
 struct Unit {
   // Wedges, concatenated over the mesh's primitives.
-  std::vector<uint32_t> wedge_pos;     // wedge → position
-  std::vector<uint32_t> wedge_group;   // wedge → (position, non-normal attributes) class
-  std::vector<uint32_t> wedge_prim;    // wedge → source primitive
-  std::vector<Vec3> wedge_normal;      // may be empty
-  std::vector<double> attr;            // wedge × channels, weighted attribute values
+  std::vector<uint32_t> wedge_pos;    // wedge → position
+  std::vector<uint32_t> wedge_group;  // wedge → (position, non-normal attributes) class
+  std::vector<uint32_t> wedge_prim;   // wedge → source primitive
+  std::vector<Vec3> wedge_normal;     // may be empty
+  std::vector<double> attr;           // wedge × channels, weighted attribute values
   int channels = 0;
-  std::vector<V3> pos;                 // position → mesh-space point
-  std::vector<uint32_t> corners;       // face × 3 wedges (current, remapped as we go)
+  std::vector<V3> pos;            // position → mesh-space point
+  std::vector<uint32_t> corners;  // face × 3 wedges (current, remapped as we go)
   std::vector<uint32_t> face_prim;
 };
 
 // Per-collapse record.
 struct Collapse {
-  uint32_t first_map = 0, map_count = 0;  // range in the (wedge, target) list
+  uint32_t first_map = 0, map_count = 0;    // range in the (wedge, target) list
   uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
   float error = 0;
   float queue_min = 0;  // the smallest candidate error of the pass (the greedy's E_current)
@@ -302,18 +306,18 @@ class Simplifier {
   const SimplifyOptions& opt_;
   SimplifyReport& report_;
   std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
-  std::vector<Quadric> pos_q_;      // per position
-  std::vector<Quadric> attr_q_;     // per wedge: the position-dependent part of the attribute error
-  std::vector<double> attr_gd_;     // per wedge × channel: G (3) and D (1)
-  std::vector<uint8_t> alive_;      // per face
+  std::vector<Quadric> pos_q_;              // per position
+  std::vector<Quadric> attr_q_;  // per wedge: the position-dependent part of the attribute error
+  std::vector<double> attr_gd_;  // per wedge × channel: G (3) and D (1)
+  std::vector<uint8_t> alive_;   // per face
   size_t live_faces_ = 0;
   std::vector<uint8_t> dead_pos_;
-  std::vector<uint32_t> stamp_;     // per position: bumped whenever its heap entries go stale
+  std::vector<uint32_t> stamp_;  // per position: bumped whenever its heap entries go stale
   std::vector<Entry> min_heap_, max_heap_;
   bool heaped_ = false;
   std::vector<uint32_t> touched_;
-  std::vector<uint32_t> target_;    // per position: the target of its queued candidate
-  std::vector<std::vector<uint32_t>> pos_faces_;  // position → live faces, kept up to date
+  std::vector<uint32_t> target_;  // per position: the target of its queued candidate
+  std::vector<std::vector<uint32_t>> pos_faces_;    // position → live faces, kept up to date
   std::vector<std::pair<uint32_t, uint32_t>> map_;  // scratch: (wedge of a, wedge of b)
   std::vector<std::pair<uint32_t, uint32_t>> nb_a_, nb_b_;
   struct FanFace {
@@ -337,10 +341,13 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   // Boundary edges (position level) for the constraint planes: count faces per undirected edge.
   std::unordered_map<uint64_t, uint32_t> edge_faces;
   edge_faces.reserve(nf * 3);
-  auto key = [](uint32_t a, uint32_t b) { return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a); };
+  auto key = [](uint32_t a, uint32_t b) {
+    return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+  };
   for (size_t f = 0; f < nf; ++f)
     for (int e = 0; e < 3; ++e)
-      ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]], u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
+      ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]],
+                       u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
 
   // Pulled back to mesh space, a placed face's plane is still the face's own plane: for
   // x = A v + t, the distance of x to the placed plane is n̂ᵀ(v − p₀) / |A⁻ᵀ n̂| and the placed
@@ -436,7 +443,8 @@ void Simplifier::build_adjacency() {
   pos_faces_.assign(u_.pos.size(), {});
   for (size_t f = 0; f < alive_.size(); ++f)
     if (alive_[f])
-      for (int i = 0; i < 3; ++i) pos_faces_[u_.wedge_pos[u_.corners[3 * f + i]]].push_back(uint32_t(f));
+      for (int i = 0; i < 3; ++i)
+        pos_faces_[u_.wedge_pos[u_.corners[3 * f + i]]].push_back(uint32_t(f));
 }
 
 // Loads the fan of faces around position a: per face the corner wedge at a and the next two
@@ -449,7 +457,12 @@ void Simplifier::load_fan(uint32_t a) {
   for (uint32_t f : pos_faces_[a]) {
     const uint32_t* c = &u_.corners[3 * f];
     int i = u_.wedge_pos[c[0]] == a ? 0 : u_.wedge_pos[c[1]] == a ? 1 : 2;
-    FanFace ff{f, c[i], u_.wedge_pos[c[(i + 1) % 3]], c[(i + 1) % 3], u_.wedge_pos[c[(i + 2) % 3]], c[(i + 2) % 3]};
+    FanFace ff{f,
+               c[i],
+               u_.wedge_pos[c[(i + 1) % 3]],
+               c[(i + 1) % 3],
+               u_.wedge_pos[c[(i + 2) % 3]],
+               c[(i + 2) % 3]};
     fan_.push_back(ff);
     for (uint32_t q : {ff.p1, ff.p2}) {
       bool found = false;
@@ -461,12 +474,14 @@ void Simplifier::load_fan(uint32_t a) {
         }
       if (!found) nb_a_.push_back({q, 1});
     }
-    if (std::find(a_wedges_.begin(), a_wedges_.end(), ff.wa) == a_wedges_.end()) a_wedges_.push_back(ff.wa);
+    if (std::find(a_wedges_.begin(), a_wedges_.end(), ff.wa) == a_wedges_.end())
+      a_wedges_.push_back(ff.wa);
   }
 }
 
 // Neighbour positions of p with the number of live faces on each edge (p, neighbour).
-void Simplifier::gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const {
+void Simplifier::gather_neighbours(uint32_t p,
+                                   std::vector<std::pair<uint32_t, uint32_t>>& out) const {
   out.clear();
   for (uint32_t f : pos_faces_[p]) {
     for (int i = 0; i < 3; ++i) {
@@ -627,7 +642,8 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
   gather_neighbours(b, nb_b_);
   size_t common = 0;
   for (const auto& n : nb_a_)
-    if (n.first != b && std::any_of(nb_b_.begin(), nb_b_.end(), [&](const auto& m) { return m.first == n.first; }))
+    if (n.first != b &&
+        std::any_of(nb_b_.begin(), nb_b_.end(), [&](const auto& m) { return m.first == n.first; }))
       ++common;
   if (common != size_t(shared)) {
     ++report_.refused_link;
@@ -724,9 +740,10 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (size_t i = collapses_.size(); i-- > 0;) {
     const Collapse& c = collapses_[i];
     for (uint32_t k = 0; k < c.map_count; ++k) order.push_back(maps_[c.first_map + k].first);
-    for (uint32_t k = 0; k < c.face_count; ++k) face_order.push_back(removed_faces_[c.first_face + k]);
-    pm.levels.push_back({uint32_t(order.size()), uint32_t(face_order.size()),
-                         uint32_t(face_order.size()), 0});
+    for (uint32_t k = 0; k < c.face_count; ++k)
+      face_order.push_back(removed_faces_[c.first_face + k]);
+    pm.levels.push_back(
+        {uint32_t(order.size()), uint32_t(face_order.size()), uint32_t(face_order.size()), 0});
   }
   // Errors: level r (r collapses undone) keeps collapses [0, m - r): its error is their max.
   size_t m = collapses_.size();
@@ -767,10 +784,12 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   }
   pm.uvs.assign(uv_sets, std::vector<Vec2>(nw));
   pm.colors.assign(colors ? nw : 0, Vec4{1, 1, 1, 1});
-  // Source attributes per wedge, from the primitives (wedges are primitives' vertices, concatenated).
+  // Source attributes per wedge, from the primitives (wedges are primitives' vertices,
+  // concatenated).
   std::vector<uint32_t> prim_first;
   uint32_t acc = 0;
-  for (const Primitive& p : mesh.primitives) prim_first.push_back(acc), acc += uint32_t(p.vertex_count());
+  for (const Primitive& p : mesh.primitives)
+    prim_first.push_back(acc), acc += uint32_t(p.vertex_count());
   for (uint32_t i = 0; i < nw; ++i) {
     uint32_t w = order[i];
     uint32_t pi = u_.wedge_prim[w];
@@ -800,7 +819,6 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   }
 }
 
-
 // Builds the simplification unit for one mesh: wedges = the primitives' vertices, positions
 // welded exactly, attribute classes (position + everything but the normal) for wedge mapping.
 Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
@@ -821,7 +839,8 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     uint32_t first = uint32_t(u.wedge_pos.size());
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       Vec3 x = p.positions[v];
-      uint64_t h = (uint64_t(fbits(x.x)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(fbits(x.y)) * 0xC2B2AE3D27D4EB4Full) ^
+      uint64_t h = (uint64_t(fbits(x.x)) * 0x9E3779B97F4A7C15ull) ^
+                   (uint64_t(fbits(x.y)) * 0xC2B2AE3D27D4EB4Full) ^
                    (uint64_t(fbits(x.z)) * 0x165667B19E3779F9ull);
       auto& bucket = pos_of[h];
       uint32_t pid = UINT32_MAX;
@@ -838,7 +857,8 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
       if (normals) u.wedge_normal.push_back(p.normals[v]);
       // Weighted attribute channels.
       if (normals)
-        for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z}) u.attr.push_back(c * opt.normal_weight);
+        for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z})
+          u.attr.push_back(c * opt.normal_weight);
       for (size_t s = 0; s < uv_sets; ++s) {
         Vec2 t = s < p.uvs.size() ? p.uvs[s][v] : Vec2{};
         u.attr.push_back(t.x * opt.uv_weight);
@@ -849,7 +869,8 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
         for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
       }
       // Class: position, primitive, uv and colour bits (normal excluded).
-      uint64_t g = uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
+      uint64_t g =
+          uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
       size_t skip = normals ? 3 : 0;
       size_t k = size_t(u.channels);
       for (size_t c = skip; c < k; ++c) {
@@ -864,7 +885,8 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
         uint32_t w0 = group_first_wedge[cand];
         if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) continue;
         bool same = true;
-        for (size_t c = skip; c < k && same; ++c) same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
+        for (size_t c = skip; c < k && same; ++c)
+          same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
         if (same) gid = cand;
       }
       if (gid == UINT32_MAX) {
@@ -914,7 +936,8 @@ InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& sc
     if (inst.mesh != mesh) continue;
     Bounds wb;
     for (int c = 0; c < 8; ++c)
-      wb.add(inst.world.transform_point({c & 1 ? local.max.x : local.min.x, c & 2 ? local.max.y : local.min.y,
+      wb.add(inst.world.transform_point({c & 1 ? local.max.x : local.min.x,
+                                         c & 2 ? local.max.y : local.min.y,
                                          c & 4 ? local.max.z : local.min.z}));
     Vec3 centre = wb.center();
     Vec3 half = (wb.max - wb.min) * 0.5f * 2.0f;  // scaled up 2x
@@ -924,7 +947,8 @@ InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& sc
     entries.push_back({inside ? 0 : 1, splitmix(i), i, centre});
   }
   std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-    return a.outside != b.outside ? a.outside < b.outside : (a.key != b.key ? a.key < b.key : a.index < b.index);
+    return a.outside != b.outside ? a.outside < b.outside
+                                  : (a.key != b.key ? a.key < b.key : a.index < b.index);
   });
   for (const Entry& e : entries) {
     io.order.push_back(e.index);
@@ -936,12 +960,13 @@ InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& sc
 }  // namespace
 
 std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
-                                            const std::vector<Mat4>& transforms) {
+                                             const std::vector<Mat4>& transforms) {
   V3 P[3] = {to3(a), to3(b), to3(c)}, Q[3], un;
   double area0, world_area = 0;
   Quadric unit_q, sum;
   if (instance_plane(P, Mat4::identity(), Q, &un, &area0, &unit_q))
-    sum = scaled(unit_q, placement_factor(make_placements(transforms), un, area0, &world_area), world_area);
+    sum = scaled(unit_q, placement_factor(make_placements(transforms), un, area0, &world_area),
+                 world_area);
   return {sum.a00, sum.a01, sum.a02, sum.b0, sum.a01, sum.a11, sum.a12, sum.b1,
           sum.a02, sum.a12, sum.a22, sum.b2, sum.b0,  sum.b1,  sum.b2,  sum.c};
 }
@@ -954,8 +979,8 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   r.input_triangles = st.scene_triangles;
   r.instances_per_submesh = instances_per_submesh(cleaned);
   ProgressiveScene ps;
-  ps.flattened = r.instances_per_submesh > 0 && r.instances_per_submesh < options.flatten_below_ips &&
-                 st.instances > 1;
+  ps.flattened = r.instances_per_submesh > 0 &&
+                 r.instances_per_submesh < options.flatten_below_ips && st.instances > 1;
   ps.scene = ps.flattened ? flatten(cleaned) : cleaned;
   r.flattened = ps.flattened;
   const Scene& scene = ps.scene;

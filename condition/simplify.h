@@ -54,12 +54,12 @@ struct SimplifyOptions {
 };
 
 struct SimplifyReport {
-  bool flattened = false;          // the flatten path was taken
+  bool flattened = false;  // the flatten path was taken
   double instances_per_submesh = 0;
-  uint64_t input_triangles = 0;    // scene triangles (instances expanded)
-  uint64_t collapses = 0;          // over all submeshes
+  uint64_t input_triangles = 0;  // scene triangles (instances expanded)
+  uint64_t collapses = 0;        // over all submeshes
   uint64_t refused_flip = 0, refused_link = 0, refused_wedge = 0, refused_vanish = 0;
-  double seconds = 0;              // wall time of build_progressive
+  double seconds = 0;  // wall time of build_progressive
 };
 
 // Builds the progressive record of a cleaned scene (clean() first: welded, no degenerate
@@ -77,6 +77,6 @@ namespace meshmux {
 // images to the placed planes, weighted by their areas. Used by build_progressive; exposed for
 // tests and tools.
 std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
-                                            const std::vector<Mat4>& transforms);
+                                             const std::vector<Mat4>& transforms);
 
 }  // namespace meshmux

@@ -61,15 +61,19 @@ Image downsample_half(const Image& in) {
 }
 
 Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& o) {
-  std::string who = "texture levels: " + (texture.name.empty() ? std::string("texture") : texture.name);
-  if (!texture.decoded()) return Status::error(who + ": image is not decoded", ErrorKind::kInternal);
+  std::string who =
+      "texture levels: " + (texture.name.empty() ? std::string("texture") : texture.name);
+  if (!texture.decoded())
+    return Status::error(who + ": image is not decoded", ErrorKind::kInternal);
   if (!power_of_two(texture.width) || !power_of_two(texture.height))
-    return Status::error(who + ": " + std::to_string(texture.width) + "x" + std::to_string(texture.height) +
+    return Status::error(who + ": " + std::to_string(texture.width) + "x" +
+                             std::to_string(texture.height) +
                              " is not a power of two in both dimensions",
                          ErrorKind::kInternal);
   if (!power_of_two(o.base_size))
-    return Status::error(who + ": base size " + std::to_string(o.base_size) + " is not a power of two",
-                         ErrorKind::kInternal);
+    return Status::error(
+        who + ": base size " + std::to_string(o.base_size) + " is not a power of two",
+        ErrorKind::kInternal);
   bool alpha = false;
   for (size_t i = 3; i < texture.rgba.size() && !alpha; i += 4) alpha = texture.rgba[i] != 255;
   // The chain, full size first, down to the base.

@@ -13,8 +13,8 @@
 namespace meshmux {
 
 struct TextureLevelOptions {
-  int base_size = 128;     // the smallest level's larger side, in pixels (a power of two)
-  int jpeg_quality = 85;   // 1..100, for opaque textures
+  int base_size = 128;    // the smallest level's larger side, in pixels (a power of two)
+  int jpeg_quality = 85;  // 1..100, for opaque textures
 };
 
 // Requires a decoded image whose width and height are powers of two. Errors name the image.

@@ -50,18 +50,18 @@ Result<DracoOutput> draco_encode(const DracoInput& in, const DracoSettings& sett
     static_assert(sizeof(Vec3) == 3 * sizeof(float) && sizeof(Vec2) == 2 * sizeof(float) &&
                       sizeof(Vec4) == 4 * sizeof(float),
                   "vector types must be packed floats");
-    out.position_id = add_float_attribute(&mesh, draco::GeometryAttribute::POSITION, 3,
-                                          &(*in.positions)[0].x, n);
+    out.position_id =
+        add_float_attribute(&mesh, draco::GeometryAttribute::POSITION, 3, &(*in.positions)[0].x, n);
     if (in.normals && !in.normals->empty())
-      out.normal_id = add_float_attribute(&mesh, draco::GeometryAttribute::NORMAL, 3,
-                                          &(*in.normals)[0].x, n);
+      out.normal_id =
+          add_float_attribute(&mesh, draco::GeometryAttribute::NORMAL, 3, &(*in.normals)[0].x, n);
     if (in.uvs)
       for (const auto& set : *in.uvs)
         out.uv_ids.push_back(
             add_float_attribute(&mesh, draco::GeometryAttribute::TEX_COORD, 2, &set[0].x, n));
     if (in.colors && !in.colors->empty())
-      out.color_id = add_float_attribute(&mesh, draco::GeometryAttribute::COLOR, 4,
-                                         &(*in.colors)[0].x, n);
+      out.color_id =
+          add_float_attribute(&mesh, draco::GeometryAttribute::COLOR, 4, &(*in.colors)[0].x, n);
     bool attributes_ok = out.position_id >= 0 &&
                          (out.normal_id >= 0 || !in.normals || in.normals->empty()) &&
                          (out.color_id >= 0 || !in.colors || in.colors->empty());

@@ -9,8 +9,6 @@
 #include <eigen3/Eigen/Geometry>
 #include <eigen3/Eigen/SVD>
 #pragma GCC diagnostic pop
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -18,6 +16,7 @@
 #include <cstring>
 #include <exception>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <utility>
 
@@ -108,8 +107,8 @@ class Exporter {
     return int(views_.size() - 1);
   }
 
-  int add_accessor(int view, int component, const char* type, size_t count,
-                   json min = nullptr, json max = nullptr) {
+  int add_accessor(int view, int component, const char* type, size_t count, json min = nullptr,
+                   json max = nullptr) {
     json a = {{"componentType", component}, {"type", type}, {"count", count}};
     if (view >= 0) a["bufferView"] = view;
     if (!min.is_null()) a["min"] = std::move(min);
@@ -129,8 +128,8 @@ class Exporter {
   void prepare_images() {
     std::set<int32_t> referenced;
     for (const Material& m : scene_.materials)
-      for (const TextureRef* t : {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion,
-                                  &m.emissive})
+      for (const TextureRef* t :
+           {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion, &m.emissive})
         if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
     image_map_.assign(scene_.images.size(), -1);
     for (int32_t i : referenced) {
@@ -216,8 +215,7 @@ class Exporter {
     const TextureTransform& x = t.transform;
     if (!x.is_identity()) {
       if (!std::isfinite(x.offset[0]) || !std::isfinite(x.offset[1]) ||
-          !std::isfinite(x.rotation) || !std::isfinite(x.scale[0]) ||
-          !std::isfinite(x.scale[1])) {
+          !std::isfinite(x.rotation) || !std::isfinite(x.scale[0]) || !std::isfinite(x.scale[1])) {
         note(where + ": texture transform is not finite; left out");
       } else {
         json e = json::object();
@@ -237,8 +235,8 @@ class Exporter {
   // v clamped to [lo, hi]; NaN becomes `def`. Warns when the value changes.
   float bounded(float v, float lo, float hi, float def, const std::string& what) {
     float r = std::isnan(v) ? def : std::clamp(v, lo, hi);
-    if (!(r == v)) note(what + " " + std::to_string(v) + " out of range; written as " +
-                        std::to_string(r));
+    if (!(r == v))
+      note(what + " " + std::to_string(v) + " out of range; written as " + std::to_string(r));
     return r;
   }
 
@@ -284,7 +282,8 @@ class Exporter {
         j["emissiveTexture"] = std::move(t);
       float e[3] = {m.emissive_factor.x, m.emissive_factor.y, m.emissive_factor.z};
       for (float& v : e) v = bounded(v, 0, 1, 0, where + ": emissiveFactor component");
-      if (e[0] != 0 || e[1] != 0 || e[2] != 0) j["emissiveFactor"] = {num(e[0]), num(e[1]), num(e[2])};
+      if (e[0] != 0 || e[1] != 0 || e[2] != 0)
+        j["emissiveFactor"] = {num(e[0]), num(e[1]), num(e[2])};
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";
         float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;
@@ -342,7 +341,8 @@ class Exporter {
     }
     c.colors = p.colors;
     for (Vec4& v : c.colors)
-      for (float* f : {&v.x, &v.y, &v.z, &v.w}) *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
+      for (float* f : {&v.x, &v.y, &v.z, &v.w})
+        *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
     return c;
   }
 
@@ -352,8 +352,9 @@ class Exporter {
     Bounds b;
     for (Vec3 v : p.positions) b.add(v);
     int view = add_view(p.positions.data(), n * sizeof(Vec3), kArrayBuffer);
-    attrs["POSITION"] = add_accessor(view, kFloat, "VEC3", n, {num(b.min.x), num(b.min.y), num(b.min.z)},
-                                     {num(b.max.x), num(b.max.y), num(b.max.z)});
+    attrs["POSITION"] =
+        add_accessor(view, kFloat, "VEC3", n, {num(b.min.x), num(b.min.y), num(b.min.z)},
+                     {num(b.max.x), num(b.max.y), num(b.max.z)});
     if (!c.normals.empty()) attrs["NORMAL"] = add_float_accessor(c.normals, "VEC3", kArrayBuffer);
     for (size_t u = 0; u < c.uvs.size(); ++u)
       attrs["TEXCOORD_" + std::to_string(u)] = add_float_accessor(c.uvs[u], "VEC2", kArrayBuffer);
@@ -374,9 +375,9 @@ class Exporter {
     json attrs = json::object(), ids = json::object();
     const auto& mn = d.position_min;
     const auto& mx = d.position_max;
-    attrs["POSITION"] = add_accessor(-1, kFloat, "VEC3", d.num_points,
-                                     {num(mn[0]), num(mn[1]), num(mn[2])},
-                                     {num(mx[0]), num(mx[1]), num(mx[2])});
+    attrs["POSITION"] =
+        add_accessor(-1, kFloat, "VEC3", d.num_points, {num(mn[0]), num(mn[1]), num(mn[2])},
+                     {num(mx[0]), num(mx[1]), num(mx[2])});
     ids["POSITION"] = d.position_id;
     if (d.normal_id >= 0) {
       attrs["NORMAL"] = add_accessor(-1, kFloat, "VEC3", d.num_points);
@@ -391,8 +392,8 @@ class Exporter {
       attrs["COLOR_0"] = add_accessor(-1, kFloat, "VEC4", d.num_points);
       ids["COLOR_0"] = d.color_id;
     }
-    int indices = add_accessor(-1, d.num_points <= 65535 ? kUnsignedShort : kUnsignedInt,
-                               "SCALAR", size_t(d.num_faces) * 3);
+    int indices = add_accessor(-1, d.num_points <= 65535 ? kUnsignedShort : kUnsignedInt, "SCALAR",
+                               size_t(d.num_faces) * 3);
     int view = add_view(d.bytes.data(), d.bytes.size(), 0);
     used_.insert(kDraco);
     required_.insert(kDraco);
@@ -457,8 +458,8 @@ class Exporter {
     p.world = inst.world;
     const Mat4& w = inst.world;
     if (w.at(3, 0) != 0 || w.at(3, 1) != 0 || w.at(3, 2) != 0 || w.at(3, 3) != 1) {
-      if (w.at(3, 3) != 0 && std::isfinite(1 / w.at(3, 3)) && w.at(3, 0) == 0 &&
-          w.at(3, 1) == 0 && w.at(3, 2) == 0) {
+      if (w.at(3, 3) != 0 && std::isfinite(1 / w.at(3, 3)) && w.at(3, 0) == 0 && w.at(3, 1) == 0 &&
+          w.at(3, 2) == 0) {
         for (double& v : p.world.m) v /= w.at(3, 3);  // homogeneous scale only
       } else {
         note("instance " + std::to_string(i) + " '" + inst.name +

@@ -19,8 +19,7 @@ std::string image_label(const Image& image) {
 
 Result<std::vector<uint8_t>> encode_png(const Image& image) {
   const std::string where = "png encode: " + image_label(image);
-  if (!image.decoded())
-    return Status::error(where + ": not decoded", ErrorKind::kInternal);
+  if (!image.decoded()) return Status::error(where + ": not decoded", ErrorKind::kInternal);
   const size_t w = size_t(image.width), h = size_t(image.height);
   if (image.rgba.size() != w * h * 4)
     return Status::error(where + ": pixel buffer size " + std::to_string(image.rgba.size()) +

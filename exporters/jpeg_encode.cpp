@@ -8,9 +8,11 @@
 namespace meshmux {
 
 Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality) {
-  if (!image.decoded()) return Status::error("jpeg: " + image.name + ": image is not decoded", ErrorKind::kInternal);
+  if (!image.decoded())
+    return Status::error("jpeg: " + image.name + ": image is not decoded", ErrorKind::kInternal);
   if (quality < 1 || quality > 100)
-    return Status::error("jpeg: quality " + std::to_string(quality) + " is outside 1..100", ErrorKind::kInternal);
+    return Status::error("jpeg: quality " + std::to_string(quality) + " is outside 1..100",
+                         ErrorKind::kInternal);
   std::unique_ptr<void, int (*)(tjhandle)> handle(tjInitCompress(), tjDestroy);
   if (!handle) return Status::error("jpeg: cannot start the encoder", ErrorKind::kInternal);
   unsigned char* buf = nullptr;

@@ -19,12 +19,11 @@
 
 #include <meshoptimizer.h>
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace meshmux {
@@ -70,8 +69,8 @@ struct EncodedPart {
   std::vector<uint8_t> vertices, indices;
 };
 
-Result<EncodedPart> encode_part(const ProgressiveMesh& pm, const Bounds& box, uint32_t mesh, const ProgressiveLevel& from,
-                                const ProgressiveLevel& to) {
+Result<EncodedPart> encode_part(const ProgressiveMesh& pm, const Bounds& box, uint32_t mesh,
+                                const ProgressiveLevel& from, const ProgressiveLevel& to) {
   EncodedPart e;
   e.part.mesh = mesh;
   e.part.vertex_begin = from.vertex_end, e.part.vertex_end = to.vertex_end;
@@ -80,15 +79,21 @@ Result<EncodedPart> encode_part(const ProgressiveMesh& pm, const Bounds& box, ui
   if (n > 0) {
     std::vector<uint8_t> packed = pack_vertices(pm, box, from.vertex_end, to.vertex_end);
     e.vertices.resize(meshopt_encodeVertexBufferBound(n, kPackedVertexBytes));
-    size_t size = meshopt_encodeVertexBuffer(e.vertices.data(), e.vertices.size(), packed.data(), n, kPackedVertexBytes);
-    if (size == 0) return Status::error("package: mesh " + std::to_string(mesh) + ": vertex encoding failed", ErrorKind::kInternal);
+    size_t size = meshopt_encodeVertexBuffer(e.vertices.data(), e.vertices.size(), packed.data(), n,
+                                             kPackedVertexBytes);
+    if (size == 0)
+      return Status::error("package: mesh " + std::to_string(mesh) + ": vertex encoding failed",
+                           ErrorKind::kInternal);
     e.vertices.resize(size);
   }
   size_t count = size_t(to.face_end - from.face_end) * 3;
   if (count > 0) {
     e.indices.resize(meshopt_encodeIndexBufferBound(count, pm.vertex_count()));
-    size_t size = meshopt_encodeIndexBuffer(e.indices.data(), e.indices.size(), &pm.indices[size_t(from.face_end) * 3], count);
-    if (size == 0) return Status::error("package: mesh " + std::to_string(mesh) + ": index encoding failed", ErrorKind::kInternal);
+    size_t size = meshopt_encodeIndexBuffer(e.indices.data(), e.indices.size(),
+                                            &pm.indices[size_t(from.face_end) * 3], count);
+    if (size == 0)
+      return Status::error("package: mesh " + std::to_string(mesh) + ": index encoding failed",
+                           ErrorKind::kInternal);
     e.indices.resize(size);
   }
   e.part.vertex_bytes = e.vertices.size(), e.part.index_bytes = e.indices.size();
@@ -100,7 +105,8 @@ Status check_mesh(const ProgressiveMesh& pm, size_t m) {
   std::string where = "mesh " + std::to_string(m) + ": ";
   if (pm.vertex_count() > kMaxCount || pm.face_count() > kMaxCount)
     return fail(where + "more than 2^28 vertices or faces");
-  if (pm.parent.size() != pm.vertex_count()) return fail(where + "parent count differs from the vertex count");
+  if (pm.parent.size() != pm.vertex_count())
+    return fail(where + "parent count differs from the vertex count");
   if (pm.indices.size() % 3) return fail(where + "index count is not a multiple of 3");
   if (pm.levels.empty()) return fail(where + "no levels");
   for (uint32_t i : pm.indices)
@@ -121,7 +127,8 @@ Bounds package_bounds(const ProgressiveMesh& pm) {
   return b;
 }
 
-std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& box, uint32_t begin, uint32_t end) {
+std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& box, uint32_t begin,
+                                   uint32_t end) {
   end = uint32_t(std::min<size_t>(end, pm.vertex_count()));
   begin = std::min(begin, end);
   std::vector<uint8_t> out(size_t(end - begin) * kPackedVertexBytes, 0);
@@ -134,7 +141,8 @@ std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& box,
     put16(q + 2, quantize16(p.y, box.min.y, ext.y));
     put16(q + 4, quantize16(p.z, box.min.z, ext.z));  // q[6..7] stay 0
     Vec3 n = v < pm.normals.size() ? pm.normals[v] : Vec3{0, 0, 1};
-    q[8] = uint8_t(quantize8(n.x)), q[9] = uint8_t(quantize8(n.y)), q[10] = uint8_t(quantize8(n.z));  // q[11] = 0
+    q[8] = uint8_t(quantize8(n.x)), q[9] = uint8_t(quantize8(n.y)),
+    q[10] = uint8_t(quantize8(n.z));  // q[11] = 0
     Vec2 t = !pm.uvs.empty() && v < pm.uvs[0].size() ? pm.uvs[0][v] : Vec2{};
     put16(q + 12, quantize16(t.x, 0, 1));
     put16(q + 14, quantize16(t.y, 0, 1));
@@ -149,20 +157,25 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   const ProgressiveScene& ps = *in.scene;
   size_t meshes = ps.meshes.size();
   if (in.base_levels.size() != meshes)
-    return fail(std::to_string(in.base_levels.size()) + " base levels for " + std::to_string(meshes) + " meshes");
+    return fail(std::to_string(in.base_levels.size()) + " base levels for " +
+                std::to_string(meshes) + " meshes");
   if (in.base_glb.empty()) return fail("empty base .glb");
   std::vector<Bounds> boxes;
   for (size_t m = 0; m < meshes; ++m) {
     if (Status s = check_mesh(ps.meshes[m], m); !s) return s;
     if (in.base_levels[m] >= ps.meshes[m].levels.size())
-      return fail("mesh " + std::to_string(m) + ": base level " + std::to_string(in.base_levels[m]) + " out of range");
+      return fail("mesh " + std::to_string(m) + ": base level " +
+                  std::to_string(in.base_levels[m]) + " out of range");
     boxes.push_back(package_bounds(ps.meshes[m]));
   }
   if (in.textures && !in.textures->levels.empty()) {
     const TextureLevel& full = in.textures->levels.back();
-    if (in.base_texture_level >= in.textures->levels.size()) return fail("base texture level out of range");
-    if (full.width <= 0 || full.height <= 0 || uint64_t(full.width) > kMaxTextureSide || uint64_t(full.height) > kMaxTextureSide)
-      return fail("full texture size " + std::to_string(full.width) + "x" + std::to_string(full.height) + " out of range");
+    if (in.base_texture_level >= in.textures->levels.size())
+      return fail("base texture level out of range");
+    if (full.width <= 0 || full.height <= 0 || uint64_t(full.width) > kMaxTextureSide ||
+        uint64_t(full.height) > kMaxTextureSide)
+      return fail("full texture size " + std::to_string(full.width) + "x" +
+                  std::to_string(full.height) + " out of range");
   }
 
   // Payloads and table entries, offsets filled in later.
@@ -183,28 +196,34 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
     c.distortion = step.distortion;
     if (step.kind == StreamStep::kTexture) {
       if (!in.textures || step.texture_level >= in.textures->levels.size())
-        return fail(where + "texture level " + std::to_string(step.texture_level) + " out of range");
+        return fail(where + "texture level " + std::to_string(step.texture_level) +
+                    " out of range");
       const TextureLevel& t = in.textures->levels[step.texture_level];
-      if (t.encoded.empty() || t.width <= 0 || t.height <= 0 || uint64_t(t.width) > kMaxTextureSide ||
-          uint64_t(t.height) > kMaxTextureSide)
-        return fail(where + "texture level " + std::to_string(step.texture_level) + " is empty or has a bad size");
+      if (t.encoded.empty() || t.width <= 0 || t.height <= 0 ||
+          uint64_t(t.width) > kMaxTextureSide || uint64_t(t.height) > kMaxTextureSide)
+        return fail(where + "texture level " + std::to_string(step.texture_level) +
+                    " is empty or has a bad size");
       if (t.mime_type != "image/jpeg" && t.mime_type != "image/png")
-        return fail(where + "texture level mime type \"" + t.mime_type + "\" is neither JPEG nor PNG");
+        return fail(where + "texture level mime type \"" + t.mime_type +
+                    "\" is neither JPEG nor PNG");
       c.mesh = false;
       c.texture = &t;
       c.payload = t.encoded;
     } else {
       if (step.levels.size() != meshes)
-        return fail(where + std::to_string(step.levels.size()) + " levels for " + std::to_string(meshes) + " meshes");
+        return fail(where + std::to_string(step.levels.size()) + " levels for " +
+                    std::to_string(meshes) + " meshes");
       for (size_t m = 0; m < meshes; ++m) {
         const ProgressiveMesh& pm = ps.meshes[m];
         size_t to = step.levels[m];
         if (to == state[m]) continue;
-        if (to >= pm.levels.size()) return fail(where + "mesh " + std::to_string(m) + ": level " + std::to_string(to) + " out of range");
+        if (to >= pm.levels.size())
+          return fail(where + "mesh " + std::to_string(m) + ": level " + std::to_string(to) +
+                      " out of range");
         const ProgressiveLevel &a = pm.levels[state[m]], &b = pm.levels[to];
         if (to < state[m] || b.vertex_end < a.vertex_end || b.face_end < a.face_end)
-          return fail(where + "mesh " + std::to_string(m) + ": goes back from level " + std::to_string(state[m]) + " to " +
-                      std::to_string(to));
+          return fail(where + "mesh " + std::to_string(m) + ": goes back from level " +
+                      std::to_string(state[m]) + " to " + std::to_string(to));
         auto part = encode_part(pm, boxes[m], uint32_t(m), a, b);
         if (!part.ok()) return part.status();
         c.parts.push_back(part->part);
@@ -235,7 +254,8 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
     }
     j["meshes"] = std::move(ms);
     if (in.textures && !in.textures->levels.empty())
-      j["texture"] = {{"width", in.textures->levels.back().width}, {"height", in.textures->levels.back().height}};
+      j["texture"] = {{"width", in.textures->levels.back().width},
+                      {"height", in.textures->levels.back().height}};
     else
       j["texture"] = nullptr;
     OrderedJson cs = OrderedJson::array();
@@ -247,12 +267,17 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
       if (c.mesh) {
         OrderedJson parts = OrderedJson::array();
         for (const PackagePart& p : c.parts)
-          parts.push_back({{"mesh", p.mesh}, {"vertex_begin", p.vertex_begin}, {"vertex_end", p.vertex_end},
-                           {"face_begin", p.face_begin}, {"face_end", p.face_end},
-                           {"vertex_bytes", p.vertex_bytes}, {"index_bytes", p.index_bytes}});
+          parts.push_back({{"mesh", p.mesh},
+                           {"vertex_begin", p.vertex_begin},
+                           {"vertex_end", p.vertex_end},
+                           {"face_begin", p.face_begin},
+                           {"face_end", p.face_end},
+                           {"vertex_bytes", p.vertex_bytes},
+                           {"index_bytes", p.index_bytes}});
         e["parts"] = std::move(parts);
       } else {
-        e["width"] = c.texture->width, e["height"] = c.texture->height, e["mime"] = c.texture->mime_type;
+        e["width"] = c.texture->width, e["height"] = c.texture->height,
+        e["mime"] = c.texture->mime_type;
       }
       offset += c.payload.size();
       cs.push_back(std::move(e));
@@ -291,7 +316,8 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
 namespace {
 
 // Field readers: each names what is wrong with `where` ("chunk 3") and the key.
-Status get_uint(const Json& obj, const char* key, uint64_t max, uint64_t& out, const std::string& where) {
+Status get_uint(const Json& obj, const char* key, uint64_t max, uint64_t& out,
+                const std::string& where) {
   auto it = obj.find(key);
   if (it == obj.end()) return fail(where + ": missing \"" + key + "\"");
   if (it->is_number_unsigned()) {
@@ -303,10 +329,13 @@ Status get_uint(const Json& obj, const char* key, uint64_t max, uint64_t& out, c
   } else {
     return fail(where + ": \"" + key + "\" is not an integer");
   }
-  if (out > max) return fail(where + ": \"" + key + "\" = " + std::to_string(out) + " exceeds " + std::to_string(max));
+  if (out > max)
+    return fail(where + ": \"" + key + "\" = " + std::to_string(out) + " exceeds " +
+                std::to_string(max));
   return Status::ok();
 }
-Status get_u32(const Json& obj, const char* key, uint64_t max, uint32_t& out, const std::string& where) {
+Status get_u32(const Json& obj, const char* key, uint64_t max, uint32_t& out,
+               const std::string& where) {
   uint64_t v = 0;
   Status s = get_uint(obj, key, max, v, where);
   out = uint32_t(v);
@@ -334,9 +363,12 @@ int json_depth(const uint8_t* p, size_t n) {
   for (size_t i = 0; i < n; ++i) {
     uint8_t c = p[i];
     if (in_string) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') in_string = false;
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {
@@ -350,26 +382,34 @@ int json_depth(const uint8_t* p, size_t n) {
 
 // The checks decode_part shares with the reader: a part's ranges inside its mesh, counts bounded
 // and plausible for the bytes that carry them.
-Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes, const std::string& where) {
-  if (p.mesh >= meshes.size()) return fail(where + ": mesh " + std::to_string(p.mesh) + " out of range");
+Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
+                  const std::string& where) {
+  if (p.mesh >= meshes.size())
+    return fail(where + ": mesh " + std::to_string(p.mesh) + " out of range");
   const PackageMesh& m = meshes[p.mesh];
-  if (m.vertices > kMaxCount || m.faces > kMaxCount) return fail(where + ": mesh has more than 2^28 vertices or faces");
+  if (m.vertices > kMaxCount || m.faces > kMaxCount)
+    return fail(where + ": mesh has more than 2^28 vertices or faces");
   if (p.vertex_begin > p.vertex_end || p.vertex_end > m.vertices)
-    return fail(where + ": vertex range [" + std::to_string(p.vertex_begin) + ", " + std::to_string(p.vertex_end) +
-                ") outside the mesh's " + std::to_string(m.vertices) + " vertices");
+    return fail(where + ": vertex range [" + std::to_string(p.vertex_begin) + ", " +
+                std::to_string(p.vertex_end) + ") outside the mesh's " +
+                std::to_string(m.vertices) + " vertices");
   if (p.face_begin > p.face_end || p.face_end > m.faces)
-    return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " + std::to_string(p.face_end) +
-                ") outside the mesh's " + std::to_string(m.faces) + " faces");
+    return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " +
+                std::to_string(p.face_end) + ") outside the mesh's " + std::to_string(m.faces) +
+                " faces");
   uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
-  if ((nv == 0) != (p.vertex_bytes == 0) || nv * kPackedVertexBytes > p.vertex_bytes * kMaxVertexRatio)
-    return fail(where + ": " + std::to_string(p.vertex_bytes) + " vertex bytes cannot hold " + std::to_string(nv) + " vertices");
+  if ((nv == 0) != (p.vertex_bytes == 0) ||
+      nv * kPackedVertexBytes > p.vertex_bytes * kMaxVertexRatio)
+    return fail(where + ": " + std::to_string(p.vertex_bytes) + " vertex bytes cannot hold " +
+                std::to_string(nv) + " vertices");
   if ((nf == 0) != (p.index_bytes == 0) || nf > p.index_bytes)
-    return fail(where + ": " + std::to_string(p.index_bytes) + " index bytes cannot hold " + std::to_string(nf) + " faces");
+    return fail(where + ": " + std::to_string(p.index_bytes) + " index bytes cannot hold " +
+                std::to_string(nf) + " faces");
   return Status::ok();
 }
 
-Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t file_size, PackagePart& p,
-                 const std::string& where) {
+Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t file_size,
+                 PackagePart& p, const std::string& where) {
   if (!j.is_object()) return fail(where + " is not an object");
   Status s;
   if (!(s = get_u32(j, "mesh", kMaxCount, p.mesh, where))) return s;
@@ -382,14 +422,19 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   return check_part(p, meshes, where);
 }
 
-Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, PackageChunk& c, const std::string& where) {
+Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, PackageChunk& c,
+                  const std::string& where) {
   if (!j.is_object()) return fail(where + " is not an object");
   auto kind = j.find("kind");
-  if (kind == j.end() || !kind->is_string()) return fail(where + ": \"kind\" missing or not a string");
+  if (kind == j.end() || !kind->is_string())
+    return fail(where + ": \"kind\" missing or not a string");
   const std::string& k = kind->get_ref<const std::string&>();
-  if (k == "mesh") c.kind = StreamStep::kMesh;
-  else if (k == "texture") c.kind = StreamStep::kTexture;
-  else return fail(where + ": unknown kind");
+  if (k == "mesh")
+    c.kind = StreamStep::kMesh;
+  else if (k == "texture")
+    c.kind = StreamStep::kTexture;
+  else
+    return fail(where + ": unknown kind");
   Status s;
   if (!(s = get_uint(j, "offset", file_size, c.offset, where))) return s;
   if (!(s = get_uint(j, "size", file_size, c.size, where))) return s;
@@ -398,25 +443,35 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, Package
   if (d == j.end()) return fail(where + ": missing \"distortion\"");
   if (!(s = get_finite(*d, c.distortion, where + ": \"distortion\""))) return s;
   if (c.kind == StreamStep::kTexture) {
-    if (!(s = get_side(j, "width", c.width, where)) || !(s = get_side(j, "height", c.height, where))) return s;
+    if (!(s = get_side(j, "width", c.width, where)) ||
+        !(s = get_side(j, "height", c.height, where)))
+      return s;
     auto mime = j.find("mime");
-    if (mime == j.end() || !mime->is_string()) return fail(where + ": \"mime\" missing or not a string");
+    if (mime == j.end() || !mime->is_string())
+      return fail(where + ": \"mime\" missing or not a string");
     c.mime = mime->get<std::string>();
-    if (c.mime != "image/jpeg" && c.mime != "image/png") return fail(where + ": mime type is neither JPEG nor PNG");
+    if (c.mime != "image/jpeg" && c.mime != "image/png")
+      return fail(where + ": mime type is neither JPEG nor PNG");
     if (c.size == 0) return fail(where + ": empty texture");
     return Status::ok();
   }
   auto parts = j.find("parts");
-  if (parts == j.end() || !parts->is_array()) return fail(where + ": \"parts\" missing or not an array");
+  if (parts == j.end() || !parts->is_array())
+    return fail(where + ": \"parts\" missing or not an array");
   uint64_t sum = 0;
   for (size_t i = 0; i < parts->size(); ++i) {
     PackagePart p;
-    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p, where + " part " + std::to_string(i)))) return s;
+    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p,
+                        where + " part " + std::to_string(i))))
+      return s;
     sum += p.vertex_bytes + p.index_bytes;  // each ≤ file size: no overflow
-    if (sum > c.size) return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
+    if (sum > c.size)
+      return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
     c.parts.push_back(p);
   }
-  if (sum != c.size) return fail(where + ": parts hold " + std::to_string(sum) + " bytes, the chunk " + std::to_string(c.size));
+  if (sum != c.size)
+    return fail(where + ": parts hold " + std::to_string(sum) + " bytes, the chunk " +
+                std::to_string(c.size));
   return Status::ok();
 }
 
@@ -426,23 +481,30 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (bytes.empty()) return fail("empty file");
   if (bytes.size() < kHeaderBytes)
     return fail(std::to_string(bytes.size()) + " bytes, too short for the 12-byte header");
-  if (std::memcmp(bytes.data(), "MMXP", 4) != 0) return fail("not a meshmux package (magic is not \"MMXP\")");
+  if (std::memcmp(bytes.data(), "MMXP", 4) != 0)
+    return fail("not a meshmux package (magic is not \"MMXP\")");
   Package pkg;
   pkg.version = get_u32(bytes, 4);
-  if (pkg.version != kPackageVersion) return fail("version " + std::to_string(pkg.version) + " not supported");
+  if (pkg.version != kPackageVersion)
+    return fail("version " + std::to_string(pkg.version) + " not supported");
   uint64_t file_size = bytes.size(), json_size = get_u32(bytes, 8);
   if (json_size > file_size - kHeaderBytes)
-    return fail("JSON table length " + std::to_string(json_size) + " past the end of the file (" + std::to_string(file_size) + " bytes)");
-  if (json_size == 0 || json_size % 4) return fail("JSON table length " + std::to_string(json_size) + " is not a positive multiple of 4");
+    return fail("JSON table length " + std::to_string(json_size) + " past the end of the file (" +
+                std::to_string(file_size) + " bytes)");
+  if (json_size == 0 || json_size % 4)
+    return fail("JSON table length " + std::to_string(json_size) +
+                " is not a positive multiple of 4");
   const uint8_t* text = bytes.data() + kHeaderBytes;
-  if (json_depth(text, size_t(json_size)) > kMaxJsonDepth) return fail("JSON table nested too deeply");
+  if (json_depth(text, size_t(json_size)) > kMaxJsonDepth)
+    return fail("JSON table nested too deeply");
   Json j = Json::parse(text, text + json_size, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) return fail("JSON table does not parse");
   if (!j.is_object()) return fail("JSON table is not an object");
   Status s;
   uint64_t version = 0;
   if (!(s = get_uint(j, "version", 0xffffffffu, version, "table"))) return s;
-  if (version != pkg.version) return fail("table version " + std::to_string(version) + " differs from the header's");
+  if (version != pkg.version)
+    return fail("table version " + std::to_string(version) + " differs from the header's");
 
   uint64_t data_start = kHeaderBytes + json_size;
   auto base = j.find("base");
@@ -450,7 +512,8 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (!(s = get_uint(*base, "offset", file_size, pkg.base_offset, "base"))) return s;
   if (!(s = get_uint(*base, "size", file_size, pkg.base_size, "base"))) return s;
   if (pkg.base_offset < data_start) return fail("base: offset inside the header");
-  if (pkg.base_size == 0 || pkg.base_size > file_size - pkg.base_offset) return fail("base: range empty or past the end of the file");
+  if (pkg.base_size == 0 || pkg.base_size > file_size - pkg.base_offset)
+    return fail("base: range empty or past the end of the file");
 
   auto meshes = j.find("meshes");
   if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
@@ -459,12 +522,14 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     std::string where = "mesh " + std::to_string(m);
     if (!e.is_object()) return fail(where + " is not an object");
     PackageMesh pm;
-    if (!(s = get_u32(e, "vertices", kMaxCount, pm.vertices, where)) || !(s = get_u32(e, "faces", kMaxCount, pm.faces, where)) ||
+    if (!(s = get_u32(e, "vertices", kMaxCount, pm.vertices, where)) ||
+        !(s = get_u32(e, "faces", kMaxCount, pm.faces, where)) ||
         !(s = get_u32(e, "base_vertices", pm.vertices, pm.base_vertices, where)) ||
         !(s = get_u32(e, "base_faces", pm.faces, pm.base_faces, where)))
       return s;
     auto b = e.find("bounds");
-    if (b == e.end() || !b->is_array() || b->size() != 6) return fail(where + ": \"bounds\" is not 6 numbers");
+    if (b == e.end() || !b->is_array() || b->size() != 6)
+      return fail(where + ": \"bounds\" is not 6 numbers");
     for (size_t i = 0; i < 6; ++i) {
       double v = 0;
       if (!(s = get_finite((*b)[i], v, where + ": bounds[" + std::to_string(i) + "]"))) return s;
@@ -480,7 +545,8 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (texture == j.end()) return fail("\"texture\" missing");
   if (!texture->is_null()) {
     if (!texture->is_object()) return fail("\"texture\" is neither null nor an object");
-    if (!(s = get_side(*texture, "width", pkg.texture_width, "texture")) || !(s = get_side(*texture, "height", pkg.texture_height, "texture")))
+    if (!(s = get_side(*texture, "width", pkg.texture_width, "texture")) ||
+        !(s = get_side(*texture, "height", pkg.texture_height, "texture")))
       return s;
   }
 
@@ -491,25 +557,30 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
     if (!(s = read_chunk((*chunks)[i], pkg, file_size, c, where))) return s;
-    if (c.offset < end) return fail(where + ": offset " + std::to_string(c.offset) + " overlaps the base or the chunk before");
-    if (c.kind == StreamStep::kTexture && pkg.texture_width == 0) return fail(where + ": texture chunk in a package without texture");
+    if (c.offset < end)
+      return fail(where + ": offset " + std::to_string(c.offset) +
+                  " overlaps the base or the chunk before");
+    if (c.kind == StreamStep::kTexture && pkg.texture_width == 0)
+      return fail(where + ": texture chunk in a package without texture");
     end = c.offset + c.size;
     pkg.chunks.push_back(std::move(c));
   }
   return pkg;
 }
 
-Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package& package, const PackageChunk& chunk,
-                                size_t part) {
+Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package& package,
+                                const PackageChunk& chunk, size_t part) {
   std::string where = "chunk at offset " + std::to_string(chunk.offset);
   const PackageChunk* first = package.chunks.data();
   if (!package.chunks.empty() && !std::less<const PackageChunk*>()(&chunk, first) &&
       std::less<const PackageChunk*>()(&chunk, first + package.chunks.size()))
     where = "chunk " + std::to_string(&chunk - first);
   if (chunk.kind != StreamStep::kMesh) return fail(where + ": not a mesh chunk");
-  if (part >= chunk.parts.size()) return fail(where + ": part " + std::to_string(part) + " out of range");
+  if (part >= chunk.parts.size())
+    return fail(where + ": part " + std::to_string(part) + " out of range");
   uint64_t size = bytes.size();
-  if (chunk.offset > size || chunk.size > size - chunk.offset) return fail(where + ": range past the end of the file");
+  if (chunk.offset > size || chunk.size > size - chunk.offset)
+    return fail(where + ": range past the end of the file");
   uint64_t offset = chunk.offset, end = chunk.offset + chunk.size;
   for (size_t i = 0; i <= part; ++i) {
     const PackagePart& p = chunk.parts[i];
@@ -526,17 +597,21 @@ Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package
   size_t nv = p.vertex_end - p.vertex_begin;
   if (nv > 0) {
     out.vertices.resize(nv * kPackedVertexBytes);
-    if (meshopt_decodeVertexBuffer(out.vertices.data(), nv, kPackedVertexBytes, data, size_t(p.vertex_bytes)) != 0)
+    if (meshopt_decodeVertexBuffer(out.vertices.data(), nv, kPackedVertexBytes, data,
+                                   size_t(p.vertex_bytes)) != 0)
       return fail(where + ": vertex data does not decode");
   }
   size_t ni = size_t(p.face_end - p.face_begin) * 3;
   if (ni > 0) {
     out.indices.resize(ni);
-    if (meshopt_decodeIndexBuffer(out.indices.data(), ni, sizeof(uint32_t), data + p.vertex_bytes, size_t(p.index_bytes)) != 0)
+    if (meshopt_decodeIndexBuffer(out.indices.data(), ni, sizeof(uint32_t), data + p.vertex_bytes,
+                                  size_t(p.index_bytes)) != 0)
       return fail(where + ": index data does not decode");
     uint32_t vertices = package.meshes[p.mesh].vertices;
     for (uint32_t i : out.indices)
-      if (i >= vertices) return fail(where + ": index " + std::to_string(i) + " out of range (" + std::to_string(vertices) + " vertices)");
+      if (i >= vertices)
+        return fail(where + ": index " + std::to_string(i) + " out of range (" +
+                    std::to_string(vertices) + " vertices)");
   }
   return out;
 }

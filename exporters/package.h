@@ -26,9 +26,10 @@
 // meshopt_encodeVertexBuffer bytes of its vertices [vertex_begin, vertex_end) then the
 // meshopt_encodeIndexBuffer bytes of its faces [face_begin, face_end) (full-mesh corner indices;
 // the client maps them through `parent`; the codec keeps the faces' order and winding but may
-// rotate a face's corners). An empty vertex or face range is stored as zero bytes. A vertex is 20 bytes: position as 3 uint16 over the
-// mesh bounds + 1 uint16 zero, normal as 4 int8 (xyz·127, 0), uv as 2 uint16 (·65535), parent
-// as uint32. A texture chunk is a complete JPEG or PNG of that level.
+// rotate a face's corners). An empty vertex or face range is stored as zero bytes. A vertex is 20
+// bytes: position as 3 uint16 over the mesh bounds + 1 uint16 zero, normal as 4 int8 (xyz·127, 0),
+// uv as 2 uint16 (·65535), parent as uint32. A texture chunk is a complete JPEG or PNG of that
+// level.
 #pragma once
 
 #include <cstdint>
@@ -57,7 +58,7 @@ struct StreamStep {
 struct PackageInput {
   const ProgressiveScene* scene = nullptr;  // the record (atlased: one primitive per mesh)
   std::vector<size_t> base_levels;          // per mesh: the level the base .glb holds
-  std::vector<uint8_t> base_glb;            // that base, already encoded (no Draco: vertex order kept)
+  std::vector<uint8_t> base_glb;  // that base, already encoded (no Draco: vertex order kept)
   const TextureLevels* textures = nullptr;  // may be null for untextured scenes
   size_t base_texture_level = 0;            // the level embedded in the base .glb
   std::vector<StreamStep> steps;            // in stream order
@@ -68,7 +69,8 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& input);
 // The packed vertices [begin, end) of `pm` (kPackedVertexBytes each, the layout above) with
 // positions quantized over `bounds`; what a mesh chunk's vertex bytes decode to. A clamped
 // range: end is capped at the vertex count. Shared with the multiplexer's byte estimates.
-std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t begin, uint32_t end);
+std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t begin,
+                                   uint32_t end);
 // The bounds a package quantizes `pm`'s positions over: min/max of every finite position
 // (all zero for a mesh without any).
 Bounds package_bounds(const ProgressiveMesh& pm);

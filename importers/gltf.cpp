@@ -7,11 +7,10 @@
 
 #include <tiny_gltf.h>
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "draco/compression/decode.h"
@@ -33,25 +32,37 @@ constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far bey
 int component_size(int type) {
   switch (type) {
     case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
     case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+    default:
+      return 0;
   }
 }
 
 int component_count(int type) {
   switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    case TINYGLTF_TYPE_MAT2: return 4;
-    case TINYGLTF_TYPE_MAT3: return 9;
-    case TINYGLTF_TYPE_MAT4: return 16;
-    default: return 0;
+    case TINYGLTF_TYPE_SCALAR:
+      return 1;
+    case TINYGLTF_TYPE_VEC2:
+      return 2;
+    case TINYGLTF_TYPE_VEC3:
+      return 3;
+    case TINYGLTF_TYPE_VEC4:
+      return 4;
+    case TINYGLTF_TYPE_MAT2:
+      return 4;
+    case TINYGLTF_TYPE_MAT3:
+      return 9;
+    case TINYGLTF_TYPE_MAT4:
+      return 16;
+    default:
+      return 0;
   }
 }
 
@@ -63,7 +74,8 @@ float read_component(const uint8_t* p, int type, bool normalized) {
       std::memcpy(&v, p, 1);
       return normalized ? std::max(v / 127.0f, -1.0f) : float(v);
     }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0f : float(p[0]);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return normalized ? p[0] / 255.0f : float(p[0]);
     case TINYGLTF_COMPONENT_TYPE_SHORT: {
       int16_t v;
       std::memcpy(&v, p, 2);
@@ -90,7 +102,8 @@ float read_component(const uint8_t* p, int type, bool normalized) {
 
 uint32_t read_index(const uint8_t* p, int type) {
   switch (type) {
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[0];
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return p[0];
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
       uint16_t v;
       std::memcpy(&v, p, 2);
@@ -130,12 +143,12 @@ class Reader {
                             " bytes)");
     if (count > 0) {
       // Last byte read: offset + stride*(count-1) + elem_size, in 128-bit-safe arithmetic.
-      unsigned __int128 end = (unsigned __int128)offset + (unsigned __int128)stride * (count - 1) +
-                              elem_size;
+      unsigned __int128 end =
+          (unsigned __int128)offset + (unsigned __int128)stride * (count - 1) + elem_size;
       if (end > view.byteLength)
         return err(where, "accessor data out of bounds of bufferView " +
-                              std::to_string(view_index) + " (" +
-                              std::to_string(view.byteLength) + " bytes)");
+                              std::to_string(view_index) + " (" + std::to_string(view.byteLength) +
+                              " bytes)");
     }
     *out = data.data() + view.byteOffset + offset;
     return Status::ok();
@@ -152,7 +165,8 @@ class Reader {
     int ccount = component_count(a.type);
     if (csize == 0 || ccount == 0) return err(w, "invalid componentType or type");
     if (ccount > comps + 1 || ccount > 4) return err(w, "unexpected type for this attribute");
-    if (a.count > kMaxAccessorCount) return err(w, "count " + std::to_string(a.count) + " too large");
+    if (a.count > kMaxAccessorCount)
+      return err(w, "count " + std::to_string(a.count) + " too large");
     size_t elem = size_t(csize) * size_t(ccount);
     out->assign(a.count * size_t(comps), pad);
     auto put = [&](size_t i, const uint8_t* src) {
@@ -185,15 +199,17 @@ class Reader {
           a.sparse.indices.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
         return err(w, "invalid sparse index componentType");
       const uint8_t *ip, *vp;
-      Status s = locate(a.sparse.indices.bufferView, size_t(std::max(a.sparse.indices.byteOffset, 0)),
-                        n, size_t(icsize), size_t(icsize), w + " sparse indices", &ip);
+      Status s =
+          locate(a.sparse.indices.bufferView, size_t(std::max(a.sparse.indices.byteOffset, 0)), n,
+                 size_t(icsize), size_t(icsize), w + " sparse indices", &ip);
       if (!s) return s;
       s = locate(a.sparse.values.bufferView, size_t(std::max(a.sparse.values.byteOffset, 0)), n,
                  elem, elem, w + " sparse values", &vp);
       if (!s) return s;
       for (size_t k = 0; k < n; ++k) {
         uint32_t target = read_index(ip + k * size_t(icsize), a.sparse.indices.componentType);
-        if (target >= a.count) return err(w, "sparse index " + std::to_string(target) + " out of range");
+        if (target >= a.count)
+          return err(w, "sparse index " + std::to_string(target) + " out of range");
         put(target, vp + k * elem);
       }
     }
@@ -279,7 +295,6 @@ bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::st
   return true;
 }
 
-
 // tinygltf 2.7 (Debian 12) rejects an indices accessor without a bufferView, which is exactly
 // what KHR_draco_mesh_compression primitives carry. Their indices come from the Draco stream
 // anyway, so such "indices" entries are dropped from the JSON before tinygltf sees it. The
@@ -301,12 +316,14 @@ bool drop_draco_index_accessors(std::vector<uint8_t>& data, bool binary) {
   nlohmann::json doc = nlohmann::json::parse(data.begin() + long(json_at),
                                              data.begin() + long(json_at + json_len), nullptr,
                                              /*allow_exceptions=*/false);
-  if (doc.is_discarded() || !doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array())
+  if (doc.is_discarded() || !doc.is_object() || !doc.contains("meshes") ||
+      !doc["meshes"].is_array())
     return false;
   bool changed = false;
   const nlohmann::json* accessors = doc.contains("accessors") ? &doc["accessors"] : nullptr;
   for (auto& mesh : doc["meshes"]) {
-    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) continue;
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+      continue;
     for (auto& prim : mesh["primitives"]) {
       if (!prim.is_object() || !prim.contains("indices") || !prim.contains("extensions")) continue;
       const auto& ext = prim["extensions"];
@@ -388,14 +405,18 @@ class Importer {
     image_map_.assign(m_.images.size(), -1);
     for (size_t i = 0; i < m_.images.size(); ++i) {
       const tinygltf::Image& src = m_.images[i];
-      std::string label = "image " + std::to_string(i) +
-                          (src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? "" : " '" + src.uri + "'");
+      std::string label =
+          "image " + std::to_string(i) +
+          (src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? "" : " '" + src.uri + "'");
       if (src.image.empty() || src.width != -1) {
-        warn(warnings_, "gltf: " + file_ + ": " + label + ": could not be loaded; textures using it are dropped");
+        warn(warnings_, "gltf: " + file_ + ": " + label +
+                            ": could not be loaded; textures using it are dropped");
         continue;
       }
       Image img;
-      img.name = src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? (src.name.empty() ? label : src.name) : src.uri;
+      img.name = src.uri.empty() || src.uri.rfind("data:", 0) == 0
+                     ? (src.name.empty() ? label : src.name)
+                     : src.uri;
       img.encoded = src.image;
       img.mime_type = sniff_image_mime(img.encoded, src.uri);
       if (img.mime_type.empty()) img.mime_type = src.mimeType;
@@ -543,8 +564,8 @@ class Importer {
     }
     for (uint32_t i : idx)
       if (i >= n)
-        return r_.err(where, "index " + std::to_string(i) + " out of range (" +
-                                 std::to_string(n) + " vertices)");
+        return r_.err(where, "index " + std::to_string(i) + " out of range (" + std::to_string(n) +
+                                 " vertices)");
     to_triangles(mode, idx, &out->indices);
     return Status::ok();
   }
@@ -571,7 +592,8 @@ class Importer {
       return r_.err(where, "KHR_draco_mesh_compression lacks bufferView or attributes");
     int view = ext.Get("bufferView").GetNumberAsInt();
     if (view < 0 || size_t(view) >= m_.bufferViews.size())
-      return r_.err(where, "KHR_draco_mesh_compression: bufferView " + std::to_string(view) + " does not exist");
+      return r_.err(where, "KHR_draco_mesh_compression: bufferView " + std::to_string(view) +
+                               " does not exist");
     const uint8_t* data;
     size_t len = m_.bufferViews[size_t(view)].byteLength;
     Status s = r_.locate(view, 0, len > 0 ? 1 : 0, len, len, where, &data);
@@ -667,7 +689,8 @@ class Importer {
     Mat4 world = parent * node_local(node);
     if (node.mesh >= 0) {
       if (size_t(node.mesh) >= m_.meshes.size())
-        return r_.err("node " + std::to_string(index), "mesh " + std::to_string(node.mesh) + " does not exist");
+        return r_.err("node " + std::to_string(index),
+                      "mesh " + std::to_string(node.mesh) + " does not exist");
       int32_t mesh = mesh_map_[size_t(node.mesh)];
       if (mesh >= 0) {
         if (node.extensions.count("EXT_mesh_gpu_instancing")) {
@@ -689,7 +712,8 @@ class Importer {
   Status nodes() {
     std::vector<int> roots;
     if (!m_.scenes.empty()) {
-      int si = m_.defaultScene >= 0 && size_t(m_.defaultScene) < m_.scenes.size() ? m_.defaultScene : 0;
+      int si =
+          m_.defaultScene >= 0 && size_t(m_.defaultScene) < m_.scenes.size() ? m_.defaultScene : 0;
       roots = m_.scenes[size_t(si)].nodes;
     } else {
       std::vector<char> is_child(m_.nodes.size(), 0);
@@ -741,7 +765,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   try {
     if (binary) {
       if (data.size() < 20)
-        return Status::error("gltf: " + file + ": truncated GLB (" + std::to_string(data.size()) + " bytes)");
+        return Status::error("gltf: " + file + ": truncated GLB (" + std::to_string(data.size()) +
+                             " bytes)");
       uint32_t declared;
       std::memcpy(&declared, data.data() + 8, 4);
       if (declared > data.size())
@@ -749,8 +774,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                              std::to_string(declared) + " bytes, file has " +
                              std::to_string(data.size()));
       drop_draco_index_accessors(data, true);
-      ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(),
-                                       unsigned(data.size()), dir);
+      ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(), unsigned(data.size()),
+                                       dir);
     } else {
       drop_draco_index_accessors(data, false);
       ok = loader.LoadASCIIFromString(&model, &err, &warn_text,
@@ -765,7 +790,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
     while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
     for (char& c : reason)
       if (c == '\n') c = ';';
-    return Status::error("gltf: " + file + ": cannot parse: " + (reason.empty() ? "invalid glTF" : reason));
+    return Status::error("gltf: " + file +
+                         ": cannot parse: " + (reason.empty() ? "invalid glTF" : reason));
   }
   // tinygltf reports missing external images as warnings; the image pass turns those into
   // per-image warnings, so its raw text is not repeated here.

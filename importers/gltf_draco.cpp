@@ -18,7 +18,8 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
   buffer.Init(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   draco::Decoder decoder;
   auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
-  if (!decoded.ok()) return Status::error(std::string("cannot decode: ") + decoded.status().error_msg());
+  if (!decoded.ok())
+    return Status::error(std::string("cannot decode: ") + decoded.status().error_msg());
   std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
   size_t n = mesh->num_points();
   bool have_position = false;
@@ -26,10 +27,13 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
     const std::string& name = attributes[k].first;
     int32_t att_id = mesh->GetAttributeIdByUniqueId(uint32_t(attributes[k].second));
     draco::PointAttribute* att = att_id >= 0 ? mesh->attribute(att_id) : nullptr;
-    if (!att) return Status::error("attribute " + name + " (id " + std::to_string(attributes[k].second) + ") not in the Draco stream");
+    if (!att)
+      return Status::error("attribute " + name + " (id " + std::to_string(attributes[k].second) +
+                           ") not in the Draco stream");
     if (normalized[k].second && att->data_type() != draco::DT_FLOAT32) att->set_normalized(true);
     int comps = att->num_components();
-    if (comps < 1 || comps > 4) return Status::error("attribute " + name + " has " + std::to_string(comps) + " components");
+    if (comps < 1 || comps > 4)
+      return Status::error("attribute " + name + " has " + std::to_string(comps) + " components");
     float v[4] = {0, 0, 0, 1};
     auto get = [&](size_t i) {
       v[0] = v[1] = v[2] = 0;
@@ -51,7 +55,8 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
       for (size_t i = 0; i < n; ++i) get(i), out->uvs[set][i] = {v[0], v[1]};
     } else if (name == "COLOR_0") {
       out->colors.resize(n);
-      for (size_t i = 0; i < n; ++i) get(i), out->colors[i] = {v[0], v[1], v[2], comps == 4 ? v[3] : 1.0f};
+      for (size_t i = 0; i < n; ++i)
+        get(i), out->colors[i] = {v[0], v[1], v[2], comps == 4 ? v[3] : 1.0f};
     }
   }
   if (!have_position) return Status::error("no POSITION attribute");

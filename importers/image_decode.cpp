@@ -20,7 +20,8 @@ std::string lower_extension(const std::string& name) {
   size_t slash = name.find_last_of('/');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
   std::string ext = name.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -90,7 +91,8 @@ Status decode_image(Image& image, uint64_t max_pixels) {
       // Readers without in-memory support get a private temporary file.
       char tmpl[] = "/tmp/meshmux-image-XXXXXX";
       int fd = mkstemp(tmpl);
-      if (fd < 0) return Status::error(name + ": cannot create a temporary file", ErrorKind::kInternal);
+      if (fd < 0)
+        return Status::error(name + ": cannot create a temporary file", ErrorKind::kInternal);
       close(fd);
       tmp_path = std::string(tmpl) + "." + lower_extension(pseudo_name);
       std::rename(tmpl, tmp_path.c_str());
@@ -102,8 +104,8 @@ Status decode_image(Image& image, uint64_t max_pixels) {
     if (!ok) {
       std::string e = in->geterror();
       if (!tmp_path.empty()) unlink(tmp_path.c_str());
-      return Status::error(name + ": cannot decode " + format + " image: " +
-                           (e.empty() ? "unreadable" : e));
+      return Status::error(name + ": cannot decode " + format +
+                           " image: " + (e.empty() ? "unreadable" : e));
     }
     const OIIO::ImageSpec& spec = in->spec();
     int w = spec.width, h = spec.height, ch = spec.nchannels;

@@ -14,8 +14,10 @@ Result<Scene> import_scene(const std::string& path, const ImportOptions& options
                            Warnings* warnings) {
   std::string ext;
   size_t dot = path.find_last_of('.');
-  if (dot != std::string::npos && path.find('/', dot) == std::string::npos) ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (dot != std::string::npos && path.find('/', dot) == std::string::npos)
+    ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   if (ext == "gltf" || ext == "glb") return import_gltf(path, options, warnings);
   if (ext == "dae" || ext == "xml") return import_collada(path, options, warnings);
   // Unknown extension: look at the first bytes.

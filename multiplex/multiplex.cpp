@@ -24,18 +24,22 @@ namespace meshmux {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh exactly as
 // the stream package carries them (exporters/package: packed vertices through
 // meshopt_encodeVertexBuffer, faces through meshopt_encodeIndexBuffer).
-uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1, uint32_t f0, uint32_t f1) {
+uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1,
+                     uint32_t f0, uint32_t f1) {
   uint64_t total = 0;
   if (v1 > v0) {
     std::vector<uint8_t> packed = pack_vertices(pm, box, v0, v1);
     size_t count = v1 - v0;
     std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(count, kPackedVertexBytes));
-    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), packed.data(), count, kPackedVertexBytes);
+    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), packed.data(), count,
+                                        kPackedVertexBytes);
   }
   if (f1 > f0) {
     size_t count = size_t(f1 - f0) * 3;
@@ -46,8 +50,8 @@ uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, 
 }
 
 // Bytes to go from one selection to the next (previous == nullptr: the base from nothing).
-uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxes, const LodSelection* previous,
-                     const LodSelection& next) {
+uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxes,
+                     const LodSelection* previous, const LodSelection& next) {
   uint64_t total = 0;
   for (size_t m = 0; m < ps.meshes.size(); ++m) {
     const ProgressiveMesh& pm = ps.meshes[m];
@@ -64,7 +68,8 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxe
 
 }  // namespace
 
-Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas, const MultiplexOptions& o) {
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas,
+                                  const MultiplexOptions& o) {
   auto start = Clock::now();
   MultiplexResult r;
   // --- Mesh layers: scene-wide selections from the base to the full detail. ---
@@ -80,8 +85,10 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
   }
   std::vector<LodSelection> layers{base};
   for (int k = 1; k < m; ++k) {
-    LodSelection s = k == m - 1 ? full
-                                : select_triangles(ps, base_tris + (full_tris - base_tris) * uint64_t(k) / uint64_t(m - 1));
+    LodSelection s = k == m - 1
+                         ? full
+                         : select_triangles(ps, base_tris + (full_tris - base_tris) * uint64_t(k) /
+                                                                uint64_t(m - 1));
     for (size_t i = 0; i < s.level.size(); ++i) {
       s.level[i] = std::max(s.level[i], layers.back().level[i]);  // refinements only add
       s.instances[i] = full.instances[i];
@@ -89,7 +96,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
     layers.push_back(s);
   }
   for (int k = 0; k < m; ++k) {
-    r.mesh_bytes.push_back(layer_bytes(ps, boxes, k ? &layers[size_t(k - 1)] : nullptr, layers[size_t(k)]));
+    r.mesh_bytes.push_back(
+        layer_bytes(ps, boxes, k ? &layers[size_t(k - 1)] : nullptr, layers[size_t(k)]));
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
     r.layer_levels.push_back(layers[size_t(k)].level);
   }
@@ -120,7 +128,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
   Renderer& gl = **renderer;
   std::vector<int> geometry(size_t(m), -1);
   auto geometry_of = [&](int i) {
-    if (geometry[size_t(i)] < 0) geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
+    if (geometry[size_t(i)] < 0)
+      geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
     return geometry[size_t(i)];
   };
   std::vector<int> texture(textures.size(), -1);
@@ -138,7 +147,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
   int n = int(r.texture_bytes.size());
   auto render_start = Clock::now();
   std::vector<RenderImage> reference;
-  for (const Camera& c : cameras) reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
+  for (const Camera& c : cameras)
+    reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
   r.renders += cameras.size();
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;
@@ -172,7 +182,8 @@ void curve(std::ostringstream& out, const RdPath& p) {
   out << "[";
   for (size_t k = 0; k < p.bytes.size(); ++k) {
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%s[%llu, %.6g]", k ? ", " : "", static_cast<unsigned long long>(p.bytes[k]), p.distortion[k]);
+    std::snprintf(buf, sizeof buf, "%s[%llu, %.6g]", k ? ", " : "",
+                  static_cast<unsigned long long>(p.bytes[k]), p.distortion[k]);
     out << buf;
   }
   out << "]";
@@ -192,22 +203,26 @@ std::string report_json(const MultiplexResult& r) {
   curve(out, r.constant_ratio);
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "\n  },\n  \"areas\": {\"rd\": %.6g, \"mesh_first\": %.6g, \"texture_first\": %.6g, \"constant_ratio\": %.6g},"
+                "\n  },\n  \"areas\": {\"rd\": %.6g, \"mesh_first\": %.6g, \"texture_first\": "
+                "%.6g, \"constant_ratio\": %.6g},"
                 "\n  \"distortion_metric\": \"%s\",\n  \"views\": %zu,\n  \"renders\": %zu,"
                 "\n  \"cells_descent\": %zu,\n  \"cells_evaluated\": %zu,\n  \"cells_total\": %zu,",
-                area_under(r.rd), area_under(r.mesh_first), area_under(r.texture_first), area_under(r.constant_ratio),
-                r.metric.c_str(), r.views, r.renders, r.cells_descent, r.cells_evaluated, r.cells_total);
+                area_under(r.rd), area_under(r.mesh_first), area_under(r.texture_first),
+                area_under(r.constant_ratio), r.metric.c_str(), r.views, r.renders, r.cells_descent,
+                r.cells_evaluated, r.cells_total);
   out << buf;
   out << "\n  \"mesh_layer_bytes\": [";
   for (size_t k = 0; k < r.mesh_bytes.size(); ++k) out << (k ? ", " : "") << r.mesh_bytes[k];
   out << "],\n  \"mesh_layer_triangles\": [";
-  for (size_t k = 0; k < r.layer_triangles.size(); ++k) out << (k ? ", " : "") << r.layer_triangles[k];
+  for (size_t k = 0; k < r.layer_triangles.size(); ++k)
+    out << (k ? ", " : "") << r.layer_triangles[k];
   out << "],\n  \"texture_level_bytes\": [";
   for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
   out << "],\n  \"order\": [";
   for (size_t k = 0; k < r.rd.cells.size(); ++k)
     out << (k ? ", " : "") << "[" << r.rd.cells[k].first << ", " << r.rd.cells[k].second << "]";
-  std::snprintf(buf, sizeof buf, "],\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",
+  std::snprintf(buf, sizeof buf,
+                "],\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",
                 r.seconds_layers, r.seconds_render, r.seconds_total);
   out << buf;
   return out.str();
@@ -223,17 +238,27 @@ std::string rd_svg(const MultiplexResult& r) {
     for (size_t k = 0; k < p->bytes.size(); ++k)
       max_b = std::max(max_b, double(p->bytes[k])), max_d = std::max(max_d, p->distortion[k]);
   std::ostringstream out;
-  out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+  out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
   out << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  out << "<line x1=\"" << L << "\" y1=\"" << H - B << "\" x2=\"" << W - R << "\" y2=\"" << H - B << "\" stroke=\"black\"/>\n";
-  out << "<line x1=\"" << L << "\" y1=\"" << T << "\" x2=\"" << L << "\" y2=\"" << H - B << "\" stroke=\"black\"/>\n";
+  out << "<line x1=\"" << L << "\" y1=\"" << H - B << "\" x2=\"" << W - R << "\" y2=\"" << H - B
+      << "\" stroke=\"black\"/>\n";
+  out << "<line x1=\"" << L << "\" y1=\"" << T << "\" x2=\"" << L << "\" y2=\"" << H - B
+      << "\" stroke=\"black\"/>\n";
   char buf[256];
-  std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" text-anchor=\"middle\">stream bytes (0 … %.0f kB)</text>\n", (L + W - R) / 2, H - 15, max_b / 1000);
+  std::snprintf(
+      buf, sizeof buf,
+      "<text x=\"%d\" y=\"%d\" text-anchor=\"middle\">stream bytes (0 … %.0f kB)</text>\n",
+      (L + W - R) / 2, H - 15, max_b / 1000);
   out << buf;
-  std::snprintf(buf, sizeof buf, "<text x=\"15\" y=\"%d\" transform=\"rotate(-90 15 %d)\" text-anchor=\"middle\">%s (0 … %.2f)</text>\n", (T + H - B) / 2, (T + H - B) / 2, r.metric.c_str(), max_d);
+  std::snprintf(buf, sizeof buf,
+                "<text x=\"15\" y=\"%d\" transform=\"rotate(-90 15 %d)\" text-anchor=\"middle\">%s "
+                "(0 … %.2f)</text>\n",
+                (T + H - B) / 2, (T + H - B) / 2, r.metric.c_str(), max_d);
   out << buf;
   for (int c = 0; c < 4; ++c) {
-    out << "<polyline fill=\"none\" stroke=\"" << colors[c] << "\" stroke-width=\"" << (c == 0 ? 2.5 : 1.5) << "\" points=\"";
+    out << "<polyline fill=\"none\" stroke=\"" << colors[c] << "\" stroke-width=\""
+        << (c == 0 ? 2.5 : 1.5) << "\" points=\"";
     for (size_t k = 0; k < paths[c]->bytes.size(); ++k) {
       double x = L + (W - L - R) * double(paths[c]->bytes[k]) / max_b;
       double y = (H - B) - (H - B - T) * paths[c]->distortion[k] / max_d;
@@ -241,7 +266,8 @@ std::string rd_svg(const MultiplexResult& r) {
       out << buf;
     }
     out << "\"/>\n";
-    std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" fill=\"%s\">%s: area %.3g</text>\n", W - R - 220, T + 15 + 16 * c, colors[c], names[c], area_under(*paths[c]));
+    std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" fill=\"%s\">%s: area %.3g</text>\n",
+                  W - R - 220, T + 15 + 16 * c, colors[c], names[c], area_under(*paths[c]));
     out << buf;
   }
   out << "</svg>\n";

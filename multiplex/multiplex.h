@@ -18,28 +18,28 @@
 namespace meshmux {
 
 struct MultiplexOptions {
-  int view_layers = 1;          // viewing sphere subdivision: 1 → 10 views
-  RenderOptions render{};       // image size and shading (256² by default)
-  ViewOptions views{};          // framing
+  int view_layers = 1;     // viewing sphere subdivision: 1 → 10 views
+  RenderOptions render{};  // image size and shading (256² by default)
+  ViewOptions views{};     // framing
   TextureLevelOptions textures{};
-  int min_mesh_layers = 4;      // the refinements are cut into this many batches at least
-  int max_mesh_layers = 12;     // and at most this many
+  int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
+  int max_mesh_layers = 12;          // and at most this many
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
 };
 
 struct MultiplexResult {
-  std::vector<uint64_t> mesh_bytes;     // per mesh layer (0: the base geometry)
-  std::vector<uint64_t> texture_bytes;  // per texture level (0: the 128² level)
-  std::vector<uint32_t> layer_triangles;  // scene triangles after each mesh layer
+  std::vector<uint64_t> mesh_bytes;               // per mesh layer (0: the base geometry)
+  std::vector<uint64_t> texture_bytes;            // per texture level (0: the 128² level)
+  std::vector<uint32_t> layer_triangles;          // scene triangles after each mesh layer
   std::vector<std::vector<size_t>> layer_levels;  // per mesh layer: per mesh its progressive level
-  TextureLevels texture_levels;           // the texture layers (empty for untextured scenes)
+  TextureLevels texture_levels;  // the texture layers (empty for untextured scenes)
   RdPath rd, mesh_first, texture_first, constant_ratio;
-  std::string metric = "ciede2000";     // mean CIEDE2000 over covered pixels, averaged over views
+  std::string metric = "ciede2000";  // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;
-  size_t renders = 0;                   // images rendered (cells evaluated × views, plus references)
-  size_t cells_descent = 0;             // cells the steepest descent alone evaluated (lazily)
-  size_t cells_evaluated = 0;           // cells evaluated once the baselines ran too
-  size_t cells_total = 0;               // m × n
+  size_t renders = 0;          // images rendered (cells evaluated × views, plus references)
+  size_t cells_descent = 0;    // cells the steepest descent alone evaluated (lazily)
+  size_t cells_evaluated = 0;  // cells evaluated once the baselines ran too
+  size_t cells_total = 0;      // m × n
   double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
 };
 

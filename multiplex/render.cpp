@@ -268,8 +268,7 @@ Status Renderer::Impl::init_egl() {
       surfaceless = display != EGL_NO_DISPLAY;
     }
   }
-  std::string missing =
-      "no surfaceless platform (install libegl-mesa0 libgl1-mesa-dri)";
+  std::string missing = "no surfaceless platform (install libegl-mesa0 libgl1-mesa-dri)";
   if (!surfaceless) display = eglGetDisplay(EGL_DEFAULT_DISPLAY);
   if (display == EGL_NO_DISPLAY) return egl_failure(missing + "; no default display either");
   {
@@ -281,7 +280,8 @@ Status Renderer::Impl::init_egl() {
       return egl_failure((surfaceless ? std::string("eglInitialize failed on the surfaceless "
                                                     "platform")
                                       : missing + "; eglInitialize on the default display "
-                                                  "failed") + " (" + why + ")");
+                                                  "failed") +
+                         " (" + why + ")");
     }
     ++display_uses()[display];
   }
@@ -293,14 +293,15 @@ Status Renderer::Impl::init_egl() {
   EGLConfig config = EGL_NO_CONFIG_KHR;
   if (!has_extension(ext, "EGL_KHR_no_config_context") &&
       !has_extension(ext, "EGL_MESA_configless_context")) {
-    const EGLint attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0,
-                              EGL_NONE};
+    const EGLint attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0, EGL_NONE};
     EGLint count = 0;
     if (!eglChooseConfig(display, attribs, &config, 1, &count) || count < 1)
       return egl_failure("no OpenGL-renderable config (" + egl_error_name() + ")");
   }
-  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4,
-                                    EGL_CONTEXT_MINOR_VERSION, 5,
+  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                    4,
+                                    EGL_CONTEXT_MINOR_VERSION,
+                                    5,
                                     EGL_CONTEXT_OPENGL_PROFILE_MASK,
                                     EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                     EGL_NONE};
@@ -308,8 +309,8 @@ Status Renderer::Impl::init_egl() {
   if (context == EGL_NO_CONTEXT)
     return egl_failure("cannot create an OpenGL 4.5 core context (" + egl_error_name() + ")");
   if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
-    return egl_failure("cannot make the context current without a surface (" +
-                       egl_error_name() + ")");
+    return egl_failure("cannot make the context current without a surface (" + egl_error_name() +
+                       ")");
   return Status::ok();
 }
 
@@ -324,8 +325,7 @@ Status Renderer::Impl::init_gl() {
     return fail("OpenGL 4.5 needed, got " + std::to_string(major) + "." + std::to_string(minor));
   GLint max_rb = 0;
   glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
-  if (options.width < 1 || options.height < 1 || options.width > max_rb ||
-      options.height > max_rb)
+  if (options.width < 1 || options.height < 1 || options.width > max_rb || options.height > max_rb)
     return Status::error("render: image size " + std::to_string(options.width) + "x" +
                              std::to_string(options.height) + " outside 1.." +
                              std::to_string(max_rb),
@@ -531,8 +531,8 @@ int Renderer::add_texture(const Image& image) {
   glGenTextures(1, &tex);
   glBindTexture(GL_TEXTURE_2D, tex);
   // Top row first: GL's t = 0 is the image's top row, i.e. glTF's v = 0.
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA,
-               GL_UNSIGNED_BYTE, image.rgba.data());
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               image.rgba.data());
   glGenerateMipmap(GL_TEXTURE_2D);
   // Filtering and wrapping come from the sampler objects made in init_gl().
   glBindTexture(GL_TEXTURE_2D, 0);

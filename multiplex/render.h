@@ -15,20 +15,20 @@
 namespace meshmux {
 
 struct Camera {
-  Vec3 eye{0, 0, 3};       // world position
-  Vec3 target{0, 0, 0};    // looked-at point
+  Vec3 eye{0, 0, 3};     // world position
+  Vec3 target{0, 0, 0};  // looked-at point
   Vec3 up{0, 1, 0};
   float fov_y_degrees = 45;
   float near_plane = 0.01f, far_plane = 100;
 };
 
 struct RenderOptions {
-  int width = 256, height = 256;       // pixels
-  float ambient = 0.35f;               // light terms, as the web viewer uses them
+  int width = 256, height = 256;  // pixels
+  float ambient = 0.35f;          // light terms, as the web viewer uses them
   float diffuse = 0.65f;
   Vec3 light_direction{0.4f, 0.8f, 0.45f};  // towards the light, world space (normalized inside)
-  bool light_follows_camera = true;    // light direction given in camera space instead
-  float anisotropy = 16;               // max anisotropic filtering
+  bool light_follows_camera = true;         // light direction given in camera space instead
+  float anisotropy = 16;                    // max anisotropic filtering
 };
 
 struct RenderImage {

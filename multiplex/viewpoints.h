@@ -16,7 +16,7 @@
 namespace meshmux {
 
 struct ViewingSphere {
-  std::vector<Vec3> directions;                  // unit vectors from the centre to each view
+  std::vector<Vec3> directions;                    // unit vectors from the centre to each view
   std::vector<std::array<uint32_t, 3>> triangles;  // the viewing mesh, outward winding
 };
 

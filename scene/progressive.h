@@ -32,17 +32,17 @@ struct ProgressiveLevel {
 };
 
 struct ProgressiveMesh {
-  uint32_t source_mesh = 0;            // index of the Mesh in the conditioned Scene
-  std::vector<Vec3> positions;         // per vertex, appearance order, mesh space
-  std::vector<Vec3> normals;           // per vertex or empty
-  std::vector<std::vector<Vec2>> uvs;  // uv sets, per vertex
-  std::vector<Vec4> colors;            // per vertex or empty
-  std::vector<uint32_t> parent;        // per vertex: the vertex it split from; itself in the base
-  std::vector<uint32_t> indices;       // 3 per face, appearance order, full-mesh corners
-  std::vector<uint32_t> face_primitive;      // per face: the source primitive it belongs to
-  std::vector<int32_t> primitive_material;   // per source primitive: its material
-  std::vector<uint8_t> primitive_uv_sets;    // per source primitive: how many uv sets it had
-  std::vector<uint8_t> primitive_has_colors; // per source primitive: 1 if it had COLOR_0
+  uint32_t source_mesh = 0;              // index of the Mesh in the conditioned Scene
+  std::vector<Vec3> positions;           // per vertex, appearance order, mesh space
+  std::vector<Vec3> normals;             // per vertex or empty
+  std::vector<std::vector<Vec2>> uvs;    // uv sets, per vertex
+  std::vector<Vec4> colors;              // per vertex or empty
+  std::vector<uint32_t> parent;          // per vertex: the vertex it split from; itself in the base
+  std::vector<uint32_t> indices;         // 3 per face, appearance order, full-mesh corners
+  std::vector<uint32_t> face_primitive;  // per face: the source primitive it belongs to
+  std::vector<int32_t> primitive_material;    // per source primitive: its material
+  std::vector<uint8_t> primitive_uv_sets;     // per source primitive: how many uv sets it had
+  std::vector<uint8_t> primitive_has_colors;  // per source primitive: 1 if it had COLOR_0
   // Levels from the coarsest (levels[0], no collapse left to make) to the full mesh
   // (levels.back(), error 0). Errors never increase from one level to the next.
   std::vector<ProgressiveLevel> levels;
@@ -56,18 +56,18 @@ struct ProgressiveMesh {
 // (paper 001 §3.2): the level with m instances shows order[0..m), each scaled by sqrt(n/m)
 // about its own centre so the total surface area stays that of all n.
 struct InstanceOrder {
-  uint32_t mesh = 0;               // the Scene mesh
-  std::vector<uint32_t> order;     // indices into Scene::instances, refinement order
-  std::vector<Vec3> centres;       // per entry of `order`: the world-space centre it scales about
+  uint32_t mesh = 0;            // the Scene mesh
+  std::vector<uint32_t> order;  // indices into Scene::instances, refinement order
+  std::vector<Vec3> centres;    // per entry of `order`: the world-space centre it scales about
 };
 
 struct ProgressiveScene {
-  Scene scene;                          // the conditioned scene the record refers to (after
-                                        // flattening, when that path was taken)
-  std::vector<ProgressiveMesh> meshes;  // one per Scene mesh, same index
+  Scene scene;                                 // the conditioned scene the record refers to (after
+                                               // flattening, when that path was taken)
+  std::vector<ProgressiveMesh> meshes;         // one per Scene mesh, same index
   std::vector<InstanceOrder> instance_orders;  // one per Scene mesh, same index
-  bool flattened = false;               // true when instances per submesh < 1.75 led to
-                                        // flatten-then-simplify (paper 001 §4)
+  bool flattened = false;                      // true when instances per submesh < 1.75 led to
+                                               // flatten-then-simplify (paper 001 §4)
 };
 
 }  // namespace meshmux

@@ -97,7 +97,7 @@ Primitive column(int segments) {
   Primitive p;
   p.uvs.resize(1);
   const float profile[][2] = {{0.0f, 0.34f}, {0.1f, 0.34f}, {0.12f, 0.26f}, {1.0f, 0.24f},
-                              {2.0f, 0.22f}, {2.5f, 0.2f},  {2.55f, 0.3f}, {2.7f, 0.3f}};
+                              {2.0f, 0.22f}, {2.5f, 0.2f},  {2.55f, 0.3f},  {2.7f, 0.3f}};
   const int rings = int(sizeof profile / sizeof profile[0]);
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s <= segments; ++s) {
@@ -153,7 +153,8 @@ Scene make_sample_scene(const SampleOptions& o) {
   c.primitives.back().material = 0;
   // A red lid plate: a second material on the same mesh.
   Primitive lid;
-  lid.positions = {{-0.6f, 1.52f, -0.6f}, {0.6f, 1.52f, -0.6f}, {0.6f, 1.52f, 0.6f}, {-0.6f, 1.52f, 0.6f}};
+  lid.positions = {
+      {-0.6f, 1.52f, -0.6f}, {0.6f, 1.52f, -0.6f}, {0.6f, 1.52f, 0.6f}, {-0.6f, 1.52f, 0.6f}};
   lid.indices = {0, 2, 1, 0, 3, 2};
   lid.material = 1;
   c.primitives.push_back(lid);

@@ -33,8 +33,8 @@ SceneStats compute_stats(const Scene& scene) {
   }
   std::set<int32_t> used;
   for (const Material& mat : scene.materials)
-    for (const TextureRef* t : {&mat.base_color, &mat.metallic_roughness, &mat.normal,
-                                &mat.occlusion, &mat.emissive})
+    for (const TextureRef* t :
+         {&mat.base_color, &mat.metallic_roughness, &mat.normal, &mat.occlusion, &mat.emissive})
       if (t->present()) used.insert(t->image);
   s.textures = used.size();
   for (int32_t i : used)
@@ -76,7 +76,8 @@ Status validate(const Scene& scene, const std::string& stage) {
     const Mesh& mesh = scene.meshes[m];
     for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
       const Primitive& p = mesh.primitives[pi];
-      std::string where = stage + ": mesh " + std::to_string(m) + " primitive " + std::to_string(pi);
+      std::string where =
+          stage + ": mesh " + std::to_string(m) + " primitive " + std::to_string(pi);
       size_t n = p.positions.size();
       if (!p.normals.empty() && p.normals.size() != n)
         return Status::error(where + ": " + std::to_string(p.normals.size()) + " normals for " +
@@ -117,8 +118,8 @@ Status validate(const Scene& scene, const std::string& stage) {
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     const Material& mat = scene.materials[m];
     std::string where = stage + ": material " + std::to_string(m);
-    for (const TextureRef* t : {&mat.base_color, &mat.metallic_roughness, &mat.normal,
-                                &mat.occlusion, &mat.emissive}) {
+    for (const TextureRef* t :
+         {&mat.base_color, &mat.metallic_roughness, &mat.normal, &mat.occlusion, &mat.emissive}) {
       Status s = check_texture(scene, *t, where);
       if (!s) return s;
     }

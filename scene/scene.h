@@ -35,11 +35,11 @@ struct TextureTransform {
 
 // A material's use of an image.
 struct TextureRef {
-  int32_t image = -1;            // index into Scene::images; -1 = no texture
-  Sampler sampler;               // how to sample it
-  uint32_t tex_coord = 0;        // which uv set of the primitive
-  TextureTransform transform;    // identity unless KHR_texture_transform was given
-  float scale = 1;               // normalTexture.scale or occlusionTexture.strength
+  int32_t image = -1;          // index into Scene::images; -1 = no texture
+  Sampler sampler;             // how to sample it
+  uint32_t tex_coord = 0;      // which uv set of the primitive
+  TextureTransform transform;  // identity unless KHR_texture_transform was given
+  float scale = 1;             // normalTexture.scale or occlusionTexture.strength
   bool present() const { return image >= 0; }
 };
 
@@ -67,11 +67,11 @@ struct Material {
 // An image: the bytes as they came (so unchanged images are passed through, not re-encoded)
 // and, when decoding succeeded, RGBA8 pixels.
 struct Image {
-  std::string name;               // for messages; the uri or the glTF image name
-  std::string mime_type;          // e.g. "image/png"; as detected from the bytes
-  std::vector<uint8_t> encoded;   // original file bytes; may be empty for generated images
-  int width = 0, height = 0;      // pixels; 0 when not decoded
-  std::vector<uint8_t> rgba;      // width*height*4 bytes, row 0 at the top; empty when not decoded
+  std::string name;              // for messages; the uri or the glTF image name
+  std::string mime_type;         // e.g. "image/png"; as detected from the bytes
+  std::vector<uint8_t> encoded;  // original file bytes; may be empty for generated images
+  int width = 0, height = 0;     // pixels; 0 when not decoded
+  std::vector<uint8_t> rgba;     // width*height*4 bytes, row 0 at the top; empty when not decoded
   bool decoded() const { return width > 0 && height > 0 && !rgba.empty(); }
 };
 
@@ -120,16 +120,16 @@ struct Scene {
 constexpr size_t kMinGpuInstances = 4;
 
 struct SceneStats {
-  size_t meshes = 0;             // meshes referenced or not
-  size_t primitives = 0;         // over all meshes
-  size_t instances = 0;          // placements
-  uint64_t scene_triangles = 0;  // every instance expanded
-  uint64_t unique_triangles = 0; // every mesh counted once
-  uint64_t vertices = 0;         // every mesh counted once
+  size_t meshes = 0;              // meshes referenced or not
+  size_t primitives = 0;          // over all meshes
+  size_t instances = 0;           // placements
+  uint64_t scene_triangles = 0;   // every instance expanded
+  uint64_t unique_triangles = 0;  // every mesh counted once
+  uint64_t vertices = 0;          // every mesh counted once
   size_t materials = 0;
-  size_t textures = 0;           // images referenced by any material
-  uint64_t texture_pixels = 0;   // sum of width*height over referenced, decoded images
-  uint64_t draw_calls = 0;       // see kMinGpuInstances
+  size_t textures = 0;          // images referenced by any material
+  uint64_t texture_pixels = 0;  // sum of width*height over referenced, decoded images
+  uint64_t draw_calls = 0;      // see kMinGpuInstances
 };
 
 SceneStats compute_stats(const Scene& scene);

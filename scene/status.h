@@ -48,7 +48,7 @@ class Status {
 template <class T>
 class Result {
  public:
-  Result(T value) : value_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(T value) : value_(std::move(value)) {}         // NOLINT: implicit by design
   Result(Status status) : status_(std::move(status)) {  // NOLINT: implicit by design
     assert(!status_.is_ok() && "Result built from an ok Status carries no value");
     if (status_.is_ok()) status_ = Status::error("internal: empty result", ErrorKind::kInternal);

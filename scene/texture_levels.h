@@ -9,9 +9,9 @@
 namespace meshmux {
 
 struct TextureLevel {
-  int width = 0, height = 0;       // pixels
-  std::string mime_type;           // "image/jpeg", or "image/png" when the texture has alpha
-  std::vector<uint8_t> encoded;    // the level's file bytes, independently decodable
+  int width = 0, height = 0;     // pixels
+  std::string mime_type;         // "image/jpeg", or "image/png" when the texture has alpha
+  std::vector<uint8_t> encoded;  // the level's file bytes, independently decodable
 };
 
 struct TextureLevels {

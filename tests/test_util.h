@@ -24,9 +24,9 @@ class TempDir {
 };
 
 struct CommandResult {
-  int exit_code = -1;   // the process's exit status; 128+N when killed by signal N
-  std::string out;      // stdout
-  std::string err;      // stderr
+  int exit_code = -1;  // the process's exit status; 128+N when killed by signal N
+  std::string out;     // stdout
+  std::string err;     // stderr
 };
 
 // Runs the meshmux binary with the given arguments (no shell quoting issues: args are

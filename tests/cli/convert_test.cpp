@@ -74,11 +74,12 @@ TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
   EXPECT_NEAR(ba.max.x, bb.max.x, tol);
   EXPECT_NEAR(ba.max.y, bb.max.y, tol);
   EXPECT_NEAR(ba.max.z, bb.max.z, tol);
-  std::printf("[ model ] %-48s in %9ju B  out %9ju B  scene %7ju  unique %7ju  removed %ju  %.2f s\n",
-              GetParam(), uintmax_t(std::filesystem::file_size(in)),
-              uintmax_t(std::filesystem::file_size(out)), uintmax_t(b.scene_triangles),
-              uintmax_t(b.unique_triangles),
-              uintmax_t(cr.degenerate_removed + cr.duplicates_removed), secs);
+  std::printf(
+      "[ model ] %-48s in %9ju B  out %9ju B  scene %7ju  unique %7ju  removed %ju  %.2f s\n",
+      GetParam(), uintmax_t(std::filesystem::file_size(in)),
+      uintmax_t(std::filesystem::file_size(out)), uintmax_t(b.scene_triangles),
+      uintmax_t(b.unique_triangles), uintmax_t(cr.degenerate_removed + cr.duplicates_removed),
+      secs);
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, ConvertSharedModel, ::testing::ValuesIn(kModels),
@@ -108,7 +109,8 @@ TEST(ConvertInstancing, CylinderEngineDaeKeeps29MeshesAnd67Instances) {
   CleanReport cr;
   Scene cleaned = clean(import_scene(in, {}, nullptr).take(), {}, &cr);
   json out = info_json(dir.path() + "/out/model.glb");
-  EXPECT_EQ(out["unique_triangles"].get<uint64_t>(), 75730u - cr.degenerate_removed - cr.duplicates_removed);
+  EXPECT_EQ(out["unique_triangles"].get<uint64_t>(),
+            75730u - cr.degenerate_removed - cr.duplicates_removed);
   EXPECT_EQ(out["scene_triangles"].get<uint64_t>(), compute_stats(cleaned).scene_triangles);
   std::printf("[ removed ] %ju degenerate, %ju duplicate of 75730 unique triangles\n",
               uintmax_t(cr.degenerate_removed), uintmax_t(cr.duplicates_removed));
@@ -118,7 +120,11 @@ TEST(ConvertInstancing, SimpleInstancingKeeps125Instances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
   std::string out = dir.file("x.glb");
-  ASSERT_EQ(run_meshmux({"convert", testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"), "-o", out, "-q"}).exit_code, 0);
+  ASSERT_EQ(
+      run_meshmux({"convert", testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"),
+                   "-o", out, "-q"})
+          .exit_code,
+      0);
   json j = info_json(out);
   EXPECT_EQ(j["instances"], 125);
   EXPECT_EQ(j["meshes"], 1);
@@ -129,7 +135,11 @@ TEST(ConvertInstancing, TeapotInstanceNodesKeeps2Instances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
   std::string out = dir.file("x.glb");
-  ASSERT_EQ(run_meshmux({"convert", testing::shared_model("TeapotInstanceNodes-dae/teapot_instancenodes.DAE"), "-o", out, "-q"}).exit_code, 0);
+  ASSERT_EQ(run_meshmux({"convert",
+                         testing::shared_model("TeapotInstanceNodes-dae/teapot_instancenodes.DAE"),
+                         "-o", out, "-q"})
+                .exit_code,
+            0);
   json j = info_json(out);
   EXPECT_EQ(j["instances"], 2);
   EXPECT_EQ(j["meshes"], 1);
@@ -139,8 +149,10 @@ TEST(ConvertInstancing, TeapotInstanceNodesKeeps2Instances) {
 TEST(ConvertDeterminism, SameInputGivesSameBytes) {
   TempDir dir;
   ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
-  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("a.glb"), "-q"}).exit_code, 0);
-  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("b.glb"), "-q"}).exit_code, 0);
+  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("a.glb"), "-q"}).exit_code,
+            0);
+  ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("b.glb"), "-q"}).exit_code,
+            0);
   EXPECT_EQ(testing::read_file(dir.file("a.glb")), testing::read_file(dir.file("b.glb")));
 }
 
@@ -173,8 +185,8 @@ TEST(Cli, HelpAndVersion) {
 // ---- Bad input: one line naming the file and the problem, exit 2, nothing written. ----
 
 struct BadInputCase {
-  std::string file;       // input file name inside the temp dir
-  std::string expect;     // substring of the error line
+  std::string file;    // input file name inside the temp dir
+  std::string expect;  // substring of the error line
 };
 
 void expect_clean_failure(const TempDir& dir, const std::string& input, const std::string& expect) {
@@ -238,10 +250,11 @@ TEST(BadInput, GltfAccessorOutOfBufferRange) {
 
 TEST(BadInput, DaeWithMalformedXml) {
   TempDir dir;
-  testing::write_text(dir.file("broken.dae"),
-                      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-                      "version=\"1.4.1\">\n<library_geometries>\n<geometry id=\"g\"><mesh>\n"
-                      "</library_geometries>\n");
+  testing::write_text(
+      dir.file("broken.dae"),
+      "<?xml version=\"1.0\"?>\n<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+      "version=\"1.4.1\">\n<library_geometries>\n<geometry id=\"g\"><mesh>\n"
+      "</library_geometries>\n");
   expect_clean_failure(dir, dir.file("broken.dae"), "broken.dae");
 }
 
@@ -356,13 +369,17 @@ namespace {
 TEST(SimplifyCommand, RatioTargetIsMetAndValid) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
-  for (const char* model : {"StanfordBunny-glb/bunny.glb", "2CylinderEngine-dae/2CylinderEngine.dae"}) {
+  for (const char* model :
+       {"StanfordBunny-glb/bunny.glb", "2CylinderEngine-dae/2CylinderEngine.dae"}) {
     std::string in = testing::shared_model(model), out = dir.file("s.glb");
     auto r = run_meshmux({"simplify", in, "-o", out, "--ratio", "0.2", "-q"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     json before = info_json(in), after = info_json(out);
-    EXPECT_LE(after["scene_triangles"].get<double>(), 0.2 * before["scene_triangles"].get<double>()) << model;
-    EXPECT_GE(after["scene_triangles"].get<double>(), 0.15 * before["scene_triangles"].get<double>()) << model;
+    EXPECT_LE(after["scene_triangles"].get<double>(), 0.2 * before["scene_triangles"].get<double>())
+        << model;
+    EXPECT_GE(after["scene_triangles"].get<double>(),
+              0.15 * before["scene_triangles"].get<double>())
+        << model;
     EXPECT_EQ(after["instances"], before["instances"]) << model;
     int errors = testing::gltf_validator_errors(out);
     if (errors >= 0) {
@@ -375,8 +392,13 @@ TEST(SimplifyCommand, RejectsMissingOrDoubleTarget) {
   TempDir dir;
   ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
   EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb")}).exit_code, 1);
-  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "0.5", "--triangles", "10"}).exit_code, 1);
-  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "1.5"}).exit_code, 1);
+  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "0.5",
+                         "--triangles", "10"})
+                .exit_code,
+            1);
+  EXPECT_EQ(run_meshmux({"simplify", dir.file("s.glb"), "-o", dir.file("o.glb"), "--ratio", "1.5"})
+                .exit_code,
+            1);
   EXPECT_FALSE(std::filesystem::exists(dir.file("o.glb")));
 }
 
@@ -402,9 +424,11 @@ TEST(ConvertFolder, WritesBaseLevel) {
 TEST(ConvertFolder, SmallModelBaseIsWhole) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
-  auto r = run_meshmux({"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
+  auto r = run_meshmux(
+      {"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(info_json(dir.file("out/base.glb"))["scene_triangles"], info_json(dir.file("out/model.glb"))["scene_triangles"]);
+  EXPECT_EQ(info_json(dir.file("out/base.glb"))["scene_triangles"],
+            info_json(dir.file("out/model.glb"))["scene_triangles"]);
 }
 
 }  // namespace
@@ -444,8 +468,10 @@ TEST_P(ConvertAtlas, OneMaterialOneTextureValid) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, ConvertAtlas,
-                         ::testing::Values("Duck-dae/duck.dae", "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
-                                           "DamagedHelmet-glb/DamagedHelmet.glb", "Avocado-gltf/Avocado.gltf",
+                         ::testing::Values("Duck-dae/duck.dae",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "Avocado-gltf/Avocado.gltf",
                                            "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb",
                                            "2CylinderEngine-dae/2CylinderEngine.dae",
                                            "2CylinderEngine-glb/2CylinderEngine.glb",
@@ -463,9 +489,11 @@ namespace {
 TEST(ConvertFolder, WritesRateDistortionReport) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
-  auto r = run_meshmux({"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
+  auto r = run_meshmux(
+      {"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  if (!std::filesystem::exists(dir.file("out/report.json"))) GTEST_SKIP() << "no renderer here: " << r.err;
+  if (!std::filesystem::exists(dir.file("out/report.json")))
+    GTEST_SKIP() << "no renderer here: " << r.err;
   std::string text;
   for (uint8_t c : testing::read_file(dir.file("out/report.json"))) text.push_back(char(c));
   json j = json::parse(text);
@@ -496,9 +524,11 @@ namespace {
 TEST(ConvertFolder, WritesStreamPackage) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
-  auto r = run_meshmux({"convert", testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"), "-o", dir.file("out"), "-q"});
+  auto r = run_meshmux({"convert", testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"),
+                        "-o", dir.file("out"), "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  if (!std::filesystem::exists(dir.file("out/model.mmxp"))) GTEST_SKIP() << "no renderer here: " << r.err;
+  if (!std::filesystem::exists(dir.file("out/model.mmxp")))
+    GTEST_SKIP() << "no renderer here: " << r.err;
   auto bytes = testing::read_file(dir.file("out/model.mmxp"));
   auto pkg = read_package(bytes);
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
@@ -514,7 +544,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
   }
   EXPECT_GT(mesh_chunks, 0u);
   EXPECT_GT(texture_chunks, 0u);
-  std::vector<uint8_t> base(bytes.begin() + long(pkg->base_offset), bytes.begin() + long(pkg->base_offset + pkg->base_size));
+  std::vector<uint8_t> base(bytes.begin() + long(pkg->base_offset),
+                            bytes.begin() + long(pkg->base_offset + pkg->base_size));
   testing::write_file(dir.file("base_from_package.glb"), base);
   int errors = testing::gltf_validator_errors(dir.file("base_from_package.glb"));
   if (errors >= 0) {

@@ -81,7 +81,8 @@ class ServerProcess {
     int status = 0;
     auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     pid_t r;
-    while ((r = ::waitpid(pid_, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() < deadline)
+    while ((r = ::waitpid(pid_, &status, WNOHANG)) == 0 &&
+           std::chrono::steady_clock::now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     if (r == 0) {  // did not stop in time
       ::kill(pid_, SIGKILL);
@@ -235,8 +236,8 @@ TEST_F(Serve, TraversalIsRefused) {
   auto c = client();
   for (const char* path :
        {"/../secret", "/../etc/passwd", "/%2e%2e/secret", "/%2e%2e/%2e%2e/etc/passwd",
-        "/%252e%252e/secret", "/..%2fsecret", "/%2e%2e%2fsecret", "//etc/passwd",
-        "/%2fetc/passwd", "/sub/../../secret", "/..\\secret", "/%5c..%5csecret", "/a%00b"}) {
+        "/%252e%252e/secret", "/..%2fsecret", "/%2e%2e%2fsecret", "//etc/passwd", "/%2fetc/passwd",
+        "/sub/../../secret", "/..\\secret", "/%5c..%5csecret", "/a%00b"}) {
     auto r = c.Get(path);
     if (!r) continue;  // the connection was refused outright: nothing served
     EXPECT_TRUE(r->status == 403 || r->status == 404) << path << " -> " << r->status;

@@ -38,7 +38,8 @@ Fidelity measure(const Scene& before, const Scene& after, size_t n, uint32_t see
     const auto& faces = all_faces.back();
     for (uint32_t f = 0; f < faces.size(); ++f) {
       const Primitive& p = before.meshes[m].primitives[faces[f].primitive];
-      Vec3 a = p.positions[p.indices[3 * faces[f].triangle]], b = p.positions[p.indices[3 * faces[f].triangle + 1]],
+      Vec3 a = p.positions[p.indices[3 * faces[f].triangle]],
+           b = p.positions[p.indices[3 * faces[f].triangle + 1]],
            c = p.positions[p.indices[3 * faces[f].triangle + 2]];
       total += 0.5 * length(cross(b - a, c - a));
       tris.push_back({m, f, total});
@@ -50,14 +51,16 @@ Fidelity measure(const Scene& before, const Scene& after, size_t n, uint32_t see
   de.reserve(n);
   for (size_t s = 0; s < n; ++s) {
     double pick = u01(rng) * total;
-    auto it = std::lower_bound(tris.begin(), tris.end(), pick, [](const Tri& t, double v) { return t.cum < v; });
+    auto it = std::lower_bound(tris.begin(), tris.end(), pick,
+                               [](const Tri& t, double v) { return t.cum < v; });
     if (it == tris.end()) --it;
     double r1 = u01(rng), r2 = u01(rng);
     if (r1 + r2 > 1) r1 = 1 - r1, r2 = 1 - r2;
     double w[3] = {1 - r1 - r2, r1, r2};
     const FaceRef& fr = all_faces[it->mesh][it->face];
     const Primitive& p = before.meshes[it->mesh].primitives[fr.primitive];
-    uint32_t v[3] = {p.indices[3 * fr.triangle], p.indices[3 * fr.triangle + 1], p.indices[3 * fr.triangle + 2]};
+    uint32_t v[3] = {p.indices[3 * fr.triangle], p.indices[3 * fr.triangle + 1],
+                     p.indices[3 * fr.triangle + 2]};
     std::vector<Vec2> uvs(p.uvs.size());
     for (size_t k = 0; k < p.uvs.size(); ++k)
       for (int c = 0; c < 3; ++c)
@@ -72,12 +75,14 @@ Fidelity measure(const Scene& before, const Scene& after, size_t n, uint32_t see
     }
     Vec4 src = sample_base_color(before, p.material, uvs, col);
     const Primitive& q = after.meshes[it->mesh].primitives[0];
-    uint32_t t[3] = {q.indices[3 * it->face], q.indices[3 * it->face + 1], q.indices[3 * it->face + 2]};
+    uint32_t t[3] = {q.indices[3 * it->face], q.indices[3 * it->face + 1],
+                     q.indices[3 * it->face + 2]};
     std::vector<Vec2> auv(1);
     for (int c = 0; c < 3; ++c)
       auv[0].x += float(w[c] * q.uvs[0][t[c]].x), auv[0].y += float(w[c] * q.uvs[0][t[c]].y);
     Vec4 dst = sample_base_color(after, q.material, auv, {1, 1, 1, 1});
-    de.push_back(ciede2000(linear_rgb_to_lab(src.x, src.y, src.z), linear_rgb_to_lab(dst.x, dst.y, dst.z)));
+    de.push_back(
+        ciede2000(linear_rgb_to_lab(src.x, src.y, src.z), linear_rgb_to_lab(dst.x, dst.y, dst.z)));
   }
   std::sort(de.begin(), de.end());
   Fidelity f;
@@ -123,15 +128,19 @@ TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
   std::string bytes;
   for (const TextureLevel& l : levels->levels)
     bytes += std::to_string(l.width) + ":" + std::to_string(l.encoded.size()) + " ";
-  std::printf("[ atlas ] %-42s %dx%d  used %.0f%%  charts %zu + %zu flat  split %zu  L2 mean %.3f max %.3f  "
-              "dE00 mean %.2f p99 %.2f max %.1f  levels %s %.2f s\n",
-              GetParam(), rep.size, rep.size, 100 * rep.utilization, rep.charts, rep.flat_colors, rep.split,
-              rep.mean_stretch_l2, rep.max_stretch_l2, f.mean, f.p99, f.max, bytes.c_str(), rep.seconds);
+  std::printf(
+      "[ atlas ] %-42s %dx%d  used %.0f%%  charts %zu + %zu flat  split %zu  L2 mean %.3f max %.3f "
+      " "
+      "dE00 mean %.2f p99 %.2f max %.1f  levels %s %.2f s\n",
+      GetParam(), rep.size, rep.size, 100 * rep.utilization, rep.charts, rep.flat_colors, rep.split,
+      rep.mean_stretch_l2, rep.max_stretch_l2, f.mean, f.p99, f.max, bytes.c_str(), rep.seconds);
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, AtlasSharedModel,
-                         ::testing::Values("Duck-dae/duck.dae", "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
-                                           "DamagedHelmet-glb/DamagedHelmet.glb", "Avocado-gltf/Avocado.gltf",
+                         ::testing::Values("Duck-dae/duck.dae",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "Avocado-gltf/Avocado.gltf",
                                            "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb",
                                            "2CylinderEngine-glb/2CylinderEngine.glb",
                                            "BoxVertexColors-glb/BoxVertexColors.glb"),
@@ -187,7 +196,8 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
     EXPECT_TRUE(respects_power_of_two(p.x, p.y, r.w, r.h)) << c;
     EXPECT_EQ(p.x % r.w, 0);
     EXPECT_EQ(p.y % r.h, 0);
-    group[c] = group_of_cell.emplace(std::make_pair(p.x, p.y), int(group_of_cell.size())).first->second;
+    group[c] =
+        group_of_cell.emplace(std::make_pair(p.x, p.y), int(group_of_cell.size())).first->second;
   }
   // Every texel's chart lies in that chart's cell.
   for (int y = 0; y < S; ++y)
@@ -196,7 +206,8 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
       if (c < 0) continue;
       const PackPlacement& p = rep.cell_pos[size_t(c)];
       const PackRect& r = rep.cell_size[size_t(c)];
-      ASSERT_TRUE(x >= p.x && x < p.x + r.w && y >= p.y && y < p.y + r.h) << "texel " << x << "," << y;
+      ASSERT_TRUE(x >= p.x && x < p.x + r.w && y >= p.y && y < p.y + r.h)
+          << "texel " << x << "," << y;
     }
   // Level by level: the groups gathered by each level-k texel.
   size_t checked = 0;
@@ -217,7 +228,8 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
       const PackPlacement& p = rep.cell_pos[c];
       for (int by = p.y / b; by < (p.y + r.h) / b; ++by)
         for (int bx = p.x / b; bx < (p.x + r.w) / b; ++bx) {
-          ASSERT_NE(owner[size_t(by) * size_t(n) + size_t(bx)], -2) << "level " << k << " chart " << c;
+          ASSERT_NE(owner[size_t(by) * size_t(n) + size_t(bx)], -2)
+              << "level " << k << " chart " << c;
           ++checked;
         }
     }
@@ -226,7 +238,8 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, AtlasMipLevels,
-                         ::testing::Values("Duck-dae/duck.dae", "Fox-glb/Fox.glb", "DamagedHelmet-glb/DamagedHelmet.glb",
+                         ::testing::Values("Duck-dae/duck.dae", "Fox-glb/Fox.glb",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
                                            "CesiumMilkTruck-dae/CesiumMilkTruck.dae"),
                          [](const auto& info) { return testing::model_test_name(info.param); });
 

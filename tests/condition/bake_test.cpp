@@ -18,7 +18,9 @@ Rgba texel(const Image& img, int x, int y) {
   return {p[0], p[1], p[2], p[3]};
 }
 
-int chart_at(const BakeResult& r, int x, int y) { return r.texel_chart[size_t(y) * size_t(r.atlas.width) + size_t(x)]; }
+int chart_at(const BakeResult& r, int x, int y) {
+  return r.texel_chart[size_t(y) * size_t(r.atlas.width) + size_t(x)];
+}
 
 // Unit quad in the xy plane, uv set 0 covering [0, 1]², two faces: (0 1 2), (0 2 3).
 Primitive quad(int32_t material) {
@@ -243,8 +245,8 @@ TEST(Bake, TexelChartMarksOnlyCoveredAndGutterTexels) {
   BakeResult r0 = bake_atlas(s, cs, uvs, layout, o);
   o.gutter = 1;
   BakeResult r1 = bake_atlas(s, cs, uvs, layout, o);
-  const Vec2 atlas_tri[3] = {{tri[0].x + 3, tri[0].y + 4}, {tri[1].x + 3, tri[1].y + 4},
-                             {tri[2].x + 3, tri[2].y + 4}};
+  const Vec2 atlas_tri[3] = {
+      {tri[0].x + 3, tri[0].y + 4}, {tri[1].x + 3, tri[1].y + 4}, {tri[2].x + 3, tri[2].y + 4}};
   int covered = 0;
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 16; ++x) {
@@ -313,7 +315,8 @@ TEST(Bake, OpaqueSourceFillsEmptyTexelsOpaqueWithNearbyColour) {
   BakeResult r = bake_atlas(s, cs, uvs, layout, {});
   EXPECT_FALSE(r.has_alpha);
   for (int y = 0; y < 16; ++y)
-    for (int x = 0; x < 16; ++x) EXPECT_EQ(texel(r.atlas, x, y), (Rgba{0, 255, 0, 255})) << x << "," << y;
+    for (int x = 0; x < 16; ++x)
+      EXPECT_EQ(texel(r.atlas, x, y), (Rgba{0, 255, 0, 255})) << x << "," << y;
   EXPECT_EQ(chart_at(r, 15, 15), -1);  // filled, but no chart's
 }
 

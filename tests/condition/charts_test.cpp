@@ -90,8 +90,10 @@ Primitive uv_sphere(int rings, int segments, float r, int material) {
   p.material = material;
   for (int i = 0; i < rings; ++i)
     for (int j = 0; j < segments; ++j) {
-      Vec3 a = sphere_point(i, j, rings, segments, r), b = sphere_point(i, j + 1, rings, segments, r);
-      Vec3 c = sphere_point(i + 1, j + 1, rings, segments, r), d = sphere_point(i + 1, j, rings, segments, r);
+      Vec3 a = sphere_point(i, j, rings, segments, r),
+           b = sphere_point(i, j + 1, rings, segments, r);
+      Vec3 c = sphere_point(i + 1, j + 1, rings, segments, r),
+           d = sphere_point(i + 1, j, rings, segments, r);
       if (i > 0) add_tri(p, a, b, c, {0, 0, 0});
       if (i < rings - 1) add_tri(p, a, c, d, {0, 0, 0});
     }
@@ -233,7 +235,8 @@ TEST(Charts, BackToBackTwinsStayApart) {
   // primitive and in the same material (clean keeps both).
   Primitive p = grid(4, 1, 1, 0);
   Primitive back = grid(4, 1, 1, 0);
-  for (size_t t = 0; t < back.indices.size(); t += 3) std::swap(back.indices[t + 1], back.indices[t + 2]);
+  for (size_t t = 0; t < back.indices.size(); t += 3)
+    std::swap(back.indices[t + 1], back.indices[t + 2]);
   uint32_t base = uint32_t(p.positions.size());
   p.positions.insert(p.positions.end(), back.positions.begin(), back.positions.end());
   for (Vec3 n : back.normals) p.normals.push_back(n * -1.0f);

@@ -87,7 +87,8 @@ TEST(Clean, RemovesUnreferencedVertices) {
 // three vertices with axis-aligned (flat) normals — 24 vertices.
 TEST(Clean, GeneratedNormalsKeepHardEdgesAboveCrease) {
   Primitive p;
-  for (int i = 0; i < 8; ++i) p.positions.push_back({float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)});
+  for (int i = 0; i < 8; ++i)
+    p.positions.push_back({float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)});
   p.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
                2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
   CleanReport r;
@@ -172,7 +173,8 @@ TEST(Clean, ComputesNormalizationScale) {
 // Same input, same output: determinism down to the vertex order.
 TEST(Clean, IsDeterministic) {
   Primitive p;
-  for (int i = 0; i < 8; ++i) p.positions.push_back({float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)});
+  for (int i = 0; i < 8; ++i)
+    p.positions.push_back({float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)});
   p.indices = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4};
   Scene a = clean(one_primitive(p), {}), b = clean(one_primitive(p), {});
   const Primitive &x = a.meshes[0].primitives[0], &y = b.meshes[0].primitives[0];

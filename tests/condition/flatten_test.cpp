@@ -29,7 +29,8 @@ TEST(Flatten, ExpandsInstancesAndKeepsMirroredFacesFront) {
   EXPECT_EQ(q.positions[1], (Vec3{6, 0, 0}));
   // Geometric normal of each flattened triangle agrees with its (transformed) vertex normal.
   for (size_t t = 0; t < 2; ++t) {
-    Vec3 a = q.positions[q.indices[3 * t]], b = q.positions[q.indices[3 * t + 1]], c = q.positions[q.indices[3 * t + 2]];
+    Vec3 a = q.positions[q.indices[3 * t]], b = q.positions[q.indices[3 * t + 1]],
+         c = q.positions[q.indices[3 * t + 2]];
     EXPECT_GT(dot(cross(b - a, c - a), q.normals[q.indices[3 * t]]), 0.0f) << t;
   }
   EXPECT_EQ(f.materials.size(), 1u);

@@ -20,7 +20,8 @@ std::vector<PackRect> random_rects(size_t count, uint32_t seed, int max_side) {
   return r;
 }
 
-bool overlap(const PackRect& a, const PackPlacement& pa, const PackRect& b, const PackPlacement& pb) {
+bool overlap(const PackRect& a, const PackPlacement& pa, const PackRect& b,
+             const PackPlacement& pb) {
   return pa.x < pb.x + b.w && pb.x < pa.x + a.w && pa.y < pb.y + b.h && pb.y < pa.y + a.h;
 }
 
@@ -51,12 +52,12 @@ int check(const std::vector<PackRect>& rects, const PackResult& r) {
 TEST(Pack, PowerOfTwoPredicate) {
   EXPECT_TRUE(respects_power_of_two(0, 0, 100, 100));
   EXPECT_TRUE(respects_power_of_two(128, 256, 100, 100));
-  EXPECT_TRUE(respects_power_of_two(28, 0, 100, 100));     // 28..127 stays in cell 0
-  EXPECT_FALSE(respects_power_of_two(29, 0, 100, 100));    // 29..128 crosses 128
+  EXPECT_TRUE(respects_power_of_two(28, 0, 100, 100));   // 28..127 stays in cell 0
+  EXPECT_FALSE(respects_power_of_two(29, 0, 100, 100));  // 29..128 crosses 128
   EXPECT_FALSE(respects_power_of_two(0, 50, 100, 100));
-  EXPECT_FALSE(respects_power_of_two(60, 0, 5, 5));        // cell 8: 60..64 crosses 64
-  EXPECT_TRUE(respects_power_of_two(56, 0, 8, 1));         // exactly one 8-cell
-  EXPECT_FALSE(respects_power_of_two(100, 0, 64, 2));      // 64-cells: 100..163 crosses 128
+  EXPECT_FALSE(respects_power_of_two(60, 0, 5, 5));    // cell 8: 60..64 crosses 64
+  EXPECT_TRUE(respects_power_of_two(56, 0, 8, 1));     // exactly one 8-cell
+  EXPECT_FALSE(respects_power_of_two(100, 0, 64, 2));  // 64-cells: 100..163 crosses 128
 }
 
 TEST(Pack, RandomSetsRespectBoundariesStayInsideAndDoNotOverlap) {
@@ -78,8 +79,9 @@ TEST(Pack, RandomSetsRespectBoundariesStayInsideAndDoNotOverlap) {
       int bound = 1, longest = 0;
       for (const PackRect& x : rects) longest = std::max({longest, x.w, x.h});
       while (double(bound) * bound < area || bound < longest) bound *= 2;
-      std::printf("[ pack     ] %3zu rects (seed %2u): atlas %5d (lower bound %5d), utilization %.3f\n",
-                  count, seed, r.size, bound, r.utilization);
+      std::printf(
+          "[ pack     ] %3zu rects (seed %2u): atlas %5d (lower bound %5d), utilization %.3f\n",
+          count, seed, r.size, bound, r.utilization);
       RecordProperty("utilization_" + std::to_string(count) + "_" + std::to_string(seed),
                      std::to_string(r.utilization));
     }

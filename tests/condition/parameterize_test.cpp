@@ -51,7 +51,8 @@ Primitive height_field(int n, H h, int material = 0) {
     }
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
-      uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
+      uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n) + 2,
+               d = a + uint32_t(n) + 1;
       p.indices.insert(p.indices.end(), {a, b, c, a, c, d});
     }
   return p;
@@ -137,7 +138,9 @@ TEST(Parameterize, CurvedCapIsValidWithLowStretch) {
 
 TEST(Parameterize, SteepHemisphereStaysUnflipped) {
   // A full hemisphere cut as a height field: faces near the rim are almost vertical.
-  auto dome = [](float x, float y) { return std::sqrt(std::max(0.0f, 1.0f - 0.5f * (x * x + y * y))); };
+  auto dome = [](float x, float y) {
+    return std::sqrt(std::max(0.0f, 1.0f - 0.5f * (x * x + y * y)));
+  };
   Scene s = one_primitive(height_field(32, dome));
   Chart c = whole(s);
   ChartUv uv = parameterize_chart(s, c);
@@ -170,7 +173,8 @@ TEST(Parameterize, SingleTriangleMapsIsometrically) {
 }
 
 TEST(Parameterize, FlatColourChartMapsToOnePoint) {
-  Scene s = one_primitive(height_field(4, [](float x, float) { return x * x; }, 1));
+  Scene s = one_primitive(height_field(
+      4, [](float x, float) { return x * x; }, 1));
   Chart c = whole(s, false);
   c.color = {0, 1, 0, 1};
   ChartUv uv = parameterize_chart(s, c);
@@ -226,9 +230,9 @@ TEST(Parameterize, DisconnectedPiecesAreLaidSideBySide) {
   // bowtie): three pieces, each mapped on its own, none overlapping.
   Primitive p;
   p.material = 0;
-  p.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},   // quad in z = 0
-                 {5, 0, 0}, {5, 1, 0}, {5, 1, 1}, {5, 0, 1},   // quad in x = 5
-                 {2, 2, 0.5f}, {1, 2, 0.5f}};                  // triangle at corner 2
+  p.positions = {{0, 0, 0},    {1, 0, 0},   {1, 1, 0}, {0, 1, 0},  // quad in z = 0
+                 {5, 0, 0},    {5, 1, 0},   {5, 1, 1}, {5, 0, 1},  // quad in x = 5
+                 {2, 2, 0.5f}, {1, 2, 0.5f}};                      // triangle at corner 2
   p.normals.assign(p.positions.size(), {0, 0, 1});
   p.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7, 2, 8, 9};
   Scene s = one_primitive(p);

@@ -34,7 +34,8 @@ Primitive uv_sphere(int rings, int segments) {
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
-      if (r < rings - 1) p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
+      if (r < rings - 1)
+        p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
     }
   return p;
 }
@@ -57,14 +58,17 @@ Primitive flat_cube(int n) {
       }
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
-        uint32_t a = base + uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n + 1), d = c + 1;
+        uint32_t a = base + uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n + 1),
+                 d = c + 1;
         p.indices.insert(p.indices.end(), {a, b, d, a, d, c});
       }
   }
   // Orient faces outward.
   for (size_t t = 0; t < p.indices.size(); t += 3) {
-    Vec3 A = p.positions[p.indices[t]], B = p.positions[p.indices[t + 1]], C = p.positions[p.indices[t + 2]];
-    if (dot(cross(B - A, C - A), p.normals[p.indices[t]]) < 0) std::swap(p.indices[t + 1], p.indices[t + 2]);
+    Vec3 A = p.positions[p.indices[t]], B = p.positions[p.indices[t + 1]],
+         C = p.positions[p.indices[t + 2]];
+    if (dot(cross(B - A, C - A), p.normals[p.indices[t]]) < 0)
+      std::swap(p.indices[t + 1], p.indices[t + 2]);
   }
   return p;
 }
@@ -80,7 +84,8 @@ Scene scene_of(const Primitive& p, std::vector<Mat4> transforms = {Mat4::identit
 }
 
 // Position-level undirected edges with how many faces use them.
-std::map<std::pair<Vec3, Vec3>, int, bool (*)(const std::pair<Vec3, Vec3>&, const std::pair<Vec3, Vec3>&)>
+std::map<std::pair<Vec3, Vec3>, int,
+         bool (*)(const std::pair<Vec3, Vec3>&, const std::pair<Vec3, Vec3>&)>
 edge_counts(const Mesh& mesh) {
   auto less = [](const std::pair<Vec3, Vec3>& a, const std::pair<Vec3, Vec3>& b) {
     auto t = [](const std::pair<Vec3, Vec3>& e) {
@@ -88,8 +93,12 @@ edge_counts(const Mesh& mesh) {
     };
     return t(a) < t(b);
   };
-  std::map<std::pair<Vec3, Vec3>, int, bool (*)(const std::pair<Vec3, Vec3>&, const std::pair<Vec3, Vec3>&)> m(less);
-  auto vless = [](Vec3 a, Vec3 b) { return std::make_tuple(a.x, a.y, a.z) < std::make_tuple(b.x, b.y, b.z); };
+  std::map<std::pair<Vec3, Vec3>, int,
+           bool (*)(const std::pair<Vec3, Vec3>&, const std::pair<Vec3, Vec3>&)>
+      m(less);
+  auto vless = [](Vec3 a, Vec3 b) {
+    return std::make_tuple(a.x, a.y, a.z) < std::make_tuple(b.x, b.y, b.z);
+  };
   for (const Primitive& p : mesh.primitives)
     for (size_t t = 0; t < p.indices.size(); t += 3)
       for (int e = 0; e < 3; ++e) {
@@ -166,7 +175,8 @@ TEST(Simplify, OpenBoundaryGetsNoNewBorderEdges) {
   const int n = 20;
   for (int j = 0; j <= n; ++j)
     for (int i = 0; i <= n; ++i) {
-      grid.positions.push_back({float(i), 0.3f * std::sin(float(i) * 0.5f) * std::cos(float(j) * 0.4f), float(j)});
+      grid.positions.push_back(
+          {float(i), 0.3f * std::sin(float(i) * 0.5f) * std::cos(float(j) * 0.4f), float(j)});
       grid.normals.push_back({0, 1, 0});
     }
   for (int j = 0; j < n; ++j)
@@ -185,7 +195,8 @@ TEST(Simplify, OpenBoundaryGetsNoNewBorderEdges) {
       if (count == 1) {
         // A border edge lies on the grid's rim.
         for (Vec3 v : {edge.first, edge.second})
-          EXPECT_TRUE(v.x == full.min.x || v.x == full.max.x || v.z == full.min.z || v.z == full.max.z)
+          EXPECT_TRUE(v.x == full.min.x || v.x == full.max.x || v.z == full.min.z ||
+                      v.z == full.max.z)
               << "level " << l;
       }
     }
@@ -217,7 +228,7 @@ TEST(Simplify, InstanceQuadricWithIdentityEqualsPlainQuadric) {
 TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
   Vec3 a{0.1f, 0.2f, 0.3f}, b{1.5f, -0.4f, 0.2f}, c{0.3f, 1.1f, 0.9f};
   Mat4 M = Mat4::translation(2, -1, 4) * Mat4::scale(1, 3, 0.5);
-  M.at(0, 1) = 0.7;  // shear
+  M.at(0, 1) = 0.7;                // shear
   Mat4 N = Mat4::scale(-2, 1, 1);  // a mirror
   auto fast = instance_face_quadric(a, b, c, {M, N});
   std::array<double, 16> brute{};
@@ -225,7 +236,8 @@ TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
     Vec3 A = T.transform_point(a), B = T.transform_point(b), C = T.transform_point(c);
     double e1[3] = {double(B.x) - A.x, double(B.y) - A.y, double(B.z) - A.z};
     double e2[3] = {double(C.x) - A.x, double(C.y) - A.y, double(C.z) - A.z};
-    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                   e1[0] * e2[1] - e1[1] * e2[0]};
     double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     double p[4] = {n[0] / len, n[1] / len, n[2] / len, 0};
     p[3] = -(p[0] * A.x + p[1] * A.y + p[2] * A.z);
@@ -239,7 +251,8 @@ TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
     for (int i = 0; i < 16; ++i) brute[size_t(i)] += R[i / 4][i % 4];
   }
   // The corners went through float on the brute-force side: compare relatively.
-  for (int i = 0; i < 16; ++i) EXPECT_NEAR(fast[size_t(i)], brute[size_t(i)], 1e-5 * (1 + std::abs(brute[size_t(i)]))) << i;
+  for (int i = 0; i < 16; ++i)
+    EXPECT_NEAR(fast[size_t(i)], brute[size_t(i)], 1e-5 * (1 + std::abs(brute[size_t(i)]))) << i;
 }
 
 // A submesh never vanishes: a 4-triangle tetrahedron instanced 500 times keeps at least one
@@ -249,7 +262,8 @@ TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
   tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   tet.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
   std::vector<Mat4> places;
-  for (int i = 0; i < 500; ++i) places.push_back(Mat4::translation((i % 25) * 3.0, 0, (i / 25) * 3.0));
+  for (int i = 0; i < 500; ++i)
+    places.push_back(Mat4::translation((i % 25) * 3.0, 0, (i / 25) * 3.0));
   Scene s = scene_of(tet, places);
   ProgressiveScene ps = build_progressive(s, {});
   EXPECT_FALSE(ps.flattened);
@@ -306,7 +320,9 @@ TEST(Simplify, FewInstancesPerSubmeshTakeTheFlattenPath) {
     mesh.primitives.push_back(tri);
     s.meshes.push_back(mesh);
   }
-  s.instances = {{0, Mat4::identity(), ""}, {0, Mat4::translation(2, 0, 0), ""}, {1, Mat4::translation(4, 0, 0), ""}};
+  s.instances = {{0, Mat4::identity(), ""},
+                 {0, Mat4::translation(2, 0, 0), ""},
+                 {1, Mat4::translation(4, 0, 0), ""}};
   SimplifyReport r;
   ProgressiveScene ps = build_progressive(clean(s, {}), {}, &r);
   EXPECT_NEAR(r.instances_per_submesh, 1.5, 1e-12);
@@ -339,7 +355,8 @@ TEST(Simplify, FlatShadedCubeReaches20Percent) {
 // instancing.
 TEST(Simplify, CylinderEngineReaches20PercentKeepingInstances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
-  auto in = import_scene(testing::shared_model("2CylinderEngine-glb/2CylinderEngine.glb"), {}, nullptr);
+  auto in =
+      import_scene(testing::shared_model("2CylinderEngine-glb/2CylinderEngine.glb"), {}, nullptr);
   ASSERT_TRUE(in.ok());
   Scene s = clean(*in, {});
   uint64_t full = compute_stats(s).scene_triangles;
@@ -407,15 +424,17 @@ TEST_P(SimplifySharedModel, RecordIsValidAtEveryLevel) {
   EXPECT_GT(compute_stats(base).scene_triangles, 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(Shared, SimplifySharedModel,
-                         ::testing::Values("2CylinderEngine-dae/2CylinderEngine.dae", "Avocado-gltf/Avocado.gltf",
-                                           "BoxVertexColors-glb/BoxVertexColors.glb",
-                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
-                                           "ConcavePolygon-dae/ConcavePolygon.dae", "DamagedHelmet-glb/DamagedHelmet.glb",
-                                           "Duck-dae/duck.dae", "Fox-glb/Fox.glb", "SheenChair-gltf/SheenChair.gltf",
-                                           "SimpleInstancing-gltf/SimpleInstancing.gltf", "StanfordBunny-glb/bunny.glb",
-                                           "TeapotInstanceNodes-dae/teapot_instancenodes.DAE"),
-                         [](const auto& info) { return testing::model_test_name(info.param); });
+INSTANTIATE_TEST_SUITE_P(
+    Shared, SimplifySharedModel,
+    ::testing::Values("2CylinderEngine-dae/2CylinderEngine.dae", "Avocado-gltf/Avocado.gltf",
+                      "BoxVertexColors-glb/BoxVertexColors.glb",
+                      "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                      "ConcavePolygon-dae/ConcavePolygon.dae",
+                      "DamagedHelmet-glb/DamagedHelmet.glb", "Duck-dae/duck.dae", "Fox-glb/Fox.glb",
+                      "SheenChair-gltf/SheenChair.gltf",
+                      "SimpleInstancing-gltf/SimpleInstancing.gltf", "StanfordBunny-glb/bunny.glb",
+                      "TeapotInstanceNodes-dae/teapot_instancenodes.DAE"),
+    [](const auto& info) { return testing::model_test_name(info.param); });
 
 }  // namespace
 }  // namespace meshmux

@@ -61,8 +61,8 @@ TEST(TextureLevels, AlphaTexturesUsePng) {
   decoded.name = "level";
   decoded.encoded = levels->levels.back().encoded;
   ASSERT_TRUE(decode_image(decoded).is_ok());
-  EXPECT_EQ(decoded.rgba[3], 0);                          // left column transparent
-  EXPECT_EQ(decoded.rgba[(255) * 4 + 3], 255);            // right column opaque
+  EXPECT_EQ(decoded.rgba[3], 0);                // left column transparent
+  EXPECT_EQ(decoded.rgba[(255) * 4 + 3], 255);  // right column opaque
 }
 
 // A texture smaller than the base is its own single level; non-rectangular powers of two work.
@@ -94,7 +94,8 @@ TEST(TextureLevels, QualityControlsSize) {
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_LT(a->levels.back().encoded.size(), b->levels.back().encoded.size());
   // Deterministic.
-  EXPECT_EQ(make_texture_levels(ramp(256, 256), lo)->levels.back().encoded, a->levels.back().encoded);
+  EXPECT_EQ(make_texture_levels(ramp(256, 256), lo)->levels.back().encoded,
+            a->levels.back().encoded);
 }
 
 // Downsampling averages light, not sRGB codes: black and white texels make sRGB 188 (linear

@@ -244,8 +244,9 @@ TEST(GltfExport, ShearedInstanceFallsBackToOwnNodes) {
   const json& roots = doc["scenes"][0]["nodes"];
   ASSERT_EQ(roots.size(), 2u);
   const json& inst = doc["nodes"][roots[0].get<int>()];
-  int count = doc["accessors"][inst["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]
-                                   ["TRANSLATION"].get<int>()]["count"];
+  int count =
+      doc["accessors"][inst["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]
+                           .get<int>()]["count"];
   EXPECT_EQ(count, 4);
   const json& parent = doc["nodes"][roots[1].get<int>()];
   EXPECT_FALSE(parent.contains("extensions"));

@@ -4,13 +4,12 @@
 
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "condition/clean.h"
@@ -28,7 +27,8 @@ Primitive uv_sphere(int rings, int segments) {
   p.uvs.resize(1);
   for (int r = 0; r <= rings; ++r)
     for (int s = 0; s <= segments; ++s) {
-      float th = float(M_PI) * float(r) / float(rings), ph = 2 * float(M_PI) * float(s % segments) / float(segments);
+      float th = float(M_PI) * float(r) / float(rings),
+            ph = 2 * float(M_PI) * float(s % segments) / float(segments);
       Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
       if (r == 0 || r == rings) n = {0, r == 0 ? 1.0f : -1.0f, 0};
       p.positions.push_back(n * 2.0f + Vec3{1, -3, 0.5f});
@@ -39,7 +39,8 @@ Primitive uv_sphere(int rings, int segments) {
   for (int r = 0; r < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
-      if (r < rings - 1) p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
+      if (r < rings - 1)
+        p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
     }
   p.material = 0;
   return p;
@@ -53,7 +54,8 @@ Image texture_image(int size) {
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
       uint8_t* p = &img.rgba[(size_t(y) * size_t(size) + size_t(x)) * 4];
-      p[0] = uint8_t(x), p[1] = uint8_t(y), p[2] = uint8_t(128 + 100 * std::sin(x * 0.1) * std::cos(y * 0.13)), p[3] = 255;
+      p[0] = uint8_t(x), p[1] = uint8_t(y),
+      p[2] = uint8_t(128 + 100 * std::sin(x * 0.1) * std::cos(y * 0.13)), p[3] = 255;
     }
   return img;
 }
@@ -88,11 +90,14 @@ const Fixture& fixture() {
     auto levels = make_texture_levels(s.images[0], to);
     if (levels.ok()) f->textures = levels.take();
     LodSelection base = select_base(f->ps);
-    auto glb = export_glb_bytes(materialize(f->ps, base), [] {
-      GltfExportOptions o;
-      o.draco = false;
-      return o;
-    }(), nullptr);
+    auto glb = export_glb_bytes(
+        materialize(f->ps, base),
+        [] {
+          GltfExportOptions o;
+          o.draco = false;
+          return o;
+        }(),
+        nullptr);
     if (glb.ok()) f->input.base_glb = glb.take();
     f->input.scene = &f->ps;
     f->input.base_levels = base.level;
@@ -133,15 +138,18 @@ TEST(Package, FixtureIsStreamable) {
   ASSERT_EQ(f.ps.meshes.size(), 1u);
   const ProgressiveMesh& pm = f.ps.meshes[0];
   EXPECT_GT(pm.face_count(), 1500u);
-  EXPECT_LT(f.input.base_levels[0] + 10, pm.levels.size()) << "base must be coarser than the full mesh";
+  EXPECT_LT(f.input.base_levels[0] + 10, pm.levels.size())
+      << "base must be coarser than the full mesh";
   ASSERT_EQ(f.textures.levels.size(), 3u);
   EXPECT_FALSE(f.input.base_glb.empty());
   auto bytes = write_package(f.input);
   ASSERT_TRUE(bytes.ok()) << bytes.status().message();
   const ProgressiveLevel& base = pm.levels[f.input.base_levels[0]];
-  std::printf("[ Package  ] %zu vertices, %zu faces, %zu levels; base %u vertices, %u faces, %zu-byte glb; package %zu bytes\n",
-              pm.vertex_count(), pm.face_count(), pm.levels.size(), base.vertex_end, base.face_end,
-              f.input.base_glb.size(), bytes->size());
+  std::printf(
+      "[ Package  ] %zu vertices, %zu faces, %zu levels; base %u vertices, %u faces, %zu-byte glb; "
+      "package %zu bytes\n",
+      pm.vertex_count(), pm.face_count(), pm.levels.size(), base.vertex_end, base.face_end,
+      f.input.base_glb.size(), bytes->size());
 }
 
 TEST(Package, RoundTripDecodesEveryPart) {
@@ -153,11 +161,13 @@ TEST(Package, RoundTripDecodesEveryPart) {
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
   EXPECT_EQ(pkg->version, kPackageVersion);
   // Header: JSON padded to a multiple of 4, the base right after it.
-  uint32_t json_size = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 | uint32_t((*bytes)[10]) << 16 | uint32_t((*bytes)[11]) << 24;
+  uint32_t json_size = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 |
+                       uint32_t((*bytes)[10]) << 16 | uint32_t((*bytes)[11]) << 24;
   EXPECT_EQ(json_size % 4, 0u);
   EXPECT_EQ(pkg->base_offset, 12u + json_size);
   ASSERT_EQ(pkg->base_size, f.input.base_glb.size());
-  EXPECT_TRUE(std::equal(f.input.base_glb.begin(), f.input.base_glb.end(), bytes->begin() + long(pkg->base_offset)));
+  EXPECT_TRUE(std::equal(f.input.base_glb.begin(), f.input.base_glb.end(),
+                         bytes->begin() + long(pkg->base_offset)));
   // The mesh table.
   ASSERT_EQ(pkg->meshes.size(), 1u);
   const PackageMesh& mesh = pkg->meshes[0];
@@ -210,14 +220,16 @@ TEST(Package, RoundTripDecodesEveryPart) {
     auto d = decode_part(*bytes, *pkg, c, 0);
     ASSERT_TRUE(d.ok()) << d.status().message();
     EXPECT_EQ(d->vertices, pack_vertices(pm, box, v, to.vertex_end)) << "chunk " << i;
-    std::vector<uint32_t> faces(pm.indices.begin() + long(fc) * 3, pm.indices.begin() + long(to.face_end) * 3);
+    std::vector<uint32_t> faces(pm.indices.begin() + long(fc) * 3,
+                                pm.indices.begin() + long(to.face_end) * 3);
     // meshopt's index codec keeps triangle order and winding but may rotate a triangle's corners.
     ASSERT_EQ(d->indices.size(), faces.size());
     for (size_t t = 0; t < faces.size(); t += 3) {
       const uint32_t* a = &d->indices[t];
       const uint32_t* e = &faces[t];
       bool same = false;
-      for (int r = 0; r < 3; ++r) same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
+      for (int r = 0; r < 3; ++r)
+        same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
       ASSERT_TRUE(same) << "chunk " << i << " face " << t / 3;
     }
     all_vertices.insert(all_vertices.end(), d->vertices.begin(), d->vertices.end());
@@ -233,7 +245,8 @@ TEST(Package, RoundTripDecodesEveryPart) {
     uint16_t x = uint16_t(q[0] | q[1] << 8);
     float px = box.min.x + (box.max.x - box.min.x) * float(x) / 65535.0f;
     ASSERT_NEAR(px, pm.positions[k].x, (box.max.x - box.min.x) / 65535.0f);
-    uint32_t parent = uint32_t(q[16]) | uint32_t(q[17]) << 8 | uint32_t(q[18]) << 16 | uint32_t(q[19]) << 24;
+    uint32_t parent =
+        uint32_t(q[16]) | uint32_t(q[17]) << 8 | uint32_t(q[18]) << 16 | uint32_t(q[19]) << 24;
     ASSERT_EQ(parent, pm.parent[k]);
   }
   // Texture chunks and decode_part.
@@ -275,11 +288,13 @@ TEST(Package, WriterRejectsInconsistentInput) {
   EXPECT_EQ(pkg->chunks.size(), mesh_only.size());
 }
 
-std::vector<uint8_t> with_header(const std::vector<uint8_t>& original, const std::string& json, size_t min_size) {
+std::vector<uint8_t> with_header(const std::vector<uint8_t>& original, const std::string& json,
+                                 size_t min_size) {
   std::string text = json;
   size_t size = std::max(min_size, (text.size() + 3) / 4 * 4);
   text.resize(size, ' ');
-  uint32_t old = uint32_t(original[8]) | uint32_t(original[9]) << 8 | uint32_t(original[10]) << 16 | uint32_t(original[11]) << 24;
+  uint32_t old = uint32_t(original[8]) | uint32_t(original[9]) << 8 | uint32_t(original[10]) << 16 |
+                 uint32_t(original[11]) << 24;
   std::vector<uint8_t> out(12 + size + (original.size() - 12 - old));
   std::copy(original.begin(), original.begin() + 8, out.begin());
   for (int i = 0; i < 4; ++i) out[8 + size_t(i)] = uint8_t(size >> (8 * i));
@@ -288,7 +303,8 @@ std::vector<uint8_t> with_header(const std::vector<uint8_t>& original, const std
   return out;
 }
 
-void collect(nlohmann::json& j, std::vector<nlohmann::json*>& numbers, std::vector<nlohmann::json*>& all) {
+void collect(nlohmann::json& j, std::vector<nlohmann::json*>& numbers,
+             std::vector<nlohmann::json*>& all) {
   all.push_back(&j);
   if (j.is_number()) numbers.push_back(&j);
   if (j.is_structured())
@@ -301,7 +317,8 @@ TEST(Package, SurvivesThousandCorruptions) {
   auto valid = write_package(f.input);
   ASSERT_TRUE(valid.ok()) << valid.status().message();
   const std::vector<uint8_t>& good = *valid;
-  uint32_t json_size = uint32_t(good[8]) | uint32_t(good[9]) << 8 | uint32_t(good[10]) << 16 | uint32_t(good[11]) << 24;
+  uint32_t json_size = uint32_t(good[8]) | uint32_t(good[9]) << 8 | uint32_t(good[10]) << 16 |
+                       uint32_t(good[11]) << 24;
   nlohmann::json table = nlohmann::json::parse(good.begin() + 12, good.begin() + 12 + json_size);
   std::mt19937_64 rng(20240611);
   auto below = [&](uint64_t n) { return n ? rng() % n : 0; };
@@ -315,7 +332,7 @@ TEST(Package, SurvivesThousandCorruptions) {
       case 0:  // truncation
         bytes.resize(size_t(below(good.size())));
         break;
-      case 1:  // byte flips anywhere
+      case 1:    // byte flips anywhere
       case 2: {  // byte flips inside the JSON
         int n = 1 + int(below(8));
         for (int i = 0; i < n; ++i) {
@@ -325,8 +342,15 @@ TEST(Package, SurvivesThousandCorruptions) {
         break;
       }
       case 3: {  // JSON length field
-        const uint32_t values[] = {0xffffffffu, 0x80000000u, uint32_t(good.size()), uint32_t(good.size() - 12),
-                                   uint32_t(good.size() - 11), json_size + 4, json_size - 4, json_size + 1, 0,
+        const uint32_t values[] = {0xffffffffu,
+                                   0x80000000u,
+                                   uint32_t(good.size()),
+                                   uint32_t(good.size() - 12),
+                                   uint32_t(good.size() - 11),
+                                   json_size + 4,
+                                   json_size - 4,
+                                   json_size + 1,
+                                   0,
                                    uint32_t(below(0xffffffffu))};
         uint32_t v = values[below(sizeof values / sizeof values[0])];
         for (int i = 0; i < 4; ++i) bytes[8 + size_t(i)] = uint8_t(v >> (8 * i));
@@ -341,15 +365,33 @@ TEST(Package, SurvivesThousandCorruptions) {
           nlohmann::json& x = *numbers[size_t(below(numbers.size()))];
           int64_t old = x.is_number_integer() ? x.get<int64_t>() : 0;
           switch (below(9)) {
-            case 0: x = 0; break;
-            case 1: x = -1; break;
-            case 2: x = old + 1; break;
-            case 3: x = old - 1; break;
-            case 4: x = old + int64_t(below(2000)) - 1000; break;
-            case 5: x = uint64_t(good.size()); break;
-            case 6: x = uint64_t(1) << (28 + below(36)); break;
-            case 7: x = 1.5; break;
-            default: x = std::numeric_limits<uint64_t>::max(); break;
+            case 0:
+              x = 0;
+              break;
+            case 1:
+              x = -1;
+              break;
+            case 2:
+              x = old + 1;
+              break;
+            case 3:
+              x = old - 1;
+              break;
+            case 4:
+              x = old + int64_t(below(2000)) - 1000;
+              break;
+            case 5:
+              x = uint64_t(good.size());
+              break;
+            case 6:
+              x = uint64_t(1) << (28 + below(36));
+              break;
+            case 7:
+              x = 1.5;
+              break;
+            default:
+              x = std::numeric_limits<uint64_t>::max();
+              break;
           }
         }
         bytes = with_header(good, j.dump(), below(2) ? json_size : 0);
@@ -361,10 +403,18 @@ TEST(Package, SurvivesThousandCorruptions) {
         collect(j, numbers, all);
         nlohmann::json& x = *all[1 + size_t(below(all.size() - 1))];
         switch (below(5)) {
-          case 0: x = nullptr; break;
-          case 1: x = "text"; break;
-          case 2: x = nlohmann::json::array(); break;
-          case 3: x = nlohmann::json::object(); break;
+          case 0:
+            x = nullptr;
+            break;
+          case 1:
+            x = "text";
+            break;
+          case 2:
+            x = nlohmann::json::array();
+            break;
+          case 3:
+            x = nlohmann::json::object();
+            break;
           default: {
             auto& chunks = j["chunks"];
             size_t a = size_t(below(chunks.size())), b = size_t(below(chunks.size()));
@@ -395,16 +445,20 @@ TEST(Package, SurvivesThousandCorruptions) {
           continue;
         }
         const PackagePart& part = c.parts[p];
-        ASSERT_EQ(d->vertices.size(), size_t(part.vertex_end - part.vertex_begin) * kPackedVertexBytes);
+        ASSERT_EQ(d->vertices.size(),
+                  size_t(part.vertex_end - part.vertex_begin) * kPackedVertexBytes);
         ASSERT_EQ(d->indices.size(), size_t(part.face_end - part.face_begin) * 3);
         for (uint32_t i : d->indices) ASSERT_LT(i, pkg->meshes[part.mesh].vertices);
       }
     }
     ++(all_ok ? accepted : rejected_decode);
   }
-  std::printf("[ Package  ] 1000 corruptions (truncate %d, flip %d, flip JSON %d, JSON length %d, numbers %d, types %d): "
-              "%d rejected at read, %d rejected at decode, %d accepted\n",
-              kinds[0], kinds[1], kinds[2], kinds[3], kinds[4], kinds[5], rejected_read, rejected_decode, accepted);
+  std::printf(
+      "[ Package  ] 1000 corruptions (truncate %d, flip %d, flip JSON %d, JSON length %d, numbers "
+      "%d, types %d): "
+      "%d rejected at read, %d rejected at decode, %d accepted\n",
+      kinds[0], kinds[1], kinds[2], kinds[3], kinds[4], kinds[5], rejected_read, rejected_decode,
+      accepted);
   EXPECT_EQ(rejected_read + rejected_decode + accepted, 1000);
   EXPECT_GT(rejected_read, 300);
 }
@@ -438,7 +492,8 @@ TEST(Package, RejectsBadHeadersWithClearMessages) {
   auto pkg = read_package(*valid);
   ASSERT_TRUE(pkg.ok());
   b.assign(valid->begin(), valid->begin() + long(pkg->chunks.back().offset));
-  EXPECT_NE(message(b).find("chunk " + std::to_string(pkg->chunks.size() - 1)), std::string::npos) << message(b);
+  EXPECT_NE(message(b).find("chunk " + std::to_string(pkg->chunks.size() - 1)), std::string::npos)
+      << message(b);
 }
 
 // decode_part trusts neither the Package nor the bytes it is given.

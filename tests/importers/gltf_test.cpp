@@ -50,8 +50,9 @@ struct Blob {
 // A .gltf with one data-URI buffer holding `blob`.
 std::string write_gltf(const TempDir& dir, const std::string& name, json doc, const Blob& blob) {
   doc["asset"] = {{"version", "2.0"}};
-  doc["buffers"] = json::array({{{"byteLength", blob.bytes.size()},
-                                 {"uri", "data:application/octet-stream;base64," + base64(blob.bytes)}}});
+  doc["buffers"] =
+      json::array({{{"byteLength", blob.bytes.size()},
+                    {"uri", "data:application/octet-stream;base64," + base64(blob.bytes)}}});
   std::string path = dir.file(name);
   testing::write_text(path, doc.dump());
   return path;
@@ -59,11 +60,16 @@ std::string write_gltf(const TempDir& dir, const std::string& name, json doc, co
 
 // One triangle: positions at offset 0 (36 bytes), indices at 36 (6 bytes).
 json triangle_doc(const Blob& blob, size_t pos_at, size_t idx_at) {
-  return {{"bufferViews", {{{"buffer", 0}, {"byteOffset", pos_at}, {"byteLength", 36}},
-                           {{"buffer", 0}, {"byteOffset", idx_at}, {"byteLength", 6}}}},
+  return {{"bufferViews",
+           {{{"buffer", 0}, {"byteOffset", pos_at}, {"byteLength", 36}},
+            {{"buffer", 0}, {"byteOffset", idx_at}, {"byteLength", 6}}}},
           {"accessors",
-           {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
-             {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+           {{{"bufferView", 0},
+             {"componentType", 5126},
+             {"count", 3},
+             {"type", "VEC3"},
+             {"min", {0, 0, 0}},
+             {"max", {1, 1, 0}}},
             {{"bufferView", 1}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}}}},
           {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
           {"nodes", {{{"mesh", 0}}}},
@@ -114,13 +120,28 @@ TEST(GltfImport, ReadsInterleavedNormalizedAttributes) {
   json doc = {
       {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 60}, {"byteStride", 20}}}},
       {"accessors",
-       {{{"bufferView", 0}, {"byteOffset", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
-         {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
-        {{"bufferView", 0}, {"byteOffset", 12}, {"componentType", 5123}, {"normalized", true},
-         {"count", 3}, {"type", "VEC2"}},
-        {{"bufferView", 0}, {"byteOffset", 16}, {"componentType", 5121}, {"normalized", true},
-         {"count", 3}, {"type", "VEC4"}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}, {"COLOR_0", 2}}}}}}}}},
+       {{{"bufferView", 0},
+         {"byteOffset", 0},
+         {"componentType", 5126},
+         {"count", 3},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {1, 1, 0}}},
+        {{"bufferView", 0},
+         {"byteOffset", 12},
+         {"componentType", 5123},
+         {"normalized", true},
+         {"count", 3},
+         {"type", "VEC2"}},
+        {{"bufferView", 0},
+         {"byteOffset", 16},
+         {"componentType", 5121},
+         {"normalized", true},
+         {"count", 3},
+         {"type", "VEC4"}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}, {"COLOR_0", 2}}}}}}}}},
       {"nodes", {{{"mesh", 0}}}}};
   std::string path = write_gltf(dir, "interleaved.gltf", doc, b);
   auto s = import_gltf(path, {}, nullptr);
@@ -184,8 +205,10 @@ TEST(GltfImport, ExpandsGpuInstancing) {
   size_t t = b.add<float>({0, 0, 0, 3, 0, 0, 6, 0, 0});
   json doc = triangle_doc(b, p, i);
   doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", t}, {"byteLength", 36}});
-  doc["accessors"].push_back({{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}});
-  doc["nodes"][0]["extensions"] = {{"EXT_mesh_gpu_instancing", {{"attributes", {{"TRANSLATION", 2}}}}}};
+  doc["accessors"].push_back(
+      {{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}});
+  doc["nodes"][0]["extensions"] = {
+      {"EXT_mesh_gpu_instancing", {{"attributes", {{"TRANSLATION", 2}}}}}};
   doc["extensionsUsed"] = {"EXT_mesh_gpu_instancing"};
   std::string path = write_gltf(dir, "inst.gltf", doc, b);
   auto s = import_gltf(path, {}, nullptr);
@@ -205,15 +228,25 @@ TEST(GltfImport, ReadsQuantizedAttributes) {
   json doc = {
       {"extensionsUsed", {"KHR_mesh_quantization"}},
       {"extensionsRequired", {"KHR_mesh_quantization"}},
-      {"bufferViews", {{{"buffer", 0}, {"byteOffset", p}, {"byteLength", 24}, {"byteStride", 8}},
-                       {{"buffer", 0}, {"byteOffset", n}, {"byteLength", 12}, {"byteStride", 4}},
-                       {{"buffer", 0}, {"byteOffset", i}, {"byteLength", 6}}}},
+      {"bufferViews",
+       {{{"buffer", 0}, {"byteOffset", p}, {"byteLength", 24}, {"byteStride", 8}},
+        {{"buffer", 0}, {"byteOffset", n}, {"byteLength", 12}, {"byteStride", 4}},
+        {{"buffer", 0}, {"byteOffset", i}, {"byteLength", 6}}}},
       {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5122}, {"count", 3}, {"type", "VEC3"},
-         {"min", {0, 0, 0}}, {"max", {1000, 1000, 0}}},
-        {{"bufferView", 1}, {"componentType", 5120}, {"normalized", true}, {"count", 3}, {"type", "VEC3"}},
+       {{{"bufferView", 0},
+         {"componentType", 5122},
+         {"count", 3},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {1000, 1000, 0}}},
+        {{"bufferView", 1},
+         {"componentType", 5120},
+         {"normalized", true},
+         {"count", 3},
+         {"type", "VEC3"}},
         {{"bufferView", 2}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}}}}}}},
+      {"meshes",
+       {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}}}}}}},
       {"nodes", {{{"mesh", 0}, {"scale", {0.001, 0.001, 0.001}}}}}};
   std::string path = write_gltf(dir, "quant.gltf", doc, b);
   auto s = import_gltf(path, {}, nullptr);
@@ -231,8 +264,13 @@ TEST(GltfImport, UnrollsTriangleStrips) {
   Blob b;
   size_t p = b.add<float>({0, 0, 0, 0, 1, 0, 1, 0, 0, 1, 1, 0});
   json doc = {{"bufferViews", {{{"buffer", 0}, {"byteOffset", p}, {"byteLength", 48}}}},
-              {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
-                              {"min", {0, 0, 0}}, {"max", {1, 1, 0}}}}},
+              {"accessors",
+               {{{"bufferView", 0},
+                 {"componentType", 5126},
+                 {"count", 4},
+                 {"type", "VEC3"},
+                 {"min", {0, 0, 0}},
+                 {"max", {1, 1, 0}}}}},
               {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"mode", 5}}}}}}},
               {"nodes", {{{"mesh", 0}}}}};
   std::string path = write_gltf(dir, "strip.gltf", doc, b);
@@ -250,11 +288,11 @@ TEST(GltfImport, ReadsTextureTransform) {
   // A 1x1 PNG made by the exporter's encoder would pull in another module; a data-URI PNG
   // of 1x1 red is small enough to inline.
   const std::vector<uint8_t> png = {
-      0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48, 0x44,
-      0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00, 0x00, 0x90,
-      0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08, 0xD7, 0x63, 0xF8,
-      0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D, 0xB0, 0x00, 0x00, 0x00,
-      0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
+      0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48,
+      0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
+      0x00, 0x90, 0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08,
+      0xD7, 0x63, 0xF8, 0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D,
+      0xB0, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
   doc["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
   doc["textures"] = {{{"source", 0}}};
   json transform = {{"offset", {0.5, 0.25}}, {"scale", {2, 3}}, {"rotation", 0.5}};
@@ -304,7 +342,8 @@ TEST(GltfImport, IndexOutOfRangeIsAnError) {
   std::string path = write_gltf(dir, "badindex.gltf", triangle_doc(b, p, i), b);
   auto s = import_gltf(path, {}, nullptr);
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.status().message().find("index 7 out of range"), std::string::npos) << s.status().message();
+  EXPECT_NE(s.status().message().find("index 7 out of range"), std::string::npos)
+      << s.status().message();
 }
 
 TEST(GltfImport, UnknownRequiredExtensionIsAnError) {
@@ -350,7 +389,8 @@ TEST(GltfImport, UndecodableImageIsAWarning) {
 TEST(GltfImport, MissingFileIsAnError) {
   auto s = import_gltf("/nonexistent/dir/model.glb", {}, nullptr);
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.status().message().find("model.glb: no such file"), std::string::npos) << s.status().message();
+  EXPECT_NE(s.status().message().find("model.glb: no such file"), std::string::npos)
+      << s.status().message();
 }
 
 TEST(GltfImport, EmptyFileIsAnError) {
@@ -358,7 +398,8 @@ TEST(GltfImport, EmptyFileIsAnError) {
   testing::write_text(dir.file("empty.gltf"), "");
   auto s = import_gltf(dir.file("empty.gltf"), {}, nullptr);
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.status().message().find("empty.gltf: file is empty"), std::string::npos) << s.status().message();
+  EXPECT_NE(s.status().message().find("empty.gltf: file is empty"), std::string::npos)
+      << s.status().message();
 }
 
 // A .glb cut in half (an interrupted upload) must be refused, not read past its end.
@@ -378,7 +419,8 @@ TEST(GltfImport, TruncatedGlbIsAnError) {
 // Real files: the instancing counts the acceptance criteria name.
 TEST(GltfImport, SharedModelCylinderEngineKeepsInstancing) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
-  auto s = import_gltf(testing::shared_model("2CylinderEngine-glb/2CylinderEngine.glb"), {}, nullptr);
+  auto s =
+      import_gltf(testing::shared_model("2CylinderEngine-glb/2CylinderEngine.glb"), {}, nullptr);
   ASSERT_TRUE(s.ok()) << s.status().message();
   SceneStats st = compute_stats(*s);
   EXPECT_EQ(st.meshes, 29u);
@@ -389,7 +431,8 @@ TEST(GltfImport, SharedModelCylinderEngineKeepsInstancing) {
 
 TEST(GltfImport, SharedModelSimpleInstancingHas125Instances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
-  auto s = import_gltf(testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"), {}, nullptr);
+  auto s = import_gltf(testing::shared_model("SimpleInstancing-gltf/SimpleInstancing.gltf"), {},
+                       nullptr);
   ASSERT_TRUE(s.ok()) << s.status().message();
   SceneStats st = compute_stats(*s);
   EXPECT_EQ(st.meshes, 1u);

@@ -40,26 +40,34 @@ TEST_P(MultiplexSharedModel, DescentBeatsEveryBaseline) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   double seconds = 0;
   auto r = run(GetParam(), &seconds);
-  if (!r.ok() && r.status().message().find("render:") != std::string::npos) GTEST_SKIP() << r.status().message();
+  if (!r.ok() && r.status().message().find("render:") != std::string::npos)
+    GTEST_SKIP() << r.status().message();
   ASSERT_TRUE(r.ok()) << r.status().message();
   double rd = area_under(r->rd), mf = area_under(r->mesh_first), tf = area_under(r->texture_first),
          cr = area_under(r->constant_ratio);
   EXPECT_LE(rd, mf * (1 + 1e-9));
   EXPECT_LE(rd, tf * (1 + 1e-9));
   EXPECT_LE(rd, cr * (1 + 1e-9));
-  EXPECT_EQ(r->rd.cells.back(), std::make_pair(int(r->mesh_bytes.size()) - 1, int(r->texture_bytes.size()) - 1));
+  EXPECT_EQ(r->rd.cells.back(),
+            std::make_pair(int(r->mesh_bytes.size()) - 1, int(r->texture_bytes.size()) - 1));
   EXPECT_LE(r->cells_evaluated, r->cells_total);
   EXPECT_LE(r->cells_descent, 2 * (r->mesh_bytes.size() + r->texture_bytes.size()));
   double best = std::min({mf, tf, cr});
-  std::printf("[ rd ] %-42s %zux%zu layers  areas rd %.4g | mesh-first %.4g | texture-first %.4g | constant %.4g  gain %.1f%%  "
-              "views %zu  descent cells %zu, with baselines %zu, of %zu  renders %zu (whole grid %zu)  %.1f s\n",
-              GetParam(), r->mesh_bytes.size(), r->texture_bytes.size(), rd, mf, tf, cr, 100 * (1 - rd / best), r->views,
-              r->cells_descent, r->cells_evaluated, r->cells_total, r->renders, r->cells_total * r->views, seconds);
+  std::printf(
+      "[ rd ] %-42s %zux%zu layers  areas rd %.4g | mesh-first %.4g | texture-first %.4g | "
+      "constant %.4g  gain %.1f%%  "
+      "views %zu  descent cells %zu, with baselines %zu, of %zu  renders %zu (whole grid %zu)  "
+      "%.1f s\n",
+      GetParam(), r->mesh_bytes.size(), r->texture_bytes.size(), rd, mf, tf, cr,
+      100 * (1 - rd / best), r->views, r->cells_descent, r->cells_evaluated, r->cells_total,
+      r->renders, r->cells_total * r->views, seconds);
 }
 
 INSTANTIATE_TEST_SUITE_P(Shared, MultiplexSharedModel,
-                         ::testing::Values("Duck-dae/duck.dae", "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
-                                           "DamagedHelmet-glb/DamagedHelmet.glb", "Avocado-gltf/Avocado.gltf",
+                         ::testing::Values("Duck-dae/duck.dae",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "Avocado-gltf/Avocado.gltf",
                                            "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb"),
                          [](const auto& info) { return testing::model_test_name(info.param); });
 

@@ -13,8 +13,8 @@
 namespace meshmux {
 namespace {
 
-#define MAKE_RENDERER(var, opts)                                   \
-  auto var##_result = Renderer::create(opts);                      \
+#define MAKE_RENDERER(var, opts)                                      \
+  auto var##_result = Renderer::create(opts);                         \
   if (!var##_result) GTEST_SKIP() << var##_result.status().message(); \
   std::unique_ptr<Renderer> var = var##_result.take()
 
@@ -193,8 +193,8 @@ TEST(Render, TextureOrientationMatchesGltf) {
   MAKE_RENDERER(r, o);
   Image im;
   im.width = im.height = 2;
-  im.rgba = {255, 0, 0, 255, 0, 255, 0, 255,       // top row: red, green
-             0, 0, 255, 255, 255, 255, 255, 255};  // bottom row: blue, white
+  im.rgba = {255, 0, 0,   255, 0,   255, 0,   255,   // top row: red, green
+             0,   0, 255, 255, 255, 255, 255, 255};  // bottom row: blue, white
   int t = r->add_texture(im);
   int g = r->add_geometry(single(quad()));
   RenderImage out = r->render(g, t, head_on(1));  // quad spans pixels 64..192
@@ -355,8 +355,8 @@ TEST(Render, AnisotropyKeepsDetailAtGrazingAngles) {
 
 TEST(Render, TwoInstancesDoubleCoverage) {
   MAKE_RENDERER(r, RenderOptions{});
-  size_t one = covered(r->render(r->add_geometry(single(quad(), {Mat4::translation(-1, 0, 0)})),
-                                 -1, head_on(5)));
+  size_t one = covered(
+      r->render(r->add_geometry(single(quad(), {Mat4::translation(-1, 0, 0)})), -1, head_on(5)));
   size_t two = covered(r->render(
       r->add_geometry(single(quad(), {Mat4::translation(-1, 0, 0), Mat4::translation(1, 0, 0)})),
       -1, head_on(5)));

@@ -37,10 +37,16 @@ RdPath brute_force(const RdGrid& g) {
   int i = 0, j = 0;
   p.cells.push_back({0, 0});
   while (i < m - 1 || j < n - 1) {
-    double gm = i < m - 1 ? (d[size_t(i * n + j)] - d[size_t((i + 1) * n + j)]) / double(bytes(i + 1, j) - bytes(i, j) + 1) : -INFINITY;
-    double gt = j < n - 1 ? (d[size_t(i * n + j)] - d[size_t(i * n + j + 1)]) / double(bytes(i, j + 1) - bytes(i, j) + 1) : -INFINITY;
-    if (gm >= gt) ++i;
-    else ++j;
+    double gm = i < m - 1 ? (d[size_t(i * n + j)] - d[size_t((i + 1) * n + j)]) /
+                                double(bytes(i + 1, j) - bytes(i, j) + 1)
+                          : -INFINITY;
+    double gt = j < n - 1 ? (d[size_t(i * n + j)] - d[size_t(i * n + j + 1)]) /
+                                double(bytes(i, j + 1) - bytes(i, j) + 1)
+                          : -INFINITY;
+    if (gm >= gt)
+      ++i;
+    else
+      ++j;
     p.cells.push_back({i, j});
   }
   return p;
@@ -57,13 +63,15 @@ TEST(Schedule, SteepestDescentEqualsBruteForceGreedy) {
 TEST(Schedule, PathIsMonotoneAndComplete) {
   RdGrid g = synthetic(12, 6);
   RdCache cache(g);
-  for (RdPath p : {steepest_descent(cache), mesh_first(cache), texture_first(cache), constant_ratio(cache)}) {
+  for (RdPath p :
+       {steepest_descent(cache), mesh_first(cache), texture_first(cache), constant_ratio(cache)}) {
     ASSERT_EQ(p.cells.front(), std::make_pair(0, 0));
     ASSERT_EQ(p.cells.back(), std::make_pair(11, 5));
     ASSERT_EQ(p.cells.size(), size_t(12 + 6 - 1));
     for (size_t k = 1; k < p.cells.size(); ++k) {
       EXPECT_GT(p.bytes[k], p.bytes[k - 1]);
-      int di = p.cells[k].first - p.cells[k - 1].first, dj = p.cells[k].second - p.cells[k - 1].second;
+      int di = p.cells[k].first - p.cells[k - 1].first,
+          dj = p.cells[k].second - p.cells[k - 1].second;
       EXPECT_EQ(di + dj, 1);
       EXPECT_GE(di, 0);
       EXPECT_GE(dj, 0);

@@ -159,7 +159,8 @@ TEST(Viewpoints, LocateWeightsAreValidEverywhere) {
     EXPECT_NEAR(w[0] + w[1] + w[2], 1.0, 1e-5);
     // The weights reconstruct a point on the ray through d.
     const auto& tri = s.triangles[t];
-    Vec3 p = s.directions[tri[0]] * w[0] + s.directions[tri[1]] * w[1] + s.directions[tri[2]] * w[2];
+    Vec3 p =
+        s.directions[tri[0]] * w[0] + s.directions[tri[1]] * w[1] + s.directions[tri[2]] * w[2];
     EXPECT_NEAR(dot(normalize(p), d), 1.0, 1e-5);
   }
 }

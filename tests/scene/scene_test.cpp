@@ -58,7 +58,8 @@ TEST(SceneValidate, RejectsIndexOutOfRange) {
   s.instances.push_back({0, Mat4::identity(), ""});
   Status st = validate(s, "test");
   ASSERT_FALSE(st.is_ok());
-  EXPECT_NE(st.message().find("mesh 0 primitive 0: index 9 out of range (4 vertices)"), std::string::npos)
+  EXPECT_NE(st.message().find("mesh 0 primitive 0: index 9 out of range (4 vertices)"),
+            std::string::npos)
       << st.message();
 }
 
