@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -86,6 +87,29 @@ bool have_shared_models() { return fs::is_directory(std::string(MESHMUX_SHARED_D
 std::string shared_model(const std::string& rel) {
   if (!have_shared_models()) return "";
   return std::string(MESHMUX_SHARED_DIR) + "/models/" + rel;
+}
+
+Primitive uv_sphere(int rings, int segments, float radius, Vec3 centre) {
+  Primitive p;
+  p.uvs.resize(1);
+  for (int r = 0; r <= rings; ++r)
+    for (int s = 0; s <= segments; ++s) {
+      float th = float(M_PI) * float(r) / float(rings),
+            ph = 2 * float(M_PI) * float(s % segments) / float(segments);
+      Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
+      if (r == 0 || r == rings) n = {0, r == 0 ? 1.0f : -1.0f, 0};
+      p.positions.push_back(n * radius + centre);
+      p.normals.push_back(n);
+      p.uvs[0].push_back({float(s) / float(segments), float(r) / float(rings)});
+    }
+  auto id = [&](int r, int s) { return uint32_t(r * (segments + 1) + s); };
+  for (int r = 0; r < rings; ++r)
+    for (int s = 0; s < segments; ++s) {
+      if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
+      if (r < rings - 1)
+        p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
+    }
+  return p;
 }
 
 std::string model_test_name(const std::string& relative_path) {

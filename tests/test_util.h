@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "scene/scene.h"
+
 namespace meshmux::testing {
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
@@ -40,6 +42,11 @@ CommandResult run_program(const std::string& program, const std::vector<std::str
 std::string shared_model(const std::string& rel);
 // True when ../shared/models exists. Tests that need it call GTEST_SKIP with a message otherwise.
 bool have_shared_models();
+
+// A UV sphere of `rings` × `segments` around `centre`: closed, with a uv seam along one
+// meridian (the seam column repeats the first one's positions exactly, with other uvs) and
+// smooth normals: 2·(rings−1)·segments triangles. The case where a careless collapse cracks.
+Primitive uv_sphere(int rings, int segments, float radius = 1, Vec3 centre = {});
 
 // A GoogleTest-safe name for a parameterized test over a shared model path: the model's folder
 // with anything but letters and digits turned into '_' ("Duck-dae/duck.dae" → "Duck_dae").

@@ -14,31 +14,7 @@
 namespace meshmux {
 namespace {
 
-// A UV sphere: closed, with a uv seam along one meridian (duplicated vertices with u = 0 and
-// u = 1) and smooth normals: the case where a careless collapse opens a crack.
-Primitive uv_sphere(int rings, int segments) {
-  Primitive p;
-  p.uvs.resize(1);
-  for (int r = 0; r <= rings; ++r)
-    for (int s = 0; s <= segments; ++s) {
-      // The seam column (s = segments) repeats s = 0 exactly: same position, other uv.
-      float th = float(M_PI) * float(r) / float(rings),
-            ph = 2 * float(M_PI) * float(s % segments) / float(segments);
-      Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
-      if (r == 0 || r == rings) n = {0, r == 0 ? 1.0f : -1.0f, 0};
-      p.positions.push_back(n);
-      p.normals.push_back(n);
-      p.uvs[0].push_back({float(s) / float(segments), float(r) / float(rings)});
-    }
-  auto id = [&](int r, int s) { return uint32_t(r * (segments + 1) + s); };
-  for (int r = 0; r < rings; ++r)
-    for (int s = 0; s < segments; ++s) {
-      if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
-      if (r < rings - 1)
-        p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
-    }
-  return p;
-}
+using testing::uv_sphere;
 
 // A cube whose faces are n×n grids with one normal per face (flat shading): every edge and
 // corner vertex is split per face, so welding on attributes alone leaves no interior to

@@ -17,34 +17,10 @@
 #include "condition/simplify.h"
 #include "condition/texture_levels.h"
 #include "exporters/gltf.h"
+#include "test_util.h"
 
 namespace meshmux {
 namespace {
-
-// A UV sphere with a seam and smooth normals: 2·(rings-1)·segments triangles.
-Primitive uv_sphere(int rings, int segments) {
-  Primitive p;
-  p.uvs.resize(1);
-  for (int r = 0; r <= rings; ++r)
-    for (int s = 0; s <= segments; ++s) {
-      float th = float(M_PI) * float(r) / float(rings),
-            ph = 2 * float(M_PI) * float(s % segments) / float(segments);
-      Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
-      if (r == 0 || r == rings) n = {0, r == 0 ? 1.0f : -1.0f, 0};
-      p.positions.push_back(n * 2.0f + Vec3{1, -3, 0.5f});
-      p.normals.push_back(n);
-      p.uvs[0].push_back({float(s) / float(segments), float(r) / float(rings)});
-    }
-  auto id = [&](int r, int s) { return uint32_t(r * (segments + 1) + s); };
-  for (int r = 0; r < rings; ++r)
-    for (int s = 0; s < segments; ++s) {
-      if (r > 0) p.indices.insert(p.indices.end(), {id(r, s), id(r, s + 1), id(r + 1, s)});
-      if (r < rings - 1)
-        p.indices.insert(p.indices.end(), {id(r, s + 1), id(r + 1, s + 1), id(r + 1, s)});
-    }
-  p.material = 0;
-  return p;
-}
 
 Image texture_image(int size) {
   Image img;
@@ -73,7 +49,8 @@ const Fixture& fixture() {
     auto* f = new Fixture;
     Scene s;
     Mesh m;
-    m.primitives.push_back(uv_sphere(32, 32));
+    m.primitives.push_back(testing::uv_sphere(32, 32, 2.0f, Vec3{1, -3, 0.5f}));
+    m.primitives.back().material = 0;
     s.meshes.push_back(m);
     s.instances.push_back({0, Mat4::identity(), "sphere"});
     Material mat;
