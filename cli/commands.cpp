@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cli/render_command.h"
 #include "cli/serve.h"
 #include "condition/atlas.h"
 #include "condition/clean.h"
@@ -19,8 +20,10 @@
 #include "condition/simplify.h"
 #include "exporters/gltf.h"
 #include "exporters/package.h"
+#include "exporters/viewer_page.h"
 #include "importers/import.h"
 #include "multiplex/multiplex.h"
+#include "multiplex/stream_plan.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
 
@@ -48,7 +51,8 @@ const char* kUsage =
     "      otherwise OUT is a folder that receives model.glb (full quality), base.glb (the\n"
     "      base level of detail that displays first), model.mmxp (the stream package: the\n"
     "      base, then mesh refinements and texture levels in rate-distortion order),\n"
-    "      report.json and rd.svg (that order's curves beside three baselines)\n"
+    "      report.json and rd.svg (that order's curves beside three baselines), and the web\n"
+    "      viewer (index.html and viewer/: meshmux serve OUT, then open the printed URL)\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
     "                                        textures, draw calls, bytes (a .gltf counts\n"
     "                                        its external buffers and images too)\n"
@@ -59,6 +63,9 @@ const char* kUsage =
     "  meshmux sample -o FILE.glb            write the built-in demo scene\n"
     "  meshmux serve DIR [--port P] [--host H]   HTTP with Range requests for the viewer (loopback "
     "by default)\n"
+    "  meshmux render IN -o OUT.png [--size WxH] [--eye X,Y,Z --target X,Y,Z ...]\n"
+    "                                        render IN offscreen as the web viewer draws it\n"
+    "                                        (meshmux render --help for the camera options)\n"
     "  meshmux --help | --version\n"
     "\n"
     "convert options:\n"
@@ -331,11 +338,20 @@ int cmd_convert(const std::vector<std::string>& args) {
         progress.step(line);
         report_text = report_json(*mx);
         svg_text = rd_svg(*mx);
-        // The stream package: the base (mesh layer 0 with texture level 0, no Draco so the
-        // vertex order stays the progressive one), then every step of the descent's order.
+        // The stream package: the base (mesh layer 0 with texture level 0, no Draco and every
+        // prefix vertex kept so vertex i is the stream's vertex i), then every step of the
+        // descent's order; the baselines ride along as orders of the same chunks.
         LodSelection base0 = select_base(ps);
         base0.level = mx->layer_levels[0];
-        Scene pkg_base = materialize(ps, base0);
+        Scene pkg_base = materialize(ps, base0, /*keep_prefix=*/true);
+        std::string unstreamable;
+        if (pkg_base.meshes.size() != ps.meshes.size())
+          unstreamable = "a mesh has no triangles at the base level";
+        for (const ProgressiveMesh& pm : ps.meshes)
+          if (pm.primitive_material.size() != 1)
+            unstreamable = "a mesh has several materials (the stream needs the one-material atlas)";
+        auto plan = stream_plan(*mx);
+        if (!plan.ok()) return fail(plan.status());
         if (!mx->texture_levels.levels.empty() && !pkg_base.images.empty()) {
           const TextureLevel& l0 = mx->texture_levels.levels[0];
           Image level0;
@@ -348,6 +364,7 @@ int cmd_convert(const std::vector<std::string>& args) {
         }
         GltfExportOptions plain = gopts;
         plain.draco = false;
+        plain.tag_meshes = true;
         auto pb = export_glb_bytes(pkg_base, plain, &warnings);
         if (!pb.ok()) return fail(pb.status());
         PackageInput pin;
@@ -355,21 +372,18 @@ int cmd_convert(const std::vector<std::string>& args) {
         pin.base_levels = mx->layer_levels[0];
         pin.base_glb = pb.take();
         pin.textures = mx->texture_levels.levels.empty() ? nullptr : &mx->texture_levels;
-        for (size_t k = 1; k < mx->rd.cells.size(); ++k) {
-          StreamStep st;
-          if (mx->rd.cells[k].first != mx->rd.cells[k - 1].first) {
-            st.kind = StreamStep::kMesh;
-            st.levels = mx->layer_levels[size_t(mx->rd.cells[k].first)];
-          } else {
-            st.kind = StreamStep::kTexture;
-            st.texture_level = size_t(mx->rd.cells[k].second);
-          }
-          st.distortion = mx->rd.distortion[k];
-          pin.steps.push_back(std::move(st));
+        pin.steps = plan->steps;
+        pin.base_distortion = plan->base_distortion;
+        pin.orders = plan->orders;
+        if (!unstreamable.empty()) {
+          warnings.add("package: " + unstreamable + "; model.mmxp and the viewer not written");
+          progress.warnings(warnings, warnings.items().size() - 1);
         }
-        auto pkg = write_package(pin);
-        if (!pkg.ok()) return fail(pkg.status());
-        package_bytes = pkg.take();
+        if (unstreamable.empty()) {
+          auto pkg = write_package(pin);
+          if (!pkg.ok()) return fail(pkg.status());
+          package_bytes = pkg.take();
+        }
       }
     }
   }
@@ -396,6 +410,10 @@ int cmd_convert(const std::vector<std::string>& args) {
     if (!s) return fail(s);
     progress.step("wrote " + out + "/model.mmxp (the stream package, " +
                   human_bytes(package_bytes.size()) + ")");
+    s = write_viewer(out);
+    if (!s) return fail(s);
+    progress.step("wrote " + out + "/index.html and " + out +
+                  "/viewer/ (the web viewer: meshmux serve " + out + ")");
   }
   SceneStats after = compute_stats(cleaned);
   progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
@@ -631,6 +649,7 @@ int meshmux_main(int argc, char** argv) {
     if (cmd == "sample") return cmd_sample(rest);
     if (cmd == "simplify") return cmd_simplify(rest);
     if (cmd == "serve") return cmd_serve(rest);
+    if (cmd == "render") return cmd_render(rest);
     return usage_error("unknown command '" + cmd + "'");
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "meshmux: out of memory\n");

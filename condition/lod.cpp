@@ -28,7 +28,7 @@ std::vector<uint32_t> level_indices(const ProgressiveMesh& pm, size_t level) {
   return out;
 }
 
-Mesh extract_level(const ProgressiveMesh& pm, size_t level) {
+Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix) {
   level = std::min(level, pm.levels.size() - 1);
   const ProgressiveLevel& lv = pm.levels[level];
   uint32_t k = lv.vertex_end;
@@ -55,9 +55,15 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level) {
     bool colors =
         p < pm.primitive_has_colors.size() ? pm.primitive_has_colors[p] != 0 : !pm.colors.empty();
     // Vertices in ascending shared-buffer order: deterministic, and coherent with the stream.
-    std::vector<uint32_t> used(faces[p]);
-    std::sort(used.begin(), used.end());
-    used.erase(std::unique(used.begin(), used.end()), used.end());
+    std::vector<uint32_t> used;
+    if (keep_prefix) {  // the whole prefix, referenced or not: vertex i is shared vertex i
+      used.resize(k);
+      for (uint32_t v = 0; v < k; ++v) used[v] = v;
+    } else {
+      used = faces[p];
+      std::sort(used.begin(), used.end());
+      used.erase(std::unique(used.begin(), used.end()), used.end());
+    }
     for (uint32_t v : used) {
       remap[v] = uint32_t(prim.positions.size());
       prim.positions.push_back(pm.positions[v]);
@@ -194,7 +200,7 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
   return s;
 }
 
-Scene materialize(const ProgressiveScene& ps, const LodSelection& sel) {
+Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix) {
   Scene out;
   out.materials = ps.scene.materials;
   out.images = ps.scene.images;
@@ -202,7 +208,7 @@ Scene materialize(const ProgressiveScene& ps, const LodSelection& sel) {
   out.normalization_scale = ps.scene.normalization_scale;
   std::vector<int32_t> mesh_map(ps.meshes.size(), -1);
   for (size_t m = 0; m < ps.meshes.size(); ++m) {
-    Mesh mesh = extract_level(ps.meshes[m], sel.level[m]);
+    Mesh mesh = extract_level(ps.meshes[m], sel.level[m], keep_prefix);
     mesh.name = ps.scene.meshes[m].name;
     if (mesh.primitives.empty()) continue;
     mesh_map[m] = int32_t(out.meshes.size());

@@ -12,9 +12,11 @@
 namespace meshmux {
 
 // The submesh at `level` (index into pm.levels) as a Mesh with one primitive per source
-// primitive that still has faces. Vertices are the level's prefix, compacted per primitive.
+// primitive that still has faces. Vertices are the level's prefix, compacted per primitive;
+// with `keep_prefix` every primitive holds the whole prefix uncompacted, so vertex i is the
+// stream's vertex i (what the stream package's base needs; meant for one-primitive meshes).
 // O(V + F) of the level.
-Mesh extract_level(const ProgressiveMesh& pm, size_t level);
+Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix = false);
 
 // The corners of the faces alive at `level`, mapped through `parent`, in the shared
 // (uncompacted) vertex numbering: the form a streaming client holds. Degenerate faces dropped.
@@ -47,6 +49,7 @@ LodSelection select_error(const ProgressiveScene& ps, float error);
 
 // A plain Scene for a selection: extracted meshes, instances (thinned ones scaled up about their
 // centres to preserve area), materials and images as in ps.scene.
-Scene materialize(const ProgressiveScene& ps, const LodSelection& sel);
+// `keep_prefix` as in extract_level.
+Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix = false);
 
 }  // namespace meshmux

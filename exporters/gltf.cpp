@@ -445,6 +445,7 @@ class Exporter {
       }
       json j = {{"primitives", std::move(prims)}};
       if (!mesh.name.empty()) j["name"] = mesh.name;
+      if (opt_.tag_meshes) j["extras"] = {{"meshmux_mesh", m}};
       mesh_map_[m] = int(meshes_.size());
       meshes_.push_back(std::move(j));
     }

@@ -33,6 +33,8 @@ struct GltfExportOptions {
   int draco_speed = 3;                          // Draco encoder speed 0 (smallest) .. 10 (fastest)
   size_t min_gpu_instances = kMinGpuInstances;  // instances per mesh for EXT_mesh_gpu_instancing
   std::string generator = "meshmux";            // asset.generator
+  bool tag_meshes =
+      false;  // mesh.extras = {"meshmux_mesh": Scene mesh index} (stream package base)
 };
 
 Result<std::vector<uint8_t>> export_glb_bytes(const Scene& scene, const GltfExportOptions& options,

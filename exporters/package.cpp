@@ -1,20 +1,26 @@
 // The stream package (exporters/package.h, DESIGN.md "Package"): writer, reader and part decoder.
 //
-// Writer: per mesh step, one part per mesh whose level moved on since the previous state (the
-// base levels to begin with): its new vertices as 20-byte packed vertices through
-// meshopt_encodeVertexBuffer, then its new faces through meshopt_encodeIndexBuffer. An empty
-// range is stored as zero bytes (no codec header). Texture steps carry the level's file as is.
-// The JSON table's length depends on the offsets it holds, so it is built until it fits the
-// space reserved for it (which only grows), then padded with spaces to a multiple of 4.
-// Output is a pure function of the input.
+// Writer: per mesh a MeshStreamEncoder follows the steps. Per mesh step, one part per mesh whose
+// level moved on: its new vertices as 20-byte packed vertices through
+// meshopt_encodeVertexBuffer, its new faces mapped to the part's level through
+// meshopt_encodeIndexBuffer, and the corner updates (faces held before the part whose corners
+// the new vertices take over; paper 002's parent mapping evaluated here, where every parent is
+// known, instead of on the client, which lacks the parents of vertices yet to come) through
+// meshopt_encodeIndexSequence. The encoder decodes its own faces to learn how the codec rotated
+// each one, so updates name the corner slots the client really holds. An empty piece is stored
+// as zero bytes (no codec header). Texture steps carry the level's file as is. The JSON table's
+// length depends on the offsets it holds, so it is built until it fits the space reserved for
+// it (which only grows), then padded with spaces to a multiple of 4. Output is a pure function
+// of the input.
 //
 // Reader: untrusted input. The header, the JSON (nesting depth checked before parsing, parsed
 // without exceptions) and every field's type and range are checked before anything is exposed:
-// ranges inside the file and after the header, chunks in order without overlap, parts inside
-// their mesh, part bytes summing to the chunk size, counts bounded (kMaxCount) and plausible for
-// their byte sizes (the codecs cannot shrink data below a fixed ratio), so that decoding never
-// allocates far beyond the file's size. decode_part repeats the checks it relies on (the Package
-// may not come from these bytes) and checks every decoded index against the mesh.
+// ranges inside the file and after the header, base indices and chunks in order without
+// overlap, parts inside their mesh, part bytes summing to the chunk size, counts bounded
+// (kMaxCount) and plausible for their byte sizes (the codecs cannot shrink data below a fixed
+// ratio), orders permutations keeping the mesh chunks' order, so that decoding never allocates
+// far beyond the file's size. decode_part repeats the checks it relies on (the Package may not
+// come from these bytes) and checks every decoded index and update against the level.
 #include "exporters/package.h"
 
 #include <meshoptimizer.h>
@@ -63,42 +69,112 @@ int8_t quantize8(float x) {
   return int8_t(std::lround(std::clamp(x * 127, -127.0f, 127.0f)));
 }
 
-// The encoded vertex and index bytes of one part.
-struct EncodedPart {
-  PackagePart part;
-  std::vector<uint8_t> vertices, indices;
-};
+uint32_t map_to(const ProgressiveMesh& pm, uint32_t v, uint32_t k) {
+  while (v >= k) v = pm.parent[v];
+  return v;
+}
 
-Result<EncodedPart> encode_part(const ProgressiveMesh& pm, const Bounds& box, uint32_t mesh,
-                                const ProgressiveLevel& from, const ProgressiveLevel& to) {
-  EncodedPart e;
-  e.part.mesh = mesh;
+Status internal(uint32_t mesh, const std::string& what) {
+  return Status::error("package: mesh " + std::to_string(mesh) + ": " + what, ErrorKind::kInternal);
+}
+
+}  // namespace
+
+MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t mesh,
+                                     size_t base_level)
+    : pm_(pm), bounds_(bounds), mesh_(mesh), level_(base_level), base_(std::vector<uint8_t>{}) {
+  if (pm.levels.empty() || base_level >= pm.levels.size()) {
+    base_ = internal(mesh, "base level out of range");
+    return;
+  }
+  const ProgressiveLevel& b = pm.levels[base_level];
+  base_ = encode_faces(0, b.face_end, b.vertex_end);
+}
+
+// Encodes faces [face_begin, face_end) mapped to the level with `vertex_end` vertices, decodes
+// them back and records each face's rotation (any rotation the decoded corners match: when
+// several do, the corners are equal and every choice is the same triangle once they split).
+Result<std::vector<uint8_t>> MeshStreamEncoder::encode_faces(uint32_t face_begin, uint32_t face_end,
+                                                             uint32_t vertex_end) {
+  std::vector<uint8_t> out;
+  size_t count = size_t(face_end - face_begin) * 3;
+  if (count == 0) return out;
+  std::vector<uint32_t> mapped(count);
+  for (size_t i = 0; i < count; ++i)
+    mapped[i] = map_to(pm_, pm_.indices[size_t(face_begin) * 3 + i], vertex_end);
+  out.resize(meshopt_encodeIndexBufferBound(count, std::max<size_t>(vertex_end, 1)));
+  size_t size = meshopt_encodeIndexBuffer(out.data(), out.size(), mapped.data(), count);
+  if (size == 0) return internal(mesh_, "index encoding failed");
+  out.resize(size);
+  std::vector<uint32_t> decoded(count);
+  if (meshopt_decodeIndexBuffer(decoded.data(), count, sizeof(uint32_t), out.data(), size) != 0)
+    return internal(mesh_, "index data does not decode");
+  rotation_.resize(face_end, 0);
+  for (size_t f = 0; f < count / 3; ++f) {
+    const uint32_t *d = &decoded[f * 3], *e = &mapped[f * 3];
+    int r = 0;
+    while (r < 3 && !(d[0] == e[r] && d[1] == e[(r + 1) % 3] && d[2] == e[(r + 2) % 3])) ++r;
+    if (r == 3) return internal(mesh_, "index codec changed a face");
+    rotation_[face_begin + f] = uint8_t(r);
+  }
+  return out;
+}
+
+Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
+  if (!base_.ok()) return base_.status();
+  if (level >= pm_.levels.size() || level < level_)
+    return internal(mesh_, "level " + std::to_string(level) + " out of order");
+  const ProgressiveLevel &from = pm_.levels[level_], &to = pm_.levels[level];
+  if (to.vertex_end < from.vertex_end || to.face_end < from.face_end)
+    return internal(mesh_, "levels shrink");
+  EncodedMeshPart e;
+  e.part.mesh = mesh_;
   e.part.vertex_begin = from.vertex_end, e.part.vertex_end = to.vertex_end;
   e.part.face_begin = from.face_end, e.part.face_end = to.face_end;
   size_t n = size_t(to.vertex_end - from.vertex_end);
   if (n > 0) {
-    std::vector<uint8_t> packed = pack_vertices(pm, box, from.vertex_end, to.vertex_end);
+    std::vector<uint8_t> packed = pack_vertices(pm_, bounds_, from.vertex_end, to.vertex_end);
     e.vertices.resize(meshopt_encodeVertexBufferBound(n, kPackedVertexBytes));
     size_t size = meshopt_encodeVertexBuffer(e.vertices.data(), e.vertices.size(), packed.data(), n,
                                              kPackedVertexBytes);
-    if (size == 0)
-      return Status::error("package: mesh " + std::to_string(mesh) + ": vertex encoding failed",
-                           ErrorKind::kInternal);
+    if (size == 0) return internal(mesh_, "vertex encoding failed");
     e.vertices.resize(size);
   }
-  size_t count = size_t(to.face_end - from.face_end) * 3;
-  if (count > 0) {
-    e.indices.resize(meshopt_encodeIndexBufferBound(count, pm.vertex_count()));
-    size_t size = meshopt_encodeIndexBuffer(e.indices.data(), e.indices.size(),
-                                            &pm.indices[size_t(from.face_end) * 3], count);
-    if (size == 0)
-      return Status::error("package: mesh " + std::to_string(mesh) + ": index encoding failed",
-                           ErrorKind::kInternal);
-    e.indices.resize(size);
+  // Corners of the faces already held that the new vertices take over.
+  std::vector<std::pair<uint32_t, uint32_t>> moves;
+  if (n > 0) {
+    for (uint32_t f = 0; f < from.face_end; ++f)
+      for (uint32_t t = 0; t < 3; ++t) {
+        uint32_t w = pm_.indices[size_t(f) * 3 + t];
+        if (w < from.vertex_end) continue;
+        uint32_t was = map_to(pm_, w, from.vertex_end), now = map_to(pm_, w, to.vertex_end);
+        if (was == now) continue;
+        uint32_t slot = (t + 3 - rotation_[f]) % 3;
+        moves.push_back({f * 3 + slot, now});
+      }
+    std::sort(moves.begin(), moves.end());
   }
+  if (!moves.empty()) {
+    std::vector<uint32_t> seq(moves.size() * 2);
+    for (size_t i = 0; i < moves.size(); ++i)
+      seq[i] = moves[i].first, seq[moves.size() + i] = moves[i].second;
+    size_t top = std::max<size_t>(size_t(from.face_end) * 3, to.vertex_end);
+    e.updates.resize(meshopt_encodeIndexSequenceBound(seq.size(), top));
+    size_t size =
+        meshopt_encodeIndexSequence(e.updates.data(), e.updates.size(), seq.data(), seq.size());
+    if (size == 0) return internal(mesh_, "update encoding failed");
+    e.updates.resize(size);
+  }
+  auto faces = encode_faces(from.face_end, to.face_end, to.vertex_end);
+  if (!faces.ok()) return faces.status();
+  e.indices = faces.take();
   e.part.vertex_bytes = e.vertices.size(), e.part.index_bytes = e.indices.size();
+  e.part.updates = uint32_t(moves.size()), e.part.update_bytes = e.updates.size();
+  level_ = level;
   return e;
 }
+
+namespace {
 
 // The writer's own checks on a progressive mesh: what the reader will demand of the package.
 Status check_mesh(const ProgressiveMesh& pm, size_t m) {
@@ -178,6 +254,18 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
                   std::to_string(full.height) + " out of range");
   }
 
+  if (!std::isfinite(in.base_distortion)) return fail("base distortion is not finite");
+
+  // Per mesh: the encoder (its state follows the steps) and the base's faces.
+  std::vector<MeshStreamEncoder> encoders;
+  encoders.reserve(meshes);
+  std::vector<std::vector<uint8_t>> base_indices(meshes);
+  for (size_t m = 0; m < meshes; ++m) {
+    encoders.emplace_back(ps.meshes[m], boxes[m], uint32_t(m), in.base_levels[m]);
+    if (!encoders.back().base_indices().ok()) return encoders.back().base_indices().status();
+    base_indices[m] = *encoders.back().base_indices();
+  }
+
   // Payloads and table entries, offsets filled in later.
   struct Chunk {
     bool mesh = true;
@@ -224,23 +312,58 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
         if (to < state[m] || b.vertex_end < a.vertex_end || b.face_end < a.face_end)
           return fail(where + "mesh " + std::to_string(m) + ": goes back from level " +
                       std::to_string(state[m]) + " to " + std::to_string(to));
-        auto part = encode_part(pm, boxes[m], uint32_t(m), a, b);
+        auto part = encoders[m].next(to);
         if (!part.ok()) return part.status();
         c.parts.push_back(part->part);
-        c.payload.insert(c.payload.end(), part->vertices.begin(), part->vertices.end());
-        c.payload.insert(c.payload.end(), part->indices.begin(), part->indices.end());
+        for (const auto* piece : {&part->vertices, &part->indices, &part->updates})
+          c.payload.insert(c.payload.end(), piece->begin(), piece->end());
         state[m] = to;
       }
     }
     chunks.push_back(std::move(c));
   }
 
+  // The orders: the stream's own, then the baselines, each checked to be a permutation that
+  // keeps the mesh steps in order.
+  std::vector<PackageInput::Order> orders;
+  {
+    PackageInput::Order own;
+    own.name = "rate-distortion";
+    for (size_t k = 0; k < in.steps.size(); ++k)
+      own.steps.push_back(uint32_t(k)), own.distortion.push_back(in.steps[k].distortion);
+    orders.push_back(std::move(own));
+  }
+  for (const PackageInput::Order& o : in.orders) {
+    std::string where = "order \"" + o.name + "\": ";
+    if (o.name.empty() || o.name == "rate-distortion") return fail(where + "bad name");
+    if (o.steps.size() != in.steps.size() || o.distortion.size() != in.steps.size())
+      return fail(where + "not one entry per step");
+    std::vector<bool> seen(in.steps.size(), false);
+    int64_t last_mesh = -1;
+    for (size_t i = 0; i < o.steps.size(); ++i) {
+      uint32_t k = o.steps[i];
+      if (k >= in.steps.size() || seen[k]) return fail(where + "not a permutation of the steps");
+      seen[k] = true;
+      if (in.steps[k].kind == StreamStep::kMesh) {
+        if (int64_t(k) < last_mesh) return fail(where + "mesh steps out of order");
+        last_mesh = int64_t(k);
+      }
+      if (!std::isfinite(o.distortion[i])) return fail(where + "distortion is not finite");
+    }
+    orders.push_back(o);
+  }
+
   // The table for a given start of the data (12 + reserved JSON length).
+  uint64_t base_indices_total = 0;
+  for (const auto& b : base_indices) base_indices_total += b.size();
   auto table = [&](uint64_t data_start) {
     OrderedJson j;
     j["version"] = kPackageVersion;
-    j["base"] = {{"offset", data_start}, {"size", uint64_t(in.base_glb.size())}};
+    j["base"] = {{"offset", data_start},
+                 {"size", uint64_t(in.base_glb.size())},
+                 {"distortion", in.base_distortion}};
     OrderedJson ms = OrderedJson::array();
+    uint64_t offset = data_start + in.base_glb.size();
     for (size_t m = 0; m < meshes; ++m) {
       const ProgressiveMesh& pm = ps.meshes[m];
       const ProgressiveLevel& b = pm.levels[in.base_levels[m]];
@@ -250,6 +373,8 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
       e["base_vertices"] = b.vertex_end, e["base_faces"] = b.face_end;
       e["bounds"] = {double(box.min.x), double(box.min.y), double(box.min.z),
                      double(box.max.x), double(box.max.y), double(box.max.z)};
+      e["base_indices"] = {{"offset", offset}, {"size", uint64_t(base_indices[m].size())}};
+      offset += base_indices[m].size();
       ms.push_back(std::move(e));
     }
     j["meshes"] = std::move(ms);
@@ -259,7 +384,6 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
     else
       j["texture"] = nullptr;
     OrderedJson cs = OrderedJson::array();
-    uint64_t offset = data_start + in.base_glb.size();
     for (const Chunk& c : chunks) {
       OrderedJson e;
       e["kind"] = c.mesh ? "mesh" : "texture";
@@ -273,7 +397,9 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
                            {"face_begin", p.face_begin},
                            {"face_end", p.face_end},
                            {"vertex_bytes", p.vertex_bytes},
-                           {"index_bytes", p.index_bytes}});
+                           {"index_bytes", p.index_bytes},
+                           {"updates", p.updates},
+                           {"update_bytes", p.update_bytes}});
         e["parts"] = std::move(parts);
       } else {
         e["width"] = c.texture->width, e["height"] = c.texture->height,
@@ -283,6 +409,10 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
       cs.push_back(std::move(e));
     }
     j["chunks"] = std::move(cs);
+    OrderedJson os = OrderedJson::array();
+    for (const PackageInput::Order& o : orders)
+      os.push_back({{"name", o.name}, {"chunks", o.steps}, {"distortion", o.distortion}});
+    j["orders"] = std::move(os);
     return j.dump();
   };
   std::string text;
@@ -299,7 +429,7 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   if (reserved > 0xffffffffu) return fail("JSON table too large");
   text.resize(size_t(reserved), ' ');
 
-  uint64_t total = kHeaderBytes + reserved + in.base_glb.size();
+  uint64_t total = kHeaderBytes + reserved + in.base_glb.size() + base_indices_total;
   for (const Chunk& c : chunks) total += c.payload.size();
   std::vector<uint8_t> out;
   out.reserve(size_t(total));
@@ -309,6 +439,7 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   put_u32(out, 8, uint32_t(reserved));
   out.insert(out.end(), text.begin(), text.end());
   out.insert(out.end(), in.base_glb.begin(), in.base_glb.end());
+  for (const auto& b : base_indices) out.insert(out.end(), b.begin(), b.end());
   for (const Chunk& c : chunks) out.insert(out.end(), c.payload.begin(), c.payload.end());
   return out;
 }
@@ -405,6 +536,14 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
   if ((nf == 0) != (p.index_bytes == 0) || nf > p.index_bytes)
     return fail(where + ": " + std::to_string(p.index_bytes) + " index bytes cannot hold " +
                 std::to_string(nf) + " faces");
+  // Updates move distinct corners of the faces held before the part, one varint byte each at
+  // least for the position and the value.
+  if (uint64_t(p.updates) > uint64_t(p.face_begin) * 3)
+    return fail(where + ": " + std::to_string(p.updates) + " updates for " +
+                std::to_string(p.face_begin) + " faces");
+  if ((p.updates == 0) != (p.update_bytes == 0) || uint64_t(p.updates) * 2 > p.update_bytes)
+    return fail(where + ": " + std::to_string(p.update_bytes) + " update bytes cannot hold " +
+                std::to_string(p.updates) + " updates");
   return Status::ok();
 }
 
@@ -419,6 +558,8 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   if (!(s = get_u32(j, "face_end", kMaxCount, p.face_end, where))) return s;
   if (!(s = get_uint(j, "vertex_bytes", file_size, p.vertex_bytes, where))) return s;
   if (!(s = get_uint(j, "index_bytes", file_size, p.index_bytes, where))) return s;
+  if (!(s = get_u32(j, "updates", kMaxCount * 3, p.updates, where))) return s;
+  if (!(s = get_uint(j, "update_bytes", file_size, p.update_bytes, where))) return s;
   return check_part(p, meshes, where);
 }
 
@@ -464,7 +605,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, Package
     if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p,
                         where + " part " + std::to_string(i))))
       return s;
-    sum += p.vertex_bytes + p.index_bytes;  // each ≤ file size: no overflow
+    sum += p.vertex_bytes + p.index_bytes + p.update_bytes;  // each ≤ file size: no overflow
     if (sum > c.size)
       return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
     c.parts.push_back(p);
@@ -514,6 +655,10 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (pkg.base_offset < data_start) return fail("base: offset inside the header");
   if (pkg.base_size == 0 || pkg.base_size > file_size - pkg.base_offset)
     return fail("base: range empty or past the end of the file");
+  auto base_d = base->find("distortion");
+  if (base_d == base->end()) return fail("base: missing \"distortion\"");
+  if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
+  uint64_t end = pkg.base_offset + pkg.base_size;
 
   auto meshes = j.find("meshes");
   if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
@@ -538,6 +683,22 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     }
     for (int i = 0; i < 3; ++i)
       if (pm.bounds[i] > pm.bounds[i + 3]) return fail(where + ": bounds minimum above maximum");
+    auto bi = e.find("base_indices");
+    if (bi == e.end() || !bi->is_object())
+      return fail(where + ": \"base_indices\" missing or not an object");
+    std::string bwhere = where + " base_indices";
+    if (!(s = get_uint(*bi, "offset", file_size, pm.base_indices_offset, bwhere)) ||
+        !(s = get_uint(*bi, "size", file_size, pm.base_indices_size, bwhere)))
+      return s;
+    if (pm.base_indices_offset != end)
+      return fail(bwhere + ": offset " + std::to_string(pm.base_indices_offset) +
+                  " is not where the data before it ends (" + std::to_string(end) + ")");
+    if (pm.base_indices_size > file_size - pm.base_indices_offset)
+      return fail(bwhere + ": range past the end of the file");
+    if ((pm.base_faces == 0) != (pm.base_indices_size == 0) || pm.base_faces > pm.base_indices_size)
+      return fail(bwhere + ": " + std::to_string(pm.base_indices_size) + " bytes cannot hold " +
+                  std::to_string(pm.base_faces) + " faces");
+    end += pm.base_indices_size;
     pkg.meshes.push_back(pm);
   }
 
@@ -552,7 +713,6 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
 
   auto chunks = j.find("chunks");
   if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
-  uint64_t end = pkg.base_offset + pkg.base_size;
   for (size_t i = 0; i < chunks->size(); ++i) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
@@ -564,6 +724,47 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
       return fail(where + ": texture chunk in a package without texture");
     end = c.offset + c.size;
     pkg.chunks.push_back(std::move(c));
+  }
+
+  auto orders = j.find("orders");
+  if (orders == j.end() || !orders->is_array() || orders->empty())
+    return fail("\"orders\" missing, not an array or empty");
+  const size_t n = pkg.chunks.size();
+  for (size_t o = 0; o < orders->size(); ++o) {
+    const Json& e = (*orders)[o];
+    std::string where = "order " + std::to_string(o);
+    if (!e.is_object()) return fail(where + " is not an object");
+    PackageOrder po;
+    auto name = e.find("name");
+    if (name == e.end() || !name->is_string() || name->get_ref<const std::string&>().empty())
+      return fail(where + ": \"name\" missing or not a non-empty string");
+    po.name = name->get<std::string>();
+    auto cs = e.find("chunks");
+    auto ds = e.find("distortion");
+    if (cs == e.end() || !cs->is_array() || cs->size() != n)
+      return fail(where + ": \"chunks\" is not one index per chunk");
+    if (ds == e.end() || !ds->is_array() || ds->size() != n)
+      return fail(where + ": \"distortion\" is not one number per chunk");
+    std::vector<bool> seen(n, false);
+    int64_t last_mesh = -1;
+    for (size_t i = 0; i < n; ++i) {
+      const Json& c = (*cs)[i];
+      if (!c.is_number_unsigned() || c.get<uint64_t>() >= n)
+        return fail(where + ": chunk index " + std::to_string(i) + " out of range");
+      uint32_t k = uint32_t(c.get<uint64_t>());
+      if (seen[k]) return fail(where + ": chunk " + std::to_string(k) + " listed twice");
+      seen[k] = true;
+      if (o == 0 && k != i) return fail(where + ": the first order is not the stored order");
+      if (pkg.chunks[k].kind == StreamStep::kMesh) {
+        if (int64_t(k) < last_mesh) return fail(where + ": mesh chunks out of order");
+        last_mesh = int64_t(k);
+      }
+      double d = 0;
+      if (!(s = get_finite((*ds)[i], d, where + ": distortion " + std::to_string(i)))) return s;
+      po.chunks.push_back(k);
+      po.distortion.push_back(d);
+    }
+    pkg.orders.push_back(std::move(po));
   }
   return pkg;
 }
@@ -584,9 +785,10 @@ Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package
   uint64_t offset = chunk.offset, end = chunk.offset + chunk.size;
   for (size_t i = 0; i <= part; ++i) {
     const PackagePart& p = chunk.parts[i];
-    if (p.vertex_bytes > end - offset || p.index_bytes > end - offset - p.vertex_bytes)
+    if (p.vertex_bytes > end - offset || p.index_bytes > end - offset - p.vertex_bytes ||
+        p.update_bytes > end - offset - p.vertex_bytes - p.index_bytes)
       return fail(where + " part " + std::to_string(i) + ": bytes past the end of the chunk");
-    if (i < part) offset += p.vertex_bytes + p.index_bytes;
+    if (i < part) offset += p.vertex_bytes + p.index_bytes + p.update_bytes;
   }
   where += " part " + std::to_string(part);
   const PackagePart& p = chunk.parts[part];
@@ -607,12 +809,52 @@ Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package
     if (meshopt_decodeIndexBuffer(out.indices.data(), ni, sizeof(uint32_t), data + p.vertex_bytes,
                                   size_t(p.index_bytes)) != 0)
       return fail(where + ": index data does not decode");
-    uint32_t vertices = package.meshes[p.mesh].vertices;
     for (uint32_t i : out.indices)
-      if (i >= vertices)
+      if (i >= p.vertex_end)
         return fail(where + ": index " + std::to_string(i) + " out of range (" +
-                    std::to_string(vertices) + " vertices)");
+                    std::to_string(p.vertex_end) + " vertices at this level)");
   }
+  if (p.updates > 0) {
+    std::vector<uint32_t> seq(size_t(p.updates) * 2);
+    if (meshopt_decodeIndexSequence(seq.data(), seq.size(), sizeof(uint32_t),
+                                    data + p.vertex_bytes + p.index_bytes,
+                                    size_t(p.update_bytes)) != 0)
+      return fail(where + ": update data does not decode");
+    out.update_positions.assign(seq.begin(), seq.begin() + p.updates);
+    out.update_values.assign(seq.begin() + p.updates, seq.end());
+    uint64_t corners = uint64_t(p.face_begin) * 3;
+    for (size_t i = 0; i < p.updates; ++i) {
+      if (out.update_positions[i] >= corners ||
+          (i > 0 && out.update_positions[i] <= out.update_positions[i - 1]))
+        return fail(where + ": update " + std::to_string(i) + ": corner " +
+                    std::to_string(out.update_positions[i]) + " out of range or out of order");
+      if (out.update_values[i] >= p.vertex_end)
+        return fail(where + ": update " + std::to_string(i) + ": vertex " +
+                    std::to_string(out.update_values[i]) + " out of range");
+    }
+  }
+  return out;
+}
+
+Result<std::vector<uint32_t>> decode_base_indices(const std::vector<uint8_t>& bytes,
+                                                  const Package& package, size_t mesh) {
+  std::string where = "mesh " + std::to_string(mesh) + " base_indices";
+  if (mesh >= package.meshes.size()) return fail(where + ": no such mesh");
+  const PackageMesh& m = package.meshes[mesh];
+  uint64_t size = bytes.size();
+  if (m.base_indices_offset > size || m.base_indices_size > size - m.base_indices_offset)
+    return fail(where + ": range past the end of the file");
+  if (m.base_faces > kMaxCount || m.base_faces > m.base_indices_size)
+    return fail(where + ": too few bytes for " + std::to_string(m.base_faces) + " faces");
+  std::vector<uint32_t> out(size_t(m.base_faces) * 3);
+  if (!out.empty() && meshopt_decodeIndexBuffer(out.data(), out.size(), sizeof(uint32_t),
+                                                bytes.data() + m.base_indices_offset,
+                                                size_t(m.base_indices_size)) != 0)
+    return fail(where + ": index data does not decode");
+  for (uint32_t i : out)
+    if (i >= m.base_vertices)
+      return fail(where + ": index " + std::to_string(i) + " out of range (" +
+                  std::to_string(m.base_vertices) + " base vertices)");
   return out;
 }
 

@@ -28,9 +28,10 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh exactly as
-// the stream package carries them (exporters/package: packed vertices through
-// meshopt_encodeVertexBuffer, faces through meshopt_encodeIndexBuffer).
+// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh with the
+// stream package's codecs (packed vertices through meshopt_encodeVertexBuffer, faces through
+// meshopt_encodeIndexBuffer), without the corner updates: an estimate for sizing the layers
+// and for the base; the refinement layers are costed by the package's own encoder below.
 uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1,
                      uint32_t f0, uint32_t f1) {
   uint64_t total = 0;
@@ -95,9 +96,25 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
     }
     layers.push_back(s);
   }
+  // Layer 0 is the base (its encoded vertices and faces stand for the base's bytes); each
+  // further layer costs exactly what the package's mesh chunk for it will hold.
+  std::vector<MeshStreamEncoder> encoders;
+  encoders.reserve(ps.meshes.size());
+  for (size_t i = 0; i < ps.meshes.size(); ++i)
+    encoders.emplace_back(ps.meshes[i], boxes[i], uint32_t(i), base.level[i]);
   for (int k = 0; k < m; ++k) {
-    r.mesh_bytes.push_back(
-        layer_bytes(ps, boxes, k ? &layers[size_t(k - 1)] : nullptr, layers[size_t(k)]));
+    uint64_t bytes = 0;
+    if (k == 0) {
+      bytes = layer_bytes(ps, boxes, nullptr, layers[0]);
+    } else {
+      for (size_t i = 0; i < ps.meshes.size(); ++i) {
+        if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
+        auto part = encoders[i].next(layers[size_t(k)].level[i]);
+        if (!part.ok()) return part.status().with_prefix("multiplex");
+        bytes += part->bytes();
+      }
+    }
+    r.mesh_bytes.push_back(bytes);
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
     r.layer_levels.push_back(layers[size_t(k)].level);
   }

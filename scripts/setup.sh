@@ -44,8 +44,11 @@ else
   echo "setup: Debian packages present" >&2
 fi
 
-# npm: Khronos' glTF validator (run through node by the tests). Pinned in package-lock.json.
-if [ ! -d "$here/node_modules/gltf-validator" ]; then
+# npm: Khronos' glTF validator (run through node by the tests), three.js (the viewer, embedded
+# into meshmux at build time) and playwright-core (drives Debian's chromium in the browser
+# tests; it downloads no browser). Pinned in package-lock.json.
+if [ ! -d "$here/node_modules/gltf-validator" ] || [ ! -d "$here/node_modules/three" ] ||
+  [ ! -d "$here/node_modules/playwright-core" ]; then
   echo "setup: installing npm packages" >&2
   (cd "$here" && npm ci --no-audit --no-fund --loglevel=error)
 else

@@ -544,6 +544,27 @@ TEST(ConvertFolder, WritesStreamPackage) {
   }
   EXPECT_GT(mesh_chunks, 0u);
   EXPECT_GT(texture_chunks, 0u);
+  for (size_t m = 0; m < pkg->meshes.size(); ++m)
+    ASSERT_TRUE(decode_base_indices(bytes, *pkg, m).ok());
+  // The descent's order and the three baselines of paper 004, over the same chunks.
+  ASSERT_EQ(pkg->orders.size(), 4u);
+  EXPECT_EQ(pkg->orders[0].name, "rate-distortion");
+  EXPECT_EQ(pkg->orders[1].name, "mesh-first");
+  EXPECT_EQ(pkg->orders[2].name, "texture-first");
+  EXPECT_EQ(pkg->orders[3].name, "constant-ratio");
+  // The viewer page and the modules it imports sit beside the package.
+  for (const char* f : {"index.html", "viewer/meshmux.js", "viewer/viewer.js", "viewer/viewer.css",
+                        "viewer/three/three.module.js", "viewer/three/three.core.js",
+                        "viewer/three/LICENSE", "viewer/three/addons/loaders/GLTFLoader.js",
+                        "viewer/three/addons/libs/meshopt_decoder.module.js",
+                        "viewer/three/addons/controls/OrbitControls.js"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
+  EXPECT_EQ(testing::read_file(dir.file("out/viewer/three/three.core.js")),
+            testing::read_file(std::string(MESHMUX_SOURCE_DIR) +
+                               "/node_modules/three/build/three.core.js"));
+  auto page = testing::read_file(dir.file("out/index.html"));
+  std::string html(page.begin(), page.end());
+  EXPECT_NE(html.find("importmap"), std::string::npos);
   std::vector<uint8_t> base(bytes.begin() + long(pkg->base_offset),
                             bytes.begin() + long(pkg->base_offset + pkg->base_size));
   testing::write_file(dir.file("base_from_package.glb"), base);

@@ -17,6 +17,8 @@
 #include "condition/simplify.h"
 #include "condition/texture_levels.h"
 #include "exporters/gltf.h"
+#include "importers/import.h"
+#include "scene/file_io.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -68,10 +70,11 @@ const Fixture& fixture() {
     if (levels.ok()) f->textures = levels.take();
     LodSelection base = select_base(f->ps);
     auto glb = export_glb_bytes(
-        materialize(f->ps, base),
+        materialize(f->ps, base, /*keep_prefix=*/true),
         [] {
           GltfExportOptions o;
           o.draco = false;
+          o.tag_meshes = true;
           return o;
         }(),
         nullptr);
@@ -98,6 +101,13 @@ const Fixture& fixture() {
     mesh_step(b + (full - b) / 2, 3);  // nothing changes: an empty chunk
     texture_step(2, 1.5);
     mesh_step(full, 0);
+    f->input.base_distortion = 7.75;
+    // A baseline: texture steps first, mesh steps in their order.
+    PackageInput::Order tf;
+    tf.name = "texture-first";
+    tf.steps = {1, 4, 0, 2, 3, 5};
+    tf.distortion = {6, 5, 4, 3, 2, 0};
+    f->input.orders.push_back(tf);
     return f;
   }();
   return *f;
@@ -108,6 +118,39 @@ Bounds bounds_of(const PackageMesh& m) {
   b.min = {m.bounds[0], m.bounds[1], m.bounds[2]};
   b.max = {m.bounds[3], m.bounds[4], m.bounds[5]};
   return b;
+}
+
+// A streaming client's state for one mesh, as viewers/web/meshmux.js keeps it: the vertex
+// count and every face received so far, in the numbering of the current level.
+struct Client {
+  uint32_t vertices = 0;
+  std::vector<uint32_t> indices;
+  void apply(const DecodedPart& d, const PackagePart& p) {
+    ASSERT_EQ(p.vertex_begin, vertices);
+    ASSERT_EQ(p.face_begin * 3, indices.size());
+    vertices = p.vertex_end;
+    for (size_t u = 0; u < d.update_positions.size(); ++u)
+      indices[d.update_positions[u]] = d.update_values[u];
+    indices.insert(indices.end(), d.indices.begin(), d.indices.end());
+  }
+};
+
+// The non-degenerate faces of `held` equal `level` (level_indices: degenerate ones dropped),
+// in order, each up to a rotation of its corners (meshopt's index codec may rotate them).
+bool same_faces(const std::vector<uint32_t>& held, const std::vector<uint32_t>& level) {
+  size_t j = 0;
+  for (size_t t = 0; t + 2 < held.size(); t += 3) {
+    const uint32_t* a = &held[t];
+    if (a[0] == a[1] || a[1] == a[2] || a[0] == a[2]) continue;
+    if (j + 2 >= level.size()) return false;
+    const uint32_t* e = &level[j];
+    bool same = false;
+    for (int r = 0; r < 3; ++r)
+      same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
+    if (!same) return false;
+    j += 3;
+  }
+  return j == level.size();
 }
 
 TEST(Package, FixtureIsStreamable) {
@@ -164,6 +207,36 @@ TEST(Package, RoundTripDecodesEveryPart) {
   uint32_t v = base.vertex_end, fc = base.face_end;
   size_t mesh_step = 0;
   std::vector<uint8_t> all_vertices;
+  // The base: its faces decode to the base level; the base .glb's mesh holds the stream's
+  // first base_vertices vertices in order, tagged with its package mesh.
+  auto base_faces = decode_base_indices(*bytes, *pkg, 0);
+  ASSERT_TRUE(base_faces.ok()) << base_faces.status().message();
+  ASSERT_EQ(base_faces->size(), size_t(base.face_end) * 3);
+  EXPECT_TRUE(same_faces(*base_faces, level_indices(pm, f.input.base_levels[0])));
+  Client client;
+  client.vertices = base.vertex_end;
+  client.indices = *base_faces;
+  size_t updates = 0;
+  {
+    testing::TempDir dir;
+    std::string glb = dir.path() + "/base.glb";
+    ASSERT_TRUE(write_file_atomic(glb, f.input.base_glb));
+    Warnings w;
+    auto scene = import_scene(glb, ImportOptions{}, &w);
+    ASSERT_TRUE(scene.ok()) << scene.status().message();
+    ASSERT_EQ(scene->meshes.size(), 1u);
+    ASSERT_EQ(scene->meshes[0].primitives.size(), 1u);
+    const Primitive& prim = scene->meshes[0].primitives[0];
+    ASSERT_EQ(prim.positions.size(), base.vertex_end);
+    for (uint32_t k = 0; k < base.vertex_end; ++k) {
+      ASSERT_EQ(prim.positions[k].x, pm.positions[k].x) << "vertex " << k;
+      ASSERT_EQ(prim.positions[k].z, pm.positions[k].z) << "vertex " << k;
+    }
+    auto text = read_whole_file(glb);
+    ASSERT_TRUE(text.ok());
+    std::string glb_text(text->begin(), text->end());
+    EXPECT_NE(glb_text.find("\"meshmux_mesh\":0"), std::string::npos);
+  }
   for (size_t i = 0; i < pkg->chunks.size(); ++i) {
     const PackageChunk& c = pkg->chunks[i];
     const StreamStep& step = f.input.steps[i];
@@ -193,28 +266,32 @@ TEST(Package, RoundTripDecodesEveryPart) {
     EXPECT_EQ(p.vertex_end, to.vertex_end);
     EXPECT_EQ(p.face_begin, fc);
     EXPECT_EQ(p.face_end, to.face_end);
-    EXPECT_EQ(p.vertex_bytes + p.index_bytes, c.size);
+    EXPECT_EQ(p.vertex_bytes + p.index_bytes + p.update_bytes, c.size);
     auto d = decode_part(*bytes, *pkg, c, 0);
     ASSERT_TRUE(d.ok()) << d.status().message();
     EXPECT_EQ(d->vertices, pack_vertices(pm, box, v, to.vertex_end)) << "chunk " << i;
-    std::vector<uint32_t> faces(pm.indices.begin() + long(fc) * 3,
-                                pm.indices.begin() + long(to.face_end) * 3);
-    // meshopt's index codec keeps triangle order and winding but may rotate a triangle's corners.
-    ASSERT_EQ(d->indices.size(), faces.size());
-    for (size_t t = 0; t < faces.size(); t += 3) {
-      const uint32_t* a = &d->indices[t];
-      const uint32_t* e = &faces[t];
-      bool same = false;
-      for (int r = 0; r < 3; ++r)
-        same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
-      ASSERT_TRUE(same) << "chunk " << i << " face " << t / 3;
-    }
+    // What a client holds after the part equals the level, face for face.
+    client.apply(*d, p);
+    EXPECT_TRUE(same_faces(client.indices, level_indices(pm, level))) << "chunk " << i;
+    EXPECT_EQ(p.updates, d->update_positions.size());
+    updates += p.updates;
     all_vertices.insert(all_vertices.end(), d->vertices.begin(), d->vertices.end());
     v = to.vertex_end, fc = to.face_end;
     EXPECT_FALSE(decode_part(*bytes, *pkg, c, 1).ok());
   }
   EXPECT_EQ(v, pm.vertex_count());
   EXPECT_EQ(fc, pm.face_count());
+  EXPECT_GT(updates, 0u) << "refinements must move corners of faces already held";
+  EXPECT_EQ(client.vertices, pm.vertex_count());
+  // The orders: the stored one first, then the baseline as given.
+  EXPECT_EQ(pkg->base_distortion, 7.75);
+  ASSERT_EQ(pkg->orders.size(), 2u);
+  EXPECT_EQ(pkg->orders[0].name, "rate-distortion");
+  EXPECT_EQ(pkg->orders[0].chunks, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(pkg->orders[0].distortion[1], 4.25);
+  EXPECT_EQ(pkg->orders[1].name, "texture-first");
+  EXPECT_EQ(pkg->orders[1].chunks, f.input.orders[0].steps);
+  EXPECT_EQ(pkg->orders[1].distortion, f.input.orders[0].distortion);
   // The packed vertices dequantize to the positions (to 16 bits over the bounds), carry parents.
   ASSERT_EQ(all_vertices.size(), size_t(pm.vertex_count() - base.vertex_end) * kPackedVertexBytes);
   for (uint32_t k = base.vertex_end; k < pm.vertex_count(); ++k) {
@@ -250,6 +327,17 @@ TEST(Package, WriterRejectsInconsistentInput) {
   in = f.input;
   in.scene = nullptr;
   EXPECT_FALSE(write_package(in).ok());
+  // Orders must be permutations of the steps that keep the mesh steps in order.
+  in = f.input;
+  in.orders[0].steps = {2, 1, 4, 0, 3, 5};  // mesh step 2 before mesh step 0
+  r = write_package(in);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("mesh steps out of order"), std::string::npos)
+      << r.status().message();
+  in.orders[0].steps = {1, 1, 0, 2, 3, 5};
+  EXPECT_FALSE(write_package(in).ok());
+  in.orders[0].steps = {1, 4, 0, 2, 3};
+  EXPECT_FALSE(write_package(in).ok());
   // No textures, no texture steps: "texture": null.
   in = f.input;
   in.textures = nullptr;
@@ -257,6 +345,7 @@ TEST(Package, WriterRejectsInconsistentInput) {
   for (const StreamStep& s : in.steps)
     if (s.kind == StreamStep::kMesh) mesh_only.push_back(s);
   in.steps = mesh_only;
+  in.orders.clear();
   auto bytes = write_package(in);
   ASSERT_TRUE(bytes.ok()) << bytes.status().message();
   auto pkg = read_package(*bytes);
@@ -412,6 +501,14 @@ TEST(Package, SurvivesThousandCorruptions) {
       continue;
     }
     bool all_ok = true;
+    for (size_t m = 0; m < pkg->meshes.size(); ++m) {
+      auto b = decode_base_indices(bytes, *pkg, m);
+      if (!b.ok()) {
+        all_ok = false;
+        continue;
+      }
+      for (uint32_t i : *b) ASSERT_LT(i, pkg->meshes[m].base_vertices);
+    }
     for (const PackageChunk& c : pkg->chunks) {
       ASSERT_LE(c.offset + c.size, bytes.size());
       for (size_t p = 0; p < c.parts.size(); ++p) {
@@ -425,7 +522,9 @@ TEST(Package, SurvivesThousandCorruptions) {
         ASSERT_EQ(d->vertices.size(),
                   size_t(part.vertex_end - part.vertex_begin) * kPackedVertexBytes);
         ASSERT_EQ(d->indices.size(), size_t(part.face_end - part.face_begin) * 3);
-        for (uint32_t i : d->indices) ASSERT_LT(i, pkg->meshes[part.mesh].vertices);
+        for (uint32_t i : d->indices) ASSERT_LT(i, part.vertex_end);
+        for (uint32_t i : d->update_positions) ASSERT_LT(i, uint64_t(part.face_begin) * 3);
+        for (uint32_t i : d->update_values) ASSERT_LT(i, part.vertex_end);
       }
     }
     ++(all_ok ? accepted : rejected_decode);
@@ -455,8 +554,8 @@ TEST(Package, RejectsBadHeadersWithClearMessages) {
   b[0] = 'X';
   EXPECT_NE(message(b).find("magic"), std::string::npos) << message(b);
   b = *valid;
-  b[4] = 2;
-  EXPECT_EQ(message(b), "package: version 2 not supported");
+  b[4] = 1;  // version 1 packages (no corner updates) cannot be streamed correctly
+  EXPECT_EQ(message(b), "package: version 1 not supported");
   b = *valid;
   b[11] = 0x7f;
   EXPECT_NE(message(b).find("past the end"), std::string::npos) << message(b);

@@ -1,0 +1,27 @@
+// The web viewer written beside a converted model (DESIGN.md "Outputs"): index.html, the
+// three.js client (viewers/web) and the parts of three.js it imports, so that `meshmux serve
+// OUTDIR` (or any static web server) shows the stream at OUTDIR/index.html with no network
+// access beyond OUTDIR. The files are built into the program (see viewer_page.cpp).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "scene/status.h"
+
+namespace meshmux {
+
+struct ViewerFile {
+  std::string path;  // relative to the output folder, '/'-separated
+  const char* data = nullptr;
+  size_t size = 0;
+};
+
+// Every file of the viewer, in a fixed order.
+std::vector<ViewerFile> viewer_files();
+
+// Writes viewer_files() under `dir` (creating viewer/ subfolders), each through a temporary
+// name renamed when complete. Errors name the file (kOutput).
+Status write_viewer(const std::string& dir);
+
+}  // namespace meshmux

@@ -1,0 +1,23 @@
+// The stream package's steps and orders from a multiplexing result (paper 004 §3–4): one step
+// per move of the steepest-descent path, and the three baselines (mesh-first, texture-first,
+// constant ratio) as permutations of those same steps, so one file can replay every order.
+#pragma once
+
+#include <vector>
+
+#include "exporters/package.h"
+#include "multiplex/multiplex.h"
+
+namespace meshmux {
+
+struct StreamPlan {
+  std::vector<StreamStep> steps;            // the descent's moves, in order
+  double base_distortion = 0;               // distortion of state (0, 0)
+  std::vector<PackageInput::Order> orders;  // the baselines, by name
+};
+
+// Fails (kInternal) when a path is not a monotone walk of unit moves from (0, 0) to the far
+// corner, or when the baselines do not visit the same moves as the descent. O(m + n).
+Result<StreamPlan> stream_plan(const MultiplexResult& r);
+
+}  // namespace meshmux

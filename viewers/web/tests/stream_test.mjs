@@ -1,0 +1,197 @@
+// Browser test of the stream viewer (issue 5/5): converts a model with `meshmux convert`, serves
+// the output with `meshmux serve`, and drives Debian's chromium (headless, through
+// playwright-core) against it:
+//   1. with a budget of 10% of the package bytes the model is already visible (its covered
+//      pixels are at least half of the full-quality render's);
+//   2. the whole stream plays to "complete" with no console error, and the final frame matches
+//      the C++ offscreen render of the full-quality model.glb from the same camera
+//      (PSNR >= 30 dB over the pixels either image covers);
+//   3. replaying in a baseline order also reaches "complete".
+// Prints the figures (PSNR, coverage, refinement speed in triangles/s) and writes them to
+// WORK/browser_result.json.
+//
+// usage: node stream_test.mjs --meshmux BIN (--model FILE | --sample) --work DIR
+//        [--chromium /usr/bin/chromium] [--min-psnr 30] [--budget 0.1]
+// Exit: 0 pass, 1 fail, 77 skipped (no chromium / model missing: said on stderr).
+import { spawn, spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { chromium } from 'playwright-core';
+
+const args = process.argv.slice(2);
+function opt(name, fallback) {
+  const i = args.indexOf(name);
+  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
+}
+const meshmux = opt('--meshmux');
+const work = opt('--work');
+const model = opt('--model');
+const sample = args.includes('--sample');
+const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+const minPsnr = Number(opt('--min-psnr', '30'));
+const budget = Number(opt('--budget', '0.1'));  // fraction of the package for the early check
+const size = 512;
+
+function skip(message) {
+  console.error(`SKIPPED: ${message}`);
+  process.exit(77);
+}
+function fail(message) {
+  console.error(`FAIL: ${message}`);
+  process.exitCode = 1;
+}
+if (!meshmux || !work || (!model && !sample)) {
+  console.error('usage: node stream_test.mjs --meshmux BIN (--model FILE | --sample) --work DIR');
+  process.exit(2);
+}
+if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
+if (model && !fs.existsSync(model)) skip(`${model} not found (../shared/models absent)`);
+
+function run(cmd, argv) {
+  const r = spawnSync(cmd, argv, { encoding: 'utf8', maxBuffer: 1 << 26 });
+  if (r.status !== 0) throw new Error(`${cmd} ${argv.join(' ')} exited ${r.status}: ${r.stderr}`);
+  return r;
+}
+
+// Netpbm PAM (P7 RGB_ALPHA) as written by `meshmux render`.
+function readPam(file) {
+  const buf = fs.readFileSync(file);
+  const end = buf.indexOf('ENDHDR\n');
+  if (end < 0) throw new Error(`${file}: not a PAM file`);
+  const header = buf.subarray(0, end).toString('latin1');
+  const field = (k) => Number((header.match(new RegExp(`${k} (\\d+)`)) || [])[1]);
+  const width = field('WIDTH'), height = field('HEIGHT');
+  const data = buf.subarray(end + 7);
+  if (field('DEPTH') !== 4 || data.length !== width * height * 4) throw new Error(`${file}: not RGBA`);
+  return { width, height, data };
+}
+
+// PSNR of the RGB channels over the pixels either image covers (alpha > 0), and the counts.
+function compare(a, b) {
+  let sum = 0, n = 0, coveredA = 0, coveredB = 0;
+  for (let i = 0; i < a.length; i += 4) {
+    const ca = a[i + 3] > 0, cb = b[i + 3] > 0;
+    coveredA += ca, coveredB += cb;
+    if (!ca && !cb) continue;
+    for (let c = 0; c < 3; ++c) {
+      const d = a[i + c] - b[i + c];
+      sum += d * d;
+    }
+    n += 3;
+  }
+  const mse = n ? sum / n : 0;
+  const psnr = mse > 0 ? 10 * Math.log10((255 * 255) / mse) : Infinity;
+  return { psnr, coveredA, coveredB };
+}
+
+fs.rmSync(work, { recursive: true, force: true });
+fs.mkdirSync(work, { recursive: true });
+const out = path.join(work, 'out');
+let input = model;
+if (sample) {
+  input = path.join(work, 'sample.glb');
+  run(meshmux, ['sample', '-o', input, '-q']);
+}
+run(meshmux, ['convert', input, '-o', out, '-q']);
+for (const f of ['index.html', 'model.mmxp', 'model.glb', 'viewer/meshmux.js']) {
+  if (!fs.existsSync(path.join(out, f))) throw new Error(`convert did not write ${f}`);
+}
+const packageBytes = fs.statSync(path.join(out, 'model.mmxp')).size;
+
+// The server: port 0, the URL read from its first line.
+const server = spawn(meshmux, ['serve', out, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
+const url = await new Promise((resolve, reject) => {
+  let text = '';
+  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
+  server.stdout.on('data', (d) => {
+    text += d;
+    const m = text.match(/http:\/\/[^\s]+\//);
+    if (m) { clearTimeout(timer); resolve(m[0]); }
+  });
+  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
+});
+
+const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
+const context = await chromium.launchPersistentContext(userData, {
+  executablePath: chromiumPath,
+  headless: true,
+  viewport: { width: 960, height: 720 },
+  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+});
+const problems = [];
+const result = { input, packageBytes, url };
+try {
+  const page = context.pages()[0] || (await context.newPage());
+  // Console errors and warnings fail the test, except the driver's note that the test's own
+  // capture (readPixels) stalls the pipeline.
+  page.on('console', (m) => {
+    if (m.type() !== 'error' && m.type() !== 'warning') return;
+    if (m.type() === 'warning' && /GPU stall due to ReadPixels/.test(m.text())) return;
+    problems.push(`console ${m.type()}: ${m.text()}`);
+  });
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()} ${r.failure()?.errorText}`));
+
+  async function load(query, states) {
+    await page.goto(url + query);
+    await page.waitForFunction((s) => s.includes(document.body.dataset.state) || document.body.dataset.state === 'error',
+      states, { timeout: 300000, polling: 100 });
+    const state = await page.evaluate(() => document.body.dataset.state);
+    if (state === 'error') throw new Error(`viewer error: ${await page.evaluate(() => document.body.innerText)}`);
+    return page.evaluate(() => window.meshmuxViewer.stats);
+  }
+  async function capture() {
+    const shot = await page.evaluate(async (n) => window.meshmuxViewer.capture(n, n), size);
+    return Buffer.from(shot.rgba, 'base64');
+  }
+  async function reference(name) {
+    const v = await page.evaluate(() => window.meshmuxViewer.view());
+    const pam = path.join(work, `${name}.pam`);
+    run(meshmux, ['render', path.join(out, 'model.glb'), '-o', pam, '--size', `${size}x${size}`,
+      '--eye', v.eye.join(','), '--target', v.target.join(','), '--up', v.up.join(','),
+      '--fov', String(v.fov), '--near', String(v.near), '--far', String(v.far), '-q']);
+    return readPam(pam).data;
+  }
+
+  // 1. A tenth of the bytes.
+  const tenth = await load(`?budget=${budget}`, ['stopped', 'complete']);
+  const early = compare(await capture(), await reference('reference-budget'));
+  result.tenth = { bytes: tenth.bytesReceived, triangles: tenth.triangles, texture: tenth.textureWidth,
+    coverage: early.coveredA / Math.max(1, early.coveredB), psnr: early.psnr };
+  console.log(`${budget * 100}% budget: ${tenth.bytesReceived} of ${packageBytes} bytes, ${tenth.triangles} triangles, ` +
+    `texture ${tenth.textureWidth}², covers ${early.coveredA} px (full model ${early.coveredB}), PSNR ${early.psnr.toFixed(2)} dB`);
+  if (tenth.bytesReceived > budget * packageBytes) fail(`budget ${budget} received ${tenth.bytesReceived} bytes`);
+  if (early.coveredA < 0.5 * early.coveredB) fail(`model not visible after ${budget * 100}% of the bytes`);
+
+  // 2. The whole stream.
+  const full = await load('', ['complete']);
+  const final = compare(await capture(), await reference('reference'));
+  const speed = full.applySeconds > 0 ? full.trianglesApplied / full.applySeconds : 0;
+  result.full = { bytes: full.bytesReceived, triangles: full.triangles, texture: full.textureWidth,
+    chunks: full.chunksApplied, psnr: final.psnr, covered: final.coveredA, coveredReference: final.coveredB,
+    trianglesApplied: full.trianglesApplied, applySeconds: full.applySeconds, trianglesPerSecond: speed };
+  console.log(`complete: ${full.bytesReceived} bytes, ${full.chunksApplied}/${full.chunkCount} chunks, ` +
+    `${full.triangles} triangles, texture ${full.textureWidth}², PSNR ${final.psnr.toFixed(2)} dB over ` +
+    `${Math.max(final.coveredA, final.coveredB)} px (viewer ${final.coveredA}, C++ ${final.coveredB})`);
+  console.log(`refinement: ${full.trianglesApplied} triangles in ${(full.applySeconds * 1000).toFixed(2)} ms ` +
+    `= ${(speed / 1e6).toFixed(1)} M triangles/s`);
+  if (full.bytesReceived !== packageBytes) fail(`received ${full.bytesReceived} of ${packageBytes} bytes`);
+  if (!(final.psnr >= minPsnr)) fail(`final frame PSNR ${final.psnr.toFixed(2)} dB < ${minPsnr}`);
+
+  // 3. A baseline order from the same file.
+  const orders = await page.evaluate(() => window.meshmuxViewer.orders?.() ?? null);
+  const replay = await load('?order=texture-first', ['complete']);
+  result.replay = { order: replay.order, triangles: replay.triangles, orders };
+  console.log(`replay texture-first: ${replay.chunksApplied} chunks, ${replay.triangles} triangles`);
+  if (replay.triangles !== full.triangles) fail('the baseline replay ends with other triangles');
+} catch (e) {
+  fail(e.stack || String(e));
+} finally {
+  await context.close();
+  server.kill('SIGTERM');
+}
+if (problems.length) fail(`console problems:\n  ${problems.join('\n  ')}`);
+result.problems = problems;
+fs.writeFileSync(path.join(work, 'browser_result.json'), JSON.stringify(result, null, 2));
+if (!process.exitCode) console.log('PASS');
