@@ -1,63 +1,56 @@
-// meshmux.js — the web client of meshmux stream packages (model.mmxp, version 2).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 2).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
-// levels) in rate-distortion order. Everything is fetched with HTTP Range requests:
+// levels) stored in rate-distortion order. Everything is fetched with HTTP Range requests:
 //
 //   const stream = new MeshmuxStream('model.mmxp', { renderer });
-//   scene.add(await stream.open());      // the base, shown at once
+//   scene.add(await stream.open());      // the base, ready to show
 //   stream.addEventListener('chunk', render);
 //   await stream.play();                 // refinements and texture levels, chunk by chunk
 //
 // Per package mesh the client keeps ONE BufferGeometry with the capacity of the full mesh: a
 // vertex buffer that is only appended to and an index buffer of every face received so far
-// (degenerate faces included; later updates may open them up). Each applied part writes into
+// (degenerate faces included: later corner updates may open them up). Each part writes into
 // those arrays and marks only the changed ranges for upload. Everything is drawn with one shared
-// shading (base colour × texture × two-sided Lambert with a light that follows the camera, no
-// colour management), matching meshmux's offscreen renderer.
+// shading (base colour × texture × two-sided Lambert, light following the camera, no colour
+// management), as meshmux's offscreen renderer draws it.
 //
-// Events (CustomEvent, detail = a copy of `stats` unless said): 'base' (the base is built),
-// 'chunk' (one chunk applied; detail also has `chunk` and `kind`), 'progress' (bytes changed),
-// 'complete' (every chunk applied), 'stopped' (budget reached or stop()), 'error'
-// (detail {error, stats}).
+// Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (base built),
+// 'chunk' (one chunk applied; + chunk, kind), 'progress' (bytes changed), 'complete' (every
+// chunk applied), 'stopped' (budget reached or stop()), 'error' (+ error).
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 export const PACKAGE_VERSION = 2;
-export const VERTEX_BYTES = 20;            // packed vertex: pos 3×u16 + pad, normal 4×i8, uv 2×u16, parent u32
+export const VERTEX_BYTES = 20;  // position 3×u16 + pad u16, normal 4×i8, uv 2×u16, parent u32
 const HEADER_BYTES = 12;
-const PROBE_BYTES = 65536;                 // the first request: header, JSON and usually more
-const MAX_ELEMENTS = 1 << 27;              // sanity cap on vertices / faces of one mesh
-const RANGE_GAP = 1024;                    // index updates closer than this share one upload range
+const PROBE_BYTES = 65536;       // the first request: header, table and often the base too
+const MAX_ELEMENTS = 1 << 27;    // sanity cap on one mesh's vertices / faces
+const RANGE_GAP = 1024;          // corner updates closer than this share one upload range
 const LIGHT = new THREE.Vector3(0.4, 0.8, 0.45).normalize();  // view space, towards the light
-export const ORDER_NAMES = ['rate-distortion', 'mesh-first', 'texture-first', 'constant-ratio'];
 
-// ---- Scratch memory for decoding (grown on demand, never shrunk) -------------------------------
+// ---- Decoding: scratch memory and the hot loops ----------------------------------------------
 
-let scratch = new ArrayBuffer(1 << 16);
-let scratchU8 = new Uint8Array(scratch);
-let scratchU16 = new Uint16Array(scratch);
-let scratchI8 = new Int8Array(scratch);
-let scratchU32 = new Uint32Array(scratch);
-
+let scratch = new ArrayBuffer(1 << 16);  // decoded vertices / updates (grown, never shrunk)
+let scratchU8, scratchU16, scratchI8, scratchU32;
 function ensureScratch(bytes) {
-  if (scratch.byteLength >= bytes) return;
+  if (scratchU8 && scratch.byteLength >= bytes) return;
   let size = scratch.byteLength;
   while (size < bytes) size *= 2;
-  scratch = new ArrayBuffer(size);
+  if (size !== scratch.byteLength) scratch = new ArrayBuffer(size);
   scratchU8 = new Uint8Array(scratch);
   scratchU16 = new Uint16Array(scratch);
   scratchI8 = new Int8Array(scratch);
   scratchU32 = new Uint32Array(scratch);
 }
+ensureScratch(0);
 
-// ---- Hot loops (plain functions over typed arrays, warmed up once per page) -------------------
-
-// Dequantizes `count` packed vertices (u16/i8 views of the decoded bytes) into the float
-// attributes from vertex `first` on. Per vertex: u16 words 0..2 position (3 pad), bytes 8..10
-// normal, u16 words 6..7 uv, words 8..9 parent (informational, unused here).
+// Dequantizes `count` packed vertices (u16 and i8 views of the decoded bytes) into the float
+// attributes from vertex `first` on: per vertex, u16 words 0..2 the position over `bounds`
+// (min + q/65535·extent), bytes 8..10 the normal (/127), u16 words 6..7 the uv (/65535).
 export function dequantize(u16, i8, count, bounds, P, N, T, first) {
   const x0 = bounds[0], y0 = bounds[1], z0 = bounds[2];
   const sx = (bounds[3] - x0) / 65535, sy = (bounds[4] - y0) / 65535, sz = (bounds[5] - z0) / 65535;
@@ -79,8 +72,8 @@ export function dequantize(u16, i8, count, bounds, P, N, T, first) {
   }
 }
 
-// Counts the non-degenerate faces among corners [start, end) of I; returns -(k + 1) for the
-// first face k·3 naming a vertex >= limit.
+// Counts the non-degenerate faces among corners [start, end) of I. Returns -(i + 1) for the
+// first face (corner i) naming a vertex >= limit.
 export function scanFaces(I, start, end, limit) {
   let solid = 0;
   for (let i = start; i < end; i += 3) {
@@ -91,9 +84,9 @@ export function scanFaces(I, start, end, limit) {
   return solid;
 }
 
-// Applies u corner updates (S[0..u) ascending positions, S[u..2u) values) to index buffer I,
-// marking upload ranges on `attribute` (nearby faces share one). Returns the change of the
-// non-degenerate face count, or UPDATE_ERROR (details in updateError).
+// Applies u corner updates (S[0..u): ascending positions < corners, S[u..2u): vertices < limit)
+// to the index buffer I and marks upload ranges on `attribute` (nearby faces share one).
+// Returns the change of the non-degenerate face count, or UPDATE_ERROR (see updateError).
 const UPDATE_ERROR = -0x7fffffff;
 const updateError = { i: 0, p: 0, v: 0 };
 export function applyCornerUpdates(I, S, u, corners, limit, attribute) {
@@ -106,7 +99,7 @@ export function applyCornerUpdates(I, S, u, corners, limit, attribute) {
     }
     const f3 = p - (p % 3);
     if (f3 !== face) {
-      // A new face: settle the previous one's status change, note this one's status before.
+      // A new face: settle the previous one's status, subtract this one's status before.
       if (face >= 0) {
         const a = I[face], b = I[face + 1], c = I[face + 2];
         if (a !== b && b !== c && a !== c) delta++;
@@ -114,7 +107,6 @@ export function applyCornerUpdates(I, S, u, corners, limit, attribute) {
       const a = I[f3], b = I[f3 + 1], c = I[f3 + 2];
       if (a !== b && b !== c && a !== c) delta--;
       face = f3;
-      // Upload ranges: faces closer than RANGE_GAP corners share one.
       if (f3 - rangeEnd >= RANGE_GAP) {
         if (rangeStart >= 0) attribute.addUpdateRange(rangeStart, rangeEnd - rangeStart);
         rangeStart = f3;
@@ -132,146 +124,57 @@ export function applyCornerUpdates(I, S, u, corners, limit, attribute) {
   return delta;
 }
 
-// Prepares the decode path before the first chunk is applied (called while its bytes are on
-// their way): a cold first chunk runs several times slower than the rest.
-//  - Grows the decoder's WebAssembly heap to `heapBytes` (the largest decode ahead) up front.
-//    Growing detaches the heap's old ArrayBuffer, and V8 then discards all code it optimized on
-//    the assumption that no ArrayBuffer was ever detached: better now than mid-stream.
-//  - Runs the three decoders (compiled lazily) and the three loops (interpreted at first) on
-//    synthetic data until the engine has optimized them.
-// Costs a few milliseconds once per page, plus the heap growth.
-let warmedUp = false, heapReserved = 0;
-function warmUp(heapBytes) {
-  if (heapBytes > heapReserved) {
-    // A zero index sequence of n values needs 4n + n + 5 heap bytes.
-    const n = Math.ceil(heapBytes / 5);
-    const source = new Uint8Array(n + 5);
-    source[0] = 0xd0;
-    try {
-      MeshoptDecoder.decodeIndexSequence(new Uint8Array(4 * n), n, 4, source);
-      heapReserved = heapBytes;
-    } catch (e) {
-      // Only a reservation: the real decodes grow the heap themselves.
-    }
-  }
-  if (warmedUp) return;
-  warmedUp = true;
-  try {
-    // Valid codec streams of zeros: 1024 vertices (header 0xa0; per 256-vertex block and byte
-    // channel 4 zero group headers; a 32-byte tail), 1024 sequence values (header 0xd0, one zero
-    // byte each, 4-byte tail) and two triangles (0,1,2)(2,1,3) as meshoptimizer encodes them.
-    const vertices = new Uint8Array(1 + 4 * 20 * 4 + 32), sequence = new Uint8Array(1 + 1024 + 4);
-    vertices[0] = 0xa0;
-    sequence[0] = 0xd0;
-    const triangles = new Uint8Array([0xe0, 0xf0, 0x10, 0x00, 0x76, 0x87, 0x56, 0x67, 0x78, 0xa9, 0x86, 0x65, 0x89, 0x68, 0x98, 0x01, 0x69, 0x00, 0x00]);
-    ensureScratch(1024 * VERTEX_BYTES);
-    for (let k = 0; k < 64; k++) {
-      MeshoptDecoder.decodeVertexBuffer(scratchU8.subarray(0, 1024 * VERTEX_BYTES), 1024, VERTEX_BYTES, vertices);
-      MeshoptDecoder.decodeIndexSequence(scratchU8.subarray(0, 4096), 1024, 4, sequence);
-      MeshoptDecoder.decodeIndexBuffer(scratchU8.subarray(0, 24), 6, 4, triangles);
-    }
-  } catch (e) {
-    // Only a warm-up: a decoder that rejects these streams still decodes real ones.
-  }
-  const n = 2048, u16 = new Uint16Array(10 * n), i8 = new Int8Array(u16.buffer);
-  for (let i = 0; i < u16.length; i++) u16[i] = (i * 7919) & 0xffff;
-  const P = new Float32Array(3 * n), N = new Float32Array(3 * n), T = new Float32Array(2 * n);
-  const I = new Uint32Array(3 * n), S = new Uint32Array(2 * n);
-  let seed = 12345;
-  const random = (m) => { seed = (Math.imul(seed, 1103515245) + 12345) >>> 0; return (seed >>> 8) % m; };
-  for (let i = 0; i < I.length; i++) I[i] = random(n);
-  // Mostly nearby corners, now and then a jump past RANGE_GAP (a new upload range).
-  for (let i = 0, p = 0; i < n; i++) { p += 1 + (random(32) === 0 ? RANGE_GAP + random(64) : random(3)); S[i] = p; S[n + i] = random(n); }
-  const corners = S[n - 1] + 1, J = new Uint32Array(corners + 3);  // whole faces
-  const bounds = new Float64Array([-0.5, -0.5, -0.5, 0.5, 0.5, 0.5]);
-  const sink = new THREE.BufferAttribute(new Uint32Array(3), 1);
-  // Many short calls first (so each function is optimized whole, with feedback from every
-  // branch, rather than mid-loop), then a few long ones.
-  for (let k = 0; k < 400; k++) {
-    const m = 16 + (k % 48), at = (k * 37) % (n - 64);
-    dequantize(u16, i8, m, bounds, P, N, T, at);
-    scanFaces(I, 3 * at, 3 * (at + m), n);
-    const Sm = new Uint32Array(2 * m);
-    for (let i = 0; i < m; i++) { Sm[i] = S[at + i]; Sm[m + i] = S[n + at + i]; }
-    applyCornerUpdates(J, Sm, m, corners, n, sink);
-    sink.clearUpdateRanges();
-  }
-  for (let k = 0; k < 4; k++) {
-    dequantize(u16, i8, n, bounds, P, N, T, 0);
-    scanFaces(I, 0, I.length, n);
-    applyCornerUpdates(J, S, n, corners, n, sink);
-    sink.clearUpdateRanges();
-  }
-}
-
 // ---- One streaming mesh ----------------------------------------------------------------------
 
-// The client-side state of package mesh m: typed arrays with the full mesh's capacity, the
-// BufferGeometry drawing them, and the counts received so far. The three append/update methods
-// are the whole refinement path (exported for tests); each validates what it decodes.
+// Package mesh m on the client: arrays with the full mesh's capacity, the BufferGeometry that
+// draws them, the counts received so far. appendVertices / applyUpdates / appendFaces are the
+// whole refinement path; each validates what it decodes.
 export class StreamMesh {
   constructor(desc, index) {
     this.index = index;
     this.capacityVertices = desc.vertices;
     this.capacityFaces = desc.faces;
     this.bounds = Float64Array.from(desc.bounds);
-    this.vertices = 0;        // vertices received
-    this.faces = 0;           // faces received (index buffer holds 3 × faces corners)
-    this.solid = 0;           // non-degenerate faces among them
-    this.instances = 0;       // objects (× instances) drawing this mesh in the scene
+    this.vertices = 0;   // vertices received
+    this.faces = 0;      // faces received (3 corners each in the index buffer)
+    this.solid = 0;      // non-degenerate faces among them
+    this.instances = 0;  // objects (× instances) that draw this mesh
     this.position = new Float32Array(3 * desc.vertices);
     this.normal = new Float32Array(3 * desc.vertices);
     this.uv = new Float32Array(2 * desc.vertices);
     this.indices = new Uint32Array(3 * desc.faces);
-    // Touch every page now (load time) rather than on first write while refining.
+    // Commit the memory now (load time) rather than page by page while refining.
     for (const a of [this.position, this.normal, this.uv, this.indices]) a.fill(0);
-
-    const g = new THREE.BufferGeometry();
+    const g = this.geometry = new THREE.BufferGeometry();
     g.name = `meshmux_mesh_${index}`;
-    this.positionAttribute = new THREE.BufferAttribute(this.position, 3).setUsage(THREE.DynamicDrawUsage);
-    this.normalAttribute = new THREE.BufferAttribute(this.normal, 3).setUsage(THREE.DynamicDrawUsage);
-    this.uvAttribute = new THREE.BufferAttribute(this.uv, 2).setUsage(THREE.DynamicDrawUsage);
-    this.indexAttribute = new THREE.BufferAttribute(this.indices, 1).setUsage(THREE.DynamicDrawUsage);
-    g.setAttribute('position', this.positionAttribute);
-    g.setAttribute('normal', this.normalAttribute);
-    g.setAttribute('uv', this.uvAttribute);
-    g.setIndex(this.indexAttribute);
-    // Bounds of every vertex the stream will ever hold, so culling never hides refined parts.
-    const [x0, y0, z0, x1, y1, z1] = desc.bounds;
-    g.boundingBox = new THREE.Box3(new THREE.Vector3(x0, y0, z0), new THREE.Vector3(x1, y1, z1));
+    const attribute = (array, size) => new THREE.BufferAttribute(array, size).setUsage(THREE.DynamicDrawUsage);
+    g.setAttribute('position', this.positionAttribute = attribute(this.position, 3));
+    g.setAttribute('normal', this.normalAttribute = attribute(this.normal, 3));
+    g.setAttribute('uv', this.uvAttribute = attribute(this.uv, 2));
+    g.setIndex(this.indexAttribute = attribute(this.indices, 1));
+    // Bounds of every vertex the stream will ever hold: culling never hides refined parts.
+    g.boundingBox = new THREE.Box3().setFromArray(desc.bounds);
     g.boundingSphere = g.boundingBox.getBoundingSphere(new THREE.Sphere());
     g.setDrawRange(0, 0);
-    this.geometry = g;
   }
 
   // Copies the base .glb's vertices (any accessor layout) into [0, count).
   setBaseVertices(glbGeometry) {
-    const pos = glbGeometry.getAttribute('position');
-    const nrm = glbGeometry.getAttribute('normal');
+    const pos = glbGeometry.getAttribute('position'), nrm = glbGeometry.getAttribute('normal');
     const uv = glbGeometry.getAttribute('uv');
-    const n = pos.count;
-    for (let i = 0; i < n; i++) {
-      this.position[3 * i] = pos.getX(i);
-      this.position[3 * i + 1] = pos.getY(i);
-      this.position[3 * i + 2] = pos.getZ(i);
-      if (nrm) {
-        this.normal[3 * i] = nrm.getX(i);
-        this.normal[3 * i + 1] = nrm.getY(i);
-        this.normal[3 * i + 2] = nrm.getZ(i);
-      }
-      if (uv) {
-        this.uv[2 * i] = uv.getX(i);
-        this.uv[2 * i + 1] = uv.getY(i);
-      }
+    const P = this.position, N = this.normal, T = this.uv;
+    for (let i = 0; i < pos.count; i++) {
+      P[3 * i] = pos.getX(i); P[3 * i + 1] = pos.getY(i); P[3 * i + 2] = pos.getZ(i);
+      if (nrm) { N[3 * i] = nrm.getX(i); N[3 * i + 1] = nrm.getY(i); N[3 * i + 2] = nrm.getZ(i); }
+      if (uv) { T[2 * i] = uv.getX(i); T[2 * i + 1] = uv.getY(i); }
     }
-    this.vertices = n;
+    this.vertices = pos.count;
   }
 
-  // Decodes meshopt vertex-codec bytes of vertices [this.vertices, this.vertices + count) and
-  // dequantizes them into the float attributes.
+  // Decodes meshopt vertex-codec bytes of `count` new vertices and dequantizes them.
   appendVertices(source, count) {
     const a = this.vertices;
-    if (a + count > this.capacityVertices) throw new Error(`mesh ${this.index}: ${a + count} vertices exceed the capacity ${this.capacityVertices}`);
+    if (a + count > this.capacityVertices) throw new Error(`mesh ${this.index}: ${a + count} vertices exceed its capacity ${this.capacityVertices}`);
     ensureScratch(count * VERTEX_BYTES);
     MeshoptDecoder.decodeVertexBuffer(scratchU8.subarray(0, count * VERTEX_BYTES), count, VERTEX_BYTES, source);
     dequantize(scratchU16, scratchI8, count, this.bounds, this.position, this.normal, this.uv, a);
@@ -282,225 +185,240 @@ export class StreamMesh {
     this.vertices = a + count;
   }
 
-  // Decodes meshopt index-codec bytes of `faceCount` new faces straight into the index buffer
-  // after the faces received so far. Every corner must name a vertex already received.
-  appendFaces(source, faceCount) {
-    const f = this.faces;
-    if (f + faceCount > this.capacityFaces) throw new Error(`mesh ${this.index}: ${f + faceCount} faces exceed the capacity ${this.capacityFaces}`);
-    const I = this.indices, start = 3 * f, corners = 3 * faceCount;
+  // Decodes meshopt index-codec bytes of `count` new faces straight into the index buffer after
+  // the faces received so far; every corner must name a vertex already received.
+  appendFaces(source, count) {
+    const f = this.faces, I = this.indices, start = 3 * f, corners = 3 * count;
+    if (f + count > this.capacityFaces) throw new Error(`mesh ${this.index}: ${f + count} faces exceed its capacity ${this.capacityFaces}`);
     MeshoptDecoder.decodeIndexBuffer(new Uint8Array(I.buffer, I.byteOffset + 4 * start, 4 * corners), corners, 4, source);
-    const limit = this.vertices;
-    const solid = scanFaces(I, start, start + corners, limit);
+    const solid = scanFaces(I, start, start + corners, this.vertices);
     if (solid < 0) {
       const i = -solid - 1;
-      throw new Error(`mesh ${this.index}: face ${i / 3} names vertex ${Math.max(I[i], I[i + 1], I[i + 2])} but only ${limit} are received`);
+      throw new Error(`mesh ${this.index}: face ${i / 3} names vertex ${Math.max(I[i], I[i + 1], I[i + 2])}, only ${this.vertices} are received`);
     }
     this.solid += solid;
-    this.faces = f + faceCount;
+    this.faces = f + count;
     this.indexAttribute.addUpdateRange(start, corners);
     this.indexAttribute.needsUpdate = true;
     this.geometry.setDrawRange(0, 3 * this.faces);
   }
 
   // Decodes meshopt index-sequence bytes of 2u uint32 (u ascending corner positions, then u
-  // vertex values) and moves those corners; keeps the non-degenerate face count exact.
+  // vertices) and moves those corners of the faces received so far.
   applyUpdates(source, u) {
     ensureScratch(8 * u);
     MeshoptDecoder.decodeIndexSequence(scratchU8.subarray(0, 8 * u), 2 * u, 4, source);
     const delta = applyCornerUpdates(this.indices, scratchU32, u, 3 * this.faces, this.vertices, this.indexAttribute);
     if (delta === UPDATE_ERROR) {
-      throw new Error(`mesh ${this.index}: update ${updateError.i} moves corner ${updateError.p} to vertex ${updateError.v} ` +
-        `(${3 * this.faces} corners and ${this.vertices} vertices received; positions must ascend)`);
+      const { i, p, v } = updateError;
+      throw new Error(`mesh ${this.index}: update ${i} sets corner ${p} to vertex ${v} (positions must ascend; ` +
+        `${3 * this.faces} corners and ${this.vertices} vertices are received)`);
     }
-    if (u > 0) this.indexAttribute.needsUpdate = true;
+    this.indexAttribute.needsUpdate = true;
     this.solid += delta;
   }
 
   dispose() { this.geometry.dispose(); }
 }
 
-// Applies one mesh chunk's payload (bytes of exactly chunk.size) to the stream meshes, part by
-// part: vertices, then updates, then new faces. Returns the faces touched (new + updated).
+// Applies one mesh chunk's payload to the stream meshes, part by part: vertices, then corner
+// updates (positions refer to faces received before the part), then new faces. Returns the
+// faces touched (new faces + updates).
 export function applyMeshChunk(meshes, chunk, payload) {
   let at = 0, touched = 0;
   for (const part of chunk.parts) {
     const mesh = meshes[part.mesh];
     if (part.vertex_begin !== mesh.vertices || part.face_begin !== mesh.faces) {
-      throw new Error(`mesh ${part.mesh}: part starts at vertex ${part.vertex_begin}, face ${part.face_begin} ` +
+      throw new Error(`mesh ${part.mesh}: part starts at vertex ${part.vertex_begin}, face ${part.face_begin}, ` +
         `but ${mesh.vertices} vertices and ${mesh.faces} faces are received`);
     }
-    const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
-    if (part.vertex_bytes > 0) mesh.appendVertices(payload.subarray(at, at + part.vertex_bytes), nv);
-    at += part.vertex_bytes;
-    const indexBytes = payload.subarray(at, at + part.index_bytes);
-    at += part.index_bytes;
-    if (part.update_bytes > 0) mesh.applyUpdates(payload.subarray(at, at + part.update_bytes), part.updates);
-    at += part.update_bytes;
-    if (part.index_bytes > 0) mesh.appendFaces(indexBytes, nf);
-    touched += nf + part.updates;
+    const vertexBytes = payload.subarray(at, at += part.vertex_bytes);
+    const indexBytes = payload.subarray(at, at += part.index_bytes);
+    const updateBytes = payload.subarray(at, at += part.update_bytes);
+    if (part.vertex_bytes > 0) mesh.appendVertices(vertexBytes, part.vertex_end - part.vertex_begin);
+    if (part.update_bytes > 0) mesh.applyUpdates(updateBytes, part.updates);
+    if (part.index_bytes > 0) mesh.appendFaces(indexBytes, part.face_end - part.face_begin);
+    touched += part.face_end - part.face_begin + part.updates;
   }
   return touched;
 }
 
-// ---- The package table ---------------------------------------------------------------------
+// ---- Warm-up ---------------------------------------------------------------------------------
+
+// Prepares the decode path before the first chunk is applied (called while its bytes are on
+// their way); a cold first chunk runs several times slower than the others.
+//  - Grows the decoder's WebAssembly heap to `heapBytes` (the largest decode ahead) at once.
+//    Growing detaches the heap's old ArrayBuffer, and V8 then throws away every function it
+//    optimized assuming no ArrayBuffer was ever detached: better now than mid-stream.
+//  - Runs the real refinement path on a tiny synthetic mesh (the decoders get compiled, every
+//    branch gets type feedback), then the three loops on larger synthetic arrays until the
+//    optimizing compiler takes them. About 20 ms, once per page.
+let warmedUp = false, heapReserved = 0;
+function warmUp(heapBytes) {
+  try {
+    if (heapBytes > heapReserved) {
+      const n = Math.ceil(heapBytes / 5);  // a zero sequence of n values takes 4n + n + 5 bytes
+      const source = new Uint8Array(n + 5);
+      source[0] = 0xd0;
+      MeshoptDecoder.decodeIndexSequence(new Uint8Array(4 * n), n, 4, source);
+      heapReserved = heapBytes;
+    }
+    if (warmedUp) return;
+    warmedUp = true;
+    // Codec streams: 256 and 16 zero vertices (header 0xa0, per 256-vertex block and byte
+    // channel one zero group header per 64 vertices, a 32-byte tail); the faces (0,1,2)(2,1,3);
+    // corners 0, 4, 5 set to vertices 256, 260, 271 (header 0xd0, per value the LEB128 varint of
+    // its zigzag delta shifted left once, a 4-byte tail).
+    const zeros256 = new Uint8Array(1 + 20 * 4 + 32), zeros16 = new Uint8Array(1 + 20 + 32);
+    zeros256[0] = zeros16[0] = 0xa0;
+    const faces = [0xe0, 0xf0, 0x10, 0x00, 0x76, 0x87, 0x56, 0x67, 0x78, 0xa9, 0x86, 0x65, 0x89, 0x68, 0x98, 0x01, 0x69, 0x00, 0x00];
+    const updates = [0xd0, 0x00, 0x10, 0x04, 0xec, 0x07, 0x10, 0x2c, 0x00, 0x00, 0x00, 0x00];
+    const payload = new Uint8Array([...zeros256, ...faces, ...zeros16, ...faces, ...updates]);
+    const part = (vertex_begin, vertex_end, face_begin, vertex_bytes, u, update_bytes) => ({
+      mesh: 0, vertex_begin, vertex_end, face_begin, face_end: face_begin + 2, vertex_bytes,
+      index_bytes: faces.length, updates: u, update_bytes,
+    });
+    const chunk = { parts: [part(0, 256, 0, zeros256.length, 0, 0), part(256, 272, 2, zeros16.length, 3, updates.length)] };
+    for (let k = 0; k < 20; k++) {
+      const mesh = new StreamMesh({ vertices: 272, faces: 4, bounds: [-1, -1, -1, 1, 1, 1] }, 0);
+      applyMeshChunk([mesh], chunk, payload);
+      mesh.dispose();
+    }
+    // Then the loops alone, long enough for the optimizing compiler: 4096 vertices, faces over
+    // them, and updates of every third corner or so.
+    const n = 4096, u16 = new Uint16Array(10 * n).map((_, i) => i * 7919), i8 = new Int8Array(u16.buffer);
+    const I = new Uint32Array(3 * n).map((_, i) => (i * 2654435761) % n), S = new Uint32Array(2 * n);
+    for (let i = 0; i < n; i++) { S[i] = 3 * i + (i % 3); S[n + i] = (i * 40503) % n; }
+    const mesh = new StreamMesh({ vertices: n, faces: n, bounds: [-1, -1, -1, 1, 1, 1] }, 0);
+    for (let k = 0; k < 12; k++) {
+      dequantize(u16, i8, n, mesh.bounds, mesh.position, mesh.normal, mesh.uv, 0);
+      scanFaces(I, 0, 3 * n, n);
+      applyCornerUpdates(I, S, n, 3 * n, n, mesh.indexAttribute);
+      mesh.indexAttribute.clearUpdateRanges();
+    }
+    mesh.dispose();
+  } catch (e) {
+    // Only a warm-up: the real decodes do the same work with the real data.
+  }
+}
+
+// ---- The package table -----------------------------------------------------------------------
 
 // Validates the parsed JSON table against the file and returns it normalized (numbers checked,
-// per-order distortion lists filled in). `fail(message)` builds the Error to throw.
+// mesh parts contiguous, orders complete). `fail(message)` makes the Error to throw.
 export function validateTable(t, { fileSize, dataStart, fail }) {
-  const obj = (v, what) => { if (!v || typeof v !== 'object' || Array.isArray(v)) throw fail(`${what} must be an object`); return v; };
-  const arr = (v, what) => { if (!Array.isArray(v)) throw fail(`${what} must be an array`); return v; };
+  const need = (ok, message) => { if (!ok) throw fail(message); };
+  const obj = (v, what) => { need(v && typeof v === 'object' && !Array.isArray(v), `${what} must be an object`); return v; };
+  const arr = (v, what) => { need(Array.isArray(v), `${what} must be an array`); return v; };
   const int = (v, what, max = Number.MAX_SAFE_INTEGER) => {
-    if (!Number.isSafeInteger(v) || v < 0 || v > max) throw fail(`${what} must be an integer in [0, ${max}] (got ${JSON.stringify(v)})`);
+    need(Number.isSafeInteger(v) && v >= 0 && v <= max, `${what} must be an integer in [0, ${max}] (got ${JSON.stringify(v)})`);
     return v;
   };
-  const dist = (v, what) => {
-    if (v === undefined || v === null) return NaN;
-    if (typeof v !== 'number' || !Number.isFinite(v)) throw fail(`${what} must be a finite number`);
-    return v;
+  const dist = (v, what) => {  // a distortion: a finite number, or missing (NaN)
+    need(v == null || Number.isFinite(v), `${what} must be a finite number`);
+    return v == null ? NaN : v;
   };
   const range = (r, what) => {
     const offset = int(r.offset, `${what}.offset`), size = int(r.size, `${what}.size`);
-    if (size > 0 && offset < dataStart) throw fail(`${what} starts at ${offset}, inside the header/table (ends at ${dataStart})`);
-    if (Number.isFinite(fileSize) && offset + size > fileSize) throw fail(`${what} [${offset}, ${offset + size}) runs past the end of the file (${fileSize} bytes)`);
+    need(size === 0 || offset >= dataStart, `${what} starts at ${offset}, inside the header and table (${dataStart} bytes)`);
+    need(offset + size <= fileSize, `${what} [${offset}, ${offset + size}) runs past the end of the file (${fileSize} bytes)`);
     return { offset, size };
   };
 
   obj(t, 'the table');
-  if (t.version !== PACKAGE_VERSION) throw fail(`table version ${JSON.stringify(t.version)} (expected ${PACKAGE_VERSION})`);
-  const baseDef = obj(t.base, 'base');
-  const base = { ...range(baseDef, 'base'), distortion: dist(baseDef.distortion, 'base.distortion') };
-  if (base.size < 20) throw fail(`base .glb is ${base.size} bytes, too small to be a glb`);
-
+  need(t.version === PACKAGE_VERSION, `table version ${JSON.stringify(t.version)}, expected ${PACKAGE_VERSION}`);
+  const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };
+  need(base.size >= 20, `the base .glb is ${base.size} bytes, too small for a glb`);
   const meshes = arr(t.meshes, 'meshes').map((m, i) => {
     const w = `meshes[${i}]`;
     obj(m, w);
     const d = {
-      vertices: int(m.vertices, `${w}.vertices`, MAX_ELEMENTS),
-      faces: int(m.faces, `${w}.faces`, MAX_ELEMENTS),
-      base_vertices: int(m.base_vertices, `${w}.base_vertices`),
-      base_faces: int(m.base_faces, `${w}.base_faces`),
-      bounds: arr(m.bounds, `${w}.bounds`),
-      base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
+      vertices: int(m.vertices, `${w}.vertices`, MAX_ELEMENTS), faces: int(m.faces, `${w}.faces`, MAX_ELEMENTS),
+      base_vertices: int(m.base_vertices, `${w}.base_vertices`, m.vertices), base_faces: int(m.base_faces, `${w}.base_faces`, m.faces),
+      bounds: arr(m.bounds, `${w}.bounds`), base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
     };
-    if (d.base_vertices > d.vertices) throw fail(`${w}: base_vertices ${d.base_vertices} > vertices ${d.vertices}`);
-    if (d.base_faces > d.faces) throw fail(`${w}: base_faces ${d.base_faces} > faces ${d.faces}`);
-    if (d.bounds.length !== 6 || !d.bounds.every(Number.isFinite)) throw fail(`${w}.bounds must be 6 finite numbers`);
-    if ((d.base_faces > 0) !== (d.base_indices.size > 0)) throw fail(`${w}: ${d.base_faces} base faces but ${d.base_indices.size} base_indices bytes`);
+    need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
+    need((d.base_faces > 0) === (d.base_indices.size > 0), `${w}: ${d.base_faces} base faces in ${d.base_indices.size} bytes`);
     return d;
   });
+  const texture = t.texture == null ? null
+    : { width: int(obj(t.texture, 'texture').width, 'texture.width'), height: int(t.texture.height, 'texture.height') };
 
-  let texture = null;
-  if (t.texture !== null && t.texture !== undefined) {
-    obj(t.texture, 'texture');
-    texture = { width: int(t.texture.width, 'texture.width'), height: int(t.texture.height, 'texture.height') };
-  }
-
-  // Chunks, with the mesh parts simulated in stream order: every part must continue exactly
-  // where the previous one of its mesh ended.
+  // Chunks, with the parts simulated in stream order: each continues where its mesh stands.
   const held = meshes.map((m) => ({ vertices: m.base_vertices, faces: m.base_faces }));
+  let heapBytes = 0;  // the largest decode ahead, in decoder heap bytes (target + source)
+  for (const m of meshes) heapBytes = Math.max(heapBytes, 12 * m.base_faces + 12 + m.base_indices.size);
   const chunks = arr(t.chunks, 'chunks').map((c, i) => {
     const w = `chunks[${i}]`;
-    obj(c, w);
-    const chunk = { kind: c.kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
+    const chunk = { kind: obj(c, w).kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
     if (c.kind === 'texture') {
-      chunk.width = int(c.width, `${w}.width`);
-      chunk.height = int(c.height, `${w}.height`);
-      if (!/^image\/(jpeg|png|webp)$/.test(c.mime)) throw fail(`${w}.mime ${JSON.stringify(c.mime)} is not image/jpeg or image/png`);
-      chunk.mime = c.mime;
-      if (chunk.size === 0) throw fail(`${w}: empty texture chunk`);
-      return chunk;
+      need(/^image\/(jpeg|png|webp)$/.test(c.mime), `${w}.mime ${JSON.stringify(c.mime)} is not image/jpeg or image/png`);
+      need(chunk.size > 0, `${w}: an empty texture`);
+      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), mime: c.mime };
     }
-    if (c.kind !== 'mesh') throw fail(`${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
+    need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
       const pw = `${w}.parts[${j}]`;
-      obj(p, pw);
-      const part = {
-        mesh: int(p.mesh, `${pw}.mesh`, meshes.length - 1),
-        vertex_begin: int(p.vertex_begin, `${pw}.vertex_begin`), vertex_end: int(p.vertex_end, `${pw}.vertex_end`),
-        face_begin: int(p.face_begin, `${pw}.face_begin`), face_end: int(p.face_end, `${pw}.face_end`),
-        vertex_bytes: int(p.vertex_bytes, `${pw}.vertex_bytes`), index_bytes: int(p.index_bytes, `${pw}.index_bytes`),
-        updates: int(p.updates ?? 0, `${pw}.updates`), update_bytes: int(p.update_bytes ?? 0, `${pw}.update_bytes`),
-      };
-      const m = meshes[part.mesh], h = held[part.mesh];
-      if (part.vertex_begin !== h.vertices) throw fail(`${pw}: vertex_begin ${part.vertex_begin} but mesh ${part.mesh} holds ${h.vertices} vertices at that point`);
-      if (part.face_begin !== h.faces) throw fail(`${pw}: face_begin ${part.face_begin} but mesh ${part.mesh} holds ${h.faces} faces at that point`);
-      if (part.vertex_end < part.vertex_begin || part.vertex_end > m.vertices) throw fail(`${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
-      if (part.face_end < part.face_begin || part.face_end > m.faces) throw fail(`${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
-      if (part.updates > 3 * h.faces) throw fail(`${pw}: ${part.updates} updates but only ${3 * h.faces} corners are held`);
-      const pieces = [['vertices', part.vertex_end - part.vertex_begin, part.vertex_bytes],
-        ['faces', part.face_end - part.face_begin, part.index_bytes], ['updates', part.updates, part.update_bytes]];
-      for (const [name, count, size] of pieces) {
-        if ((count > 0) !== (size > 0)) throw fail(`${pw}: ${count} ${name} stored in ${size} bytes`);
+      const mesh = int(obj(p, pw).mesh, `${pw}.mesh`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
+      const part = { mesh, updates: int(p.updates ?? 0, `${pw}.updates`, 3 * h.faces), update_bytes: int(p.update_bytes ?? 0, `${pw}.update_bytes`) };
+      for (const key of ['vertex_begin', 'vertex_end', 'face_begin', 'face_end', 'vertex_bytes', 'index_bytes']) part[key] = int(p[key], `${pw}.${key}`);
+      need(part.vertex_begin === h.vertices, `${pw}: vertex_begin ${part.vertex_begin}, but mesh ${mesh} holds ${h.vertices} vertices there`);
+      need(part.face_begin === h.faces, `${pw}: face_begin ${part.face_begin}, but mesh ${mesh} holds ${h.faces} faces there`);
+      need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
+      need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
+      const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
+      for (const [name, count, size] of [['vertices', nv, part.vertex_bytes], ['faces', nf, part.index_bytes], ['updates', part.updates, part.update_bytes]]) {
+        need((count > 0) === (size > 0), `${pw}: ${count} ${name} in ${size} bytes`);
       }
       h.vertices = part.vertex_end;
       h.faces = part.face_end;
       bytes += part.vertex_bytes + part.index_bytes + part.update_bytes;
+      heapBytes = Math.max(heapBytes, VERTEX_BYTES * (nv + 3) + part.vertex_bytes, 12 * nf + 12 + part.index_bytes,
+        8 * part.updates + 12 + part.update_bytes);
       return part;
     });
-    if (bytes !== chunk.size) throw fail(`${w}: its parts hold ${bytes} bytes but the chunk is ${chunk.size}`);
+    need(bytes === chunk.size, `${w}: its parts hold ${bytes} bytes, the chunk ${chunk.size}`);
     return chunk;
   });
   const n = chunks.length;
 
-  // Orders: permutations of the chunks keeping mesh chunks in their relative order.
-  let orders = t.orders === undefined ? [{ name: 'rate-distortion', chunks: chunks.map((_, i) => i) }] : arr(t.orders, 'orders');
-  orders = orders.map((o, k) => {
-    const w = `orders[${k}]`;
-    obj(o, w);
-    if (typeof o.name !== 'string' || !o.name) throw fail(`${w}.name must be a non-empty string`);
-    const seq = arr(o.chunks, `${w}.chunks`);
-    if (seq.length !== n) throw fail(`${w} ("${o.name}") lists ${seq.length} chunks, the package has ${n}`);
-    const seen = new Uint8Array(n);
+  // Orders: permutations of the chunks that keep the mesh chunks' relative order.
+  const orders = (t.orders === undefined ? [{ name: 'rate-distortion', chunks: chunks.map((_, i) => i) }] : arr(t.orders, 'orders')).map((o, k) => {
+    const w = `orders[${k}] ("${obj(o, `orders[${k}]`).name}")`;
+    need(typeof o.name === 'string' && o.name, `orders[${k}].name must be a non-empty string`);
+    const seq = arr(o.chunks, `${w}.chunks`), seen = new Uint8Array(n);
+    need(seq.length === n, `${w} lists ${seq.length} chunks, the package has ${n}`);
     let lastMesh = -1;
-    for (let i = 0; i < n; i++) {
-      const c = int(seq[i], `${w}.chunks[${i}]`, n - 1);
-      if (seen[c]) throw fail(`${w} ("${o.name}") lists chunk ${c} twice`);
-      seen[c] = 1;
-      if (chunks[c].kind === 'mesh') {
-        if (c < lastMesh) throw fail(`${w} ("${o.name}") reorders mesh chunks (${c} after ${lastMesh})`);
-        lastMesh = c;
-      }
-    }
-    let distortion;
-    if (o.distortion === undefined) distortion = seq.map((c) => chunks[c].distortion);
-    else {
-      distortion = arr(o.distortion, `${w}.distortion`).map((d, i) => dist(d, `${w}.distortion[${i}]`));
-      if (distortion.length !== n) throw fail(`${w} ("${o.name}") has ${distortion.length} distortion values for ${n} chunks`);
-    }
+    seq.forEach((c, i) => {
+      need(!seen[int(c, `${w}.chunks[${i}]`, n - 1)]++, `${w} lists chunk ${c} twice`);
+      if (chunks[c].kind !== 'mesh') return;
+      need(c > lastMesh, `${w} reorders mesh chunks (${c} after ${lastMesh})`);
+      lastMesh = c;
+    });
+    const distortion = o.distortion === undefined ? seq.map((c) => chunks[c].distortion)
+      : arr(o.distortion, `${w}.distortion`).map((d, i) => dist(d, `${w}.distortion[${i}]`));
+    need(distortion.length === n, `${w} has ${distortion.length} distortion values for ${n} chunks`);
     return { name: o.name, chunks: seq.slice(), distortion };
   });
-  if (orders.length === 0) throw fail('orders is empty');
-  if (orders[0].chunks.some((c, i) => c !== i)) throw fail(`orders[0] ("${orders[0].name}") is not the file order 0..${n - 1}`);
+  need(orders.length > 0, 'orders is empty');
+  need(orders[0].chunks.every((c, i) => c === i), `orders[0] ("${orders[0].name}") is not the file order`);
 
-  // Informational: a complete stream should end on the full mesh sizes.
-  const notes = [];
-  held.forEach((h, i) => {
-    if (h.vertices !== meshes[i].vertices || h.faces !== meshes[i].faces) {
-      notes.push(`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`);
-    }
-  });
-  // The largest decode ahead, in decoder heap bytes (target rounded up to 4 items + source).
-  let heapBytes = 0;
-  for (const m of meshes) heapBytes = Math.max(heapBytes, 4 * (3 * m.base_faces + 3) + m.base_indices.size);
-  for (const c of chunks) {
-    for (const p of c.parts || []) {
-      heapBytes = Math.max(heapBytes, VERTEX_BYTES * (p.vertex_end - p.vertex_begin + 3) + p.vertex_bytes,
-        4 * (3 * (p.face_end - p.face_begin) + 3) + p.index_bytes, 4 * (2 * p.updates + 3) + p.update_bytes);
-    }
-  }
+  // Not fatal: a complete stream should end on the full mesh sizes.
+  const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
+    : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
   return { version: t.version, base, meshes, texture, chunks, orders, notes, heapBytes };
 }
 
-// ---- HTTP ranges ---------------------------------------------------------------------------
+// ---- HTTP ranges -----------------------------------------------------------------------------
 
-// Reads byte ranges of one URL. Falls back to the whole body when the server ignores Range.
+// Reads byte ranges of one URL; falls back to the whole body when the server ignores Range.
 class RangeReader {
   constructor(url) {
     this.url = url;
-    this.whole = null;    // the entire file, when a server answered 200
-    this.prefix = null;   // the first bytes (the probe), reused when later ranges fall inside
-    this.size = NaN;      // file size, when known
+    this.whole = null;   // the entire file, once a server answered 200
+    this.prefix = null;  // the probe's bytes, reused when a later range falls inside
+    this.size = NaN;     // the file size, once known
   }
 
   _error(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -516,45 +434,38 @@ class RangeReader {
     if (res.status === 200) {
       this.whole = new Uint8Array(await res.arrayBuffer());
       this.size = this.whole.length;
-      return { bytes: this.whole.subarray(start, Math.min(end, this.size)), whole: true };
+      return this.whole.subarray(start, Math.min(end, this.size));
     }
-    if (res.status !== 206) {
-      throw this._error(`HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''} for bytes ${start}-${end - 1}`);
-    }
-    const cr = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.headers.get('Content-Range') || '');
-    if (cr) {
-      if (Number(cr[1]) !== start) throw this._error(`asked for bytes from ${start}, the server sent ${cr[0]}`);
-      if (cr[3] !== '*') this.size = Number(cr[3]);
-    }
-    return { bytes: new Uint8Array(await res.arrayBuffer()), whole: false };
+    if (res.status !== 206) throw this._error(`HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''} for bytes ${start}-${end - 1}`);
+    const range = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.headers.get('Content-Range') || '');
+    if (range && Number(range[1]) !== start) throw this._error(`asked for bytes from ${start}, the server sent ${range[0]}`);
+    if (range && range[3] !== '*') this.size = Number(range[3]);
+    return new Uint8Array(await res.arrayBuffer());
   }
 
-  // The first `n` bytes or the whole file if shorter.
+  // The first n bytes (fewer if the file is shorter).
   async probe(n, signal) {
-    const { bytes } = await this._fetch(0, n, signal);
-    if (!Number.isFinite(this.size) && bytes.length < n) this.size = bytes.length;
-    this.prefix = bytes;
-    return bytes;
+    this.prefix = await this._fetch(0, n, signal);
+    if (!Number.isFinite(this.size) && this.prefix.length < n) this.size = this.prefix.length;
+    return this.prefix;
   }
 
   // Exactly bytes [start, end).
   async read(start, end, signal) {
     if (end <= start) return new Uint8Array(0);
-    if (this.whole) {
-      if (end > this.whole.length) throw this._error(`bytes ${start}-${end - 1} are past the end of the file (${this.whole.length} bytes)`);
-      return this.whole.subarray(start, end);
-    }
+    if (this.whole && end > this.whole.length) throw this._error(`bytes ${start}-${end - 1} lie past the end of the file (${this.whole.length} bytes)`);
+    if (this.whole) return this.whole.subarray(start, end);
     if (this.prefix && end <= this.prefix.length) return this.prefix.subarray(start, end);
-    const { bytes } = await this._fetch(start, end, signal);
-    if (bytes.length < end - start) throw this._error(`short read: bytes ${start}-${end - 1} returned ${bytes.length} bytes`);
+    const bytes = await this._fetch(start, end, signal);
+    if (bytes.length < end - start) throw this._error(`short read: bytes ${start}-${end - 1} gave ${bytes.length} bytes`);
     return bytes.subarray(0, end - start);
   }
 }
 
-// ---- Textures and material -----------------------------------------------------------------
+// ---- Textures and material -------------------------------------------------------------------
 
-// Texels are used as stored bytes (no colour management), glTF uv convention, trilinear +
-// anisotropic filtering, clamped.
+// Texels used as stored bytes (no colour management), glTF's uv convention (no flip),
+// trilinear + anisotropic filtering, clamped to the edge.
 function configureTexture(texture, anisotropy) {
   texture.colorSpace = THREE.NoColorSpace;
   texture.flipY = false;
@@ -570,7 +481,7 @@ function configureTexture(texture, anisotropy) {
 const VERTEX_SHADER = /* glsl */ `
 out vec3 vNormal;
 out vec2 vUv;
-flat out float vMirror;   // -1 for instances whose matrix mirrors (winding flips on screen)
+flat out float vMirror;  // -1 where the instance matrix mirrors (the winding flips on screen)
 void main() {
   vec4 p = vec4(position, 1.0);
   vec3 n = normal;
@@ -591,7 +502,7 @@ const FRAGMENT_SHADER = /* glsl */ `
 uniform vec4 baseColorFactor;
 uniform sampler2D map;
 uniform bool textured;
-uniform vec3 lightDirection;   // view space, unit, towards the light
+uniform vec3 lightDirection;  // view space, unit, towards the light
 in vec3 vNormal;
 in vec2 vUv;
 flat in float vMirror;
@@ -599,9 +510,9 @@ out vec4 fragColor;
 void main() {
   vec4 base = baseColorFactor;
   if (textured) {
-    // Anisotropic trilinear where the pixel footprint spans more than one texel; plain
-    // bilinear of level 0 where the texture is magnified (as meshmux's offscreen renderer does:
-    // some software rasterizers blur magnified texels under anisotropic filtering).
+    // Trilinear + anisotropic where a pixel spans more than one texel; level 0 bilinear where
+    // the texture is magnified (as meshmux's offscreen renderer: some software rasterizers
+    // blur magnified texels under anisotropic filtering; GPUs filter them bilinearly anyway).
     vec2 t = vUv * vec2(textureSize(map, 0));
     vec2 dx = dFdx(t), dy = dFdy(t);
     bool minified = max(dot(dx, dx), dot(dy, dy)) > 1.0;
@@ -616,17 +527,16 @@ void main() {
   fragColor = vec4(base.rgb * (0.35 + 0.65 * max(dot(n, lightDirection), 0.0)), 1.0);
 }`;
 
-// One ShaderMaterial per distinct glTF material (normally exactly one: the atlas); all share
-// the texture uniform so a streamed level reaches every material at once.
+// One ShaderMaterial per distinct glTF material (normally one: the atlas); all share the
+// texture uniform, so a streamed level reaches every material at once.
 function makeMaterial(source, mapUniform) {
   const color = source.color || new THREE.Color(1, 1, 1);
-  const opacity = source.opacity ?? 1;
   return new THREE.ShaderMaterial({
     name: `meshmux(${source.name || 'material'})`,
     glslVersion: THREE.GLSL3,
     side: THREE.DoubleSide,
     uniforms: {
-      baseColorFactor: { value: new THREE.Vector4(color.r, color.g, color.b, opacity) },
+      baseColorFactor: { value: new THREE.Vector4(color.r, color.g, color.b, source.opacity ?? 1) },
       map: mapUniform,
       textured: { value: !!source.map },
       lightDirection: { value: LIGHT.clone() },
@@ -636,39 +546,38 @@ function makeMaterial(source, mapUniform) {
   });
 }
 
-// Resolves at the next animation frame (or after 50 ms when frames stall, e.g. a hidden page).
-const nextFrame = () => new Promise((resolve) => {
+// Between two chunks: the next animation frame (the page shows every step), or a bare task
+// where there are no frames (workers); 50 ms at most when frames stall (a hidden page).
+const pause = () => new Promise((resolve) => {
+  if (typeof requestAnimationFrame !== 'function') { setTimeout(resolve, 0); return; }
   const timer = setTimeout(resolve, 50);
   requestAnimationFrame(() => { clearTimeout(timer); resolve(); });
 });
 
-const nextTask = () => new Promise((resolve) => {
-  const ch = new MessageChannel();
-  ch.port1.onmessage = () => { ch.port1.close(); resolve(); };
-  ch.port2.postMessage(0);
-});
-
-// ---- The stream ----------------------------------------------------------------------------
+// ---- The stream ------------------------------------------------------------------------------
 
 export class MeshmuxStream extends EventTarget {
+  // options: order (a name from the package's orders), budgetBytes (stop before a chunk would
+  // take the bytes received past it), chunkBatchBytes (most bytes per range request, unless
+  // one chunk is larger), renderer (a THREE.WebGLRenderer, for the texture anisotropy).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
-    this.table = null;
-    this.order = null;             // the chosen order from the table
-    this.meshes = [];              // StreamMesh per package mesh
+    this.table = null;   // the validated package table
+    this.order = null;   // the chosen order: {name, chunks, distortion}
+    this.meshes = [];    // StreamMesh per package mesh
     this.materials = [];
-    this.notes = [];               // non-fatal findings about the package
+    this.notes = [];     // non-fatal findings about the package
     this._reader = new RangeReader(this.url);
-    this._map = { value: null };   // shared texture uniform
-    this._ownedTextures = [];
+    this._map = { value: null };  // the texture uniform shared by the materials
+    this._ownTextures = new Set();
     this._state = 'idle';
     this._abort = null;
     this._playing = null;
-    this._position = 0;            // chunks of the order applied
+    this._position = 0;  // chunks of the order applied
     this._bytes = 0;
     this._textureSize = [0, 0];
     this._trianglesApplied = 0;
@@ -676,16 +585,8 @@ export class MeshmuxStream extends EventTarget {
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
-
-  // Between two chunks: 'frame' waits for the next animation frame (one chunk per frame: the
-  // page renders each step, and the renderer's work on a frame is done before the next chunk
-  // is decoded), 'task' only yields to the event loop (fastest), 'none' does not yield.
-  _pause() {
-    const pace = this.options.pace ?? (typeof requestAnimationFrame === 'function' ? 'frame' : 'task');
-    if (pace === 'frame') return nextFrame();
-    if (pace === 'task') return nextTask();
-    return Promise.resolve();
-  }
+  _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
+  _anisotropy() { return this.options.renderer ? Math.min(16, this.options.renderer.capabilities.getMaxAnisotropy()) : 1; }
 
   get budgetBytes() { return this.options.budgetBytes; }
   set budgetBytes(bytes) { this.options.budgetBytes = bytes; }
@@ -693,28 +594,20 @@ export class MeshmuxStream extends EventTarget {
   get playing() { return this._playing !== null; }
 
   get stats() {
-    const distortion = this._position === 0 ? (this.table ? this.table.base.distortion : NaN)
-      : this.order.distortion[this._position - 1];
     let triangles = 0, vertices = 0;
     for (const m of this.meshes) { triangles += m.solid * m.instances; vertices += m.vertices; }
     return {
-      bytesReceived: this._bytes,
-      bytesTotal: this._reader.size,
-      chunksApplied: this._position,
-      chunkCount: this.table ? this.table.chunks.length : 0,
-      triangles, vertices,
-      textureWidth: this._textureSize[0], textureHeight: this._textureSize[1],
-      distortion,
+      bytesReceived: this._bytes, bytesTotal: this._reader.size,
+      chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
+      triangles, vertices, textureWidth: this._textureSize[0], textureHeight: this._textureSize[1],
+      distortion: this._position > 0 ? this.order.distortion[this._position - 1] : this.table ? this.table.base.distortion : NaN,
       order: this.order ? this.order.name : this.options.order,
-      trianglesApplied: this._trianglesApplied,
-      applySeconds: this._applySeconds,
-      state: this._state,
+      trianglesApplied: this._trianglesApplied, applySeconds: this._applySeconds, state: this._state,
     };
   }
 
-  _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
-
-  // Fetches the header, table, base and base faces; builds the scene. Returns this.object.
+  // Fetches the header, the table, the base and the base faces; builds the scene. Resolves with
+  // this.object.
   async open() {
     if (this.table) return this.object;
     this._state = 'opening';
@@ -722,51 +615,38 @@ export class MeshmuxStream extends EventTarget {
       this._abort = new AbortController();
       const signal = this._abort.signal;
       const probe = this._reader.probe(PROBE_BYTES, signal);
-      probe.catch(() => {});  // awaited below; no unhandled rejection meanwhile
+      probe.catch(() => {});  // awaited below
       await MeshoptDecoder.ready;
       const head = await probe;
-      if (head.length < HEADER_BYTES) throw this._fail(`${head.length} bytes: too small to be a meshmux package`);
-      const magic = String.fromCharCode(head[0], head[1], head[2], head[3]);
+      if (head.length < HEADER_BYTES) throw this._fail(`${head.length} bytes: too short for a meshmux package`);
+      const magic = String.fromCharCode(...head.subarray(0, 4));
       if (magic !== 'MMXP') throw this._fail(`not a meshmux package (magic ${JSON.stringify(magic)}, expected "MMXP")`);
-      const dv = new DataView(head.buffer, head.byteOffset, head.byteLength);
-      const version = dv.getUint32(4, true), jsonLength = dv.getUint32(8, true);
+      const view = new DataView(head.buffer, head.byteOffset, HEADER_BYTES);
+      const version = view.getUint32(4, true), dataStart = HEADER_BYTES + view.getUint32(8, true);
       if (version !== PACKAGE_VERSION) throw this._fail(`package version ${version} is not supported (this client reads version ${PACKAGE_VERSION})`);
-      const dataStart = HEADER_BYTES + jsonLength;
-      const size = this._reader.size;
-      if (Number.isFinite(size) && dataStart > size) throw this._fail(`JSON table of ${jsonLength} bytes runs past the end of the file (${size} bytes)`);
-      const json = head.length >= dataStart ? head.subarray(HEADER_BYTES, dataStart)
-        : concat(head.subarray(HEADER_BYTES), await this._reader.read(head.length, dataStart, signal));
+      if (dataStart > this._reader.size) throw this._fail(`the JSON table runs past the end of the file (${this._reader.size} bytes)`);
+      const json = head.length >= dataStart ? head.subarray(HEADER_BYTES, dataStart) : await this._reader.read(HEADER_BYTES, dataStart, signal);
       let raw;
       try {
         raw = JSON.parse(new TextDecoder('utf-8', { fatal: true }).decode(json));
       } catch (e) {
         throw this._fail(`the JSON table cannot be parsed (${e.message})`);
       }
-      const table = validateTable(raw, { fileSize: this._reader.size, dataStart, fail: (m) => this._fail(m) });
-      if (!Number.isFinite(this._reader.size)) {
-        // The server hid the file size: the table's furthest byte stands in for it.
-        let end = table.base.offset + table.base.size;
-        for (const m of table.meshes) end = Math.max(end, m.base_indices.offset + m.base_indices.size);
-        for (const c of table.chunks) end = Math.max(end, c.offset + c.size);
-        this._reader.size = end;
+      const table = validateTable(raw, { fileSize: Number.isFinite(this._reader.size) ? this._reader.size : Infinity, dataStart, fail: (m) => this._fail(m) });
+      if (!Number.isFinite(this._reader.size)) {  // the server hid the size: the table's end stands in
+        const ends = [table.base, ...table.meshes.map((m) => m.base_indices), ...table.chunks].map((r) => r.offset + r.size);
+        this._reader.size = Math.max(dataStart, ...ends);
       }
       this.notes.push(...table.notes);
       const order = table.orders.find((o) => o.name === this.options.order);
       if (!order) throw this._fail(`no order "${this.options.order}" (the package has ${table.orders.map((o) => o.name).join(', ')})`);
 
-      // The base .glb and the base faces: one request when they lie together.
+      // The base .glb and the base faces (stored one after the other): one request.
       const ranges = [table.base, ...table.meshes.map((m) => m.base_indices).filter((r) => r.size > 0)];
       const lo = Math.min(...ranges.map((r) => r.offset)), hi = Math.max(...ranges.map((r) => r.offset + r.size));
       const sum = ranges.reduce((s, r) => s + r.size, 0);
-      let slice;
-      if (hi - lo <= sum + PROBE_BYTES) {
-        const block = await this._reader.read(lo, hi, signal);
-        slice = (r) => block.subarray(r.offset - lo, r.offset - lo + r.size);
-      } else {
-        const parts = await Promise.all(ranges.map((r) => this._reader.read(r.offset, r.offset + r.size, signal)));
-        slice = (r) => parts[ranges.indexOf(r)];
-      }
-      await this._buildBase(table, slice);
+      const block = await this._reader.read(lo, hi, signal);
+      await this._buildBase(table, (r) => block.subarray(r.offset - lo, r.offset - lo + r.size));
       this.table = table;
       this.order = order;
       this._bytes = dataStart + sum;
@@ -783,168 +663,144 @@ export class MeshmuxStream extends EventTarget {
     }
   }
 
-  // Parses the base .glb, swaps in the streaming geometries and the shared shading.
+  // Parses the base .glb; swaps in the streaming geometries and the shared shading.
   async _buildBase(table, slice) {
-    const glbBytes = slice(table.base);
-    const glb = glbBytes.buffer.slice(glbBytes.byteOffset, glbBytes.byteOffset + glbBytes.byteLength);
-    const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+    const bytes = slice(table.base);
+    const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
     let gltf;
     try {
-      gltf = await new Promise((resolve, reject) => loader.parse(glb, '', resolve, reject));
+      gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(glb, '');
     } catch (e) {
       throw this._fail(`the base .glb cannot be loaded (${e && e.message ? e.message : e})`);
     }
-    const root = gltf.scene || (gltf.scenes && gltf.scenes[0]);
-    if (!root) throw this._fail('the base .glb has no scene');
+    const root = gltf.scene || gltf.scenes[0];
+    const objects = [];
+    if (root) root.traverse((o) => { if (o.isMesh) objects.push(o); });
+    if (!objects.length) throw this._fail('the base .glb holds no mesh');
 
     this.meshes = table.meshes.map((d, i) => new StreamMesh(d, i));
-    const filled = new Uint8Array(this.meshes.length);
-    const oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
-    const anisotropy = this.options.renderer ? Math.min(16, this.options.renderer.capabilities.getMaxAnisotropy()) : 1;
-    const objects = [];
-    root.traverse((o) => { if (o.isMesh) objects.push(o); });
+    const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     for (const o of objects) {
-      const m = o.userData.meshmux_mesh;
-      if (m === undefined) { this.notes.push(`base .glb object "${o.name}" has no meshmux_mesh tag: drawn as is`); }
-      else if (!Number.isInteger(m) || m < 0 || m >= this.meshes.length) {
-        throw this._fail(`base .glb object "${o.name}" names meshmux_mesh ${JSON.stringify(m)} (the package has ${this.meshes.length} meshes)`);
-      }
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
       if (!materialFor.has(source)) {
         if (source.map && !this._map.value) {
-          this._map.value = configureTexture(source.map, anisotropy);
+          this._map.value = configureTexture(source.map, this._anisotropy());
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
         }
         materialFor.set(source, makeMaterial(source, this._map));
       }
-      (Array.isArray(o.material) ? o.material : [o.material]).forEach((x) => oldMaterials.add(x));
+      [o.material].flat().forEach((x) => oldMaterials.add(x));
       o.material = materialFor.get(source);
-      if (m === undefined) continue;
 
+      const m = o.userData.meshmux_mesh;
+      if (m === undefined) { this.notes.push(`base .glb object "${o.name}" has no meshmux_mesh tag: drawn as it is`); continue; }
       const mesh = this.meshes[m];
-      if (!filled[m]) {
-        const g = o.geometry, d = table.meshes[m];
-        const pos = g.getAttribute('position');
+      if (!Number.isInteger(m) || !mesh) throw this._fail(`base .glb object "${o.name}" names meshmux_mesh ${JSON.stringify(m)}, the package has ${this.meshes.length} meshes`);
+      if (!filled.has(m)) {
+        const d = table.meshes[m], pos = o.geometry.getAttribute('position');
         if (!pos || pos.count !== d.base_vertices) {
           throw this._fail(`base .glb mesh ${m} has ${pos ? pos.count : 0} vertices, the table says base_vertices ${d.base_vertices}`);
         }
-        mesh.setBaseVertices(g);
-        const f0 = d.base_faces;
-        if (f0 > 0) {
-          try {
-            mesh.appendFaces(slice(d.base_indices), f0);
-          } catch (e) {
-            throw this._fail(`mesh ${m}: base_indices: ${e.message}`);
-          }
+        mesh.setBaseVertices(o.geometry);
+        try {
+          if (d.base_faces > 0) mesh.appendFaces(slice(d.base_indices), d.base_faces);
+        } catch (e) {
+          throw this._fail(`mesh ${m}: base_indices: ${e.message}`);
         }
-        // The glb's own index (degenerate faces dropped, perhaps) should not hold more faces.
-        if (g.index && g.index.count / 3 > f0) this.notes.push(`base .glb mesh ${m} has ${g.index.count / 3} faces, base_faces is ${f0}`);
-        filled[m] = 1;
+        filled.add(m);
       }
       oldGeometries.add(o.geometry);
       o.geometry = mesh.geometry;
       if (o.isInstancedMesh) {
-        o.boundingBox = null;
-        o.boundingSphere = null;
-        o.computeBoundingSphere();
-        mesh.instances += o.count;
-      } else {
-        mesh.instances += 1;
+        o.boundingBox = o.boundingSphere = null;
+        o.computeBoundingSphere();  // from the package bounds, over the instances
       }
+      mesh.instances += o.isInstancedMesh ? o.count : 1;
     }
-    if (!objects.length) throw this._fail('the base .glb holds no mesh');
-    filled.forEach((f, m) => { if (!f) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`); });
+    this.meshes.forEach((_, m) => { if (!filled.has(m)) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`); });
     for (const g of oldGeometries) g.dispose();
-    for (const mat of oldMaterials) {
-      for (const key of ['map', 'normalMap', 'roughnessMap', 'metalnessMap', 'emissiveMap', 'aoMap']) {
-        const tex = mat[key];
-        if (tex && tex !== this._map.value) tex.dispose();
-      }
-      mat.dispose();
+    for (const material of oldMaterials) {
+      for (const value of Object.values(material)) if (value && value.isTexture && value !== this._map.value) value.dispose();
+      material.dispose();
     }
     this.materials = [...materialFor.values()];
     this.object.add(root);
     this.object.updateMatrixWorld(true);
   }
 
-  // The world-space box of everything the stream will draw: each mesh's package bounds through
-  // each object's world matrix (and instance matrices). Call after adding this.object.
+  // The world-space box of all the stream will draw: each mesh's package bounds through each
+  // object's world matrix (and instance matrices).
   worldBounds(target = new THREE.Box3()) {
     target.makeEmpty();
     this.object.updateWorldMatrix(true, true);
-    const m4 = new THREE.Matrix4(), box = new THREE.Box3();
+    const matrix = new THREE.Matrix4(), box = new THREE.Box3();
     this.object.traverse((o) => {
-      const m = o.userData.meshmux_mesh;
-      if (!o.isMesh || !this.meshes[m]) return;
-      const bb = this.meshes[m].geometry.boundingBox;
-      const count = o.isInstancedMesh ? o.count : 1;
-      for (let i = 0; i < count; i++) {
-        if (o.isInstancedMesh) { o.getMatrixAt(i, m4); m4.premultiply(o.matrixWorld); } else m4.copy(o.matrixWorld);
-        target.union(box.copy(bb).applyMatrix4(m4));
+      const mesh = o.isMesh && this.meshes[o.userData.meshmux_mesh];
+      if (!mesh) return;
+      for (let i = 0; i < (o.isInstancedMesh ? o.count : 1); i++) {
+        if (o.isInstancedMesh) o.getMatrixAt(i, matrix).premultiply(o.matrixWorld);
+        else matrix.copy(o.matrixWorld);
+        target.union(box.copy(mesh.geometry.boundingBox).applyMatrix4(matrix));
       }
     });
     return target;
   }
 
-  // The next batch from order position `pos`: chunks consecutive in the file, up to
-  // chunkBatchBytes (at least one chunk), none past the budget. null when nothing fits.
+  // The next batch from order position `pos`, `planned` bytes being counted before it: chunks
+  // consecutive in the file, up to chunkBatchBytes (at least one chunk), none past the budget.
   _planBatch(pos, planned) {
     const seq = this.order.chunks, chunks = this.table.chunks;
-    const budget = this.options.budgetBytes, cap = this.options.chunkBatchBytes;
-    if (pos >= seq.length) return null;
+    if (pos >= seq.length || planned + chunks[seq[pos]].size > this.options.budgetBytes) return null;
     const first = chunks[seq[pos]];
-    let bytes = planned + first.size;
-    if (bytes > budget) return null;
-    const batch = { indices: [seq[pos]], start: first.offset, end: first.offset + first.size };
+    const batch = { indices: [seq[pos]], start: first.offset, end: first.offset + first.size, bytes: planned + first.size };
     for (let k = pos + 1; k < seq.length; k++) {
       const c = chunks[seq[k]];
-      if (c.offset !== batch.end || batch.end + c.size - batch.start > cap || bytes + c.size > budget) break;
+      if (c.offset !== batch.end || batch.end + c.size - batch.start > this.options.chunkBatchBytes ||
+          batch.bytes + c.size > this.options.budgetBytes) break;
       batch.indices.push(seq[k]);
       batch.end += c.size;
-      bytes += c.size;
+      batch.bytes += c.size;
     }
-    batch.bytes = bytes;
     return batch;
   }
 
-  // Fetches and applies chunks in the chosen order until the end or the budget. Resolves with
-  // the stats; calling it again while playing returns the same promise.
+  // Fetches and applies chunks in the chosen order until the last one or the budget. Resolves
+  // with the stats; while playing, returns the same promise.
   play() {
     if (!this.table) return Promise.reject(this._fail('play() before open()'));
-    if (this._state === 'error' || this._state === 'disposed') return Promise.reject(this._fail(`cannot play in state ${this._state}`));
+    if (this._state === 'error' || this._state === 'disposed') return Promise.reject(this._fail(`cannot play: the stream is in state ${this._state}`));
     if (!this._playing) this._playing = this._run().finally(() => { this._playing = null; });
     return this._playing;
   }
 
   async _run() {
-    const abort = this._abort = new AbortController();
-    const signal = abort.signal;
+    const abort = this._abort = new AbortController(), signal = abort.signal;
+    const read = (batch) => {
+      const promise = batch && this._reader.read(batch.start, batch.end, signal);
+      if (promise) promise.catch(() => {});  // awaited later, or dropped by the abort below
+      return promise;
+    };
+    const stopped = () => new DOMException('stopped', 'AbortError');
     this._state = 'streaming';
-    const pending = [];
     try {
-      let pos = this._position;
-      let batch = this._planBatch(pos, this._bytes);
-      let fetching = batch && this._reader.read(batch.start, batch.end, signal);
-      if (fetching) fetching.catch(() => {});  // awaited below
-      warmUp(this.table.heapBytes);  // while the first batch is on its way
+      let batch = this._planBatch(this._position, this._bytes), fetching = read(batch);
+      if (batch) warmUp(this.table.heapBytes);  // while the first batch is on its way
       while (batch) {
         const data = await fetching;
-        // Prefetch the next batch while this one is applied.
-        const next = this._planBatch(pos + batch.indices.length, batch.bytes);
-        const nextFetch = next && this._reader.read(next.start, next.end, signal);
-        if (nextFetch) { nextFetch.catch(() => {}); pending.push(nextFetch); }
-        for (const ci of batch.indices) {
-          if (signal.aborted) throw new DOMException('stopped', 'AbortError');
-          const chunk = this.table.chunks[ci];
-          if (this._bytes + chunk.size > this.options.budgetBytes) { batch = null; break; }  // budget lowered meanwhile
-          const payload = data.subarray(chunk.offset - batch.start, chunk.offset - batch.start + chunk.size);
-          await this._applyChunk(ci, chunk, payload);
-          if (signal.aborted) throw new DOMException('stopped', 'AbortError');
-          this._position = ++pos;
+        const next = this._planBatch(this._position + batch.indices.length, batch.bytes);
+        const nextFetch = read(next);  // prefetch while this batch is applied
+        for (const index of batch.indices) {
+          if (signal.aborted) throw stopped();
+          const chunk = this.table.chunks[index];
+          if (this._bytes + chunk.size > this.options.budgetBytes) { batch = null; break; }  // the budget was lowered
+          await this._applyChunk(index, chunk, data.subarray(chunk.offset - batch.start, chunk.offset - batch.start + chunk.size));
+          if (signal.aborted) throw stopped();
+          this._position++;
           this._bytes += chunk.size;
-          this._emit('chunk', { chunk: ci, kind: chunk.kind });
+          this._emit('chunk', { chunk: index, kind: chunk.kind });
           this._emit('progress');
-          await this._pause();  // let the page render and handle input between chunks
+          await pause();
+          if (chunk.kind === 'texture') await this._gpuIdle();
         }
         if (!batch) break;
         batch = next;
@@ -955,8 +811,8 @@ export class MeshmuxStream extends EventTarget {
       this._emit(this._state);
       return this.stats;
     } catch (error) {
+      if (this._state === 'disposed') return this.stats;
       if (error && error.name === 'AbortError' && signal.aborted) {
-        if (this._state === 'disposed') return this.stats;
         this._state = 'stopped';
         this._emit('stopped');
         return this.stats;
@@ -967,6 +823,21 @@ export class MeshmuxStream extends EventTarget {
     } finally {
       if (this._abort === abort) this._abort = null;
     }
+  }
+
+  // Resolves once the GPU has done what was submitted so far (after a texture level: its
+  // upload and mipmaps, costly on software rasterizers), so that decoding the next chunk does
+  // not compete with it for the CPU. Needs the renderer; gives up after 2 s.
+  async _gpuIdle() {
+    const gl = this.options.renderer && this.options.renderer.getContext();
+    const sync = gl && gl.fenceSync && gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+    if (!sync) return;
+    gl.flush();
+    for (const t0 = performance.now(); performance.now() - t0 < 2000;) {
+      if (gl.clientWaitSync(sync, 0, 0) !== gl.TIMEOUT_EXPIRED) break;
+      await new Promise((resolve) => setTimeout(resolve, 2));
+    }
+    gl.deleteSync(sync);
   }
 
   async _applyChunk(index, chunk, payload) {
@@ -991,25 +862,20 @@ export class MeshmuxStream extends EventTarget {
     }
     if (this._state === 'disposed') { bitmap.close(); return; }
     if (bitmap.width !== chunk.width || bitmap.height !== chunk.height) {
-      this.notes.push(`chunk ${index}: texture is ${bitmap.width}×${bitmap.height}, the table says ${chunk.width}×${chunk.height}`);
+      this.notes.push(`chunk ${index}: the texture is ${bitmap.width}×${bitmap.height}, the table says ${chunk.width}×${chunk.height}`);
     }
-    const anisotropy = this.options.renderer ? Math.min(16, this.options.renderer.capabilities.getMaxAnisotropy()) : 1;
-    const texture = configureTexture(new THREE.Texture(bitmap), anisotropy);
+    const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
-    const old = this._map.value;
+    this._ownTextures.add(texture);
+    this._releaseTexture(this._map.value);
     this._map.value = texture;
-    this._ownedTextures.push(texture);
-    if (old) this._releaseTexture(old);
     this._textureSize = [bitmap.width, bitmap.height];
   }
 
   _releaseTexture(texture) {
+    if (!texture) return;
     texture.dispose();
-    const k = this._ownedTextures.indexOf(texture);
-    if (k >= 0) {
-      this._ownedTextures.splice(k, 1);
-      if (texture.image && typeof texture.image.close === 'function') texture.image.close();
-    }
+    if (this._ownTextures.delete(texture)) texture.image.close();  // an ImageBitmap of ours
   }
 
   // Aborts fetching; play() then resolves with state 'stopped'.
@@ -1022,17 +888,10 @@ export class MeshmuxStream extends EventTarget {
     this._state = 'disposed';
     if (this.object.parent) this.object.parent.remove(this.object);
     for (const m of this.meshes) m.dispose();
-    for (const mat of this.materials) mat.dispose();
-    if (this._map.value) this._releaseTexture(this._map.value);
+    for (const m of this.materials) m.dispose();
+    this._releaseTexture(this._map.value);
     this._map.value = null;
     this.meshes = [];
     this.materials = [];
   }
-}
-
-function concat(a, b) {
-  const out = new Uint8Array(a.length + b.length);
-  out.set(a, 0);
-  out.set(b, a.length);
-  return out;
 }

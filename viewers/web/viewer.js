@@ -187,7 +187,9 @@ function load(order, fraction, play) {
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');
-  s.addEventListener('chunk', () => { if (s === stream) requestRender(); });
+  // Render at once: the stream applies one chunk per animation frame, so the renderer's work
+  // on this step is done before the next chunk is decoded (no competition for the CPU).
+  s.addEventListener('chunk', () => { if (s === stream) renderNow(); });
   loading = (async () => {
     try {
       await s.open();
@@ -293,6 +295,7 @@ async function capture(width, height) {
     color: renderer.getClearColor(new THREE.Color()), alpha: renderer.getClearAlpha(),
   };
   const pixels = new Uint8Array(width * height * 4);
+  let reading;
   try {
     camera.aspect = width / height;
     camera.updateProjectionMatrix();
@@ -300,14 +303,21 @@ async function capture(width, height) {
     renderer.setClearColor(0x000000, 0);
     renderer.clear(true, true, true);
     renderer.render(scene, camera);
-    // The PBO path: no GPU stall (and no driver warning about one) on the main thread.
-    if (renderer.readRenderTargetPixelsAsync) await renderer.readRenderTargetPixelsAsync(target, 0, 0, width, height, pixels);
-    else renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
+    // Through a pixel buffer when possible: no stall of the GPU pipeline on the main thread.
+    reading = renderer.readRenderTargetPixelsAsync
+      ? renderer.readRenderTargetPixelsAsync(target, 0, 0, width, height, pixels)
+      : renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
   } finally {
+    // The page's state comes back at once (the read is already queued): a frame rendered
+    // meanwhile goes to the canvas.
     renderer.setRenderTarget(saved.target);
     renderer.setClearColor(saved.color, saved.alpha);
     camera.aspect = saved.aspect;
     camera.updateProjectionMatrix();
+  }
+  try {
+    await reading;
+  } finally {
     target.dispose();
     requestRender();
   }
@@ -329,6 +339,7 @@ window.meshmuxViewer = {
   get notes() { return stream ? stream.notes.slice() : []; },
   get stream() { return stream; },
   get done() { return loading; },
+  orders: () => (stream && stream.table ? stream.table.orders.map((o) => o.name) : []),
   view, setView, capture, replay,
   render: renderNow,
 };
