@@ -1,0 +1,167 @@
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 2; layout in
+// exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
+// the package's JSON table against the file (validateTable). Used by meshmux.js.
+
+export const PACKAGE_VERSION = 2;
+export const VERTEX_BYTES = 20;  // position 3×u16 + pad u16, normal 4×i8, uv 2×u16, parent u32
+const MAX_ELEMENTS = 1 << 27;    // sanity cap on one mesh's vertices / faces
+
+// ---- The package table -----------------------------------------------------------------------
+
+// Validates the parsed JSON table against the file and returns it normalized (numbers checked,
+// mesh parts contiguous, orders complete). `fail(message)` makes the Error to throw.
+export function validateTable(t, { fileSize, dataStart, fail }) {
+  const need = (ok, message) => { if (!ok) throw fail(message); };
+  const obj = (v, what) => { need(v && typeof v === 'object' && !Array.isArray(v), `${what} must be an object`); return v; };
+  const arr = (v, what) => { need(Array.isArray(v), `${what} must be an array`); return v; };
+  const int = (v, what, max = Number.MAX_SAFE_INTEGER) => {
+    need(Number.isSafeInteger(v) && v >= 0 && v <= max, `${what} must be an integer in [0, ${max}] (got ${JSON.stringify(v)})`);
+    return v;
+  };
+  const dist = (v, what) => {  // a distortion: a finite number, or missing (NaN)
+    need(v == null || Number.isFinite(v), `${what} must be a finite number`);
+    return v == null ? NaN : v;
+  };
+  const range = (r, what) => {
+    const offset = int(r.offset, `${what}.offset`), size = int(r.size, `${what}.size`);
+    need(size === 0 || offset >= dataStart, `${what} starts at ${offset}, inside the header and table (${dataStart} bytes)`);
+    need(offset + size <= fileSize, `${what} [${offset}, ${offset + size}) runs past the end of the file (${fileSize} bytes)`);
+    return { offset, size };
+  };
+
+  obj(t, 'the table');
+  need(t.version === PACKAGE_VERSION, `table version ${JSON.stringify(t.version)}, expected ${PACKAGE_VERSION}`);
+  const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };
+  need(base.size >= 20, `the base .glb is ${base.size} bytes, too small for a glb`);
+  const meshes = arr(t.meshes, 'meshes').map((m, i) => {
+    const w = `meshes[${i}]`;
+    obj(m, w);
+    const d = {
+      vertices: int(m.vertices, `${w}.vertices`, MAX_ELEMENTS), faces: int(m.faces, `${w}.faces`, MAX_ELEMENTS),
+      base_vertices: int(m.base_vertices, `${w}.base_vertices`, m.vertices), base_faces: int(m.base_faces, `${w}.base_faces`, m.faces),
+      bounds: arr(m.bounds, `${w}.bounds`), base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
+    };
+    need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
+    need((d.base_faces > 0) === (d.base_indices.size > 0), `${w}: ${d.base_faces} base faces in ${d.base_indices.size} bytes`);
+    return d;
+  });
+  const texture = t.texture == null ? null
+    : { width: int(obj(t.texture, 'texture').width, 'texture.width'), height: int(t.texture.height, 'texture.height') };
+
+  // Chunks, with the parts simulated in stream order: each continues where its mesh stands.
+  const held = meshes.map((m) => ({ vertices: m.base_vertices, faces: m.base_faces }));
+  let heapBytes = 0;  // the largest decode ahead, in decoder heap bytes (target + source)
+  for (const m of meshes) heapBytes = Math.max(heapBytes, 12 * m.base_faces + 12 + m.base_indices.size);
+  const chunks = arr(t.chunks, 'chunks').map((c, i) => {
+    const w = `chunks[${i}]`;
+    const chunk = { kind: obj(c, w).kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
+    if (c.kind === 'texture') {
+      need(/^image\/(jpeg|png|webp)$/.test(c.mime), `${w}.mime ${JSON.stringify(c.mime)} is not image/jpeg or image/png`);
+      need(chunk.size > 0, `${w}: an empty texture`);
+      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), mime: c.mime };
+    }
+    need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
+    let bytes = 0;
+    chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
+      const pw = `${w}.parts[${j}]`;
+      const mesh = int(obj(p, pw).mesh, `${pw}.mesh`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
+      const part = { mesh, updates: int(p.updates ?? 0, `${pw}.updates`, 3 * h.faces), update_bytes: int(p.update_bytes ?? 0, `${pw}.update_bytes`) };
+      for (const key of ['vertex_begin', 'vertex_end', 'face_begin', 'face_end', 'vertex_bytes', 'index_bytes']) part[key] = int(p[key], `${pw}.${key}`);
+      need(part.vertex_begin === h.vertices, `${pw}: vertex_begin ${part.vertex_begin}, but mesh ${mesh} holds ${h.vertices} vertices there`);
+      need(part.face_begin === h.faces, `${pw}: face_begin ${part.face_begin}, but mesh ${mesh} holds ${h.faces} faces there`);
+      need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
+      need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
+      const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
+      for (const [name, count, size] of [['vertices', nv, part.vertex_bytes], ['faces', nf, part.index_bytes], ['updates', part.updates, part.update_bytes]]) {
+        need((count > 0) === (size > 0), `${pw}: ${count} ${name} in ${size} bytes`);
+      }
+      h.vertices = part.vertex_end;
+      h.faces = part.face_end;
+      bytes += part.vertex_bytes + part.index_bytes + part.update_bytes;
+      heapBytes = Math.max(heapBytes, VERTEX_BYTES * (nv + 3) + part.vertex_bytes, 12 * nf + 12 + part.index_bytes,
+        8 * part.updates + 12 + part.update_bytes);
+      return part;
+    });
+    need(bytes === chunk.size, `${w}: its parts hold ${bytes} bytes, the chunk ${chunk.size}`);
+    return chunk;
+  });
+  const n = chunks.length;
+
+  // Orders: permutations of the chunks that keep the mesh chunks' relative order.
+  const orders = (t.orders === undefined ? [{ name: 'rate-distortion', chunks: chunks.map((_, i) => i) }] : arr(t.orders, 'orders')).map((o, k) => {
+    const w = `orders[${k}] ("${obj(o, `orders[${k}]`).name}")`;
+    need(typeof o.name === 'string' && o.name, `orders[${k}].name must be a non-empty string`);
+    const seq = arr(o.chunks, `${w}.chunks`), seen = new Uint8Array(n);
+    need(seq.length === n, `${w} lists ${seq.length} chunks, the package has ${n}`);
+    let lastMesh = -1;
+    seq.forEach((c, i) => {
+      need(!seen[int(c, `${w}.chunks[${i}]`, n - 1)]++, `${w} lists chunk ${c} twice`);
+      if (chunks[c].kind !== 'mesh') return;
+      need(c > lastMesh, `${w} reorders mesh chunks (${c} after ${lastMesh})`);
+      lastMesh = c;
+    });
+    const distortion = o.distortion === undefined ? seq.map((c) => chunks[c].distortion)
+      : arr(o.distortion, `${w}.distortion`).map((d, i) => dist(d, `${w}.distortion[${i}]`));
+    need(distortion.length === n, `${w} has ${distortion.length} distortion values for ${n} chunks`);
+    return { name: o.name, chunks: seq.slice(), distortion };
+  });
+  need(orders.length > 0, 'orders is empty');
+  need(orders[0].chunks.every((c, i) => c === i), `orders[0] ("${orders[0].name}") is not the file order`);
+
+  // Not fatal: a complete stream should end on the full mesh sizes.
+  const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
+    : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
+  return { version: t.version, base, meshes, texture, chunks, orders, notes, heapBytes };
+}
+
+// ---- HTTP ranges -----------------------------------------------------------------------------
+
+// Reads byte ranges of one URL; falls back to the whole body when the server ignores Range.
+export class RangeReader {
+  constructor(url) {
+    this.url = url;
+    this.whole = null;   // the entire file, once a server answered 200
+    this.prefix = null;  // the probe's bytes, reused when a later range falls inside
+    this.size = NaN;     // the file size, once known
+  }
+
+  _error(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
+
+  async _fetch(start, end, signal) {
+    let res;
+    try {
+      res = await fetch(this.url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal });
+    } catch (e) {
+      if (e.name === 'AbortError') throw e;
+      throw this._error(`cannot fetch bytes ${start}-${end - 1} (${e.message})`);
+    }
+    if (res.status === 200) {
+      this.whole = new Uint8Array(await res.arrayBuffer());
+      this.size = this.whole.length;
+      return this.whole.subarray(start, Math.min(end, this.size));
+    }
+    if (res.status !== 206) throw this._error(`HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''} for bytes ${start}-${end - 1}`);
+    const range = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.headers.get('Content-Range') || '');
+    if (range && Number(range[1]) !== start) throw this._error(`asked for bytes from ${start}, the server sent ${range[0]}`);
+    if (range && range[3] !== '*') this.size = Number(range[3]);
+    return new Uint8Array(await res.arrayBuffer());
+  }
+
+  // The first n bytes (fewer if the file is shorter).
+  async probe(n, signal) {
+    this.prefix = await this._fetch(0, n, signal);
+    if (!Number.isFinite(this.size) && this.prefix.length < n) this.size = this.prefix.length;
+    return this.prefix;
+  }
+
+  // Exactly bytes [start, end).
+  async read(start, end, signal) {
+    if (end <= start) return new Uint8Array(0);
+    if (this.whole && end > this.whole.length) throw this._error(`bytes ${start}-${end - 1} lie past the end of the file (${this.whole.length} bytes)`);
+    if (this.whole) return this.whole.subarray(start, end);
+    if (this.prefix && end <= this.prefix.length) return this.prefix.subarray(start, end);
+    const bytes = await this._fetch(start, end, signal);
+    if (bytes.length < end - start) throw this._error(`short read: bytes ${start}-${end - 1} gave ${bytes.length} bytes`);
+    return bytes.subarray(0, end - start);
+  }
+}
