@@ -163,10 +163,10 @@ int cmd_render(const std::vector<std::string>& args) {
 
   Bounds bounds = scene_bounds(s);
   float aspect = float(width) / float(height);
-  Camera cam = camera_for(normalize(Vec3{1, 0.6f, 1.4f}), bounds, aspect);
   ViewOptions vo;
   vo.fov_y_degrees = float(fov);
-  if (fov != 45) cam = camera_for(normalize(Vec3{1, 0.6f, 1.4f}), bounds, aspect, vo);
+  // The viewer's first view (viewers/web/viewer.js frames the same direction the same way).
+  Camera cam = camera_for(normalize(Vec3{1, 0.6f, 1.4f}), bounds, aspect, vo);
   if (have_eye) cam.eye = eye;
   if (have_target) cam.target = target;
   if (have_up) cam.up = up;
