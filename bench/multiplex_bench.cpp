@@ -1,5 +1,5 @@
-// Multiplexer benchmark: the whole conditioning pipeline (clean → atlas → flatten when < 1.75
-// instances per submesh → progressive record) then paper 004's multiplexing, on a generated
+// Multiplexer benchmark: the whole conversion (pipeline/convert: clean → atlas → texture levels →
+// progressive record → paper 004's multiplexing → package), on a generated
 // textured scene of ~112,000 triangles (the DESIGN.md "100k-triangle model" figure: target
 // ≤ 60 s on 2 cores) and on every textured shared model given on the command line. Prints the
 // four areas under the rendered distortion-vs-bytes curves and the gain over the best baseline.
@@ -8,12 +8,8 @@
 #include <cstdio>
 #include <string>
 
-#include "condition/atlas.h"
-#include "condition/clean.h"
-#include "condition/flatten.h"
-#include "condition/simplify.h"
 #include "importers/import.h"
-#include "multiplex/multiplex.h"
+#include "pipeline/convert.h"
 #include "scene/sample.h"
 
 using namespace meshmux;
@@ -22,29 +18,23 @@ namespace {
 
 void run(const std::string& name, const Scene& input) {
   auto t0 = std::chrono::steady_clock::now();
-  auto atlased = build_atlas(clean(input, {}), {}, nullptr, nullptr);
-  if (!atlased.ok()) {
-    std::printf("| %s | atlas failed: %s |\n", name.c_str(), atlased.status().message().c_str());
-    return;
-  }
-  Scene s = atlased.take();
-  if (s.instances.size() > 1 && instances_per_submesh(s) < 1.75) s = flatten(s);
-  ProgressiveScene ps = build_progressive(s, {});
-  auto t1 = std::chrono::steady_clock::now();
-  Image atlas;
-  if (!s.materials.empty() && s.materials[0].base_color.present()) atlas = s.images[0];
-  auto r = multiplex(ps, atlas, {});
+  Warnings warnings;
+  auto c = convert(input, ConvertOptions{}, &warnings, nullptr);
   auto t2 = std::chrono::steady_clock::now();
-  if (!r.ok()) {
-    std::printf("| %s | multiplex failed: %s |\n", name.c_str(), r.status().message().c_str());
+  if (!c.ok() || !c->multiplexed) {
+    std::printf("| %s | conversion failed: %s |\n", name.c_str(),
+                c.ok() ? "no renderer here" : c.status().message().c_str());
     return;
   }
+  const MultiplexResult* r = &*c->multiplexed;
+  auto t1 = t2 - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(r->seconds_total));
   double rd = area_under(r->rd), mf = area_under(r->mesh_first), tf = area_under(r->texture_first),
          cr = area_under(r->constant_ratio), best = std::min({mf, tf, cr});
   std::printf(
       "| %s | %llu | %zu x %zu | %.4g | %.4g | %.4g | %.4g | %.1f%% | %zu | %zu / %zu / %zu | %zu "
       "| %.1f | %.1f |\n",
-      name.c_str(), static_cast<unsigned long long>(compute_stats(s).scene_triangles),
+      name.c_str(), static_cast<unsigned long long>(c->output.scene_triangles),
       r->mesh_bytes.size(), r->texture_bytes.size(), rd, mf, tf, cr, 100 * (1 - rd / best),
       r->views, r->cells_descent, r->cells_evaluated, r->cells_total, r->renders,
       std::chrono::duration<double>(t1 - t0).count(),
@@ -56,7 +46,8 @@ void run(const std::string& name, const Scene& input) {
 int main(int argc, char** argv) {
   std::printf(
       "| model | scene tris | mesh x texture layers | area rd | mesh first | texture first | "
-      "constant ratio | gain vs best | views | cells descent / all / grid | renders | condition s "
+      "constant ratio | gain vs best | views | cells descent / all / grid | renders | other stages "
+      "s "
       "| multiplex s |\n");
   std::printf("|---|---:|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n");
   SampleOptions big;

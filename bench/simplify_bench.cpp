@@ -46,14 +46,14 @@
 
 #include "bench/hausdorff.h"
 #include "bench/instanced_scene.h"
-#include "condition/clean.h"
-#include "condition/flatten.h"
-#include "condition/lod.h"
-#include "condition/simplify.h"
+#include "clean/clean.h"
+#include "clean/flatten.h"
 #include "exporters/gltf.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
 #include "scene/scene.h"
+#include "simplify/lod.h"
+#include "simplify/simplify.h"
 
 #ifndef MESHMUX_SHARED_DIR
 #define MESHMUX_SHARED_DIR "../shared"

@@ -11,21 +11,17 @@
 #include <string>
 #include <vector>
 
+#include "clean/clean.h"
 #include "cli/render_command.h"
 #include "cli/serve.h"
-#include "condition/atlas.h"
-#include "condition/clean.h"
-#include "condition/flatten.h"
-#include "condition/lod.h"
-#include "condition/simplify.h"
 #include "exporters/gltf.h"
-#include "exporters/package.h"
 #include "exporters/viewer_page.h"
 #include "importers/import.h"
-#include "multiplex/multiplex.h"
-#include "multiplex/stream_plan.h"
+#include "pipeline/convert.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
+#include "simplify/lod.h"
+#include "simplify/simplify.h"
 
 #ifndef MESHMUX_VERSION
 #define MESHMUX_VERSION "0.0.0"
@@ -40,6 +36,7 @@ constexpr int kExitUsage = 1;
 constexpr int kExitInput = 2;
 constexpr int kExitOutput = 3;
 constexpr int kExitInternal = 4;
+constexpr int kExitUnavailable = 5;
 
 const char* kUsage =
     "meshmux " MESHMUX_VERSION
@@ -85,7 +82,9 @@ const char* kUsage =
     "  1  usage error (unknown command or flag, missing argument)\n"
     "  2  input error (missing, empty, truncated, malformed or unsupported input)\n"
     "  3  output error (the output could not be written; nothing partial is left)\n"
-    "  4  internal error\n";
+    "  4  internal error\n"
+    "  5  unavailable: no offscreen OpenGL 4.5 through EGL here (meshmux render; convert\n"
+    "     then writes everything but the report, the package and the viewer, with a warning)\n";
 
 int exit_code(const Status& s) {
   switch (s.kind()) {
@@ -97,6 +96,8 @@ int exit_code(const Status& s) {
       return kExitOutput;
     case ErrorKind::kInternal:
       return kExitInternal;
+    case ErrorKind::kUnavailable:
+      return kExitUnavailable;
   }
   return kExitInternal;
 }
@@ -111,22 +112,29 @@ int usage_error(const std::string& message) {
   return kExitUsage;
 }
 
-class Progress {
+// Progress on stderr: each step with the elapsed time, then the warnings that came since.
+class CliProgress : public Progress {
  public:
-  explicit Progress(bool quiet) : quiet_(quiet), start_(now()) {}
-  void step(const std::string& what) {
+  CliProgress(bool quiet, const Warnings* warnings = nullptr)
+      : quiet_(quiet), warnings_(warnings), start_(now()) {}
+  void step(const std::string& what) override {
+    flush();
     if (!quiet_) std::fprintf(stderr, "meshmux: [%6.2f s] %s\n", seconds(), what.c_str());
   }
-  void warnings(const Warnings& w, size_t from) {
-    if (quiet_) return;
-    for (size_t i = from; i < w.items().size(); ++i)
-      std::fprintf(stderr, "meshmux: warning: %s\n", w.items()[i].c_str());
+  // Prints the warnings not printed yet.
+  void flush() {
+    if (!warnings_) return;
+    for (; seen_ < warnings_->items().size(); ++seen_)
+      if (!quiet_)
+        std::fprintf(stderr, "meshmux: warning: %s\n", warnings_->items()[seen_].c_str());
   }
   double seconds() const { return std::chrono::duration<double>(now() - start_).count(); }
 
  private:
   static std::chrono::steady_clock::time_point now() { return std::chrono::steady_clock::now(); }
   bool quiet_;
+  const Warnings* warnings_;
+  size_t seen_ = 0;
   std::chrono::steady_clock::time_point start_;
 };
 
@@ -201,225 +209,76 @@ class Args {
   size_t i_ = size_t(-1);
 };
 
+// Writes a conversion's outputs: OUT.glb alone, or the folder's files, each atomically; the
+// progress lines name them.
+Status write_outputs(const std::string& out, bool folder, const ConvertOutputs& r,
+                     CliProgress& progress) {
+  if (!folder) return write_file_atomic(out, r.model_glb);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec || !std::filesystem::is_directory(out))
+    return Status::error(
+        out + ": cannot create output folder" + (ec ? ": " + ec.message() : std::string()),
+        ErrorKind::kOutput);
+  const std::pair<const char*, const std::vector<uint8_t>*> files[] = {
+      {"model.glb", &r.model_glb}, {"base.glb", &r.base_glb}, {"model.mmxp", &r.package}};
+  for (const auto& [name, bytes] : files) {
+    if (bytes->empty()) continue;
+    if (Status s = write_file_atomic(out + "/" + name, *bytes); !s) return s;
+    progress.step("wrote " + out + "/" + name + " (" + human_bytes(bytes->size()) + ")");
+  }
+  if (!r.report_json.empty()) {
+    if (Status s = write_file_atomic(out + "/report.json", r.report_json); !s) return s;
+    if (Status s = write_file_atomic(out + "/rd.svg", r.rd_svg); !s) return s;
+    progress.step("wrote " + out + "/report.json and " + out + "/rd.svg");
+  }
+  if (r.package.empty()) return Status::ok();
+  if (Status s = write_viewer(out); !s) return s;
+  progress.step("wrote " + out + "/index.html and " + out + "/viewer/ (meshmux serve " + out + ")");
+  return Status::ok();
+}
+
 int cmd_convert(const std::vector<std::string>& args) {
-  bool atlas = true, want_report = true;
-  GltfExportOptions gopts;
-  CleanOptions copts;
+  ConvertOptions o;
   Args p("convert", args);
   while (p.next()) {
     const std::string& a = p.current();
     std::string v, err;
+    int* bits = a == "--position-bits" ? &o.gltf.position_bits
+                : a == "--normal-bits" ? &o.gltf.normal_bits
+                : a == "--uv-bits"     ? &o.gltf.uv_bits
+                                       : nullptr;
+    int crease = 0;
     if (a == "--no-draco") {
-      gopts.draco = false;
+      o.gltf.draco = false;
     } else if (a == "--no-atlas") {
-      atlas = false;
+      o.atlas = false;
     } else if (a == "--no-report") {
-      want_report = false;
-    } else if (a == "--position-bits" || a == "--normal-bits" || a == "--uv-bits") {
+      o.report = false;
+    } else if (bits || a == "--crease") {
       if (!p.value(&v)) return usage_error(p.error);
-      int* target = a == "--position-bits" ? &gopts.position_bits
-                    : a == "--normal-bits" ? &gopts.normal_bits
-                                           : &gopts.uv_bits;
-      if (!parse_int(a, v, 1, 30, target, &err)) return usage_error("convert: " + err);
-    } else if (a == "--crease") {
-      int deg;
-      if (!p.value(&v)) return usage_error(p.error);
-      if (!parse_int(a, v, 0, 180, &deg, &err)) return usage_error("convert: " + err);
-      copts.crease_angle_degrees = float(deg);
-    } else if (int r = p.common(); r < 0) {
-      return usage_error(p.error);
-    } else if (r == 0) {
-      return usage_error("convert: unknown option " + a);
+      if (!parse_int(a, v, bits ? 1 : 0, bits ? 30 : 180, bits ? bits : &crease, &err))
+        return usage_error("convert: " + err);
+      if (!bits) o.clean.crease_angle_degrees = float(crease);
+    } else if (int r = p.common(); r <= 0) {
+      return usage_error(r < 0 ? p.error : "convert: unknown option " + a);
     }
   }
-  if (p.help) {
-    std::fputs(kUsage, stdout);
-    return kExitOk;
-  }
-  const std::string &in = p.in, &out = p.out;
-  bool quiet = p.quiet;
-  if (in.empty()) return usage_error("convert: no input file given");
-  if (out.empty()) return usage_error("convert: no output given (-o OUT.glb or -o FOLDER)");
-
-  Progress progress(quiet);
+  if (p.help) return std::fputs(kUsage, stdout), kExitOk;
+  if (p.in.empty()) return usage_error("convert: no input file given");
+  if (p.out.empty()) return usage_error("convert: no output given (-o OUT.glb or -o FOLDER)");
+  o.stream = !ends_with(p.out, ".glb");
   Warnings warnings;
-  progress.step("importing " + in);
-  auto scene = import_scene(in, ImportOptions{}, &warnings);
-  progress.warnings(warnings, 0);
-  if (!scene.ok()) return fail(scene.status());
-  SceneStats before = compute_stats(*scene);
-  progress.step("imported " + std::to_string(before.meshes) + " meshes, " +
-                std::to_string(before.instances) + " instances, " +
-                std::to_string(before.scene_triangles) + " triangles");
-
-  size_t seen = warnings.items().size();
-  CleanReport report;
-  Scene cleaned = clean(*scene, copts, &report);
-  progress.step("cleaned: " + std::to_string(report.triangles_out) + " unique triangles (" +
-                std::to_string(report.degenerate_removed) + " degenerate, " +
-                std::to_string(report.duplicates_removed) + " duplicate removed), " +
-                std::to_string(report.vertices_out) + " vertices");
-
-  if (atlas) {
-    progress.step("building the atlas (charts, parameterization, packing, baking)");
-    AtlasReport ar;
-    auto atlased = build_atlas(cleaned, AtlasOptions{}, &ar, &warnings);
-    progress.warnings(warnings, seen);
-    seen = warnings.items().size();
-    if (!atlased.ok()) return fail(atlased.status());
-    cleaned = atlased.take();
-    // Paper 001: below 1.75 instances per submesh instancing is not worth keeping; with one
-    // material, the flattened model is one draw call.
-    if (ar.built && cleaned.instances.size() > 1 && instances_per_submesh(cleaned) < 1.75) {
-      cleaned = flatten(cleaned);
-      progress.step("flattened (fewer than 1.75 instances per submesh): one mesh, one draw call");
-    }
-    if (ar.built) {
-      char line[256];
-      std::snprintf(line, sizeof line,
-                    "atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 stretch mean "
-                    "%.3f max %.3f, %.2f s",
-                    ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
-                    ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds);
-      progress.step(line);
-    } else {
-      progress.step("atlas: not needed (one material, no texture)");
-    }
-  }
-
-  progress.step("encoding glTF");
-  auto bytes = export_glb_bytes(cleaned, gopts, &warnings);
-  progress.warnings(warnings, seen);
-  if (!bytes.ok()) return fail(bytes.status());
-
-  std::string target = out;
-  if (!ends_with(out, ".glb")) {
-    std::error_code ec;
-    std::filesystem::create_directories(out, ec);
-    if (ec || !std::filesystem::is_directory(out))
-      return fail(Status::error(
-          out + ": cannot create output folder" + (ec ? ": " + ec.message() : std::string()),
-          ErrorKind::kOutput));
-    target = out + "/model.glb";
-  }
-  std::vector<uint8_t> base_bytes;
-  std::string report_text, svg_text;
-  std::vector<uint8_t> package_bytes;
-  if (!ends_with(out, ".glb")) {
-    progress.step("simplifying (instance-aware progressive record)");
-    SimplifyReport sr;
-    ProgressiveScene ps = build_progressive(cleaned, SimplifyOptions{}, &sr);
-    Scene base = materialize(ps, select_base(ps));
-    SceneStats bs = compute_stats(base);
-    progress.step("base level: " + std::to_string(bs.scene_triangles) + " of " +
-                  std::to_string(sr.input_triangles) + " triangles" +
-                  (sr.flattened ? " (flattened: few instances per submesh)" : "") + ", " +
-                  std::to_string(sr.collapses) + " collapses recorded in " +
-                  std::to_string(int(sr.seconds * 1000)) + " ms");
-    auto b = export_glb_bytes(base, gopts, &warnings);
-    if (!b.ok()) return fail(b.status());
-    base_bytes = b.take();
-    if (want_report) {
-      progress.step("multiplexing (rendering levels from the viewing sphere)");
-      Image atlas_image;
-      if (!cleaned.materials.empty() && cleaned.materials[0].base_color.present())
-        atlas_image = cleaned.images[size_t(cleaned.materials[0].base_color.image)];
-      auto mx = multiplex(ps, atlas_image, MultiplexOptions{});
-      if (!mx.ok()) {
-        warnings.add("report: " + mx.status().message() + "; report.json and rd.svg not written");
-        progress.warnings(warnings, warnings.items().size() - 1);
-      } else {
-        char line[256];
-        std::snprintf(line, sizeof line,
-                      "multiplexed: %zu mesh x %zu texture layers, %zu views, %zu of %zu cells "
-                      "rendered (%zu images), %.1f s",
-                      mx->mesh_bytes.size(), mx->texture_bytes.size(), mx->views,
-                      mx->cells_evaluated, mx->cells_total, mx->renders, mx->seconds_total);
-        progress.step(line);
-        report_text = report_json(*mx);
-        svg_text = rd_svg(*mx);
-        // The stream package: the base (mesh layer 0 with texture level 0, no Draco and every
-        // prefix vertex kept so vertex i is the stream's vertex i), then every step of the
-        // descent's order; the baselines ride along as orders of the same chunks.
-        LodSelection base0 = select_base(ps);
-        base0.level = mx->layer_levels[0];
-        Scene pkg_base = materialize(ps, base0, /*keep_prefix=*/true);
-        std::string unstreamable;
-        if (pkg_base.meshes.size() != ps.meshes.size())
-          unstreamable = "a mesh has no triangles at the base level";
-        for (const ProgressiveMesh& pm : ps.meshes)
-          if (pm.primitive_material.size() != 1)
-            unstreamable = "a mesh has several materials (the stream needs the one-material atlas)";
-        auto plan = stream_plan(*mx);
-        if (!plan.ok()) return fail(plan.status());
-        if (!mx->texture_levels.levels.empty() && !pkg_base.images.empty()) {
-          const TextureLevel& l0 = mx->texture_levels.levels[0];
-          Image level0;
-          level0.name = "texture level 0";
-          level0.encoded = l0.encoded;
-          level0.mime_type = l0.mime_type;
-          level0.width = l0.width;
-          level0.height = l0.height;
-          pkg_base.images[0] = std::move(level0);
-        }
-        GltfExportOptions plain = gopts;
-        plain.draco = false;
-        plain.tag_meshes = true;
-        auto pb = export_glb_bytes(pkg_base, plain, &warnings);
-        if (!pb.ok()) return fail(pb.status());
-        PackageInput pin;
-        pin.scene = &ps;
-        pin.base_levels = mx->layer_levels[0];
-        pin.base_glb = pb.take();
-        pin.textures = mx->texture_levels.levels.empty() ? nullptr : &mx->texture_levels;
-        pin.steps = plan->steps;
-        pin.base_distortion = plan->base_distortion;
-        pin.orders = plan->orders;
-        if (!unstreamable.empty()) {
-          warnings.add("package: " + unstreamable + "; model.mmxp and the viewer not written");
-          progress.warnings(warnings, warnings.items().size() - 1);
-        }
-        if (unstreamable.empty()) {
-          auto pkg = write_package(pin);
-          if (!pkg.ok()) return fail(pkg.status());
-          package_bytes = pkg.take();
-        }
-      }
-    }
-  }
-  Status s = write_file_atomic(target, *bytes);
-  if (!s) return fail(s);
-  if (!base_bytes.empty()) {
-    s = write_file_atomic(out + "/base.glb", base_bytes);
-    if (!s) {
-      std::remove(target.c_str());
-      return fail(s);
-    }
-    progress.step("wrote " + out + "/base.glb (" + human_bytes(base_bytes.size()) + ")");
-  }
-  if (!report_text.empty()) {
-    for (const auto& [name, text] : {std::make_pair(std::string("report.json"), report_text),
-                                     std::make_pair(std::string("rd.svg"), svg_text)}) {
-      s = write_file_atomic(out + "/" + name, text);
-      if (!s) return fail(s);
-    }
-    progress.step("wrote " + out + "/report.json and " + out + "/rd.svg");
-  }
-  if (!package_bytes.empty()) {
-    s = write_file_atomic(out + "/model.mmxp", package_bytes);
-    if (!s) return fail(s);
-    progress.step("wrote " + out + "/model.mmxp (the stream package, " +
-                  human_bytes(package_bytes.size()) + ")");
-    s = write_viewer(out);
-    if (!s) return fail(s);
-    progress.step("wrote " + out + "/index.html and " + out +
-                  "/viewer/ (the web viewer: meshmux serve " + out + ")");
-  }
-  SceneStats after = compute_stats(cleaned);
-  progress.step("wrote " + target + " (" + human_bytes(bytes->size()) + ", " +
-                std::to_string(after.scene_triangles) + " triangles, " +
-                std::to_string(after.draw_calls) + " draw calls)");
-  if (!quiet) std::fprintf(stderr, "meshmux: result: %s\n", target.c_str());
+  CliProgress progress(p.quiet, &warnings);
+  progress.step("importing " + p.in);
+  auto scene = import_scene(p.in, ImportOptions{}, &warnings);
+  if (!scene.ok()) return progress.flush(), fail(scene.status());
+  auto r = convert(*scene, o, &warnings, &progress);
+  progress.flush();
+  if (!r.ok()) return fail(r.status());
+  if (Status s = write_outputs(p.out, o.stream, *r, progress); !s) return fail(s);
+  progress.step("wrote " + p.out + " (" + std::to_string(r->output.scene_triangles) +
+                " triangles, " + std::to_string(r->output.draw_calls) + " draw calls)");
   return kExitOk;
 }
 
@@ -557,11 +416,11 @@ int cmd_simplify(const std::vector<std::string>& args) {
     return usage_error("simplify: -o OUT.glb is required");
   if (targets != 1)
     return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
-  Progress progress(quiet);
   Warnings warnings;
+  CliProgress progress(quiet, &warnings);
   progress.step("importing " + in);
   auto scene = import_scene(in, ImportOptions{}, &warnings);
-  progress.warnings(warnings, 0);
+  progress.flush();
   if (!scene.ok()) return fail(scene.status());
   Scene cleaned = clean(*scene, CleanOptions{});
   progress.step("simplifying");
@@ -580,9 +439,8 @@ int cmd_simplify(const std::vector<std::string>& args) {
                 std::to_string(sr.input_triangles) + " scene triangles, " +
                 std::to_string(ls.unique_triangles) + " unique, " + std::to_string(ls.instances) +
                 " instances" + (sr.flattened ? " (flattened)" : ""));
-  size_t seen = warnings.items().size();
   auto bytes = export_glb_bytes(level, gopts, &warnings);
-  progress.warnings(warnings, seen);
+  progress.flush();
   if (!bytes.ok()) return fail(bytes.status());
   Status s = write_file_atomic(out, *bytes);
   if (!s) return fail(s);

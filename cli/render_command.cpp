@@ -9,9 +9,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "condition/clean.h"
-#include "exporters/image_encode.h"
-#include "importers/image_decode.h"
+#include "clean/clean.h"
+#include "image/decode.h"
+#include "image/encode.h"
 #include "importers/import.h"
 #include "multiplex/render.h"
 #include "multiplex/viewpoints.h"
@@ -47,6 +47,8 @@ int fail(const Status& s) {
       return 2;
     case ErrorKind::kOutput:
       return 3;
+    case ErrorKind::kUnavailable:
+      return 5;  // no offscreen OpenGL here
     default:
       return 4;
   }
@@ -165,8 +167,8 @@ int cmd_render(const std::vector<std::string>& args) {
   float aspect = float(width) / float(height);
   ViewOptions vo;
   vo.fov_y_degrees = float(fov);
-  // The viewer's first view (viewers/web/viewer.js frames the same direction the same way).
-  Camera cam = camera_for(normalize(Vec3{1, 0.6f, 1.4f}), bounds, aspect, vo);
+  // The viewer's first view (the package table carries ViewOptions to viewers/web/viewer.js).
+  Camera cam = camera_for(normalize(vo.direction), bounds, aspect, vo);
   if (have_eye) cam.eye = eye;
   if (have_target) cam.target = target;
   if (have_up) cam.up = up;
@@ -174,8 +176,9 @@ int cmd_render(const std::vector<std::string>& args) {
   if (have_eye || have_target) {  // planes around the model as seen from the given eye
     double r = 0.5 * double(bounds.diagonal()), d = double(length(bounds.center() - cam.eye));
     if (!(r > 0)) r = 1;
-    cam.near_plane = float(std::max(d - 1.5 * r, d * 1e-3));
-    cam.far_plane = float(d + 1.5 * r);
+    double margin = double(vo.clip_margin);
+    cam.near_plane = float(std::max(d - margin * r, d * 1e-3));
+    cam.far_plane = float(d + margin * r);
   }
   if (have_near) cam.near_plane = float(near_plane);
   if (have_far) cam.far_plane = float(far_plane);

@@ -21,7 +21,7 @@
 #include <utility>
 
 #include "exporters/draco_encode.h"
-#include "exporters/image_encode.h"
+#include "image/encode.h"
 #include "scene/file_io.h"
 
 namespace meshmux {
@@ -638,11 +638,13 @@ Status check_options(const GltfExportOptions& o) {
                                               {"color_bits", o.color_bits}};
   for (const auto& [name, v] : bits)
     if (v < 1 || v > 30)
-      return Status::error("gltf export: " + std::string(name) + " " + std::to_string(v) +
-                           " out of range 1-30");
+      return Status::error(
+          "gltf export: " + std::string(name) + " " + std::to_string(v) + " out of range 1-30",
+          ErrorKind::kInternal);
   if (o.draco_speed < 0 || o.draco_speed > 10)
-    return Status::error("gltf export: draco_speed " + std::to_string(o.draco_speed) +
-                         " out of range 0-10");
+    return Status::error(
+        "gltf export: draco_speed " + std::to_string(o.draco_speed) + " out of range 0-10",
+        ErrorKind::kInternal);
   return Status::ok();
 }
 

@@ -10,7 +10,14 @@
 //   12  J  JSON table (UTF-8), see below
 //   12+J   the base .glb, then each mesh's base indices, then each chunk, in table order
 // JSON table:
-//   {"version": 2,
+//   {"version": 3,
+//    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
+//             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
+//             "ambient": a, "diffuse": d,                    // near/far at distance ∓
+//             margin·radius, "light_direction": [x, y, z],                  // shading (light in
+//             view space "light_follows_camera": true},                 // when it follows the
+//             camera)
+//    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
 //    "base": {"offset": O, "size": S, "distortion": d0},     // byte range of the base .glb
 //    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
@@ -54,92 +61,41 @@
 #include <string>
 #include <vector>
 
-#include "scene/progressive.h"
+#include "multiplex/mesh_stream.h"
+#include "multiplex/render.h"
+#include "multiplex/stream_plan.h"
+#include "multiplex/viewpoints.h"
 #include "scene/scene.h"
 #include "scene/texture_levels.h"
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 2;
-constexpr int kPackedVertexBytes = 20;
+constexpr uint32_t kPackageVersion = 3;
+constexpr size_t kPackageHeaderBytes = 12;
+constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
+constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
 
-// One step of the multiplexed order.
-struct StreamStep {
-  enum Kind { kMesh, kTexture } kind = kMesh;
-  // kMesh: per Scene mesh the progressive level reached after this step (index into levels).
-  std::vector<size_t> levels;
-  // kTexture: the texture level (index into TextureLevels::levels).
-  size_t texture_level = 0;
-  double distortion = 0;  // expected distortion once this step is applied
-};
-
+// Everything the package holds, already encoded: the writer lays bytes out and encodes nothing.
 struct PackageInput {
-  const ProgressiveScene* scene = nullptr;  // the record (atlased: one primitive per mesh)
-  std::vector<size_t> base_levels;          // per mesh: the level the base .glb holds
-  std::vector<uint8_t> base_glb;  // that base, already encoded (no Draco: vertex order kept)
+  std::vector<uint8_t> base_glb;       // the base, encoded (no Draco: vertex order kept)
+  std::vector<MeshStreamBase> meshes;  // per Scene mesh: counts, bounds, base faces
+  // Per mesh layer, the encoded parts that take the meshes from the layer before to it
+  // (layer 0, the base, has none): what the multiplexer costed (MultiplexResult::layer_parts).
+  const std::vector<std::vector<EncodedMeshPart>>* mesh_layers = nullptr;
   const TextureLevels* textures = nullptr;  // may be null for untextured scenes
   size_t base_texture_level = 0;            // the level embedded in the base .glb
-  std::vector<StreamStep> steps;            // in stream order
+  std::vector<StreamStep> steps;            // in stream order; each mesh layer once
   double base_distortion = 0;               // expected distortion of the base alone
-  // Further orders of the same steps (baselines), each a permutation of step indices keeping
-  // the mesh steps' relative order, with the distortion after each step. The stream order
-  // itself is written first as "rate-distortion".
-  struct Order {
-    std::string name;
-    std::vector<uint32_t> steps;
-    std::vector<double> distortion;
-  };
-  std::vector<Order> orders;
+  // Further orders of the same steps (baselines). The stream order itself is written first
+  // as "rate-distortion".
+  std::vector<StreamOrder> orders;
+  // How the distortion was measured: written to the table ("view") so the client frames and
+  // shades as the multiplexer did.
+  ViewOptions view{};
+  RenderOptions shading{};
 };
 
 Result<std::vector<uint8_t>> write_package(const PackageInput& input);
-
-// One part of a mesh chunk, encoded (the layout above).
-struct PackagePart {
-  uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
-  uint64_t vertex_bytes = 0, index_bytes = 0;
-  uint32_t updates = 0;  // corner updates
-  uint64_t update_bytes = 0;
-};
-struct EncodedMeshPart {
-  PackagePart part;
-  std::vector<uint8_t> vertices, indices, updates;
-  uint64_t bytes() const { return vertices.size() + indices.size() + updates.size(); }
-};
-
-// Encodes one progressive mesh's stream from a base level on, part by part, tracking what a
-// client holds (each face's corner rotation as meshopt's index codec decodes it) so updates
-// address the client's corners. Memory O(V + F); each part costs O(F received) to find the
-// corners it moves.
-class MeshStreamEncoder {
- public:
-  MeshStreamEncoder(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t mesh,
-                    size_t base_level);
-  // The base's faces (meshopt_encodeIndexBuffer bytes); an error status if encoding failed.
-  const Result<std::vector<uint8_t>>& base_indices() const { return base_; }
-  // The part from the current level to `level` (≥ the current one); then `level` is current.
-  Result<EncodedMeshPart> next(size_t level);
-  size_t level() const { return level_; }
-
- private:
-  const ProgressiveMesh& pm_;
-  Bounds bounds_;
-  uint32_t mesh_ = 0;
-  size_t level_ = 0;
-  std::vector<uint8_t> rotation_;  // per face received: decoded slot s holds corner (s + r) % 3
-  Result<std::vector<uint8_t>> base_;
-  Result<std::vector<uint8_t>> encode_faces(uint32_t face_begin, uint32_t face_end,
-                                            uint32_t vertex_end);
-};
-
-// The packed vertices [begin, end) of `pm` (kPackedVertexBytes each, the layout above) with
-// positions quantized over `bounds`; what a mesh chunk's vertex bytes decode to. A clamped
-// range: end is capped at the vertex count. Shared with the multiplexer's byte estimates.
-std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t begin,
-                                   uint32_t end);
-// The bounds a package quantizes `pm`'s positions over: min/max of every finite position
-// (all zero for a mesh without any).
-Bounds package_bounds(const ProgressiveMesh& pm);
 
 // The parsed package. Every offset, size and count is checked against the file and the table
 // before anything is exposed; errors name the problem ("package: chunk 3: offset past the end").
@@ -161,8 +117,17 @@ struct PackageOrder {
   std::vector<uint32_t> chunks;  // a permutation of chunk indices
   std::vector<double> distortion;
 };
+// The view and shading the distortion was measured with (the table's "view").
+struct PackageView {
+  double fov_y_degrees = 0, fill = 0, clip_margin = 0;
+  double direction[3] = {0, 0, 0};
+  double ambient = 0, diffuse = 0;
+  double light_direction[3] = {0, 0, 0};
+  bool light_follows_camera = true;
+};
 struct Package {
   uint32_t version = 0;
+  PackageView view;
   uint64_t base_offset = 0, base_size = 0;
   double base_distortion = 0;
   std::vector<PackageMesh> meshes;

@@ -49,7 +49,7 @@
 #include <new>
 #include <type_traits>
 
-#include "importers/image_decode.h"
+#include "image/decode.h"
 #include "scene/file_io.h"
 
 namespace meshmux {
@@ -289,13 +289,15 @@ Result<Parsed> parse(const std::string& path, const std::string& stage) {
     if (!ai) {
       std::string reason = one_line(importer.GetErrorString());
       if (reason == "std::bad_alloc") reason = "Assimp ran out of memory on it";
-      return Status::error(stage + ": malformed file: " + (reason.empty() ? "unreadable" : reason));
+      return Status::error(stage + ": malformed file: " + (reason.empty() ? "unreadable" : reason),
+                           ErrorKind::kInput);
     }
     return Converter(base_name(path), *ai).run();
   } catch (const std::bad_alloc&) {
-    return Status::error(stage + ": malformed file: out of memory while parsing");
+    return Status::error(stage + ": malformed file: out of memory while parsing",
+                         ErrorKind::kInput);
   } catch (const std::exception& e) {
-    return Status::error(stage + ": malformed file: " + one_line(e.what()));
+    return Status::error(stage + ": malformed file: " + one_line(e.what()), ErrorKind::kInput);
   } catch (...) {
     return Status::error(stage + ": unknown failure in Assimp", ErrorKind::kInternal);
   }
@@ -472,15 +474,19 @@ Result<Parsed> parse_isolated(const std::string& path, uint64_t file_bytes,
   std::string why = last_line(err.get());
   why = why.empty() ? "" : ": " + why.substr(0, 300);
   if (timed_out)
-    return Status::error(stage + ": malformed file: Assimp gave no answer in " +
-                         std::to_string(int(seconds)) + " s");
+    return Status::error(
+        stage + ": malformed file: Assimp gave no answer in " + std::to_string(int(seconds)) + " s",
+        ErrorKind::kInput);
   if (WIFSIGNALED(status))
     return Status::error(stage + ": malformed file: Assimp crashed on it (" +
-                         strsignal(WTERMSIG(status)) + why + ")");
+                             strsignal(WTERMSIG(status)) + why + ")",
+                         ErrorKind::kInput);
   if (data.empty())  // e.g. a sanitizer caught the crash and exited
     return Status::error(stage + ": malformed file: Assimp failed on it (exit status " +
-                         std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + why + ")");
-  if (data[0] == 'E') return Status::error(data.substr(1));
+                             std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + why +
+                             ")",
+                         ErrorKind::kInput);
+  if (data[0] == 'E') return Status::error(data.substr(1), ErrorKind::kInput);
   Parsed parsed;
   Reader reader{data};
   if (data[0] == 'K') transfer(reader, parsed);
@@ -582,8 +588,10 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     uint64_t file_bytes = 0;
     {
       auto bytes = read_whole_file(path, options.max_file_bytes);
-      if (!bytes) return Status::error(stage + ": " + strip_prefix(bytes.status().message(), path));
-      if (bytes->empty()) return Status::error(stage + ": file is empty");
+      if (!bytes)
+        return Status::error(stage + ": " + strip_prefix(bytes.status().message(), path),
+                             ErrorKind::kInput);
+      if (bytes->empty()) return Status::error(stage + ": file is empty", ErrorKind::kInput);
       file_bytes = bytes->size();
     }
     Result<Parsed> parsed = parse_isolated(path, file_bytes, stage);
@@ -597,7 +605,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     if (!valid) return valid;
     return scene;
   } catch (const std::bad_alloc&) {
-    return Status::error(stage + ": out of memory while importing");
+    return Status::error(stage + ": out of memory while importing", ErrorKind::kInput);
   } catch (const std::exception& e) {
     return Status::error(stage + ": " + one_line(e.what()), ErrorKind::kInternal);
   }

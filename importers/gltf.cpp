@@ -14,7 +14,7 @@
 #include <set>
 
 #include "draco/compression/decode.h"
-#include "importers/image_decode.h"
+#include "image/decode.h"
 #include "scene/file_io.h"
 
 namespace meshmux {
@@ -123,7 +123,8 @@ class Reader {
   Reader(const tinygltf::Model& model, std::string file) : m_(model), file_(std::move(file)) {}
 
   Status err(const std::string& where, const std::string& what) const {
-    return Status::error("gltf: " + file_ + ": " + where + (where.empty() ? "" : ": ") + what);
+    return Status::error("gltf: " + file_ + ": " + where + (where.empty() ? "" : ": ") + what,
+                         ErrorKind::kInput);
   }
 
   // Locates `count` elements of `elem_size` bytes with `stride` in a buffer view; checks
@@ -747,10 +748,11 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                           Warnings* warnings) {
   std::string file = base_name(path);
   auto bytes = read_whole_file(path, options.max_file_bytes);
-  if (!bytes.ok()) return Status::error("gltf: " + bytes.status().message());
+  if (!bytes.ok()) return Status::error("gltf: " + bytes.status().message(), ErrorKind::kInput);
   std::vector<uint8_t>& data = *bytes;
-  if (data.empty()) return Status::error("gltf: " + file + ": file is empty");
-  if (data.size() > 0xFFFFFFFFu) return Status::error("gltf: " + file + ": file too large");
+  if (data.empty()) return Status::error("gltf: " + file + ": file is empty", ErrorKind::kInput);
+  if (data.size() > 0xFFFFFFFFu)
+    return Status::error("gltf: " + file + ": file too large", ErrorKind::kInput);
 
   std::string dir = ".";
   size_t slash = path.find_last_of('/');
@@ -765,14 +767,16 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   try {
     if (binary) {
       if (data.size() < 20)
-        return Status::error("gltf: " + file + ": truncated GLB (" + std::to_string(data.size()) +
-                             " bytes)");
+        return Status::error(
+            "gltf: " + file + ": truncated GLB (" + std::to_string(data.size()) + " bytes)",
+            ErrorKind::kInput);
       uint32_t declared;
       std::memcpy(&declared, data.data() + 8, 4);
       if (declared > data.size())
         return Status::error("gltf: " + file + ": truncated GLB: header declares " +
-                             std::to_string(declared) + " bytes, file has " +
-                             std::to_string(data.size()));
+                                 std::to_string(declared) + " bytes, file has " +
+                                 std::to_string(data.size()),
+                             ErrorKind::kInput);
       drop_draco_index_accessors(data, true);
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(), unsigned(data.size()),
                                        dir);
@@ -783,15 +787,16 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                                       unsigned(data.size()), dir);
     }
   } catch (const std::exception& e) {
-    return Status::error("gltf: " + file + ": cannot parse: " + e.what());
+    return Status::error("gltf: " + file + ": cannot parse: " + e.what(), ErrorKind::kInput);
   }
   if (!ok) {
     std::string reason = err.empty() ? warn_text : err;
     while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
     for (char& c : reason)
       if (c == '\n') c = ';';
-    return Status::error("gltf: " + file +
-                         ": cannot parse: " + (reason.empty() ? "invalid glTF" : reason));
+    return Status::error(
+        "gltf: " + file + ": cannot parse: " + (reason.empty() ? "invalid glTF" : reason),
+        ErrorKind::kInput);
   }
   // tinygltf reports missing external images as warnings; the image pass turns those into
   // per-image warnings, so its raw text is not repeated here.

@@ -19,7 +19,8 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
   draco::Decoder decoder;
   auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
   if (!decoded.ok())
-    return Status::error(std::string("cannot decode: ") + decoded.status().error_msg());
+    return Status::error(std::string("cannot decode: ") + decoded.status().error_msg(),
+                         ErrorKind::kInput);
   std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
   size_t n = mesh->num_points();
   bool have_position = false;
@@ -29,11 +30,13 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
     draco::PointAttribute* att = att_id >= 0 ? mesh->attribute(att_id) : nullptr;
     if (!att)
       return Status::error("attribute " + name + " (id " + std::to_string(attributes[k].second) +
-                           ") not in the Draco stream");
+                               ") not in the Draco stream",
+                           ErrorKind::kInput);
     if (normalized[k].second && att->data_type() != draco::DT_FLOAT32) att->set_normalized(true);
     int comps = att->num_components();
     if (comps < 1 || comps > 4)
-      return Status::error("attribute " + name + " has " + std::to_string(comps) + " components");
+      return Status::error("attribute " + name + " has " + std::to_string(comps) + " components",
+                           ErrorKind::kInput);
     float v[4] = {0, 0, 0, 1};
     auto get = [&](size_t i) {
       v[0] = v[1] = v[2] = 0;
@@ -59,7 +62,7 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
         get(i), out->colors[i] = {v[0], v[1], v[2], comps == 4 ? v[3] : 1.0f};
     }
   }
-  if (!have_position) return Status::error("no POSITION attribute");
+  if (!have_position) return Status::error("no POSITION attribute", ErrorKind::kInput);
   // A gap in the uv sets (TEXCOORD_1 without TEXCOORD_0) would break the one-entry-per-vertex
   // rule; fill it with zeros.
   for (auto& set : out->uvs)

@@ -24,17 +24,20 @@ Result<Scene> import_scene(const std::string& path, const ImportOptions& options
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     auto r = read_whole_file(path, 1);  // for the precise reason (missing, directory, ...)
-    return Status::error("import: " + (r.ok() ? path + ": cannot open" : r.status().message()));
+    return Status::error("import: " + (r.ok() ? path + ": cannot open" : r.status().message()),
+                         ErrorKind::kInput);
   }
   char head[512] = {0};
   in.read(head, sizeof head);
   std::string h(head, size_t(in.gcount()));
-  if (h.empty()) return Status::error("import: " + base_name(path) + ": file is empty");
+  if (h.empty())
+    return Status::error("import: " + base_name(path) + ": file is empty", ErrorKind::kInput);
   if (h.compare(0, 4, "glTF") == 0 || h.find("\"asset\"") != std::string::npos)
     return import_gltf(path, options, warnings);
   if (h.find("<COLLADA") != std::string::npos) return import_collada(path, options, warnings);
-  return Status::error("import: " + base_name(path) +
-                       ": unknown format (expected .gltf, .glb or .dae)");
+  return Status::error(
+      "import: " + base_name(path) + ": unknown format (expected .gltf, .glb or .dae)",
+      ErrorKind::kInput);
 }
 
 }  // namespace meshmux

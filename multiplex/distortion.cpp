@@ -7,8 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "condition/color_difference.h"
-#include "condition/material_sample.h"
+#include "image/color.h"
 
 namespace meshmux {
 

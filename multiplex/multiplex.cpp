@@ -14,10 +14,10 @@
 #include <map>
 #include <sstream>
 
-#include "condition/lod.h"
-#include "exporters/package.h"
-#include "importers/image_decode.h"
+#include "image/decode.h"
 #include "multiplex/distortion.h"
+#include "multiplex/mesh_stream.h"
+#include "simplify/lod.h"
 
 namespace meshmux {
 
@@ -69,7 +69,7 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxe
 
 }  // namespace
 
-Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas,
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
                                   const MultiplexOptions& o) {
   auto start = Clock::now();
   MultiplexResult r;
@@ -97,11 +97,23 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
     layers.push_back(s);
   }
   // Layer 0 is the base (its encoded vertices and faces stand for the base's bytes); each
-  // further layer costs exactly what the package's mesh chunk for it will hold.
+  // further layer is encoded here, once: its parts are what the package's mesh chunk holds.
   std::vector<MeshStreamEncoder> encoders;
   encoders.reserve(ps.meshes.size());
-  for (size_t i = 0; i < ps.meshes.size(); ++i)
+  for (size_t i = 0; i < ps.meshes.size(); ++i) {
     encoders.emplace_back(ps.meshes[i], boxes[i], uint32_t(i), base.level[i]);
+    const auto& indices = encoders.back().base_indices();
+    if (!indices.ok()) return indices.status().with_prefix("multiplex");
+    const ProgressiveMesh& pm = ps.meshes[i];
+    MeshStreamBase head;
+    head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
+    head.base_vertices = pm.levels[base.level[i]].vertex_end;
+    head.base_faces = pm.levels[base.level[i]].face_end;
+    head.bounds = boxes[i];
+    head.base_indices = *indices;
+    r.mesh_streams.push_back(std::move(head));
+  }
+  r.layer_parts.resize(size_t(m));
   for (int k = 0; k < m; ++k) {
     uint64_t bytes = 0;
     if (k == 0) {
@@ -112,19 +124,18 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas
         auto part = encoders[i].next(layers[size_t(k)].level[i]);
         if (!part.ok()) return part.status().with_prefix("multiplex");
         bytes += part->bytes();
+        r.layer_parts[size_t(k)].push_back(part.take());
       }
     }
     r.mesh_bytes.push_back(bytes);
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
     r.layer_levels.push_back(layers[size_t(k)].level);
   }
-  // --- Texture layers: the atlas's mip levels as the stream carries them. ---
+  // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
+  // decoded here to render what the client decodes). ---
   std::vector<Image> textures;
-  if (atlas.decoded()) {
-    auto levels = make_texture_levels(atlas, o.textures);
-    if (!levels.ok()) return levels.status().with_prefix("multiplex");
-    r.texture_levels = *levels;
-    for (const TextureLevel& l : levels->levels) {
+  if (!levels.levels.empty()) {
+    for (const TextureLevel& l : levels.levels) {
       Image img;
       img.name = "level " + std::to_string(l.width);
       img.encoded = l.encoded;

@@ -9,19 +9,19 @@
 #include <string>
 #include <vector>
 
-#include "condition/texture_levels.h"
+#include "multiplex/mesh_stream.h"
 #include "multiplex/render.h"
 #include "multiplex/schedule.h"
 #include "multiplex/viewpoints.h"
 #include "scene/progressive.h"
+#include "scene/texture_levels.h"
 
 namespace meshmux {
 
 struct MultiplexOptions {
-  int view_layers = 1;     // viewing sphere subdivision: 1 → 10 views
-  RenderOptions render{};  // image size and shading (256² by default)
-  ViewOptions views{};     // framing
-  TextureLevelOptions textures{};
+  int view_layers = 1;               // viewing sphere subdivision: 1 → 10 views
+  RenderOptions render{};            // image size and shading (256² by default)
+  ViewOptions views{};               // framing
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
   int max_mesh_layers = 12;          // and at most this many
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
@@ -32,7 +32,10 @@ struct MultiplexResult {
   std::vector<uint64_t> texture_bytes;            // per texture level (0: the 128² level)
   std::vector<uint32_t> layer_triangles;          // scene triangles after each mesh layer
   std::vector<std::vector<size_t>> layer_levels;  // per mesh layer: per mesh its progressive level
-  TextureLevels texture_levels;  // the texture layers (empty for untextured scenes)
+  // The mesh stream, encoded once: per mesh its table entry and base faces, and per mesh layer
+  // the parts that take the meshes from the layer before to it (layer 0, the base: none).
+  std::vector<MeshStreamBase> mesh_streams;
+  std::vector<std::vector<EncodedMeshPart>> layer_parts;
   RdPath rd, mesh_first, texture_first, constant_ratio;
   std::string metric = "ciede2000";  // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;
@@ -43,9 +46,10 @@ struct MultiplexResult {
   double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
 };
 
-// `ps` is the progressive record of the atlased scene; `atlas` its decoded base-colour texture
-// (or an undecoded Image for an untextured scene: one empty texture layer).
-Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const Image& atlas,
+// `ps` is the progressive record of the atlased scene; `levels` its texture levels, encoded
+// (none for an untextured scene: one empty texture layer). Errors: kUnavailable when no
+// offscreen OpenGL is available, kInternal otherwise.
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
                                   const MultiplexOptions& options = {});
 
 // report.json's "curves" and summary as JSON text, and rd.svg plotting the four curves.

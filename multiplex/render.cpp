@@ -72,7 +72,7 @@ bool has_extension(const char* list, const char* name) {
 }
 
 Status egl_failure(const std::string& what) {
-  return Status::error("render: EGL: " + what, ErrorKind::kInternal);
+  return Status::error("render: EGL: " + what, ErrorKind::kUnavailable);
 }
 
 // EGL displays are process-wide; several Renderers share one and count their uses. The display
@@ -322,7 +322,9 @@ Status Renderer::Impl::init_gl() {
   glGetIntegerv(GL_MAJOR_VERSION, &major);
   glGetIntegerv(GL_MINOR_VERSION, &minor);
   if (major * 10 + minor < 45)
-    return fail("OpenGL 4.5 needed, got " + std::to_string(major) + "." + std::to_string(minor));
+    return Status::error(
+        "render: GL: OpenGL 4.5 needed, got " + std::to_string(major) + "." + std::to_string(minor),
+        ErrorKind::kUnavailable);
   GLint max_rb = 0;
   glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
   if (options.width < 1 || options.height < 1 || options.width > max_rb || options.height > max_rb)

@@ -51,7 +51,7 @@ Result<StreamPlan> stream_plan(const MultiplexResult& r) {
     StreamStep st;
     if (kind == 0) {
       st.kind = StreamStep::kMesh;
-      st.levels = r.layer_levels[size_t(layer)];
+      st.mesh_layer = size_t(layer);
     } else {
       st.kind = StreamStep::kTexture;
       st.texture_level = size_t(layer);
@@ -67,7 +67,7 @@ Result<StreamPlan> stream_plan(const MultiplexResult& r) {
     if (path->cells.empty()) continue;  // not computed
     auto mv = moves(*path, name, m, n);
     if (!mv.ok()) return mv.status();
-    PackageInput::Order order;
+    StreamOrder order;
     order.name = name;
     for (size_t k = 0; k < mv->size(); ++k) {
       auto it = step_of.find((*mv)[k]);

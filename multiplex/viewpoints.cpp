@@ -103,8 +103,9 @@ Camera camera_for(Vec3 d, const Bounds& bounds, float aspect, const ViewOptions&
   cam.eye = target + dir * float(distance);
   cam.up = std::fabs(dir.y) > 0.99f ? Vec3{0, 0, 1} : Vec3{0, 1, 0};
   cam.fov_y_degrees = options.fov_y_degrees;
-  cam.near_plane = float(std::max(distance - radius * 1.5, distance * 1e-3));
-  cam.far_plane = float(distance + radius * 1.5);
+  double margin = double(options.clip_margin);
+  cam.near_plane = float(std::max(distance - radius * margin, distance * 1e-3));
+  cam.far_plane = float(distance + radius * margin);
   return cam;
 }
 

@@ -24,9 +24,14 @@ struct ViewingSphere {
 // (4, 10, 34, 130, ... directions). Deterministic.
 ViewingSphere viewing_sphere(int layers);
 
+// The framing the multiplexer measures with; written into the package table ("view"), which
+// the web viewer reads, so the two never disagree.
 struct ViewOptions {
-  float fov_y_degrees = 45;  // the web viewer's default
-  float fill = 0.8f;         // fraction of the viewport's smaller side the bounding sphere spans
+  float fov_y_degrees = 45;       // vertical field of view
+  float fill = 0.8f;              // fraction of the viewport's smaller side the bounding
+                                  // sphere spans
+  Vec3 direction{1, 0.6f, 1.4f};  // the first view: from the centre towards the eye
+  float clip_margin = 1.5f;       // near/far at distance ∓ clip_margin × bounding radius
 };
 
 // A camera on direction `d` (unit) looking at the centre of `bounds`, framed as ViewOptions

@@ -18,15 +18,18 @@ std::string base_name(const std::string& path) {
 Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t max_bytes) {
   struct stat st;
   if (stat(path.c_str(), &st) != 0) {
-    if (errno == ENOENT) return Status::error(path + ": no such file");
-    return Status::error(path + ": cannot open: " + std::strerror(errno));
+    if (errno == ENOENT) return Status::error(path + ": no such file", ErrorKind::kInput);
+    return Status::error(path + ": cannot open: " + std::strerror(errno), ErrorKind::kInput);
   }
-  if (S_ISDIR(st.st_mode)) return Status::error(path + ": is a directory, not a file");
+  if (S_ISDIR(st.st_mode))
+    return Status::error(path + ": is a directory, not a file", ErrorKind::kInput);
   if (uint64_t(st.st_size) > max_bytes)
     return Status::error(path + ": file is " + std::to_string(st.st_size) +
-                         " bytes, over the limit of " + std::to_string(max_bytes));
+                             " bytes, over the limit of " + std::to_string(max_bytes),
+                         ErrorKind::kInput);
   int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return Status::error(path + ": cannot open: " + std::strerror(errno));
+  if (fd < 0)
+    return Status::error(path + ": cannot open: " + std::strerror(errno), ErrorKind::kInput);
   std::vector<uint8_t> bytes;
   bytes.reserve(size_t(st.st_size));
   uint8_t buf[1 << 16];
@@ -36,14 +39,15 @@ Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t m
       if (errno == EINTR) continue;
       int e = errno;
       close(fd);
-      return Status::error(path + ": cannot read: " + std::strerror(e));
+      return Status::error(path + ": cannot read: " + std::strerror(e), ErrorKind::kInput);
     }
     if (n == 0) break;
     bytes.insert(bytes.end(), buf, buf + n);
     if (bytes.size() > max_bytes) {
       close(fd);
-      return Status::error(path + ": file is over the limit of " + std::to_string(max_bytes) +
-                           " bytes");
+      return Status::error(
+          path + ": file is over the limit of " + std::to_string(max_bytes) + " bytes",
+          ErrorKind::kInput);
     }
   }
   close(fd);

@@ -66,7 +66,8 @@ bool finite(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::is
 Status check_texture(const Scene& scene, const TextureRef& t, const std::string& where) {
   if (t.image >= int32_t(scene.images.size()))
     return Status::error(where + ": image " + std::to_string(t.image) + " out of range (" +
-                         std::to_string(scene.images.size()) + " images)");
+                             std::to_string(scene.images.size()) + " images)",
+                         ErrorKind::kInput);
   return Status::ok();
 }
 }  // namespace
@@ -81,29 +82,36 @@ Status validate(const Scene& scene, const std::string& stage) {
       size_t n = p.positions.size();
       if (!p.normals.empty() && p.normals.size() != n)
         return Status::error(where + ": " + std::to_string(p.normals.size()) + " normals for " +
-                             std::to_string(n) + " vertices");
+                                 std::to_string(n) + " vertices",
+                             ErrorKind::kInput);
       if (!p.colors.empty() && p.colors.size() != n)
         return Status::error(where + ": " + std::to_string(p.colors.size()) + " colours for " +
-                             std::to_string(n) + " vertices");
+                                 std::to_string(n) + " vertices",
+                             ErrorKind::kInput);
       for (size_t u = 0; u < p.uvs.size(); ++u)
         if (p.uvs[u].size() != n)
           return Status::error(where + ": uv set " + std::to_string(u) + " has " +
-                               std::to_string(p.uvs[u].size()) + " entries for " +
-                               std::to_string(n) + " vertices");
+                                   std::to_string(p.uvs[u].size()) + " entries for " +
+                                   std::to_string(n) + " vertices",
+                               ErrorKind::kInput);
       if (p.indices.size() % 3 != 0)
         return Status::error(where + ": " + std::to_string(p.indices.size()) +
-                             " indices is not a whole number of triangles");
+                                 " indices is not a whole number of triangles",
+                             ErrorKind::kInput);
       for (size_t i = 0; i < p.indices.size(); ++i)
         if (p.indices[i] >= n)
           return Status::error(where + ": index " + std::to_string(p.indices[i]) +
-                               " out of range (" + std::to_string(n) + " vertices)");
+                                   " out of range (" + std::to_string(n) + " vertices)",
+                               ErrorKind::kInput);
       for (size_t v = 0; v < n; ++v)
         if (!finite(p.positions[v]))
-          return Status::error(where + ": vertex " + std::to_string(v) + " position is not finite");
+          return Status::error(where + ": vertex " + std::to_string(v) + " position is not finite",
+                               ErrorKind::kInput);
       if (p.material >= int32_t(scene.materials.size()))
         return Status::error(where + ": material " + std::to_string(p.material) +
-                             " out of range (" + std::to_string(scene.materials.size()) +
-                             " materials)");
+                                 " out of range (" + std::to_string(scene.materials.size()) +
+                                 " materials)",
+                             ErrorKind::kInput);
     }
   }
   for (size_t i = 0; i < scene.instances.size(); ++i) {
@@ -111,9 +119,11 @@ Status validate(const Scene& scene, const std::string& stage) {
     std::string where = stage + ": instance " + std::to_string(i);
     if (inst.mesh >= scene.meshes.size())
       return Status::error(where + ": mesh " + std::to_string(inst.mesh) + " out of range (" +
-                           std::to_string(scene.meshes.size()) + " meshes)");
+                               std::to_string(scene.meshes.size()) + " meshes)",
+                           ErrorKind::kInput);
     for (double x : inst.world.m)
-      if (!std::isfinite(x)) return Status::error(where + ": transform is not finite");
+      if (!std::isfinite(x))
+        return Status::error(where + ": transform is not finite", ErrorKind::kInput);
   }
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     const Material& mat = scene.materials[m];
@@ -128,8 +138,9 @@ Status validate(const Scene& scene, const std::string& stage) {
     const Image& img = scene.images[i];
     if (!img.rgba.empty() && img.rgba.size() != size_t(img.width) * size_t(img.height) * 4)
       return Status::error(stage + ": image " + std::to_string(i) + ": pixel buffer size " +
-                           std::to_string(img.rgba.size()) + " does not match " +
-                           std::to_string(img.width) + "x" + std::to_string(img.height));
+                               std::to_string(img.rgba.size()) + " does not match " +
+                               std::to_string(img.width) + "x" + std::to_string(img.height),
+                           ErrorKind::kInput);
   }
   return Status::ok();
 }

@@ -15,16 +15,19 @@ namespace meshmux {
 // What kind of failure, so the CLI can map it to an exit code.
 enum class ErrorKind {
   kNone = 0,
-  kInput,     // the input is missing, unreadable, malformed or unsupported
-  kOutput,    // an output could not be written
-  kInternal,  // a bug or an unexpected library failure
+  kInput,        // the input is missing, unreadable, malformed or unsupported
+  kOutput,       // an output could not be written
+  kInternal,     // a bug or an unexpected library failure
+  kUnavailable,  // the machine lacks something optional (offscreen OpenGL/EGL): the only
+                 // failure a conversion may degrade to a warning
 };
 
 class Status {
  public:
   Status() = default;
   static Status ok() { return Status(); }
-  static Status error(std::string message, ErrorKind kind = ErrorKind::kInput) {
+  // Every error names its kind: there is no default.
+  static Status error(std::string message, ErrorKind kind) {
     Status s;
     s.kind_ = kind;
     s.message_ = std::move(message);

@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "multiplex/render.h"
+
 namespace fs = std::filesystem;
 
 namespace meshmux::testing {
@@ -162,6 +164,16 @@ int gltf_validator_errors(const std::string& path, std::string* report) {
   } catch (...) {
     return -1;
   }
+}
+
+bool renderer_available(std::string* why) {
+  static const std::string reason = [] {
+    auto r = Renderer::create();
+    if (!r.ok() && r.status().kind() == ErrorKind::kUnavailable) return r.status().message();
+    return std::string();
+  }();
+  if (why) *why = reason;
+  return reason.empty();
 }
 
 }  // namespace meshmux::testing

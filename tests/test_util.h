@@ -43,6 +43,12 @@ std::string shared_model(const std::string& rel);
 // True when ../shared/models exists. Tests that need it call GTEST_SKIP with a message otherwise.
 bool have_shared_models();
 
+// True when offscreen OpenGL 4.5 through EGL can be had here (the renderer starts). Otherwise
+// false, with the renderer's kUnavailable message in `why`: the one condition under which
+// conversion skips its report and package, and tests may skip. Any other renderer failure is
+// not "unavailable": it returns true so that the test goes on and fails.
+bool renderer_available(std::string* why = nullptr);
+
 // A UV sphere of `rings` × `segments` around `centre`: closed, with a uv seam along one
 // meridian (the seam column repeats the first one's positions exactly, with other uvs) and
 // smooth normals: 2·(rings−1)·segments triangles. The case where a careless collapse cracks.

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "condition/clean.h"
+#include "clean/clean.h"
 #include "importers/import.h"
 #include "test_util.h"
 
@@ -50,7 +50,7 @@ TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
 
   std::string report;
   int errors = testing::gltf_validator_errors(out, &report);
-  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  ASSERT_GE(errors, 0) << "gltf-validator not installed (run scripts/setup.sh)";
   EXPECT_EQ(errors, 0) << report.substr(0, 4000);
 
   Scene original = import_scene(in, {}, nullptr).take();
@@ -163,7 +163,8 @@ TEST(ConvertDeterminism, FolderOutputIsTheSame) {
   ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("s.glb"), "-q"}).exit_code, 0);
   for (const char* out : {"a", "b"})
     ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file(out), "-q"}).exit_code, 0);
-  if (!std::filesystem::exists(dir.file("a/model.mmxp"))) GTEST_SKIP() << "no renderer here";
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   for (const char* f : {"model.mmxp", "model.glb", "base.glb", "index.html", "viewer/meshmux.js"})
     EXPECT_EQ(testing::read_file(dir.file(std::string("a/") + f)),
               testing::read_file(dir.file(std::string("b/") + f)))
@@ -179,7 +180,7 @@ TEST(SampleCommand, WritesValidInstancedTexturedScene) {
   EXPECT_GE(j["instances"].get<int>(), 100);
   EXPECT_EQ(j["textures"], 1);
   int errors = testing::gltf_validator_errors(dir.file("s.glb"));
-  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  ASSERT_GE(errors, 0) << "gltf-validator not installed (run scripts/setup.sh)";
   EXPECT_EQ(errors, 0);
   ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("out"), "-q"}).exit_code, 0);
   EXPECT_EQ(testing::gltf_validator_errors(dir.file("out/model.glb")), 0);
@@ -506,8 +507,9 @@ TEST(ConvertFolder, WritesRateDistortionReport) {
   auto r = run_meshmux(
       {"convert", testing::shared_model("Duck-dae/duck.dae"), "-o", dir.file("out"), "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  if (!std::filesystem::exists(dir.file("out/report.json")))
-    GTEST_SKIP() << "no renderer here: " << r.err;
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  ASSERT_TRUE(std::filesystem::exists(dir.file("out/report.json"))) << r.err;
   std::string text;
   for (uint8_t c : testing::read_file(dir.file("out/report.json"))) text.push_back(char(c));
   json j = json::parse(text);
@@ -541,8 +543,9 @@ TEST(ConvertFolder, WritesStreamPackage) {
   auto r = run_meshmux({"convert", testing::shared_model("DamagedHelmet-glb/DamagedHelmet.glb"),
                         "-o", dir.file("out"), "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  if (!std::filesystem::exists(dir.file("out/model.mmxp")))
-    GTEST_SKIP() << "no renderer here: " << r.err;
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  ASSERT_TRUE(std::filesystem::exists(dir.file("out/model.mmxp"))) << r.err;
   auto bytes = testing::read_file(dir.file("out/model.mmxp"));
   auto pkg = read_package(bytes);
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "exporters/image_encode.h"
+#include "image/encode.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -164,7 +164,7 @@ void expect_valid(const std::vector<uint8_t>& bytes, const std::string& name) {
   testing::write_file(path, bytes);
   std::string report;
   int errors = testing::gltf_validator_errors(path, &report);
-  if (errors < 0) GTEST_SKIP() << "gltf-validator not installed (run scripts/setup.sh)";
+  ASSERT_GE(errors, 0) << "gltf-validator not installed (run scripts/setup.sh)";
   EXPECT_EQ(errors, 0) << report;
 }
 

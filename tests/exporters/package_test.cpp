@@ -12,13 +12,13 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "condition/clean.h"
-#include "condition/lod.h"
-#include "condition/simplify.h"
-#include "condition/texture_levels.h"
+#include "clean/clean.h"
 #include "exporters/gltf.h"
+#include "image/texture_levels.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
+#include "simplify/lod.h"
+#include "simplify/simplify.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -43,7 +43,9 @@ struct Fixture {
   ProgressiveScene ps;
   TextureLevels textures;
   PackageInput input;
-  std::vector<size_t> step_levels;  // per mesh step: the level of mesh 0
+  size_t base_level = 0;                             // mesh 0's base level
+  std::vector<size_t> step_levels;                   // per mesh step: the level of mesh 0
+  std::vector<std::vector<EncodedMeshPart>> layers;  // per mesh layer, as the multiplexer gives
 };
 
 const Fixture& fixture() {
@@ -79,14 +81,30 @@ const Fixture& fixture() {
         }(),
         nullptr);
     if (glb.ok()) f->input.base_glb = glb.take();
-    f->input.scene = &f->ps;
-    f->input.base_levels = base.level;
+    const ProgressiveMesh& pm = f->ps.meshes[0];
+    f->base_level = base.level[0];
+    MeshStreamEncoder encoder(pm, package_bounds(pm), 0, f->base_level);
+    MeshStreamBase head;
+    head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
+    head.base_vertices = pm.levels[f->base_level].vertex_end;
+    head.base_faces = pm.levels[f->base_level].face_end;
+    head.bounds = package_bounds(pm);
+    if (encoder.base_indices().ok()) head.base_indices = *encoder.base_indices();
+    f->input.meshes = {head};
+    f->layers.resize(1);  // layer 0: the base
+    f->input.mesh_layers = &f->layers;
     f->input.textures = &f->textures;
     f->input.base_texture_level = 0;
-    size_t b = base.level[0], full = f->ps.meshes[0].levels.size() - 1;
+    size_t b = base.level[0], full = pm.levels.size() - 1;
     auto mesh_step = [&](size_t level, double d) {
+      std::vector<EncodedMeshPart> parts;
+      if (level != encoder.level()) {
+        auto part = encoder.next(level);
+        if (part.ok()) parts.push_back(part.take());
+      }
+      f->layers.push_back(std::move(parts));
       StreamStep st;
-      st.kind = StreamStep::kMesh, st.levels = {level}, st.distortion = d;
+      st.kind = StreamStep::kMesh, st.mesh_layer = f->layers.size() - 1, st.distortion = d;
       f->input.steps.push_back(st);
       f->step_levels.push_back(level);
     };
@@ -103,7 +121,7 @@ const Fixture& fixture() {
     mesh_step(full, 0);
     f->input.base_distortion = 7.75;
     // A baseline: texture steps first, mesh steps in their order.
-    PackageInput::Order tf;
+    StreamOrder tf;
     tf.name = "texture-first";
     tf.steps = {1, 4, 0, 2, 3, 5};
     tf.distortion = {6, 5, 4, 3, 2, 0};
@@ -158,13 +176,12 @@ TEST(Package, FixtureIsStreamable) {
   ASSERT_EQ(f.ps.meshes.size(), 1u);
   const ProgressiveMesh& pm = f.ps.meshes[0];
   EXPECT_GT(pm.face_count(), 1500u);
-  EXPECT_LT(f.input.base_levels[0] + 10, pm.levels.size())
-      << "base must be coarser than the full mesh";
+  EXPECT_LT(f.base_level + 10, pm.levels.size()) << "base must be coarser than the full mesh";
   ASSERT_EQ(f.textures.levels.size(), 3u);
   EXPECT_FALSE(f.input.base_glb.empty());
   auto bytes = write_package(f.input);
   ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-  const ProgressiveLevel& base = pm.levels[f.input.base_levels[0]];
+  const ProgressiveLevel& base = pm.levels[f.base_level];
   std::printf(
       "[ Package  ] %zu vertices, %zu faces, %zu levels; base %u vertices, %u faces, %zu-byte glb; "
       "package %zu bytes\n",
@@ -191,7 +208,7 @@ TEST(Package, RoundTripDecodesEveryPart) {
   // The mesh table.
   ASSERT_EQ(pkg->meshes.size(), 1u);
   const PackageMesh& mesh = pkg->meshes[0];
-  const ProgressiveLevel& base = pm.levels[f.input.base_levels[0]];
+  const ProgressiveLevel& base = pm.levels[f.base_level];
   EXPECT_EQ(mesh.vertices, pm.vertex_count());
   EXPECT_EQ(mesh.faces, pm.face_count());
   EXPECT_EQ(mesh.base_vertices, base.vertex_end);
@@ -212,7 +229,7 @@ TEST(Package, RoundTripDecodesEveryPart) {
   auto base_faces = decode_base_indices(*bytes, *pkg, 0);
   ASSERT_TRUE(base_faces.ok()) << base_faces.status().message();
   ASSERT_EQ(base_faces->size(), size_t(base.face_end) * 3);
-  EXPECT_TRUE(same_faces(*base_faces, level_indices(pm, f.input.base_levels[0])));
+  EXPECT_TRUE(same_faces(*base_faces, level_indices(pm, f.base_level)));
   Client client;
   client.vertices = base.vertex_end;
   client.indices = *base_faces;
@@ -254,7 +271,7 @@ TEST(Package, RoundTripDecodesEveryPart) {
     ASSERT_EQ(c.kind, StreamStep::kMesh);
     const ProgressiveLevel& to = pm.levels[f.step_levels[mesh_step++]];
     size_t level = f.step_levels[mesh_step - 1];
-    if (level == (mesh_step >= 2 ? f.step_levels[mesh_step - 2] : f.input.base_levels[0])) {
+    if (level == (mesh_step >= 2 ? f.step_levels[mesh_step - 2] : f.base_level)) {
       EXPECT_TRUE(c.parts.empty()) << "chunk " << i;
       EXPECT_EQ(c.size, 0u);
       continue;
@@ -314,18 +331,18 @@ TEST(Package, RoundTripDecodesEveryPart) {
 TEST(Package, WriterRejectsInconsistentInput) {
   const Fixture& f = fixture();
   PackageInput in = f.input;
-  in.base_levels.clear();
+  in.base_glb.clear();
   EXPECT_FALSE(write_package(in).ok());
   in = f.input;
-  in.steps[2].levels = {f.input.base_levels[0]};  // back below the first step
+  in.steps[2].mesh_layer = 1;  // a layer already sent
   auto r = write_package(in);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("goes back"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("out of order"), std::string::npos) << r.status().message();
   in = f.input;
   in.textures = nullptr;
   EXPECT_FALSE(write_package(in).ok());  // texture steps without textures
   in = f.input;
-  in.scene = nullptr;
+  in.mesh_layers = nullptr;
   EXPECT_FALSE(write_package(in).ok());
   // Orders must be permutations of the steps that keep the mesh steps in order.
   in = f.input;

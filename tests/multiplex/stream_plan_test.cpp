@@ -36,10 +36,10 @@ TEST(StreamPlan, StepsFollowTheDescentAndBaselinesPermuteThem) {
   ASSERT_EQ(plan->steps.size(), 4u);
   EXPECT_EQ(plan->base_distortion, 10.0);
   EXPECT_EQ(plan->steps[0].kind, StreamStep::kMesh);
-  EXPECT_EQ(plan->steps[0].levels, (std::vector<size_t>{5, 1}));
+  EXPECT_EQ(plan->steps[0].mesh_layer, 1u);
   EXPECT_EQ(plan->steps[1].kind, StreamStep::kTexture);
   EXPECT_EQ(plan->steps[1].texture_level, 1u);
-  EXPECT_EQ(plan->steps[2].levels, (std::vector<size_t>{9, 3}));
+  EXPECT_EQ(plan->steps[2].mesh_layer, 2u);
   EXPECT_EQ(plan->steps[3].texture_level, 2u);
   EXPECT_DOUBLE_EQ(plan->steps[3].distortion, 2.0);
   ASSERT_EQ(plan->orders.size(), 3u);

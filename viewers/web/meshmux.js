@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 2).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 3).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -30,7 +30,6 @@ export { PACKAGE_VERSION, VERTEX_BYTES, validateTable };
 const HEADER_BYTES = 12;
 const PROBE_BYTES = 65536;       // the first request: header, table and often the base too
 const RANGE_GAP = 1024;          // corner updates closer than this share one upload range
-const LIGHT = new THREE.Vector3(0.4, 0.8, 0.45).normalize();  // view space, towards the light
 
 // ---- Decoding: scratch memory and the hot loops ----------------------------------------------
 
@@ -343,6 +342,7 @@ uniform vec4 baseColorFactor;
 uniform sampler2D map;
 uniform bool textured;
 uniform vec3 lightDirection;  // view space, unit, towards the light
+uniform float ambient, diffuse;  // the package's "view": what the distortion was measured with
 in vec3 vNormal;
 in vec2 vUv;
 flat in float vMirror;
@@ -364,12 +364,13 @@ void main() {
   vec3 n = len > 1e-20 ? vNormal / len : vec3(0.0, 0.0, 1.0);
   bool front = vMirror < 0.0 ? !gl_FrontFacing : gl_FrontFacing;
   if (!front) n = -n;  // two-sided lighting
-  fragColor = vec4(base.rgb * (0.35 + 0.65 * max(dot(n, lightDirection), 0.0)), 1.0);
+  fragColor = vec4(base.rgb * (ambient + diffuse * max(dot(n, lightDirection), 0.0)), 1.0);
 }`;
 
 // One ShaderMaterial per distinct glTF material (normally one: the atlas); all share the
-// texture uniform, so a streamed level reaches every material at once.
-function makeMaterial(source, mapUniform) {
+// texture uniform, so a streamed level reaches every material at once. Shading comes from the
+// package table's "view" (light in view space: it follows the camera).
+function makeMaterial(source, mapUniform, view) {
   const color = source.color || new THREE.Color(1, 1, 1);
   return new THREE.ShaderMaterial({
     name: `meshmux(${source.name || 'material'})`,
@@ -379,7 +380,9 @@ function makeMaterial(source, mapUniform) {
       baseColorFactor: { value: new THREE.Vector4(color.r, color.g, color.b, source.opacity ?? 1) },
       map: mapUniform,
       textured: { value: !!source.map },
-      lightDirection: { value: LIGHT.clone() },
+      lightDirection: { value: new THREE.Vector3(...view.lightDirection).normalize() },
+      ambient: { value: view.ambient },
+      diffuse: { value: view.diffuse },
     },
     vertexShader: VERTEX_SHADER,
     fragmentShader: FRAGMENT_SHADER,
@@ -527,7 +530,7 @@ export class MeshmuxStream extends EventTarget {
           this._map.value = configureTexture(source.map, this._anisotropy());
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
         }
-        materialFor.set(source, makeMaterial(source, this._map));
+        materialFor.set(source, makeMaterial(source, this._map, table.view));
       }
       [o.material].flat().forEach((x) => oldMaterials.add(x));
       o.material = materialFor.get(source);

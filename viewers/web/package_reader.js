@@ -1,10 +1,13 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 2; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 3; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 2;
+export const PACKAGE_VERSION = 3;
 export const VERTEX_BYTES = 20;  // position 3×u16 + pad u16, normal 4×i8, uv 2×u16, parent u32
-const MAX_ELEMENTS = 1 << 27;    // sanity cap on one mesh's vertices / faces
+// The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
+// enforces the same number); this only bounds what a hostile table may claim, at what typed
+// arrays of 20-byte vertices can hold.
+const TYPED_ARRAY_ELEMENTS = 2 ** 30 / VERTEX_BYTES;
 
 // ---- The package table -----------------------------------------------------------------------
 
@@ -31,6 +34,21 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
 
   obj(t, 'the table');
   need(t.version === PACKAGE_VERSION, `table version ${JSON.stringify(t.version)}, expected ${PACKAGE_VERSION}`);
+  const num = (v, what, lo = -Infinity, hi = Infinity) => {
+    need(Number.isFinite(v) && v >= lo && v <= hi, `${what} must be a number in [${lo}, ${hi}] (got ${JSON.stringify(v)})`);
+    return v;
+  };
+  const vec3 = (v, what) => { need(Array.isArray(v) && v.length === 3, `${what} must be 3 numbers`); return v.map((x, i) => num(x, `${what}[${i}]`)); };
+  // How the distortion was measured: the viewer frames and shades with these (no copies here).
+  const v = obj(t.view, 'view');
+  const view = {
+    fov: num(v.fov_y_degrees, 'view.fov_y_degrees', 1, 179), fill: num(v.fill, 'view.fill', 1e-3, 1e3),
+    direction: vec3(v.direction, 'view.direction'), clipMargin: num(v.clip_margin, 'view.clip_margin', 1e-3, 1e3),
+    ambient: num(v.ambient, 'view.ambient', 0, 10), diffuse: num(v.diffuse, 'view.diffuse', 0, 10),
+    lightDirection: vec3(v.light_direction, 'view.light_direction'), lightFollowsCamera: v.light_follows_camera !== false,
+  };
+  const limits = obj(t.limits, 'limits');
+  const MAX_ELEMENTS = Math.min(int(limits.max_elements, 'limits.max_elements'), TYPED_ARRAY_ELEMENTS);
   const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };
   need(base.size >= 20, `the base .glb is ${base.size} bytes, too small for a glb`);
   const meshes = arr(t.meshes, 'meshes').map((m, i) => {
@@ -111,7 +129,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // Not fatal: a complete stream should end on the full mesh sizes.
   const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
     : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
-  return { version: t.version, base, meshes, texture, chunks, orders, notes, heapBytes };
+  return { version: t.version, view, base, meshes, texture, chunks, orders, notes, heapBytes };
 }
 
 // ---- HTTP ranges -----------------------------------------------------------------------------

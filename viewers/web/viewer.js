@@ -11,9 +11,6 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { MeshmuxStream } from './meshmux.js';
 
-const FOV = 45;
-const FILL = 0.8;                                        // share of the smaller half-extent the model fills
-const DEFAULT_DIRECTION = new THREE.Vector3(1, 0.6, 1.4).normalize();
 const PAGE_BACKGROUND = new THREE.Color().setRGB(0.15, 0.15, 0.15, THREE.LinearSRGBColorSpace);
 
 // ---- Parameters ----------------------------------------------------------------------------
@@ -64,9 +61,9 @@ renderer.toneMapping = THREE.NoToneMapping;
 renderer.setClearColor(PAGE_BACKGROUND, 1);
 
 const scene = new THREE.Scene();
-const camera = new THREE.PerspectiveCamera(FOV, 1, 0.1, 100);
+const camera = new THREE.PerspectiveCamera(45, 1, 0.1, 100);  // framed from the package's "view" on open
 let controls = makeControls();
-let frame = { center: new THREE.Vector3(), radius: 1 };  // the model's bounding sphere (for clip planes)
+let frame = { center: new THREE.Vector3(), radius: 1, clipMargin: 1.5 };  // bounding sphere, clip margin (from "view")
 let framed = false;
 
 function makeControls() {
@@ -78,28 +75,29 @@ function makeControls() {
 
 // Near/far as the default framing sets them, for the current distance (after user motion).
 function fitClipPlanes() {
-  const d = camera.position.distanceTo(frame.center), r = frame.radius;
-  camera.near = Math.max(d - 1.5 * r, d * 1e-3);
-  camera.far = d + 1.5 * r;
+  const d = camera.position.distanceTo(frame.center), r = frame.radius, m = frame.clipMargin;
+  camera.near = Math.max(d - m * r, d * 1e-3);
+  camera.far = d + m * r;
   camera.updateProjectionMatrix();
 }
 
-// meshmux's default camera: the bounding sphere fills 80% of the smaller half-extent, seen
-// from direction (1, 0.6, 1.4).
-function frameDefault(box) {
+// meshmux's default camera, as the package's "view" says the distortion was measured: the
+// bounding sphere fills `fill` of the smaller half-extent, seen from `direction`.
+function frameDefault(box, view) {
   const center = box.isEmpty() ? new THREE.Vector3() : box.getCenter(new THREE.Vector3());
   let radius = box.isEmpty() ? 1 : 0.5 * box.getSize(new THREE.Vector3()).length();
   if (!(radius > 0) || !Number.isFinite(radius)) radius = 1;
-  frame = { center, radius };
+  frame = { center, radius, clipMargin: view.clipMargin };
   const side = Math.min(1, camera.aspect > 0 ? camera.aspect : 1);
-  let half = Math.atan(FILL * Math.tan(THREE.MathUtils.degToRad(FOV) / 2) * side);
-  if (!(half > 0)) half = THREE.MathUtils.degToRad(FOV) / 2;
+  let half = Math.atan(view.fill * Math.tan(THREE.MathUtils.degToRad(view.fov) / 2) * side);
+  if (!(half > 0)) half = THREE.MathUtils.degToRad(view.fov) / 2;
   const distance = radius / Math.sin(half);
-  camera.fov = FOV;
-  camera.up.set(0, 1, 0);
-  camera.position.copy(center).addScaledVector(DEFAULT_DIRECTION, distance);
-  camera.near = Math.max(distance - 1.5 * radius, distance * 1e-3);
-  camera.far = distance + 1.5 * radius;
+  const direction = new THREE.Vector3(...view.direction).normalize();
+  camera.fov = view.fov;
+  camera.up.set(0, Math.abs(direction.y) > 0.99 ? 0 : 1, Math.abs(direction.y) > 0.99 ? 1 : 0);
+  camera.position.copy(center).addScaledVector(direction, distance);
+  camera.near = Math.max(distance - view.clipMargin * radius, distance * 1e-3);
+  camera.far = distance + view.clipMargin * radius;
   camera.lookAt(center);
   camera.updateProjectionMatrix();
   controls.target.copy(center);
@@ -195,7 +193,7 @@ function load(order, fraction, play) {
       await s.open();
       if (s !== stream) return s.stats;
       scene.add(s.object);
-      if (!framed) frameDefault(s.worldBounds());
+      if (!framed) frameDefault(s.worldBounds(), s.table.view);
       fillOrders(s.table.orders);
       s.budgetBytes = Math.max(Math.round(fraction * s.stats.bytesTotal), 0);
       if (s.notes.length) ui.message.textContent = `Note: ${s.notes.join('; ')}`;

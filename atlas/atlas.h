@@ -1,0 +1,58 @@
+// One material, one texture (paper 000 §4.2–4.4): charts are segmented and parameterized,
+// sized by formula 2 within a target T = min(Σ source texture area the faces reference,
+// max_size²), packed so no chart crosses a power-of-two boundary, and baked from the source
+// materials; every mesh becomes one primitive with one uv set into the atlas and the single
+// material. Instancing is untouched (a shared mesh's charts are baked once).
+//
+// The single material: base colour = the atlas (factors and vertex colours folded in), alpha
+// mode BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE;
+// double-sided if any source is; metallic and roughness factors area-weighted. Normal,
+// occlusion, metallic-roughness and emissive textures are dropped with a warning (baking them
+// is future work). Scenes with no texture, no vertex colour and at most one material are
+// returned unchanged (they already have one material and need no texture).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "atlas/bake.h"
+#include "atlas/charts.h"
+#include "atlas/pack.h"
+#include "atlas/parameterize.h"
+#include "scene/scene.h"
+
+namespace meshmux {
+
+struct AtlasOptions {
+  ChartOptions charts;               // segmentation
+  ParameterizeOptions parameterize;  // flattening
+  BakeOptions bake;                  // resampling and gutters
+  int max_size = 4096;               // largest atlas side
+  int min_size = 64;                 // smallest atlas side
+  int flat_block = 4;                // side of one flat-colour block, texels (gutters around it)
+  int vertex_color_target = 512;     // T (side) for scenes whose only texture is vertex colour
+};
+
+struct AtlasReport {
+  bool built = false;          // false: the scene was returned unchanged
+  size_t charts = 0;           // textured charts after splitting invalid ones
+  size_t flat_colors = 0;      // distinct flat-colour blocks
+  size_t split = 0;            // charts split because they could not be flattened
+  int size = 0;                // atlas side, texels
+  double utilization = 0;      // packed texels / atlas texels
+  double target_texels = 0;    // T of formula 2
+  double mean_stretch_l2 = 0;  // area-weighted over textured charts
+  double max_stretch_l2 = 0;
+  double seconds = 0;
+  // The layout, for tests and tools: per atlas texel its chart (gutters included; -1 none), and
+  // per chart its exclusive power-of-two cell (flat charts of one colour share one).
+  std::vector<int32_t> texel_chart;
+  std::vector<PackPlacement> cell_pos;
+  std::vector<PackRect> cell_size;
+};
+
+// `scene` must be clean (condition/clean). Errors only for internal failures.
+Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& options, AtlasReport* report,
+                          Warnings* warnings);
+
+}  // namespace meshmux

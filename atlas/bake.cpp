@@ -1,0 +1,435 @@
+// Atlas baking (see bake.h).
+//
+// Reference implemented: paper 000 §4.4 (the atlas is filled by resampling the source
+// textures at each chart's place, with gutters so that filtering and mip levels stay clean).
+// Details as decided in DESIGN.md (Atlas):
+// - each chart face is rasterized in atlas texel space (texel (i, j) covers [i, i+1) × [j, j+1),
+//   centre (i + ½, j + ½)); a texel belongs to the face when its centre is inside the triangle,
+//   or, conservatively, within half a texel of it, so thin triangles still get texels. A texel
+//   claimed by several faces keeps the nearest one (centre inside beats centre outside; the
+//   first face in chart order wins ties);
+// - the colour of a texel is condition/material_sample's base colour at the surface point whose
+//   barycentrics are those of the point of the triangle nearest to the sample (all uv sets and
+//   COLOR_0 interpolated), averaged over supersample² samples in linear light. Two passes: the
+//   first decides which face owns each texel (centre distance), the second samples colours; with
+//   supersampling each sample takes the nearest face among the owners of the texel and its
+//   8 neighbours in the same chart, so a texel on an edge between faces reads both sides;
+// - flat-colour charts fill their block with their colour;
+// - gutters: `gutter` rings of dilation; a ring's empty texel next to filled ones joins the chart
+//   most of those neighbours belong to (ties: the smaller chart index) and takes the average
+//   colour of the neighbours of that chart only;
+// - the rest of the atlas stays transparent black, or, when no baked texel is translucent, is
+//   filled by dilation to convergence with opaque colour (cleaner JPEG blocks).
+#include "atlas/bake.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "atlas/material_sample.h"
+
+namespace meshmux {
+namespace {
+
+struct P2 {
+  double x = 0, y = 0;
+};
+
+double cross(P2 a, P2 b, P2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
+
+// Closest point of segment ab to p: parameter t in [0, 1] and squared distance.
+double closest_on_segment(P2 a, P2 b, P2 p, double* t) {
+  double dx = b.x - a.x, dy = b.y - a.y;
+  double len2 = dx * dx + dy * dy;
+  double u = len2 > 0 ? ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2 : 0;
+  u = std::clamp(u, 0.0, 1.0);
+  double qx = a.x + u * dx - p.x, qy = a.y + u * dy - p.y;
+  *t = u;
+  return qx * qx + qy * qy;
+}
+
+// Barycentrics (of corners 0, 1, 2) of the point of triangle v nearest to p, and the distance
+// from p to it (0 when p is inside). Degenerate triangles are handled through their edges.
+double nearest_barycentric(const P2 v[3], P2 p, double bary[3]) {
+  double area = cross(v[0], v[1], v[2]);
+  if (std::fabs(area) > 1e-12) {
+    double b0 = cross(v[1], v[2], p) / area;
+    double b1 = cross(v[2], v[0], p) / area;
+    double b2 = 1 - b0 - b1;
+    if (b0 >= 0 && b1 >= 0 && b2 >= 0) {
+      bary[0] = b0;
+      bary[1] = b1;
+      bary[2] = b2;
+      return 0;
+    }
+  }
+  double best = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < 3; ++e) {
+    int i = e, j = (e + 1) % 3;
+    double t;
+    double d2 = closest_on_segment(v[i], v[j], p, &t);
+    if (d2 < best) {
+      best = d2;
+      bary[0] = bary[1] = bary[2] = 0;
+      bary[i] = 1 - t;
+      bary[j] = t;
+    }
+  }
+  return std::sqrt(best);
+}
+
+Vec4 lerp3(const Vec4& a, const Vec4& b, const Vec4& c, const double w[3]) {
+  return {float(a.x * w[0] + b.x * w[1] + c.x * w[2]), float(a.y * w[0] + b.y * w[1] + c.y * w[2]),
+          float(a.z * w[0] + b.z * w[1] + c.z * w[2]), float(a.w * w[0] + b.w * w[1] + c.w * w[2])};
+}
+
+// A unit of coverage: one face of a textured chart, or a whole flat chart.
+struct Job {
+  uint32_t chart = 0;
+  uint32_t k = 0;  // position of the face in chart.faces; kFlat for a flat chart
+};
+constexpr uint32_t kFlat = 0xffffffffu;
+
+// Everything bake_atlas reads, with the per-face set-up.
+class Source {
+ public:
+  Source(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
+         const AtlasLayout& layout)
+      : scene_(scene), charts_(charts), uvs_(uvs), layout_(layout) {}
+
+  // Makes `job` (a textured chart's face) current; false when its data is out of range.
+  bool select(const Job& job) {
+    if (job.chart == current_.chart && job.k == current_.k) return true;
+    current_ = Job{kFlat, kFlat};
+    const Chart& chart = charts_.charts[job.chart];
+    if (job.chart >= uvs_.size() || job.chart >= layout_.scale.size() ||
+        chart.mesh >= scene_.meshes.size() || job.k >= chart.faces.size())
+      return false;
+    const Mesh& mesh = scene_.meshes[chart.mesh];
+    if (faces_.size() < scene_.meshes.size()) {
+      faces_.resize(scene_.meshes.size());
+      numbered_.resize(scene_.meshes.size(), 0);
+    }
+    if (!numbered_[chart.mesh]) {
+      faces_[chart.mesh] = mesh_faces(mesh);
+      numbered_[chart.mesh] = 1;
+    }
+    const std::vector<FaceRef>& refs = faces_[chart.mesh];
+    const uint32_t face = chart.faces[job.k];
+    const ChartUv& cu = uvs_[job.chart];
+    if (face >= refs.size() || 3 * size_t(job.k) + 2 >= cu.corner_uv.size()) return false;
+    prim_ = &mesh.primitives[refs[face].primitive];
+    const size_t base = size_t(refs[face].triangle) * 3;
+    const Vec2 off = layout_.offset[job.chart];
+    const double scale = layout_.scale[job.chart];
+    for (int j = 0; j < 3; ++j) {
+      idx_[j] = prim_->indices[base + size_t(j)];
+      if (idx_[j] >= prim_->vertex_count()) return false;
+      const Vec2& u = cu.corner_uv[3 * size_t(job.k) + size_t(j)];
+      corner_[j] = {off.x + scale * u.x, off.y + scale * u.y};
+    }
+    current_ = job;
+    return true;
+  }
+
+  const P2* corners() const { return corner_; }
+
+  // Base colour at the surface point of the current face nearest to atlas point p.
+  Vec4 color_at(P2 p) {
+    double w[3];
+    nearest_barycentric(corner_, p, w);
+    uv_.resize(prim_->uvs.size());
+    for (size_t s = 0; s < prim_->uvs.size(); ++s) {
+      const std::vector<Vec2>& set = prim_->uvs[s];
+      if (set.size() < prim_->vertex_count()) {
+        uv_[s] = {0, 0};
+        continue;
+      }
+      const Vec2 &a = set[idx_[0]], &b = set[idx_[1]], &c = set[idx_[2]];
+      uv_[s] = {float(a.x * w[0] + b.x * w[1] + c.x * w[2]),
+                float(a.y * w[0] + b.y * w[1] + c.y * w[2])};
+    }
+    Vec4 vc{1, 1, 1, 1};
+    if (!prim_->colors.empty() && prim_->colors.size() >= prim_->vertex_count())
+      vc = lerp3(prim_->colors[idx_[0]], prim_->colors[idx_[1]], prim_->colors[idx_[2]], w);
+    return sample_base_color(scene_, prim_->material, uv_, vc);
+  }
+
+ private:
+  const Scene& scene_;
+  const ChartSet& charts_;
+  const std::vector<ChartUv>& uvs_;
+  const AtlasLayout& layout_;
+  std::vector<std::vector<FaceRef>> faces_;  // per mesh, numbered when first needed
+  std::vector<uint8_t> numbered_;
+  const Primitive* prim_ = nullptr;
+  Job current_{kFlat, kFlat};  // the face selected last (kFlat: none)
+  uint32_t idx_[3] = {0, 0, 0};
+  P2 corner_[3];
+  std::vector<Vec2> uv_;
+};
+
+constexpr double kMargin = 0.5;  // conservative coverage margin, texels
+
+// Pass 1 for one face: every texel whose centre is within kMargin of the triangle and nearer to
+// it than to any face seen so far takes the face (job) as its owner.
+void cover_face(const P2 c[3], int32_t job, int n, std::vector<int32_t>& owner,
+                std::vector<float>& dist) {
+  double minx = std::min({c[0].x, c[1].x, c[2].x}) - kMargin;
+  double maxx = std::max({c[0].x, c[1].x, c[2].x}) + kMargin;
+  double miny = std::min({c[0].y, c[1].y, c[2].y}) - kMargin;
+  double maxy = std::max({c[0].y, c[1].y, c[2].y}) + kMargin;
+  if (!(std::isfinite(minx) && std::isfinite(maxx) && std::isfinite(miny) && std::isfinite(maxy)))
+    return;
+  // Texels whose centre i + ½ lies in [min, max].
+  const double last = n - 1;
+  int x0 = int(std::clamp(std::ceil(minx - 0.5), 0.0, double(n)));
+  int x1 = int(std::clamp(std::floor(maxx - 0.5), -1.0, last));
+  int y0 = int(std::clamp(std::ceil(miny - 0.5), 0.0, double(n)));
+  int y1 = int(std::clamp(std::floor(maxy - 0.5), -1.0, last));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      double bary[3];
+      double d = nearest_barycentric(c, {x + 0.5, y + 0.5}, bary);
+      if (d > kMargin) continue;
+      size_t i = size_t(y) * size_t(n) + size_t(x);
+      if (!(float(d) < dist[i])) continue;  // an earlier face is at least as near
+      owner[i] = job;
+      dist[i] = float(d);
+    }
+}
+
+const int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+const int kDy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+
+struct Linear4 {
+  float v[4];
+};
+
+Linear4 decode(const uint8_t* p) {
+  return {{srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2]), p[3] / 255.0f}};
+}
+
+void encode(Vec4 c, uint8_t* p) {
+  p[0] = linear_to_srgb(c.x);
+  p[1] = linear_to_srgb(c.y);
+  p[2] = linear_to_srgb(c.z);
+  p[3] = uint8_t(std::lround(std::clamp(c.w, 0.0f, 1.0f) * 255.0f));
+}
+
+// Ring-by-ring dilation from the filled texels of `rgba` (sRGB bytes; averages are taken in
+// linear light). Each ring's texels are computed from the texels filled before the ring, so the
+// result does not depend on visiting order (which is deterministic anyway). With `per_chart`, a new
+// texel joins the majority chart of its filled 8-neighbours (ties: the smaller index) and averages
+// only that chart's neighbours; otherwise it averages all filled neighbours and keeps chart -1.
+// Stops after `rings` rings (< 0: when nothing is left to fill).
+void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
+            std::vector<uint8_t>& filled, int rings, bool per_chart) {
+  std::vector<uint8_t> queued(filled.size(), 0);
+  std::vector<size_t> frontier;
+  auto enqueue_neighbours = [&](size_t i) {
+    int x = int(i % size_t(n)), y = int(i / size_t(n));
+    for (int k = 0; k < 8; ++k) {
+      int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
+      size_t j = size_t(ny) * size_t(n) + size_t(nx);
+      if (!filled[j] && !queued[j]) {
+        queued[j] = 1;
+        frontier.push_back(j);
+      }
+    }
+  };
+  // The first ring: empty texels with a filled neighbour, in texel order.
+  for (size_t i = 0; i < filled.size(); ++i) {
+    if (filled[i]) continue;
+    const int x = int(i % size_t(n)), y = int(i / size_t(n));
+    for (int k = 0; k < 8; ++k) {
+      int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= n || ny >= n || !filled[size_t(ny) * size_t(n) + size_t(nx)])
+        continue;
+      queued[i] = 1;
+      frontier.push_back(i);
+      break;
+    }
+  }
+  std::vector<uint8_t> new_rgba;
+  std::vector<int32_t> new_chart;
+  for (int ring = 0; (rings < 0 || ring < rings) && !frontier.empty(); ++ring) {
+    new_rgba.assign(frontier.size() * 4, 0);
+    new_chart.assign(frontier.size(), -1);
+    for (size_t f = 0; f < frontier.size(); ++f) {
+      const size_t i = frontier[f];
+      const int x = int(i % size_t(n)), y = int(i / size_t(n));
+      int32_t ids[8];
+      size_t js[8];
+      int count = 0;
+      for (int k = 0; k < 8; ++k) {
+        int nx = x + kDx[k], ny = y + kDy[k];
+        if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
+        size_t j = size_t(ny) * size_t(n) + size_t(nx);
+        if (!filled[j]) continue;
+        ids[count] = chart[j];
+        js[count] = j;
+        ++count;
+      }
+      int32_t who = -1;
+      if (per_chart) {
+        int best = 0;
+        for (int a = 0; a < count; ++a) {
+          int votes = 0;
+          for (int b = 0; b < count; ++b) votes += ids[b] == ids[a];
+          if (votes > best || (votes == best && ids[a] < who)) {
+            best = votes;
+            who = ids[a];
+          }
+        }
+      }
+      double sum[4] = {0, 0, 0, 0};
+      int used = 0;
+      for (int a = 0; a < count; ++a) {
+        if (per_chart && ids[a] != who) continue;
+        Linear4 c = decode(&rgba[js[a] * 4]);
+        for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
+        ++used;
+      }
+      if (used > 0)
+        encode({float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
+                float(sum[3] / used)},
+               &new_rgba[f * 4]);
+      new_chart[f] = who;
+    }
+    for (size_t f = 0; f < frontier.size(); ++f) {
+      std::copy_n(&new_rgba[f * 4], 4, &rgba[frontier[f] * 4]);
+      chart[frontier[f]] = new_chart[f];
+      filled[frontier[f]] = 1;
+    }
+    std::vector<size_t> ring_texels;
+    ring_texels.swap(frontier);
+    for (size_t i : ring_texels) enqueue_neighbours(i);
+  }
+}
+
+}  // namespace
+
+BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
+                      const AtlasLayout& layout, const BakeOptions& options) {
+  BakeResult result;
+  const int n = layout.size;
+  if (n <= 0) return result;
+  const size_t texels = size_t(n) * size_t(n);
+  const size_t chart_count = std::min(charts.charts.size(), layout.offset.size());
+  Source src(scene, charts, uvs, layout);
+
+  // Pass 1: which face (or flat chart) owns each texel.
+  std::vector<Job> jobs;
+  std::vector<int32_t> owner(texels, -1);
+  {
+    std::vector<float> dist(texels, std::numeric_limits<float>::infinity());
+    for (size_t c = 0; c < chart_count; ++c) {
+      const Chart& chart = charts.charts[c];
+      if (!chart.textured) {
+        const Vec2 off = layout.offset[c];
+        const int block = c < layout.block.size() ? layout.block[c] : 0;
+        const int bx = int(std::floor(off.x)), by = int(std::floor(off.y));
+        const int32_t job = int32_t(jobs.size());
+        jobs.push_back({uint32_t(c), kFlat});
+        for (int y = std::max(0, by); y < std::min(n, by + block); ++y)
+          for (int x = std::max(0, bx); x < std::min(n, bx + block); ++x) {
+            size_t i = size_t(y) * size_t(n) + size_t(x);
+            if (!(0.0f < dist[i])) continue;  // inside an earlier chart's face
+            owner[i] = job;
+            dist[i] = 0;
+          }
+        continue;
+      }
+      for (size_t k = 0; k < chart.faces.size(); ++k) {
+        Job j{uint32_t(c), uint32_t(k)};
+        if (!src.select(j)) continue;
+        jobs.push_back(j);
+        cover_face(src.corners(), int32_t(jobs.size() - 1), n, owner, dist);
+      }
+    }
+  }
+
+  // Pass 2: colours. A texel's samples come from its owner face; with supersampling, each sample
+  // takes the nearest of the faces owning the texel or its 8 neighbours within the same chart,
+  // so texels on an edge between two faces read each side from its own face.
+  Image& img = result.atlas;
+  img.name = "atlas";
+  img.width = img.height = n;
+  img.rgba.assign(texels * 4, 0);
+  result.texel_chart.assign(texels, -1);
+  std::vector<uint8_t> filled(texels, 0);
+  const int ss = std::max(1, options.supersample);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const size_t i = size_t(y) * size_t(n) + size_t(x);
+      if (owner[i] < 0) continue;
+      const Job& own = jobs[size_t(owner[i])];
+      result.texel_chart[i] = int32_t(own.chart);
+      filled[i] = 1;
+      if (own.k == kFlat) {
+        encode(charts.charts[own.chart].color, &img.rgba[i * 4]);
+        continue;
+      }
+      Vec4 color;
+      if (ss == 1) {
+        src.select(own);
+        color = src.color_at({x + 0.5, y + 0.5});
+      } else {
+        int32_t cand[9];
+        int nc = 0;
+        cand[nc++] = owner[i];
+        for (int k = 0; k < 8; ++k) {
+          int nx = x + kDx[k], ny = y + kDy[k];
+          if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
+          int32_t o = owner[size_t(ny) * size_t(n) + size_t(nx)];
+          if (o < 0 || jobs[size_t(o)].chart != own.chart || jobs[size_t(o)].k == kFlat) continue;
+          if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
+        }
+        double sum[4] = {0, 0, 0, 0};
+        for (int sy = 0; sy < ss; ++sy)
+          for (int sx = 0; sx < ss; ++sx) {
+            const P2 p{x + (sx + 0.5) / ss, y + (sy + 0.5) / ss};
+            int32_t best = cand[0];
+            double best_d = std::numeric_limits<double>::infinity();
+            for (int a = 0; a < nc; ++a) {  // the owner first: it wins ties
+              src.select(jobs[size_t(cand[a])]);
+              double bary[3];
+              double d = nearest_barycentric(src.corners(), p, bary);
+              if (d < best_d) {
+                best_d = d;
+                best = cand[a];
+              }
+            }
+            src.select(jobs[size_t(best)]);
+            Vec4 c = src.color_at(p);
+            sum[0] += c.x;
+            sum[1] += c.y;
+            sum[2] += c.z;
+            sum[3] += c.w;
+          }
+        const double inv = 1.0 / (ss * ss);
+        color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
+                 float(sum[3] * inv)};
+      }
+      encode(color, &img.rgba[i * 4]);
+    }
+  owner.clear();
+  owner.shrink_to_fit();
+
+  // Gutters.
+  if (options.gutter > 0) dilate(n, img.rgba, result.texel_chart, filled, options.gutter, true);
+
+  // Translucency of what was baked (charts and their gutters).
+  for (size_t i = 0; i < texels && !result.has_alpha; ++i)
+    if (filled[i] && img.rgba[i * 4 + 3] < 255) result.has_alpha = true;
+  if (!result.has_alpha) {
+    // Opaque everywhere: the empty space takes the nearest charts' colours, chart -1.
+    dilate(n, img.rgba, result.texel_chart, filled, -1, false);
+    for (size_t i = 0; i < texels; ++i) img.rgba[i * 4 + 3] = 255;
+  }
+  return result;
+}
+
+}  // namespace meshmux

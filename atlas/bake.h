@@ -1,0 +1,44 @@
+// Atlas baking (paper 000 §4.4): each chart's faces are rasterized at their place in the
+// atlas and every covered texel takes the base colour the original material shows at the
+// corresponding surface point (condition/material_sample: factor × vertex colour × texture,
+// bilinear, wrap and KHR_texture_transform honoured). Flat-colour charts fill their block with
+// their colour. Gutters are then filled by dilation (each empty texel next to filled ones takes
+// their average, ring by ring, `gutter` rings), so bilinear filtering and every mip level stay
+// clean at chart borders. Texels no chart reaches are left transparent black (alpha 0) — or,
+// when no source uses alpha, opaque with the dilated neighbour colour.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "atlas/charts.h"
+#include "atlas/parameterize.h"
+#include "scene/scene.h"
+
+namespace meshmux {
+
+// Where each chart goes: atlas texel = offset + scale * chart_uv (chart_uv from ChartUv).
+struct AtlasLayout {
+  int size = 0;               // atlas side, texels (power of two)
+  std::vector<Vec2> offset;   // per chart: texel coordinates of chart uv (0, 0)
+  std::vector<double> scale;  // per chart: texels per chart-uv unit (0 for flat charts)
+  std::vector<int> block;     // per chart: side of its placed rectangle, texels (gutters
+                              // included); flat charts fill [offset, offset + block)
+};
+
+struct BakeOptions {
+  int gutter = 2;       // dilation rings around every chart, texels
+  int supersample = 1;  // samples per texel side (1 = texel centre only)
+};
+
+struct BakeResult {
+  Image atlas;  // size × size RGBA8, sRGB, row 0 at the top
+  std::vector<int32_t>
+      texel_chart;         // per texel: the chart it belongs to (incl. its gutter), -1 none
+  bool has_alpha = false;  // some baked texel has alpha < 255
+};
+
+BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
+                      const AtlasLayout& layout, const BakeOptions& options = {});
+
+}  // namespace meshmux

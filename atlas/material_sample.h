@@ -1,0 +1,26 @@
+// The base colour a surface point shows under its original material: base-colour factor ×
+// vertex colour × texture (bilinear, honouring the sampler's wrap/mirror/clamp and the
+// KHR_texture_transform of the texture reference). Used by the atlas baker and by the colour
+// fidelity test, so both read the source the same way. Colours are linear RGBA in [0, 1]
+// (texture texels are sRGB-decoded).
+#pragma once
+
+#include "image/color.h"  // srgb_to_linear, linear_to_srgb
+#include "scene/scene.h"
+
+namespace meshmux {
+
+// Bilinear texel fetch at uv (glTF convention: (0,0) top-left of the image, texel centres at
+// (i + 0.5) / width), with the sampler's wrap modes. Linear RGBA (sRGB decoded; alpha as is).
+Vec4 sample_image(const Image& image, const Sampler& sampler, Vec2 uv);
+
+// uv after KHR_texture_transform.
+Vec2 apply_transform(const TextureTransform& t, Vec2 uv);
+
+// The base colour of `material` at a point with texture coordinates `uvs` (all of the
+// primitive's sets, interpolated) and vertex colour `vertex_color` (interpolated; (1,1,1,1)
+// when the primitive has none). material < 0 means the glTF default material (white).
+Vec4 sample_base_color(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs,
+                       Vec4 vertex_color);
+
+}  // namespace meshmux

@@ -1,0 +1,292 @@
+// Clean and normalize: paper 000 §4.1 ("Cleaning and Normalizing"): unreferenced data,
+// duplicate and degenerate triangles removed, missing normals generated, vertex data scaled
+// to a uniform size for error normalization (kept as a factor here so output keeps the
+// author's units; DESIGN.md "Clean & normalize").
+#include "clean/clean.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+namespace meshmux {
+
+namespace {
+
+// FNV-1a over raw bytes: attribute bit patterns are compared exactly.
+struct BytesHash {
+  size_t operator()(const std::vector<uint32_t>& k) const {
+    uint64_t h = 1469598103934665603ull;
+    for (uint32_t w : k) {
+      h ^= w;
+      h *= 1099511628211ull;
+    }
+    return size_t(h);
+  }
+};
+
+uint32_t bits(float f) {
+  if (f == 0) f = 0;  // -0 and +0 weld together
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+bool finite_unit(Vec3 n) {
+  float l = length(n);
+  return std::isfinite(l) && l > 0.5f && l < 1.5f;
+}
+
+// Welds exact duplicates; returns the remapped primitive (indices rewritten).
+Primitive weld(const Primitive& p) {
+  std::unordered_map<std::vector<uint32_t>, uint32_t, BytesHash> seen;
+  seen.reserve(p.positions.size() * 2);
+  std::vector<uint32_t> remap(p.positions.size());
+  Primitive out;
+  out.material = p.material;
+  out.uvs.resize(p.uvs.size());
+  std::vector<uint32_t> key;
+  for (size_t v = 0; v < p.positions.size(); ++v) {
+    key.clear();
+    auto add3 = [&](Vec3 a) { key.insert(key.end(), {bits(a.x), bits(a.y), bits(a.z)}); };
+    add3(p.positions[v]);
+    if (!p.normals.empty()) add3(p.normals[v]);
+    for (const auto& set : p.uvs) key.insert(key.end(), {bits(set[v].x), bits(set[v].y)});
+    if (!p.colors.empty()) {
+      Vec4 c = p.colors[v];
+      key.insert(key.end(), {bits(c.x), bits(c.y), bits(c.z), bits(c.w)});
+    }
+    auto [it, inserted] = seen.emplace(key, uint32_t(out.positions.size()));
+    if (inserted) {
+      out.positions.push_back(p.positions[v]);
+      if (!p.normals.empty()) out.normals.push_back(p.normals[v]);
+      for (size_t s = 0; s < p.uvs.size(); ++s) out.uvs[s].push_back(p.uvs[s][v]);
+      if (!p.colors.empty()) out.colors.push_back(p.colors[v]);
+    }
+    remap[v] = it->second;
+  }
+  out.indices.resize(p.indices.size());
+  for (size_t i = 0; i < p.indices.size(); ++i) out.indices[i] = remap[p.indices[i]];
+  return out;
+}
+
+// Removes degenerate and duplicate triangles in place; counts them.
+void filter_triangles(Primitive& p, const CleanOptions& o, CleanReport& r) {
+  struct TriKey {
+    uint32_t a, b, c;
+    bool operator==(const TriKey& k) const { return a == k.a && b == k.b && c == k.c; }
+  };
+  struct TriHash {
+    size_t operator()(const TriKey& k) const {
+      return size_t((uint64_t(k.a) * 73856093u) ^ (uint64_t(k.b) * 19349663u) ^
+                    (uint64_t(k.c) * 83492791u));
+    }
+  };
+  std::unordered_map<TriKey, char, TriHash> seen;
+  if (o.remove_duplicates) seen.reserve(p.indices.size() / 3 * 2);
+  std::vector<uint32_t> kept;
+  kept.reserve(p.indices.size());
+  for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+    uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
+    if (o.remove_degenerate) {
+      Vec3 pa = p.positions[a], pb = p.positions[b], pc = p.positions[c];
+      bool repeated = a == b || b == c || a == c || pa == pb || pb == pc || pa == pc;
+      Vec3 n = cross(pb - pa, pc - pa);
+      if (repeated || !(dot(n, n) > 0)) {
+        ++r.degenerate_removed;
+        continue;
+      }
+    }
+    if (o.remove_duplicates) {
+      // Rotate so the smallest index leads; winding is preserved.
+      TriKey k{a, b, c};
+      if (b < a && b < c)
+        k = {b, c, a};
+      else if (c < a && c < b)
+        k = {c, a, b};
+      if (!seen.emplace(k, 0).second) {
+        ++r.duplicates_removed;
+        continue;
+      }
+    }
+    kept.insert(kept.end(), {a, b, c});
+  }
+  p.indices.swap(kept);
+}
+
+void drop_unreferenced(Primitive& p) {
+  std::vector<uint32_t> remap(p.positions.size(), UINT32_MAX);
+  uint32_t next = 0;
+  std::vector<uint32_t> order;
+  for (uint32_t& i : p.indices) {
+    if (remap[i] == UINT32_MAX) remap[i] = next++, order.push_back(i);
+    i = remap[i];
+  }
+  if (next == p.positions.size()) {
+    bool identity = true;
+    for (size_t k = 0; k < order.size() && identity; ++k) identity = order[k] == k;
+    if (identity) return;
+  }
+  auto gather = [&](auto& arr) {
+    if (arr.empty()) return;
+    std::remove_reference_t<decltype(arr)> out;
+    out.reserve(order.size());
+    for (uint32_t v : order) out.push_back(arr[v]);
+    arr.swap(out);
+  };
+  gather(p.positions);
+  gather(p.normals);
+  for (auto& set : p.uvs) gather(set);
+  gather(p.colors);
+}
+
+// Angle-weighted normals with a crease angle; splits vertices whose corners get different
+// normals. Corners are grouped by exact position so normals smooth across uv seams.
+void generate_normals(Primitive& p, float crease_degrees) {
+  size_t nt = p.indices.size() / 3;
+  std::vector<Vec3> face_n(nt);
+  std::vector<std::array<float, 3>> corner_angle(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    Vec3 v[3] = {p.positions[p.indices[3 * t]], p.positions[p.indices[3 * t + 1]],
+                 p.positions[p.indices[3 * t + 2]]};
+    face_n[t] = normalize(cross(v[1] - v[0], v[2] - v[0]));
+    for (int c = 0; c < 3; ++c) {
+      Vec3 e1 = normalize(v[(c + 1) % 3] - v[c]), e2 = normalize(v[(c + 2) % 3] - v[c]);
+      corner_angle[t][size_t(c)] = std::acos(std::clamp(dot(e1, e2), -1.0f, 1.0f));
+    }
+  }
+  // Group corners by position.
+  struct PosHash {
+    size_t operator()(const Vec3& v) const {
+      return size_t(bits(v.x) * 73856093ull ^ bits(v.y) * 19349663ull ^ bits(v.z) * 83492791ull);
+    }
+  };
+  struct PosEq {
+    bool operator()(const Vec3& a, const Vec3& b) const { return a == b; }
+  };
+  std::unordered_map<Vec3, uint32_t, PosHash, PosEq> group_of;
+  std::vector<uint32_t> corner_group(p.indices.size());
+  for (size_t i = 0; i < p.indices.size(); ++i) {
+    Vec3 pos = p.positions[p.indices[i]];
+    if (pos.x == 0) pos.x = 0;  // fold -0
+    if (pos.y == 0) pos.y = 0;
+    if (pos.z == 0) pos.z = 0;
+    auto [it, _] = group_of.emplace(pos, uint32_t(group_of.size()));
+    corner_group[i] = it->second;
+  }
+  // Corners of each group, in corner order (deterministic).
+  std::vector<uint32_t> start(group_of.size() + 1, 0), members(p.indices.size());
+  for (uint32_t g : corner_group) ++start[g + 1];
+  for (size_t g = 0; g < group_of.size(); ++g) start[g + 1] += start[g];
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (size_t i = 0; i < p.indices.size(); ++i) members[fill[corner_group[i]]++] = uint32_t(i);
+
+  float cos_crease = std::cos(crease_degrees * float(M_PI) / 180.0f);
+  std::vector<Vec3> corner_n(p.indices.size());
+  for (size_t i = 0; i < p.indices.size(); ++i) {
+    size_t t = i / 3;
+    uint32_t g = corner_group[i];
+    Vec3 sum{};
+    for (uint32_t k = start[g]; k < start[g + 1]; ++k) {
+      uint32_t j = members[k];
+      size_t u = j / 3;
+      if (dot(face_n[t], face_n[u]) >= cos_crease) sum = sum + face_n[u] * corner_angle[u][j % 3];
+    }
+    Vec3 n = normalize(sum);
+    corner_n[i] = length(n) > 0 ? n : face_n[t];
+  }
+  // Split: one vertex per (original vertex, normal) pair.
+  std::unordered_map<uint64_t, uint32_t> made;
+  Primitive out;
+  out.material = p.material;
+  out.uvs.resize(p.uvs.size());
+  std::unordered_map<std::vector<uint32_t>, uint32_t, BytesHash> by_key;
+  std::vector<uint32_t> key;
+  for (size_t i = 0; i < p.indices.size(); ++i) {
+    uint32_t v = p.indices[i];
+    Vec3 n = corner_n[i];
+    key = {v, bits(n.x), bits(n.y), bits(n.z)};
+    auto [it, inserted] = by_key.emplace(key, uint32_t(out.positions.size()));
+    if (inserted) {
+      out.positions.push_back(p.positions[v]);
+      out.normals.push_back(n);
+      for (size_t s = 0; s < p.uvs.size(); ++s) out.uvs[s].push_back(p.uvs[s][v]);
+      if (!p.colors.empty()) out.colors.push_back(p.colors[v]);
+    }
+    out.indices.push_back(it->second);
+  }
+  p = std::move(out);
+}
+
+void sanitize(Primitive& p) {
+  for (auto& set : p.uvs)
+    for (Vec2& uv : set) {
+      if (!std::isfinite(uv.x)) uv.x = 0;
+      if (!std::isfinite(uv.y)) uv.y = 0;
+    }
+  for (Vec4& c : p.colors) {
+    auto clamp01 = [](float f) { return std::isfinite(f) ? std::clamp(f, 0.0f, 1.0f) : 1.0f; };
+    c = {clamp01(c.x), clamp01(c.y), clamp01(c.z), clamp01(c.w)};
+  }
+}
+
+}  // namespace
+
+Scene clean(const Scene& in, const CleanOptions& o, CleanReport* report) {
+  CleanReport r;
+  Scene out;
+  out.materials = in.materials;
+  out.images = in.images;
+  out.source = in.source;
+  std::vector<int32_t> mesh_map(in.meshes.size(), -1);
+  for (size_t m = 0; m < in.meshes.size(); ++m) {
+    Mesh mesh;
+    mesh.name = in.meshes[m].name;
+    for (const Primitive& src : in.meshes[m].primitives) {
+      r.vertices_in += src.vertex_count();
+      r.triangles_in += src.triangle_count();
+      Primitive p = src;
+      sanitize(p);
+      bool broken_normals = false;
+      for (Vec3 n : p.normals)
+        if (!finite_unit(n)) {
+          broken_normals = true;
+          break;
+        }
+      if (broken_normals && o.generate_normals) p.normals.clear();
+      if (o.weld) p = weld(p);
+      filter_triangles(p, o, r);
+      if (p.indices.empty()) {
+        ++r.primitives_dropped;
+        continue;
+      }
+      drop_unreferenced(p);
+      if (p.normals.empty() && o.generate_normals) {
+        generate_normals(p, o.crease_angle_degrees);
+        ++r.primitives_with_generated_normals;
+      }
+      r.vertices_out += p.vertex_count();
+      r.triangles_out += p.triangle_count();
+      mesh.primitives.push_back(std::move(p));
+    }
+    if (mesh.primitives.empty()) {
+      ++r.meshes_dropped;
+      continue;
+    }
+    mesh_map[m] = int32_t(out.meshes.size());
+    out.meshes.push_back(std::move(mesh));
+  }
+  for (const Instance& inst : in.instances) {
+    if (inst.mesh >= mesh_map.size() || mesh_map[inst.mesh] < 0) continue;
+    Instance copy = inst;
+    copy.mesh = uint32_t(mesh_map[inst.mesh]);
+    out.instances.push_back(std::move(copy));
+  }
+  float diag = scene_bounds(out).diagonal();
+  out.normalization_scale = diag > 0 && std::isfinite(diag) ? 1.0 / double(diag) : 1.0;
+  if (report) *report = r;
+  return out;
+}
+
+}  // namespace meshmux

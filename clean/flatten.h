@@ -1,0 +1,24 @@
+// Flattening: every instance expanded into world space as one mesh (paper 001 §4: below 1.75
+// instances per submesh, flatten-then-simplify beats instance-aware simplification; also the
+// peers' baseline in bench/simplify). One primitive per (material, vertex layout), one
+// identity instance; mirroring transforms get their winding flipped back so front faces stay
+// front. Materials, images and the normalization scale carry over. O(scene vertices).
+#pragma once
+
+#include "scene/scene.h"
+
+namespace meshmux {
+
+Scene flatten(const Scene& scene);
+
+// Instances per used submesh (paper 001's IPS): instances / meshes with at least one instance.
+double instances_per_submesh(const Scene& scene);
+
+// Paper 001 §4's threshold: below this many instances per submesh, flatten.
+constexpr double kFlattenBelowIps = 1.75;
+
+// The one flattening decision (the pipeline after the atlas, the simplifier's fallback): more
+// than one instance and fewer than `below_ips` instances per used submesh.
+bool should_flatten(const Scene& scene, double below_ips = kFlattenBelowIps);
+
+}  // namespace meshmux

@@ -1,0 +1,510 @@
+// The stream package reader and part decoder (exporters/package.h). Untrusted input: the
+// header, the JSON (nesting depth checked before parsing, parsed without exceptions) and every
+// field's type and range are checked before anything is exposed: ranges inside the file and
+// after the header, base indices and chunks in order without overlap, parts inside their mesh,
+// part bytes summing to the chunk size, counts bounded (kMaxStreamElements) and plausible for
+// their byte sizes (the codecs cannot shrink data below a fixed ratio), orders permutations
+// keeping the mesh chunks' order, so that decoding never allocates far beyond the file's size.
+// decode_part repeats the checks it relies on (the Package may not come from these bytes) and
+// checks every decoded index and update against the level.
+#include <meshoptimizer.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "exporters/package.h"
+
+namespace meshmux {
+
+namespace {
+
+using Json = nlohmann::json;
+
+// meshopt's vertex codec spends at least 2 bits per byte lane per 16 vertices: encoded bytes
+// are never below 1/64 of the raw bytes. The index codec spends at least 1 byte per triangle.
+constexpr uint64_t kMaxVertexRatio = 64;
+constexpr uint64_t kMaxCount = kMaxStreamElements;
+
+Status fail(const std::string& message) {
+  return Status::error("package: " + message, ErrorKind::kInput);
+}
+
+uint32_t get_u32(const std::vector<uint8_t>& in, size_t at) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= uint32_t(in[at + size_t(i)]) << (8 * i);
+  return v;
+}
+
+// Field readers: each names what is wrong with `where` ("chunk 3") and the key.
+Status get_uint(const Json& obj, const char* key, uint64_t max, uint64_t& out,
+                const std::string& where) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return fail(where + ": missing \"" + key + "\"");
+  if (it->is_number_unsigned()) {
+    out = it->get<uint64_t>();
+  } else if (it->is_number_integer()) {
+    int64_t s = it->get<int64_t>();
+    if (s < 0) return fail(where + ": \"" + key + "\" is negative");
+    out = uint64_t(s);
+  } else {
+    return fail(where + ": \"" + key + "\" is not an integer");
+  }
+  if (out > max)
+    return fail(where + ": \"" + key + "\" = " + std::to_string(out) + " exceeds " +
+                std::to_string(max));
+  return Status::ok();
+}
+Status get_u32(const Json& obj, const char* key, uint64_t max, uint32_t& out,
+               const std::string& where) {
+  uint64_t v = 0;
+  Status s = get_uint(obj, key, max, v, where);
+  out = uint32_t(v);
+  return s;
+}
+Status get_finite(const Json& v, double& out, const std::string& what) {
+  if (!v.is_number()) return fail(what + " is not a number");
+  out = v.get<double>();
+  if (!std::isfinite(out)) return fail(what + " is not finite");
+  return Status::ok();
+}
+// Three finite numbers.
+Status get_vec3(const Json& obj, const char* key, double out[3], const std::string& where) {
+  auto it = obj.find(key);
+  if (it == obj.end() || !it->is_array() || it->size() != 3)
+    return fail(where + ": \"" + key + "\" is not 3 numbers");
+  for (size_t i = 0; i < 3; ++i)
+    if (Status s = get_finite((*it)[i], out[i], where + ": " + key); !s) return s;
+  return Status::ok();
+}
+
+Status get_number(const Json& obj, const char* key, double& out, const std::string& where) {
+  auto it = obj.find(key);
+  if (it == obj.end()) return fail(where + ": missing \"" + key + "\"");
+  return get_finite(*it, out, where + ": \"" + key + "\"");
+}
+
+// The table's "view": how the distortion was measured (see package.h).
+Status read_view(const Json& j, PackageView& v) {
+  auto it = j.find("view");
+  if (it == j.end() || !it->is_object()) return fail("\"view\" missing or not an object");
+  const Json& e = *it;
+  Status s;
+  if (!(s = get_number(e, "fov_y_degrees", v.fov_y_degrees, "view")) ||
+      !(s = get_number(e, "fill", v.fill, "view")) ||
+      !(s = get_number(e, "clip_margin", v.clip_margin, "view")) ||
+      !(s = get_number(e, "ambient", v.ambient, "view")) ||
+      !(s = get_number(e, "diffuse", v.diffuse, "view")) ||
+      !(s = get_vec3(e, "direction", v.direction, "view")) ||
+      !(s = get_vec3(e, "light_direction", v.light_direction, "view")))
+    return s;
+  if (!(v.fov_y_degrees > 0 && v.fov_y_degrees < 180)) return fail("view: fov out of range");
+  if (!(v.fill > 0) || !(v.clip_margin > 0)) return fail("view: fill or clip margin not positive");
+  auto follows = e.find("light_follows_camera");
+  if (follows == e.end() || !follows->is_boolean())
+    return fail("view: \"light_follows_camera\" missing or not a boolean");
+  v.light_follows_camera = follows->get<bool>();
+  return Status::ok();
+}
+
+// The table's "limits" must be the ones this reader enforces (a package written for other
+// limits is refused, never trusted to raise ours).
+Status check_limits(const Json& j) {
+  auto it = j.find("limits");
+  if (it == j.end() || !it->is_object()) return fail("\"limits\" missing or not an object");
+  uint64_t elements = 0, side = 0, depth = 0;
+  Status s;
+  if (!(s = get_uint(*it, "max_elements", ~uint64_t(0), elements, "limits")) ||
+      !(s = get_uint(*it, "max_texture_side", ~uint64_t(0), side, "limits")) ||
+      !(s = get_uint(*it, "max_json_depth", ~uint64_t(0), depth, "limits")))
+    return s;
+  if (elements > kMaxStreamElements || side > kMaxTextureSide || depth > uint64_t(kMaxJsonDepth))
+    return fail("limits: beyond what this reader accepts");
+  return Status::ok();
+}
+
+Status get_side(const Json& obj, const char* key, int& out, const std::string& where) {
+  uint64_t v = 0;
+  if (Status s = get_uint(obj, key, kMaxTextureSide, v, where); !s) return s;
+  if (v == 0) return fail(where + ": \"" + key + "\" is 0");
+  out = int(v);
+  return Status::ok();
+}
+
+// Bracket nesting depth of JSON text, strings skipped; guards the recursive parts of the JSON
+// library (copying, destruction) against hostile nesting.
+int json_depth(const uint8_t* p, size_t n) {
+  int depth = 0, deepest = 0;
+  bool in_string = false, escaped = false;
+  for (size_t i = 0; i < n; ++i) {
+    uint8_t c = p[i];
+    if (in_string) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+// The checks decode_part shares with the reader: a part's ranges inside its mesh, counts bounded
+// and plausible for the bytes that carry them.
+Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
+                  const std::string& where) {
+  if (p.mesh >= meshes.size())
+    return fail(where + ": mesh " + std::to_string(p.mesh) + " out of range");
+  const PackageMesh& m = meshes[p.mesh];
+  if (m.vertices > kMaxCount || m.faces > kMaxCount)
+    return fail(where + ": mesh has more than 2^28 vertices or faces");
+  if (p.vertex_begin > p.vertex_end || p.vertex_end > m.vertices)
+    return fail(where + ": vertex range [" + std::to_string(p.vertex_begin) + ", " +
+                std::to_string(p.vertex_end) + ") outside the mesh's " +
+                std::to_string(m.vertices) + " vertices");
+  if (p.face_begin > p.face_end || p.face_end > m.faces)
+    return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " +
+                std::to_string(p.face_end) + ") outside the mesh's " + std::to_string(m.faces) +
+                " faces");
+  uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
+  if ((nv == 0) != (p.vertex_bytes == 0) ||
+      nv * kPackedVertexBytes > p.vertex_bytes * kMaxVertexRatio)
+    return fail(where + ": " + std::to_string(p.vertex_bytes) + " vertex bytes cannot hold " +
+                std::to_string(nv) + " vertices");
+  if ((nf == 0) != (p.index_bytes == 0) || nf > p.index_bytes)
+    return fail(where + ": " + std::to_string(p.index_bytes) + " index bytes cannot hold " +
+                std::to_string(nf) + " faces");
+  // Updates move distinct corners of the faces held before the part, one varint byte each at
+  // least for the position and the value.
+  if (uint64_t(p.updates) > uint64_t(p.face_begin) * 3)
+    return fail(where + ": " + std::to_string(p.updates) + " updates for " +
+                std::to_string(p.face_begin) + " faces");
+  if ((p.updates == 0) != (p.update_bytes == 0) || uint64_t(p.updates) * 2 > p.update_bytes)
+    return fail(where + ": " + std::to_string(p.update_bytes) + " update bytes cannot hold " +
+                std::to_string(p.updates) + " updates");
+  return Status::ok();
+}
+
+Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t file_size,
+                 PackagePart& p, const std::string& where) {
+  if (!j.is_object()) return fail(where + " is not an object");
+  Status s;
+  if (!(s = get_u32(j, "mesh", kMaxCount, p.mesh, where))) return s;
+  if (!(s = get_u32(j, "vertex_begin", kMaxCount, p.vertex_begin, where))) return s;
+  if (!(s = get_u32(j, "vertex_end", kMaxCount, p.vertex_end, where))) return s;
+  if (!(s = get_u32(j, "face_begin", kMaxCount, p.face_begin, where))) return s;
+  if (!(s = get_u32(j, "face_end", kMaxCount, p.face_end, where))) return s;
+  if (!(s = get_uint(j, "vertex_bytes", file_size, p.vertex_bytes, where))) return s;
+  if (!(s = get_uint(j, "index_bytes", file_size, p.index_bytes, where))) return s;
+  if (!(s = get_u32(j, "updates", kMaxCount * 3, p.updates, where))) return s;
+  if (!(s = get_uint(j, "update_bytes", file_size, p.update_bytes, where))) return s;
+  return check_part(p, meshes, where);
+}
+
+Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, PackageChunk& c,
+                  const std::string& where) {
+  if (!j.is_object()) return fail(where + " is not an object");
+  auto kind = j.find("kind");
+  if (kind == j.end() || !kind->is_string())
+    return fail(where + ": \"kind\" missing or not a string");
+  const std::string& k = kind->get_ref<const std::string&>();
+  if (k == "mesh")
+    c.kind = StreamStep::kMesh;
+  else if (k == "texture")
+    c.kind = StreamStep::kTexture;
+  else
+    return fail(where + ": unknown kind");
+  Status s;
+  if (!(s = get_uint(j, "offset", file_size, c.offset, where))) return s;
+  if (!(s = get_uint(j, "size", file_size, c.size, where))) return s;
+  if (c.size > file_size - c.offset) return fail(where + ": range past the end of the file");
+  auto d = j.find("distortion");
+  if (d == j.end()) return fail(where + ": missing \"distortion\"");
+  if (!(s = get_finite(*d, c.distortion, where + ": \"distortion\""))) return s;
+  if (c.kind == StreamStep::kTexture) {
+    if (!(s = get_side(j, "width", c.width, where)) ||
+        !(s = get_side(j, "height", c.height, where)))
+      return s;
+    auto mime = j.find("mime");
+    if (mime == j.end() || !mime->is_string())
+      return fail(where + ": \"mime\" missing or not a string");
+    c.mime = mime->get<std::string>();
+    if (c.mime != "image/jpeg" && c.mime != "image/png")
+      return fail(where + ": mime type is neither JPEG nor PNG");
+    if (c.size == 0) return fail(where + ": empty texture");
+    return Status::ok();
+  }
+  auto parts = j.find("parts");
+  if (parts == j.end() || !parts->is_array())
+    return fail(where + ": \"parts\" missing or not an array");
+  uint64_t sum = 0;
+  for (size_t i = 0; i < parts->size(); ++i) {
+    PackagePart p;
+    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p,
+                        where + " part " + std::to_string(i))))
+      return s;
+    sum += p.vertex_bytes + p.index_bytes + p.update_bytes;  // each ≤ file size: no overflow
+    if (sum > c.size)
+      return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
+    c.parts.push_back(p);
+  }
+  if (sum != c.size)
+    return fail(where + ": parts hold " + std::to_string(sum) + " bytes, the chunk " +
+                std::to_string(c.size));
+  return Status::ok();
+}
+
+}  // namespace
+
+Result<Package> read_package(const std::vector<uint8_t>& bytes) {
+  if (bytes.empty()) return fail("empty file");
+  if (bytes.size() < kPackageHeaderBytes)
+    return fail(std::to_string(bytes.size()) + " bytes, too short for the 12-byte header");
+  if (std::memcmp(bytes.data(), "MMXP", 4) != 0)
+    return fail("not a meshmux package (magic is not \"MMXP\")");
+  Package pkg;
+  pkg.version = get_u32(bytes, 4);
+  if (pkg.version != kPackageVersion)
+    return fail("version " + std::to_string(pkg.version) + " not supported");
+  uint64_t file_size = bytes.size(), json_size = get_u32(bytes, 8);
+  if (json_size > file_size - kPackageHeaderBytes)
+    return fail("JSON table length " + std::to_string(json_size) + " past the end of the file (" +
+                std::to_string(file_size) + " bytes)");
+  if (json_size == 0 || json_size % 4)
+    return fail("JSON table length " + std::to_string(json_size) +
+                " is not a positive multiple of 4");
+  const uint8_t* text = bytes.data() + kPackageHeaderBytes;
+  if (json_depth(text, size_t(json_size)) > kMaxJsonDepth)
+    return fail("JSON table nested too deeply");
+  Json j = Json::parse(text, text + json_size, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) return fail("JSON table does not parse");
+  if (!j.is_object()) return fail("JSON table is not an object");
+  Status s;
+  uint64_t version = 0;
+  if (!(s = get_uint(j, "version", 0xffffffffu, version, "table"))) return s;
+  if (version != pkg.version)
+    return fail("table version " + std::to_string(version) + " differs from the header's");
+  if (!(s = read_view(j, pkg.view)) || !(s = check_limits(j))) return s;
+
+  uint64_t data_start = kPackageHeaderBytes + json_size;
+  auto base = j.find("base");
+  if (base == j.end() || !base->is_object()) return fail("\"base\" missing or not an object");
+  if (!(s = get_uint(*base, "offset", file_size, pkg.base_offset, "base"))) return s;
+  if (!(s = get_uint(*base, "size", file_size, pkg.base_size, "base"))) return s;
+  if (pkg.base_offset < data_start) return fail("base: offset inside the header");
+  if (pkg.base_size == 0 || pkg.base_size > file_size - pkg.base_offset)
+    return fail("base: range empty or past the end of the file");
+  auto base_d = base->find("distortion");
+  if (base_d == base->end()) return fail("base: missing \"distortion\"");
+  if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
+  uint64_t end = pkg.base_offset + pkg.base_size;
+
+  auto meshes = j.find("meshes");
+  if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
+  for (size_t m = 0; m < meshes->size(); ++m) {
+    const Json& e = (*meshes)[m];
+    std::string where = "mesh " + std::to_string(m);
+    if (!e.is_object()) return fail(where + " is not an object");
+    PackageMesh pm;
+    if (!(s = get_u32(e, "vertices", kMaxCount, pm.vertices, where)) ||
+        !(s = get_u32(e, "faces", kMaxCount, pm.faces, where)) ||
+        !(s = get_u32(e, "base_vertices", pm.vertices, pm.base_vertices, where)) ||
+        !(s = get_u32(e, "base_faces", pm.faces, pm.base_faces, where)))
+      return s;
+    auto b = e.find("bounds");
+    if (b == e.end() || !b->is_array() || b->size() != 6)
+      return fail(where + ": \"bounds\" is not 6 numbers");
+    for (size_t i = 0; i < 6; ++i) {
+      double v = 0;
+      if (!(s = get_finite((*b)[i], v, where + ": bounds[" + std::to_string(i) + "]"))) return s;
+      pm.bounds[i] = float(v);
+      if (!std::isfinite(pm.bounds[i])) return fail(where + ": bounds out of float range");
+    }
+    for (int i = 0; i < 3; ++i)
+      if (pm.bounds[i] > pm.bounds[i + 3]) return fail(where + ": bounds minimum above maximum");
+    auto bi = e.find("base_indices");
+    if (bi == e.end() || !bi->is_object())
+      return fail(where + ": \"base_indices\" missing or not an object");
+    std::string bwhere = where + " base_indices";
+    if (!(s = get_uint(*bi, "offset", file_size, pm.base_indices_offset, bwhere)) ||
+        !(s = get_uint(*bi, "size", file_size, pm.base_indices_size, bwhere)))
+      return s;
+    if (pm.base_indices_offset != end)
+      return fail(bwhere + ": offset " + std::to_string(pm.base_indices_offset) +
+                  " is not where the data before it ends (" + std::to_string(end) + ")");
+    if (pm.base_indices_size > file_size - pm.base_indices_offset)
+      return fail(bwhere + ": range past the end of the file");
+    if ((pm.base_faces == 0) != (pm.base_indices_size == 0) || pm.base_faces > pm.base_indices_size)
+      return fail(bwhere + ": " + std::to_string(pm.base_indices_size) + " bytes cannot hold " +
+                  std::to_string(pm.base_faces) + " faces");
+    end += pm.base_indices_size;
+    pkg.meshes.push_back(pm);
+  }
+
+  auto texture = j.find("texture");
+  if (texture == j.end()) return fail("\"texture\" missing");
+  if (!texture->is_null()) {
+    if (!texture->is_object()) return fail("\"texture\" is neither null nor an object");
+    if (!(s = get_side(*texture, "width", pkg.texture_width, "texture")) ||
+        !(s = get_side(*texture, "height", pkg.texture_height, "texture")))
+      return s;
+  }
+
+  auto chunks = j.find("chunks");
+  if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
+  for (size_t i = 0; i < chunks->size(); ++i) {
+    std::string where = "chunk " + std::to_string(i);
+    PackageChunk c;
+    if (!(s = read_chunk((*chunks)[i], pkg, file_size, c, where))) return s;
+    if (c.offset < end)
+      return fail(where + ": offset " + std::to_string(c.offset) +
+                  " overlaps the base or the chunk before");
+    if (c.kind == StreamStep::kTexture && pkg.texture_width == 0)
+      return fail(where + ": texture chunk in a package without texture");
+    end = c.offset + c.size;
+    pkg.chunks.push_back(std::move(c));
+  }
+
+  auto orders = j.find("orders");
+  if (orders == j.end() || !orders->is_array() || orders->empty())
+    return fail("\"orders\" missing, not an array or empty");
+  const size_t n = pkg.chunks.size();
+  for (size_t o = 0; o < orders->size(); ++o) {
+    const Json& e = (*orders)[o];
+    std::string where = "order " + std::to_string(o);
+    if (!e.is_object()) return fail(where + " is not an object");
+    PackageOrder po;
+    auto name = e.find("name");
+    if (name == e.end() || !name->is_string() || name->get_ref<const std::string&>().empty())
+      return fail(where + ": \"name\" missing or not a non-empty string");
+    po.name = name->get<std::string>();
+    auto cs = e.find("chunks");
+    auto ds = e.find("distortion");
+    if (cs == e.end() || !cs->is_array() || cs->size() != n)
+      return fail(where + ": \"chunks\" is not one index per chunk");
+    if (ds == e.end() || !ds->is_array() || ds->size() != n)
+      return fail(where + ": \"distortion\" is not one number per chunk");
+    std::vector<bool> seen(n, false);
+    int64_t last_mesh = -1;
+    for (size_t i = 0; i < n; ++i) {
+      const Json& c = (*cs)[i];
+      if (!c.is_number_unsigned() || c.get<uint64_t>() >= n)
+        return fail(where + ": chunk index " + std::to_string(i) + " out of range");
+      uint32_t k = uint32_t(c.get<uint64_t>());
+      if (seen[k]) return fail(where + ": chunk " + std::to_string(k) + " listed twice");
+      seen[k] = true;
+      if (o == 0 && k != i) return fail(where + ": the first order is not the stored order");
+      if (pkg.chunks[k].kind == StreamStep::kMesh) {
+        if (int64_t(k) < last_mesh) return fail(where + ": mesh chunks out of order");
+        last_mesh = int64_t(k);
+      }
+      double d = 0;
+      if (!(s = get_finite((*ds)[i], d, where + ": distortion " + std::to_string(i)))) return s;
+      po.chunks.push_back(k);
+      po.distortion.push_back(d);
+    }
+    pkg.orders.push_back(std::move(po));
+  }
+  return pkg;
+}
+
+Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package& package,
+                                const PackageChunk& chunk, size_t part) {
+  std::string where = "chunk at offset " + std::to_string(chunk.offset);
+  const PackageChunk* first = package.chunks.data();
+  if (!package.chunks.empty() && !std::less<const PackageChunk*>()(&chunk, first) &&
+      std::less<const PackageChunk*>()(&chunk, first + package.chunks.size()))
+    where = "chunk " + std::to_string(&chunk - first);
+  if (chunk.kind != StreamStep::kMesh) return fail(where + ": not a mesh chunk");
+  if (part >= chunk.parts.size())
+    return fail(where + ": part " + std::to_string(part) + " out of range");
+  uint64_t size = bytes.size();
+  if (chunk.offset > size || chunk.size > size - chunk.offset)
+    return fail(where + ": range past the end of the file");
+  uint64_t offset = chunk.offset, end = chunk.offset + chunk.size;
+  for (size_t i = 0; i <= part; ++i) {
+    const PackagePart& p = chunk.parts[i];
+    if (p.vertex_bytes > end - offset || p.index_bytes > end - offset - p.vertex_bytes ||
+        p.update_bytes > end - offset - p.vertex_bytes - p.index_bytes)
+      return fail(where + " part " + std::to_string(i) + ": bytes past the end of the chunk");
+    if (i < part) offset += p.vertex_bytes + p.index_bytes + p.update_bytes;
+  }
+  where += " part " + std::to_string(part);
+  const PackagePart& p = chunk.parts[part];
+  if (Status s = check_part(p, package.meshes, where); !s) return s;
+
+  DecodedPart out;
+  const uint8_t* data = bytes.data() + offset;
+  size_t nv = p.vertex_end - p.vertex_begin;
+  if (nv > 0) {
+    out.vertices.resize(nv * kPackedVertexBytes);
+    if (meshopt_decodeVertexBuffer(out.vertices.data(), nv, kPackedVertexBytes, data,
+                                   size_t(p.vertex_bytes)) != 0)
+      return fail(where + ": vertex data does not decode");
+  }
+  size_t ni = size_t(p.face_end - p.face_begin) * 3;
+  if (ni > 0) {
+    out.indices.resize(ni);
+    if (meshopt_decodeIndexBuffer(out.indices.data(), ni, sizeof(uint32_t), data + p.vertex_bytes,
+                                  size_t(p.index_bytes)) != 0)
+      return fail(where + ": index data does not decode");
+    for (uint32_t i : out.indices)
+      if (i >= p.vertex_end)
+        return fail(where + ": index " + std::to_string(i) + " out of range (" +
+                    std::to_string(p.vertex_end) + " vertices at this level)");
+  }
+  if (p.updates > 0) {
+    std::vector<uint32_t> seq(size_t(p.updates) * 2);
+    if (meshopt_decodeIndexSequence(seq.data(), seq.size(), sizeof(uint32_t),
+                                    data + p.vertex_bytes + p.index_bytes,
+                                    size_t(p.update_bytes)) != 0)
+      return fail(where + ": update data does not decode");
+    out.update_positions.assign(seq.begin(), seq.begin() + p.updates);
+    out.update_values.assign(seq.begin() + p.updates, seq.end());
+    uint64_t corners = uint64_t(p.face_begin) * 3;
+    for (size_t i = 0; i < p.updates; ++i) {
+      if (out.update_positions[i] >= corners ||
+          (i > 0 && out.update_positions[i] <= out.update_positions[i - 1]))
+        return fail(where + ": update " + std::to_string(i) + ": corner " +
+                    std::to_string(out.update_positions[i]) + " out of range or out of order");
+      if (out.update_values[i] >= p.vertex_end)
+        return fail(where + ": update " + std::to_string(i) + ": vertex " +
+                    std::to_string(out.update_values[i]) + " out of range");
+    }
+  }
+  return out;
+}
+
+Result<std::vector<uint32_t>> decode_base_indices(const std::vector<uint8_t>& bytes,
+                                                  const Package& package, size_t mesh) {
+  std::string where = "mesh " + std::to_string(mesh) + " base_indices";
+  if (mesh >= package.meshes.size()) return fail(where + ": no such mesh");
+  const PackageMesh& m = package.meshes[mesh];
+  uint64_t size = bytes.size();
+  if (m.base_indices_offset > size || m.base_indices_size > size - m.base_indices_offset)
+    return fail(where + ": range past the end of the file");
+  if (m.base_faces > kMaxCount || m.base_faces > m.base_indices_size)
+    return fail(where + ": too few bytes for " + std::to_string(m.base_faces) + " faces");
+  std::vector<uint32_t> out(size_t(m.base_faces) * 3);
+  if (!out.empty() && meshopt_decodeIndexBuffer(out.data(), out.size(), sizeof(uint32_t),
+                                                bytes.data() + m.base_indices_offset,
+                                                size_t(m.base_indices_size)) != 0)
+    return fail(where + ": index data does not decode");
+  for (uint32_t i : out)
+    if (i >= m.base_vertices)
+      return fail(where + ": index " + std::to_string(i) + " out of range (" +
+                  std::to_string(m.base_vertices) + " base vertices)");
+  return out;
+}
+
+}  // namespace meshmux

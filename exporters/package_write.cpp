@@ -1,0 +1,253 @@
+// The stream package writer (exporters/package.h, DESIGN.md "Package"). It lays out bytes that
+// were encoded upstream (the multiplexer's mesh parts, the texture levels) and encodes nothing
+// itself. The JSON table's length depends on the offsets it holds, so it is built until it fits
+// the space reserved for it (which only grows), then padded with spaces to a multiple of 4.
+// Output is a pure function of the input.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "exporters/package.h"
+
+namespace meshmux {
+
+namespace {
+
+using OrderedJson = nlohmann::ordered_json;
+
+Status fail(const std::string& message) {
+  return Status::error("package: " + message, ErrorKind::kInternal);
+}
+
+void put_u32(std::vector<uint8_t>& out, size_t at, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out[at + size_t(i)] = uint8_t(v >> (8 * i));
+}
+
+// A chunk's payload and table entry, offsets filled in later.
+struct Chunk {
+  bool mesh = true;
+  double distortion = 0;
+  std::vector<PackagePart> parts;
+  const TextureLevel* texture = nullptr;
+  std::vector<uint8_t> payload;
+};
+
+Status check_texture_level(const TextureLevel& t, const std::string& where) {
+  if (t.encoded.empty() || t.width <= 0 || t.height <= 0 || uint64_t(t.width) > kMaxTextureSide ||
+      uint64_t(t.height) > kMaxTextureSide)
+    return fail(where + "texture level " + std::to_string(t.width) + "x" +
+                std::to_string(t.height) + " is empty or has a bad size");
+  if (t.mime_type != "image/jpeg" && t.mime_type != "image/png")
+    return fail(where + "texture level mime type \"" + t.mime_type + "\" is neither JPEG nor PNG");
+  return Status::ok();
+}
+
+Status check_input(const PackageInput& in) {
+  if (in.base_glb.empty()) return fail("empty base .glb");
+  for (size_t m = 0; m < in.meshes.size(); ++m) {
+    const MeshStreamBase& b = in.meshes[m];
+    if (b.vertices > kMaxStreamElements || b.faces > kMaxStreamElements ||
+        b.base_vertices > b.vertices || b.base_faces > b.faces)
+      return fail("mesh " + std::to_string(m) + ": counts out of range");
+  }
+  if (in.textures && !in.textures->levels.empty()) {
+    if (in.base_texture_level >= in.textures->levels.size())
+      return fail("base texture level out of range");
+    if (Status s = check_texture_level(in.textures->levels.back(), "full "); !s) return s;
+  }
+  if (!std::isfinite(in.base_distortion)) return fail("base distortion is not finite");
+  return Status::ok();
+}
+
+// One chunk per step: a texture level's file as is, or a mesh layer's encoded parts in order.
+// Each mesh layer may be used once, in increasing order (refinements only add).
+Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
+  std::vector<Chunk> chunks;
+  size_t next_layer = 1;
+  for (size_t k = 0; k < in.steps.size(); ++k) {
+    const StreamStep& step = in.steps[k];
+    std::string where = "step " + std::to_string(k) + ": ";
+    if (!std::isfinite(step.distortion)) return fail(where + "distortion is not finite");
+    Chunk c;
+    c.distortion = step.distortion;
+    if (step.kind == StreamStep::kTexture) {
+      if (!in.textures || step.texture_level >= in.textures->levels.size())
+        return fail(where + "texture level " + std::to_string(step.texture_level) +
+                    " out of range");
+      const TextureLevel& t = in.textures->levels[step.texture_level];
+      if (Status s = check_texture_level(t, where); !s) return s;
+      c.mesh = false;
+      c.texture = &t;
+      c.payload = t.encoded;
+    } else {
+      if (!in.mesh_layers || step.mesh_layer >= in.mesh_layers->size() ||
+          step.mesh_layer < next_layer)
+        return fail(where + "mesh layer " + std::to_string(step.mesh_layer) +
+                    " out of range or out of order");
+      next_layer = step.mesh_layer + 1;
+      for (const EncodedMeshPart& part : (*in.mesh_layers)[step.mesh_layer]) {
+        if (part.part.mesh >= in.meshes.size())
+          return fail(where + "part of mesh " + std::to_string(part.part.mesh) + " out of range");
+        c.parts.push_back(part.part);
+        for (const auto* piece : {&part.vertices, &part.indices, &part.updates})
+          c.payload.insert(c.payload.end(), piece->begin(), piece->end());
+      }
+    }
+    chunks.push_back(std::move(c));
+  }
+  return chunks;
+}
+
+// The stream's own order, then the baselines, each checked to be a permutation that keeps the
+// mesh steps in order.
+Result<std::vector<StreamOrder>> check_orders(const PackageInput& in) {
+  std::vector<StreamOrder> orders;
+  StreamOrder own;
+  own.name = "rate-distortion";
+  for (size_t k = 0; k < in.steps.size(); ++k)
+    own.steps.push_back(uint32_t(k)), own.distortion.push_back(in.steps[k].distortion);
+  orders.push_back(std::move(own));
+  for (const StreamOrder& o : in.orders) {
+    std::string where = "order \"" + o.name + "\": ";
+    if (o.name.empty() || o.name == "rate-distortion") return fail(where + "bad name");
+    if (o.steps.size() != in.steps.size() || o.distortion.size() != in.steps.size())
+      return fail(where + "not one entry per step");
+    std::vector<bool> seen(in.steps.size(), false);
+    int64_t last_mesh = -1;
+    for (size_t i = 0; i < o.steps.size(); ++i) {
+      uint32_t k = o.steps[i];
+      if (k >= in.steps.size() || seen[k]) return fail(where + "not a permutation of the steps");
+      seen[k] = true;
+      if (in.steps[k].kind == StreamStep::kMesh) {
+        if (int64_t(k) < last_mesh) return fail(where + "mesh steps out of order");
+        last_mesh = int64_t(k);
+      }
+      if (!std::isfinite(o.distortion[i])) return fail(where + "distortion is not finite");
+    }
+    orders.push_back(o);
+  }
+  return orders;
+}
+
+OrderedJson view_json(const PackageInput& in) {
+  const ViewOptions& v = in.view;
+  const RenderOptions& r = in.shading;
+  return {{"fov_y_degrees", double(v.fov_y_degrees)},
+          {"fill", double(v.fill)},
+          {"direction", {double(v.direction.x), double(v.direction.y), double(v.direction.z)}},
+          {"clip_margin", double(v.clip_margin)},
+          {"ambient", double(r.ambient)},
+          {"diffuse", double(r.diffuse)},
+          {"light_direction",
+           {double(r.light_direction.x), double(r.light_direction.y), double(r.light_direction.z)}},
+          {"light_follows_camera", r.light_follows_camera}};
+}
+
+// The JSON table for a given start of the data (12 + reserved JSON length).
+std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
+                       const std::vector<StreamOrder>& orders, uint64_t data_start) {
+  OrderedJson j;
+  j["version"] = kPackageVersion;
+  j["view"] = view_json(in);
+  j["limits"] = {{"max_elements", kMaxStreamElements},
+                 {"max_texture_side", kMaxTextureSide},
+                 {"max_json_depth", kMaxJsonDepth}};
+  j["base"] = {{"offset", data_start},
+               {"size", uint64_t(in.base_glb.size())},
+               {"distortion", in.base_distortion}};
+  OrderedJson ms = OrderedJson::array();
+  uint64_t offset = data_start + in.base_glb.size();
+  for (const MeshStreamBase& b : in.meshes) {
+    const Bounds& box = b.bounds;
+    OrderedJson e;
+    e["vertices"] = b.vertices, e["faces"] = b.faces;
+    e["base_vertices"] = b.base_vertices, e["base_faces"] = b.base_faces;
+    e["bounds"] = {double(box.min.x), double(box.min.y), double(box.min.z),
+                   double(box.max.x), double(box.max.y), double(box.max.z)};
+    e["base_indices"] = {{"offset", offset}, {"size", uint64_t(b.base_indices.size())}};
+    offset += b.base_indices.size();
+    ms.push_back(std::move(e));
+  }
+  j["meshes"] = std::move(ms);
+  if (in.textures && !in.textures->levels.empty())
+    j["texture"] = {{"width", in.textures->levels.back().width},
+                    {"height", in.textures->levels.back().height}};
+  else
+    j["texture"] = nullptr;
+  OrderedJson cs = OrderedJson::array();
+  for (const Chunk& c : chunks) {
+    OrderedJson e;
+    e["kind"] = c.mesh ? "mesh" : "texture";
+    e["offset"] = offset, e["size"] = uint64_t(c.payload.size()), e["distortion"] = c.distortion;
+    if (c.mesh) {
+      OrderedJson parts = OrderedJson::array();
+      for (const PackagePart& p : c.parts)
+        parts.push_back({{"mesh", p.mesh},
+                         {"vertex_begin", p.vertex_begin},
+                         {"vertex_end", p.vertex_end},
+                         {"face_begin", p.face_begin},
+                         {"face_end", p.face_end},
+                         {"vertex_bytes", p.vertex_bytes},
+                         {"index_bytes", p.index_bytes},
+                         {"updates", p.updates},
+                         {"update_bytes", p.update_bytes}});
+      e["parts"] = std::move(parts);
+    } else {
+      e["width"] = c.texture->width, e["height"] = c.texture->height,
+      e["mime"] = c.texture->mime_type;
+    }
+    offset += c.payload.size();
+    cs.push_back(std::move(e));
+  }
+  j["chunks"] = std::move(cs);
+  OrderedJson os = OrderedJson::array();
+  for (const StreamOrder& o : orders)
+    os.push_back({{"name", o.name}, {"chunks", o.steps}, {"distortion", o.distortion}});
+  j["orders"] = std::move(os);
+  return j.dump();
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
+  if (Status s = check_input(in); !s) return s;
+  auto chunks = build_chunks(in);
+  if (!chunks.ok()) return chunks.status();
+  auto orders = check_orders(in);
+  if (!orders.ok()) return orders.status();
+
+  // The table's length depends on the offsets it holds: grow the reserved space until it fits.
+  std::string text;
+  uint64_t reserved = 0;
+  try {
+    for (;;) {
+      text = table_json(in, *chunks, *orders, kPackageHeaderBytes + reserved);
+      if (text.size() <= reserved) break;
+      reserved = (text.size() + 3) / 4 * 4;  // grows only: offsets only get longer
+    }
+  } catch (const std::exception& e) {
+    return fail(std::string("JSON table: ") + e.what());
+  }
+  if (reserved > 0xffffffffu) return fail("JSON table too large");
+  text.resize(size_t(reserved), ' ');
+
+  uint64_t total = kPackageHeaderBytes + reserved + in.base_glb.size();
+  for (const MeshStreamBase& b : in.meshes) total += b.base_indices.size();
+  for (const Chunk& c : *chunks) total += c.payload.size();
+  std::vector<uint8_t> out;
+  out.reserve(size_t(total));
+  out.resize(kPackageHeaderBytes);
+  std::memcpy(out.data(), "MMXP", 4);
+  put_u32(out, 4, kPackageVersion);
+  put_u32(out, 8, uint32_t(reserved));
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), in.base_glb.begin(), in.base_glb.end());
+  for (const MeshStreamBase& b : in.meshes)
+    out.insert(out.end(), b.base_indices.begin(), b.base_indices.end());
+  for (const Chunk& c : *chunks) out.insert(out.end(), c.payload.begin(), c.payload.end());
+  return out;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,33 @@
+// Encodes decoded RGBA8 pixels: PNG (lossless, alpha kept) through OpenImageIO, JPEG through
+// libjpeg-turbo.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace meshmux {
+
+// PNG bytes of image.rgba (width x height). Drops the alpha channel when every pixel is
+// opaque. Errors when the image is not decoded.
+Result<std::vector<uint8_t>> encode_png(const Image& image);
+
+}  // namespace meshmux
+
+namespace meshmux {
+
+// Baseline JPEG bytes of image.rgba (alpha ignored) through libjpeg-turbo, 4:2:0 chroma,
+// accurate DCT. `quality` 1..100. Errors when the image is not decoded or the quality is out
+// of range. Deterministic.
+Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality);
+
+}  // namespace meshmux
+
+namespace meshmux {
+
+// Images encoded (PNG or JPEG) by this process so far: a counter for tests that check each
+// texture level is encoded once per conversion. Thread-safe.
+uint64_t images_encoded();
+
+}  // namespace meshmux

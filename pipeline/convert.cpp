@@ -1,0 +1,240 @@
+// The conversion pipeline (pipeline/convert.h). convert() is the numbered stage list; each step
+// below is one stage call plus its progress line. Stages: paper 000 §4.1 (clean), §4.2–4.4
+// (atlas, texture levels), paper 001 + 000 §4.5 (simplify), paper 004 §3 (multiplex), DESIGN.md
+// "Package" (the stream).
+#include "pipeline/convert.h"
+
+#include <cstdarg>
+#include <cstdio>
+#include <optional>
+
+#include "clean/flatten.h"
+#include "exporters/package.h"
+#include "multiplex/stream_plan.h"
+#include "simplify/lod.h"
+
+namespace meshmux {
+
+namespace {
+
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char* fmt, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, args);
+  va_end(args);
+  return buf;
+}
+
+// 1. Clean (paper 000 §4.1).
+Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress) {
+  CleanReport r;
+  Scene out = clean(scene, o.clean, &r);
+  report_step(progress,
+              format("cleaned: %llu unique triangles (%llu degenerate, %llu duplicate removed), "
+                     "%llu vertices",
+                     (unsigned long long)r.triangles_out, (unsigned long long)r.degenerate_removed,
+                     (unsigned long long)r.duplicates_removed, (unsigned long long)r.vertices_out));
+  return out;
+}
+
+// 2. Atlas: one material, one texture (paper 000 §4.2–4.4); then the one flattening decision
+// (paper 001: below 1.75 instances per submesh, one mesh is one draw call).
+Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
+                         Progress* progress) {
+  if (!o.atlas) return scene;
+  report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
+  AtlasReport ar;
+  auto atlased = build_atlas(scene, o.atlas_options, &ar, warnings);
+  if (!atlased.ok()) return atlased.status();
+  if (!ar.built) {
+    report_step(progress, "atlas: not needed (one material, no texture)");
+    return scene;
+  }
+  report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 "
+                               "stretch mean %.3f max %.3f, %.2f s",
+                               ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
+                               ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds));
+  Scene out = atlased.take();
+  if (should_flatten(out)) {
+    out = flatten(out);
+    report_step(progress, "flattened (fewer than 1.75 instances per submesh): one mesh");
+  }
+  return out;
+}
+
+// 3. Can it be streamed? Decided before the expensive stages: the stream needs one material
+// per mesh (the atlas gives that).
+std::string unstreamable_reason(const Scene& scene) {
+  for (const Mesh& m : scene.meshes)
+    if (m.primitives.size() != 1)
+      return "a mesh has several materials (the stream needs the one-material atlas)";
+  return "";
+}
+
+// What the progressive record can still rule out: a submesh with several primitives after the
+// simplifier's flattening, or one that shows no triangle at the base level.
+std::string unstreamable_record(const ProgressiveScene& ps, const LodSelection& base) {
+  for (const ProgressiveMesh& pm : ps.meshes)
+    if (pm.primitive_material.size() != 1)
+      return "a mesh has several materials (the stream needs the one-material atlas)";
+  if (materialize(ps, base).meshes.size() != ps.meshes.size())
+    return "a mesh has no triangles at the base level";
+  return "";
+}
+
+// The scene's one texture (the atlas's base colour), or null.
+Image* stream_texture(Scene& scene) {
+  if (scene.materials.empty() || !scene.materials[0].base_color.present()) return nullptr;
+  size_t i = size_t(scene.materials[0].base_color.image);
+  return i < scene.images.size() && scene.images[i].decoded() ? &scene.images[i] : nullptr;
+}
+
+// 4. Texture levels, encoded once (model.glb embeds the top level, the stream all of them).
+// Without a stream only the top level is built.
+Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool whole_pyramid,
+                                   Progress* progress) {
+  Image* texture = o.atlas ? stream_texture(scene) : nullptr;
+  if (!texture) return TextureLevels{};
+  TextureLevelOptions to = o.textures;
+  if (!whole_pyramid) to.base_size = 1 << 30;  // a base larger than the texture: one level
+  auto levels = make_texture_levels(*texture, to);
+  if (!levels.ok()) return levels.status();
+  texture->encoded = levels->levels.back().encoded;
+  texture->mime_type = levels->levels.back().mime_type;
+  report_step(progress, format("texture levels: %zu, %dx%d down to %dx%d", levels->levels.size(),
+                               levels->levels.back().width, levels->levels.back().height,
+                               levels->levels.front().width, levels->levels.front().height));
+  return levels;
+}
+
+// The scene at `sel` showing texture level `level` (when there are levels).
+Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const TextureLevels& levels,
+                  size_t level, bool keep_prefix) {
+  Scene s = materialize(ps, sel, keep_prefix);
+  Image* texture = stream_texture(s);
+  if (texture && level < levels.levels.size()) {
+    const TextureLevel& l = levels.levels[level];
+    Image img;
+    img.name = "texture level " + std::to_string(level);
+    img.encoded = l.encoded;
+    img.mime_type = l.mime_type;
+    img.width = l.width, img.height = l.height;
+    *texture = std::move(img);
+  }
+  return s;
+}
+
+// 7. Multiplex (paper 004 §3). No offscreen OpenGL: a warning, no report and no package.
+Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps,
+                                                      const TextureLevels& levels,
+                                                      const ConvertOptions& o, Warnings* warnings,
+                                                      Progress* progress) {
+  report_step(progress, "multiplexing (rendering levels from the viewing sphere)");
+  auto mx = multiplex(ps, levels, o.multiplex);
+  if (!mx.ok() && mx.status().kind() == ErrorKind::kUnavailable) {
+    warn(warnings,
+         "report: " + mx.status().message() + "; report.json, rd.svg and model.mmxp not written");
+    return std::optional<MultiplexResult>();
+  }
+  if (!mx.ok()) return mx.status();
+  report_step(progress,
+              format("multiplexed: %zu mesh x %zu texture layers, %zu views, %zu of "
+                     "%zu cells rendered (%zu images), %.1f s",
+                     mx->mesh_bytes.size(), mx->texture_bytes.size(), mx->views,
+                     mx->cells_evaluated, mx->cells_total, mx->renders, mx->seconds_total));
+  return std::optional<MultiplexResult>(mx.take());
+}
+
+// 8. The stream package: the base (mesh layer 0 with texture level 0, no Draco, every prefix
+// vertex kept so vertex i is the stream's vertex i), then the descent's steps as chunks made of
+// the bytes the multiplexer encoded; the baselines ride along as orders of the same chunks.
+Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
+                                          const TextureLevels& levels, const ConvertOptions& o,
+                                          Warnings* warnings) {
+  auto plan = stream_plan(mx);
+  if (!plan.ok()) return plan.status();
+  GltfExportOptions plain = o.gltf;
+  plain.draco = false;
+  plain.tag_meshes = true;
+  auto base = export_glb_bytes(level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true),
+                               plain, warnings);
+  if (!base.ok()) return base.status();
+  PackageInput in;
+  in.base_glb = base.take();
+  in.meshes = mx.mesh_streams;
+  in.mesh_layers = &mx.layer_parts;
+  in.textures = levels.levels.empty() ? nullptr : &levels;
+  in.steps = plan->steps;
+  in.base_distortion = plan->base_distortion;
+  in.orders = plan->orders;
+  in.view = o.multiplex.views;
+  in.shading = o.multiplex.render;
+  return write_package(in);
+}
+
+}  // namespace
+
+Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warnings* warnings,
+                               Progress* progress) {
+  ConvertOutputs out;
+  out.input = compute_stats(input);
+  // 1. Clean.
+  Scene scene = clean_step(input, o, progress);
+  // 2. Atlas (and the flattening decision).
+  auto atlased = atlas_step(std::move(scene), o, warnings, progress);
+  if (!atlased.ok()) return atlased.status();
+  scene = atlased.take();
+  // 3. Streamable? Decided now, before the expensive stages.
+  out.not_streamed = o.stream && o.report ? unstreamable_reason(scene) : "";
+  // 4. Texture levels, encoded once.
+  auto levels = texture_step(scene, o, o.stream, progress);
+  if (!levels.ok()) return levels.status();
+  out.texture_levels = levels->levels.size();
+  // 5. model.glb, full quality.
+  report_step(progress, "encoding model.glb");
+  auto model = export_glb_bytes(scene, o.gltf, warnings);
+  if (!model.ok()) return model.status();
+  out.model_glb = model.take();
+  out.output = compute_stats(scene);
+  if (!o.stream) return out;
+  // 6. Simplify: the instance-aware progressive record and its base.
+  report_step(progress, "simplifying (instance-aware progressive record)");
+  SimplifyReport sr;
+  ProgressiveScene ps = build_progressive(scene, o.simplify, &sr);
+  LodSelection base = select_base(ps);
+  out.base_triangles = selection_triangles(ps, base);
+  report_step(progress,
+              format("base level: %llu of %llu triangles%s, %llu collapses in %d ms",
+                     (unsigned long long)out.base_triangles, (unsigned long long)sr.input_triangles,
+                     sr.flattened ? " (flattened: few instances per submesh)" : "",
+                     (unsigned long long)sr.collapses, int(sr.seconds * 1000)));
+  // 7. base.glb: the base mesh with texture level 0, Draco-coded.
+  auto base_glb = export_glb_bytes(level_scene(ps, base, *levels, 0, false), o.gltf, warnings);
+  if (!base_glb.ok()) return base_glb.status();
+  out.base_glb = base_glb.take();
+  if (!o.report) return out;
+  // 8. Multiplex: renders, the order, the mesh parts encoded once.
+  auto mx = multiplex_step(ps, *levels, o, warnings, progress);
+  if (!mx.ok()) return mx.status();
+  if (!mx->has_value()) return out;
+  out.multiplexed = std::move(**mx);
+  const MultiplexResult& m = *out.multiplexed;
+  out.report_json = report_json(m);
+  out.rd_svg = rd_svg(m);
+  // 9. The stream package.
+  if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base);
+  if (!out.not_streamed.empty()) {
+    warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
+    return out;
+  }
+  auto package = package_step(ps, m, *levels, o, warnings);
+  if (!package.ok()) return package.status();
+  out.package = package.take();
+  out.mesh_chunks = m.layer_parts.size() - 1;
+  out.texture_chunks = levels->levels.empty() ? 0 : levels->levels.size() - 1;
+  return out;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,64 @@
+// The conversion pipeline (DESIGN.md "Data flow"): one function runs the stages in order on an
+// imported scene and returns the bytes of every output. The CLI, the tests and the benches all
+// call it; nothing else strings the stages together.
+//
+//   clean → atlas (→ flatten when few instances per submesh) → texture levels (encoded once)
+//   → model.glb → simplify (progressive record) → multiplex (renders, order, mesh parts
+//   encoded once) → stream package, base.glb, report.json + rd.svg
+//
+// Each thing is computed once and handed on: the texture levels feed model.glb (top level),
+// base.glb and the package's base (level 0), the multiplexer (decoded for rendering) and the
+// package's texture chunks; the multiplexer's encoded mesh parts are the package's mesh chunks.
+// Whether the model can be streamed is decided right after the atlas, before the expensive
+// stages. Importing is the caller's; writing files is the caller's (see the CLI for atomic
+// writes). Deterministic: the same scene and options give byte-identical outputs.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "clean/clean.h"
+#include "exporters/gltf.h"
+#include "image/texture_levels.h"
+#include "multiplex/multiplex.h"
+#include "scene/progress.h"
+#include "scene/scene.h"
+#include "scene/status.h"
+#include "simplify/simplify.h"
+
+namespace meshmux {
+
+struct ConvertOptions {
+  CleanOptions clean{};            // welding, normals (crease angle), degenerate removal
+  bool atlas = true;               // one material and one texture set (false: keep the sources)
+  AtlasOptions atlas_options{};    // charts, parameterization, packing, baking
+  SimplifyOptions simplify{};      // the progressive record and where the base stops
+  TextureLevelOptions textures{};  // the pyramid; its top level is model.glb's texture
+  MultiplexOptions multiplex{};    // views, renders, mesh layers
+  GltfExportOptions gltf{};        // Draco quantization of model.glb and base.glb
+  bool stream = true;  // false: model.glb only (the CLI's `-o X.glb`); nothing else is run
+  bool report = true;  // stream: render the rate-distortion order (report, svg, package)
+};
+
+struct ConvertOutputs {
+  std::vector<uint8_t> model_glb;   // full quality, always
+  std::vector<uint8_t> base_glb;    // stream: what the stream shows first, Draco-coded
+  std::vector<uint8_t> package;     // stream + report + streamable: model.mmxp
+  std::string report_json, rd_svg;  // stream + report (when a renderer is available)
+  std::string not_streamed;         // why there is no package, when there is none
+  SceneStats input, output;         // the imported and the converted (full-quality) scene
+  uint64_t base_triangles = 0;      // scene triangles of the base
+  size_t texture_levels = 0;        // levels built (0: untextured)
+  size_t mesh_chunks = 0, texture_chunks = 0;  // chunks in the package
+  std::optional<MultiplexResult> multiplexed;  // the multiplexer's result (curves, renders)
+};
+
+// Runs the pipeline. Errors name the stage; kUnavailable never surfaces (no offscreen OpenGL
+// only skips the report and the package, with a warning). Progress may be null.
+Result<ConvertOutputs> convert(const Scene& scene, const ConvertOptions& options,
+                               Warnings* warnings, Progress* progress);
+
+}  // namespace meshmux

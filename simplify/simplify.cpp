@@ -1,0 +1,1018 @@
+// Instance-aware progressive simplification.
+// - Paper 001 (IAS) §3.2: vertex quadrics summed over instance transforms (equation 5),
+//   boundary constraint planes weighted by edge length, no vanishing submeshes, the < 1.75
+//   instances-per-submesh flatten fallback (§4).
+// - Paper 002: half-edge collapses only, so every level is a prefix of one vertex buffer with a
+//   parent per vertex; seam duplicates collapse together (no cracks).
+// - Paper 000 §4.5: the base level stops at log(1+E)/log(1+Emax) ≥ 0.9 (formula 1); small
+//   models ship whole.
+// - Attribute terms after Hoppe 1999 ("New quadric metric for simplifying meshes with
+//   appearance attributes"): per face, each attribute channel is a linear function of position
+//   over the face; its squared deviation, area-weighted, is folded into the wedge's quadric.
+//
+// The collapse loop runs in passes (all candidate collapses costed, sorted, then applied in
+// order while skipping any that touch a neighbourhood already changed in this pass); only
+// positions whose neighbourhood changed are re-costed in the next pass. This keeps the work
+// near O(T log T) and the result deterministic.
+#include "simplify/simplify.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+#include "clean/flatten.h"
+
+namespace meshmux {
+
+namespace {
+
+// Symmetric 4x4 quadric on homogeneous positions: E(p) = pᵀAp + 2bᵀp + c.
+struct Quadric {
+  double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
+  double b0 = 0, b1 = 0, b2 = 0, c = 0;
+  double w = 0;  // total weight (area) folded in
+
+  void add(const Quadric& q) {
+    a00 += q.a00, a01 += q.a01, a02 += q.a02, a11 += q.a11, a12 += q.a12, a22 += q.a22;
+    b0 += q.b0, b1 += q.b1, b2 += q.b2, c += q.c, w += q.w;
+  }
+  double eval(double x, double y, double z) const {
+    return a00 * x * x + a11 * y * y + a22 * z * z + 2 * (a01 * x * y + a02 * x * z + a12 * y * z) +
+           2 * (b0 * x + b1 * y + b2 * z) + c;
+  }
+  // weight * (n·p + d)², n unit.
+  static Quadric plane(double nx, double ny, double nz, double d, double weight) {
+    Quadric q;
+    q.a00 = weight * nx * nx, q.a01 = weight * nx * ny, q.a02 = weight * nx * nz;
+    q.a11 = weight * ny * ny, q.a12 = weight * ny * nz, q.a22 = weight * nz * nz;
+    q.b0 = weight * nx * d, q.b1 = weight * ny * d, q.b2 = weight * nz * d;
+    q.c = weight * d * d;
+    q.w = weight;
+    return q;
+  }
+  // Mᵀ Q M for an affine M (column-major 4x4): the quadric in M's source space.
+  Quadric pulled_back(const Mat4& M) const {
+    double Q[4][4] = {
+        {a00, a01, a02, b0}, {a01, a11, a12, b1}, {a02, a12, a22, b2}, {b0, b1, b2, c}};
+    double QM[4][4];
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k) {
+        double s = 0;
+        for (int j = 0; j < 4; ++j) s += Q[r][j] * M.at(j, k);
+        QM[r][k] = s;
+      }
+    double R[4][4];
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k) {
+        double s = 0;
+        for (int j = 0; j < 4; ++j) s += M.at(j, r) * QM[j][k];
+        R[r][k] = s;
+      }
+    Quadric out;
+    out.a00 = R[0][0], out.a01 = R[0][1], out.a02 = R[0][2], out.a11 = R[1][1];
+    out.a12 = R[1][2], out.a22 = R[2][2], out.b0 = R[0][3], out.b1 = R[1][3], out.b2 = R[2][3];
+    out.c = R[3][3], out.w = w;
+    return out;
+  }
+};
+
+struct V3 {
+  double x = 0, y = 0, z = 0;
+};
+V3 sub(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3 crs(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double dt(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 to3(Vec3 v) { return {v.x, v.y, v.z}; }
+
+uint32_t fbits(float f) {
+  if (f == 0) f = 0;
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+// The face P (mesh space) placed by M: world corners Q, unit normal, world area, and its
+// area-weighted plane quadric pulled back to mesh space (paper 001 equation 4: Tᵀ Q T).
+bool instance_plane(const V3 P[3], const Mat4& M, V3 Q[3], V3* un, double* area, Quadric* pq) {
+  for (int i = 0; i < 3; ++i)
+    Q[i] = {M.at(0, 0) * P[i].x + M.at(0, 1) * P[i].y + M.at(0, 2) * P[i].z + M.at(0, 3),
+            M.at(1, 0) * P[i].x + M.at(1, 1) * P[i].y + M.at(1, 2) * P[i].z + M.at(1, 3),
+            M.at(2, 0) * P[i].x + M.at(2, 1) * P[i].y + M.at(2, 2) * P[i].z + M.at(2, 3)};
+  V3 n = crs(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
+  double len = std::sqrt(dt(n, n));
+  if (!(len > 0)) return false;
+  *area = 0.5 * len;
+  *un = {n.x / len, n.y / len, n.z / len};
+  Quadric q = Quadric::plane(un->x, un->y, un->z, -dt(*un, Q[0]), *area);
+  *pq = M.is_identity() ? q : q.pulled_back(M);
+  return true;
+}
+
+// An instance transform prepared for the instance quadric (see init_quadrics).
+struct Placement {
+  double cof[3][3];  // A⁻ᵀ
+  double absdet;
+  bool similar;  // rotation, uniform scale, translation (mirrors allowed)
+  double s2;     // the uniform scale squared, when similar
+};
+
+// Placements of the non-singular transforms, in order (singular ones place nothing).
+std::vector<Placement> make_placements(const std::vector<Mat4>& transforms) {
+  std::vector<Placement> places;
+  for (const Mat4& M : transforms) {
+    Placement pl{};
+    double det = M.det3();
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) {
+      pl.absdet = 0;
+      places.push_back(pl);
+      continue;
+    }
+    // A⁻ᵀ = cofactor(A) / det.
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) {
+        int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+        pl.cof[r][c] = (M.at(r1, c1) * M.at(r2, c2) - M.at(r1, c2) * M.at(r2, c1)) / det;
+      }
+    pl.absdet = std::abs(det);
+    double col[3][3];
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) col[c][r] = M.at(r, c);
+    auto d = [&](int a, int b) {
+      return col[a][0] * col[b][0] + col[a][1] * col[b][1] + col[a][2] * col[b][2];
+    };
+    double n0 = d(0, 0), tol = 1e-6 * n0;
+    pl.similar = std::abs(d(1, 1) - n0) <= tol && std::abs(d(2, 2) - n0) <= tol &&
+                 std::abs(d(0, 1)) <= tol && std::abs(d(0, 2)) <= tol && std::abs(d(1, 2)) <= tol;
+    pl.s2 = n0;
+    places.push_back(pl);
+  }
+  return places;
+}
+
+// Σᵢ |det Aᵢ| / |Aᵢ⁻ᵀ n̂|: the factor that turns the mesh-space plane quadric of a face (unit
+// normal n̂, weighted by its area) into the instance-summed one; adds the placed areas
+// (area₀ Σ |det Aᵢ| |Aᵢ⁻ᵀ n̂|) to *world_area.
+double placement_factor(const std::vector<Placement>& places, V3 un, double area0,
+                        double* world_area) {
+  double factor = 0;
+  for (const Placement& pl : places) {
+    if (pl.absdet == 0) continue;
+    V3 m{pl.cof[0][0] * un.x + pl.cof[0][1] * un.y + pl.cof[0][2] * un.z,
+         pl.cof[1][0] * un.x + pl.cof[1][1] * un.y + pl.cof[1][2] * un.z,
+         pl.cof[2][0] * un.x + pl.cof[2][1] * un.y + pl.cof[2][2] * un.z};
+    double len = std::sqrt(dt(m, m));
+    factor += pl.absdet / len;
+    *world_area += area0 * pl.absdet * len;
+  }
+  return factor;
+}
+
+Quadric scaled(Quadric q, double f, double w) {
+  q.a00 *= f, q.a01 *= f, q.a02 *= f, q.a11 *= f, q.a12 *= f, q.a22 *= f;
+  q.b0 *= f, q.b1 *= f, q.b2 *= f, q.c *= f;
+  q.w = w;
+  return q;
+}
+
+// One submesh prepared for simplification: wedges (the mesh's vertices) over welded positions.
+struct Unit {
+  // Wedges, concatenated over the mesh's primitives.
+  std::vector<uint32_t> wedge_pos;    // wedge → position
+  std::vector<uint32_t> wedge_group;  // wedge → (position, non-normal attributes) class
+  std::vector<uint32_t> wedge_prim;   // wedge → source primitive
+  std::vector<Vec3> wedge_normal;     // may be empty
+  std::vector<double> attr;           // wedge × channels, weighted attribute values
+  int channels = 0;
+  std::vector<V3> pos;            // position → mesh-space point
+  std::vector<uint32_t> corners;  // face × 3 wedges (current, remapped as we go)
+  std::vector<uint32_t> face_prim;
+};
+
+// Per-collapse record.
+struct Collapse {
+  uint32_t first_map = 0, map_count = 0;    // range in the (wedge, target) list
+  uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
+  float error = 0;
+  float queue_min = 0;  // the smallest candidate error of the pass (the greedy's E_current)
+  float queue_max = 0;  // the largest candidate error of the pass (paper 000's E_max)
+};
+
+struct Candidate {
+  float error;
+  uint32_t u, v;
+  bool operator<(const Candidate& o) const {
+    return error != o.error ? error < o.error : (u != o.u ? u < o.u : v < o.v);
+  }
+};
+
+class Simplifier {
+ public:
+  Simplifier(Unit& unit, const std::vector<Mat4>& transforms, const SimplifyOptions& opt,
+             SimplifyReport& report)
+      : u_(unit), opt_(opt), report_(report), original_corners_(unit.corners) {
+    init_quadrics(transforms);
+  }
+
+  // True greedy: a min-heap of each live position's cheapest valid collapse, invalidated
+  // lazily by a per-position stamp; after each collapse only the positions around it are
+  // re-costed. A parallel max-heap tracks the dearest candidate for paper 000's E_max.
+  void run() {
+    size_t np = u_.pos.size();
+    alive_.assign(u_.corners.size() / 3, 1);
+    live_faces_ = alive_.size();
+    dead_pos_.assign(np, 0);
+    stamp_.assign(np, 0);
+    target_.assign(np, UINT32_MAX);
+    build_adjacency();
+    for (uint32_t p = 0; p < np; ++p) push(p);
+    std::make_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+    std::make_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+    heaped_ = true;
+    while (!min_heap_.empty()) {
+      std::pop_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+      Entry e = min_heap_.back();
+      min_heap_.pop_back();
+      if (dead_pos_[e.c.u] || e.stamp != stamp_[e.c.u]) continue;  // stale
+      float queue_max = dearest();
+      ++stamp_[e.c.u];  // consumed: re-costed when its neighbourhood changes
+      if (collapse(e.c, e.c.error, std::max(queue_max, e.c.error)) == 0) continue;
+      // Re-cost the neighbourhood: the target, and every neighbour of either end.
+      // Neighbours of b alone only saw their option "onto b" change (b's quadric grew), so
+      // they are re-costed only when that was their choice.
+      touched_.clear();
+      touched_.push_back(e.c.v);
+      for (const auto& n : nb_a_) touched_.push_back(n.first);
+      for (const auto& n : nb_b_)
+        if (target_[n.first] == e.c.v || target_[n.first] == e.c.u) touched_.push_back(n.first);
+      std::sort(touched_.begin(), touched_.end());
+      touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+      for (uint32_t p : touched_)
+        if (!dead_pos_[p]) {
+          ++stamp_[p];
+          push(p);
+        }
+    }
+  }
+
+  // Builds the ProgressiveMesh from the collapse history.
+  void record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const;
+
+ private:
+  void init_quadrics(const std::vector<Mat4>& transforms);
+  void build_adjacency();
+  Candidate best_candidate(uint32_t p);
+  struct Entry {
+    Candidate c;
+    uint32_t stamp;
+  };
+  struct MinFirst {  // std heaps are max-heaps: "less" means "comes out later"
+    bool operator()(const Entry& a, const Entry& b) const { return b.c < a.c; }
+  };
+  struct MaxFirst {
+    bool operator()(const Entry& a, const Entry& b) const { return a.c.error < b.c.error; }
+  };
+  void push(uint32_t p) {
+    Candidate c = best_candidate(p);
+    target_[p] = std::isfinite(c.error) ? c.v : UINT32_MAX;
+    if (!std::isfinite(c.error)) return;
+    min_heap_.push_back({c, stamp_[p]});
+    max_heap_.push_back({c, stamp_[p]});
+    if (heaped_) {
+      std::push_heap(min_heap_.begin(), min_heap_.end(), MinFirst());
+      std::push_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+    }
+  }
+  float dearest() {
+    while (!max_heap_.empty()) {
+      const Entry& t = max_heap_.front();
+      if (!dead_pos_[t.c.u] && t.stamp == stamp_[t.c.u]) return t.c.error;
+      std::pop_heap(max_heap_.begin(), max_heap_.end(), MaxFirst());
+      max_heap_.pop_back();
+    }
+    return 0;
+  }
+  // Fills map_ (wedge → target) for collapsing position a onto b; returns false if refused.
+  bool map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared);
+  void load_fan(uint32_t a);
+  float cost(uint32_t a, uint32_t b) const;
+  size_t collapse(const Candidate& c, float queue_min, float queue_max);
+  void gather_neighbours(uint32_t p, std::vector<std::pair<uint32_t, uint32_t>>& out) const;
+  bool is_border(bool* locked) const;
+
+  Unit& u_;
+  const SimplifyOptions& opt_;
+  SimplifyReport& report_;
+  std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
+  std::vector<Quadric> pos_q_;              // per position
+  std::vector<Quadric> attr_q_;  // per wedge: the position-dependent part of the attribute error
+  std::vector<double> attr_gd_;  // per wedge × channel: G (3) and D (1)
+  std::vector<uint8_t> alive_;   // per face
+  size_t live_faces_ = 0;
+  std::vector<uint8_t> dead_pos_;
+  std::vector<uint32_t> stamp_;  // per position: bumped whenever its heap entries go stale
+  std::vector<Entry> min_heap_, max_heap_;
+  bool heaped_ = false;
+  std::vector<uint32_t> touched_;
+  std::vector<uint32_t> target_;  // per position: the target of its queued candidate
+  std::vector<std::vector<uint32_t>> pos_faces_;    // position → live faces, kept up to date
+  std::vector<std::pair<uint32_t, uint32_t>> map_;  // scratch: (wedge of a, wedge of b)
+  std::vector<std::pair<uint32_t, uint32_t>> nb_a_, nb_b_;
+  struct FanFace {
+    uint32_t face, wa, p1, w1, p2, w2;  // the face, its wedge at a, then the next two corners
+  };
+  std::vector<FanFace> fan_;
+  std::vector<uint32_t> a_wedges_;
+  std::vector<Candidate> bounds_;  // scratch: per neighbour, the geometric lower bound
+  // History.
+  std::vector<Collapse> collapses_;
+  std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order
+  std::vector<uint32_t> removed_faces_;
+};
+
+void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
+  size_t np = u_.pos.size(), nw = u_.wedge_pos.size(), nf = u_.corners.size() / 3;
+  int k = u_.channels;
+  pos_q_.assign(np, Quadric{});
+  attr_q_.assign(nw, Quadric{});
+  attr_gd_.assign(nw * size_t(k) * 4, 0.0);
+  // Boundary edges (position level) for the constraint planes: count faces per undirected edge.
+  std::unordered_map<uint64_t, uint32_t> edge_faces;
+  edge_faces.reserve(nf * 3);
+  auto key = [](uint32_t a, uint32_t b) {
+    return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+  };
+  for (size_t f = 0; f < nf; ++f)
+    for (int e = 0; e < 3; ++e)
+      ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]],
+                       u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
+
+  // Pulled back to mesh space, a placed face's plane is still the face's own plane: for
+  // x = A v + t, the distance of x to the placed plane is n̂ᵀ(v − p₀) / |A⁻ᵀ n̂| and the placed
+  // area is area₀ |det A| |A⁻ᵀ n̂|. So Σᵢ Tᵢᵀ Qᵢ Tᵢ = area₀ Σᵢ (|det Aᵢ| / |Aᵢ⁻ᵀ n̂|) · Q(n̂, p₀):
+  // one 3x3 product per instance and face instead of two 4x4 products (paper 001 eq. 5,
+  // evaluated exactly). Boundary constraint planes are not preserved by non-uniform scale, so
+  // they take the general pull-back unless the transform is a similarity.
+  std::vector<Placement> places = make_placements(transforms);
+  double sim_s2 = 0, sim_s4 = 0;  // Σ s², Σ s⁴ over the similarity placements
+  for (const Placement& pl : places)
+    if (pl.similar) sim_s2 += pl.s2, sim_s4 += pl.s2 * pl.s2;
+  // Constraint planes on the open edges of face (corners P, positions p, unit normal un):
+  // for similarities the mesh-space plane scaled by Σ s⁴ (weight Σ s² l²), else pulled back.
+  auto boundary = [&](const uint32_t p[3], const V3 P[3], const V3& un) {
+    for (int e = 0; e < 3; ++e) {
+      if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
+      auto plane = [&](const V3 Q[3], const V3& n) {
+        V3 dv = sub(Q[(e + 1) % 3], Q[e]);
+        double l2 = dt(dv, dv);
+        V3 c = crs(dv, n);
+        double cl = std::sqrt(dt(c, c));
+        if (!(l2 > 0) || !(cl > 0)) return Quadric{};
+        V3 cn{c.x / cl, c.y / cl, c.z / cl};
+        // The constraint plane counts in the weight, so errors stay a weighted mean distance.
+        return Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
+      };
+      Quadric sum;
+      if (sim_s4 > 0) {
+        Quadric bq = plane(P, un);
+        sum.add(scaled(bq, sim_s4, bq.w * sim_s2));
+      }
+      for (size_t i = 0; i < places.size(); ++i) {
+        if (places[i].similar || places[i].absdet == 0) continue;
+        const Mat4& M = transforms[i];
+        V3 Q[3], n;
+        double area;
+        Quadric pq;
+        if (!instance_plane(P, M, Q, &n, &area, &pq)) continue;
+        sum.add(plane(Q, n).pulled_back(M));
+      }
+      pos_q_[p[e]].add(sum);
+      pos_q_[p[(e + 1) % 3]].add(sum);
+    }
+  };
+  const Mat4 identity;
+  std::vector<double> g(size_t(k) * 4);
+  for (size_t f = 0; f < nf; ++f) {
+    uint32_t w[3] = {u_.corners[3 * f], u_.corners[3 * f + 1], u_.corners[3 * f + 2]};
+    uint32_t p[3] = {u_.wedge_pos[w[0]], u_.wedge_pos[w[1]], u_.wedge_pos[w[2]]};
+    V3 P[3] = {u_.pos[p[0]], u_.pos[p[1]], u_.pos[p[2]]};
+    double world_area = 0;
+    Quadric face_q;  // Σ over instances, pulled back to mesh space
+    V3 Q0[3], un;
+    double area0;
+    Quadric unit_q;
+    if (instance_plane(P, identity, Q0, &un, &area0, &unit_q)) {
+      double factor = placement_factor(places, un, area0, &world_area);
+      // unit_q carries area₀ already (instance_plane weights by area).
+      face_q = scaled(unit_q, factor, world_area);
+      boundary(p, P, un);
+    }
+    for (int i = 0; i < 3; ++i) pos_q_[p[i]].add(face_q);
+    if (k == 0 || !(world_area > 0)) continue;
+    // Attribute gradients in mesh space (Hoppe 1999), weighted by the world area.
+    V3 e1 = sub(P[1], P[0]), e2 = sub(P[2], P[0]), n = crs(e1, e2);
+    double n2 = dt(n, n);
+    if (!(n2 > 0)) continue;
+    V3 a = crs(e2, n), b = crs(n, e1);
+    Quadric aq;
+    for (int j = 0; j < k; ++j) {
+      double s0 = u_.attr[w[0] * size_t(k) + size_t(j)], s1 = u_.attr[w[1] * size_t(k) + size_t(j)],
+             s2 = u_.attr[w[2] * size_t(k) + size_t(j)];
+      V3 gr{((s1 - s0) * a.x + (s2 - s0) * b.x) / n2, ((s1 - s0) * a.y + (s2 - s0) * b.y) / n2,
+            ((s1 - s0) * a.z + (s2 - s0) * b.z) / n2};
+      double d = s0 - dt(gr, P[0]);
+      double A = world_area;
+      aq.a00 += A * gr.x * gr.x, aq.a01 += A * gr.x * gr.y, aq.a02 += A * gr.x * gr.z;
+      aq.a11 += A * gr.y * gr.y, aq.a12 += A * gr.y * gr.z, aq.a22 += A * gr.z * gr.z;
+      aq.b0 += A * gr.x * d, aq.b1 += A * gr.y * d, aq.b2 += A * gr.z * d, aq.c += A * d * d;
+      g[size_t(j) * 4 + 0] = A * gr.x, g[size_t(j) * 4 + 1] = A * gr.y;
+      g[size_t(j) * 4 + 2] = A * gr.z, g[size_t(j) * 4 + 3] = A * d;
+    }
+    aq.w = world_area;
+    for (int i = 0; i < 3; ++i) {
+      attr_q_[w[i]].add(aq);
+      double* dst = &attr_gd_[w[i] * size_t(k) * 4];
+      for (size_t t = 0; t < size_t(k) * 4; ++t) dst[t] += g[t];
+    }
+  }
+}
+
+void Simplifier::build_adjacency() {
+  pos_faces_.assign(u_.pos.size(), {});
+  for (size_t f = 0; f < alive_.size(); ++f)
+    if (alive_[f])
+      for (int i = 0; i < 3; ++i)
+        pos_faces_[u_.wedge_pos[u_.corners[3 * f + i]]].push_back(uint32_t(f));
+}
+
+// Loads the fan of faces around position a: per face the corner wedge at a and the next two
+// corners (positions and wedges) in winding order; the neighbour positions with the number of
+// faces on each edge; a's distinct wedges.
+void Simplifier::load_fan(uint32_t a) {
+  fan_.clear();
+  nb_a_.clear();
+  a_wedges_.clear();
+  for (uint32_t f : pos_faces_[a]) {
+    const uint32_t* c = &u_.corners[3 * f];
+    int i = u_.wedge_pos[c[0]] == a ? 0 : u_.wedge_pos[c[1]] == a ? 1 : 2;
+    FanFace ff{f,
+               c[i],
+               u_.wedge_pos[c[(i + 1) % 3]],
+               c[(i + 1) % 3],
+               u_.wedge_pos[c[(i + 2) % 3]],
+               c[(i + 2) % 3]};
+    fan_.push_back(ff);
+    for (uint32_t q : {ff.p1, ff.p2}) {
+      bool found = false;
+      for (auto& e : nb_a_)
+        if (e.first == q) {
+          ++e.second;
+          found = true;
+          break;
+        }
+      if (!found) nb_a_.push_back({q, 1});
+    }
+    if (std::find(a_wedges_.begin(), a_wedges_.end(), ff.wa) == a_wedges_.end())
+      a_wedges_.push_back(ff.wa);
+  }
+}
+
+// Neighbour positions of p with the number of live faces on each edge (p, neighbour).
+void Simplifier::gather_neighbours(uint32_t p,
+                                   std::vector<std::pair<uint32_t, uint32_t>>& out) const {
+  out.clear();
+  for (uint32_t f : pos_faces_[p]) {
+    for (int i = 0; i < 3; ++i) {
+      uint32_t q = u_.wedge_pos[u_.corners[3 * f + i]];
+      if (q == p) continue;
+      auto it = std::find_if(out.begin(), out.end(), [q](const auto& e) { return e.first == q; });
+      if (it == out.end())
+        out.push_back({q, 1});
+      else
+        ++it->second;
+    }
+  }
+}
+
+float Simplifier::cost(uint32_t a, uint32_t b) const {
+  const V3& P = u_.pos[b];
+  const Quadric &qa = pos_q_[a], &qb = pos_q_[b];
+  double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
+  double w = qa.w + qb.w;
+  int k = u_.channels;
+  if (k > 0) {
+    for (const auto& m : map_) {
+      const double* val = &u_.attr[m.second * size_t(k)];
+      for (uint32_t src : {m.first, m.second}) {
+        const Quadric& aq = attr_q_[src];
+        double s = aq.eval(P.x, P.y, P.z);
+        const double* gd = &attr_gd_[src * size_t(k) * 4];
+        for (int j = 0; j < k; ++j) {
+          double lin = gd[4 * j] * P.x + gd[4 * j + 1] * P.y + gd[4 * j + 2] * P.z + gd[4 * j + 3];
+          s += val[j] * (val[j] * aq.w - 2 * lin);
+        }
+        e += s;
+      }
+    }
+  }
+  if (!(w > 0)) w = 1e-30;
+  return float(std::sqrt(std::max(0.0, e) / w));
+}
+
+// Classifies the loaded fan's position: border (has open edges) and locked (non-manifold
+// edge, or not a single fan).
+bool Simplifier::is_border(bool* locked) const {
+  int border_edges = 0;
+  *locked = false;
+  for (const auto& n : nb_a_) {
+    if (n.second == 1) ++border_edges;
+    if (n.second > 2) *locked = true;
+  }
+  size_t faces = fan_.size();
+  if (border_edges == 0 && nb_a_.size() != faces) *locked = true;
+  if (border_edges > 0 && (border_edges != 2 || nb_a_.size() != faces + 1)) *locked = true;
+  return border_edges > 0;
+}
+
+// For collapsing the loaded fan's position a onto neighbour b: finds the faces L (and R) on the
+// edge and fills map_ with each wedge of a and its target wedge of b. False when refused.
+bool Simplifier::map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* shared) {
+  map_.clear();
+  *shared = 0;
+  uint32_t fa[2] = {0, 0}, fb[2] = {0, 0}, ff[2] = {0, 0};
+  for (const FanFace& f : fan_) {
+    uint32_t wb = f.p1 == b ? f.w1 : f.p2 == b ? f.w2 : UINT32_MAX;
+    if (wb == UINT32_MAX) continue;
+    if (*shared == 2) return false;  // non-manifold edge
+    fa[*shared] = f.wa, fb[*shared] = wb, ff[*shared] = f.face;
+    ++*shared;
+  }
+  if (*shared == 0) return false;
+  *faceL = ff[0];
+  *faceR = *shared == 2 ? ff[1] : UINT32_MAX;
+  const uint32_t* group = u_.wedge_group.data();
+  uint32_t ga0 = group[fa[0]], gb0 = group[fb[0]];
+  uint32_t ga1 = *shared == 2 ? group[fa[1]] : ga0;
+  uint32_t gb1 = *shared == 2 ? group[fb[1]] : gb0;
+  if (ga0 == ga1 && gb0 != gb1) return false;  // a's one class would need two targets
+  if (ga0 != ga1 && gb0 == gb1) return false;  // two classes of a would merge into one
+  for (uint32_t w : a_wedges_) {
+    uint32_t target;
+    if (w == fa[0]) {
+      target = fb[0];
+    } else if (*shared == 2 && w == fa[1]) {
+      target = fb[1];
+    } else {
+      uint32_t g = group[w];
+      uint32_t tg;
+      if (g == ga0)
+        tg = gb0;
+      else if (g == ga1)
+        tg = gb1;
+      else
+        return false;  // a seam of a that does not run along this edge
+      // The wedge of b in class tg with the closest normal (ties: lowest index).
+      target = UINT32_MAX;
+      float best = -INFINITY;
+      for (uint32_t fb2 : pos_faces_[b]) {
+        const uint32_t* c = &u_.corners[3 * fb2];
+        for (int i = 0; i < 3; ++i) {
+          uint32_t wb = c[i];
+          if (u_.wedge_pos[wb] != b || group[wb] != tg) continue;
+          float d = u_.wedge_normal.empty() ? 0.0f : dot(u_.wedge_normal[w], u_.wedge_normal[wb]);
+          if (d > best || (d == best && wb < target)) best = d, target = wb;
+        }
+      }
+      if (target == UINT32_MAX) return false;
+    }
+    map_.push_back({w, target});
+  }
+  return true;
+}
+
+Candidate Simplifier::best_candidate(uint32_t a) {
+  Candidate best{INFINITY, a, a};
+  load_fan(a);
+  bool locked;
+  bool border = is_border(&locked);
+  if (locked || nb_a_.empty()) return best;
+  // The geometric part of the cost is a lower bound of the whole (attribute terms are sums of
+  // squares): cost neighbours cheapest-bound first and stop once the bound passes the best.
+  bounds_.clear();
+  const Quadric& qa = pos_q_[a];
+  for (const auto& n : nb_a_) {
+    uint32_t b = n.first;
+    if (border && n.second != 1) continue;  // border vertices slide along the border only
+    const V3& P = u_.pos[b];
+    const Quadric& qb = pos_q_[b];
+    double w = qa.w + qb.w;
+    double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
+    bounds_.push_back({float(std::sqrt(std::max(0.0, e) / (w > 0 ? w : 1e-30))), b, b});
+  }
+  std::sort(bounds_.begin(), bounds_.end());
+  for (const Candidate& lb : bounds_) {
+    if (lb.error > best.error) break;
+    uint32_t b = lb.u;
+    uint32_t L, R;
+    int shared;
+    if (!map_wedges(b, &L, &R, &shared)) continue;
+    float e = u_.channels > 0 ? cost(a, b) : lb.error;
+    if (e < best.error || (e == best.error && b < best.v)) best = {e, a, b};
+  }
+  return best;
+}
+
+size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max) {
+  uint32_t a = c.u, b = c.v;
+  load_fan(a);
+  bool locked;
+  bool border = is_border(&locked);
+  if (locked) return 0;
+  auto edge = std::find_if(nb_a_.begin(), nb_a_.end(), [b](const auto& e) { return e.first == b; });
+  if (edge == nb_a_.end() || (border && edge->second != 1)) return 0;
+  uint32_t L, R;
+  int shared;
+  if (!map_wedges(b, &L, &R, &shared)) {
+    ++report_.refused_wedge;
+    return 0;
+  }
+  // Link condition: the common neighbours of a and b are exactly the far corners of L and R.
+  gather_neighbours(b, nb_b_);
+  size_t common = 0;
+  for (const auto& n : nb_a_)
+    if (n.first != b &&
+        std::any_of(nb_b_.begin(), nb_b_.end(), [&](const auto& m) { return m.first == n.first; }))
+      ++common;
+  if (common != size_t(shared)) {
+    ++report_.refused_link;
+    return 0;
+  }
+  if (live_faces_ - size_t(shared) < std::max<uint32_t>(1, opt_.min_submesh_triangles)) {
+    ++report_.refused_vanish;
+    return 0;
+  }
+  // Flip check on the faces that move.
+  const V3 &Pa = u_.pos[a], &Pb = u_.pos[b];
+  for (const FanFace& f : fan_) {
+    if (f.face == L || f.face == R) continue;
+    const V3 &P1 = u_.pos[f.p1], &P2 = u_.pos[f.p2];
+    V3 n0 = crs(sub(P1, Pa), sub(P2, Pa)), n1 = crs(sub(P1, Pb), sub(P2, Pb));
+    double d = dt(n0, n1), l1 = dt(n1, n1);
+    if (!(d > double(opt_.min_flip_cos) * std::sqrt(dt(n0, n0) * l1)) || !(l1 > 0)) {
+      ++report_.refused_flip;
+      return 0;
+    }
+  }
+  float e = cost(a, b);
+  // Apply: remap a's wedges in its faces, kill L and R, merge quadrics.
+  Collapse rec;
+  rec.first_map = uint32_t(maps_.size());
+  rec.map_count = uint32_t(map_.size());
+  rec.first_face = uint32_t(removed_faces_.size());
+  auto drop = [this](uint32_t p, uint32_t face) {
+    auto& list = pos_faces_[p];
+    auto it = std::find(list.begin(), list.end(), face);
+    if (it != list.end()) *it = list.back(), list.pop_back();
+  };
+  for (const FanFace& f : fan_) {
+    if (f.face == L || f.face == R) {
+      alive_[f.face] = 0;
+      removed_faces_.push_back(f.face);
+      drop(f.p1, f.face);
+      drop(f.p2, f.face);
+      continue;
+    }
+    pos_faces_[b].push_back(f.face);
+    uint32_t* corner = &u_.corners[3 * f.face];
+    for (int i = 0; i < 3; ++i) {
+      if (corner[i] != f.wa) continue;
+      for (const auto& m : map_)
+        if (m.first == f.wa) {
+          corner[i] = m.second;
+          break;
+        }
+    }
+  }
+  rec.face_count = uint32_t(removed_faces_.size()) - rec.first_face;
+  for (const auto& m : map_) {
+    maps_.push_back(m);
+    attr_q_[m.second].add(attr_q_[m.first]);
+    int k = u_.channels;
+    for (size_t t = 0; t < size_t(k) * 4; ++t)
+      attr_gd_[m.second * size_t(k) * 4 + t] += attr_gd_[m.first * size_t(k) * 4 + t];
+  }
+  pos_q_[b].add(pos_q_[a]);
+  live_faces_ -= rec.face_count;
+  rec.error = e;
+  rec.queue_min = queue_min;
+  rec.queue_max = queue_max;
+  collapses_.push_back(rec);
+  ++report_.collapses;
+  dead_pos_[a] = 1;
+  pos_faces_[a].clear();
+  pos_faces_[a].shrink_to_fit();
+  return rec.face_count;
+}
+
+void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const {
+  size_t nw = u_.wedge_pos.size(), nf = alive_.size();
+  // Appearance order of wedges: base wedges (never collapsed, in index order), then the
+  // wedges of each collapse from the last collapse to the first.
+  std::vector<uint8_t> collapsed(nw, 0);
+  for (const auto& m : maps_) collapsed[m.first] = 1;
+  std::vector<uint32_t> order;  // new index → wedge
+  order.reserve(nw);
+  for (uint32_t w = 0; w < nw; ++w)
+    if (!collapsed[w]) order.push_back(w);
+  // A wedge that no face ever used would not be reachable; clean() removed those.
+  uint32_t base_vertices = uint32_t(order.size());
+  std::vector<uint32_t> parent_of(nw, UINT32_MAX);
+  for (const auto& m : maps_) parent_of[m.first] = m.second;
+  std::vector<uint32_t> face_order;
+  face_order.reserve(nf);
+  for (uint32_t f = 0; f < nf; ++f)
+    if (alive_[f]) face_order.push_back(f);
+  uint32_t base_faces = uint32_t(face_order.size());
+  pm.levels.clear();
+  pm.levels.push_back({base_vertices, base_faces, base_faces, 0});
+  for (size_t i = collapses_.size(); i-- > 0;) {
+    const Collapse& c = collapses_[i];
+    for (uint32_t k = 0; k < c.map_count; ++k) order.push_back(maps_[c.first_map + k].first);
+    for (uint32_t k = 0; k < c.face_count; ++k)
+      face_order.push_back(removed_faces_[c.first_face + k]);
+    pm.levels.push_back(
+        {uint32_t(order.size()), uint32_t(face_order.size()), uint32_t(face_order.size()), 0});
+  }
+  // Errors: level r (r collapses undone) keeps collapses [0, m - r): its error is their max.
+  size_t m = collapses_.size();
+  std::vector<float> prefix_max(m + 1, 0.0f);
+  for (size_t i = 0; i < m; ++i) prefix_max[i + 1] = std::max(prefix_max[i], collapses_[i].error);
+  for (size_t r = 0; r <= m; ++r) pm.levels[r].error = prefix_max[m - r];
+
+  // Base level: paper 000 formula 1, log(1+E_current)/log(1+E_max) ≥ threshold. A true
+  // greedy's E_current is the cheapest collapse left and E_max the dearest; a pass of sorted
+  // candidates has both at its two ends, so the rule is checked per pass and the base is the
+  // state before the first pass where it holds. On errors normalized to a unit diagonal the
+  // rule fires only near the very end (the dearest candidates are outliers: corners, rims), so
+  // the base also stops once the cheapest collapse left exceeds `base_max_error`.
+  size_t stop = m;  // collapses applied in the base
+  for (size_t i = 0; i < m; ++i) {
+    double ec = collapses_[i].queue_min, em = collapses_[i].queue_max;
+    bool ratio = em > 0 && std::log1p(ec) / std::log1p(em) >= opt_.stop_ratio;
+    if (ratio || ec > opt_.base_max_error) {
+      stop = i;
+      break;
+    }
+  }
+  pm.base_level = m - stop;
+
+  // Write vertices in appearance order.
+  std::vector<uint32_t> new_index(nw);
+  for (uint32_t i = 0; i < order.size(); ++i) new_index[order[i]] = i;
+  pm.source_mesh = mesh_index;
+  pm.positions.resize(nw);
+  pm.parent.resize(nw);
+  bool has_normals = !u_.wedge_normal.empty();
+  pm.normals.assign(has_normals ? nw : 0, Vec3{});
+  size_t uv_sets = 0;
+  bool colors = false;
+  for (const Primitive& p : mesh.primitives) {
+    uv_sets = std::max(uv_sets, p.uvs.size());
+    colors = colors || !p.colors.empty();
+  }
+  pm.uvs.assign(uv_sets, std::vector<Vec2>(nw));
+  pm.colors.assign(colors ? nw : 0, Vec4{1, 1, 1, 1});
+  // Source attributes per wedge, from the primitives (wedges are primitives' vertices,
+  // concatenated).
+  std::vector<uint32_t> prim_first;
+  uint32_t acc = 0;
+  for (const Primitive& p : mesh.primitives)
+    prim_first.push_back(acc), acc += uint32_t(p.vertex_count());
+  for (uint32_t i = 0; i < nw; ++i) {
+    uint32_t w = order[i];
+    uint32_t pi = u_.wedge_prim[w];
+    const Primitive& src = mesh.primitives[pi];
+    uint32_t v = w - prim_first[pi];
+    pm.positions[i] = src.positions[v];
+    if (has_normals && !src.normals.empty()) pm.normals[i] = src.normals[v];
+    for (size_t s = 0; s < src.uvs.size(); ++s) pm.uvs[s][i] = src.uvs[s][v];
+    if (colors && !src.colors.empty()) pm.colors[i] = src.colors[v];
+    pm.parent[i] = parent_of[w] == UINT32_MAX ? i : new_index[parent_of[w]];
+  }
+  pm.indices.resize(nf * 3);
+  pm.face_primitive.resize(nf);
+  // Faces keep their full-mesh corners: the original wedges.
+  for (uint32_t i = 0; i < face_order.size(); ++i) {
+    uint32_t f = face_order[i];
+    for (int k = 0; k < 3; ++k) pm.indices[3 * i + k] = new_index[original_corners_[3 * f + k]];
+    pm.face_primitive[i] = u_.face_prim[f];
+  }
+  pm.primitive_material.clear();
+  pm.primitive_uv_sets.clear();
+  pm.primitive_has_colors.clear();
+  for (const Primitive& p : mesh.primitives) {
+    pm.primitive_material.push_back(p.material);
+    pm.primitive_uv_sets.push_back(uint8_t(p.uvs.size()));
+    pm.primitive_has_colors.push_back(p.colors.empty() ? 0 : 1);
+  }
+}
+
+// Builds the simplification unit for one mesh: wedges = the primitives' vertices, positions
+// welded exactly, attribute classes (position + everything but the normal) for wedge mapping.
+Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
+  Unit u;
+  size_t uv_sets = 0;
+  bool colors = false, normals = true;
+  for (const Primitive& p : mesh.primitives) {
+    uv_sets = std::max(uv_sets, p.uvs.size());
+    colors = colors || !p.colors.empty();
+    normals = normals && !p.normals.empty();
+  }
+  u.channels = int((normals ? 3 : 0) + 2 * uv_sets + (colors ? 4 : 0));
+  std::unordered_map<uint64_t, std::vector<uint32_t>> pos_of;  // hash → candidate positions
+  std::unordered_map<uint64_t, std::vector<uint32_t>> group_of;
+  std::vector<uint32_t> group_first_wedge;
+  for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+    const Primitive& p = mesh.primitives[pi];
+    uint32_t first = uint32_t(u.wedge_pos.size());
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+      Vec3 x = p.positions[v];
+      uint64_t h = (uint64_t(fbits(x.x)) * 0x9E3779B97F4A7C15ull) ^
+                   (uint64_t(fbits(x.y)) * 0xC2B2AE3D27D4EB4Full) ^
+                   (uint64_t(fbits(x.z)) * 0x165667B19E3779F9ull);
+      auto& bucket = pos_of[h];
+      uint32_t pid = UINT32_MAX;
+      for (uint32_t c : bucket)
+        if (u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z) pid = c;
+      if (pid == UINT32_MAX) {
+        pid = uint32_t(u.pos.size());
+        u.pos.push_back(to3(x));
+        bucket.push_back(pid);
+      }
+      uint32_t w = uint32_t(u.wedge_pos.size());
+      u.wedge_pos.push_back(pid);
+      u.wedge_prim.push_back(pi);
+      if (normals) u.wedge_normal.push_back(p.normals[v]);
+      // Weighted attribute channels.
+      if (normals)
+        for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z})
+          u.attr.push_back(c * opt.normal_weight);
+      for (size_t s = 0; s < uv_sets; ++s) {
+        Vec2 t = s < p.uvs.size() ? p.uvs[s][v] : Vec2{};
+        u.attr.push_back(t.x * opt.uv_weight);
+        u.attr.push_back(t.y * opt.uv_weight);
+      }
+      if (colors) {
+        Vec4 c = p.colors.empty() ? Vec4{1, 1, 1, 1} : p.colors[v];
+        for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
+      }
+      // Class: position, primitive, uv and colour bits (normal excluded).
+      uint64_t g =
+          uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
+      size_t skip = normals ? 3 : 0;
+      size_t k = size_t(u.channels);
+      for (size_t c = skip; c < k; ++c) {
+        double val = u.attr[size_t(w) * k + c];
+        uint64_t b;
+        std::memcpy(&b, &val, 8);
+        g = (g ^ b) * 0x100000001B3ull;
+      }
+      auto& gb = group_of[g];
+      uint32_t gid = UINT32_MAX;
+      for (uint32_t cand : gb) {
+        uint32_t w0 = group_first_wedge[cand];
+        if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) continue;
+        bool same = true;
+        for (size_t c = skip; c < k && same; ++c)
+          same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
+        if (same) gid = cand;
+      }
+      if (gid == UINT32_MAX) {
+        gid = uint32_t(group_first_wedge.size());
+        group_first_wedge.push_back(w);
+        gb.push_back(gid);
+      }
+      u.wedge_group.push_back(gid);
+    }
+    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+      for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
+      u.face_prim.push_back(pi);
+    }
+  }
+  return u;
+}
+
+size_t counts_for(const Scene& scene, uint32_t mesh) {
+  size_t n = 0;
+  for (const Instance& inst : scene.instances) n += inst.mesh == mesh;
+  return n;
+}
+
+uint64_t splitmix(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+// Instance order for thinning: instances that stay inside the scene bounds when scaled up 2x
+// about their centre come first, then the rest; within each, a fixed pseudo-random order so
+// the kept ones spread over the scene (paper 001 §3.2's stochastic simplification).
+InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& scene_box) {
+  InstanceOrder io;
+  io.mesh = mesh;
+  Bounds local = mesh_bounds(scene.meshes[mesh]);
+  struct Entry {
+    int outside;
+    uint64_t key;
+    uint32_t index;
+    Vec3 centre;
+  };
+  std::vector<Entry> entries;
+  for (uint32_t i = 0; i < scene.instances.size(); ++i) {
+    const Instance& inst = scene.instances[i];
+    if (inst.mesh != mesh) continue;
+    Bounds wb;
+    for (int c = 0; c < 8; ++c)
+      wb.add(inst.world.transform_point({c & 1 ? local.max.x : local.min.x,
+                                         c & 2 ? local.max.y : local.min.y,
+                                         c & 4 ? local.max.z : local.min.z}));
+    Vec3 centre = wb.center();
+    Vec3 half = (wb.max - wb.min) * 0.5f * 2.0f;  // scaled up 2x
+    bool inside = centre.x - half.x >= scene_box.min.x && centre.x + half.x <= scene_box.max.x &&
+                  centre.y - half.y >= scene_box.min.y && centre.y + half.y <= scene_box.max.y &&
+                  centre.z - half.z >= scene_box.min.z && centre.z + half.z <= scene_box.max.z;
+    entries.push_back({inside ? 0 : 1, splitmix(i), i, centre});
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.outside != b.outside ? a.outside < b.outside
+                                  : (a.key != b.key ? a.key < b.key : a.index < b.index);
+  });
+  for (const Entry& e : entries) {
+    io.order.push_back(e.index);
+    io.centres.push_back(e.centre);
+  }
+  return io;
+}
+
+}  // namespace
+
+std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
+                                             const std::vector<Mat4>& transforms) {
+  V3 P[3] = {to3(a), to3(b), to3(c)}, Q[3], un;
+  double area0, world_area = 0;
+  Quadric unit_q, sum;
+  if (instance_plane(P, Mat4::identity(), Q, &un, &area0, &unit_q))
+    sum = scaled(unit_q, placement_factor(make_placements(transforms), un, area0, &world_area),
+                 world_area);
+  return {sum.a00, sum.a01, sum.a02, sum.b0, sum.a01, sum.a11, sum.a12, sum.b1,
+          sum.a02, sum.a12, sum.a22, sum.b2, sum.b0,  sum.b1,  sum.b2,  sum.c};
+}
+
+ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
+                                   SimplifyReport* report) {
+  auto start = std::chrono::steady_clock::now();
+  SimplifyReport r;
+  SceneStats st = compute_stats(cleaned);
+  r.input_triangles = st.scene_triangles;
+  r.instances_per_submesh = instances_per_submesh(cleaned);
+  ProgressiveScene ps;
+  ps.flattened = should_flatten(cleaned, options.flatten_below_ips);
+  ps.scene = ps.flattened ? flatten(cleaned) : cleaned;
+  r.flattened = ps.flattened;
+  const Scene& scene = ps.scene;
+  double norm = scene.normalization_scale > 0 ? scene.normalization_scale : 1.0;
+  Mat4 normalize_m = Mat4::scale(norm, norm, norm);
+  Bounds box = scene_bounds(scene);
+  ps.meshes.resize(scene.meshes.size());
+  ps.instance_orders.resize(scene.meshes.size());
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+    std::vector<Mat4> transforms;
+    for (const Instance& inst : scene.instances)
+      if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
+    if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
+    Unit unit = make_unit(scene.meshes[m], options);
+    Simplifier s(unit, transforms, options, r);
+    s.run();
+    s.record(scene.meshes[m], m, ps.meshes[m]);
+    ps.instance_orders[m] = instance_order(scene, m, box);
+  }
+  // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,
+  // ship whole: the base level is the full mesh.
+  uint64_t base_tris = 0, full_tris = 0;
+  for (uint32_t m = 0; m < ps.meshes.size(); ++m) {
+    const ProgressiveMesh& pm = ps.meshes[m];
+    base_tris += uint64_t(pm.levels[pm.base_level].triangles) * counts_for(ps.scene, m);
+    full_tris += uint64_t(pm.levels.back().triangles) * counts_for(ps.scene, m);
+  }
+  if (full_tris < options.ship_whole_below ||
+      double(full_tris - base_tris) < options.ship_whole_fraction * double(full_tris))
+    for (ProgressiveMesh& pm : ps.meshes) pm.base_level = pm.levels.size() - 1;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (report) *report = r;
+  return ps;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,83 @@
+// Instance-aware simplification (paper 001) recorded as progressive meshes (paper 002), with
+// the base level chosen by paper 000's stopping rule (§4.5, formula 1).
+//
+// What it does, per submesh (Scene Mesh), on the cleaned scene:
+// - quadric error edge collapse restricted to half-edge collapses (a collapse moves position u
+//   onto an existing neighbour v), with attribute terms for normals, uv and colour (Hoppe 1999
+//   style: per-face linear attribute gradients folded into each vertex quadric), so uv seams
+//   and hard edges are charged for what they lose;
+// - topology is welded on position: the vertices (wedges) sharing a position collapse together,
+//   each onto the matching wedge of the target, so flat-shaded input (a normal per face)
+//   simplifies like smooth input and seams never crack;
+// - boundary edges add a perpendicular constraint plane weighted by edge length²; border
+//   vertices only slide along the border; collapses that flip a face, break the link condition
+//   (manifoldness), or would leave the submesh with fewer than `min_submesh_triangles` are
+//   refused;
+// - instance-aware quadrics: a vertex's quadric is Σᵢ Tᵢᵀ Qᵢ Tᵢ over the submesh's instances,
+//   evaluated in normalized scene units (scene diagonal = 1), so errors compare across
+//   submeshes and the selection can hand triangles to where they are seen most;
+// - a scene with fewer than `flatten_below_ips` instances per submesh is flattened into one
+//   mesh (per material) and simplified as such (paper 001: IAS pays off above 1.75);
+// - the whole collapse sequence is recorded: ProgressiveMesh levels from the coarsest reachable
+//   mesh to the full one, with monotone errors, and an InstanceOrder per submesh for thinning.
+// Complexity: O(T log T) per submesh (passes of sorted independent collapses), plus
+// O(T × instances) for the instance quadrics.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "scene/progressive.h"
+#include "scene/scene.h"
+
+namespace meshmux {
+
+struct SimplifyOptions {
+  // Attribute weights turn attribute deviations into distances (fractions of the diagonal).
+  // They trade shading and texture fidelity against geometric error; these defaults were
+  // chosen on the shared models with bench/simplify (Hausdorff vs meshopt_simplify).
+  float normal_weight = 0.005f;        // normals: a 30° error counts like 0.25% of the diagonal
+  float uv_weight = 0.05f;             // texture coordinates: 2% of the texture ≈ 0.1%
+  float color_weight = 0.05f;          // vertex colours (RGBA in [0,1])
+  float boundary_weight = 1.0f;        // constraint-plane weight on open boundaries (× length²)
+  double flatten_below_ips = 1.75;     // flatten when instances per submesh are below this
+                                       // (clean/flatten.h should_flatten)
+  uint32_t min_submesh_triangles = 1;  // no collapse takes a submesh below this many triangles
+  float stop_ratio = 0.9f;             // paper 000 formula 1 threshold for the base level
+  float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left
+                                       // costs more than this (fraction of the diagonal)
+  uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
+  double ship_whole_fraction = 0.10;   // refinements under this fraction of the mesh: ship whole
+  float pass_fraction = 0.05f;         // triangles removed per pass, as a fraction of live ones
+                                       // (smaller: closer to a true greedy order, more passes)
+  float min_flip_cos = 0.25f;          // refuse collapses that turn a face by more than ~75°
+};
+
+struct SimplifyReport {
+  bool flattened = false;  // the flatten path was taken
+  double instances_per_submesh = 0;
+  uint64_t input_triangles = 0;  // scene triangles (instances expanded)
+  uint64_t collapses = 0;        // over all submeshes
+  uint64_t refused_flip = 0, refused_link = 0, refused_wedge = 0, refused_vanish = 0;
+  double seconds = 0;  // wall time of build_progressive
+};
+
+// Builds the progressive record of a cleaned scene (clean() first: welded, no degenerate
+// faces, normalization_scale set). Deterministic.
+ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
+                                   SimplifyReport* report = nullptr);
+
+}  // namespace meshmux
+
+namespace meshmux {
+
+// The instance-aware quadric of one mesh-space face (paper 001 equation 5 for one face):
+// Σᵢ Tᵢᵀ Q(Tᵢ·face) Tᵢ, where Q is the area-weighted plane quadric of the placed face. Returned
+// as a symmetric 4x4, row-major: vᵀ Q v (v = (x, y, z, 1)) is the summed squared distance of v's
+// images to the placed planes, weighted by their areas. Used by build_progressive; exposed for
+// tests and tools.
+std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
+                                             const std::vector<Mat4>& transforms);
+
+}  // namespace meshmux

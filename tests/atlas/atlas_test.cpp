@@ -1,0 +1,291 @@
+#include "atlas/atlas.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "atlas/material_sample.h"
+#include "clean/clean.h"
+#include "image/color.h"
+#include "image/texture_levels.h"
+#include "importers/import.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+struct Fidelity {
+  double mean = 0, p99 = 0, max = 0;
+  size_t samples = 0;
+};
+
+// Colour fidelity without a renderer: random surface points (area-weighted over the unique
+// meshes), the colour the original material shows there vs the atlas colour at the mapped uv,
+// both bilinear, compared with CIEDE2000 on RGB (alpha ignored).
+Fidelity measure(const Scene& before, const Scene& after, size_t n, uint32_t seed) {
+  struct Tri {
+    uint32_t mesh, face;
+    double cum;
+  };
+  std::vector<Tri> tris;
+  std::vector<std::vector<FaceRef>> all_faces;
+  double total = 0;
+  for (uint32_t m = 0; m < before.meshes.size(); ++m) {
+    all_faces.push_back(mesh_faces(before.meshes[m]));
+    const auto& faces = all_faces.back();
+    for (uint32_t f = 0; f < faces.size(); ++f) {
+      const Primitive& p = before.meshes[m].primitives[faces[f].primitive];
+      Vec3 a = p.positions[p.indices[3 * faces[f].triangle]],
+           b = p.positions[p.indices[3 * faces[f].triangle + 1]],
+           c = p.positions[p.indices[3 * faces[f].triangle + 2]];
+      total += 0.5 * length(cross(b - a, c - a));
+      tris.push_back({m, f, total});
+    }
+  }
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u01(0, 1);
+  std::vector<double> de;
+  de.reserve(n);
+  for (size_t s = 0; s < n; ++s) {
+    double pick = u01(rng) * total;
+    auto it = std::lower_bound(tris.begin(), tris.end(), pick,
+                               [](const Tri& t, double v) { return t.cum < v; });
+    if (it == tris.end()) --it;
+    double r1 = u01(rng), r2 = u01(rng);
+    if (r1 + r2 > 1) r1 = 1 - r1, r2 = 1 - r2;
+    double w[3] = {1 - r1 - r2, r1, r2};
+    const FaceRef& fr = all_faces[it->mesh][it->face];
+    const Primitive& p = before.meshes[it->mesh].primitives[fr.primitive];
+    uint32_t v[3] = {p.indices[3 * fr.triangle], p.indices[3 * fr.triangle + 1],
+                     p.indices[3 * fr.triangle + 2]};
+    std::vector<Vec2> uvs(p.uvs.size());
+    for (size_t k = 0; k < p.uvs.size(); ++k)
+      for (int c = 0; c < 3; ++c)
+        uvs[k].x += float(w[c] * p.uvs[k][v[c]].x), uvs[k].y += float(w[c] * p.uvs[k][v[c]].y);
+    Vec4 col{1, 1, 1, 1};
+    if (!p.colors.empty()) {
+      col = {0, 0, 0, 0};
+      for (int c = 0; c < 3; ++c) {
+        col.x += float(w[c] * p.colors[v[c]].x), col.y += float(w[c] * p.colors[v[c]].y);
+        col.z += float(w[c] * p.colors[v[c]].z), col.w += float(w[c] * p.colors[v[c]].w);
+      }
+    }
+    Vec4 src = sample_base_color(before, p.material, uvs, col);
+    const Primitive& q = after.meshes[it->mesh].primitives[0];
+    uint32_t t[3] = {q.indices[3 * it->face], q.indices[3 * it->face + 1],
+                     q.indices[3 * it->face + 2]};
+    std::vector<Vec2> auv(1);
+    for (int c = 0; c < 3; ++c)
+      auv[0].x += float(w[c] * q.uvs[0][t[c]].x), auv[0].y += float(w[c] * q.uvs[0][t[c]].y);
+    Vec4 dst = sample_base_color(after, q.material, auv, {1, 1, 1, 1});
+    de.push_back(
+        ciede2000(linear_rgb_to_lab(src.x, src.y, src.z), linear_rgb_to_lab(dst.x, dst.y, dst.z)));
+  }
+  std::sort(de.begin(), de.end());
+  Fidelity f;
+  f.samples = de.size();
+  for (double d : de) f.mean += d;
+  f.mean /= double(de.size());
+  f.p99 = de[size_t(0.99 * double(de.size() - 1))];
+  f.max = de.back();
+  return f;
+}
+
+class AtlasSharedModel : public ::testing::TestWithParam<const char*> {};
+
+// Acceptance: one material, one base-colour texture, one primitive per mesh; colour fidelity
+// mean ΔE00 < 2 and 99th percentile < 10 over 100,000 surface points; the atlas figures and
+// the texture levels' bytes are printed for the note.
+TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  Scene cleaned = clean(*in, {});
+  AtlasReport rep;
+  Warnings w;
+  auto out = build_atlas(cleaned, AtlasOptions{}, &rep, &w);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_TRUE(rep.built);
+  EXPECT_EQ(out->materials.size(), 1u);
+  ASSERT_EQ(out->images.size(), 1u);
+  EXPECT_TRUE(out->materials[0].base_color.present());
+  EXPECT_TRUE(validate(*out).is_ok()) << validate(*out).message();
+  ASSERT_EQ(out->meshes.size(), cleaned.meshes.size());
+  for (size_t m = 0; m < out->meshes.size(); ++m) {
+    ASSERT_EQ(out->meshes[m].primitives.size(), 1u);
+    size_t before = 0;
+    for (const Primitive& p : cleaned.meshes[m].primitives) before += p.triangle_count();
+    EXPECT_EQ(out->meshes[m].primitives[0].triangle_count(), before);
+  }
+  Fidelity f = measure(cleaned, *out, 100000, 12345);
+  EXPECT_LT(f.mean, 2.0) << GetParam();
+  EXPECT_LT(f.p99, 10.0) << GetParam();
+  auto levels = make_texture_levels(out->images[0], {});
+  ASSERT_TRUE(levels.ok()) << levels.status().message();
+  std::string bytes;
+  for (const TextureLevel& l : levels->levels)
+    bytes += std::to_string(l.width) + ":" + std::to_string(l.encoded.size()) + " ";
+  std::printf(
+      "[ atlas ] %-42s %dx%d  used %.0f%%  charts %zu + %zu flat  split %zu  L2 mean %.3f max %.3f "
+      " "
+      "dE00 mean %.2f p99 %.2f max %.1f  levels %s %.2f s\n",
+      GetParam(), rep.size, rep.size, 100 * rep.utilization, rep.charts, rep.flat_colors, rep.split,
+      rep.mean_stretch_l2, rep.max_stretch_l2, f.mean, f.p99, f.max, bytes.c_str(), rep.seconds);
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, AtlasSharedModel,
+                         ::testing::Values("Duck-dae/duck.dae",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "Avocado-gltf/Avocado.gltf",
+                                           "SheenChair-gltf/SheenChair.gltf", "Fox-glb/Fox.glb",
+                                           "2CylinderEngine-glb/2CylinderEngine.glb",
+                                           "BoxVertexColors-glb/BoxVertexColors.glb"),
+                         [](const auto& info) { return testing::model_test_name(info.param); });
+
+// A scene that needs no atlas (one material, no texture, no vertex colour) passes through.
+TEST(Atlas, SingleUntexturedMaterialPassesThrough) {
+  Scene s;
+  Mesh m;
+  Primitive p;
+  p.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  p.normals.assign(3, {0, 0, 1});
+  p.indices = {0, 1, 2};
+  p.material = 0;
+  m.primitives.push_back(p);
+  s.meshes.push_back(m);
+  s.materials.emplace_back();
+  s.instances.push_back({0, Mat4::identity(), ""});
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok());
+  EXPECT_FALSE(rep.built);
+  EXPECT_TRUE(out->images.empty());
+}
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Paper 000 §4.4's point, checked texel by texel: no chart crosses a power-of-two boundary,
+// and at every mip level at which a chart still spans a texel in both directions, each
+// level-k texel that gathers any of its texels gathers no texel of another chart.
+class AtlasMipLevels : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);
+  ASSERT_TRUE(in.ok());
+  AtlasReport rep;
+  auto out = build_atlas(clean(*in, {}), AtlasOptions{}, &rep, nullptr);
+  ASSERT_TRUE(out.ok() && rep.built);
+  const int S = rep.size;
+  ASSERT_EQ(rep.texel_chart.size(), size_t(S) * size_t(S));
+  // Cells: aligned powers of two, inside the atlas, not crossing a power-of-two boundary.
+  // Charts sharing a cell (one flat colour) form one group.
+  std::map<std::pair<int, int>, int> group_of_cell;
+  std::vector<int> group(rep.cell_pos.size());
+  for (size_t c = 0; c < rep.cell_pos.size(); ++c) {
+    const PackPlacement& p = rep.cell_pos[c];
+    const PackRect& r = rep.cell_size[c];
+    EXPECT_TRUE(respects_power_of_two(p.x, p.y, r.w, r.h)) << c;
+    EXPECT_EQ(p.x % r.w, 0);
+    EXPECT_EQ(p.y % r.h, 0);
+    group[c] =
+        group_of_cell.emplace(std::make_pair(p.x, p.y), int(group_of_cell.size())).first->second;
+  }
+  // Every texel's chart lies in that chart's cell.
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      int32_t c = rep.texel_chart[size_t(y) * size_t(S) + size_t(x)];
+      if (c < 0) continue;
+      const PackPlacement& p = rep.cell_pos[size_t(c)];
+      const PackRect& r = rep.cell_size[size_t(c)];
+      ASSERT_TRUE(x >= p.x && x < p.x + r.w && y >= p.y && y < p.y + r.h)
+          << "texel " << x << "," << y;
+    }
+  // Level by level: the groups gathered by each level-k texel.
+  size_t checked = 0;
+  for (int k = 1; (1 << k) <= S; ++k) {
+    int b = 1 << k, n = S / b;
+    std::vector<int> owner(size_t(n) * size_t(n), -1);  // -1 empty, -2 mixed
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        int32_t c = rep.texel_chart[size_t(y) * size_t(S) + size_t(x)];
+        if (c < 0) continue;
+        int& o = owner[size_t(y / b) * size_t(n) + size_t(x / b)];
+        int g = group[size_t(c)];
+        o = o == -1 ? g : (o == g ? g : -2);
+      }
+    for (size_t c = 0; c < rep.cell_pos.size(); ++c) {
+      const PackRect& r = rep.cell_size[c];
+      if (b > std::min(r.w, r.h)) continue;  // the chart is under a texel here
+      const PackPlacement& p = rep.cell_pos[c];
+      for (int by = p.y / b; by < (p.y + r.h) / b; ++by)
+        for (int bx = p.x / b; bx < (p.x + r.w) / b; ++bx) {
+          ASSERT_NE(owner[size_t(by) * size_t(n) + size_t(bx)], -2)
+              << "level " << k << " chart " << c;
+          ++checked;
+        }
+    }
+  }
+  EXPECT_GT(checked, 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Shared, AtlasMipLevels,
+                         ::testing::Values("Duck-dae/duck.dae", "Fox-glb/Fox.glb",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb",
+                                           "CesiumMilkTruck-dae/CesiumMilkTruck.dae"),
+                         [](const auto& info) { return testing::model_test_name(info.param); });
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Degenerate texture coordinates (every corner at one uv) and an image that is not decoded
+// must not break sizing or packing: the atlas still builds and validates.
+TEST(Atlas, DegenerateUvsAndUndecodedImagesStillBuild) {
+  Scene s;
+  Image img;
+  img.name = "tiny";
+  img.width = img.height = 2;
+  img.rgba = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255};
+  s.images.push_back(img);
+  Image broken;
+  broken.name = "broken";  // not decoded
+  s.images.push_back(broken);
+  Material a, b;
+  a.base_color.image = 0;
+  b.base_color.image = 1;
+  s.materials = {a, b};
+  Mesh m;
+  for (int k = 0; k < 2; ++k) {
+    Primitive p;
+    float x = float(k) * 2;
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {std::vector<Vec2>(4, Vec2{0.5f, 0.5f})};  // every corner at one uv
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    m.primitives.push_back(p);
+  }
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  Scene cleaned = clean(s, {});
+  AtlasReport rep;
+  auto out = build_atlas(cleaned, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(validate(*out).is_ok()) << validate(*out).message();
+  EXPECT_EQ(out->materials.size(), 1u);
+  EXPECT_GT(rep.size, 0);
+}
+
+}  // namespace
+}  // namespace meshmux

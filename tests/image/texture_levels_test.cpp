@@ -1,0 +1,114 @@
+#include "image/texture_levels.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "image/decode.h"
+
+namespace meshmux {
+namespace {
+
+// A smooth colour ramp with some structure: JPEG-friendly, and different at every level.
+Image ramp(int w, int h, bool alpha = false) {
+  Image img;
+  img.name = "ramp";
+  img.width = w;
+  img.height = h;
+  img.rgba.resize(size_t(w) * size_t(h) * 4);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      uint8_t* p = &img.rgba[(size_t(y) * size_t(w) + size_t(x)) * 4];
+      p[0] = uint8_t(255 * x / std::max(1, w - 1));
+      p[1] = uint8_t(255 * y / std::max(1, h - 1));
+      p[2] = uint8_t(128 + 100 * std::sin(x * 0.05) * std::cos(y * 0.07));
+      p[3] = alpha ? uint8_t(x * 255 / std::max(1, w - 1)) : 255;
+    }
+  return img;
+}
+
+// 512² gives 128², 256² and 512², smallest first, each a JPEG that decodes on its own to its
+// size and roughly its content.
+TEST(TextureLevels, PyramidFromBaseToFullAsIndependentJpegs) {
+  auto levels = make_texture_levels(ramp(512, 512), {});
+  ASSERT_TRUE(levels.ok()) << levels.status().message();
+  ASSERT_EQ(levels->levels.size(), 3u);
+  int expected = 128;
+  for (const TextureLevel& l : levels->levels) {
+    EXPECT_EQ(l.width, expected);
+    EXPECT_EQ(l.height, expected);
+    EXPECT_EQ(l.mime_type, "image/jpeg");
+    Image decoded;
+    decoded.name = "level";
+    decoded.encoded = l.encoded;
+    ASSERT_TRUE(decode_image(decoded).is_ok());
+    EXPECT_EQ(decoded.width, expected);
+    // Top-right texel is red-ish (x ramp), bottom-left green-ish (y ramp).
+    const uint8_t* tr = &decoded.rgba[(size_t(expected) - 1) * 4];
+    EXPECT_GT(tr[0], 200);
+    EXPECT_LT(tr[1], 60);
+    expected *= 2;
+  }
+}
+
+// Any non-opaque texel: PNG levels, alpha kept.
+TEST(TextureLevels, AlphaTexturesUsePng) {
+  auto levels = make_texture_levels(ramp(256, 256, true), {});
+  ASSERT_TRUE(levels.ok());
+  ASSERT_EQ(levels->levels.size(), 2u);
+  for (const TextureLevel& l : levels->levels) EXPECT_EQ(l.mime_type, "image/png");
+  Image decoded;
+  decoded.name = "level";
+  decoded.encoded = levels->levels.back().encoded;
+  ASSERT_TRUE(decode_image(decoded).is_ok());
+  EXPECT_EQ(decoded.rgba[3], 0);                // left column transparent
+  EXPECT_EQ(decoded.rgba[(255) * 4 + 3], 255);  // right column opaque
+}
+
+// A texture smaller than the base is its own single level; non-rectangular powers of two work.
+TEST(TextureLevels, SmallAndNonSquareTextures) {
+  auto small = make_texture_levels(ramp(64, 64), {});
+  ASSERT_TRUE(small.ok());
+  ASSERT_EQ(small->levels.size(), 1u);
+  EXPECT_EQ(small->levels[0].width, 64);
+  auto wide = make_texture_levels(ramp(512, 128), {});
+  ASSERT_TRUE(wide.ok());
+  ASSERT_EQ(wide->levels.size(), 3u);
+  EXPECT_EQ(wide->levels[0].width, 128);
+  EXPECT_EQ(wide->levels[0].height, 32);
+}
+
+TEST(TextureLevels, RejectsNonPowerOfTwo) {
+  auto r = make_texture_levels(ramp(300, 256), {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("ramp"), std::string::npos);
+  EXPECT_NE(r.status().message().find("power of two"), std::string::npos);
+}
+
+// Quality is settable and does what it says: lower quality, fewer bytes.
+TEST(TextureLevels, QualityControlsSize) {
+  TextureLevelOptions lo, hi;
+  lo.jpeg_quality = 30;
+  hi.jpeg_quality = 95;
+  auto a = make_texture_levels(ramp(256, 256), lo), b = make_texture_levels(ramp(256, 256), hi);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_LT(a->levels.back().encoded.size(), b->levels.back().encoded.size());
+  // Deterministic.
+  EXPECT_EQ(make_texture_levels(ramp(256, 256), lo)->levels.back().encoded,
+            a->levels.back().encoded);
+}
+
+// Downsampling averages light, not sRGB codes: black and white texels make sRGB 188 (linear
+// 0.5), not 128.
+TEST(TextureLevels, DownsamplesInLinearLight) {
+  Image checker;
+  checker.width = checker.height = 2;
+  checker.rgba = {0, 0, 0, 255, 255, 255, 255, 255, 255, 255, 255, 255, 0, 0, 0, 255};
+  Image half = downsample_half(checker);
+  ASSERT_EQ(half.width, 1);
+  EXPECT_NEAR(half.rgba[0], 188, 1);
+  EXPECT_EQ(half.rgba[3], 255);
+}
+
+}  // namespace
+}  // namespace meshmux

@@ -1,0 +1,117 @@
+// The conversion pipeline as one function: every output from one call, each thing encoded once.
+#include "pipeline/convert.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "exporters/package.h"
+#include "image/encode.h"
+#include "multiplex/mesh_stream.h"
+#include "scene/sample.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+// The built-in sample: textured (so there are texture levels), one column instanced many
+// times beside unique meshes (so there are mesh layers over several submeshes). Big enough
+// that the base is not the whole mesh, small enough to convert in seconds.
+Scene sample() {
+  SampleOptions o;
+  o.columns_per_side = 10;
+  o.column_segments = 48;
+  o.ground_cells = 96;
+  o.texture_size = 512;
+  return make_sample_scene(o);
+}
+
+// Issue 1/8: the texture levels are encoded once (model.glb, base.glb and the package's base
+// embed levels that were encoded for the stream; no atlas encode, no re-encode of level 0), and
+// every mesh part is encoded once (the multiplexer's costing encode is what the package holds).
+// Counted at the encoders themselves, so a second encode anywhere in the pipeline shows.
+TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene = sample();
+  uint64_t images0 = images_encoded(), parts0 = mesh_parts_encoded();
+  Warnings warnings;
+  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  uint64_t images = images_encoded() - images0, parts = mesh_parts_encoded() - parts0;
+  ASSERT_FALSE(out->package.empty()) << out->not_streamed;
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  size_t package_parts = 0, texture_chunks = 0, mesh_chunks = 0;
+  for (const PackageChunk& c : pkg->chunks) {
+    package_parts += c.parts.size();
+    texture_chunks += c.kind == StreamStep::kTexture;
+    mesh_chunks += c.kind == StreamStep::kMesh;
+  }
+  EXPECT_GT(mesh_chunks, 2u) << "the sample must refine in several mesh chunks";
+  EXPECT_GT(package_parts, mesh_chunks) << "several submeshes refine per chunk";
+  EXPECT_EQ(parts, package_parts) << "mesh parts encoded vs parts in the package";
+  ASSERT_GE(out->texture_levels, 3u);
+  EXPECT_EQ(texture_chunks + 1, out->texture_levels) << "level 0 rides in the base";
+  EXPECT_EQ(images, out->texture_levels) << "images encoded vs texture levels";
+  EXPECT_EQ(out->mesh_chunks, mesh_chunks);
+  EXPECT_EQ(out->texture_chunks, texture_chunks);
+}
+
+// Every output of a folder conversion is there, and model.glb alone when asked for one file.
+TEST(Convert, FolderOutputsAreAllThereAndSingleFileSkipsTheRest) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene = sample();
+  Warnings warnings;
+  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_FALSE(out->model_glb.empty());
+  EXPECT_FALSE(out->base_glb.empty());
+  EXPECT_FALSE(out->package.empty());
+  EXPECT_FALSE(out->report_json.empty());
+  EXPECT_FALSE(out->rd_svg.empty());
+  EXPECT_LT(out->base_glb.size(), out->model_glb.size()) << "the base is the coarse level";
+  EXPECT_LT(out->base_triangles, out->output.scene_triangles);
+  ConvertOptions single;
+  single.stream = false;
+  auto one = convert(scene, single, &warnings, nullptr);
+  ASSERT_TRUE(one.ok()) << one.status().message();
+  EXPECT_EQ(one->model_glb, out->model_glb) << "model.glb does not depend on the stream";
+  EXPECT_TRUE(one->base_glb.empty());
+  EXPECT_TRUE(one->package.empty());
+  EXPECT_TRUE(one->report_json.empty());
+  EXPECT_EQ(one->texture_levels, 1u) << "without a stream only the top level is built";
+}
+
+// base.glb is what the stream shows first: the base mesh with texture level 0 (not the full
+// atlas), Draco-coded; the package's own base holds the same texture level.
+TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene = sample();
+  Warnings warnings;
+  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  testing::TempDir dir;
+  testing::write_file(dir.file("base.glb"), out->base_glb);
+  std::vector<uint8_t> stream_base(out->package.begin() + long(pkg->base_offset),
+                                   out->package.begin() + long(pkg->base_offset + pkg->base_size));
+  testing::write_file(dir.file("stream_base.glb"), stream_base);
+  auto info = testing::run_meshmux({"info", dir.file("base.glb"), "--json"});
+  auto stream_info = testing::run_meshmux({"info", dir.file("stream_base.glb"), "--json"});
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  ASSERT_EQ(stream_info.exit_code, 0) << stream_info.err;
+  auto j = nlohmann::json::parse(info.out), k = nlohmann::json::parse(stream_info.out);
+  EXPECT_EQ(j["scene_triangles"], out->base_triangles);
+  EXPECT_EQ(j["scene_triangles"], k["scene_triangles"]);
+  EXPECT_EQ(j["texture_pixels"], k["texture_pixels"]);
+  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(), 128u * 128u) << "texture level 0";
+  std::string text(out->base_glb.begin(), out->base_glb.end());
+  EXPECT_NE(text.find("KHR_draco_mesh_compression"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace meshmux
