@@ -36,11 +36,7 @@ struct MeshView {
 std::vector<std::vector<uint32_t>> components(const MeshView& mv,
                                               const std::vector<uint32_t>& faces) {
   std::unordered_map<uint64_t, std::vector<uint32_t>> by_edge;
-  auto pos_key = [](Vec3 p) {
-    return (uint64_t(float_bits(p.x)) * 0x9E3779B97F4A7C15ull) ^
-           (uint64_t(float_bits(p.y)) * 0xC2B2AE3D27D4EB4Full) ^
-           (uint64_t(float_bits(p.z)) * 0x165667B19E3779F9ull);
-  };
+  auto pos_key = [](Vec3 p) { return position_hash(p); };
   for (uint32_t i = 0; i < faces.size(); ++i)
     for (int k = 0; k < 3; ++k) {
       uint64_t a = pos_key(mv.position(faces[i], k)),
@@ -144,40 +140,61 @@ bool needs_atlas(const Scene& scene) {
   return false;
 }
 
-}  // namespace
-
-Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
-                          Warnings* warnings) {
-  auto start = std::chrono::steady_clock::now();
-  AtlasReport rep;
-  if (!needs_atlas(scene)) {
-    if (report) *report = rep;
-    return scene;
-  }
-  rep.built = true;
-  ChartSet seg = segment_charts(scene, o.charts);
-
-  // Flatten textured charts (splitting the ones that will not flatten); flat charts pass.
-  std::vector<MeshView> views;
-  for (const Mesh& m : scene.meshes) views.emplace_back(m);
+// Step 1: textured charts flattened (split where they will not flatten); flat charts pass.
+struct FlatCharts {
   ChartSet charts;
-  std::vector<ChartUv> uvs;
-  charts.face_chart.resize(scene.meshes.size());
+  std::vector<ChartUv> uvs;  // per chart
+};
+FlatCharts flatten_charts(const Scene& scene, const std::vector<MeshView>& views,
+                          const ChartSet& seg, const AtlasOptions& o, size_t* split) {
+  FlatCharts fc;
+  fc.charts.face_chart.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m)
-    charts.face_chart[m].assign(views[m].faces.size(), 0);
+    fc.charts.face_chart[m].assign(views[m].faces.size(), 0);
   for (const Chart& c : seg.charts) {
     if (!c.textured) {
-      charts.charts.push_back(c);
-      uvs.push_back(parameterize_chart(scene, c, o.parameterize));
+      fc.charts.charts.push_back(c);
+      fc.uvs.push_back(parameterize_chart(scene, c, o.parameterize));
       continue;
     }
-    flatten_chart(scene, views[c.mesh], c, o, charts.charts, uvs, &rep.split);
+    flatten_chart(scene, views[c.mesh], c, o, fc.charts.charts, fc.uvs, split);
   }
-  for (uint32_t ci = 0; ci < charts.charts.size(); ++ci)
-    for (uint32_t f : charts.charts[ci].faces) charts.face_chart[charts.charts[ci].mesh][f] = ci;
+  for (uint32_t ci = 0; ci < fc.charts.charts.size(); ++ci)
+    for (uint32_t f : fc.charts.charts[ci].faces)
+      fc.charts.face_chart[fc.charts.charts[ci].mesh][f] = ci;
+  return fc;
+}
 
-  // Formula 2 sizing: A''_c = cbrt((L²_c/ΣL²)(A_c/ΣA)(A'_c/ΣA')) · T. A_c is the chart's area
-  // in the world (mean over the mesh's instances); A'_c its footprint in the source texture.
+// The pixels of the images the materials' base colours reference, each image once.
+double referenced_pixels(const Scene& scene) {
+  double total = 0;
+  std::vector<char> seen(scene.images.size(), 0);
+  for (const Material& mat : scene.materials)
+    if (mat.base_color.present() && size_t(mat.base_color.image) < seen.size() &&
+        !seen[size_t(mat.base_color.image)]) {
+      seen[size_t(mat.base_color.image)] = 1;
+      const Image& img = scene.images[size_t(mat.base_color.image)];
+      total += double(img.width) * img.height;
+    }
+  return total;
+}
+
+// Step 2, formula 2 sizing: A''_c = cbrt((L²_c/ΣL²)(A_c/ΣA)(A'_c/ΣA')) · T. A_c is the chart's
+// area in the world (mean over the mesh's instances); A'_c its footprint in the source texture.
+// The pack items: one per textured chart, one block per distinct flat colour.
+struct Items {
+  std::vector<size_t> chart_item;  // per chart: its item
+  std::vector<PackRect> rects;     // per item (textured ones sized by pack_charts)
+  std::vector<double> item_scale;  // per item: texels per chart-uv unit (0: a flat block)
+  std::vector<size_t> item_chart;  // the chart whose uv rect the item holds (flat: first)
+  double target_texels = 0;        // T
+  bool any_textured = false;
+  size_t flat_colors = 0;
+};
+Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const FlatCharts& fc,
+                  const AtlasOptions& o) {
+  const std::vector<Chart>& charts = fc.charts.charts;
+  const std::vector<ChartUv>& uvs = fc.uvs;
   std::vector<double> inst_scale2(scene.meshes.size(), 0);
   std::vector<size_t> inst_count(scene.meshes.size(), 0);
   for (const Instance& inst : scene.instances) {
@@ -187,9 +204,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   for (size_t m = 0; m < scene.meshes.size(); ++m)
     inst_scale2[m] = inst_count[m] ? inst_scale2[m] / double(inst_count[m]) : 1.0;
   double sum_l2 = 0, sum_a = 0, sum_src = 0;
-  std::vector<double> l2(charts.charts.size()), a3(charts.charts.size()), src(charts.charts.size());
-  for (size_t i = 0; i < charts.charts.size(); ++i) {
-    const Chart& c = charts.charts[i];
+  std::vector<double> l2(charts.size()), a3(charts.size()), src(charts.size());
+  for (size_t i = 0; i < charts.size(); ++i) {
+    const Chart& c = charts[i];
     if (!c.textured) continue;
     l2[i] = uvs[i].stretch_l2 * uvs[i].stretch_l2;
     a3[i] = uvs[i].area_3d * inst_scale2[c.mesh];
@@ -200,42 +217,27 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   // "The total original texture area referenced by all triangles": Σ A'_c counts texels that
   // several charts reuse (mirrored halves, repeated decals) once per use, so it is also capped
   // by the pixels of the images the materials reference.
-  double referenced_pixels = 0;
-  {
-    std::vector<char> seen(scene.images.size(), 0);
-    for (const Material& mat : scene.materials)
-      if (mat.base_color.present() && size_t(mat.base_color.image) < seen.size() &&
-          !seen[size_t(mat.base_color.image)]) {
-        seen[size_t(mat.base_color.image)] = 1;
-        const Image& img = scene.images[size_t(mat.base_color.image)];
-        referenced_pixels += double(img.width) * img.height;
-      }
-  }
-  double T = sum_src > 0
-                 ? std::min({sum_src, referenced_pixels > 0 ? referenced_pixels : sum_src, max_t})
-                 : double(o.vertex_color_target) * o.vertex_color_target;
-  rep.target_texels = T;
-
-  // Flat colours share one block per distinct colour.
+  double pixels = referenced_pixels(scene);
+  Items it;
+  double T = sum_src > 0 ? std::min({sum_src, pixels > 0 ? pixels : sum_src, max_t})
+                         : double(o.vertex_color_target) * o.vertex_color_target;
+  it.target_texels = T;
+  it.any_textured = sum_a > 0;
   std::map<std::array<uint32_t, 4>, size_t> flat_slot;
-  std::vector<size_t> chart_item(charts.charts.size());
-  std::vector<PackRect> rects;
-  std::vector<double> item_scale;
-  std::vector<size_t> item_chart;  // the chart whose uv rect the item holds (flat: first)
-  for (size_t i = 0; i < charts.charts.size(); ++i) {
-    const Chart& c = charts.charts[i];
+  it.chart_item.resize(charts.size());
+  for (size_t i = 0; i < charts.size(); ++i) {
+    const Chart& c = charts[i];
     if (!c.textured) {
       std::array<uint32_t, 4> key{float_bits(c.color.x), float_bits(c.color.y),
                                   float_bits(c.color.z), float_bits(c.color.w)};
-      auto [it, fresh] = flat_slot.emplace(key, rects.size());
+      auto [slot, fresh] = flat_slot.emplace(key, it.rects.size());
       if (fresh) {
-        int side =
-            o.flat_block + 2 * std::max(0, o.bake.gutter);  // the block and its dilation rings
-        rects.push_back({side, side});
-        item_scale.push_back(0);
-        item_chart.push_back(i);
+        int side = o.flat_block + 2 * std::max(0, o.bake.gutter);  // block and dilation rings
+        it.rects.push_back({side, side});
+        it.item_scale.push_back(0);
+        it.item_chart.push_back(i);
       }
-      chart_item[i] = it->second;
+      it.chart_item[i] = slot->second;
       continue;
     }
     double share =
@@ -243,32 +245,43 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
             ? std::cbrt((l2[i] / sum_l2) * (a3[i] / sum_a) * (src[i] > 0 ? src[i] / sum_src : 0.0))
             : std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));
     if (!(share > 0))
-      share =
-          std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // an untextured piece in a textured scene
+      share = std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // untextured piece, textured scene
     if (!std::isfinite(share) || !(share > 0)) share = 1e-6;  // degenerate input: a token size
     double texels = share * T;
     double uv_area = std::max(1e-30, uvs[i].area_3d);
     double scale = std::sqrt(texels / uv_area);
-    item_scale.push_back(std::isfinite(scale) && scale > 0 ? scale : 1.0);
-    item_chart.push_back(i);
-    chart_item[i] = rects.size();
-    rects.push_back({});
+    it.item_scale.push_back(std::isfinite(scale) && scale > 0 ? scale : 1.0);
+    it.item_chart.push_back(i);
+    it.chart_item[i] = it.rects.size();
+    it.rects.push_back({});
   }
-  rep.flat_colors = flat_slot.size();
-  rep.charts = charts.charts.size() - std::count_if(charts.charts.begin(), charts.charts.end(),
-                                                    [](const Chart& c) { return !c.textured; });
-  // Pack (paper 000 §4.4: "within a power of two of the target size"). The atlas side S is the
-  // smallest power of two with S² ≥ T; one factor f scales every textured chart (keeping
-  // formula 2's proportions) and is searched as large as still packs into S. If that costs more
-  // than a quarter of the linear resolution (f < 0.75), the next size up is used instead.
-  // Around each chart: the baker's dilation rings plus one texel for its conservative
-  // rasterization (texel centres within half a texel of a triangle).
-  int gutter = std::max(0, o.bake.gutter) + 1;
+  it.flat_colors = flat_slot.size();
+  return it;
+}
+
+// Step 3, packing (paper 000 §4.4: "within a power of two of the target size"). The atlas side
+// S is the smallest power of two with S² ≥ T; one factor f scales every textured chart (keeping
+// formula 2's proportions) and is searched as large as still packs into S. If that costs more
+// than a quarter of the linear resolution (f < 0.75), the next size up is used instead. Around
+// each chart: the baker's dilation rings plus one texel for its conservative rasterization
+// (texel centres within half a texel of a triangle). Then each chart grows to fill the cell it
+// owns (pack_cells), for free resolution.
+struct Packing {
+  PackResult packed;
+  double shrink = 1;         // the factor f
+  std::vector<double> grow;  // per item: the fill-the-cell factor
+  int gutter = 0;            // texels around each textured chart
+  double utilization = 0;    // packed texels / atlas texels
+};
+Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const AtlasOptions& o) {
+  Packing pk;
+  int gutter = pk.gutter = std::max(0, o.bake.gutter) + 1;
+  std::vector<PackRect>& rects = it.rects;
   auto rects_for = [&](double f) {
     for (size_t k = 0; k < rects.size(); ++k) {
-      if (item_scale[k] == 0) continue;
-      const ChartUv& u = uvs[item_chart[k]];
-      double sc = item_scale[k] * f;
+      if (it.item_scale[k] == 0) continue;
+      const ChartUv& u = uvs[it.item_chart[k]];
+      double sc = it.item_scale[k] * f;
       auto texels = [&](double extent) {
         double t = std::ceil(extent * sc);
         return std::isfinite(t) ? int(std::clamp(t, 1.0, double(o.max_size))) : 1;
@@ -284,7 +297,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   auto best_factor = [&](int side) {
     double lo = 0, hi = 1;
     while (fits(hi, side) && hi < 1024) lo = hi, hi *= 2;
-    for (int it = 0; it < 24; ++it) {
+    for (int iter = 0; iter < 24; ++iter) {
       double mid = 0.5 * (lo + hi);
       if (fits(mid, side))
         lo = mid;
@@ -293,18 +306,17 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     }
     return lo;
   };
-  bool any_textured = sum_a > 0;
   double shrink = 1;
   int side = std::max(o.min_size, 1);
-  if (!any_textured) {
+  if (!it.any_textured) {
     // A palette of flat colours: the smallest power of two that holds the blocks.
     side = 4;
     while (!fits(1, side) && side < o.max_size) side *= 2;
   } else {
-    while (double(side) * side < T && side < o.max_size) side *= 2;
+    while (double(side) * side < it.target_texels && side < o.max_size) side *= 2;
     shrink = best_factor(side);
   }
-  if (any_textured && shrink < 0.75 && side < o.max_size) {
+  if (it.any_textured && shrink < 0.75 && side < o.max_size) {
     side *= 2;
     shrink = best_factor(side);
   }
@@ -312,72 +324,71 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     return Status::error("atlas: charts do not fit in " + std::to_string(side) + "²",
                          ErrorKind::kInternal);
   rects_for(shrink);
-  PackResult packed = pack_cells(rects, side, side);
-  if (!packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);
-  rep.size = packed.size;
-  // Each chart owns its cell (pack_cells): scale it up to fill the cell, for free resolution.
-  std::vector<double> grow(rects.size(), 1.0);
+  pk.packed = pack_cells(rects, side, side);
+  if (!pk.packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);
+  pk.shrink = shrink;
+  pk.grow.assign(rects.size(), 1.0);
   double used = 0;
   for (size_t k = 0; k < rects.size(); ++k) {
-    if (item_scale[k] > 0) {
-      double iw = rects[k].w - 2 * gutter, ih = rects[k].h - 2 * gutter;
-      double cw = packed.cells[k].w - 2 * gutter, ch = packed.cells[k].h - 2 * gutter;
-      const ChartUv& u = uvs[item_chart[k]];
-      double s = item_scale[k] * shrink;
-      // The chart's exact texel extent is size * s ≤ (iw, ih); grow until one side fills.
+    if (it.item_scale[k] > 0) {
+      double cw = pk.packed.cells[k].w - 2 * gutter, ch = pk.packed.cells[k].h - 2 * gutter;
+      const ChartUv& u = uvs[it.item_chart[k]];
+      double s = it.item_scale[k] * shrink;
+      // The chart's exact texel extent is size * s; grow until one side fills its cell.
       double fx = u.size.x * s > 0 ? cw / std::max(u.size.x * s, 1e-9) : 1e30;
       double fy = u.size.y * s > 0 ? ch / std::max(u.size.y * s, 1e-9) : 1e30;
-      grow[k] = std::max(1.0, std::min(fx, fy) * 0.999);
-      if (!std::isfinite(grow[k]) || grow[k] > 1e6) grow[k] = 1.0;
-      rects[k].w = std::min(packed.cells[k].w, int(std::ceil(u.size.x * s * grow[k])) + 2 * gutter);
-      rects[k].h = std::min(packed.cells[k].h, int(std::ceil(u.size.y * s * grow[k])) + 2 * gutter);
-      (void)iw, (void)ih;
+      double& g = pk.grow[k];
+      g = std::max(1.0, std::min(fx, fy) * 0.999);
+      if (!std::isfinite(g) || g > 1e6) g = 1.0;
+      rects[k].w = std::min(pk.packed.cells[k].w, int(std::ceil(u.size.x * s * g)) + 2 * gutter);
+      rects[k].h = std::min(pk.packed.cells[k].h, int(std::ceil(u.size.y * s * g)) + 2 * gutter);
     }
     used += double(rects[k].w) * rects[k].h;
   }
-  rep.utilization = used / (double(packed.size) * packed.size);
+  pk.utilization = used / (double(pk.packed.size) * pk.packed.size);
+  return pk;
+}
 
+// Step 4: where each chart lands in the atlas.
+AtlasLayout make_layout(const Items& it, const Packing& pk, size_t charts, const AtlasOptions& o) {
   AtlasLayout layout;
-  layout.size = packed.size;
-  layout.offset.resize(charts.charts.size());
-  layout.scale.resize(charts.charts.size());
-  layout.block.resize(charts.charts.size());
-  for (size_t i = 0; i < charts.charts.size(); ++i) {
-    size_t k = chart_item[i];
-    const PackPlacement& pl = packed.placed[k];
-    if (item_scale[k] == 0) {
+  layout.size = pk.packed.size;
+  layout.offset.resize(charts);
+  layout.scale.resize(charts);
+  layout.block.resize(charts);
+  for (size_t i = 0; i < charts; ++i) {
+    size_t k = it.chart_item[i];
+    const PackPlacement& pl = pk.packed.placed[k];
+    if (it.item_scale[k] == 0) {
       int ring = std::max(0, o.bake.gutter);
       layout.offset[i] = {float(pl.x + ring), float(pl.y + ring)};
       layout.scale[i] = 0;
       layout.block[i] = o.flat_block;
     } else {
-      layout.offset[i] = {float(pl.x + gutter), float(pl.y + gutter)};
-      layout.scale[i] = item_scale[k] * shrink * grow[k];
-      layout.block[i] = std::max(rects[k].w, rects[k].h);
+      layout.offset[i] = {float(pl.x + pk.gutter), float(pl.y + pk.gutter)};
+      layout.scale[i] = it.item_scale[k] * pk.shrink * pk.grow[k];
+      layout.block[i] = std::max(it.rects[k].w, it.rects[k].h);
     }
   }
-  BakeResult baked = bake_atlas(scene, charts, uvs, layout, o.bake);
-  rep.texel_chart = std::move(baked.texel_chart);
-  for (size_t i = 0; i < charts.charts.size(); ++i) {
-    rep.cell_pos.push_back(packed.placed[chart_item[i]]);
-    rep.cell_size.push_back(packed.cells[chart_item[i]]);
-  }
+  return layout;
+}
 
-  // Stretch figures over textured charts.
+// Stretch figures over textured charts (area-weighted mean and maximum).
+void stretch_figures(const FlatCharts& fc, AtlasReport* rep) {
   double wsum = 0;
-  for (size_t i = 0; i < charts.charts.size(); ++i) {
-    if (!charts.charts[i].textured) continue;
-    rep.mean_stretch_l2 += uvs[i].stretch_l2 * uvs[i].area_3d;
-    wsum += uvs[i].area_3d;
-    rep.max_stretch_l2 = std::max(rep.max_stretch_l2, uvs[i].stretch_l2);
+  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
+    if (!fc.charts.charts[i].textured) continue;
+    rep->mean_stretch_l2 += fc.uvs[i].stretch_l2 * fc.uvs[i].area_3d;
+    wsum += fc.uvs[i].area_3d;
+    rep->max_stretch_l2 = std::max(rep->max_stretch_l2, fc.uvs[i].stretch_l2);
   }
-  if (wsum > 0) rep.mean_stretch_l2 /= wsum;
+  if (wsum > 0) rep->mean_stretch_l2 /= wsum;
+}
 
-  // The output scene: one primitive per mesh into the atlas, one material, one image.
-  Scene out;
-  out.source = scene.source;
-  out.normalization_scale = scene.normalization_scale;
-  out.instances = scene.instances;
+// Step 5a: the one material, its factors area-weighted over the faces of the source materials
+// (metallic, roughness), its alpha mode the strongest present; `dropped` when a source had
+// maps the atlas does not bake.
+Material merged_material(const Scene& scene, const std::vector<MeshView>& views, bool* dropped) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
@@ -387,30 +398,17 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
-  bool any_blend = false, any_mask = false, any_double = false, all_unlit = true, dropped = false;
+  bool any_blend = false, any_mask = false, any_double = false, all_unlit = true;
   float cutoff = 1.0f;
-  for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    const MeshView& mv = views[m];
-    Primitive prim;
-    prim.material = 0;
-    prim.uvs.resize(1);
-    bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
-                               [](const Primitive& p) { return !p.normals.empty(); });
-    std::unordered_map<uint64_t, std::vector<uint32_t>> weld;
-    // Corner index within the chart's face list.
-    std::vector<uint32_t> face_slot(mv.faces.size());
-    for (uint32_t ci = 0; ci < charts.charts.size(); ++ci)
-      if (charts.charts[ci].mesh == m)
-        for (uint32_t k = 0; k < charts.charts[ci].faces.size(); ++k)
-          face_slot[charts.charts[ci].faces[k]] = k;
+  *dropped = false;
+  for (const MeshView& mv : views)
     for (uint32_t f = 0; f < mv.faces.size(); ++f) {
-      uint32_t ci = charts.face_chart[m][f];
       const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
+      Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
+      double area = 0.5 * length(cross(b - a, cc - a));
+      area_total += area;
       if (src.material >= 0) {
         const Material& sm = scene.materials[size_t(src.material)];
-        Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
-        double area = 0.5 * length(cross(b - a, cc - a));
-        area_total += area;
         mat.metallic_factor += float(area * sm.metallic_factor);
         mat.roughness_factor += float(area * sm.roughness_factor);
         any_blend |= sm.alpha_mode == AlphaMode::kBlend;
@@ -418,57 +416,14 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
           any_mask = true, cutoff = std::min(cutoff, sm.alpha_cutoff);
         any_double |= sm.double_sided;
         all_unlit &= sm.unlit;
-        dropped |= sm.normal.present() || sm.occlusion.present() ||
-                   sm.metallic_roughness.present() || sm.emissive.present();
+        *dropped |= sm.normal.present() || sm.occlusion.present() ||
+                    sm.metallic_roughness.present() || sm.emissive.present();
       } else {
         all_unlit = false;
-        Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
-        double area = 0.5 * length(cross(b - a, cc - a));
-        area_total += area;
         mat.metallic_factor += float(area * 1.0);
         mat.roughness_factor += float(area * 1.0);
       }
-      uint32_t tri[3];
-      for (int k = 0; k < 3; ++k) {
-        Vec2 t;
-        if (layout.scale[ci] == 0) {
-          t = {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
-               float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.size)};
-        } else {
-          Vec2 cu = uvs[ci].corner_uv[3 * size_t(face_slot[f]) + size_t(k)];
-          t = {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
-               float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.size)};
-        }
-        uint32_t v = mv.corner(f, k);
-        Vec3 pos = src.positions[v];
-        Vec3 nrm = normals ? src.normals[v] : Vec3{};
-        uint32_t key[8] = {float_bits(pos.x), float_bits(pos.y), float_bits(pos.z),
-                           float_bits(nrm.x), float_bits(nrm.y), float_bits(nrm.z),
-                           float_bits(t.x),   float_bits(t.y)};
-        uint64_t h = 1469598103934665603ull;
-        for (uint32_t w : key) h = (h ^ w) * 1099511628211ull;
-        auto& bucket = weld[h];
-        uint32_t found = UINT32_MAX;
-        for (uint32_t cand : bucket)
-          if (prim.positions[cand] == pos && (!normals || prim.normals[cand] == nrm) &&
-              prim.uvs[0][cand] == t)
-            found = cand;
-        if (found == UINT32_MAX) {
-          found = uint32_t(prim.positions.size());
-          prim.positions.push_back(pos);
-          if (normals) prim.normals.push_back(nrm);
-          prim.uvs[0].push_back(t);
-          bucket.push_back(found);
-        }
-        tri[k] = found;
-      }
-      prim.indices.insert(prim.indices.end(), {tri[0], tri[1], tri[2]});
     }
-    Mesh mesh;
-    mesh.name = mv.mesh.name;
-    mesh.primitives.push_back(std::move(prim));
-    out.meshes.push_back(std::move(mesh));
-  }
   if (area_total > 0) {
     mat.metallic_factor = float(mat.metallic_factor / area_total);
     mat.roughness_factor = float(mat.roughness_factor / area_total);
@@ -479,16 +434,119 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   mat.alpha_cutoff = any_mask ? cutoff : 0.5f;
   mat.double_sided = any_double;
   mat.unlit = all_unlit && !scene.materials.empty();
+  return mat;
+}
+
+// Step 5b: mesh m as one primitive into the atlas: every corner gets its chart's atlas uv,
+// corners welded where position, normal and uv agree exactly.
+Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const AtlasLayout& layout) {
+  const ChartSet& charts = fc.charts;
+  Primitive prim;
+  prim.material = 0;
+  prim.uvs.resize(1);
+  bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
+                             [](const Primitive& p) { return !p.normals.empty(); });
+  std::unordered_map<uint64_t, std::vector<uint32_t>> weld;
+  // Corner index within the chart's face list.
+  std::vector<uint32_t> face_slot(mv.faces.size());
+  for (uint32_t ci = 0; ci < charts.charts.size(); ++ci)
+    if (charts.charts[ci].mesh == m)
+      for (uint32_t k = 0; k < charts.charts[ci].faces.size(); ++k)
+        face_slot[charts.charts[ci].faces[k]] = k;
+  for (uint32_t f = 0; f < mv.faces.size(); ++f) {
+    uint32_t ci = charts.face_chart[m][f];
+    const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
+    uint32_t tri[3];
+    for (int k = 0; k < 3; ++k) {
+      Vec2 t;
+      if (layout.scale[ci] == 0) {
+        t = {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
+             float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.size)};
+      } else {
+        Vec2 cu = fc.uvs[ci].corner_uv[3 * size_t(face_slot[f]) + size_t(k)];
+        t = {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
+             float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.size)};
+      }
+      uint32_t v = mv.corner(f, k);
+      Vec3 pos = src.positions[v];
+      Vec3 nrm = normals ? src.normals[v] : Vec3{};
+      uint32_t key[8] = {float_bits(pos.x), float_bits(pos.y), float_bits(pos.z), float_bits(nrm.x),
+                         float_bits(nrm.y), float_bits(nrm.z), float_bits(t.x),   float_bits(t.y)};
+      auto& bucket = weld[fnv1a(key, 8)];
+      uint32_t found = UINT32_MAX;
+      for (uint32_t cand : bucket)
+        if (prim.positions[cand] == pos && (!normals || prim.normals[cand] == nrm) &&
+            prim.uvs[0][cand] == t)
+          found = cand;
+      if (found == UINT32_MAX) {
+        found = uint32_t(prim.positions.size());
+        prim.positions.push_back(pos);
+        if (normals) prim.normals.push_back(nrm);
+        prim.uvs[0].push_back(t);
+        bucket.push_back(found);
+      }
+      tri[k] = found;
+    }
+    prim.indices.insert(prim.indices.end(), {tri[0], tri[1], tri[2]});
+  }
+  Mesh mesh;
+  mesh.name = mv.mesh.name;
+  mesh.primitives.push_back(std::move(prim));
+  return mesh;
+}
+
+}  // namespace
+
+Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+                          Warnings* warnings) {
+  auto start = std::chrono::steady_clock::now();
+  AtlasReport rep;
+  if (!needs_atlas(scene)) {
+    if (report) *report = rep;
+    return scene;
+  }
+  rep.built = true;
+  std::vector<MeshView> views;
+  for (const Mesh& m : scene.meshes) views.emplace_back(m);
+  // 1. Charts (paper 000 §4.2), flattened (§4.3).
+  FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
+  // 2. Sizes by formula 2.
+  Items items = size_charts(scene, views, fc, o);
+  rep.target_texels = items.target_texels;
+  rep.flat_colors = items.flat_colors;
+  rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
+                                    [](const Chart& c) { return c.textured; }));
+  // 3. Power-of-two-safe packing (§4.4).
+  auto packing = pack_charts(items, fc.uvs, o);
+  if (!packing.ok()) return packing.status();
+  rep.size = packing->packed.size;
+  rep.utilization = packing->utilization;
+  // 4. Bake every chart into its cell.
+  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
+  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake);
+  rep.texel_chart = std::move(baked.texel_chart);
+  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
+    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
+    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
+  }
+  stretch_figures(fc, &rep);
+  // 5. The output scene: one primitive per mesh into the atlas, one material, one image
+  // (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with alpha,
+  // and model.glb embeds their top level).
+  Scene out;
+  out.source = scene.source;
+  out.normalization_scale = scene.normalization_scale;
+  out.instances = scene.instances;
+  bool dropped = false;
+  out.materials.push_back(merged_material(scene, views, &dropped));
   if (dropped)
     warn(warnings,
          "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into "
          "the atlas; dropped");
-  out.materials.push_back(mat);
-
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m)
+    out.meshes.push_back(atlas_mesh(views[m], m, fc, layout));
   Image atlas = std::move(baked.atlas);
   atlas.name = "atlas";
-  // Decoded pixels only: the texture levels (pipeline/convert) encode it once, JPEG when opaque,
-  // PNG with alpha, and model.glb embeds their top level.
   out.images.push_back(std::move(atlas));
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;

@@ -4,37 +4,28 @@
 #include <cmath>
 #include <limits>
 
+#include "scene/dvec3.h"
+
 namespace meshmux::bench {
 
 namespace {
 
-struct P3 {
-  double x, y, z;
-};
-inline P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline P3 mul(P3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-inline double dot3(P3 a, P3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline P3 cross3(P3 a, P3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-
-inline P3 corner(const std::vector<float>& soup, size_t tri, int k) {
+inline DVec3 corner(const std::vector<float>& soup, size_t tri, int k) {
   const float* p = &soup[tri * 9 + size_t(k) * 3];
   return {p[0], p[1], p[2]};
 }
 
 // Squared distance from p to triangle abc: closest point by Voronoi regions (Ericson,
 // Real-Time Collision Detection §5.1.5), evaluated in double.
-double point_triangle_dist2(P3 p, P3 a, P3 b, P3 c) {
-  P3 ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
-  double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
-  P3 q;
+double point_triangle_dist2(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
+  DVec3 ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
+  double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  DVec3 q;
   if (d1 <= 0 && d2 <= 0) {
     q = a;
   } else {
-    P3 bp = sub(p, b);
-    double d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+    DVec3 bp = sub(p, b);
+    double d3 = dot(ab, bp), d4 = dot(ac, bp);
     if (d3 >= 0 && d4 <= d3) {
       q = b;
     } else {
@@ -43,8 +34,8 @@ double point_triangle_dist2(P3 p, P3 a, P3 b, P3 c) {
         double v = d1 / (d1 - d3);
         q = add(a, mul(ab, v));
       } else {
-        P3 cp = sub(p, c);
-        double d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+        DVec3 cp = sub(p, c);
+        double d5 = dot(ab, cp), d6 = dot(ac, cp);
         if (d6 >= 0 && d5 <= d6) {
           q = c;
         } else {
@@ -60,8 +51,8 @@ double point_triangle_dist2(P3 p, P3 a, P3 b, P3 c) {
             } else {
               double denom = va + vb + vc;
               if (!(std::abs(denom) > 0)) {  // degenerate triangle: nearest of the corners
-                double da = dot3(sub(p, a), sub(p, a)), db = dot3(sub(p, b), sub(p, b)),
-                       dc = dot3(sub(p, c), sub(p, c));
+                double da = dot(sub(p, a), sub(p, a)), db = dot(sub(p, b), sub(p, b)),
+                       dc = dot(sub(p, c), sub(p, c));
                 return std::min(da, std::min(db, dc));
               }
               double v = vb / denom, w = vc / denom;
@@ -72,8 +63,8 @@ double point_triangle_dist2(P3 p, P3 a, P3 b, P3 c) {
       }
     }
   }
-  P3 d = sub(p, q);
-  return dot3(d, d);
+  DVec3 d = sub(p, q);
+  return dot(d, d);
 }
 
 // A bounding-volume hierarchy over a triangle soup: median splits on the longest axis of
@@ -113,7 +104,7 @@ class Bvh {
   bool empty() const { return nodes_.empty(); }
 
   // Squared distance from p to the nearest triangle.
-  double nearest2(P3 p) const {
+  double nearest2(DVec3 p) const {
     double best = std::numeric_limits<double>::infinity();
     struct Entry {
       uint32_t node;
@@ -155,7 +146,7 @@ class Bvh {
     uint32_t count = 0;  // leaf: triangles; 0 for inner nodes
   };
 
-  static double box_dist2(const Node& n, P3 p) {
+  static double box_dist2(const Node& n, DVec3 p) {
     double q[3] = {p.x, p.y, p.z}, d2 = 0;
     for (int a = 0; a < 3; ++a) {
       double d = 0;
@@ -228,19 +219,19 @@ struct Rng {
 };
 
 // Area-weighted samples on a soup; empty when the soup has no area.
-std::vector<P3> sample_surface(const std::vector<float>& soup, size_t count, uint64_t seed) {
+std::vector<DVec3> sample_surface(const std::vector<float>& soup, size_t count, uint64_t seed) {
   size_t n = soup.size() / 9;
   std::vector<double> cdf(n);
   double total = 0;
   for (size_t t = 0; t < n; ++t) {
-    P3 a = corner(soup, t, 0), b = corner(soup, t, 1), c = corner(soup, t, 2);
-    P3 cr = cross3(sub(b, a), sub(c, a));
-    double area = 0.5 * std::sqrt(dot3(cr, cr));
+    DVec3 a = corner(soup, t, 0), b = corner(soup, t, 1), c = corner(soup, t, 2);
+    DVec3 cr = cross(sub(b, a), sub(c, a));
+    double area = 0.5 * std::sqrt(dot(cr, cr));
     if (!std::isfinite(area)) area = 0;
     total += area;
     cdf[t] = total;
   }
-  std::vector<P3> out;
+  std::vector<DVec3> out;
   if (!(total > 0)) return out;
   out.reserve(count);
   Rng rng{seed};
@@ -249,7 +240,7 @@ std::vector<P3> sample_surface(const std::vector<float>& soup, size_t count, uin
     size_t t = size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
     if (t >= n) t = n - 1;
     double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();
-    P3 a = corner(soup, t, 0), b = corner(soup, t, 1), c = corner(soup, t, 2);
+    DVec3 a = corner(soup, t, 0), b = corner(soup, t, 1), c = corner(soup, t, 2);
     out.push_back(add(add(mul(a, 1 - r1), mul(b, r1 * (1 - r2))), mul(c, r1 * r2)));
   }
   return out;
@@ -260,9 +251,9 @@ struct Directed {
   size_t count = 0;
 };
 
-Directed directed(const std::vector<P3>& samples, const Bvh& target) {
+Directed directed(const std::vector<DVec3>& samples, const Bvh& target) {
   Directed d;
-  for (const P3& p : samples) {
+  for (const DVec3& p : samples) {
     double d2 = target.nearest2(p);
     double dist = std::sqrt(d2);
     d.max = std::max(d.max, dist);
@@ -297,8 +288,8 @@ HausdorffResult hausdorff_soup(const std::vector<float>& a, const std::vector<fl
                                double diagonal, const HausdorffOptions& options) {
   HausdorffResult r;
   r.diagonal = diagonal;
-  std::vector<P3> sa = sample_surface(a, options.samples, options.seed);
-  std::vector<P3> sb = sample_surface(b, options.samples, options.seed ^ 0x9e3779b97f4a7c15ULL);
+  std::vector<DVec3> sa = sample_surface(a, options.samples, options.seed);
+  std::vector<DVec3> sb = sample_surface(b, options.samples, options.seed ^ 0x9e3779b97f4a7c15ULL);
   if (sa.empty() || sb.empty() || !(diagonal > 0)) {
     r.hausdorff = r.forward = r.backward = r.mean = r.rms = INFINITY;
     return r;

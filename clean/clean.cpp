@@ -10,28 +10,18 @@
 #include <cstring>
 #include <unordered_map>
 
+#include "scene/position_key.h"
+
 namespace meshmux {
 
 namespace {
 
-// FNV-1a over raw bytes: attribute bit patterns are compared exactly.
+// Attribute bit patterns are compared exactly.
 struct BytesHash {
   size_t operator()(const std::vector<uint32_t>& k) const {
-    uint64_t h = 1469598103934665603ull;
-    for (uint32_t w : k) {
-      h ^= w;
-      h *= 1099511628211ull;
-    }
-    return size_t(h);
+    return size_t(fnv1a(k.data(), k.size()));
   }
 };
-
-uint32_t bits(float f) {
-  if (f == 0) f = 0;  // -0 and +0 weld together
-  uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
 
 bool finite_unit(Vec3 n) {
   float l = length(n);
@@ -49,13 +39,16 @@ Primitive weld(const Primitive& p) {
   std::vector<uint32_t> key;
   for (size_t v = 0; v < p.positions.size(); ++v) {
     key.clear();
-    auto add3 = [&](Vec3 a) { key.insert(key.end(), {bits(a.x), bits(a.y), bits(a.z)}); };
+    auto add3 = [&](Vec3 a) {
+      key.insert(key.end(), {float_bits(a.x), float_bits(a.y), float_bits(a.z)});
+    };
     add3(p.positions[v]);
     if (!p.normals.empty()) add3(p.normals[v]);
-    for (const auto& set : p.uvs) key.insert(key.end(), {bits(set[v].x), bits(set[v].y)});
+    for (const auto& set : p.uvs)
+      key.insert(key.end(), {float_bits(set[v].x), float_bits(set[v].y)});
     if (!p.colors.empty()) {
       Vec4 c = p.colors[v];
-      key.insert(key.end(), {bits(c.x), bits(c.y), bits(c.z), bits(c.w)});
+      key.insert(key.end(), {float_bits(c.x), float_bits(c.y), float_bits(c.z), float_bits(c.w)});
     }
     auto [it, inserted] = seen.emplace(key, uint32_t(out.positions.size()));
     if (inserted) {
@@ -159,7 +152,8 @@ void generate_normals(Primitive& p, float crease_degrees) {
   // Group corners by position.
   struct PosHash {
     size_t operator()(const Vec3& v) const {
-      return size_t(bits(v.x) * 73856093ull ^ bits(v.y) * 19349663ull ^ bits(v.z) * 83492791ull);
+      return size_t(float_bits(v.x) * 73856093ull ^ float_bits(v.y) * 19349663ull ^
+                    float_bits(v.z) * 83492791ull);
     }
   };
   struct PosEq {
@@ -206,7 +200,7 @@ void generate_normals(Primitive& p, float crease_degrees) {
   for (size_t i = 0; i < p.indices.size(); ++i) {
     uint32_t v = p.indices[i];
     Vec3 n = corner_n[i];
-    key = {v, bits(n.x), bits(n.y), bits(n.z)};
+    key = {v, float_bits(n.x), float_bits(n.y), float_bits(n.z)};
     auto [it, inserted] = by_key.emplace(key, uint32_t(out.positions.size()));
     if (inserted) {
       out.positions.push_back(p.positions[v]);

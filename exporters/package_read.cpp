@@ -264,6 +264,102 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, Package
   return Status::ok();
 }
 
+// The table's "meshes": counts, bounds and each mesh's base indices, which follow the data
+// before them without a gap (`end`: where that data ends; advanced past them).
+Status read_meshes(const Json& j, uint64_t file_size, Package& pkg, uint64_t& end) {
+  Status s;
+  auto meshes = j.find("meshes");
+  if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
+  for (size_t m = 0; m < meshes->size(); ++m) {
+    const Json& e = (*meshes)[m];
+    std::string where = "mesh " + std::to_string(m);
+    if (!e.is_object()) return fail(where + " is not an object");
+    PackageMesh pm;
+    if (!(s = get_u32(e, "vertices", kMaxCount, pm.vertices, where)) ||
+        !(s = get_u32(e, "faces", kMaxCount, pm.faces, where)) ||
+        !(s = get_u32(e, "base_vertices", pm.vertices, pm.base_vertices, where)) ||
+        !(s = get_u32(e, "base_faces", pm.faces, pm.base_faces, where)))
+      return s;
+    auto b = e.find("bounds");
+    if (b == e.end() || !b->is_array() || b->size() != 6)
+      return fail(where + ": \"bounds\" is not 6 numbers");
+    for (size_t i = 0; i < 6; ++i) {
+      double v = 0;
+      if (!(s = get_finite((*b)[i], v, where + ": bounds[" + std::to_string(i) + "]"))) return s;
+      pm.bounds[i] = float(v);
+      if (!std::isfinite(pm.bounds[i])) return fail(where + ": bounds out of float range");
+    }
+    for (int i = 0; i < 3; ++i)
+      if (pm.bounds[i] > pm.bounds[i + 3]) return fail(where + ": bounds minimum above maximum");
+    auto bi = e.find("base_indices");
+    if (bi == e.end() || !bi->is_object())
+      return fail(where + ": \"base_indices\" missing or not an object");
+    std::string bwhere = where + " base_indices";
+    if (!(s = get_uint(*bi, "offset", file_size, pm.base_indices_offset, bwhere)) ||
+        !(s = get_uint(*bi, "size", file_size, pm.base_indices_size, bwhere)))
+      return s;
+    if (pm.base_indices_offset != end)
+      return fail(bwhere + ": offset " + std::to_string(pm.base_indices_offset) +
+                  " is not where the data before it ends (" + std::to_string(end) + ")");
+    if (pm.base_indices_size > file_size - pm.base_indices_offset)
+      return fail(bwhere + ": range past the end of the file");
+    if ((pm.base_faces == 0) != (pm.base_indices_size == 0) || pm.base_faces > pm.base_indices_size)
+      return fail(bwhere + ": " + std::to_string(pm.base_indices_size) + " bytes cannot hold " +
+                  std::to_string(pm.base_faces) + " faces");
+    end += pm.base_indices_size;
+    pkg.meshes.push_back(pm);
+  }
+
+  return Status::ok();
+}
+
+// The table's "orders": permutations of the chunks that keep the mesh chunks' relative order,
+// the first being the stored order.
+Status read_orders(const Json& j, Package& pkg) {
+  Status s;
+  auto orders = j.find("orders");
+  if (orders == j.end() || !orders->is_array() || orders->empty())
+    return fail("\"orders\" missing, not an array or empty");
+  const size_t n = pkg.chunks.size();
+  for (size_t o = 0; o < orders->size(); ++o) {
+    const Json& e = (*orders)[o];
+    std::string where = "order " + std::to_string(o);
+    if (!e.is_object()) return fail(where + " is not an object");
+    PackageOrder po;
+    auto name = e.find("name");
+    if (name == e.end() || !name->is_string() || name->get_ref<const std::string&>().empty())
+      return fail(where + ": \"name\" missing or not a non-empty string");
+    po.name = name->get<std::string>();
+    auto cs = e.find("chunks");
+    auto ds = e.find("distortion");
+    if (cs == e.end() || !cs->is_array() || cs->size() != n)
+      return fail(where + ": \"chunks\" is not one index per chunk");
+    if (ds == e.end() || !ds->is_array() || ds->size() != n)
+      return fail(where + ": \"distortion\" is not one number per chunk");
+    std::vector<bool> seen(n, false);
+    int64_t last_mesh = -1;
+    for (size_t i = 0; i < n; ++i) {
+      const Json& c = (*cs)[i];
+      if (!c.is_number_unsigned() || c.get<uint64_t>() >= n)
+        return fail(where + ": chunk index " + std::to_string(i) + " out of range");
+      uint32_t k = uint32_t(c.get<uint64_t>());
+      if (seen[k]) return fail(where + ": chunk " + std::to_string(k) + " listed twice");
+      seen[k] = true;
+      if (o == 0 && k != i) return fail(where + ": the first order is not the stored order");
+      if (pkg.chunks[k].kind == StreamStep::kMesh) {
+        if (int64_t(k) < last_mesh) return fail(where + ": mesh chunks out of order");
+        last_mesh = int64_t(k);
+      }
+      double d = 0;
+      if (!(s = get_finite((*ds)[i], d, where + ": distortion " + std::to_string(i)))) return s;
+      po.chunks.push_back(k);
+      po.distortion.push_back(d);
+    }
+    pkg.orders.push_back(std::move(po));
+  }
+  return Status::ok();
+}
+
 }  // namespace
 
 Result<Package> read_package(const std::vector<uint8_t>& bytes) {
@@ -309,47 +405,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
   uint64_t end = pkg.base_offset + pkg.base_size;
 
-  auto meshes = j.find("meshes");
-  if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
-  for (size_t m = 0; m < meshes->size(); ++m) {
-    const Json& e = (*meshes)[m];
-    std::string where = "mesh " + std::to_string(m);
-    if (!e.is_object()) return fail(where + " is not an object");
-    PackageMesh pm;
-    if (!(s = get_u32(e, "vertices", kMaxCount, pm.vertices, where)) ||
-        !(s = get_u32(e, "faces", kMaxCount, pm.faces, where)) ||
-        !(s = get_u32(e, "base_vertices", pm.vertices, pm.base_vertices, where)) ||
-        !(s = get_u32(e, "base_faces", pm.faces, pm.base_faces, where)))
-      return s;
-    auto b = e.find("bounds");
-    if (b == e.end() || !b->is_array() || b->size() != 6)
-      return fail(where + ": \"bounds\" is not 6 numbers");
-    for (size_t i = 0; i < 6; ++i) {
-      double v = 0;
-      if (!(s = get_finite((*b)[i], v, where + ": bounds[" + std::to_string(i) + "]"))) return s;
-      pm.bounds[i] = float(v);
-      if (!std::isfinite(pm.bounds[i])) return fail(where + ": bounds out of float range");
-    }
-    for (int i = 0; i < 3; ++i)
-      if (pm.bounds[i] > pm.bounds[i + 3]) return fail(where + ": bounds minimum above maximum");
-    auto bi = e.find("base_indices");
-    if (bi == e.end() || !bi->is_object())
-      return fail(where + ": \"base_indices\" missing or not an object");
-    std::string bwhere = where + " base_indices";
-    if (!(s = get_uint(*bi, "offset", file_size, pm.base_indices_offset, bwhere)) ||
-        !(s = get_uint(*bi, "size", file_size, pm.base_indices_size, bwhere)))
-      return s;
-    if (pm.base_indices_offset != end)
-      return fail(bwhere + ": offset " + std::to_string(pm.base_indices_offset) +
-                  " is not where the data before it ends (" + std::to_string(end) + ")");
-    if (pm.base_indices_size > file_size - pm.base_indices_offset)
-      return fail(bwhere + ": range past the end of the file");
-    if ((pm.base_faces == 0) != (pm.base_indices_size == 0) || pm.base_faces > pm.base_indices_size)
-      return fail(bwhere + ": " + std::to_string(pm.base_indices_size) + " bytes cannot hold " +
-                  std::to_string(pm.base_faces) + " faces");
-    end += pm.base_indices_size;
-    pkg.meshes.push_back(pm);
-  }
+  if (!(s = read_meshes(j, file_size, pkg, end))) return s;
 
   auto texture = j.find("texture");
   if (texture == j.end()) return fail("\"texture\" missing");
@@ -375,46 +431,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     pkg.chunks.push_back(std::move(c));
   }
 
-  auto orders = j.find("orders");
-  if (orders == j.end() || !orders->is_array() || orders->empty())
-    return fail("\"orders\" missing, not an array or empty");
-  const size_t n = pkg.chunks.size();
-  for (size_t o = 0; o < orders->size(); ++o) {
-    const Json& e = (*orders)[o];
-    std::string where = "order " + std::to_string(o);
-    if (!e.is_object()) return fail(where + " is not an object");
-    PackageOrder po;
-    auto name = e.find("name");
-    if (name == e.end() || !name->is_string() || name->get_ref<const std::string&>().empty())
-      return fail(where + ": \"name\" missing or not a non-empty string");
-    po.name = name->get<std::string>();
-    auto cs = e.find("chunks");
-    auto ds = e.find("distortion");
-    if (cs == e.end() || !cs->is_array() || cs->size() != n)
-      return fail(where + ": \"chunks\" is not one index per chunk");
-    if (ds == e.end() || !ds->is_array() || ds->size() != n)
-      return fail(where + ": \"distortion\" is not one number per chunk");
-    std::vector<bool> seen(n, false);
-    int64_t last_mesh = -1;
-    for (size_t i = 0; i < n; ++i) {
-      const Json& c = (*cs)[i];
-      if (!c.is_number_unsigned() || c.get<uint64_t>() >= n)
-        return fail(where + ": chunk index " + std::to_string(i) + " out of range");
-      uint32_t k = uint32_t(c.get<uint64_t>());
-      if (seen[k]) return fail(where + ": chunk " + std::to_string(k) + " listed twice");
-      seen[k] = true;
-      if (o == 0 && k != i) return fail(where + ": the first order is not the stored order");
-      if (pkg.chunks[k].kind == StreamStep::kMesh) {
-        if (int64_t(k) < last_mesh) return fail(where + ": mesh chunks out of order");
-        last_mesh = int64_t(k);
-      }
-      double d = 0;
-      if (!(s = get_finite((*ds)[i], d, where + ": distortion " + std::to_string(i)))) return s;
-      po.chunks.push_back(k);
-      po.distortion.push_back(d);
-    }
-    pkg.orders.push_back(std::move(po));
-  }
+  if (!(s = read_orders(j, pkg))) return s;
   return pkg;
 }
 

@@ -45,6 +45,8 @@
 #include <mutex>
 #include <string>
 
+#include "scene/dvec3.h"
+
 #ifndef GL_MAX_TEXTURE_MAX_ANISOTROPY
 #define GL_MAX_TEXTURE_MAX_ANISOTROPY 0x84FF
 #endif
@@ -88,33 +90,19 @@ std::map<EGLDisplay, int>& display_uses() {
 
 // ---- Matrices (double, column-major like Mat4) ---------------------------------------------
 
-struct D3 {
-  double x, y, z;
-};
-D3 sub(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-double dot3(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-D3 cross3(D3 a, D3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-D3 norm3(D3 a) {
-  double l = std::sqrt(dot3(a, a));
-  return l > 0 ? D3{a.x / l, a.y / l, a.z / l} : D3{0, 0, 0};
-}
-D3 to_d(Vec3 v) { return {v.x, v.y, v.z}; }
-
 // Look-at view matrix; `rows` receives the camera's right, up and backward axes in world space.
-Mat4 look_at(const Camera& c, D3 rows[3]) {
-  D3 eye = to_d(c.eye);
-  D3 f = norm3(sub(to_d(c.target), eye));
-  if (dot3(f, f) == 0) f = {0, 0, -1};
-  D3 up = norm3(to_d(c.up));
-  D3 s = norm3(cross3(f, up));
-  if (dot3(s, s) < 1e-12) {  // up parallel to the view direction: pick another up
-    up = std::abs(f.y) < 0.9 ? D3{0, 1, 0} : D3{1, 0, 0};
-    s = norm3(cross3(f, up));
+Mat4 look_at(const Camera& c, DVec3 rows[3]) {
+  DVec3 eye = to_dvec3(c.eye);
+  DVec3 f = normalize(sub(to_dvec3(c.target), eye));
+  if (dot(f, f) == 0) f = {0, 0, -1};
+  DVec3 up = normalize(to_dvec3(c.up));
+  DVec3 s = normalize(cross(f, up));
+  if (dot(s, s) < 1e-12) {  // up parallel to the view direction: pick another up
+    up = std::abs(f.y) < 0.9 ? DVec3{0, 1, 0} : DVec3{1, 0, 0};
+    s = normalize(cross(f, up));
   }
-  D3 u = cross3(s, f);
-  D3 b{-f.x, -f.y, -f.z};
+  DVec3 u = cross(s, f);
+  DVec3 b{-f.x, -f.y, -f.z};
   rows[0] = s;
   rows[1] = u;
   rows[2] = b;
@@ -123,7 +111,7 @@ Mat4 look_at(const Camera& c, D3 rows[3]) {
     v.at(i, 0) = rows[i].x;
     v.at(i, 1) = rows[i].y;
     v.at(i, 2) = rows[i].z;
-    v.at(i, 3) = -dot3(rows[i], eye);
+    v.at(i, 3) = -dot(rows[i], eye);
   }
   return v;
 }
@@ -579,16 +567,16 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
   bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
   bool textured = t >= 0 && size_t(t) < m.textures.size() && m.textures[t].id != 0;
   if (geometry_ok) {
-    D3 axes[3];
+    DVec3 axes[3];
     Mat4 view = look_at(camera, axes);
     Mat4 view_proj =
         perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) *
         view;
-    D3 l = norm3(to_d(o.light_direction));
+    DVec3 l = normalize(to_dvec3(o.light_direction));
     if (o.light_follows_camera)  // camera space → world: inverse (= transposed) view rotation
-      l = norm3({axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
-                 axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
-                 axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
+      l = normalize(DVec3{axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
+                          axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
+                          axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
 
     glUseProgram(m.program);
     glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));

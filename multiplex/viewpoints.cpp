@@ -6,20 +6,13 @@
 #include <map>
 #include <utility>
 
+#include "scene/dvec3.h"
+
 namespace meshmux {
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-struct D3 {
-  double x, y, z;
-};
-D3 to_d(Vec3 v) { return {v.x, v.y, v.z}; }
-double ddot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-D3 dcross(D3 a, D3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
 
 // Unit direction halfway (on the sphere) between two unit directions: the chord's midpoint
 // pushed out to the sphere. Computed in double, rounded once to float.
@@ -32,12 +25,12 @@ Vec3 sphere_midpoint(Vec3 a, Vec3 b) {
 // Coefficients (a, b, c) with d = a·A + b·B + c·C; false when the triangle's vertex
 // directions are degenerate (coplanar with the centre).
 bool solve_coefficients(Vec3 A, Vec3 B, Vec3 C, Vec3 d, double out[3]) {
-  D3 a = to_d(A), b = to_d(B), c = to_d(C), v = to_d(d);
-  double det = ddot(a, dcross(b, c));
+  DVec3 a = to_dvec3(A), b = to_dvec3(B), c = to_dvec3(C), v = to_dvec3(d);
+  double det = dot(a, cross(b, c));
   if (!(std::fabs(det) > 1e-300)) return false;
-  out[0] = ddot(v, dcross(b, c)) / det;
-  out[1] = ddot(a, dcross(v, c)) / det;
-  out[2] = ddot(a, dcross(b, v)) / det;
+  out[0] = dot(v, cross(b, c)) / det;
+  out[1] = dot(a, cross(v, c)) / det;
+  out[2] = dot(a, cross(b, v)) / det;
   return true;
 }
 

@@ -24,6 +24,8 @@
 #include <unordered_map>
 
 #include "clean/flatten.h"
+#include "scene/dvec3.h"
+#include "scene/position_key.h"
 
 namespace meshmux {
 
@@ -79,34 +81,20 @@ struct Quadric {
   }
 };
 
-struct V3 {
-  double x = 0, y = 0, z = 0;
-};
-V3 sub(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 crs(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double dt(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-V3 to3(Vec3 v) { return {v.x, v.y, v.z}; }
-
-uint32_t fbits(float f) {
-  if (f == 0) f = 0;
-  uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
-
 // The face P (mesh space) placed by M: world corners Q, unit normal, world area, and its
 // area-weighted plane quadric pulled back to mesh space (paper 001 equation 4: Tᵀ Q T).
-bool instance_plane(const V3 P[3], const Mat4& M, V3 Q[3], V3* un, double* area, Quadric* pq) {
+bool instance_plane(const DVec3 P[3], const Mat4& M, DVec3 Q[3], DVec3* un, double* area,
+                    Quadric* pq) {
   for (int i = 0; i < 3; ++i)
     Q[i] = {M.at(0, 0) * P[i].x + M.at(0, 1) * P[i].y + M.at(0, 2) * P[i].z + M.at(0, 3),
             M.at(1, 0) * P[i].x + M.at(1, 1) * P[i].y + M.at(1, 2) * P[i].z + M.at(1, 3),
             M.at(2, 0) * P[i].x + M.at(2, 1) * P[i].y + M.at(2, 2) * P[i].z + M.at(2, 3)};
-  V3 n = crs(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
-  double len = std::sqrt(dt(n, n));
+  DVec3 n = cross(sub(Q[1], Q[0]), sub(Q[2], Q[0]));
+  double len = std::sqrt(dot(n, n));
   if (!(len > 0)) return false;
   *area = 0.5 * len;
   *un = {n.x / len, n.y / len, n.z / len};
-  Quadric q = Quadric::plane(un->x, un->y, un->z, -dt(*un, Q[0]), *area);
+  Quadric q = Quadric::plane(un->x, un->y, un->z, -dot(*un, Q[0]), *area);
   *pq = M.is_identity() ? q : q.pulled_back(M);
   return true;
 }
@@ -155,15 +143,15 @@ std::vector<Placement> make_placements(const std::vector<Mat4>& transforms) {
 // Σᵢ |det Aᵢ| / |Aᵢ⁻ᵀ n̂|: the factor that turns the mesh-space plane quadric of a face (unit
 // normal n̂, weighted by its area) into the instance-summed one; adds the placed areas
 // (area₀ Σ |det Aᵢ| |Aᵢ⁻ᵀ n̂|) to *world_area.
-double placement_factor(const std::vector<Placement>& places, V3 un, double area0,
+double placement_factor(const std::vector<Placement>& places, DVec3 un, double area0,
                         double* world_area) {
   double factor = 0;
   for (const Placement& pl : places) {
     if (pl.absdet == 0) continue;
-    V3 m{pl.cof[0][0] * un.x + pl.cof[0][1] * un.y + pl.cof[0][2] * un.z,
-         pl.cof[1][0] * un.x + pl.cof[1][1] * un.y + pl.cof[1][2] * un.z,
-         pl.cof[2][0] * un.x + pl.cof[2][1] * un.y + pl.cof[2][2] * un.z};
-    double len = std::sqrt(dt(m, m));
+    DVec3 m{pl.cof[0][0] * un.x + pl.cof[0][1] * un.y + pl.cof[0][2] * un.z,
+            pl.cof[1][0] * un.x + pl.cof[1][1] * un.y + pl.cof[1][2] * un.z,
+            pl.cof[2][0] * un.x + pl.cof[2][1] * un.y + pl.cof[2][2] * un.z};
+    double len = std::sqrt(dot(m, m));
     factor += pl.absdet / len;
     *world_area += area0 * pl.absdet * len;
   }
@@ -186,7 +174,7 @@ struct Unit {
   std::vector<Vec3> wedge_normal;     // may be empty
   std::vector<double> attr;           // wedge × channels, weighted attribute values
   int channels = 0;
-  std::vector<V3> pos;            // position → mesh-space point
+  std::vector<DVec3> pos;         // position → mesh-space point
   std::vector<uint32_t> corners;  // face × 3 wedges (current, remapped as we go)
   std::vector<uint32_t> face_prim;
 };
@@ -361,18 +349,18 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
     if (pl.similar) sim_s2 += pl.s2, sim_s4 += pl.s2 * pl.s2;
   // Constraint planes on the open edges of face (corners P, positions p, unit normal un):
   // for similarities the mesh-space plane scaled by Σ s⁴ (weight Σ s² l²), else pulled back.
-  auto boundary = [&](const uint32_t p[3], const V3 P[3], const V3& un) {
+  auto boundary = [&](const uint32_t p[3], const DVec3 P[3], const DVec3& un) {
     for (int e = 0; e < 3; ++e) {
       if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
-      auto plane = [&](const V3 Q[3], const V3& n) {
-        V3 dv = sub(Q[(e + 1) % 3], Q[e]);
-        double l2 = dt(dv, dv);
-        V3 c = crs(dv, n);
-        double cl = std::sqrt(dt(c, c));
+      auto plane = [&](const DVec3 Q[3], const DVec3& n) {
+        DVec3 dv = sub(Q[(e + 1) % 3], Q[e]);
+        double l2 = dot(dv, dv);
+        DVec3 c = cross(dv, n);
+        double cl = std::sqrt(dot(c, c));
         if (!(l2 > 0) || !(cl > 0)) return Quadric{};
-        V3 cn{c.x / cl, c.y / cl, c.z / cl};
+        DVec3 cn{c.x / cl, c.y / cl, c.z / cl};
         // The constraint plane counts in the weight, so errors stay a weighted mean distance.
-        return Quadric::plane(cn.x, cn.y, cn.z, -dt(cn, Q[e]), l2 * opt_.boundary_weight);
+        return Quadric::plane(cn.x, cn.y, cn.z, -dot(cn, Q[e]), l2 * opt_.boundary_weight);
       };
       Quadric sum;
       if (sim_s4 > 0) {
@@ -382,7 +370,7 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
       for (size_t i = 0; i < places.size(); ++i) {
         if (places[i].similar || places[i].absdet == 0) continue;
         const Mat4& M = transforms[i];
-        V3 Q[3], n;
+        DVec3 Q[3], n;
         double area;
         Quadric pq;
         if (!instance_plane(P, M, Q, &n, &area, &pq)) continue;
@@ -397,10 +385,10 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   for (size_t f = 0; f < nf; ++f) {
     uint32_t w[3] = {u_.corners[3 * f], u_.corners[3 * f + 1], u_.corners[3 * f + 2]};
     uint32_t p[3] = {u_.wedge_pos[w[0]], u_.wedge_pos[w[1]], u_.wedge_pos[w[2]]};
-    V3 P[3] = {u_.pos[p[0]], u_.pos[p[1]], u_.pos[p[2]]};
+    DVec3 P[3] = {u_.pos[p[0]], u_.pos[p[1]], u_.pos[p[2]]};
     double world_area = 0;
     Quadric face_q;  // Σ over instances, pulled back to mesh space
-    V3 Q0[3], un;
+    DVec3 Q0[3], un;
     double area0;
     Quadric unit_q;
     if (instance_plane(P, identity, Q0, &un, &area0, &unit_q)) {
@@ -412,17 +400,17 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
     for (int i = 0; i < 3; ++i) pos_q_[p[i]].add(face_q);
     if (k == 0 || !(world_area > 0)) continue;
     // Attribute gradients in mesh space (Hoppe 1999), weighted by the world area.
-    V3 e1 = sub(P[1], P[0]), e2 = sub(P[2], P[0]), n = crs(e1, e2);
-    double n2 = dt(n, n);
+    DVec3 e1 = sub(P[1], P[0]), e2 = sub(P[2], P[0]), n = cross(e1, e2);
+    double n2 = dot(n, n);
     if (!(n2 > 0)) continue;
-    V3 a = crs(e2, n), b = crs(n, e1);
+    DVec3 a = cross(e2, n), b = cross(n, e1);
     Quadric aq;
     for (int j = 0; j < k; ++j) {
       double s0 = u_.attr[w[0] * size_t(k) + size_t(j)], s1 = u_.attr[w[1] * size_t(k) + size_t(j)],
              s2 = u_.attr[w[2] * size_t(k) + size_t(j)];
-      V3 gr{((s1 - s0) * a.x + (s2 - s0) * b.x) / n2, ((s1 - s0) * a.y + (s2 - s0) * b.y) / n2,
-            ((s1 - s0) * a.z + (s2 - s0) * b.z) / n2};
-      double d = s0 - dt(gr, P[0]);
+      DVec3 gr{((s1 - s0) * a.x + (s2 - s0) * b.x) / n2, ((s1 - s0) * a.y + (s2 - s0) * b.y) / n2,
+               ((s1 - s0) * a.z + (s2 - s0) * b.z) / n2};
+      double d = s0 - dot(gr, P[0]);
       double A = world_area;
       aq.a00 += A * gr.x * gr.x, aq.a01 += A * gr.x * gr.y, aq.a02 += A * gr.x * gr.z;
       aq.a11 += A * gr.y * gr.y, aq.a12 += A * gr.y * gr.z, aq.a22 += A * gr.z * gr.z;
@@ -497,7 +485,7 @@ void Simplifier::gather_neighbours(uint32_t p,
 }
 
 float Simplifier::cost(uint32_t a, uint32_t b) const {
-  const V3& P = u_.pos[b];
+  const DVec3& P = u_.pos[b];
   const Quadric &qa = pos_q_[a], &qb = pos_q_[b];
   double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
   double w = qa.w + qb.w;
@@ -605,7 +593,7 @@ Candidate Simplifier::best_candidate(uint32_t a) {
   for (const auto& n : nb_a_) {
     uint32_t b = n.first;
     if (border && n.second != 1) continue;  // border vertices slide along the border only
-    const V3& P = u_.pos[b];
+    const DVec3& P = u_.pos[b];
     const Quadric& qb = pos_q_[b];
     double w = qa.w + qb.w;
     double e = qa.eval(P.x, P.y, P.z) + qb.eval(P.x, P.y, P.z);
@@ -654,13 +642,13 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
     return 0;
   }
   // Flip check on the faces that move.
-  const V3 &Pa = u_.pos[a], &Pb = u_.pos[b];
+  const DVec3 &Pa = u_.pos[a], &Pb = u_.pos[b];
   for (const FanFace& f : fan_) {
     if (f.face == L || f.face == R) continue;
-    const V3 &P1 = u_.pos[f.p1], &P2 = u_.pos[f.p2];
-    V3 n0 = crs(sub(P1, Pa), sub(P2, Pa)), n1 = crs(sub(P1, Pb), sub(P2, Pb));
-    double d = dt(n0, n1), l1 = dt(n1, n1);
-    if (!(d > double(opt_.min_flip_cos) * std::sqrt(dt(n0, n0) * l1)) || !(l1 > 0)) {
+    const DVec3 &P1 = u_.pos[f.p1], &P2 = u_.pos[f.p2];
+    DVec3 n0 = cross(sub(P1, Pa), sub(P2, Pa)), n1 = cross(sub(P1, Pb), sub(P2, Pb));
+    double d = dot(n0, n1), l1 = dot(n1, n1);
+    if (!(d > double(opt_.min_flip_cos) * std::sqrt(dot(n0, n0) * l1)) || !(l1 > 0)) {
       ++report_.refused_flip;
       return 0;
     }
@@ -839,16 +827,14 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     uint32_t first = uint32_t(u.wedge_pos.size());
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       Vec3 x = p.positions[v];
-      uint64_t h = (uint64_t(fbits(x.x)) * 0x9E3779B97F4A7C15ull) ^
-                   (uint64_t(fbits(x.y)) * 0xC2B2AE3D27D4EB4Full) ^
-                   (uint64_t(fbits(x.z)) * 0x165667B19E3779F9ull);
+      uint64_t h = position_hash(x);
       auto& bucket = pos_of[h];
       uint32_t pid = UINT32_MAX;
       for (uint32_t c : bucket)
         if (u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z) pid = c;
       if (pid == UINT32_MAX) {
         pid = uint32_t(u.pos.size());
-        u.pos.push_back(to3(x));
+        u.pos.push_back(to_dvec3(x));
         bucket.push_back(pid);
       }
       uint32_t w = uint32_t(u.wedge_pos.size());
@@ -961,7 +947,7 @@ InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& sc
 
 std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
                                              const std::vector<Mat4>& transforms) {
-  V3 P[3] = {to3(a), to3(b), to3(c)}, Q[3], un;
+  DVec3 P[3] = {to_dvec3(a), to_dvec3(b), to_dvec3(c)}, Q[3], un;
   double area0, world_area = 0;
   Quadric unit_q, sum;
   if (instance_plane(P, Mat4::identity(), Q, &un, &area0, &unit_q))

@@ -4,7 +4,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -385,29 +384,6 @@ TEST(Render, RemovedOrInvalidHandlesDrawNothing) {
   p.uvs.clear();
   p.indices.insert(p.indices.end(), {0, 1, 77});
   EXPECT_GT(covered(r->render(r->add_geometry(single(p)), -1, head_on(1))), size_t(0));
-}
-
-TEST(Render, TimingFiftyThousandTriangles) {
-  MAKE_RENDERER(r, RenderOptions{});
-  Scene s = sphere(200, 125);  // 50,000 triangles
-  ASSERT_EQ(s.meshes[0].primitives[0].triangle_count(), size_t(50000));
-  auto t0 = std::chrono::steady_clock::now();
-  int g = r->add_geometry(s);
-  int t = r->add_texture(gradient(512));
-  auto t1 = std::chrono::steady_clock::now();
-  Camera cam;
-  cam.eye = {1.5f, 1.2f, 2.0f};
-  r->render(g, t, cam);  // warm-up (shader JIT)
-  const int runs = 10;
-  auto t2 = std::chrono::steady_clock::now();
-  size_t cov = 0;
-  for (int i = 0; i < runs; ++i) cov += covered(r->render(g, t, cam));
-  auto t3 = std::chrono::steady_clock::now();
-  EXPECT_GT(cov, size_t(0));
-  double upload = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  double each = std::chrono::duration<double, std::milli>(t3 - t2).count() / runs;
-  std::printf("[render] 50k triangles, 256x256, textured 512^2: upload %.1f ms, %.2f ms/render\n",
-              upload, each);
 }
 
 }  // namespace
