@@ -69,6 +69,8 @@ const char* kUsage =
     "  --position-bits N   Draco position quantization bits (default 14)\n"
     "  --normal-bits N     Draco normal quantization bits (default 10)\n"
     "  --uv-bits N         Draco texture coordinate quantization bits (default 12)\n"
+    "  --jpeg-quality N    JPEG quality of the texture levels, 1-100 (default 85); model.glb\n"
+    "                      embeds the top level, the stream every level\n"
     "  --no-draco          write plain (uncompressed) accessors\n"
     "  --no-atlas          keep the source materials and textures (no single-texture atlas)\n"
     "  --no-report         folder output: skip the rendered rate-distortion report\n"
@@ -244,22 +246,32 @@ int cmd_convert(const std::vector<std::string>& args) {
   while (p.next()) {
     const std::string& a = p.current();
     std::string v, err;
-    int* bits = a == "--position-bits" ? &o.gltf.position_bits
-                : a == "--normal-bits" ? &o.gltf.normal_bits
-                : a == "--uv-bits"     ? &o.gltf.uv_bits
-                                       : nullptr;
-    int crease = 0;
+    // Whole-number flags: where the value goes and its range.
+    struct IntFlag {
+      const char* name;
+      int* target;
+      int lo, hi;
+    };
+    int crease = -1;
+    const IntFlag flags[] = {{"--position-bits", &o.gltf.position_bits, 1, 30},
+                             {"--normal-bits", &o.gltf.normal_bits, 1, 30},
+                             {"--uv-bits", &o.gltf.uv_bits, 1, 30},
+                             {"--jpeg-quality", &o.textures.jpeg_quality, 1, 100},
+                             {"--crease", &crease, 0, 180}};
+    const IntFlag* flag = nullptr;
+    for (const IntFlag& f : flags)
+      if (a == f.name) flag = &f;
     if (a == "--no-draco") {
       o.gltf.draco = false;
     } else if (a == "--no-atlas") {
       o.atlas = false;
     } else if (a == "--no-report") {
       o.report = false;
-    } else if (bits || a == "--crease") {
+    } else if (flag) {
       if (!p.value(&v)) return usage_error(p.error);
-      if (!parse_int(a, v, bits ? 1 : 0, bits ? 30 : 180, bits ? bits : &crease, &err))
+      if (!parse_int(a, v, flag->lo, flag->hi, flag->target, &err))
         return usage_error("convert: " + err);
-      if (!bits) o.clean.crease_angle_degrees = float(crease);
+      if (crease >= 0) o.clean.crease_angle_degrees = float(crease);
     } else if (int r = p.common(); r <= 0) {
       return usage_error(r < 0 ? p.error : "convert: unknown option " + a);
     }

@@ -16,14 +16,26 @@ namespace {
 
 // The built-in sample: textured (so there are texture levels), one column instanced many
 // times beside unique meshes (so there are mesh layers over several submeshes). Big enough
-// that the base is not the whole mesh, small enough to convert in seconds.
-Scene sample() {
-  SampleOptions o;
-  o.columns_per_side = 10;
-  o.column_segments = 48;
-  o.ground_cells = 96;
-  o.texture_size = 512;
-  return make_sample_scene(o);
+// that the base is not the whole mesh (48k scene triangles), small enough to convert in 2 s.
+Scene sample() { return make_sample_scene(SampleOptions{}); }
+
+// One default conversion of the sample, shared by the tests below (a conversion takes
+// seconds), with what the encoders counted while it ran.
+struct Converted {
+  Result<ConvertOutputs> out = Status::error("not run", ErrorKind::kInternal);
+  uint64_t images = 0, parts = 0;  // images and mesh parts encoded during the conversion
+};
+const Converted& converted() {
+  static const Converted c = [] {
+    Converted r;
+    Scene scene = sample();
+    uint64_t images0 = images_encoded(), parts0 = mesh_parts_encoded();
+    Warnings warnings;
+    r.out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+    r.images = images_encoded() - images0, r.parts = mesh_parts_encoded() - parts0;
+    return r;
+  }();
+  return c;
 }
 
 // Issue 1/8: the texture levels are encoded once (model.glb, base.glb and the package's base
@@ -33,12 +45,9 @@ Scene sample() {
 TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene = sample();
-  uint64_t images0 = images_encoded(), parts0 = mesh_parts_encoded();
-  Warnings warnings;
-  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  const auto& out = converted().out;
   ASSERT_TRUE(out.ok()) << out.status().message();
-  uint64_t images = images_encoded() - images0, parts = mesh_parts_encoded() - parts0;
+  uint64_t images = converted().images, parts = converted().parts;
   ASSERT_FALSE(out->package.empty()) << out->not_streamed;
   auto pkg = read_package(out->package);
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
@@ -62,9 +71,7 @@ TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
 TEST(Convert, FolderOutputsAreAllThereAndSingleFileSkipsTheRest) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene = sample();
-  Warnings warnings;
-  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  const auto& out = converted().out;
   ASSERT_TRUE(out.ok()) << out.status().message();
   EXPECT_FALSE(out->model_glb.empty());
   EXPECT_FALSE(out->base_glb.empty());
@@ -75,7 +82,8 @@ TEST(Convert, FolderOutputsAreAllThereAndSingleFileSkipsTheRest) {
   EXPECT_LT(out->base_triangles, out->output.scene_triangles);
   ConvertOptions single;
   single.stream = false;
-  auto one = convert(scene, single, &warnings, nullptr);
+  Warnings warnings;
+  auto one = convert(sample(), single, &warnings, nullptr);
   ASSERT_TRUE(one.ok()) << one.status().message();
   EXPECT_EQ(one->model_glb, out->model_glb) << "model.glb does not depend on the stream";
   EXPECT_TRUE(one->base_glb.empty());
@@ -89,9 +97,7 @@ TEST(Convert, FolderOutputsAreAllThereAndSingleFileSkipsTheRest) {
 TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene = sample();
-  Warnings warnings;
-  auto out = convert(scene, ConvertOptions{}, &warnings, nullptr);
+  const auto& out = converted().out;
   ASSERT_TRUE(out.ok()) << out.status().message();
   auto pkg = read_package(out->package);
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();

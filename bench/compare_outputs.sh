@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Converts every shared model with two meshmux binaries (say, a build of main before a change
+# and one after) and prints, per model, whether model.glb, model.mmxp and base.glb are
+# byte-identical, with their sizes. For a stream package that differs it also says whether the
+# bytes after the JSON table (base .glb, base faces, chunks) are the same, i.e. only the table
+# changed. Extra arguments go to both conversions (e.g. --jpeg-quality 90).
+# usage: bench/compare_outputs.sh OLD_MESHMUX NEW_MESHMUX [convert options...]
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+old=$1 new=$2
+shift 2
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+data_after_table() {  # bytes of a package after its 12-byte header and JSON table
+  local j
+  j=$(od -An -t u4 -j 8 -N 4 "$1" | tr -d ' ')
+  tail -c +$((12 + j + 1)) "$1"
+}
+printf '| model | model.glb | model.mmxp | base.glb (old → new bytes) |\n|---|---|---|---|\n'
+for dir in "$here"/../shared/models/*/; do
+  name=$(basename "$dir")
+  file=$(ls "$dir" | grep -i -E '\.(glb|gltf|dae)$' | head -n 1 || true)
+  [ -n "$file" ] || continue
+  for side in old new; do
+    bin=$old
+    [ $side = new ] && bin=$new
+    "$bin" convert "$dir$file" -o "$work/$side/$name" -q "$@" 2>/dev/null || true
+  done
+  row="| $name"
+  for f in model.glb model.mmxp base.glb; do
+    a="$work/old/$name/$f" b="$work/new/$name/$f"
+    if [ ! -f "$a" ] && [ ! -f "$b" ]; then cell="—"
+    elif [ ! -f "$a" ] || [ ! -f "$b" ]; then cell="only one side"
+    elif cmp -s "$a" "$b"; then cell="identical ($(stat -c %s "$a") B)"
+    elif [ $f = model.mmxp ] && cmp -s <(data_after_table "$a") <(data_after_table "$b"); then
+      cell="table only ($(stat -c %s "$a") → $(stat -c %s "$b") B)"
+    else cell="differs ($(stat -c %s "$a") → $(stat -c %s "$b") B)"; fi
+    row="$row | $cell"
+  done
+  echo "$row |"
+done
