@@ -3,7 +3,8 @@
 # and one after) and prints, per model, whether model.glb, model.mmxp and base.glb are
 # byte-identical, with their sizes. For a stream package that differs it also says whether the
 # bytes after the JSON table (base .glb, base faces, chunks) are the same, i.e. only the table
-# changed. Extra arguments go to both conversions (e.g. --jpeg-quality 90).
+# changed. Extra arguments go to the new binary's conversions only (e.g. --jpeg-quality 90, to
+# take a deliberate default change out of the comparison).
 # usage: bench/compare_outputs.sh OLD_MESHMUX NEW_MESHMUX [convert options...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -21,11 +22,8 @@ for dir in "$here"/../shared/models/*/; do
   name=$(basename "$dir")
   file=$(ls "$dir" | grep -i -E '\.(glb|gltf|dae)$' | head -n 1 || true)
   [ -n "$file" ] || continue
-  for side in old new; do
-    bin=$old
-    [ $side = new ] && bin=$new
-    "$bin" convert "$dir$file" -o "$work/$side/$name" -q "$@" 2>/dev/null || true
-  done
+  "$old" convert "$dir$file" -o "$work/old/$name" -q 2>/dev/null || true
+  "$new" convert "$dir$file" -o "$work/new/$name" -q "$@" 2>/dev/null || true
   row="| $name"
   for f in model.glb model.mmxp base.glb; do
     a="$work/old/$name/$f" b="$work/new/$name/$f"
