@@ -87,6 +87,11 @@ double rad(double deg) { return deg * kPi / 180.0; }
 
 }  // namespace
 
+double srgb_decode(double c) {
+  if (!(c > 0)) return 0;  // also NaN
+  return decode_exact(std::min(c, 1.0));
+}
+
 float srgb_to_linear(uint8_t v) { return decode_table()[v]; }
 
 uint8_t linear_to_srgb(float v) {

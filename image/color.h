@@ -15,6 +15,9 @@ namespace meshmux {
 
 // sRGB-encoded byte → linear in [0, 1] (table lookup).
 float srgb_to_linear(uint8_t v);
+// The exact IEC 61966-2-1 decoding curve on [0, 1] (sRGB-encoded value → linear; clamped,
+// NaN → 0): for colours given as display values (COLLADA's, for one).
+double srgb_decode(double c);
 // Linear → sRGB byte, rounding the exact encoding (clamped; NaN → 0). O(1), no pow.
 uint8_t linear_to_srgb(float v);
 

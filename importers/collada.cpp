@@ -49,6 +49,7 @@
 #include <new>
 #include <type_traits>
 
+#include "image/color.h"
 #include "image/decode.h"
 #include "scene/file_io.h"
 
@@ -91,6 +92,8 @@ Mat4 to_mat4(const aiMatrix4x4& a) {
 }
 
 float clamp01(float x) { return std::isfinite(x) ? std::min(1.0f, std::max(0.0f, x)) : 0.0f; }
+// A COLLADA colour component (a display value, sRGB-encoded) as the linear factor glTF holds.
+float display_to_linear(float x) { return float(srgb_decode(double(clamp01(x)))); }
 
 Wrap to_wrap(aiTextureMapMode m) {
   if (m == aiTextureMapMode_Clamp || m == aiTextureMapMode_Decal) return Wrap::kClampToEdge;
@@ -198,7 +201,8 @@ class Converter {
       prim.colors.resize(n);
       for (size_t v = 0; v < n; ++v) {
         const aiColor4D& c = am.mColors[0][v];
-        prim.colors[v] = {c.r, c.g, c.b, c.a};
+        prim.colors[v] = {display_to_linear(c.r), display_to_linear(c.g), display_to_linear(c.b),
+                          c.a};
       }
     }
     prim.material = material(am.mMaterialIndex);
@@ -216,6 +220,8 @@ class Converter {
   }
 
   // COLLADA common profile → metallic-roughness:
+  // - colours (diffuse, emission, vertex colours) are display values, sRGB-encoded, as three.js's
+  //   ColladaLoader and common viewers read them: decoded to the linear factors glTF holds;
   // - base colour = diffuse colour (its alpha is ignored: COLLADA's transparency lives in
   //   <transparent>/<transparency>, which Assimp folds into AI_MATKEY_OPACITY); a diffuse
   //   texture, once loaded, replaces the factor with (1, 1, 1, opacity);
@@ -238,7 +244,8 @@ class Converter {
       warn(prefix() + ": material '" + mat.name + "': transparency makes it invisible; opaque");
       opacity = 1;
     }
-    mat.base_color_factor = {clamp01(diffuse.r), clamp01(diffuse.g), clamp01(diffuse.b), opacity};
+    mat.base_color_factor = {display_to_linear(diffuse.r), display_to_linear(diffuse.g),
+                             display_to_linear(diffuse.b), opacity};
     if (opacity < 1) mat.alpha_mode = AlphaMode::kBlend;
 
     int two_sided = 0;
@@ -256,7 +263,8 @@ class Converter {
 
     aiColor3D emissive(0, 0, 0);
     if (am.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS)
-      mat.emissive_factor = {clamp01(emissive.r), clamp01(emissive.g), clamp01(emissive.b)};
+      mat.emissive_factor = {display_to_linear(emissive.r), display_to_linear(emissive.g),
+                             display_to_linear(emissive.b)};
 
     aiString path;
     aiTextureMapMode modes[2] = {aiTextureMapMode_Wrap, aiTextureMapMode_Wrap};

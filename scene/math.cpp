@@ -121,10 +121,12 @@ Vec3 Mat4::transform_normal(Vec3 n) const {
   double c20 = at(0, 1) * at(1, 2) - at(0, 2) * at(1, 1);
   double c21 = at(0, 2) * at(1, 0) - at(0, 0) * at(1, 2);
   double c22 = at(0, 0) * at(1, 1) - at(0, 1) * at(1, 0);
+  // n' = C n (row i of the cofactor matrix C dotted with n): C = det · A⁻ᵀ. (Cᵀ n, the
+  // adjugate, would be ∝ A⁻¹ and turn a rotation's normals by Rᵀ.)
   double d = det3() < 0 ? -1.0 : 1.0;
-  Vec3 r{float(d * (c00 * n.x + c10 * n.y + c20 * n.z)),
-         float(d * (c01 * n.x + c11 * n.y + c21 * n.z)),
-         float(d * (c02 * n.x + c12 * n.y + c22 * n.z))};
+  Vec3 r{float(d * (c00 * n.x + c01 * n.y + c02 * n.z)),
+         float(d * (c10 * n.x + c11 * n.y + c12 * n.z)),
+         float(d * (c20 * n.x + c21 * n.y + c22 * n.z))};
   return normalize(r);
 }
 

@@ -100,5 +100,44 @@ TEST(MathInverse, InverseTimesMatrixIsIdentity) {
   EXPECT_TRUE((m.inverse() * m).is_identity(1e-12));
 }
 
+// Issue 2/8: normals of rotated instances pointed the wrong way once flattened (the adjugate,
+// ∝ the inverse, was applied instead of the inverse transpose: Rᵀ for a rotation R). A normal
+// must turn with its surface: rotating the plane x = 0 by 90° about z gives the plane y = 0.
+TEST(MathTransformNormal, RotationTurnsNormalsWithTheSurface) {
+  const double h = std::sqrt(0.5);
+  Mat4 r = Mat4::rotation(0, 0, h, h);  // 90° about +z: x → y
+  Vec3 n = r.transform_normal({1, 0, 0});
+  EXPECT_NEAR(n.x, 0, 1e-6);
+  EXPECT_NEAR(n.y, 1, 1e-6);
+  EXPECT_NEAR(n.z, 0, 1e-6);
+  // A general rotation: the transformed normal equals the rotated vector.
+  double q[4] = {0.2, -0.3, 0.1, 0.5}, t[3] = {0, 0, 0}, one[3] = {1, 1, 1};
+  double l = std::sqrt(0.04 + 0.09 + 0.01 + 0.25);
+  for (double& c : q) c /= l;
+  Mat4 g = Mat4::trs(t, q, one);
+  Vec3 v = normalize(Vec3{0.3f, -0.8f, 0.5f});
+  Vec3 a = g.transform_normal(v), b = g.transform_vector(v);
+  EXPECT_NEAR(a.x, b.x, 1e-6);
+  EXPECT_NEAR(a.y, b.y, 1e-6);
+  EXPECT_NEAR(a.z, b.z, 1e-6);
+}
+
+// Under a non-uniform scale with rotation the normal stays perpendicular to the transformed
+// surface: for the plane spanned by e1, e2 with normal e1 × e2, M n ∥ (M e1) × (M e2).
+TEST(MathTransformNormal, StaysPerpendicularUnderNonUniformScaleAndMirror) {
+  double q[4] = {0.1, 0.4, -0.2, 0.8}, t[3] = {5, 6, 7}, s[3] = {2, -0.5, 3};
+  double l = std::sqrt(0.01 + 0.16 + 0.04 + 0.64);
+  for (double& c : q) c /= l;
+  Mat4 m = Mat4::trs(t, q, s);
+  Vec3 e1 = normalize(Vec3{1, 2, 0.5f}), e2 = normalize(Vec3{-0.3f, 0.4f, 1});
+  Vec3 n = m.transform_normal(normalize(cross(e1, e2)));
+  Vec3 expect = normalize(cross(m.transform_vector(e1), m.transform_vector(e2)));
+  // A mirror (det < 0) swaps the winding, so the surface's front normal is −(M e1 × M e2).
+  if (m.det3() < 0) expect = expect * -1.0f;
+  EXPECT_NEAR(n.x, expect.x, 1e-5);
+  EXPECT_NEAR(n.y, expect.y, 1e-5);
+  EXPECT_NEAR(n.z, expect.z, 1e-5);
+}
+
 }  // namespace
 }  // namespace meshmux

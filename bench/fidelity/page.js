@@ -1,0 +1,157 @@
+// The fidelity harness's page (bench/fidelity.mjs drives it in headless chromium): loads a
+// model with three.js's own loaders (GLTFLoader with DRACOLoader and the meshopt decoder, or
+// ColladaLoader), renders it with its materials under RoomEnvironment (lit) or with base colour
+// × alpha only (unlit), from cameras the driver gives, and measures how much of the surface is
+// shaded against its winding. meshmux's own renderer is not involved: this is the judge.
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
+import { ColladaLoader } from 'three/addons/loaders/ColladaLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
+
+const size = Number(new URLSearchParams(location.search).get('size') || 256);
+const canvas = document.createElement('canvas');
+canvas.width = canvas.height = size;
+document.body.appendChild(canvas);
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, alpha: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(1);
+renderer.setSize(size, size, false);
+renderer.setClearColor(0x000000, 0);
+renderer.outputColorSpace = THREE.SRGBColorSpace;
+renderer.toneMapping = THREE.NoToneMapping;
+const pmrem = new THREE.PMREMGenerator(renderer);
+const environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
+
+const draco = new DRACOLoader().setDecoderPath('/three/examples/jsm/libs/draco/');
+const gltfLoader = new GLTFLoader().setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder);
+const models = [];
+
+async function load(url) {
+  if (/\.dae$/i.test(url)) {
+    const collada = await new ColladaLoader().loadAsync(url);
+    return collada.scene;
+  }
+  const gltf = await gltfLoader.loadAsync(url);
+  return gltf.scene || gltf.scenes[0];
+}
+
+// The unlit twin of a material: base colour (factor × map × vertex colour) and alpha only.
+function unlit(m) {
+  const u = new THREE.MeshBasicMaterial({
+    color: m.color ? m.color.clone() : new THREE.Color(1, 1, 1),
+    map: m.map || null,
+    vertexColors: !!m.vertexColors,
+    transparent: !!m.transparent,
+    opacity: m.opacity ?? 1,
+    alphaTest: m.alphaTest || 0,
+    side: m.side,
+  });
+  return u;
+}
+
+function meshes(root) {
+  const out = [];
+  root.updateMatrixWorld(true);
+  root.traverse((o) => { if (o.isMesh) out.push(o); });
+  return out;
+}
+
+// Share of the surface area (world space) whose interpolated shading normal, at the triangle's
+// centre, points against the triangle's winding normal (mirroring transforms accounted for).
+function normalsAgainstWinding(root) {
+  let against = 0, total = 0;
+  const a = new THREE.Vector3(), b = new THREE.Vector3(), c = new THREE.Vector3();
+  const na = new THREE.Vector3(), nb = new THREE.Vector3(), nc = new THREE.Vector3();
+  const e1 = new THREE.Vector3(), e2 = new THREE.Vector3(), g = new THREE.Vector3(), n = new THREE.Vector3();
+  for (const mesh of meshes(root)) {
+    const geo = mesh.geometry, pos = geo.getAttribute('position'), nrm = geo.getAttribute('normal');
+    if (!pos || !nrm) continue;
+    const instances = mesh.isInstancedMesh ? mesh.count : 1;
+    const im = new THREE.Matrix4(), world = new THREE.Matrix4(), nmat = new THREE.Matrix3();
+    const index = geo.index, count = index ? index.count : pos.count;
+    for (let k = 0; k < instances; ++k) {
+      world.copy(mesh.matrixWorld);
+      if (mesh.isInstancedMesh) { mesh.getMatrixAt(k, im); world.multiply(im); }
+      nmat.getNormalMatrix(world);
+      for (let t = 0; t + 2 < count; t += 3) {
+        const i0 = index ? index.getX(t) : t, i1 = index ? index.getX(t + 1) : t + 1, i2 = index ? index.getX(t + 2) : t + 2;
+        a.fromBufferAttribute(pos, i0).applyMatrix4(world);
+        b.fromBufferAttribute(pos, i1).applyMatrix4(world);
+        c.fromBufferAttribute(pos, i2).applyMatrix4(world);
+        g.crossVectors(e1.subVectors(b, a), e2.subVectors(c, a));
+        const area = 0.5 * g.length();
+        if (!(area > 0)) continue;
+        na.fromBufferAttribute(nrm, i0); nb.fromBufferAttribute(nrm, i1); nc.fromBufferAttribute(nrm, i2);
+        n.copy(na).add(nb).add(nc).applyMatrix3(nmat);
+        // A mirroring world transform flips the winding that three.js draws as front.
+        const mirrored = world.determinant() < 0;
+        const d = n.dot(g) * (mirrored ? -1 : 1);
+        total += area;
+        if (d < 0) against += area;
+      }
+    }
+  }
+  return { against, total, share: total > 0 ? against / total : 0 };
+}
+
+// The harness renders every model with MeshStandardMaterial (issue 2/8): a loader's Phong or
+// Lambert material (COLLADA's common profile) becomes the dielectric a PBR viewer shows for
+// it: metalness 0, roughness from the Blinn-Phong exponent n through the Beckmann match
+// α = sqrt(2 / (n + 2)), α = roughness² (Lambert: 1). Unlit materials stay unlit.
+function standard(m) {
+  if (!m || m.isMeshStandardMaterial || m.isMeshBasicMaterial) return m;
+  const s = new THREE.MeshStandardMaterial({
+    color: m.color ? m.color.clone() : new THREE.Color(1, 1, 1), map: m.map || null,
+    emissive: m.emissive ? m.emissive.clone() : new THREE.Color(0, 0, 0), emissiveMap: m.emissiveMap || null,
+    normalMap: m.normalMap || null, vertexColors: !!m.vertexColors, transparent: !!m.transparent,
+    opacity: m.opacity ?? 1, alphaTest: m.alphaTest || 0, side: m.side, metalness: 0,
+    roughness: m.isMeshPhongMaterial ? Math.pow(2 / (Math.max(0, m.shininess ?? 30) + 2), 0.25) : 1,
+  });
+  s.name = m.name;
+  return s;
+}
+
+window.fidelity = {
+  // Loads a model; returns its handle, world bounds and normal statistics.
+  async load(url) {
+    const root = await load(url);
+    root.traverse((o) => {
+      if (o.isMesh) o.material = Array.isArray(o.material) ? o.material.map(standard) : standard(o.material);
+    });
+    const box = new THREE.Box3().setFromObject(root, true);
+    const lit = root, flat = root.clone(true);
+    flat.traverse((o) => {
+      if (!o.isMesh) return;
+      o.material = Array.isArray(o.material) ? o.material.map(unlit) : unlit(o.material);
+    });
+    models.push({ lit, flat });
+    const c = box.getCenter(new THREE.Vector3()), r = 0.5 * box.getSize(new THREE.Vector3()).length();
+    return { handle: models.length - 1, center: c.toArray(), radius: r, min: box.min.toArray(), max: box.max.toArray(),
+      normals: normalsAgainstWinding(root) };
+  },
+  // Renders model `handle` lit (its materials, RoomEnvironment) or unlit from a camera
+  // {eye, target, up, fov, near, far}; returns base64 RGBA, rows top first, alpha 0 = background.
+  render(handle, camera, mode) {
+    const m = models[handle];
+    const scene = new THREE.Scene();
+    scene.environment = mode === 'lit' ? environment : null;
+    scene.add(mode === 'lit' ? m.lit : m.flat);
+    const cam = new THREE.PerspectiveCamera(camera.fov, 1, camera.near, camera.far);
+    cam.position.fromArray(camera.eye);
+    cam.up.fromArray(camera.up);
+    cam.lookAt(new THREE.Vector3().fromArray(camera.target));
+    cam.updateProjectionMatrix();
+    renderer.render(scene, cam);
+    scene.remove(mode === 'lit' ? m.lit : m.flat);
+    const gl = renderer.getContext();
+    const px = new Uint8Array(size * size * 4);
+    gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    const flipped = new Uint8Array(px.length);
+    for (let y = 0; y < size; ++y) flipped.set(px.subarray((size - 1 - y) * size * 4, (size - y) * size * 4), y * size * 4);
+    let s = '';
+    for (let i = 0; i < flipped.length; i += 0x8000) s += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
+    return btoa(s);
+  },
+};
+document.body.dataset.ready = '1';
