@@ -51,6 +51,7 @@
 
 #include "image/color.h"
 #include "image/decode.h"
+#include "importers/collada_bindings.h"
 #include "scene/file_io.h"
 
 namespace meshmux {
@@ -594,6 +595,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     // Our own checks first, for our own messages; Assimp then reads the file by path so that
     // it knows the folder textures are relative to.
     uint64_t file_bytes = 0;
+    std::map<std::string, unsigned> uv_sets;  // material → bound TEXCOORD set
     {
       auto bytes = read_whole_file(path, options.max_file_bytes);
       if (!bytes)
@@ -601,6 +603,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                              ErrorKind::kInput);
       if (bytes->empty()) return Status::error(stage + ": file is empty", ErrorKind::kInput);
       file_bytes = bytes->size();
+      uv_sets = collada_diffuse_uv_sets(*bytes);
     }
     Result<Parsed> parsed = parse_isolated(path, file_bytes, stage);
     if (!parsed) return parsed.status();
@@ -608,7 +611,11 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     Scene scene = std::move(parsed->scene);
     scene.source = path;
     TextureLoader loader(path, scene, options, warnings);
-    for (const TextureRequest& t : parsed->textures) loader.attach(t);
+    for (TextureRequest& t : parsed->textures) {
+      const Material& m = scene.materials[size_t(std::max(0, t.material))];
+      if (auto it = uv_sets.find(m.name); it != uv_sets.end() && t.material >= 0) t.uv = it->second;
+      loader.attach(t);
+    }
     Status valid = validate(scene, stage);
     if (!valid) return valid;
     return scene;

@@ -415,6 +415,50 @@ TEST(ColladaImport, TextureInASubfolderIsDecodedAndUvsFlipped) {
   EXPECT_TRUE(found);
 }
 
+// Issue 2/8: COLLADA colours are display values (sRGB-encoded), as three.js's ColladaLoader
+// and common viewers show them; glTF's factors are linear. A diffuse of 0.2227 shows as 57/255,
+// so its factor is srgb_decode(0.2227) ≈ 0.0406, not 0.2227 (which shows as 130/255).
+TEST(ColladaImport, ColoursAreDisplayValuesDecodedFromSrgb) {
+  TempDir dir;
+  std::string lib = material_library({{"grey", "0.2227 0.5 1 1", ""}});
+  std::string g = geometry("t", kTriangle, block("triangles", "grey", 1, "0 1 2", "t"));
+  auto scene =
+      import_text(dir, "grey.dae", document(g, node("n", "t", "", {"grey"}), lib), nullptr);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* m = find_material(*scene, "grey");
+  ASSERT_TRUE(m);
+  EXPECT_NEAR(m->base_color_factor.x, 0.04062, 2e-4);
+  EXPECT_NEAR(m->base_color_factor.y, 0.21404, 2e-4);
+  EXPECT_NEAR(m->base_color_factor.z, 1.0, 1e-6);
+  EXPECT_NEAR(m->base_color_factor.w, 1.0, 1e-6);
+}
+
+// Issue 2/8: a texture whose texcoord names a semantic ("CHANNEL1") that the instance binds to
+// uv set 0 (<bind_vertex_input semantic="CHANNEL1" input_semantic="TEXCOORD" input_set="0"/>)
+// reads uv set 0. Reading set 1 (the digit in the name), which does not exist, baked the atlas
+// one flat colour.
+TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
+  const std::vector<uint8_t> png = {
+      0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+      0x44, 0x52, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
+      0x00, 0x7b, 0x40, 0xe8, 0xdd, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x44, 0x41, 0x54, 0x78,
+      0x9c, 0x63, 0xf8, 0xcf, 0x00, 0x04, 0xff, 0x01, 0x07, 0x00, 0x01, 0xff, 0xe2, 0x23,
+      0x9e, 0x59, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+  TempDir dir;
+  testing::write_file(dir.file("t.png"), png);
+  std::string text = textured_document("t.png");
+  for (size_t at; (at = text.find("UV0")) != std::string::npos;) text.replace(at, 3, "CHANNEL1");
+  ASSERT_NE(text.find("input_semantic=\"TEXCOORD\" input_set=\"0\""), std::string::npos);
+  Warnings w;
+  auto scene = import_text(dir, "channel.dae", text, &w);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* tex = find_material(*scene, "tex");
+  ASSERT_TRUE(tex);
+  ASSERT_TRUE(tex->base_color.present());
+  EXPECT_EQ(tex->base_color.tex_coord, 0u);
+  for (const Primitive& p : scene->meshes[0].primitives) EXPECT_EQ(p.uvs.size(), 1u);
+}
+
 // ---- the shared models ---------------------------------------------------------------------
 
 Result<Scene> import_shared(const std::string& rel, Warnings* w = nullptr) {

@@ -1,0 +1,79 @@
+// COLLADA 1.4.1 specification, "bind_vertex_input" and "instance_material" (chapter 5/8): the
+// semantic of a <texture texcoord=...> is resolved through the bind_vertex_input elements of
+// the instance_material that binds the material to geometry.
+#include "importers/collada_bindings.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <pugixml.hpp>
+
+namespace meshmux {
+
+namespace {
+
+// "#id" → "id".
+std::string fragment(const char* url) { return url && url[0] == '#' ? url + 1 : std::string(); }
+
+// Descendants named `name` (namespaces ignored: COLLADA files use the default namespace).
+void collect(const pugi::xml_node& node, const char* name, std::vector<pugi::xml_node>& out) {
+  for (pugi::xml_node n = node.first_child(); n;) {
+    if (n.type() == pugi::node_element && std::strcmp(n.name(), name) == 0) out.push_back(n);
+    if (n.first_child()) {
+      n = n.first_child();
+      continue;
+    }
+    while (n && !n.next_sibling() && n != node) n = n.parent();
+    if (!n || n == node) break;
+    n = n.next_sibling();
+  }
+}
+
+}  // namespace
+
+std::map<std::string, unsigned> collada_diffuse_uv_sets(const std::vector<uint8_t>& xml) {
+  std::map<std::string, unsigned> out;
+  pugi::xml_document doc;
+  // No entity expansion of any kind: pugixml does not read DTDs or external entities.
+  if (!doc.load_buffer(xml.data(), xml.size(), pugi::parse_default & ~pugi::parse_doctype))
+    return out;
+  // effect id → the texcoord semantic of its diffuse texture.
+  std::map<std::string, std::string> effect_semantic;
+  std::vector<pugi::xml_node> effects;
+  collect(doc, "effect", effects);
+  for (const pugi::xml_node& e : effects) {
+    std::vector<pugi::xml_node> diffuse;
+    collect(e, "diffuse", diffuse);
+    for (const pugi::xml_node& d : diffuse)
+      if (pugi::xml_node t = d.child("texture"); t && t.attribute("texcoord"))
+        effect_semantic.emplace(e.attribute("id").value(), t.attribute("texcoord").value());
+  }
+  // material id → {its effect's semantic, its name}.
+  std::map<std::string, std::pair<std::string, std::string>> material;
+  std::vector<pugi::xml_node> materials;
+  collect(doc, "material", materials);
+  for (const pugi::xml_node& m : materials) {
+    auto it = effect_semantic.find(fragment(m.child("instance_effect").attribute("url").value()));
+    if (it != effect_semantic.end())
+      material[m.attribute("id").value()] = {it->second, m.attribute("name").value()};
+  }
+  // Each instance_material: the set its bind_vertex_input gives that semantic.
+  std::vector<pugi::xml_node> instances;
+  collect(doc, "instance_material", instances);
+  for (const pugi::xml_node& im : instances) {
+    std::string id = fragment(im.attribute("target").value());
+    auto it = material.find(id);
+    if (it == material.end()) continue;
+    for (pugi::xml_node b = im.child("bind_vertex_input"); b;
+         b = b.next_sibling("bind_vertex_input")) {
+      if (it->second.first != b.attribute("semantic").value() ||
+          std::strcmp(b.attribute("input_semantic").value(), "TEXCOORD") != 0)
+        continue;
+      unsigned set = b.attribute("input_set").as_uint(0);
+      out.emplace(id, set);
+      if (!it->second.second.empty()) out.emplace(it->second.second, set);
+    }
+  }
+  return out;
+}
+
+}  // namespace meshmux
