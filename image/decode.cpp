@@ -85,10 +85,14 @@ Status decode_image(Image& image, uint64_t max_pixels) {
     if (!in)
       return Status::error(name + ": no decoder for " + format + " images", ErrorKind::kInput);
     bool ok;
+    // Straight alpha, as PNG, TGA and WebP store it: without this OpenImageIO premultiplies
+    // RGB by alpha on the way in.
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
     if (in->supports("ioproxy")) {
       in->set_ioproxy(&proxy);
       OIIO::ImageSpec spec;
-      ok = in->open(pseudo_name, spec);
+      ok = in->open(pseudo_name, spec, config);
     } else {
       // Readers without in-memory support get a private temporary file.
       char tmpl[] = "/tmp/meshmux-image-XXXXXX";
@@ -101,7 +105,7 @@ Status decode_image(Image& image, uint64_t max_pixels) {
       Status w = write_file_atomic(tmp_path, image.encoded);
       if (!w) return Status::error(name + ": " + w.message(), ErrorKind::kInternal);
       OIIO::ImageSpec spec;
-      ok = in->open(tmp_path, spec);
+      ok = in->open(tmp_path, spec, config);
     }
     if (!ok) {
       std::string e = in->geterror();

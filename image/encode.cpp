@@ -55,6 +55,9 @@ Result<std::vector<uint8_t>> encode_png(const Image& image) {
     if (!out->supports("ioproxy"))
       return Status::error(where + ": PNG writer cannot write to memory", ErrorKind::kInternal);
     OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
+    // Our pixels carry straight alpha, as PNG does: without this OpenImageIO takes them for
+    // premultiplied and divides RGB by alpha on the way out (grey glass became white).
+    spec.attribute("oiio:UnassociatedAlpha", 1);
     if (!out->set_ioproxy(&proxy) || !out->open("image.png", spec))
       return Status::error(where + ": " + out->geterror(), ErrorKind::kInternal);
     if (!out->write_image(OIIO::TypeDesc::UINT8, src)) {

@@ -289,3 +289,60 @@ TEST(Atlas, DegenerateUvsAndUndecodedImagesStillBuild) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Two quads side by side, each its own material: a plain colour and a translucent grey glass.
+Scene glass_scene() {
+  Scene s;
+  Mesh mesh;
+  for (int q = 0; q < 2; ++q) {
+    Primitive p;
+    float x = float(q) * 1.5f;
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, Vec3{0, 0, 1});
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = q;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), "quads"});
+  Material red;
+  red.name = "red";
+  red.base_color_factor = {0.8f, 0.05f, 0.05f, 1};
+  Material glass;
+  glass.name = "glass";
+  glass.base_color_factor = {0.15f, 0.15f, 0.15f, 0.3f};
+  glass.alpha_mode = AlphaMode::kBlend;
+  s.materials = {red, glass};
+  return clean(s, {});
+}
+
+// Issue 2/8: a translucent colour keeps its RGB under its alpha. Grey glass (0.15, α 0.3) was
+// baked as (255, 255, 255, 77): every viewer then drew white glass.
+TEST(Atlas, TranslucentColourKeepsItsRgbUnderAlpha) {
+  Scene s = glass_scene();
+  AtlasReport r;
+  auto out = build_atlas(s, AtlasOptions{}, &r, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->images.size(), 1u);
+  const Image& atlas = out->images[0];
+  const Primitive& p = out->meshes[0].primitives[0];
+  // The glass quad's faces are the last two (faces keep their order); sample at their centroid.
+  ASSERT_EQ(p.indices.size(), 12u);
+  Vec2 uv{0, 0};
+  for (int k = 6; k < 12; ++k)
+    uv.x += p.uvs[0][p.indices[k]].x / 6, uv.y += p.uvs[0][p.indices[k]].y / 6;
+  int x = std::clamp(int(uv.x * float(atlas.width)), 0, atlas.width - 1);
+  int y = std::clamp(int(uv.y * float(atlas.height)), 0, atlas.height - 1);
+  const uint8_t* t = &atlas.rgba[(size_t(y) * size_t(atlas.width) + size_t(x)) * 4];
+  uint8_t grey = linear_to_srgb(0.15f);  // 108
+  EXPECT_NEAR(t[0], grey, 2);
+  EXPECT_NEAR(t[1], grey, 2);
+  EXPECT_NEAR(t[2], grey, 2);
+  EXPECT_NEAR(t[3], 77, 1);
+}
+
+}  // namespace
+}  // namespace meshmux
