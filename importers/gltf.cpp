@@ -24,6 +24,7 @@ namespace {
 // Extensions whose presence in extensionsRequired we can honour.
 const std::set<std::string> kSupportedRequired = {
     "KHR_draco_mesh_compression", "KHR_mesh_quantization", "KHR_texture_transform",
+    "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",    "KHR_materials_unlit",   "KHR_materials_emissive_strength",
 };
 
@@ -367,6 +368,10 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
                               const std::vector<std::pair<std::string, bool>>& normalized,
                               Primitive* out, std::string* error);
 
+// Rewrites a GLB using EXT_meshopt_compression into plain glTF (gltf_meshopt.cpp).
+Result<bool> decode_meshopt_glb(std::vector<uint8_t>& data, const std::string& file,
+                                uint64_t max_decoded);
+
 namespace {
 
 class Importer {
@@ -396,9 +401,17 @@ class Importer {
 
  private:
   Status check_extensions() {
-    for (const std::string& e : m_.extensionsRequired)
-      if (!kSupportedRequired.count(e))
-        return r_.err("", "required extension " + e + " is not supported");
+    for (const std::string& e : m_.extensionsRequired) {
+      if (kSupportedRequired.count(e)) continue;
+      if (e == "KHR_texture_basisu")
+        return r_.err("", "required extension KHR_texture_basisu is not supported: its textures "
+                          "are KTX2 / Basis Universal, which meshmux cannot decode (re-export "
+                          "them as PNG, JPEG or WebP)");
+      if (e == "EXT_meshopt_compression")
+        return r_.err("", "required extension EXT_meshopt_compression is supported in .glb "
+                          "files only (pack this .gltf into a .glb)");
+      return r_.err("", "required extension " + e + " is not supported");
+    }
     return Status::ok();
   }
 
@@ -435,6 +448,19 @@ class Importer {
     return Status::ok();
   }
 
+  // The image a texture shows: EXT_texture_webp's source when it decoded (WebP, which OpenImageIO
+  // reads), else the core source; -1 when neither gives a decoded image.
+  int texture_source(const tinygltf::Texture& t) const {
+    auto usable = [&](int i) {
+      return i >= 0 && size_t(i) < m_.images.size() && image_map_[size_t(i)] >= 0;
+    };
+    auto webp = t.extensions.find("EXT_texture_webp");
+    if (webp != t.extensions.end() && webp->second.Has("source") &&
+        webp->second.Get("source").IsInt() && usable(webp->second.Get("source").GetNumberAsInt()))
+      return webp->second.Get("source").GetNumberAsInt();
+    return usable(t.source) ? t.source : -1;
+  }
+
   TextureRef texture(int index, int tex_coord, const tinygltf::ExtensionMap& ext,
                      const std::string& where) {
     TextureRef ref;
@@ -445,9 +471,9 @@ class Importer {
       return ref;
     }
     const tinygltf::Texture& t = m_.textures[size_t(index)];
-    if (t.source < 0 || size_t(t.source) >= m_.images.size() || image_map_[size_t(t.source)] < 0)
-      return ref;  // no usable image (already warned about, or none given)
-    ref.image = image_map_[size_t(t.source)];
+    int source = texture_source(t);
+    if (source < 0) return ref;  // no usable image (already warned about, or none given)
+    ref.image = image_map_[size_t(source)];
     if (t.sampler >= 0 && size_t(t.sampler) < m_.samplers.size()) {
       const tinygltf::Sampler& s = m_.samplers[size_t(t.sampler)];
       auto wrap = [](int w) {
@@ -777,6 +803,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                                  std::to_string(declared) + " bytes, file has " +
                                  std::to_string(data.size()),
                              ErrorKind::kInput);
+      auto meshopt = decode_meshopt_glb(data, file, uint64_t(1) << 30);
+      if (!meshopt.ok()) return meshopt.status();
       drop_draco_index_accessors(data, true);
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(), unsigned(data.size()),
                                        dir);

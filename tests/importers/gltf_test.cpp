@@ -450,5 +450,61 @@ TEST(GltfImport, SharedModelHelmetDecodesEmbeddedJpegs) {
   EXPECT_EQ(st.texture_pixels, 5u * 2048u * 2048u);
 }
 
+// Issue 2/8: EXT_texture_webp (required, WebP-only textures) was refused. The texture's WebP
+// source now decodes: the duck has its 512² texture and one textured material.
+TEST(GltfImport, SharedModelWebpTexturesDecode) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto s = import_gltf(testing::shared_model("Duck-webp-gltf/Duck.gltf"), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  SceneStats st = compute_stats(*s);
+  EXPECT_EQ(st.scene_triangles, 4212u);
+  ASSERT_EQ(s->materials.size(), 1u);
+  ASSERT_TRUE(s->materials[0].base_color.present());
+  const Image& img = s->images[size_t(s->materials[0].base_color.image)];
+  EXPECT_TRUE(img.decoded());
+  EXPECT_EQ(img.mime_type, "image/webp");
+  EXPECT_EQ(img.width * img.height, 512 * 512);
+}
+
+// Issue 2/8: gltfpack output (EXT_meshopt_compression + KHR_mesh_quantization) was refused
+// ("Invalid byteLength"). Decoded, it is the same fox as the plain file: same triangles and,
+// to the quantization's precision, the same bounds.
+TEST(GltfImport, SharedModelMeshoptFoxMatchesThePlainFox) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  Warnings w;
+  auto packed = import_gltf(testing::shared_model("Fox-meshopt-glb/Fox.glb"), {}, &w);
+  ASSERT_TRUE(packed.ok()) << packed.status().message();
+  auto plain = import_gltf(testing::shared_model("Fox-glb/Fox.glb"), {}, nullptr);
+  ASSERT_TRUE(plain.ok()) << plain.status().message();
+  EXPECT_EQ(compute_stats(*packed).scene_triangles, compute_stats(*plain).scene_triangles);
+  Bounds a = scene_bounds(*packed), b = scene_bounds(*plain);
+  float tolerance = 0.002f * b.diagonal();
+  EXPECT_NEAR(a.min.x, b.min.x, tolerance);
+  EXPECT_NEAR(a.min.y, b.min.y, tolerance);
+  EXPECT_NEAR(a.max.z, b.max.z, tolerance);
+  EXPECT_NEAR(a.max.y, b.max.y, tolerance);
+}
+
+// Issue 2/8: a KTX2 / Basis Universal texture (required KHR_texture_basisu) cannot be decoded
+// here: one clear line naming the extension and what to do, exit 2, no output.
+TEST(GltfImport, BasisuTexturesAreOneClearError) {
+  TempDir dir;
+  testing::write_text(dir.file("basisu.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_texture_basisu"], "extensionsRequired": ["KHR_texture_basisu"],
+    "images": [{"uri": "t.ktx2", "mimeType": "image/ktx2"}],
+    "textures": [{"extensions": {"KHR_texture_basisu": {"source": 0}}}],
+    "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+    "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0})");
+  auto s = import_gltf(dir.file("basisu.gltf"), {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  const std::string& m = s.status().message();
+  EXPECT_NE(m.find("basisu.gltf"), std::string::npos) << m;
+  EXPECT_NE(m.find("KHR_texture_basisu"), std::string::npos) << m;
+  EXPECT_NE(m.find("PNG, JPEG or WebP"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  EXPECT_EQ(s.status().kind(), ErrorKind::kInput);
+}
+
 }  // namespace
 }  // namespace meshmux
