@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <numeric>
+#include <tuple>
 #include <unordered_map>
 
 #include "scene/position_key.h"
@@ -385,10 +386,34 @@ void stretch_figures(const FlatCharts& fc, AtlasReport* rep) {
   if (wsum > 0) rep->mean_stretch_l2 /= wsum;
 }
 
-// Step 5a: the one material, its factors area-weighted over the faces of the source materials
-// (metallic, roughness), its alpha mode the strongest present; `dropped` when a source had
-// maps the atlas does not bake.
-Material merged_material(const Scene& scene, const std::vector<MeshView>& views, bool* dropped) {
+// Step 5a: one material per group of source materials that agree on how alpha and back faces
+// show (alpha mode with its cutoff, double-sidedness, unlit): every group samples the one atlas,
+// so a model costs one draw call per group present (usually one).
+struct GroupKey {
+  int alpha_mode = 0;
+  float cutoff = 0.5f;
+  bool double_sided = false, unlit = false;
+  bool operator<(const GroupKey& o) const {
+    return std::tie(alpha_mode, cutoff, double_sided, unlit) <
+           std::tie(o.alpha_mode, o.cutoff, o.double_sided, o.unlit);
+  }
+  bool operator==(const GroupKey& o) const { return !(*this < o) && !(o < *this); }
+};
+GroupKey group_key(const Scene& scene, int32_t material) {
+  GroupKey k;
+  if (material < 0 || size_t(material) >= scene.materials.size()) return k;  // glTF default
+  const Material& m = scene.materials[size_t(material)];
+  k.alpha_mode = int(m.alpha_mode);
+  k.cutoff = m.alpha_mode == AlphaMode::kMask ? m.alpha_cutoff : 0.5f;
+  k.double_sided = m.double_sided;
+  k.unlit = m.unlit;
+  return k;
+}
+
+// The group's material: metallic and roughness area-weighted over the group's faces; `dropped`
+// when a source had maps the atlas does not bake.
+Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
+                         const GroupKey& key, bool* dropped) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
@@ -398,12 +423,10 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
-  bool any_blend = false, any_mask = false, any_double = false, all_unlit = true;
-  float cutoff = 1.0f;
-  *dropped = false;
   for (const MeshView& mv : views)
     for (uint32_t f = 0; f < mv.faces.size(); ++f) {
       const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
+      if (!(group_key(scene, src.material) == key)) continue;
       Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
       double area = 0.5 * length(cross(b - a, cc - a));
       area_total += area;
@@ -411,15 +434,9 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
         const Material& sm = scene.materials[size_t(src.material)];
         mat.metallic_factor += float(area * sm.metallic_factor);
         mat.roughness_factor += float(area * sm.roughness_factor);
-        any_blend |= sm.alpha_mode == AlphaMode::kBlend;
-        if (sm.alpha_mode == AlphaMode::kMask)
-          any_mask = true, cutoff = std::min(cutoff, sm.alpha_cutoff);
-        any_double |= sm.double_sided;
-        all_unlit &= sm.unlit;
         *dropped |= sm.normal.present() || sm.occlusion.present() ||
                     sm.metallic_roughness.present() || sm.emissive.present();
       } else {
-        all_unlit = false;
         mat.metallic_factor += float(area * 1.0);
         mat.roughness_factor += float(area * 1.0);
       }
@@ -430,19 +447,21 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   } else {
     mat.metallic_factor = 0, mat.roughness_factor = 1;
   }
-  mat.alpha_mode = any_blend ? AlphaMode::kBlend : any_mask ? AlphaMode::kMask : AlphaMode::kOpaque;
-  mat.alpha_cutoff = any_mask ? cutoff : 0.5f;
-  mat.double_sided = any_double;
-  mat.unlit = all_unlit && !scene.materials.empty();
+  mat.alpha_mode = AlphaMode(key.alpha_mode);
+  mat.alpha_cutoff = key.cutoff;
+  mat.double_sided = key.double_sided;
+  mat.unlit = key.unlit;
   return mat;
 }
 
-// Step 5b: mesh m as one primitive into the atlas: every corner gets its chart's atlas uv,
-// corners welded where position, normal and uv agree exactly.
-Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const AtlasLayout& layout) {
+// Step 5b: the faces of mesh m in material group `group` (material index `group` of the output)
+// as one primitive into the atlas: every corner gets its chart's atlas uv, corners welded where
+// position, normal and uv agree exactly.
+Mesh atlas_mesh(const Scene& scene, const MeshView& mv, uint32_t m, const FlatCharts& fc,
+                const AtlasLayout& layout, const GroupKey& key, int32_t group) {
   const ChartSet& charts = fc.charts;
   Primitive prim;
-  prim.material = 0;
+  prim.material = group;
   prim.uvs.resize(1);
   bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
                              [](const Primitive& p) { return !p.normals.empty(); });
@@ -456,6 +475,7 @@ Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const Atla
   for (uint32_t f = 0; f < mv.faces.size(); ++f) {
     uint32_t ci = charts.face_chart[m][f];
     const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
+    if (!(group_key(scene, src.material) == key)) continue;
     uint32_t tri[3];
     for (int k = 0; k < 3; ++k) {
       Vec2 t;
@@ -536,15 +556,39 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
-  out.instances = scene.instances;
+  std::vector<GroupKey> groups;  // present, in key order (opaque first)
+  for (const MeshView& mv : views)
+    for (const FaceRef& f : mv.faces) {
+      GroupKey k = group_key(scene, mv.mesh.primitives[f.primitive].material);
+      if (std::find(groups.begin(), groups.end(), k) == groups.end()) groups.push_back(k);
+    }
+  std::sort(groups.begin(), groups.end());
   bool dropped = false;
-  out.materials.push_back(merged_material(scene, views, &dropped));
+  for (const GroupKey& k : groups)
+    out.materials.push_back(merged_material(scene, views, k, &dropped));
   if (dropped)
     warn(warnings,
          "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into "
          "the atlas; dropped");
+  // Each mesh splits into one mesh per group it has faces in (one primitive each, so the stream
+  // can refine it); its instances place every part.
+  std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
-    out.meshes.push_back(atlas_mesh(views[m], m, fc, layout));
+    for (size_t g = 0; g < groups.size(); ++g) {
+      Mesh mesh = atlas_mesh(scene, views[m], m, fc, layout, groups[g], int32_t(g));
+      if (mesh.primitives[0].indices.empty()) continue;
+      if (parts[m].size() > 0) mesh.name += " (" + std::to_string(parts[m].size() + 1) + ")";
+      parts[m].push_back(uint32_t(out.meshes.size()));
+      out.meshes.push_back(std::move(mesh));
+    }
+  for (const Instance& inst : scene.instances) {
+    if (inst.mesh >= parts.size()) continue;
+    for (uint32_t part : parts[inst.mesh]) {
+      Instance copy = inst;
+      copy.mesh = part;
+      out.instances.push_back(std::move(copy));
+    }
+  }
   Image atlas = std::move(baked.atlas);
   atlas.name = "atlas";
   out.images.push_back(std::move(atlas));

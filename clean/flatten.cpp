@@ -7,16 +7,16 @@ namespace meshmux {
 
 namespace {
 
-// Flattens the instances for which `take` is true into one mesh (mesh 0 of the result); the
-// other instances keep their meshes, renumbered after it.
+// Flattens the instances for which `take` is true into world space: one mesh per (material,
+// vertex layout), each one primitive with one identity instance (so every part stays a
+// streamable submesh); the other instances keep their meshes, renumbered after them.
 Scene flatten_where(const Scene& in, const std::vector<char>& take) {
   Scene out;
   out.materials = in.materials;
   out.images = in.images;
   out.source = in.source;
   out.normalization_scale = in.normalization_scale;
-  Mesh mesh;
-  mesh.name = "flattened";
+  std::vector<Primitive> parts;
   std::map<std::tuple<int32_t, bool, size_t, bool>, size_t> slot;
   for (size_t ii = 0; ii < in.instances.size(); ++ii) {
     const Instance& inst = in.instances[ii];
@@ -26,12 +26,12 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
       auto key = std::make_tuple(p.material, !p.normals.empty(), p.uvs.size(), !p.colors.empty());
       auto it = slot.find(key);
       if (it == slot.end()) {
-        it = slot.emplace(key, mesh.primitives.size()).first;
-        mesh.primitives.emplace_back();
-        mesh.primitives.back().material = p.material;
-        mesh.primitives.back().uvs.resize(p.uvs.size());
+        it = slot.emplace(key, parts.size()).first;
+        parts.emplace_back();
+        parts.back().material = p.material;
+        parts.back().uvs.resize(p.uvs.size());
       }
-      Primitive& q = mesh.primitives[it->second];
+      Primitive& q = parts[it->second];
       uint32_t base = uint32_t(q.positions.size());
       for (Vec3 v : p.positions) q.positions.push_back(inst.world.transform_point(v));
       for (Vec3 n : p.normals) q.normals.push_back(inst.world.transform_normal(n));
@@ -45,10 +45,13 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
       }
     }
   }
-  bool merged = !mesh.primitives.empty();
-  if (merged) {
+  for (Primitive& part : parts) {
+    Mesh mesh;
+    mesh.name = "flattened";
+    if (parts.size() > 1) mesh.name += " " + std::to_string(out.meshes.size() + 1);
+    mesh.primitives.push_back(std::move(part));
+    out.instances.push_back({uint32_t(out.meshes.size()), Mat4::identity(), mesh.name});
     out.meshes.push_back(std::move(mesh));
-    out.instances.push_back({0, Mat4::identity(), "flattened"});
   }
   std::vector<int32_t> remap(in.meshes.size(), -1);
   for (size_t ii = 0; ii < in.instances.size(); ++ii) {

@@ -328,11 +328,19 @@ TEST(Atlas, TranslucentColourKeepsItsRgbUnderAlpha) {
   ASSERT_TRUE(out.ok()) << out.status().message();
   ASSERT_EQ(out->images.size(), 1u);
   const Image& atlas = out->images[0];
-  const Primitive& p = out->meshes[0].primitives[0];
-  // The glass quad's faces are the last two (faces keep their order); sample at their centroid.
-  ASSERT_EQ(p.indices.size(), 12u);
+  // The glass is its own part, with a BLEND material sampling the same atlas (one material per
+  // alpha mode); sample the atlas at its centroid.
+  ASSERT_EQ(out->meshes.size(), 2u);
+  ASSERT_EQ(out->materials.size(), 2u);
+  const Primitive* glass = nullptr;
+  for (const Mesh& m : out->meshes)
+    if (out->materials[size_t(m.primitives[0].material)].alpha_mode == AlphaMode::kBlend)
+      glass = &m.primitives[0];
+  ASSERT_TRUE(glass);
+  const Primitive& p = *glass;
+  ASSERT_EQ(p.indices.size(), 6u);
   Vec2 uv{0, 0};
-  for (int k = 6; k < 12; ++k)
+  for (int k = 0; k < 6; ++k)
     uv.x += p.uvs[0][p.indices[k]].x / 6, uv.y += p.uvs[0][p.indices[k]].y / 6;
   int x = std::clamp(int(uv.x * float(atlas.width)), 0, atlas.width - 1);
   int y = std::clamp(int(uv.y * float(atlas.height)), 0, atlas.height - 1);
@@ -342,6 +350,48 @@ TEST(Atlas, TranslucentColourKeepsItsRgbUnderAlpha) {
   EXPECT_NEAR(t[1], grey, 2);
   EXPECT_NEAR(t[2], grey, 2);
   EXPECT_NEAR(t[3], 77, 1);
+}
+
+// Issue 2/8: alpha and sidedness survive the atlas with the fewest draw calls: one material
+// per (alpha mode with its cutoff, double-sided) present, all sampling the one atlas. Merging
+// them (BLEND and double-sided for all) showed back faces of single-sided parts and blended
+// opaque ones.
+TEST(Atlas, OneMaterialPerAlphaModeAndSidedness) {
+  Scene s = glass_scene();
+  Material mask = s.materials[0];
+  mask.name = "mask";
+  mask.alpha_mode = AlphaMode::kMask;
+  mask.alpha_cutoff = 0.25f;
+  mask.double_sided = true;
+  s.materials.push_back(mask);
+  Mesh extra = s.meshes[0];
+  for (Primitive& p : extra.primitives) p.material = 2;
+  s.meshes.push_back(extra);
+  s.instances.push_back({1, Mat4::translation(0, 3, 0), "masked"});
+  s.instances.push_back({1, Mat4::translation(0, 6, 0), "masked again"});
+  auto out = build_atlas(s, AtlasOptions{}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->materials.size(), 3u);
+  EXPECT_EQ(out->images.size(), 1u);
+  std::vector<AlphaMode> modes;
+  for (const Material& m : out->materials) {
+    EXPECT_EQ(m.base_color.image, 0);
+    modes.push_back(m.alpha_mode);
+  }
+  EXPECT_EQ(modes,
+            (std::vector<AlphaMode>{AlphaMode::kOpaque, AlphaMode::kMask, AlphaMode::kBlend}));
+  EXPECT_FALSE(out->materials[0].double_sided);
+  EXPECT_TRUE(out->materials[1].double_sided);
+  EXPECT_FLOAT_EQ(out->materials[1].alpha_cutoff, 0.25f);
+  // Every part is one primitive; the masked mesh keeps its two instances.
+  size_t masked_instances = 0;
+  for (const Mesh& m : out->meshes) EXPECT_EQ(m.primitives.size(), 1u);
+  for (const Instance& inst : out->instances)
+    masked_instances +=
+        out->materials[size_t(out->meshes[inst.mesh].primitives[0].material)].alpha_mode ==
+        AlphaMode::kMask;
+  EXPECT_EQ(masked_instances, 2u);
+  EXPECT_EQ(compute_stats(*out).scene_triangles, compute_stats(s).scene_triangles);
 }
 
 }  // namespace
