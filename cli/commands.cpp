@@ -3,10 +3,12 @@
 // stderr; data (info) goes to stdout.
 #include <sys/stat.h>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -114,29 +116,76 @@ int usage_error(const std::string& message) {
   return kExitUsage;
 }
 
-// Progress on stderr: each step with the elapsed time, then the warnings that came since.
+// What kind of warning a message is: the message with its numbers and quoted names blanked,
+// so "geometry 'a': <lines> skipped (3 lines)" and "geometry 'b': <lines> skipped (9 lines)"
+// are one kind.
+std::string warning_kind(const std::string& message) {
+  std::string kind;
+  for (size_t i = 0; i < message.size(); ++i) {
+    char c = message[i];
+    if (c == '\'' || c == '"') {
+      size_t end = message.find(c, i + 1);
+      if (end != std::string::npos) {
+        kind += "#";
+        i = end;
+        continue;
+      }
+    }
+    if (std::isdigit(static_cast<unsigned char>(c))) {
+      if (kind.empty() || kind.back() != '#') kind += '#';
+      continue;
+    }
+    kind += c;
+  }
+  return kind;
+}
+
+// Progress on stderr: each step with the elapsed time, then the warnings that came since,
+// grouped: the first two of a kind are printed, the rest counted and summed up at the end.
 class CliProgress : public Progress {
  public:
   CliProgress(bool quiet, const Warnings* warnings = nullptr)
       : quiet_(quiet), warnings_(warnings), start_(now()) {}
+  ~CliProgress() override { finish(); }
   void step(const std::string& what) override {
     flush();
     if (!quiet_) std::fprintf(stderr, "meshmux: [%6.2f s] %s\n", seconds(), what.c_str());
   }
-  // Prints the warnings not printed yet.
+  // Prints the warnings not printed yet (two of each kind).
   void flush() {
     if (!warnings_) return;
-    for (; seen_ < warnings_->items().size(); ++seen_)
-      if (!quiet_)
-        std::fprintf(stderr, "meshmux: warning: %s\n", warnings_->items()[seen_].c_str());
+    for (; seen_ < warnings_->items().size(); ++seen_) {
+      const std::string& w = warnings_->items()[seen_];
+      auto [it, fresh] = kinds_.emplace(warning_kind(w), Kind{0, w});
+      if (fresh) order_.push_back(it->first);
+      if (++it->second.count <= 2 && !quiet_)
+        std::fprintf(stderr, "meshmux: warning: %s\n", w.c_str());
+    }
+  }
+  // The counts of the kinds that had more than two.
+  void finish() {
+    flush();
+    for (const std::string& k : order_) {
+      const Kind& kind = kinds_[k];
+      if (kind.count > 2 && !quiet_)
+        std::fprintf(stderr, "meshmux: warning: ... and %zu more like \"%s\"\n", kind.count - 2,
+                     kind.first.c_str());
+    }
+    order_.clear();
   }
   double seconds() const { return std::chrono::duration<double>(now() - start_).count(); }
 
  private:
+  struct Kind {
+    size_t count;
+    std::string first;  // the first message of the kind
+  };
   static std::chrono::steady_clock::time_point now() { return std::chrono::steady_clock::now(); }
   bool quiet_;
   const Warnings* warnings_;
   size_t seen_ = 0;
+  std::map<std::string, Kind> kinds_;
+  std::vector<std::string> order_;  // kinds in order of first appearance
   std::chrono::steady_clock::time_point start_;
 };
 

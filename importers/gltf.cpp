@@ -21,11 +21,29 @@ namespace meshmux {
 
 namespace {
 
+// Material extensions that change appearance, with what the output shows instead: the
+// metal-roughness core of the material (factors and maps) is kept, the effect is not.
+const std::map<std::string, std::string> kAppearanceExtensions = {
+    {"KHR_materials_sheen", "sheen dropped (cloth shows its base colour without the sheen layer)"},
+    {"KHR_materials_clearcoat", "clearcoat dropped (no second specular layer)"},
+    {"KHR_materials_transmission",
+     "transmission dropped (the surface shows opaque, or as alpha blending where its alpha "
+     "mode says so)"},
+    {"KHR_materials_volume", "volume dropped (no thickness or attenuation)"},
+    {"KHR_materials_specular", "specular dropped (the default dielectric F0 of 0.04 is used)"},
+    {"KHR_materials_ior", "ior dropped (the default 1.5 is used)"},
+    {"KHR_materials_iridescence", "iridescence dropped"},
+    {"KHR_materials_anisotropy", "anisotropy dropped (isotropic highlights)"},
+    {"KHR_materials_dispersion", "dispersion dropped"},
+    {"KHR_materials_diffuse_transmission", "diffuse transmission dropped"},
+};
+
 // Extensions whose presence in extensionsRequired we can honour.
 const std::set<std::string> kSupportedRequired = {
-    "KHR_draco_mesh_compression", "KHR_mesh_quantization", "KHR_texture_transform",
-    "EXT_texture_webp",
-    "EXT_mesh_gpu_instancing",    "KHR_materials_unlit",   "KHR_materials_emissive_strength",
+    "KHR_draco_mesh_compression",      "KHR_mesh_quantization",
+    "KHR_texture_transform",           "EXT_texture_webp",
+    "EXT_mesh_gpu_instancing",         "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -404,12 +422,14 @@ class Importer {
     for (const std::string& e : m_.extensionsRequired) {
       if (kSupportedRequired.count(e)) continue;
       if (e == "KHR_texture_basisu")
-        return r_.err("", "required extension KHR_texture_basisu is not supported: its textures "
-                          "are KTX2 / Basis Universal, which meshmux cannot decode (re-export "
-                          "them as PNG, JPEG or WebP)");
+        return r_.err("",
+                      "required extension KHR_texture_basisu is not supported: its textures "
+                      "are KTX2 / Basis Universal, which meshmux cannot decode (re-export "
+                      "them as PNG, JPEG or WebP)");
       if (e == "EXT_meshopt_compression")
-        return r_.err("", "required extension EXT_meshopt_compression is supported in .glb "
-                          "files only (pack this .gltf into a .glb)");
+        return r_.err("",
+                      "required extension EXT_meshopt_compression is supported in .glb "
+                      "files only (pack this .gltf into a .glb)");
       return r_.err("", "required extension " + e + " is not supported");
     }
     return Status::ok();
@@ -525,8 +545,20 @@ class Importer {
       mat.alpha_cutoff = float(src.alphaCutoff);
       mat.double_sided = src.doubleSided;
       mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
+      for (const auto& [name, value] : src.extensions)
+        if (kAppearanceExtensions.count(name)) ++effects_[name];
       scene_.materials.push_back(std::move(mat));
     }
+    // One warning per material extension that changes appearance and is not carried over,
+    // saying what the output shows instead (issue 2/8: sheen cloth turned near-black silently).
+    for (const auto& [name, count] : effects_)
+      warn(warnings_, "gltf: " + file_ + ": " + name + " on " + std::to_string(count) +
+                          " material(s): " + kAppearanceExtensions.at(name));
+    if (std::find(m_.extensionsUsed.begin(), m_.extensionsUsed.end(), "KHR_materials_variants") !=
+        m_.extensionsUsed.end())
+      warn(warnings_, "gltf: " + file_ +
+                          ": KHR_materials_variants: the default materials are kept, the other "
+                          "variants dropped");
   }
 
   Status primitive(const tinygltf::Primitive& p, const std::string& where, Primitive* out,
@@ -759,6 +791,7 @@ class Importer {
   }
 
   const tinygltf::Model& m_;
+  std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   Reader r_;
   std::string file_;
   const ImportOptions& opts_;

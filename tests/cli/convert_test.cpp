@@ -342,6 +342,44 @@ TEST(BadInput, ImageThatFailsToDecodeWarnsAndConverts) {
   EXPECT_TRUE(std::filesystem::exists(dir.file("m.glb")));
 }
 
+// Issue 2/8: repeated warnings are grouped: one file gave 35 identical "<lines> skipped" lines.
+// Two of a kind are printed, then one line counting the rest.
+TEST(Cli, RepeatedWarningsAreGrouped) {
+  std::string geometries, nodes;
+  for (int g = 0; g < 6; ++g) {
+    std::string id = "wire" + std::to_string(g);
+    geometries +=
+        "<geometry id=\"" + id + "\"><mesh><source id=\"" + id + "-p\"><float_array id=\"" + id +
+        "-a\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array><technique_common><accessor "
+        "source=\"#" +
+        id +
+        "-a\" count=\"3\" stride=\"3\"><param name=\"X\" type=\"float\"/><param "
+        "name=\"Y\" type=\"float\"/><param name=\"Z\" type=\"float\"/></accessor>"
+        "</technique_common></source><vertices id=\"" +
+        id + "-v\"><input semantic=\"POSITION\" source=\"#" + id +
+        "-p\"/></vertices><triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#" + id +
+        "-v\" offset=\"0\"/><p>0 1 2</p></triangles><lines count=\"" + std::to_string(g + 1) +
+        "\"><input semantic=\"VERTEX\" source=\"#" + id + "-v\" offset=\"0\"/><p>" +
+        std::string(size_t(g + 1), ' ') + "0 1</p></lines>" + "</mesh></geometry>";
+    nodes +=
+        "<node id=\"n" + std::to_string(g) + "\"><instance_geometry url=\"#" + id + "\"/></node>";
+  }
+  std::string dae =
+      "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
+      "version=\"1.4.1\"><asset><up_axis>Y_UP</up_axis></asset><library_geometries>" +
+      geometries + "</library_geometries><library_visual_scenes><visual_scene id=\"s\">" + nodes +
+      "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/>"
+      "</scene></COLLADA>";
+  TempDir dir;
+  testing::write_text(dir.file("wires.dae"), dae);
+  auto r = run_meshmux({"convert", dir.file("wires.dae"), "-o", dir.file("w.glb")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  size_t shown = 0, at = 0;
+  while ((at = r.err.find("<lines> skipped", at)) != std::string::npos) ++shown, ++at;
+  EXPECT_EQ(shown, 3u) << r.err;  // two printed, and the summary quoting the first
+  EXPECT_NE(r.err.find("... and 4 more like"), std::string::npos) << r.err;
+}
+
 // An output that cannot be written: exit 3, nothing partial.
 TEST(BadOutput, UnwritableOutputFails) {
   TempDir dir;

@@ -506,5 +506,29 @@ TEST(GltfImport, BasisuTexturesAreOneClearError) {
   EXPECT_EQ(s.status().kind(), ErrorKind::kInput);
 }
 
+// Issue 2/8: material effects that do not survive conversion (sheen cloth turned near-black)
+// are said, once per extension with the number of materials, not silently dropped.
+TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
+  TempDir dir;
+  testing::write_text(dir.file("effects.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_materials_sheen", "KHR_materials_clearcoat"],
+    "materials": [
+      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 0, 0]}}},
+      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [0, 1, 0]}}},
+      {"extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1}}}],
+    "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0})");
+  Warnings w;
+  auto s = import_gltf(dir.file("effects.gltf"), {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  int sheen = 0, clearcoat = 0;
+  for (const std::string& m : w.items()) {
+    sheen += m.find("KHR_materials_sheen on 2 material(s)") != std::string::npos;
+    clearcoat += m.find("KHR_materials_clearcoat on 1 material(s)") != std::string::npos;
+  }
+  EXPECT_EQ(sheen, 1);
+  EXPECT_EQ(clearcoat, 1);
+}
+
 }  // namespace
 }  // namespace meshmux
