@@ -9,6 +9,7 @@
 //
 // usage: node bench/fidelity.mjs --meshmux BIN [--models DIR] [--work DIR] [--only NAME[,NAME]]
 //          [--json FILE] [--size 256] [--chromium /usr/bin/chromium] [--check] [--dump]
+//          [--require NAME[,NAME]]
 // --check: exit 1 unless every model meets the DESIGN.md targets the table prints as "met".
 // Exit 77 when chromium or the models are missing (said on stderr).
 import { spawnSync } from 'node:child_process';
@@ -34,6 +35,8 @@ const jsonOut = opt('--json', path.join(work, 'fidelity.json'));
 const size = Number(opt('--size', '256'));
 const chromiumPath = opt('--chromium', '/usr/bin/chromium');
 const check = args.includes('--check');
+// --require A,B: exit 1 unless these models meet the targets (the others are reported only).
+const required = (opt('--require', '') || '').split(',').filter(Boolean);
 const dump = args.includes('--dump');  // also write WORK/NAME/views-unlit.png (rows: original, model.glb, base.glb,
                                        // 4× |original − model.glb|) and views-lit.png
 // DESIGN.md "Targets": appearance ≥ 30 dB; normals against winding ≤ 0.5% of the area.
@@ -158,7 +161,7 @@ for (const m of models) {
   const conv = spawnSync(meshmux, ['convert', path.join(m.dir, m.file), '-o', out, '--no-report', '-q'], { encoding: 'utf8' });
   const row = { model: m.name, maps: sourceMaps(m) };
   if (conv.status !== 0) {
-    row.error = `convert exited ${conv.status}: ${conv.stderr.trim().split('\n').pop()}`;
+    row.error = `convert exited ${conv.status}: ${(conv.stderr || String(conv.error)).trim().split('\n').pop()}`;
     rows.push(row);
     console.error(`${m.name}: ${row.error}`);
     continue;
@@ -221,3 +224,8 @@ console.log(`\n${met} of ${rows.length} models meet the appearance targets`);
 if (pageErrors.length) console.error(`page errors: ${pageErrors.slice(0, 5).join('; ')}`);
 fs.writeFileSync(jsonOut, JSON.stringify({ size, views: directions.length, rows }, null, 1));
 if (check && met !== rows.length) process.exit(1);
+const short = required.filter((name) => !rows.some((r) => r.model === name && r.met));
+if (short.length) {
+  console.error(`FAIL: required models below the targets: ${short.join(', ')}`);
+  process.exit(1);
+}

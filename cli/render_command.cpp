@@ -25,8 +25,8 @@ const char* kRenderUsage =
     "usage: meshmux render IN -o OUT.png|OUT.pam [options]\n"
     "  Renders IN offscreen as the web viewer draws it: perspective camera, base-colour texture\n"
     "  (mipmapped, anisotropic), colour x (0.35 + 0.65 Lambert) with the light following the\n"
-    "  camera, transparent background. Uses the first base-colour texture for every primitive\n"
-    "  (meshmux output has one).\n"
+    "  camera, transparent background. Each primitive shows its own material's base-colour\n"
+    "  texture (with the uv set it names) and factor.\n"
     "  --size WxH          image size in pixels (default 512x512)\n"
     "  --eye X,Y,Z         camera position (default: framed like the viewer's first view)\n"
     "  --target X,Y,Z      looked-at point (default: the centre of the model's bounds)\n"
@@ -153,15 +153,9 @@ int cmd_render(const std::vector<std::string>& args) {
   auto scene = import_scene(in, ImportOptions{}, &warnings);
   if (!scene.ok()) return fail(scene.status());
   Scene s = clean(*scene, CleanOptions{});  // generates missing normals
-  Image texture;
-  for (const Material& m : s.materials) {
-    if (!m.base_color.present() || m.base_color.image < 0) continue;
-    texture = s.images[size_t(m.base_color.image)];
-    break;
-  }
-  if (!texture.encoded.empty() && !texture.decoded()) {
-    if (Status st = decode_image(texture); !st) return fail(st.with_prefix(in));
-  }
+  for (Image& image : s.images)  // every primitive draws its own material's texture
+    if (!image.encoded.empty() && !image.decoded())
+      if (Status st = decode_image(image); !st) return fail(st.with_prefix(in));
 
   Bounds bounds = scene_bounds(s);
   float aspect = float(width) / float(height);
@@ -188,9 +182,8 @@ int cmd_render(const std::vector<std::string>& args) {
   ro.width = width, ro.height = height;
   auto renderer = Renderer::create(ro);
   if (!renderer.ok()) return fail(renderer.status());
-  int g = (*renderer)->add_geometry(s);
-  int t = texture.decoded() ? (*renderer)->add_texture(texture) : -1;
-  RenderImage img = (*renderer)->render(g, t, cam);
+  int g = (*renderer)->add_geometry(s, /*with_textures=*/true);
+  RenderImage img = (*renderer)->render(g, -1, cam);
 
   std::vector<uint8_t> bytes;
   if (ends_with(out, ".pam")) {

@@ -204,6 +204,7 @@ struct GpuPrimitive {
   GLuint vao = 0, vbo = 0, ibo = 0;
   GLsizei index_count = 0;
   Vec4 factor{1, 1, 1, 1};
+  int texture = -1;  // its material's base-colour texture (add_geometry with_textures), or -1
 };
 
 struct GpuInstance {
@@ -443,8 +444,17 @@ Renderer::~Renderer() {
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
 
-int Renderer::add_geometry(const Scene& scene) {
+int Renderer::add_geometry(const Scene& scene, bool with_textures) {
   Impl& m = *impl_;
+  m.make_current();
+  // Each material's decoded base-colour image, uploaded once.
+  std::vector<int> image_texture(scene.images.size(), -1);
+  if (with_textures)
+    for (const Material& mat : scene.materials) {
+      int32_t i = mat.base_color.image;
+      if (i >= 0 && size_t(i) < scene.images.size() && image_texture[size_t(i)] < 0)
+        image_texture[size_t(i)] = add_texture(scene.images[size_t(i)]);
+    }
   m.make_current();
   GpuGeometry geo;
   geo.live = true;
@@ -456,13 +466,23 @@ int Renderer::add_geometry(const Scene& scene) {
       size_t n = p.positions.size();
       if (n == 0) continue;
       bool has_normals = p.normals.size() == n;
-      bool has_uvs = !p.uvs.empty() && p.uvs[0].size() == n;
+      const Material* material = p.material >= 0 && size_t(p.material) < scene.materials.size()
+                                     ? &scene.materials[size_t(p.material)]
+                                     : nullptr;
+      int texture = -1;
+      size_t uv_set = 0;  // the set the primitive's own texture reads (set 0 without one)
+      if (with_textures && material && material->base_color.present() &&
+          size_t(material->base_color.image) < image_texture.size()) {
+        texture = image_texture[size_t(material->base_color.image)];
+        if (material->base_color.tex_coord < p.uvs.size()) uv_set = material->base_color.tex_coord;
+      }
+      bool has_uvs = uv_set < p.uvs.size() && p.uvs[uv_set].size() == n;
       vertices.resize(n);
       for (size_t i = 0; i < n; ++i) {
         Vertex& v = vertices[i];
         Vec3 pos = p.positions[i];
         Vec3 nor = has_normals ? p.normals[i] : Vec3{0, 0, 1};
-        Vec2 uv = has_uvs ? p.uvs[0][i] : Vec2{0, 0};
+        Vec2 uv = has_uvs ? p.uvs[uv_set][i] : Vec2{0, 0};
         v = Vertex{{pos.x, pos.y, pos.z}, {nor.x, nor.y, nor.z}, {uv.x, uv.y}};
       }
       // Whole triangles with in-range indices only (out-of-range indices would make the
@@ -479,8 +499,8 @@ int Renderer::add_geometry(const Scene& scene) {
       if (indices.empty()) continue;
       GpuPrimitive gp;
       gp.index_count = GLsizei(indices.size());
-      if (p.material >= 0 && size_t(p.material) < scene.materials.size())
-        gp.factor = scene.materials[p.material].base_color_factor;
+      if (material) gp.factor = material->base_color_factor;
+      gp.texture = texture;
       glGenVertexArrays(1, &gp.vao);
       glBindVertexArray(gp.vao);
       glGenBuffers(1, &gp.vbo);
@@ -584,15 +604,21 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
     glUniform1f(m.u_diffuse, o.diffuse);
     glUniform1i(m.u_texture, 0);
     glUniform1i(m.u_texture_plain, 1);
-    glUniform1i(m.u_textured, textured ? 1 : 0);
-    GLuint tex = textured ? m.textures[t].id : 0;
-    glUniform2f(m.u_texture_size, textured ? float(m.textures[t].width) : 1.0f,
-                textured ? float(m.textures[t].height) : 1.0f);
-    for (GLenum unit : {GL_TEXTURE0, GL_TEXTURE1}) {
-      glActiveTexture(unit);
-      glBindTexture(GL_TEXTURE_2D, tex);
-    }
-
+    // Binds texture `k` (or none) to both samplers and says so to the shader.
+    int bound = -2;
+    auto bind = [&](int k) {
+      if (k == bound) return;
+      bound = k;
+      bool on = k >= 0 && size_t(k) < m.textures.size() && m.textures[size_t(k)].id != 0;
+      glUniform1i(m.u_textured, on ? 1 : 0);
+      glUniform2f(m.u_texture_size, on ? float(m.textures[size_t(k)].width) : 1.0f,
+                  on ? float(m.textures[size_t(k)].height) : 1.0f);
+      for (GLenum unit : {GL_TEXTURE0, GL_TEXTURE1}) {
+        glActiveTexture(unit);
+        glBindTexture(GL_TEXTURE_2D, on ? m.textures[size_t(k)].id : 0);
+      }
+    };
+    bind(textured ? t : -1);
     const GpuGeometry& geo = m.geometries[g];
     for (const GpuInstance& inst : geo.instances) {
       const auto& prims = geo.meshes[inst.mesh];
@@ -618,6 +644,7 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
       glFrontFace(det < 0 ? GL_CW : GL_CCW);
       for (const GpuPrimitive& p : prims) {
         glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
+        bind(textured ? t : p.texture);  // an explicit texture overrides the materials'
         glBindVertexArray(p.vao);
         glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
       }

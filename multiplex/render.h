@@ -45,15 +45,19 @@ class Renderer {
   ~Renderer();
 
   // Uploads the geometry of a scene (every mesh's primitives with positions, normals and uv
-  // set 0; every instance's transform; materials' base-colour factors). Returns a handle.
-  int add_geometry(const Scene& scene);
+  // set 0; every instance's transform; materials' base-colour factors). With `with_textures`
+  // each primitive also gets its material's decoded base-colour image (uploaded once per image)
+  // and reads the uv set that texture names: what `meshmux render` of a multi-material scene
+  // needs. Returns a handle.
+  int add_geometry(const Scene& scene, bool with_textures = false);
   // Uploads an RGBA8 texture with a full mip chain. Returns a handle.
   int add_texture(const Image& image);
   // Frees what add_* uploaded.
   void remove_geometry(int handle);
   void remove_texture(int handle);
 
-  // Draws geometry `g` with texture `t` (-1: untextured, base-colour factors only).
+  // Draws geometry `g` with texture `t` on every primitive; t = -1: each primitive's own texture
+  // (add_geometry with_textures), or base-colour factors only.
   RenderImage render(int g, int t, const Camera& camera);
 
   const RenderOptions& options() const;

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <string>
 
+#include "exporters/gltf.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -63,6 +64,73 @@ TEST(RenderCommand, RejectsBadArgumentsAndInput) {
       run_meshmux({"render", dir.file("s.glb"), "-o", dir.file("x.png"), "--eye", "1,2"}).exit_code,
       1);
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
+}
+
+// A 4x4 image of one colour.
+Image solid(uint8_t r, uint8_t g, uint8_t b) {
+  Image img;
+  img.name = "solid";
+  img.width = img.height = 4;
+  img.rgba.resize(4 * 4 * 4);
+  for (size_t i = 0; i < 16; ++i)
+    img.rgba[i * 4] = r, img.rgba[i * 4 + 1] = g, img.rgba[i * 4 + 2] = b,
+                 img.rgba[i * 4 + 3] = 255;
+  return img;
+}
+
+// Issue 2/8: a multi-material original was drawn with its first texture on every part, so our
+// own comparisons of original and output were wrong. Two quads, a red-textured one on the left
+// and a blue-textured one on the right: each shows its own texture.
+TEST(RenderCommand, EachPrimitiveShowsItsOwnTexture) {
+  Scene s;
+  Mesh mesh;
+  for (int q = 0; q < 2; ++q) {
+    Primitive p;
+    float x = q == 0 ? -1.1f : 0.1f;
+    p.positions = {{x, -0.5f, 0}, {x + 1, -0.5f, 0}, {x + 1, 0.5f, 0}, {x, 0.5f, 0}};
+    p.normals.assign(4, Vec3{0, 0, 1});
+    p.uvs = {{{0, 1}, {1, 1}, {1, 0}, {0, 0}}};
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = q;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), "quads"});
+  for (int q = 0; q < 2; ++q) {
+    Material m;
+    m.base_color.image = q;
+    s.materials.push_back(m);
+  }
+  s.images = {solid(230, 20, 20), solid(20, 20, 230)};
+  GltfExportOptions o;
+  o.draco = false;
+  auto glb = export_glb_bytes(s, o, nullptr);
+  ASSERT_TRUE(glb.ok()) << glb.status().message();
+  TempDir dir;
+  testing::write_file(dir.file("two.glb"), *glb);
+  auto r = run_meshmux({"render", dir.file("two.glb"), "-o", dir.file("two.pam"), "--size", "64x32",
+                        "--eye", "0,0,3", "--target", "0,0,0"});
+  if (r.exit_code == 5) GTEST_SKIP() << "no offscreen renderer here: " << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto bytes = testing::read_file(dir.file("two.pam"));
+  std::string text(bytes.begin(), bytes.end());
+  size_t start = text.find("ENDHDR\n") + 7;
+  size_t red_left = 0, blue_right = 0, wrong = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const uint8_t* p = &bytes[start + (size_t(y) * 64 + size_t(x)) * 4];
+      if (p[3] == 0) continue;
+      bool red = p[0] > 2 * p[2], blue = p[2] > 2 * p[0];
+      if (x < 30 && red)
+        ++red_left;
+      else if (x > 33 && blue)
+        ++blue_right;
+      else if (x < 30 || x > 33)
+        ++wrong;
+    }
+  EXPECT_GT(red_left, 100u);
+  EXPECT_GT(blue_right, 100u);
+  EXPECT_EQ(wrong, 0u);
 }
 
 }  // namespace
