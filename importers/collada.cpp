@@ -595,7 +595,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     // Our own checks first, for our own messages; Assimp then reads the file by path so that
     // it knows the folder textures are relative to.
     uint64_t file_bytes = 0;
-    std::map<std::string, unsigned> uv_sets;  // material → bound TEXCOORD set
+    std::map<std::string, ColladaMaterialInfo> info;  // what Assimp loses, by material
     {
       auto bytes = read_whole_file(path, options.max_file_bytes);
       if (!bytes)
@@ -603,17 +603,27 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                              ErrorKind::kInput);
       if (bytes->empty()) return Status::error(stage + ": file is empty", ErrorKind::kInput);
       file_bytes = bytes->size();
-      uv_sets = collada_diffuse_uv_sets(*bytes);
+      info = collada_material_info(*bytes);
     }
     Result<Parsed> parsed = parse_isolated(path, file_bytes, stage);
     if (!parsed) return parsed.status();
     for (std::string& w : parsed->warnings) warn(warnings, std::move(w));
     Scene scene = std::move(parsed->scene);
     scene.source = path;
+    // Assimp 5.2 reports every <shininess> as 0 (roughness 1): the document's own exponent
+    // gives the roughness as convert_material maps it.
+    for (Material& m : scene.materials)
+      if (auto it = info.find(m.name); it != info.end() && it->second.shininess >= 0 &&
+                                       std::isfinite(it->second.shininess) &&
+                                       m.roughness_factor >= 1)
+        m.roughness_factor =
+            clamp01(float(std::pow(2.0 / (double(it->second.shininess) + 2.0), 0.25)));
     TextureLoader loader(path, scene, options, warnings);
     for (TextureRequest& t : parsed->textures) {
       const Material& m = scene.materials[size_t(std::max(0, t.material))];
-      if (auto it = uv_sets.find(m.name); it != uv_sets.end() && t.material >= 0) t.uv = it->second;
+      if (auto it = info.find(m.name);
+          it != info.end() && it->second.uv_set >= 0 && t.material >= 0)
+        t.uv = unsigned(it->second.uv_set);
       loader.attach(t);
     }
     Status valid = validate(scene, stage);

@@ -30,14 +30,15 @@ void collect(const pugi::xml_node& node, const char* name, std::vector<pugi::xml
 
 }  // namespace
 
-std::map<std::string, unsigned> collada_diffuse_uv_sets(const std::vector<uint8_t>& xml) {
-  std::map<std::string, unsigned> out;
+std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vector<uint8_t>& xml) {
+  std::map<std::string, ColladaMaterialInfo> out;
   pugi::xml_document doc;
   // No entity expansion of any kind: pugixml does not read DTDs or external entities.
   if (!doc.load_buffer(xml.data(), xml.size(), pugi::parse_default & ~pugi::parse_doctype))
     return out;
-  // effect id → the texcoord semantic of its diffuse texture.
+  // effect id → the texcoord semantic of its diffuse texture, and its shininess.
   std::map<std::string, std::string> effect_semantic;
+  std::map<std::string, float> effect_shininess;
   std::vector<pugi::xml_node> effects;
   collect(doc, "effect", effects);
   for (const pugi::xml_node& e : effects) {
@@ -46,15 +47,27 @@ std::map<std::string, unsigned> collada_diffuse_uv_sets(const std::vector<uint8_
     for (const pugi::xml_node& d : diffuse)
       if (pugi::xml_node t = d.child("texture"); t && t.attribute("texcoord"))
         effect_semantic.emplace(e.attribute("id").value(), t.attribute("texcoord").value());
+    for (const char* model : {"phong", "blinn"}) {
+      std::vector<pugi::xml_node> shading;
+      collect(e, model, shading);
+      for (const pugi::xml_node& sh : shading)
+        if (pugi::xml_node f = sh.child("shininess").child("float"))
+          effect_shininess.emplace(e.attribute("id").value(), f.text().as_float(-1));
+    }
   }
-  // material id → {its effect's semantic, its name}.
+  // Each material: its info by id and by name; material id → {its effect's semantic, name}.
   std::map<std::string, std::pair<std::string, std::string>> material;
   std::vector<pugi::xml_node> materials;
   collect(doc, "material", materials);
   for (const pugi::xml_node& m : materials) {
-    auto it = effect_semantic.find(fragment(m.child("instance_effect").attribute("url").value()));
-    if (it != effect_semantic.end())
-      material[m.attribute("id").value()] = {it->second, m.attribute("name").value()};
+    std::string effect = fragment(m.child("instance_effect").attribute("url").value());
+    std::string id = m.attribute("id").value(), name = m.attribute("name").value();
+    if (auto sh = effect_shininess.find(effect); sh != effect_shininess.end()) {
+      out[id].shininess = sh->second;
+      if (!name.empty()) out[name].shininess = sh->second;
+    }
+    auto it = effect_semantic.find(effect);
+    if (it != effect_semantic.end()) material[id] = {it->second, name};
   }
   // Each instance_material: the set its bind_vertex_input gives that semantic.
   std::vector<pugi::xml_node> instances;
@@ -68,9 +81,10 @@ std::map<std::string, unsigned> collada_diffuse_uv_sets(const std::vector<uint8_
       if (it->second.first != b.attribute("semantic").value() ||
           std::strcmp(b.attribute("input_semantic").value(), "TEXCOORD") != 0)
         continue;
-      unsigned set = b.attribute("input_set").as_uint(0);
-      out.emplace(id, set);
-      if (!it->second.second.empty()) out.emplace(it->second.second, set);
+      int set = int(b.attribute("input_set").as_uint(0));
+      if (out[id].uv_set < 0) out[id].uv_set = set;
+      if (!it->second.second.empty() && out[it->second.second].uv_set < 0)
+        out[it->second.second].uv_set = set;
     }
   }
   return out;

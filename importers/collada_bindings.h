@@ -2,7 +2,8 @@
 // diffuse <texture texcoord="CHANNEL1"/> names a semantic, and each <instance_material> binds
 // that semantic to a TEXCOORD set with <bind_vertex_input semantic="CHANNEL1"
 // input_semantic="TEXCOORD" input_set="0"/>. Assimp 5.2 guesses the set from the digit in the
-// semantic's name instead, which reads a uv set that may not exist. Used by importers/collada.
+// semantic's name instead, which reads a uv set that may not exist. Also the <shininess> of
+// phong and blinn effects, which Assimp 5.2 reports as 0. Used by importers/collada.
 #pragma once
 
 #include <map>
@@ -11,9 +12,15 @@
 
 namespace meshmux {
 
-// Material (by id and by name) → the TEXCOORD set its diffuse texture is bound to. Materials
-// without a binding are absent. `xml` is the whole document; a document that does not parse
-// gives an empty map (Assimp reports the parse error). O(document size).
-std::map<std::string, unsigned> collada_diffuse_uv_sets(const std::vector<uint8_t>& xml);
+// What the document says of a material that Assimp 5.2 loses.
+struct ColladaMaterialInfo {
+  int uv_set = -1;       // the TEXCOORD set its diffuse texture is bound to (-1: no binding)
+  float shininess = -1;  // the Blinn-Phong exponent of a <phong>/<blinn> effect (-1: none)
+};
+
+// Material (by id and by name) → what the document says of it. `xml` is the whole document; a
+// document that does not parse gives an empty map (Assimp reports the parse error).
+// O(document size).
+std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vector<uint8_t>& xml);
 
 }  // namespace meshmux

@@ -126,6 +126,17 @@ window.fidelity = {
       o.material = Array.isArray(o.material) ? o.material.map(unlit) : unlit(o.material);
     });
     models.push({ lit, flat });
+    const materials = new Map();
+    root.traverse((o) => {
+      if (!o.isMesh) return;
+      for (const m of [o.material].flat()) {
+        if (materials.has(m.uuid)) continue;
+        materials.set(m.uuid, { type: m.type, name: m.name, color: m.color?.getHexString(), roughness: m.roughness,
+          metalness: m.metalness, emissive: m.emissive?.getHexString(), transparent: m.transparent,
+          opacity: m.opacity, side: m.side, map: !!m.map, vertexColors: m.vertexColors });
+      }
+    });
+    window.lastMaterials = [...materials.values()];
     const c = box.getCenter(new THREE.Vector3()), r = 0.5 * box.getSize(new THREE.Vector3()).length();
     return { handle: models.length - 1, center: c.toArray(), radius: r, min: box.min.toArray(), max: box.max.toArray(),
       normals: normalsAgainstWinding(root) };

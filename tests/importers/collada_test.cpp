@@ -459,6 +459,25 @@ TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
   for (const Primitive& p : scene->meshes[0].primitives) EXPECT_EQ(p.uvs.size(), 1u);
 }
 
+// Issue 2/8: a <phong> effect's <shininess> sets the roughness (Blinn-Phong exponent n →
+// (2 / (n + 2))^¼, as three.js's loaders map it). Assimp 5.2 reported every shininess as 0, so
+// every COLLADA material came out fully rough and the engine looked flat against three.js.
+TEST(ColladaImport, PhongShininessGivesTheRoughness) {
+  TempDir dir;
+  std::string lib = material_library({{"shiny", "0.5 0.5 0.5 1", ""}});
+  for (size_t at; (at = lib.find("<lambert>")) != std::string::npos;) lib.replace(at, 9, "<phong>");
+  for (size_t at; (at = lib.find("</lambert>")) != std::string::npos;)
+    lib.replace(at, 10, "<shininess><float>16</float></shininess></phong>");
+  std::string g = geometry("t", kTriangle, block("triangles", "shiny", 1, "0 1 2", "t"));
+  auto scene =
+      import_text(dir, "shiny.dae", document(g, node("n", "t", "", {"shiny"}), lib), nullptr);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* m = find_material(*scene, "shiny");
+  ASSERT_TRUE(m);
+  EXPECT_NEAR(m->roughness_factor, std::pow(2.0 / 18.0, 0.25), 1e-4);
+  EXPECT_EQ(m->metallic_factor, 0.0f);
+}
+
 // ---- the shared models ---------------------------------------------------------------------
 
 Result<Scene> import_shared(const std::string& rel, Warnings* w = nullptr) {
