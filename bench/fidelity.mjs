@@ -9,7 +9,7 @@
 //
 // usage: node bench/fidelity.mjs --meshmux BIN [--models DIR] [--work DIR] [--only NAME[,NAME]]
 //          [--json FILE] [--size 256] [--chromium /usr/bin/chromium] [--check] [--dump]
-//          [--require NAME[,NAME]]
+//          [--require NAME[,NAME]] [--convert-args "--no-atlas ..."]
 // --check: exit 1 unless every model meets the DESIGN.md targets the table prints as "met".
 // Exit 77 when chromium or the models are missing (said on stderr).
 import { spawnSync } from 'node:child_process';
@@ -35,6 +35,7 @@ const jsonOut = opt('--json', path.join(work, 'fidelity.json'));
 const size = Number(opt('--size', '256'));
 const chromiumPath = opt('--chromium', '/usr/bin/chromium');
 const check = args.includes('--check');
+const convertArgs = (opt('--convert-args', '') || '').split(' ').filter(Boolean);  // extra convert options
 // --require A,B: exit 1 unless these models meet the targets (the others are reported only).
 const required = (opt('--require', '') || '').split(',').filter(Boolean);
 const dump = args.includes('--dump');  // also write WORK/NAME/views-unlit.png (rows: original, model.glb, base.glb,
@@ -158,7 +159,7 @@ for (const m of models) {
   const t0 = Date.now();
   const out = path.join(work, m.name);
   fs.rmSync(out, { recursive: true, force: true });
-  const conv = spawnSync(meshmux, ['convert', path.join(m.dir, m.file), '-o', out, '--no-report', '-q'], { encoding: 'utf8' });
+  const conv = spawnSync(meshmux, ['convert', path.join(m.dir, m.file), '-o', out, '--no-report', '-q', ...convertArgs], { encoding: 'utf8' });
   const row = { model: m.name, maps: sourceMaps(m) };
   if (conv.status !== 0) {
     row.error = `convert exited ${conv.status}: ${(conv.stderr || String(conv.error)).trim().split('\n').pop()}`;
