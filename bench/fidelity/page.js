@@ -24,16 +24,27 @@ const pmrem = new THREE.PMREMGenerator(renderer);
 const environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
 
 const draco = new DRACOLoader().setDecoderPath('/three/examples/jsm/libs/draco/');
-const gltfLoader = new GLTFLoader().setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder);
 const models = [];
 
+// Loads a model and everything it references: ColladaLoader resolves before its textures have
+// arrived (GLTFLoader waits for them), so every load goes through its own LoadingManager and
+// waits for it to go idle. Without that, renders depended on timing.
 async function load(url) {
+  const manager = new THREE.LoadingManager();
+  const idle = new Promise((resolve, reject) => {
+    manager.onLoad = resolve;
+    manager.onError = (item) => reject(new Error(`cannot load ${item}`));
+  });
+  let root;
   if (/\.dae$/i.test(url)) {
-    const collada = await new ColladaLoader().loadAsync(url);
-    return collada.scene;
+    root = (await new ColladaLoader(manager).loadAsync(url)).scene;
+  } else {
+    const loader = new GLTFLoader(manager).setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder);
+    const gltf = await loader.loadAsync(url);
+    root = gltf.scene || gltf.scenes[0];
   }
-  const gltf = await gltfLoader.loadAsync(url);
-  return gltf.scene || gltf.scenes[0];
+  await idle;
+  return root;
 }
 
 // The unlit twin of a material: base colour (factor × map × vertex colour) and alpha only.
