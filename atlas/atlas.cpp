@@ -393,14 +393,17 @@ struct GroupKey {
   int alpha_mode = 0;
   float cutoff = 0.5f;
   bool double_sided = false, unlit = false;
+  bool flat = false;  // Primitive::flat: shown flat-shaded, exported without normals
   bool operator<(const GroupKey& o) const {
-    return std::tie(alpha_mode, cutoff, double_sided, unlit) <
-           std::tie(o.alpha_mode, o.cutoff, o.double_sided, o.unlit);
+    return std::tie(alpha_mode, cutoff, double_sided, unlit, flat) <
+           std::tie(o.alpha_mode, o.cutoff, o.double_sided, o.unlit, o.flat);
   }
   bool operator==(const GroupKey& o) const { return !(*this < o) && !(o < *this); }
 };
-GroupKey group_key(const Scene& scene, int32_t material) {
+GroupKey group_key(const Scene& scene, const Primitive& p) {
   GroupKey k;
+  k.flat = p.flat;
+  int32_t material = p.material;
   if (material < 0 || size_t(material) >= scene.materials.size()) return k;  // glTF default
   const Material& m = scene.materials[size_t(material)];
   k.alpha_mode = int(m.alpha_mode);
@@ -426,7 +429,7 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   for (const MeshView& mv : views)
     for (uint32_t f = 0; f < mv.faces.size(); ++f) {
       const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
-      if (!(group_key(scene, src.material) == key)) continue;
+      if (!(group_key(scene, src) == key)) continue;
       Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
       double area = 0.5 * length(cross(b - a, cc - a));
       area_total += area;
@@ -462,6 +465,7 @@ Mesh atlas_mesh(const Scene& scene, const MeshView& mv, uint32_t m, const FlatCh
   const ChartSet& charts = fc.charts;
   Primitive prim;
   prim.material = group;
+  prim.flat = key.flat;
   prim.uvs.resize(1);
   bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
                              [](const Primitive& p) { return !p.normals.empty(); });
@@ -475,7 +479,7 @@ Mesh atlas_mesh(const Scene& scene, const MeshView& mv, uint32_t m, const FlatCh
   for (uint32_t f = 0; f < mv.faces.size(); ++f) {
     uint32_t ci = charts.face_chart[m][f];
     const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
-    if (!(group_key(scene, src.material) == key)) continue;
+    if (!(group_key(scene, src) == key)) continue;
     uint32_t tri[3];
     for (int k = 0; k < 3; ++k) {
       Vec2 t;
@@ -559,7 +563,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   std::vector<GroupKey> groups;  // present, in key order (opaque first)
   for (const MeshView& mv : views)
     for (const FaceRef& f : mv.faces) {
-      GroupKey k = group_key(scene, mv.mesh.primitives[f.primitive].material);
+      GroupKey k = group_key(scene, mv.mesh.primitives[f.primitive]);
       if (std::find(groups.begin(), groups.end(), k) == groups.end()) groups.push_back(k);
     }
   std::sort(groups.begin(), groups.end());

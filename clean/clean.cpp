@@ -35,6 +35,7 @@ Primitive weld(const Primitive& p) {
   std::vector<uint32_t> remap(p.positions.size());
   Primitive out;
   out.material = p.material;
+  out.flat = p.flat;
   out.uvs.resize(p.uvs.size());
   std::vector<uint32_t> key;
   for (size_t v = 0; v < p.positions.size(); ++v) {
@@ -194,6 +195,7 @@ void generate_normals(Primitive& p, float crease_degrees) {
   std::unordered_map<uint64_t, uint32_t> made;
   Primitive out;
   out.material = p.material;
+  out.flat = p.flat;
   out.uvs.resize(p.uvs.size());
   std::unordered_map<std::vector<uint32_t>, uint32_t, BytesHash> by_key;
   std::vector<uint32_t> key;

@@ -17,18 +17,20 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
   out.source = in.source;
   out.normalization_scale = in.normalization_scale;
   std::vector<Primitive> parts;
-  std::map<std::tuple<int32_t, bool, size_t, bool>, size_t> slot;
+  std::map<std::tuple<int32_t, bool, size_t, bool, bool>, size_t> slot;
   for (size_t ii = 0; ii < in.instances.size(); ++ii) {
     const Instance& inst = in.instances[ii];
     if (inst.mesh >= in.meshes.size() || !take[ii]) continue;
     bool mirror = inst.world.det3() < 0;
     for (const Primitive& p : in.meshes[inst.mesh].primitives) {
-      auto key = std::make_tuple(p.material, !p.normals.empty(), p.uvs.size(), !p.colors.empty());
+      auto key =
+          std::make_tuple(p.material, !p.normals.empty(), p.uvs.size(), !p.colors.empty(), p.flat);
       auto it = slot.find(key);
       if (it == slot.end()) {
         it = slot.emplace(key, parts.size()).first;
         parts.emplace_back();
         parts.back().material = p.material;
+        parts.back().flat = p.flat;
         parts.back().uvs.resize(p.uvs.size());
       }
       Primitive& q = parts[it->second];

@@ -313,8 +313,11 @@ class Exporter {
     Clean c;
     const size_t n = p.positions.size();
     size_t fixed = 0;
-    c.normals.reserve(p.normals.size());
-    for (Vec3 v : p.normals) {
+    // A flat primitive's viewers compute its flat normals themselves (glTF 3.7.2.1).
+    const std::vector<Vec3> none;
+    const std::vector<Vec3>& normals = p.flat ? none : p.normals;
+    c.normals.reserve(normals.size());
+    for (Vec3 v : normals) {
       double l = std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
       if (!(l > 1e-20) || !std::isfinite(l)) {
         c.normals.push_back({0, 0, 1});

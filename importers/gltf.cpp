@@ -629,6 +629,18 @@ class Importer {
     return Status::ok();
   }
 
+  // glTF 2.0 §3.7.2.1: "When normals are not specified, client implementations MUST calculate
+  // flat normals" (three.js's GLTFLoader shows such meshes flat-shaded). The primitive is
+  // marked flat: clean() generates normals for our own use, the exporter writes none, so every
+  // viewer computes the flat ones again, at no byte cost. Unlit materials ignore normals.
+  void mark_flat(Primitive* p) const {
+    if (!p->normals.empty()) return;
+    if (p->material >= 0 && size_t(p->material) < m_.materials.size() &&
+        m_.materials[size_t(p->material)].extensions.count("KHR_materials_unlit"))
+      return;
+    p->flat = true;
+  }
+
   static void to_triangles(int mode, const std::vector<uint32_t>& idx, std::vector<uint32_t>* tri) {
     tri->clear();
     if (mode == TINYGLTF_MODE_TRIANGLES) {
@@ -692,6 +704,7 @@ class Importer {
           warn(warnings_, "gltf: " + file_ + ": " + where + ": no triangles; skipped");
           continue;
         }
+        mark_flat(&prim);
         mesh.primitives.push_back(std::move(prim));
       }
       if (mesh.primitives.empty()) continue;

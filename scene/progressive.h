@@ -41,6 +41,7 @@ struct ProgressiveMesh {
   std::vector<uint32_t> indices;         // 3 per face, appearance order, full-mesh corners
   std::vector<uint32_t> face_primitive;  // per face: the source primitive it belongs to
   std::vector<int32_t> primitive_material;    // per source primitive: its material
+  std::vector<uint8_t> primitive_flat;        // per source primitive: Primitive::flat
   std::vector<uint8_t> primitive_uv_sets;     // per source primitive: how many uv sets it had
   std::vector<uint8_t> primitive_has_colors;  // per source primitive: 1 if it had COLOR_0
   // Levels from the coarsest (levels[0], no collapse left to make) to the full mesh

@@ -85,6 +85,8 @@ struct Primitive {
   std::vector<Vec4> colors;            // COLOR_0, linear RGBA
   std::vector<uint32_t> indices;       // 3 per triangle, counter-clockwise front faces
   int32_t material = -1;               // index into Scene::materials; -1 = default material
+  bool flat = false;  // the source gave no normals, so viewers show it flat-shaded (glTF
+                      // 3.7.2.1): normals are generated for our own use and not exported
 
   size_t vertex_count() const { return positions.size(); }
   size_t triangle_count() const { return indices.size() / 3; }

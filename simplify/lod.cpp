@@ -50,6 +50,7 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix) {
     if (faces[p].empty()) continue;
     Primitive prim;
     prim.material = pm.primitive_material[p];
+    prim.flat = p < pm.primitive_flat.size() && pm.primitive_flat[p] != 0;
     size_t sets = p < pm.primitive_uv_sets.size() ? pm.primitive_uv_sets[p] : pm.uvs.size();
     prim.uvs.resize(std::min(sets, pm.uvs.size()));
     bool colors =

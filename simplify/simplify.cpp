@@ -798,10 +798,12 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
     pm.face_primitive[i] = u_.face_prim[f];
   }
   pm.primitive_material.clear();
+  pm.primitive_flat.clear();
   pm.primitive_uv_sets.clear();
   pm.primitive_has_colors.clear();
   for (const Primitive& p : mesh.primitives) {
     pm.primitive_material.push_back(p.material);
+    pm.primitive_flat.push_back(p.flat ? 1 : 0);
     pm.primitive_uv_sets.push_back(uint8_t(p.uvs.size()));
     pm.primitive_has_colors.push_back(p.colors.empty() ? 0 : 1);
   }

@@ -191,6 +191,31 @@ TEST(GltfExport, UncompressedTexturedCubeIsValid) {
   expect_valid(bytes, "cube-plain.glb");
 }
 
+// Issue 2/8: a source without normals is shown flat-shaded by every glTF viewer (glTF 3.7.2.1);
+// the normals clean() generated for our own use must not be exported, or viewers shade it
+// smooth (the fox lost 6 dB lit). Both the Draco and the plain paths write no NORMAL; the
+// file stays valid.
+TEST(GltfExport, FlatPrimitivesAreWrittenWithoutNormals) {
+  Scene s = textured_cube_scene();
+  for (Mesh& m : s.meshes)
+    for (Primitive& p : m.primitives) {
+      ASSERT_FALSE(p.normals.empty());
+      p.flat = true;
+    }
+  for (bool draco : {true, false}) {
+    GltfExportOptions options;
+    options.draco = draco;
+    auto bytes = export_ok(s, options);
+    Glb glb = parse_glb(bytes);
+    for (const auto& mesh : glb.doc["meshes"])
+      for (const auto& prim : mesh["primitives"]) {
+        EXPECT_TRUE(prim["attributes"].contains("POSITION"));
+        EXPECT_FALSE(prim["attributes"].contains("NORMAL")) << (draco ? "draco" : "plain");
+      }
+    expect_valid(bytes, draco ? "flat-draco.glb" : "flat-plain.glb");
+  }
+}
+
 TEST(GltfExport, EmptySceneIsValid) {
   auto bytes = export_ok(Scene{});
   Glb glb = parse_glb(bytes);

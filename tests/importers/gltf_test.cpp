@@ -530,5 +530,22 @@ TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
   EXPECT_EQ(clearcoat, 1);
 }
 
+// Issue 2/8: a primitive without NORMAL is flat-shaded by definition (glTF 3.7.2.1): the
+// importer marks it so, and a primitive with normals is not marked.
+TEST(GltfImport, SharedModelWithoutNormalsIsMarkedFlat) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto fox = import_gltf(testing::shared_model("Fox-glb/Fox.glb"), {}, nullptr);
+  ASSERT_TRUE(fox.ok()) << fox.status().message();
+  for (const Mesh& m : fox->meshes)
+    for (const Primitive& p : m.primitives) {
+      EXPECT_TRUE(p.normals.empty());
+      EXPECT_TRUE(p.flat);
+    }
+  auto duck = import_gltf(testing::shared_model("Duck-webp-gltf/Duck.gltf"), {}, nullptr);
+  ASSERT_TRUE(duck.ok()) << duck.status().message();
+  for (const Mesh& m : duck->meshes)
+    for (const Primitive& p : m.primitives) EXPECT_FALSE(p.flat);
+}
+
 }  // namespace
 }  // namespace meshmux
