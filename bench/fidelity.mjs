@@ -198,6 +198,7 @@ for (const m of models) {
     }
     row.coverage = { original: acc.unlit.a, model: acc.unlit.b };
     row.bounds = { original: [original.min, original.max], model: [model.min, model.max] };
+    row.materials = { original: original.materials, model: model.materials };
     Object.assign(row, { unlit: psnr(acc.unlit), lit: psnr(acc.lit), base: psnr(acc.base),
       againstIn: original.normals.share, againstOut: model.normals.share, seconds: (Date.now() - t0) / 1000 });
   } catch (e) {

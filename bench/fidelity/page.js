@@ -137,6 +137,7 @@ window.fidelity = {
       o.material = Array.isArray(o.material) ? o.material.map(unlit) : unlit(o.material);
     });
     models.push({ lit, flat });
+    // What each material became (for the JSON report: a lit difference starts here).
     const materials = new Map();
     root.traverse((o) => {
       if (!o.isMesh) return;
@@ -147,10 +148,9 @@ window.fidelity = {
           opacity: m.opacity, side: m.side, map: !!m.map, vertexColors: m.vertexColors });
       }
     });
-    window.lastMaterials = [...materials.values()];
     const c = box.getCenter(new THREE.Vector3()), r = 0.5 * box.getSize(new THREE.Vector3()).length();
     return { handle: models.length - 1, center: c.toArray(), radius: r, min: box.min.toArray(), max: box.max.toArray(),
-      normals: normalsAgainstWinding(root) };
+      normals: normalsAgainstWinding(root), materials: [...materials.values()] };
   },
   // Renders model `handle` lit (its materials, RoomEnvironment) or unlit from a camera
   // {eye, target, up, fov, near, far}; returns base64 RGBA, rows top first, alpha 0 = background.
