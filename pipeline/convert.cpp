@@ -126,7 +126,7 @@ Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const Tex
   return s;
 }
 
-// 7. Multiplex (paper 004 §3). No offscreen OpenGL: a warning, no report and no package.
+// 8. Multiplex (paper 004 §3). No offscreen OpenGL: a warning, no report and no package.
 Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps,
                                                       const TextureLevels& levels,
                                                       const ConvertOptions& o, Warnings* warnings,
@@ -147,7 +147,7 @@ Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps
   return std::optional<MultiplexResult>(mx.take());
 }
 
-// 8. The stream package: the base (mesh layer 0 with texture level 0, no Draco, every prefix
+// 9. The stream package: the base (mesh layer 0 with texture level 0, no Draco, every prefix
 // vertex kept so vertex i is the stream's vertex i), then the descent's steps as chunks made of
 // the bytes the multiplexer encoded; the baselines ride along as orders of the same chunks.
 Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
@@ -158,8 +158,12 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   GltfExportOptions plain = o.gltf;
   plain.draco = false;
   plain.tag_meshes = true;
-  auto base = export_glb_bytes(level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true),
-                               plain, warnings);
+  Scene base_scene = level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true);
+  // The stream's vertices carry normals (the client appends to the base's), so the package's
+  // base keeps them even for flat-shaded sources, whose .glb files go without.
+  for (Mesh& mesh : base_scene.meshes)
+    for (Primitive& p : mesh.primitives) p.flat = false;
+  auto base = export_glb_bytes(base_scene, plain, warnings);
   if (!base.ok()) return base.status();
   PackageInput in;
   in.base_glb = base.take();
