@@ -415,7 +415,9 @@ GroupKey group_key(const Scene& scene, const Primitive& p) {
 
 // The group's material: metallic and roughness area-weighted over the group's faces; `dropped`
 // when a source had maps the atlas does not bake.
+// `prim_group[m][p]`: the group of mesh m's primitive p, computed once by build_atlas.
 Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
+                         const std::vector<std::vector<int32_t>>& prim_group, int32_t group,
                          const GroupKey& key, bool* dropped) {
   Material mat;
   mat.name = "atlas";
@@ -426,10 +428,11 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
-  for (const MeshView& mv : views)
-    for (uint32_t f = 0; f < mv.faces.size(); ++f) {
+  for (size_t m = 0; m < views.size(); ++m)
+    for (uint32_t f = 0; f < views[m].faces.size(); ++f) {
+      const MeshView& mv = views[m];
+      if (prim_group[m][mv.faces[f].primitive] != group) continue;
       const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
-      if (!(group_key(scene, src) == key)) continue;
       Vec3 a = mv.position(f, 0), b = mv.position(f, 1), cc = mv.position(f, 2);
       double area = 0.5 * length(cross(b - a, cc - a));
       area_total += area;
@@ -460,8 +463,8 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
 // Step 5b: the faces of mesh m in material group `group` (material index `group` of the output)
 // as one primitive into the atlas: every corner gets its chart's atlas uv, corners welded where
 // position, normal and uv agree exactly.
-Mesh atlas_mesh(const Scene& scene, const MeshView& mv, uint32_t m, const FlatCharts& fc,
-                const AtlasLayout& layout, const GroupKey& key, int32_t group) {
+Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const AtlasLayout& layout,
+                const std::vector<int32_t>& prim_group, int32_t group, const GroupKey& key) {
   const ChartSet& charts = fc.charts;
   Primitive prim;
   prim.material = group;
@@ -478,8 +481,8 @@ Mesh atlas_mesh(const Scene& scene, const MeshView& mv, uint32_t m, const FlatCh
         face_slot[charts.charts[ci].faces[k]] = k;
   for (uint32_t f = 0; f < mv.faces.size(); ++f) {
     uint32_t ci = charts.face_chart[m][f];
+    if (prim_group[mv.faces[f].primitive] != group) continue;
     const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
-    if (!(group_key(scene, src) == key)) continue;
     uint32_t tri[3];
     for (int k = 0; k < 3; ++k) {
       Vec2 t;
@@ -560,16 +563,25 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
-  std::vector<GroupKey> groups;  // present, in key order (opaque first)
-  for (const MeshView& mv : views)
-    for (const FaceRef& f : mv.faces) {
-      GroupKey k = group_key(scene, mv.mesh.primitives[f.primitive]);
-      if (std::find(groups.begin(), groups.end(), k) == groups.end()) groups.push_back(k);
+  // The groups present (primitives with faces), in key order (opaque first), and each
+  // primitive's group, computed once.
+  std::vector<GroupKey> groups;
+  for (const Mesh& mesh : scene.meshes)
+    for (const Primitive& p : mesh.primitives) {
+      GroupKey k = group_key(scene, p);
+      if (!p.indices.empty() && std::find(groups.begin(), groups.end(), k) == groups.end())
+        groups.push_back(k);
     }
   std::sort(groups.begin(), groups.end());
+  std::vector<std::vector<int32_t>> prim_group(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    for (const Primitive& p : scene.meshes[m].primitives)
+      prim_group[m].push_back(
+          int32_t(std::find(groups.begin(), groups.end(), group_key(scene, p)) - groups.begin()));
   bool dropped = false;
-  for (const GroupKey& k : groups)
-    out.materials.push_back(merged_material(scene, views, k, &dropped));
+  for (size_t g = 0; g < groups.size(); ++g)
+    out.materials.push_back(
+        merged_material(scene, views, prim_group, int32_t(g), groups[g], &dropped));
   if (dropped)
     warn(warnings,
          "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into "
@@ -579,7 +591,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
     for (size_t g = 0; g < groups.size(); ++g) {
-      Mesh mesh = atlas_mesh(scene, views[m], m, fc, layout, groups[g], int32_t(g));
+      Mesh mesh = atlas_mesh(views[m], m, fc, layout, prim_group[m], int32_t(g), groups[g]);
       if (mesh.primitives[0].indices.empty()) continue;
       if (parts[m].size() > 0) mesh.name += " (" + std::to_string(parts[m].size() + 1) + ")";
       parts[m].push_back(uint32_t(out.meshes.size()));

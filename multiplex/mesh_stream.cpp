@@ -44,7 +44,6 @@ Status internal(uint32_t mesh, const std::string& what) {
 
 // The encoder's own checks on a progressive mesh: what the package reader will demand.
 Status check_mesh(const ProgressiveMesh& pm, uint32_t m) {
-  std::string where = "mesh " + std::to_string(m) + ": ";
   if (pm.vertex_count() > kMaxStreamElements || pm.face_count() > kMaxStreamElements)
     return internal(m, "more than 2^28 vertices or faces");
   if (pm.parent.size() != pm.vertex_count())

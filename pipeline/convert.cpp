@@ -74,13 +74,13 @@ std::string unstreamable_reason(const Scene& scene) {
 }
 
 // What the progressive record can still rule out: a submesh with several primitives after the
-// simplifier's flattening, or one that shows no triangle at the base level.
-std::string unstreamable_record(const ProgressiveScene& ps, const LodSelection& base) {
+// simplifier's flattening, or one that shows no triangle at the base level (`base_meshes`: the
+// meshes the materialized base kept).
+std::string unstreamable_record(const ProgressiveScene& ps, size_t base_meshes) {
   for (const ProgressiveMesh& pm : ps.meshes)
     if (pm.primitive_material.size() != 1)
       return "a mesh has several materials (the stream needs the one-material atlas)";
-  if (materialize(ps, base).meshes.size() != ps.meshes.size())
-    return "a mesh has no triangles at the base level";
+  if (base_meshes != ps.meshes.size()) return "a mesh has no triangles at the base level";
   return "";
 }
 
@@ -215,7 +215,9 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
                      sr.flattened ? " (flattened: few instances per submesh)" : "",
                      (unsigned long long)sr.collapses, int(sr.seconds * 1000)));
   // 7. base.glb: the base mesh with texture level 0, Draco-coded.
-  auto base_glb = export_glb_bytes(level_scene(ps, base, *levels, 0, false), o.gltf, warnings);
+  Scene base_scene = level_scene(ps, base, *levels, 0, false);
+  const size_t base_meshes = base_scene.meshes.size();
+  auto base_glb = export_glb_bytes(base_scene, o.gltf, warnings);
   if (!base_glb.ok()) return base_glb.status();
   out.base_glb = base_glb.take();
   if (!o.report) return out;
@@ -228,7 +230,7 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   out.report_json = report_json(m);
   out.rd_svg = rd_svg(m);
   // 9. The stream package.
-  if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base);
+  if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
   if (!out.not_streamed.empty()) {
     warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
     return out;
