@@ -13,6 +13,7 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "atlas/source_atlas.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -460,12 +461,26 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   return mat;
 }
 
+// The atlas uv of a chart corner: the chart's parameterization placed by the layout (flat
+// charts: the centre of their block). `face_slot[m][f]`: face f's index in its chart's list.
+Vec2 chart_corner_uv(const FlatCharts& fc, const AtlasLayout& layout,
+                     const std::vector<std::vector<uint32_t>>& face_slot, uint32_t m, uint32_t f,
+                     int k) {
+  const uint32_t ci = fc.charts.face_chart[m][f];
+  if (layout.scale[ci] == 0)
+    return {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
+            float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.size)};
+  Vec2 cu = fc.uvs[ci].corner_uv[3 * size_t(face_slot[m][f]) + size_t(k)];
+  return {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
+          float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.size)};
+}
+
 // Step 5b: the faces of mesh m in material group `group` (material index `group` of the output)
 // as one primitive into the atlas: every corner gets its chart's atlas uv, corners welded where
 // position, normal and uv agree exactly.
-Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const AtlasLayout& layout,
+// `corner_uv(f, k)`: the atlas uv of face f's corner k.
+Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& corner_uv,
                 const std::vector<int32_t>& prim_group, int32_t group, const GroupKey& key) {
-  const ChartSet& charts = fc.charts;
   Primitive prim;
   prim.material = group;
   prim.flat = key.flat;
@@ -473,27 +488,12 @@ Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const Atla
   bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
                              [](const Primitive& p) { return !p.normals.empty(); });
   std::unordered_map<uint64_t, std::vector<uint32_t>> weld;
-  // Corner index within the chart's face list.
-  std::vector<uint32_t> face_slot(mv.faces.size());
-  for (uint32_t ci = 0; ci < charts.charts.size(); ++ci)
-    if (charts.charts[ci].mesh == m)
-      for (uint32_t k = 0; k < charts.charts[ci].faces.size(); ++k)
-        face_slot[charts.charts[ci].faces[k]] = k;
   for (uint32_t f = 0; f < mv.faces.size(); ++f) {
-    uint32_t ci = charts.face_chart[m][f];
     if (prim_group[mv.faces[f].primitive] != group) continue;
     const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
     uint32_t tri[3];
     for (int k = 0; k < 3; ++k) {
-      Vec2 t;
-      if (layout.scale[ci] == 0) {
-        t = {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
-             float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.size)};
-      } else {
-        Vec2 cu = fc.uvs[ci].corner_uv[3 * size_t(face_slot[f]) + size_t(k)];
-        t = {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
-             float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.size)};
-      }
+      const Vec2 t = corner_uv(f, k);
       uint32_t v = mv.corner(f, k);
       Vec3 pos = src.positions[v];
       Vec3 nrm = normals ? src.normals[v] : Vec3{};
@@ -522,44 +522,12 @@ Mesh atlas_mesh(const MeshView& mv, uint32_t m, const FlatCharts& fc, const Atla
   return mesh;
 }
 
-}  // namespace
-
-Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
-                          Warnings* warnings) {
-  auto start = std::chrono::steady_clock::now();
-  AtlasReport rep;
-  if (!needs_atlas(scene)) {
-    if (report) *report = rep;
-    return scene;
-  }
-  rep.built = true;
-  std::vector<MeshView> views;
-  for (const Mesh& m : scene.meshes) views.emplace_back(m);
-  // 1. Charts (paper 000 §4.2), flattened (§4.3).
-  FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
-  // 2. Sizes by formula 2.
-  Items items = size_charts(scene, views, fc, o);
-  rep.target_texels = items.target_texels;
-  rep.flat_colors = items.flat_colors;
-  rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
-                                    [](const Chart& c) { return c.textured; }));
-  // 3. Power-of-two-safe packing (§4.4).
-  auto packing = pack_charts(items, fc.uvs, o);
-  if (!packing.ok()) return packing.status();
-  rep.size = packing->packed.size;
-  rep.utilization = packing->utilization;
-  // 4. Bake every chart into its cell.
-  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
-  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake);
-  rep.texel_chart = std::move(baked.texel_chart);
-  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
-    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
-    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
-  }
-  stretch_figures(fc, &rep);
-  // 5. The output scene: one primitive per mesh into the atlas, one material, one image
-  // (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with alpha,
-  // and model.glb embeds their top level).
+// 5. The output scene: one primitive per mesh into the atlas, one material per group, one
+// image (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with
+// alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs.
+Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
+               const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv, Image atlas,
+               Warnings* warnings) {
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
@@ -591,7 +559,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
     for (size_t g = 0; g < groups.size(); ++g) {
-      Mesh mesh = atlas_mesh(views[m], m, fc, layout, prim_group[m], int32_t(g), groups[g]);
+      Mesh mesh = atlas_mesh(views[m], corner_uv[m], prim_group[m], int32_t(g), groups[g]);
       if (mesh.primitives[0].indices.empty()) continue;
       if (parts[m].size() > 0) mesh.name += " (" + std::to_string(parts[m].size() + 1) + ")";
       parts[m].push_back(uint32_t(out.meshes.size()));
@@ -605,9 +573,77 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       out.instances.push_back(std::move(copy));
     }
   }
-  Image atlas = std::move(baked.atlas);
   atlas.name = "atlas";
   out.images.push_back(std::move(atlas));
+  return out;
+}
+
+}  // namespace
+
+Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+                          Warnings* warnings) {
+  auto start = std::chrono::steady_clock::now();
+  AtlasReport rep;
+  if (!needs_atlas(scene)) {
+    if (report) *report = rep;
+    return scene;
+  }
+  rep.built = true;
+  std::vector<MeshView> views;
+  for (const Mesh& m : scene.meshes) views.emplace_back(m);
+  // 0. The source's one texture already is an atlas: keep it and its uvs (no resampling).
+  if (o.reuse_source_texture)
+    if (std::optional<SourceAtlas> source = find_source_atlas(scene, o.max_size)) {
+      rep.reused_source = true;
+      Image atlas = source_atlas_image(scene, *source);
+      rep.size = std::max(atlas.width, atlas.height);
+      rep.utilization = 1;
+      const uint32_t set = source->tex_coord;
+      std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
+      for (const MeshView& mv : views)
+        corner_uv.push_back([&mv, set](uint32_t f, int k) {
+          const std::vector<Vec2>& uv = mv.mesh.primitives[mv.faces[f].primitive].uvs[set];
+          const Vec2 cell =
+              face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
+          const Vec2 t = uv[mv.corner(f, k)];
+          return Vec2{t.x - cell.x, t.y - cell.y};
+        });
+      Scene out = assemble(scene, views, corner_uv, std::move(atlas), warnings);
+      rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (report) *report = std::move(rep);
+      return out;
+    }
+  // 1. Charts (paper 000 §4.2), flattened (§4.3).
+  FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
+  // 2. Sizes by formula 2.
+  Items items = size_charts(scene, views, fc, o);
+  rep.target_texels = items.target_texels;
+  rep.flat_colors = items.flat_colors;
+  rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
+                                    [](const Chart& c) { return c.textured; }));
+  // 3. Power-of-two-safe packing (§4.4).
+  auto packing = pack_charts(items, fc.uvs, o);
+  if (!packing.ok()) return packing.status();
+  rep.size = packing->packed.size;
+  rep.utilization = packing->utilization;
+  // 4. Bake every chart into its cell.
+  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
+  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake);
+  rep.texel_chart = std::move(baked.texel_chart);
+  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
+    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
+    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
+  }
+  stretch_figures(fc, &rep);
+  std::vector<std::vector<uint32_t>> face_slot(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) face_slot[m].resize(views[m].faces.size());
+  for (const Chart& c : fc.charts.charts)
+    for (uint32_t k = 0; k < c.faces.size(); ++k) face_slot[c.mesh][c.faces[k]] = k;
+  std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m)
+    corner_uv.push_back(
+        [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
+  Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), warnings);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
   return out;

@@ -2,7 +2,9 @@
 // sized by formula 2 within a target T = min(Σ source texture area the faces reference,
 // max_size²), packed so no chart crosses a power-of-two boundary, and baked from the source
 // materials; every mesh becomes one primitive with one uv set into the atlas and the single
-// material. Instancing is untouched (a shared mesh's charts are baked once).
+// material. Instancing is untouched (a shared mesh's charts are baked once). When every face
+// already samples one image inside [0, 1] (atlas/source_atlas.h), that image is the atlas and
+// the source uvs are kept: no charts, no resampling.
 //
 // The single material: base colour = the atlas (factors and vertex colours folded in), alpha
 // mode BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE;
@@ -31,10 +33,13 @@ struct AtlasOptions {
   int min_size = 64;                 // smallest atlas side
   int flat_block = 4;                // side of one flat-colour block, texels (gutters around it)
   int vertex_color_target = 512;     // T (side) for scenes whose only texture is vertex colour
+  bool reuse_source_texture = true;  // keep the source's one texture as the atlas when every
+                                     // face samples it inside [0, 1] (atlas/source_atlas.h)
 };
 
 struct AtlasReport {
   bool built = false;          // false: the scene was returned unchanged
+  bool reused_source = false;  // the source's one texture is the atlas (no charts, no baking)
   size_t charts = 0;           // textured charts after splitting invalid ones
   size_t flat_colors = 0;      // distinct flat-colour blocks
   size_t split = 0;            // charts split because they could not be flattened

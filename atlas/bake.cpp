@@ -18,8 +18,8 @@
 // - gutters: `gutter` rings of dilation; a ring's empty texel next to filled ones joins the chart
 //   most of those neighbours belong to (ties: the smaller chart index) and takes the average
 //   colour of the neighbours of that chart only;
-// - the rest of the atlas stays transparent black, or, when no baked texel is translucent, is
-//   filled by dilation to convergence with opaque colour (cleaner JPEG blocks).
+// - the rest of the atlas is filled by dilation to convergence (colour and alpha), so mip levels
+//   never mix a chart with empty texels; opaque when no baked texel is translucent.
 #include "atlas/bake.h"
 
 #include <algorithm>
@@ -424,11 +424,12 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   // Translucency of what was baked (charts and their gutters).
   for (size_t i = 0; i < texels && !result.has_alpha; ++i)
     if (filled[i] && img.rgba[i * 4 + 3] < 255) result.has_alpha = true;
-  if (!result.has_alpha) {
-    // Opaque everywhere: the empty space takes the nearest charts' colours, chart -1.
-    dilate(n, img.rgba, result.texel_chart, filled, -1, false);
+  // The empty space takes the nearest charts' colour and alpha (chart -1), so no mip level
+  // averages a chart with transparent black: at the sizes a model is seen at, a coarse level
+  // is what shows, and black there darkens every chart edge (and thins alpha-masked ones).
+  dilate(n, img.rgba, result.texel_chart, filled, -1, false);
+  if (!result.has_alpha)
     for (size_t i = 0; i < texels; ++i) img.rgba[i * 4 + 3] = 255;
-  }
   return result;
 }
 

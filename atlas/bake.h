@@ -4,8 +4,8 @@
 // bilinear, wrap and KHR_texture_transform honoured). Flat-colour charts fill their block with
 // their colour. Gutters are then filled by dilation (each empty texel next to filled ones takes
 // their average, ring by ring, `gutter` rings), so bilinear filtering and every mip level stay
-// clean at chart borders. Texels no chart reaches are left transparent black (alpha 0) — or,
-// when no source uses alpha, opaque with the dilated neighbour colour.
+// clean at chart borders. Texels no chart reaches take the colour and alpha of the nearest
+// charts by dilation to convergence (opaque when no source uses alpha).
 #pragma once
 
 #include <cstdint>

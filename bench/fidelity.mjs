@@ -10,6 +10,7 @@
 // usage: node bench/fidelity.mjs --meshmux BIN [--models DIR] [--work DIR] [--only NAME[,NAME]]
 //          [--json FILE] [--size 256] [--chromium /usr/bin/chromium] [--check] [--dump]
 //          [--require NAME[,NAME]] [--convert-args "--no-atlas ..."]
+//   (--dump also writes views-normals.png: the shading normals of original and model.glb)
 // --check: exit 1 unless every model meets the DESIGN.md targets the table prints as "met".
 // Exit 77 when chromium or the models are missing (said on stderr).
 import { spawnSync } from 'node:child_process';
@@ -195,9 +196,17 @@ for (const m of models) {
       });
       fs.writeFileSync(path.join(out, 'views-unlit.png'), tile([...shots.ou, ...shots.mu, ...shots.bu, ...diff], cams.length));
       fs.writeFileSync(path.join(out, 'views-lit.png'), tile([...shots.ol, ...shots.ml], cams.length));
+      // Shading normals alone (view space, MeshNormalMaterial): where lit differs but unlit
+      // agrees, this shows whether the normals or the materials are the cause.
+      const normals = [];
+      for (const h of [original.handle, model.handle])
+        for (const cam of cams)
+          normals.push(Buffer.from(await page.evaluate(([hh, c]) => window.fidelity.render(hh, c, 'normals'), [h, cam]), 'base64'));
+      fs.writeFileSync(path.join(out, 'views-normals.png'), tile(normals, cams.length));
     }
     row.coverage = { original: acc.unlit.a, model: acc.unlit.b };
     row.bounds = { original: [original.min, original.max], model: [model.min, model.max] };
+    row.lightsRemoved = { original: original.lightsRemoved, model: model.lightsRemoved };
     row.materials = { original: original.materials, model: model.materials };
     Object.assign(row, { unlit: psnr(acc.unlit), lit: psnr(acc.lit), base: psnr(acc.base),
       againstIn: original.normals.share, againstOut: model.normals.share, seconds: (Date.now() - t0) / 1000 });

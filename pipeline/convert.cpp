@@ -52,10 +52,15 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     report_step(progress, "atlas: not needed (one material, no texture)");
     return scene;
   }
-  report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 "
-                               "stretch mean %.3f max %.3f, %.2f s",
-                               ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
-                               ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds));
+  if (ar.reused_source)
+    report_step(progress, format("atlas: the source's one texture kept as it is, %d px on its "
+                                 "larger side (every face samples it inside [0, 1]; no resampling)",
+                                 ar.size));
+  else
+    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 "
+                                 "stretch mean %.3f max %.3f, %.2f s",
+                                 ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
+                                 ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds));
   Scene out = atlased.take();
   if (should_flatten(out)) {
     out = flatten(out);

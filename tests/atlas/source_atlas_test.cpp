@@ -1,0 +1,150 @@
+#include "atlas/source_atlas.h"
+
+#include <gtest/gtest.h>
+
+#include "atlas/atlas.h"
+
+namespace meshmux {
+namespace {
+
+// A 4×2 image of distinct opaque texels.
+Image strip() {
+  Image img;
+  img.name = "strip.png";
+  img.width = 4;
+  img.height = 2;
+  for (int i = 0; i < 8; ++i)
+    img.rgba.insert(img.rgba.end(), {uint8_t(30 * i), uint8_t(255 - 30 * i), 77, 255});
+  return img;
+}
+
+// One quad sampling `strip()` through uv set 0 with the given uvs (v in [v0, v0 + 1]).
+Scene quad_scene(float v0) {
+  Scene s;
+  s.images.push_back(strip());
+  Material m;
+  m.base_color.image = 0;
+  s.materials.push_back(m);
+  Primitive p;
+  p.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  p.normals.assign(4, {0, 0, 1});
+  p.uvs = {{{0, v0 + 1}, {1, v0 + 1}, {1, v0}, {0, v0}}};
+  p.indices = {0, 1, 2, 0, 2, 3};
+  p.material = 0;
+  Mesh mesh;
+  mesh.primitives.push_back(p);
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  return s;
+}
+
+// The common single-texture-set model (DamagedHelmet): the atlas is the source image itself,
+// texel for texel, and the uvs are the source's. Resampling it through charts cost 18 dB of
+// unlit PSNR against the original (fidelity harness: 24.7 → 43.8 dB) and doubled its side.
+TEST(SourceAtlas, OneTextureInsideTheUnitSquareIsKeptAsIs) {
+  Scene s = quad_scene(0);
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(rep.built);
+  EXPECT_TRUE(rep.reused_source);
+  ASSERT_EQ(out->images.size(), 1u);
+  EXPECT_EQ(out->images[0].width, 4);
+  EXPECT_EQ(out->images[0].height, 2);
+  EXPECT_EQ(out->images[0].rgba, strip().rgba);
+  ASSERT_EQ(out->meshes.size(), 1u);
+  const Primitive& q = out->meshes[0].primitives[0];
+  ASSERT_EQ(q.uvs.size(), 1u);
+  for (size_t i = 0; i < q.indices.size(); ++i) {
+    const Vec3 pos = q.positions[q.indices[i]];
+    const Vec2 uv = q.uvs[0][q.indices[i]];
+    // The quad's uv is (x, 1 − y) by construction.
+    EXPECT_FLOAT_EQ(uv.x, pos.x);
+    EXPECT_FLOAT_EQ(uv.y, 1 - pos.y);
+  }
+}
+
+// DamagedHelmet's uvs lie in [0, 1] × [1, 2] under a repeating sampler: the same texels as
+// [0, 1]², so the faces move there and the image is still kept.
+TEST(SourceAtlas, RepeatedUnitCellMovesToTheUnitSquare) {
+  Scene s = quad_scene(1);
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok());
+  EXPECT_TRUE(rep.reused_source);
+  const Primitive& q = out->meshes[0].primitives[0];
+  for (size_t i = 0; i < q.indices.size(); ++i) {
+    const Vec2 uv = q.uvs[0][q.indices[i]];
+    EXPECT_GE(uv.y, 0.0f);
+    EXPECT_LE(uv.y, 1.0f);
+    EXPECT_FLOAT_EQ(uv.y, 1 - q.positions[q.indices[i]].y);
+  }
+}
+
+// A clamped sampler does not repeat: [1, 2] shows the edge texels, not the image, so the
+// source cannot be kept as it is (the charts path bakes what it shows).
+TEST(SourceAtlas, ClampedSamplerOutsideTheUnitSquareIsBaked) {
+  Scene s = quad_scene(1);
+  s.materials[0].base_color.sampler.wrap_t = Wrap::kClampToEdge;
+  EXPECT_FALSE(find_source_atlas(s, 4096).has_value());
+  AtlasReport rep;
+  ASSERT_TRUE(build_atlas(s, {}, &rep, nullptr).ok());
+  EXPECT_TRUE(rep.built);
+  EXPECT_FALSE(rep.reused_source);
+}
+
+// A face spanning two repeats (a tiled floor) needs the texture twice: baked, not kept.
+TEST(SourceAtlas, FaceSpanningTwoRepeatsIsBaked) {
+  Scene s = quad_scene(0);
+  s.meshes[0].primitives[0].uvs[0][1] = {2, 1};
+  EXPECT_FALSE(find_source_atlas(s, 4096).has_value());
+}
+
+// Two images, vertex colours, or different factors: one image cannot show them.
+TEST(SourceAtlas, SecondImageVertexColourOrOtherFactorIsBaked) {
+  Scene two = quad_scene(0);
+  two.images.push_back(strip());
+  Material other = two.materials[0];
+  other.base_color.image = 1;
+  two.materials.push_back(other);
+  two.meshes[0].primitives.push_back(two.meshes[0].primitives[0]);
+  two.meshes[0].primitives[1].material = 1;
+  EXPECT_FALSE(find_source_atlas(two, 4096).has_value());
+
+  Scene coloured = quad_scene(0);
+  coloured.meshes[0].primitives[0].colors.assign(4, {1, 0, 0, 1});
+  EXPECT_FALSE(find_source_atlas(coloured, 4096).has_value());
+
+  Scene factors = quad_scene(0);
+  factors.materials.push_back(factors.materials[0]);
+  factors.materials[1].base_color_factor = {0.5f, 1, 1, 1};
+  factors.meshes[0].primitives.push_back(factors.meshes[0].primitives[0]);
+  factors.meshes[0].primitives[1].material = 1;
+  EXPECT_FALSE(find_source_atlas(factors, 4096).has_value());
+}
+
+// A shared factor is folded into the pixels in linear light (sRGB 255 × 0.5 → 188).
+TEST(SourceAtlas, SharedFactorIsFoldedIntoThePixels) {
+  Scene s = quad_scene(0);
+  s.images[0].rgba.assign(s.images[0].rgba.size(), 255);
+  s.materials[0].base_color_factor = {0.5f, 1, 1, 0.5f};
+  auto source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  Image atlas = source_atlas_image(s, *source);
+  EXPECT_EQ(atlas.rgba[0], 188);
+  EXPECT_EQ(atlas.rgba[1], 255);
+  EXPECT_EQ(atlas.rgba[3], 128);
+}
+
+// Larger than the atlas may be, or not a power of two: baked (and downsized) by the charts path.
+TEST(SourceAtlas, OversizeOrNonPowerOfTwoImageIsBaked) {
+  Scene s = quad_scene(0);
+  EXPECT_FALSE(find_source_atlas(s, 2).has_value());
+  s.images[0].width = 3;
+  s.images[0].height = 2;
+  s.images[0].rgba.resize(3 * 2 * 4);
+  EXPECT_FALSE(find_source_atlas(s, 4096).has_value());
+}
+
+}  // namespace
+}  // namespace meshmux
