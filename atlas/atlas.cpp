@@ -600,14 +600,23 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       rep.utilization = 1;
       const uint32_t set = source->tex_coord;
       std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
-      for (const MeshView& mv : views)
-        corner_uv.push_back([&mv, set](uint32_t f, int k) {
-          const std::vector<Vec2>& uv = mv.mesh.primitives[mv.faces[f].primitive].uvs[set];
-          const Vec2 cell =
-              face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
-          const Vec2 t = uv[mv.corner(f, k)];
-          return Vec2{t.x - cell.x, t.y - cell.y};
-        });
+      // Per primitive: its plain colour's block, or -1 (textured).
+      std::vector<std::vector<int>> flat(views.size());
+      for (size_t m = 0; m < views.size(); ++m)
+        for (const Primitive& p : views[m].mesh.primitives)
+          flat[m].push_back(flat_color_index(scene, *source, p.material));
+      rep.flat_colors = source->flat_colors.size();
+      for (size_t m = 0; m < views.size(); ++m)
+        corner_uv.push_back(
+            [&mv = views[m], &fl = flat[m], &src = *source, set](uint32_t f, int k) {
+              const uint32_t prim = mv.faces[f].primitive;
+              if (fl[prim] >= 0) return src.flat_uv[size_t(fl[prim])];
+              const std::vector<Vec2>& uv = mv.mesh.primitives[prim].uvs[set];
+              const Vec2 cell =
+                  face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
+              const Vec2 t = uv[mv.corner(f, k)];
+              return Vec2{t.x - cell.x, t.y - cell.y};
+            });
       Scene out = assemble(scene, views, corner_uv, std::move(atlas), warnings);
       rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       if (report) *report = std::move(rep);

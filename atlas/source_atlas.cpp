@@ -1,6 +1,8 @@
 // The source's own texture as the atlas (see source_atlas.h). Paper 000 §4.4 resamples source
 // textures into charts; this is the case where the source is already one chart set in one
-// image, so the resampling step is the identity and is skipped.
+// image, so the resampling step is the identity and is skipped. Plain colours get aligned
+// blocks (paper 000 §4.4's power-of-two rule: an aligned 2^k block stays one colour down to
+// mip level k) where no textured face samples.
 #include "atlas/source_atlas.h"
 
 #include <algorithm>
@@ -14,7 +16,71 @@ namespace {
 
 bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
-constexpr float kUvSlack = 1e-3f;  // uv units a coordinate may lie outside [0, 1]
+constexpr float kUvSlack = 1e-3f;  // uv units a coordinate may lie outside its unit cell
+constexpr double kMargin = 8;      // texels kept clear between textured faces and a block
+constexpr int kMaxBlock = 64, kMinBlock = 4;  // block sides tried, texels
+
+double cross2(double ax, double ay, double bx, double by) { return ax * by - ay * bx; }
+
+// Distance from (px, py) to segment a-b.
+double segment_distance(double px, double py, double ax, double ay, double bx, double by) {
+  const double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
+  double t = len2 > 0 ? ((px - ax) * dx + (py - ay) * dy) / len2 : 0;
+  t = std::clamp(t, 0.0, 1.0);
+  const double qx = ax + t * dx - px, qy = ay + t * dy - py;
+  return std::sqrt(qx * qx + qy * qy);
+}
+
+// Marks every texel whose centre lies within `reach` texels of the triangle (texel units).
+void mark_triangle(const double x[3], const double y[3], double reach, int w, int h,
+                   std::vector<uint8_t>& used) {
+  const int x0 = std::max(0, int(std::floor(std::min({x[0], x[1], x[2]}) - reach)));
+  const int x1 = std::min(w - 1, int(std::ceil(std::max({x[0], x[1], x[2]}) + reach)));
+  const int y0 = std::max(0, int(std::floor(std::min({y[0], y[1], y[2]}) - reach)));
+  const int y1 = std::min(h - 1, int(std::ceil(std::max({y[0], y[1], y[2]}) + reach)));
+  const double area = cross2(x[1] - x[0], y[1] - y[0], x[2] - x[0], y[2] - y[0]);
+  for (int ty = y0; ty <= y1; ++ty)
+    for (int tx = x0; tx <= x1; ++tx) {
+      uint8_t& u = used[size_t(ty) * size_t(w) + size_t(tx)];
+      if (u) continue;
+      const double px = tx + 0.5, py = ty + 0.5;
+      bool inside = false;
+      if (area != 0) {
+        const double s = area > 0 ? 1 : -1;
+        inside = s * cross2(x[1] - x[0], y[1] - y[0], px - x[0], py - y[0]) >= 0 &&
+                 s * cross2(x[2] - x[1], y[2] - y[1], px - x[1], py - y[1]) >= 0 &&
+                 s * cross2(x[0] - x[2], y[0] - y[2], px - x[2], py - y[2]) >= 0;
+      }
+      if (inside || segment_distance(px, py, x[0], y[0], x[1], y[1]) <= reach ||
+          segment_distance(px, py, x[1], y[1], x[2], y[2]) <= reach ||
+          segment_distance(px, py, x[2], y[2], x[0], y[0]) <= reach)
+        u = 1;
+    }
+}
+
+// Aligned free b×b cells of `used` (w×h), in scan order, at most `need`.
+std::vector<std::pair<int, int>> free_cells(const std::vector<uint8_t>& used, int w, int h, int b,
+                                            size_t need) {
+  // Summed-area table of used texels.
+  std::vector<uint32_t> sat(size_t(w + 1) * size_t(h + 1), 0);
+  auto at = [&](int x, int y) -> uint32_t& { return sat[size_t(y) * size_t(w + 1) + size_t(x)]; };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      at(x + 1, y + 1) =
+          used[size_t(y) * size_t(w) + size_t(x)] + at(x, y + 1) + at(x + 1, y) - at(x, y);
+  std::vector<std::pair<int, int>> out;
+  for (int y = 0; y + b <= h && out.size() < need; y += b)
+    for (int x = 0; x + b <= w && out.size() < need; x += b)
+      if (at(x + b, y + b) + at(x, y) - at(x + b, y) - at(x, y + b) == 0) out.push_back({x, y});
+  return out;
+}
+
+void put(uint8_t* p, Vec4 c) {
+  p[0] = linear_to_srgb(c.x);
+  p[1] = linear_to_srgb(c.y);
+  p[2] = linear_to_srgb(c.z);
+  p[3] = uint8_t(std::lround(std::clamp(c.w, 0.0f, 1.0f) * 255.0f));
+}
 
 }  // namespace
 
@@ -23,26 +89,61 @@ Vec2 face_uv_cell(Vec2 a, Vec2 b, Vec2 c) {
           std::floor(std::min({a.y, b.y, c.y}) + kUvSlack)};
 }
 
+int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t material) {
+  Vec4 c{1, 1, 1, 1};
+  if (material >= 0 && size_t(material) < scene.materials.size()) {
+    const Material& m = scene.materials[size_t(material)];
+    if (m.base_color.present()) return -1;
+    c = m.base_color_factor;
+  }
+  for (size_t i = 0; i < source.flat_colors.size(); ++i)
+    if (source.flat_colors[i] == c) return int(i);
+  return -1;
+}
+
 std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   std::optional<SourceAtlas> found;
+  std::vector<Vec4> flat;
+  // Pass 1: one image, one uv set, one factor; the plain colours.
   for (const Mesh& mesh : scene.meshes)
     for (const Primitive& p : mesh.primitives) {
       if (p.indices.empty()) continue;
-      if (p.material < 0 || size_t(p.material) >= scene.materials.size() || !p.colors.empty())
-        return std::nullopt;
+      if (!p.colors.empty() || p.material >= int32_t(scene.materials.size())) return std::nullopt;
+      if (p.material < 0 || !scene.materials[size_t(p.material)].base_color.present()) {
+        const Vec4 c = p.material < 0 ? Vec4{1, 1, 1, 1}
+                                      : scene.materials[size_t(p.material)].base_color_factor;
+        if (std::find(flat.begin(), flat.end(), c) == flat.end()) flat.push_back(c);
+        continue;
+      }
       const Material& m = scene.materials[size_t(p.material)];
       const TextureRef& t = m.base_color;
-      if (!t.present() || !t.transform.is_identity() || t.tex_coord >= p.uvs.size())
-        return std::nullopt;
-      SourceAtlas here{t.image, t.tex_coord, m.base_color_factor};
+      if (!t.transform.is_identity() || t.tex_coord >= p.uvs.size()) return std::nullopt;
+      SourceAtlas here;
+      here.image = t.image;
+      here.tex_coord = t.tex_coord;
+      here.factor = m.base_color_factor;
       if (!found) {
         found = here;
       } else if (found->image != here.image || found->tex_coord != here.tex_coord ||
                  !(found->factor == here.factor)) {
         return std::nullopt;
       }
-      // Each face within one unit cell of uv space; a cell other than [0, 1] only where the
-      // sampler repeats (the shift to [0, 1] then shows the same texels).
+    }
+  if (!found || found->image < 0 || size_t(found->image) >= scene.images.size())
+    return std::nullopt;
+  const Image& image = scene.images[size_t(found->image)];
+  if (!image.decoded() || !power_of_two(image.width) || !power_of_two(image.height) ||
+      image.width > max_size || image.height > max_size)
+    return std::nullopt;
+  const int w = image.width, h = image.height;
+  // Pass 2: each textured face inside one unit cell (moved to [0, 1]² where the sampler
+  // repeats); with plain colours to place, the texels the faces come near are marked.
+  std::vector<uint8_t> used(flat.empty() ? 0 : size_t(w) * size_t(h), 0);
+  for (const Mesh& mesh : scene.meshes)
+    for (const Primitive& p : mesh.primitives) {
+      if (p.indices.empty() || p.material < 0) continue;
+      const TextureRef& t = scene.materials[size_t(p.material)].base_color;
+      if (!t.present()) continue;
       const std::vector<Vec2>& uv = p.uvs[t.tex_coord];
       for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
         Vec2 c[3];
@@ -57,13 +158,44 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
           return std::nullopt;
         for (const Vec2& q : c)
           if (q.x - cell.x > 1 + kUvSlack || q.y - cell.y > 1 + kUvSlack) return std::nullopt;
+        if (flat.empty()) continue;
+        double x[3], y[3];
+        for (int k = 0; k < 3; ++k) {
+          x[k] = double(c[k].x - cell.x) * w;
+          y[k] = double(c[k].y - cell.y) * h;
+        }
+        mark_triangle(x, y, kMargin, w, h, used);
       }
     }
-  if (!found || size_t(found->image) >= scene.images.size()) return std::nullopt;
-  const Image& image = scene.images[size_t(found->image)];
-  if (!image.decoded() || !power_of_two(image.width) || !power_of_two(image.height) ||
-      image.width > max_size || image.height > max_size)
-    return std::nullopt;
+  found->width = w;
+  found->height = h;
+  if (flat.empty()) return found;
+  // Pass 3: blocks for the plain colours, the largest side that fits them all; else below the
+  // image, in a second image height.
+  std::vector<std::pair<int, int>> cells;
+  int block = 0;
+  for (int b = std::min({kMaxBlock, w, h}); b >= kMinBlock && cells.size() < flat.size(); b /= 2) {
+    cells = free_cells(used, w, h, b, flat.size());
+    block = b;
+  }
+  if (cells.size() < flat.size()) {
+    if (2 * h > max_size) return std::nullopt;
+    found->height = 2 * h;
+    block = std::min({kMaxBlock, w, h});
+    cells.clear();
+    for (int y = h; y + block <= 2 * h && cells.size() < flat.size(); y += block)
+      for (int x = 0; x + block <= w && cells.size() < flat.size(); x += block)
+        cells.push_back({x, y});
+    if (cells.size() < flat.size()) return std::nullopt;
+  }
+  found->block = block;
+  found->flat_colors = flat;
+  for (size_t i = 0; i < flat.size(); ++i) {
+    found->flat_x.push_back(cells[i].first);
+    found->flat_y.push_back(cells[i].second);
+    found->flat_uv.push_back({float((cells[i].first + 0.5 * block) / found->width),
+                              float((cells[i].second + 0.5 * block) / found->height)});
+  }
   return found;
 }
 
@@ -71,16 +203,31 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
   const Image& in = scene.images[size_t(source.image)];
   Image out;
   out.name = "atlas";
-  out.width = in.width;
-  out.height = in.height;
+  out.width = source.width;
+  out.height = source.height;
   out.rgba = in.rgba;
   const Vec4 f = source.factor;
-  if (f.x == 1 && f.y == 1 && f.z == 1 && f.w == 1) return out;
-  for (size_t i = 0; i + 3 < out.rgba.size(); i += 4) {
-    out.rgba[i + 0] = linear_to_srgb(srgb_to_linear(out.rgba[i + 0]) * f.x);
-    out.rgba[i + 1] = linear_to_srgb(srgb_to_linear(out.rgba[i + 1]) * f.y);
-    out.rgba[i + 2] = linear_to_srgb(srgb_to_linear(out.rgba[i + 2]) * f.z);
-    out.rgba[i + 3] = uint8_t(std::lround(std::clamp(out.rgba[i + 3] * f.w, 0.0f, 255.0f)));
+  if (!(f.x == 1 && f.y == 1 && f.z == 1 && f.w == 1))
+    for (size_t i = 0; i + 3 < out.rgba.size(); i += 4) {
+      out.rgba[i + 0] = linear_to_srgb(srgb_to_linear(out.rgba[i + 0]) * f.x);
+      out.rgba[i + 1] = linear_to_srgb(srgb_to_linear(out.rgba[i + 1]) * f.y);
+      out.rgba[i + 2] = linear_to_srgb(srgb_to_linear(out.rgba[i + 2]) * f.z);
+      out.rgba[i + 3] = uint8_t(std::lround(std::clamp(out.rgba[i + 3] * f.w, 0.0f, 255.0f)));
+    }
+  const size_t w = size_t(out.width);
+  if (source.height > in.height) {  // the appended half: the first plain colour
+    out.rgba.resize(w * size_t(out.height) * 4);
+    uint8_t px[4];
+    put(px, source.flat_colors[0]);
+    for (size_t i = w * size_t(in.height); i < w * size_t(out.height); ++i)
+      std::copy(px, px + 4, &out.rgba[i * 4]);
+  }
+  for (size_t c = 0; c < source.flat_colors.size(); ++c) {
+    uint8_t px[4];
+    put(px, source.flat_colors[c]);
+    for (int y = source.flat_y[c]; y < source.flat_y[c] + source.block; ++y)
+      for (int x = source.flat_x[c]; x < source.flat_x[c] + source.block; ++x)
+        std::copy(px, px + 4, &out.rgba[(size_t(y) * w + size_t(x)) * 4]);
   }
   return out;
 }

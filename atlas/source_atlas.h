@@ -1,42 +1,64 @@
 // The source's own texture as the atlas. Paper 000 §4.4 builds one atlas by resampling every
-// source texture into new charts; when every face of a scene already samples ONE image through
-// one uv set that stays inside [0, 1] (the common single-texture-set model: a scan, a game or
-// Sketchfab asset), that image already is an atlas. Resampling it through new charts only blurs
-// it (bilinear resampling is a low-pass filter: −18 dB unlit PSNR on DamagedHelmet against the
-// original, fidelity harness) and inflates it (a 2048² texture became 4096²). So the atlas stage
-// keeps the image and the source uvs, with the base-colour factor folded into the pixels.
+// source texture into new charts; when every textured face of a scene already samples ONE image
+// through one uv set, face by face inside one unit cell of uv space (the common single-texture
+// model: a scan, a game or Sketchfab asset, a COLLADA vehicle whose glass and trim are plain
+// colours), that image already is an atlas. Resampling it through new charts only blurs it
+// (bilinear resampling is a low-pass filter: −18 dB unlit PSNR on DamagedHelmet against the
+// original in the fidelity harness) and inflates it (2048² became 4096²); it also changes what
+// the original's own mip levels show at its chart borders. So the atlas stage keeps the image
+// and the source uvs, with the base-colour factor folded into the pixels, and gives each plain
+// colour a block of texels the source does not use.
 #pragma once
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "scene/scene.h"
 
 namespace meshmux {
 
 struct SourceAtlas {
-  int32_t image = -1;       // index into Scene::images: the image every face samples
-  uint32_t tex_coord = 0;   // the uv set it is sampled through (the same on every primitive)
-  Vec4 factor{1, 1, 1, 1};  // the base-colour factor all those materials share (linear RGBA)
+  int32_t image = -1;         // index into Scene::images: the image every textured face samples
+  uint32_t tex_coord = 0;     // the uv set it is sampled through (the same on every primitive)
+  Vec4 factor{1, 1, 1, 1};    // the base-colour factor the textured materials share (linear)
+  int width = 0, height = 0;  // the atlas: the image's size, or twice its height when the
+                              // plain colours found no room in it
+  // Plain colours: faces whose material has no base-colour texture (and no vertex colours)
+  // show their factor; each distinct one gets an aligned square block of texels no textured
+  // face comes near (`block` texels, clean down to mip level log2(block)).
+  std::vector<Vec4> flat_colors;    // linear RGBA, in first-use order
+  std::vector<Vec2> flat_uv;        // per flat colour: its block's centre, atlas uv
+  std::vector<int> flat_x, flat_y;  // per flat colour: its block's top-left texel
+  int block = 0;                    // block side, texels (0: no flat colours)
 };
 
-// The image to keep, when:
-// - every primitive with faces has a material whose base colour texture is that one image,
-//   through the same uv set, with no KHR_texture_transform and the same base-colour factor;
-// - no such primitive has vertex colours;
-// - each face's uvs lie in one unit cell [kx, kx + 1] × [ky, ky + 1] (within 1e-3), and a
-//   cell other than [0, 1]² only on axes whose sampler repeats; the face is then moved to
+// The kept image, when:
+// - every primitive with faces either samples, through its material's base-colour texture, the
+//   same image through the same uv set with no KHR_texture_transform and the same factor, or
+//   has no base-colour texture (a plain colour); none has vertex colours; at least one is
+//   textured;
+// - each textured face's uvs lie in one unit cell [kx, kx + 1] × [ky, ky + 1] (within 1e-3),
+//   and a cell other than [0, 1]² only on axes whose sampler repeats; the face is then moved to
 //   [0, 1]² (face_uv_cell), where a clamped sampler shows the same texels;
-// - the image is decoded, both sides are powers of two and at most `max_size`.
-// Otherwise nullopt (the atlas is built from charts). O(referenced uvs).
+// - the image is decoded, both sides are powers of two and at most `max_size`;
+// - the plain colours find aligned free blocks (4 to 64 texels, 8 texels clear of every
+//   textured face) in the image or in a second image height appended below it (≤ max_size).
+// Otherwise nullopt (the atlas is built from charts). O(referenced uvs + texels of the
+// textured faces' uv bounding boxes + image texels).
 std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size);
 
 // The unit cell of uv space a face lies in: the floor of its smallest coordinates (+ 1e-3, so a
 // face touching 1.0 from [0, 1] stays there). Subtract it from the face's uvs.
 Vec2 face_uv_cell(Vec2 a, Vec2 b, Vec2 c);
 
-// The image as the atlas: the source pixels × the factor (sRGB-decoded, multiplied in linear
-// light, re-encoded; alpha × factor.w), named "atlas". Unchanged pixels when the factor is 1.
+// The plain colour of a primitive's material (its factor; white for the default material), or
+// -1 when the material samples a base-colour texture. Index into SourceAtlas::flat_colors.
+int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t material);
+
+// The atlas image: the source pixels × the factor (sRGB-decoded, multiplied in linear light,
+// re-encoded; alpha × factor.w; unchanged when the factor is 1), the appended half (if any)
+// filled with the first plain colour, and each plain colour's block. Named "atlas".
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
 
 }  // namespace meshmux

@@ -41,6 +41,7 @@ const char* const kDraco = "KHR_draco_mesh_compression";
 const char* const kInstancing = "EXT_mesh_gpu_instancing";
 const char* const kTextureTransform = "KHR_texture_transform";
 const char* const kUnlit = "KHR_materials_unlit";
+const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
 
 // The JSON number that prints as the shortest decimal reading back to exactly `f`.
 json num(float f) {
@@ -280,10 +281,19 @@ class Exporter {
       }
       if (json t = tex(m.emissive, "emissiveTexture"); !t.is_null())
         j["emissiveTexture"] = std::move(t);
+      // Emissive factors beyond 1 (KHR_materials_emissive_strength folded in on import) are
+      // written as a factor in [0, 1] and the strength that scales it.
       float e[3] = {m.emissive_factor.x, m.emissive_factor.y, m.emissive_factor.z};
-      for (float& v : e) v = bounded(v, 0, 1, 0, where + ": emissiveFactor component");
+      float strength = 1;
+      for (float v : e)
+        if (std::isfinite(v) && v > strength) strength = v;
+      for (float& v : e) v = bounded(v / strength, 0, 1, 0, where + ": emissiveFactor component");
       if (e[0] != 0 || e[1] != 0 || e[2] != 0)
         j["emissiveFactor"] = {num(e[0]), num(e[1]), num(e[2])};
+      if (strength > 1) {
+        j["extensions"][kEmissiveStrength] = {{"emissiveStrength", num(strength)}};
+        used_.insert(kEmissiveStrength);
+      }
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";
         float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;

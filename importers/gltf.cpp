@@ -27,8 +27,8 @@ const std::map<std::string, std::string> kAppearanceExtensions = {
     {"KHR_materials_sheen", "sheen dropped (cloth shows its base colour without the sheen layer)"},
     {"KHR_materials_clearcoat", "clearcoat dropped (no second specular layer)"},
     {"KHR_materials_transmission",
-     "transmission dropped (the surface shows opaque, or as alpha blending where its alpha "
-     "mode says so)"},
+     "transmission approximated as alpha blending (alpha × (1 − transmissionFactor); the "
+     "transmission texture, refraction and roughness blur dropped)"},
     {"KHR_materials_volume", "volume dropped (no thickness or attenuation)"},
     {"KHR_materials_specular", "specular dropped (the default dielectric F0 of 0.04 is used)"},
     {"KHR_materials_ior", "ior dropped (the default 1.5 is used)"},
@@ -511,6 +511,34 @@ class Importer {
     return ref;
   }
 
+  // Material extensions folded into the metal-roughness core (issue 2/8, deliver 4):
+  // - KHR_materials_emissive_strength multiplies the emissive factor (exact; the exporter
+  //   writes the extension back when a component exceeds 1);
+  // - KHR_materials_transmission becomes alpha blending with alpha × (1 − transmissionFactor):
+  //   what a viewer without transmission shows closest to seeing through the surface.
+  // Number fields that are missing or not finite keep their glTF defaults.
+  static void approximate_extensions(const tinygltf::Material& src, Material* mat) {
+    auto number = [](const tinygltf::Value& v, const char* key, double fallback) {
+      if (!v.IsObject() || !v.Has(key) || !v.Get(key).IsNumber()) return fallback;
+      const double d = v.Get(key).GetNumberAsDouble();
+      return std::isfinite(d) ? d : fallback;
+    };
+    if (auto it = src.extensions.find("KHR_materials_emissive_strength");
+        it != src.extensions.end()) {
+      const float strength = float(std::max(0.0, number(it->second, "emissiveStrength", 1.0)));
+      mat->emissive_factor = {mat->emissive_factor.x * strength, mat->emissive_factor.y * strength,
+                              mat->emissive_factor.z * strength};
+    }
+    if (auto it = src.extensions.find("KHR_materials_transmission");
+        it != src.extensions.end() && !mat->unlit) {
+      const double t = std::clamp(number(it->second, "transmissionFactor", 0.0), 0.0, 1.0);
+      if (t > 0) {
+        mat->base_color_factor.w *= float(1 - t);
+        mat->alpha_mode = AlphaMode::kBlend;
+      }
+    }
+  }
+
   void materials() {
     for (size_t i = 0; i < m_.materials.size(); ++i) {
       const tinygltf::Material& src = m_.materials[i];
@@ -545,6 +573,7 @@ class Importer {
       mat.alpha_cutoff = float(src.alphaCutoff);
       mat.double_sided = src.doubleSided;
       mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
+      approximate_extensions(src, &mat);
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
       scene_.materials.push_back(std::move(mat));

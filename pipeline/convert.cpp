@@ -54,8 +54,9 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
   }
   if (ar.reused_source)
     report_step(progress, format("atlas: the source's one texture kept as it is, %d px on its "
-                                 "larger side (every face samples it inside [0, 1]; no resampling)",
-                                 ar.size));
+                                 "larger side, + %zu plain colours in unused texels (no "
+                                 "resampling)",
+                                 ar.size, ar.flat_colors));
   else
     report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 "
                                  "stretch mean %.3f max %.3f, %.2f s",

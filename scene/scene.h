@@ -57,7 +57,7 @@ struct Material {
   TextureRef normal;                   // tangent-space normal map
   TextureRef occlusion;                // linear; R = occlusion
   TextureRef emissive;                 // sRGB
-  Vec3 emissive_factor{0, 0, 0};       // linear RGB
+  Vec3 emissive_factor{0, 0, 0};       // linear RGB; may exceed 1 (KHR_materials_emissive_strength)
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
   bool double_sided = false;  // render back faces

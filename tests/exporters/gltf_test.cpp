@@ -393,6 +393,21 @@ TEST(GltfExport, MaterialFieldsSurvive) {
   expect_valid(bytes, "materials.glb");
 }
 
+// An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is
+// written back as a factor in [0, 1] and the strength, so it stays valid and as bright.
+TEST(GltfExport, EmissiveBeyondOneWritesEmissiveStrength) {
+  Scene scene = textured_cube_scene();
+  scene.materials[0].emissive_factor = {4, 2, 0};
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& j = glb.doc["materials"][0];
+  EXPECT_EQ(j["emissiveFactor"], json({1.0, 0.5, 0.0}));
+  EXPECT_FLOAT_EQ(
+      j["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"].get<float>(), 4.0f);
+  EXPECT_TRUE(has(glb.doc["extensionsUsed"], "KHR_materials_emissive_strength"));
+  expect_valid(bytes, "emissive_strength.glb");
+}
+
 TEST(GltfExport, UnsupportedImageFormatIsReencodedToPng) {
   Scene scene = textured_cube_scene();
   Image& img = scene.images[0];

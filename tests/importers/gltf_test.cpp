@@ -530,6 +530,40 @@ TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
   EXPECT_EQ(clearcoat, 1);
 }
 
+// Issue 2/8 (deliver 4): transmission is approximated as alpha blending (glass seen through,
+// not opaque), emissive_strength is folded into the emissive factor, and the warning says what
+// was approximated.
+TEST(GltfImport, TransmissionBecomesBlendAndEmissiveStrengthIsFolded) {
+  TempDir dir;
+  testing::write_text(dir.file("glass.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_emissive_strength"],
+    "materials": [
+      {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 0.8]},
+       "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.75}}},
+      {"emissiveFactor": [1, 0.5, 0],
+       "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}},
+      {"extensions": {"KHR_materials_transmission": {}}}],
+    "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0})");
+  Warnings w;
+  auto s = import_gltf(dir.file("glass.gltf"), {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->materials.size(), 3u);
+  EXPECT_EQ(s->materials[0].alpha_mode, AlphaMode::kBlend);
+  EXPECT_FLOAT_EQ(s->materials[0].base_color_factor.w, 0.8f * 0.25f);
+  EXPECT_FLOAT_EQ(s->materials[0].base_color_factor.x, 0.2f);
+  EXPECT_FLOAT_EQ(s->materials[1].emissive_factor.x, 4.0f);
+  EXPECT_FLOAT_EQ(s->materials[1].emissive_factor.y, 2.0f);
+  // transmissionFactor defaults to 0: nothing to see through, stays opaque.
+  EXPECT_EQ(s->materials[2].alpha_mode, AlphaMode::kOpaque);
+  int approximated = 0;
+  for (const std::string& m : w.items())
+    approximated += m.find(
+                        "KHR_materials_transmission on 2 material(s): transmission "
+                        "approximated as alpha blending") != std::string::npos;
+  EXPECT_EQ(approximated, 1);
+}
+
 // Issue 2/8: a primitive without NORMAL is flat-shaded by definition (glTF 3.7.2.1): the
 // importer marks it so, and a primitive with normals is not marked.
 TEST(GltfImport, SharedModelWithoutNormalsIsMarkedFlat) {

@@ -114,7 +114,14 @@ TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
   EXPECT_EQ(j["scene_triangles"], out->base_triangles);
   EXPECT_EQ(j["scene_triangles"], k["scene_triangles"]);
   EXPECT_EQ(j["texture_pixels"], k["texture_pixels"]);
-  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(), 128u * 128u) << "texture level 0";
+  // Level 0: the full texture halved until its larger side is 128 (the sample's 256² texture
+  // with a plain-colour block row below it is 256×512, so level 0 is 64×128).
+  ASSERT_GT(pkg->texture_width, 0);
+  const int shift = std::max(pkg->texture_width, pkg->texture_height) / 128;
+  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(),
+            uint64_t(pkg->texture_width / shift) * uint64_t(pkg->texture_height / shift))
+      << "texture level 0";
+  EXPECT_EQ(std::max(pkg->texture_width, pkg->texture_height) / shift, 128);
   std::string text(out->base_glb.begin(), out->base_glb.end());
   EXPECT_NE(text.find("KHR_draco_mesh_compression"), std::string::npos);
 }
