@@ -66,7 +66,8 @@ std::string sniff_image_mime(const std::vector<uint8_t>& b, const std::string& n
   return "";
 }
 
-Status decode_image(Image& image, uint64_t max_pixels) {
+Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
+  if (over_limit) *over_limit = false;
   image.rgba.clear();
   image.width = image.height = 0;
   const std::string& name = image.name;
@@ -122,6 +123,7 @@ Status decode_image(Image& image, uint64_t max_pixels) {
     }
     if (uint64_t(w) * uint64_t(h) > max_pixels) {
       if (!tmp_path.empty()) unlink(tmp_path.c_str());
+      if (over_limit) *over_limit = true;
       return Status::error(name + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
                                ", over the limit of " + std::to_string(max_pixels) + " pixels",
                            ErrorKind::kInput);

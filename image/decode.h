@@ -20,7 +20,10 @@ std::string sniff_image_mime(const std::vector<uint8_t>& bytes, const std::strin
 // expanded; 16-bit and float images converted). Fills width, height and mime_type. On failure
 // leaves rgba empty and returns an error naming image.name and the cause. Refuses images over
 // `max_pixels` (a hostile header must not make us allocate gigabytes).
-Status decode_image(Image& image, uint64_t max_pixels = uint64_t(1) << 28);
+// `over_limit` (optional) is set when the failure is only that the image has more than
+// `max_pixels` pixels (the caller may name the option that raises its limit).
+Status decode_image(Image& image, uint64_t max_pixels = uint64_t(1) << 28,
+                    bool* over_limit = nullptr);
 
 // Reads a file into an Image (encoded bytes, name = path) and decodes it. A missing or
 // unreadable file is an error; so is a file that fails to decode.

@@ -5,6 +5,7 @@
 // before use because uploads are untrusted.
 #include "importers/gltf.h"
 
+#include <sys/stat.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -139,7 +140,22 @@ uint32_t read_index(const uint8_t* p, int type) {
 
 class Reader {
  public:
-  Reader(const tinygltf::Model& model, std::string file) : m_(model), file_(std::move(file)) {}
+  Reader(const tinygltf::Model& model, std::string file, uint64_t max_values)
+      : m_(model), file_(std::move(file)), values_left_(max_values), max_values_(max_values) {}
+
+  // Takes `n` values (floats or indices) from the budget of ImportOptions::max_elements, before
+  // anything is allocated: an accessor may declare a count its bytes do not hold (or hold no
+  // bytes at all: zeros), and 2^28 elements of a 896-byte file must not cost 3 GB.
+  Status take(unsigned __int128 n, const std::string& where) const {
+    if (n > values_left_)
+      return Status::error(
+          "gltf: " + file_ + ": " + where + ": the model reads more than " +
+              std::to_string(max_values_) +
+              " values in all (the limit from the input's size; --max-elements raises it)",
+          ErrorKind::kInput);
+    values_left_ -= uint64_t(n);
+    return Status::ok();
+  }
 
   Status err(const std::string& where, const std::string& what) const {
     return Status::error("gltf: " + file_ + ": " + where + (where.empty() ? "" : ": ") + what,
@@ -188,22 +204,27 @@ class Reader {
     if (a.count > kMaxAccessorCount)
       return err(w, "count " + std::to_string(a.count) + " too large");
     size_t elem = size_t(csize) * size_t(ccount);
+    // The bytes are located (bounds-checked) and the values budgeted before allocating.
+    const uint8_t* base = nullptr;
+    size_t stride = elem;
+    if (a.bufferView >= 0) {
+      if (size_t(a.bufferView) >= m_.bufferViews.size())
+        return err(w, "bufferView " + std::to_string(a.bufferView) + " does not exist");
+      stride = m_.bufferViews[size_t(a.bufferView)].byteStride;
+      if (stride == 0) stride = elem;
+      if (stride < elem)
+        return err(w, "byteStride " + std::to_string(stride) + " smaller than its element");
+      Status s = locate(a.bufferView, a.byteOffset, a.count, elem, stride, w, &base);
+      if (!s) return s;
+    }
+    if (Status s = take((unsigned __int128)a.count * unsigned(comps), w); !s) return s;
     out->assign(a.count * size_t(comps), pad);
     auto put = [&](size_t i, const uint8_t* src) {
       for (int c = 0; c < comps; ++c)
         (*out)[i * size_t(comps) + size_t(c)] =
             c < ccount ? read_component(src + c * csize, a.componentType, a.normalized) : pad;
     };
-    if (a.bufferView >= 0) {
-      if (size_t(a.bufferView) >= m_.bufferViews.size())
-        return err(w, "bufferView " + std::to_string(a.bufferView) + " does not exist");
-      size_t stride = m_.bufferViews[size_t(a.bufferView)].byteStride;
-      if (stride == 0) stride = elem;
-      if (stride < elem)
-        return err(w, "byteStride " + std::to_string(stride) + " smaller than its element");
-      const uint8_t* base;
-      Status s = locate(a.bufferView, a.byteOffset, a.count, elem, stride, w, &base);
-      if (!s) return s;
+    if (base) {
       for (size_t i = 0; i < a.count; ++i) put(i, base + i * stride);
     } else {
       // No bufferView: zeros (then sparse substitution, if any).
@@ -263,6 +284,7 @@ class Reader {
     const uint8_t* base;
     Status s = locate(a.bufferView, a.byteOffset, a.count, csize, stride, w, &base);
     if (!s) return s;
+    if (s = take(a.count, w); !s) return s;
     out->resize(a.count);
     for (size_t i = 0; i < a.count; ++i) (*out)[i] = read_index(base + i * stride, a.componentType);
     return Status::ok();
@@ -270,6 +292,8 @@ class Reader {
 
   const tinygltf::Model& m_;
   std::string file_;
+  mutable uint64_t values_left_;  // of the max_elements budget
+  uint64_t max_values_;
 };
 
 Mat4 node_local(const tinygltf::Node& n) {
@@ -307,9 +331,18 @@ TextureTransform read_transform(const tinygltf::ExtensionMap& ext, uint32_t* tex
 
 // tinygltf hands us the encoded bytes; decoding happens later with OpenImageIO so that an
 // image that fails to decode is a warning, not a failed load.
+// tinygltf 2.7 hands an image stored in a bufferView over as a pointer into its buffer without
+// checking the view against the buffer (offset 2^31 - 1 crashed; a view 64 KiB too long copied
+// 64 KiB of heap into the output). Such images are not copied here: the importer reads them
+// through Reader::locate, which checks every byte. External and data: images arrive as owned
+// vectors of their real size.
 bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
                         const unsigned char* bytes, int size, void*) {
-  image->image.assign(bytes, bytes + std::max(size, 0));
+  if (image->bufferView >= 0) {
+    image->image.clear();
+  } else {
+    image->image.assign(bytes, bytes + std::max(size, 0));
+  }
   image->width = image->height = -1;
   image->as_is = true;
   return true;
@@ -396,7 +429,11 @@ class Importer {
  public:
   Importer(const tinygltf::Model& model, const std::string& file, const ImportOptions& opts,
            Warnings* warnings)
-      : m_(model), r_(model, file), file_(file), opts_(opts), warnings_(warnings) {}
+      : m_(model),
+        r_(model, file, opts.max_elements),
+        file_(file),
+        opts_(opts),
+        warnings_(warnings) {}
 
   Result<Scene> run() {
     Status s = check_extensions();
@@ -435,14 +472,56 @@ class Importer {
     return Status::ok();
   }
 
+  // The images some texture of some material names (core source and EXT_texture_webp's).
+  std::vector<char> referenced_images() const {
+    std::vector<char> used(m_.images.size(), 0);
+    auto mark_texture = [&](int t) {
+      if (t < 0 || size_t(t) >= m_.textures.size()) return;
+      const tinygltf::Texture& tex = m_.textures[size_t(t)];
+      if (tex.source >= 0 && size_t(tex.source) < used.size()) used[size_t(tex.source)] = 1;
+      auto webp = tex.extensions.find("EXT_texture_webp");
+      if (webp != tex.extensions.end() && webp->second.Has("source") &&
+          webp->second.Get("source").IsInt()) {
+        int w = webp->second.Get("source").GetNumberAsInt();
+        if (w >= 0 && size_t(w) < used.size()) used[size_t(w)] = 1;
+      }
+    };
+    for (const tinygltf::Material& m : m_.materials) {
+      mark_texture(m.pbrMetallicRoughness.baseColorTexture.index);
+      mark_texture(m.pbrMetallicRoughness.metallicRoughnessTexture.index);
+      mark_texture(m.normalTexture.index);
+      mark_texture(m.occlusionTexture.index);
+      mark_texture(m.emissiveTexture.index);
+    }
+    return used;
+  }
+
+  // Images no material uses are not read or decoded (3 unused entries naming one PNG that
+  // decodes to 3 GB cost 9.6 GB). The decoded texels of all images share the max_texels budget;
+  // exceeding it is an error naming the option.
   Status images() {
     image_map_.assign(m_.images.size(), -1);
+    const std::vector<char> used = referenced_images();
+    uint64_t texels_left = opts_.max_texels;
     for (size_t i = 0; i < m_.images.size(); ++i) {
+      if (!used[i]) continue;
       const tinygltf::Image& src = m_.images[i];
       std::string label =
           "image " + std::to_string(i) +
           (src.uri.empty() || src.uri.rfind("data:", 0) == 0 ? "" : " '" + src.uri + "'");
-      if (src.image.empty() || src.width != -1) {
+      std::vector<uint8_t> encoded;
+      if (src.bufferView >= 0) {
+        const uint8_t* bytes;
+        size_t length = size_t(src.bufferView) < m_.bufferViews.size()
+                            ? m_.bufferViews[size_t(src.bufferView)].byteLength
+                            : 0;
+        Status s = r_.locate(src.bufferView, 0, length > 0 ? 1 : 0, length, length, label, &bytes);
+        if (!s) return s;
+        encoded.assign(bytes, bytes + length);
+      } else {
+        encoded = src.image;
+      }
+      if (encoded.empty() || src.width != -1) {
         warn(warnings_, "gltf: " + file_ + ": " + label +
                             ": could not be loaded; textures using it are dropped");
         continue;
@@ -451,16 +530,23 @@ class Importer {
       img.name = src.uri.empty() || src.uri.rfind("data:", 0) == 0
                      ? (src.name.empty() ? label : src.name)
                      : src.uri;
-      img.encoded = src.image;
+      img.encoded = std::move(encoded);
       img.mime_type = sniff_image_mime(img.encoded, src.uri);
       if (img.mime_type.empty()) img.mime_type = src.mimeType;
       if (opts_.decode_images) {
-        Status s = decode_image(img, opts_.max_image_pixels);
+        bool over = false;
+        Status s = decode_image(img, std::min(opts_.max_image_pixels, texels_left), &over);
+        if (!s && over && texels_left < opts_.max_image_pixels)
+          return r_.err(label, "decoding it would take the model's images over " +
+                                   std::to_string(opts_.max_texels) +
+                                   " texels in all (the limit from the input's size; "
+                                   "--max-texels raises it)");
         if (!s) {
           warn(warnings_, "gltf: " + file_ + ": " + label + ": " + s.message() +
                               "; textures using it are dropped");
           continue;
         }
+        texels_left -= uint64_t(img.width) * uint64_t(img.height);
       }
       image_map_[i] = int32_t(scene_.images.size());
       scene_.images.push_back(std::move(img));
@@ -766,6 +852,7 @@ class Importer {
     if ((!t.empty() && t.size() / 3 != count) || (!r.empty() && r.size() / 4 != count) ||
         (!s.empty() && s.size() / 3 != count))
       return r_.err(where, "attribute counts differ");
+    if (Status st2 = count_instances(count, where); !st2) return st2;
     for (size_t i = 0; i < count; ++i) {
       double tt[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, ss[3] = {1, 1, 1};
       for (int k = 0; k < 3 && !t.empty(); ++k) tt[k] = t[3 * i + size_t(k)];
@@ -780,11 +867,24 @@ class Importer {
     return Status::ok();
   }
 
+  // The instance budget (ImportOptions::max_instances): 25 nodes each listing the next twice
+  // expand to 2^25 paths; `n` more instances (or node visits) must fit.
+  Status count_instances(size_t n, const std::string& where) {
+    instances_ += n;
+    if (instances_ > opts_.max_instances)
+      return r_.err(where, "the node graph expands to more than " +
+                               std::to_string(opts_.max_instances) +
+                               " instances (the limit from the input's size; --max-instances "
+                               "raises it)");
+    return Status::ok();
+  }
+
   Status visit(int index, const Mat4& parent, std::vector<char>& on_path, int depth) {
     if (index < 0 || size_t(index) >= m_.nodes.size())
       return r_.err("", "node " + std::to_string(index) + " does not exist");
     if (on_path[size_t(index)] || depth > 1024)
       return r_.err("node " + std::to_string(index), "node hierarchy has a cycle");
+    if (Status s = count_instances(1, "node " + std::to_string(index)); !s) return s;
     on_path[size_t(index)] = 1;
     const tinygltf::Node& node = m_.nodes[size_t(index)];
     Mat4 world = parent * node_local(node);
@@ -841,7 +941,86 @@ class Importer {
   Scene scene_;
   std::vector<int32_t> image_map_;  // glTF image → scene image (-1: unusable)
   std::vector<int32_t> mesh_map_;   // glTF mesh → scene mesh (-1: nothing drawable)
+  uint64_t instances_ = 0;          // node visits and instances so far (max_instances)
 };
+
+// Files a .gltf references (buffers, images) are read only through these callbacks: resolved
+// (links and ".." followed, after tinygltf's percent-decoding) and refused outside the model's
+// folder unless --allow-outside, and only regular files (a FIFO or /dev/zero is never opened
+// for reading). The first refusal is kept for the error message; the bytes read are counted
+// for the resource limits.
+struct FsScope {
+  InputScope scope;
+  uint64_t max_bytes = 0;
+  uint64_t bytes_read = 0;
+  std::string refusal;
+};
+
+bool fs_file_exists(const std::string& path, void* user) {
+  auto* fs = static_cast<FsScope*>(user);
+  auto resolved = resolve_in_scope(fs->scope, path);
+  if (!resolved.ok()) {
+    if (fs->refusal.empty() &&
+        resolved.status().message().find("outside the model's folder") != std::string::npos)
+      fs->refusal = resolved.status().message();
+    return false;
+  }
+  struct stat st;
+  return stat(resolved->c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+std::string fs_expand(const std::string& path, void*) { return path; }
+
+bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::string& path,
+             void* user) {
+  auto* fs = static_cast<FsScope*>(user);
+  auto resolved = resolve_in_scope(fs->scope, path);
+  if (!resolved.ok()) {
+    if (err) *err += resolved.status().message();
+    if (fs->refusal.empty()) fs->refusal = resolved.status().message();
+    return false;
+  }
+  auto bytes = read_whole_file(*resolved, fs->max_bytes);
+  if (!bytes.ok()) {
+    if (err) *err += bytes.status().message();
+    return false;
+  }
+  fs->bytes_read += bytes->size();
+  *out = bytes.take();
+  return true;
+}
+
+bool fs_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "meshmux never writes through the glTF loader";
+  return false;
+}
+
+// Deepest nesting of JSON arrays and objects in `text` (strings skipped), stopping early past
+// `limit`: tinygltf's and nlohmann's parsers recurse per level, and 15,000 nested arrays in a
+// 31 kB file overflowed the stack.
+int json_depth(const uint8_t* text, size_t n, int limit) {
+  int depth = 0, deepest = 0;
+  bool in_string = false;
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t c = text[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
+constexpr int kMaxJsonDepth = 64;  // real glTF files nest under 12 levels
 
 }  // namespace
 
@@ -859,8 +1038,29 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   size_t slash = path.find_last_of('/');
   if (slash != std::string::npos) dir = path.substr(0, slash);
 
+  // Nesting, before any JSON parser (ours or tinygltf's) sees the text.
+  {
+    size_t at = 0, len = data.size();
+    if (data.size() >= 20 && std::memcmp(data.data(), "glTF", 4) == 0) {
+      uint32_t chunk;
+      std::memcpy(&chunk, data.data() + 12, 4);
+      at = 20;
+      len = std::min<size_t>(chunk, data.size() - 20);
+    }
+    if (json_depth(data.data() + at, len, kMaxJsonDepth) > kMaxJsonDepth)
+      return Status::error("gltf: " + file + ": JSON nested deeper than " +
+                               std::to_string(kMaxJsonDepth) + " levels; refused",
+                           ErrorKind::kInput);
+  }
+  auto scope = input_scope(path, options.allow_outside);
+  if (!scope.ok()) return Status::error("gltf: " + scope.status().message(), ErrorKind::kInput);
+  FsScope fs_scope;
+  fs_scope.scope = *scope;
+  fs_scope.max_bytes = options.max_file_bytes;
+
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(keep_encoded_image, nullptr);
+  loader.SetFsCallbacks({fs_file_exists, fs_expand, fs_read, fs_write, &fs_scope});
   tinygltf::Model model;
   std::string err, warn_text;
   bool ok;
@@ -878,7 +1078,12 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                                  std::to_string(declared) + " bytes, file has " +
                                  std::to_string(data.size()),
                              ErrorKind::kInput);
-      auto meshopt = decode_meshopt_glb(data, file, uint64_t(1) << 30);
+      // Decoded meshopt buffers: at most 32× the file (real ratios are under 10×), ≥ 64 MB,
+      // ≤ 1 GB.
+      auto meshopt = decode_meshopt_glb(
+          data, file,
+          std::min<uint64_t>(uint64_t(1) << 30,
+                             std::max<uint64_t>(uint64_t(64) << 20, 32 * uint64_t(data.size()))));
       if (!meshopt.ok()) return meshopt.status();
       drop_draco_index_accessors(data, true);
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn_text, data.data(), unsigned(data.size()),
@@ -892,6 +1097,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   } catch (const std::exception& e) {
     return Status::error("gltf: " + file + ": cannot parse: " + e.what(), ErrorKind::kInput);
   }
+  if (!fs_scope.refusal.empty())
+    return Status::error("gltf: " + file + ": " + fs_scope.refusal, ErrorKind::kInput);
   if (!ok) {
     std::string reason = err.empty() ? warn_text : err;
     while (!reason.empty() && (reason.back() == '\n' || reason.back() == ' ')) reason.pop_back();
@@ -903,7 +1110,9 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   }
   // tinygltf reports missing external images as warnings; the image pass turns those into
   // per-image warnings, so its raw text is not repeated here.
-  Importer importer(model, file, options, warnings);
+  // The limits, from the bytes the model's files hold.
+  const ImportOptions limits = resolved_limits(options, data.size() + fs_scope.bytes_read);
+  Importer importer(model, file, limits, warnings);
   auto scene = importer.run();
   if (!scene.ok()) return scene.status();
   scene->source = path;

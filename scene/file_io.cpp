@@ -5,7 +5,9 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 namespace meshmux {
@@ -16,20 +18,34 @@ std::string base_name(const std::string& path) {
 }
 
 Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t max_bytes) {
-  struct stat st;
-  if (stat(path.c_str(), &st) != 0) {
+  // Opened without blocking and checked on the descriptor (no race with a path swap): only a
+  // regular file is read, so a FIFO, /dev/stdin or /dev/zero never hangs or floods us.
+  int fd = open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
     if (errno == ENOENT) return Status::error(path + ": no such file", ErrorKind::kInput);
     return Status::error(path + ": cannot open: " + std::strerror(errno), ErrorKind::kInput);
   }
-  if (S_ISDIR(st.st_mode))
-    return Status::error(path + ": is a directory, not a file", ErrorKind::kInput);
-  if (uint64_t(st.st_size) > max_bytes)
+  struct stat st;
+  if (fstat(fd, &st) != 0) {
+    int e = errno;
+    close(fd);
+    return Status::error(path + ": cannot open: " + std::strerror(e), ErrorKind::kInput);
+  }
+  if (!S_ISREG(st.st_mode)) {
+    close(fd);
+    if (S_ISDIR(st.st_mode))
+      return Status::error(path + ": is a directory, not a file", ErrorKind::kInput);
+    return Status::error(path + ": not a regular file (a device, pipe or socket is not read)",
+                         ErrorKind::kInput);
+  }
+  if (uint64_t(st.st_size) > max_bytes) {
+    close(fd);
     return Status::error(path + ": file is " + std::to_string(st.st_size) +
                              " bytes, over the limit of " + std::to_string(max_bytes),
                          ErrorKind::kInput);
-  int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0)
-    return Status::error(path + ": cannot open: " + std::strerror(errno), ErrorKind::kInput);
+  }
+  // Back to blocking reads (a regular file never blocks long).
+  fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   std::vector<uint8_t> bytes;
   bytes.reserve(size_t(st.st_size));
   uint8_t buf[1 << 16];
@@ -52,6 +68,42 @@ Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t m
   }
   close(fd);
   return bytes;
+}
+
+Result<InputScope> input_scope(const std::string& model_path, bool allow_outside) {
+  std::string dir = ".";
+  size_t slash = model_path.find_last_of('/');
+  if (slash != std::string::npos) dir = slash == 0 ? "/" : model_path.substr(0, slash);
+  char* real = realpath(dir.c_str(), nullptr);
+  if (!real)
+    return Status::error(model_path + ": cannot resolve its folder: " + std::strerror(errno),
+                         ErrorKind::kInput);
+  InputScope scope;
+  scope.root = real;
+  free(real);
+  scope.allow_outside = allow_outside;
+  return scope;
+}
+
+Result<std::string> resolve_in_scope(const InputScope& scope, const std::string& path) {
+  char* real = realpath(path.c_str(), nullptr);
+  if (!real) {
+    if (errno == ENOENT || errno == ENOTDIR)
+      return Status::error(path + ": no such file", ErrorKind::kInput);
+    return Status::error(path + ": cannot resolve: " + std::strerror(errno), ErrorKind::kInput);
+  }
+  std::string resolved = real;
+  free(real);
+  const std::string& root = scope.root;
+  const bool inside =
+      root == "/" || (resolved.size() > root.size() &&
+                      resolved.compare(0, root.size(), root) == 0 && resolved[root.size()] == '/');
+  if (!inside && !scope.allow_outside)
+    return Status::error(path + ": outside the model's folder " + root +
+                             " (after resolving '..' and links); refused (--allow-outside "
+                             "reads it for trusted local files)",
+                         ErrorKind::kInput);
+  return resolved;
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
