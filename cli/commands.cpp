@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "clean/clean.h"
+#include "cli/output_transaction.h"
 #include "cli/render_command.h"
 #include "cli/serve.h"
 #include "exporters/gltf.h"
@@ -78,6 +79,15 @@ const char* kUsage =
     "  --no-report         folder output: skip the rendered rate-distortion report\n"
     "  --crease DEGREES    crease angle for generated normals (default 60)\n"
     "  -q, --quiet         no progress or warnings on stderr\n"
+    "\n"
+    "input safety (convert, info, simplify):\n"
+    "  --allow-outside     read buffers and images outside the model's folder (trusted local\n"
+    "                      files only; by default they are refused, as are links out of it)\n"
+    "  --max-texels N      decoded texels of all images together\n"
+    "  --max-instances N   mesh instances the node graph may expand to\n"
+    "  --max-elements N    accessor values read in all (vertices, indices, instance data)\n"
+    "                      (defaults from the input's size: at least 67 M texels, 1 M\n"
+    "                      instances and 67 M values, more for larger inputs)\n"
     "\n"
     "inputs: .gltf (external or embedded buffers and images), .glb, .dae (COLLADA 1.4/1.5)\n"
     "\n"
@@ -241,6 +251,22 @@ class Args {
     if (a == "-o" || a == "--output") return value(&out) ? 1 : -1;
     if (a == "-q" || a == "--quiet") return quiet = true, 1;
     if (a == "-h" || a == "--help") return help = true, 1;
+    if (a == "--allow-outside") return import.allow_outside = true, 1;
+    const std::pair<const char*, uint64_t*> limits[] = {{"--max-texels", &import.max_texels},
+                                                        {"--max-instances", &import.max_instances},
+                                                        {"--max-elements", &import.max_elements}};
+    for (const auto& [flag, field] : limits) {
+      if (a != flag) continue;
+      std::string v;
+      if (!value(&v)) return -1;
+      char* end = nullptr;
+      errno = 0;
+      unsigned long long n = std::strtoull(v.c_str(), &end, 10);
+      if (v.empty() || v[0] == '-' || *end != '\0' || errno != 0 || n == 0)
+        return fail(std::string(flag) + " needs a positive whole number, not '" + v + "'") ? 1 : -1;
+      *field = n;
+      return 1;
+    }
     if (!a.empty() && a[0] == '-') return 0;
     if (!in.empty())
       return fail("more than one input given ('" + in + "' and '" + a + "')") ? 1 : -1;
@@ -253,6 +279,7 @@ class Args {
   }
   std::string in, out, error;
   bool quiet = false, help = false;
+  ImportOptions import;  // --allow-outside and the resource limits
 
  private:
   std::string cmd_;
@@ -262,30 +289,34 @@ class Args {
 
 // Writes a conversion's outputs: OUT.glb alone, or the folder's files, each atomically; the
 // progress lines name them.
+// A folder output is one transaction (cli/output_transaction.h): written into a temporary
+// folder beside OUT and swapped in when complete, so a failure leaves the previous output and
+// nothing of a previous conversion survives beside the new one.
 Status write_outputs(const std::string& out, bool folder, const ConvertOutputs& r,
                      CliProgress& progress) {
   if (!folder) return write_file_atomic(out, r.model_glb);
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec || !std::filesystem::is_directory(out))
-    return Status::error(
-        out + ": cannot create output folder" + (ec ? ": " + ec.message() : std::string()),
-        ErrorKind::kOutput);
+  auto txn = OutputFolder::begin(out);
+  if (!txn.ok()) return txn.status();
+  const std::string& dir = txn->dir();
   const std::pair<const char*, const std::vector<uint8_t>*> files[] = {
       {"model.glb", &r.model_glb}, {"base.glb", &r.base_glb}, {"model.mmxp", &r.package}};
+  std::vector<std::string> written;
   for (const auto& [name, bytes] : files) {
     if (bytes->empty()) continue;
-    if (Status s = write_file_atomic(out + "/" + name, *bytes); !s) return s;
-    progress.step("wrote " + out + "/" + name + " (" + human_bytes(bytes->size()) + ")");
+    if (Status s = write_file_atomic(dir + "/" + name, *bytes); !s) return s;
+    written.push_back(out + "/" + name + " (" + human_bytes(bytes->size()) + ")");
   }
   if (!r.report_json.empty()) {
-    if (Status s = write_file_atomic(out + "/report.json", r.report_json); !s) return s;
-    if (Status s = write_file_atomic(out + "/rd.svg", r.rd_svg); !s) return s;
-    progress.step("wrote " + out + "/report.json and " + out + "/rd.svg");
+    if (Status s = write_file_atomic(dir + "/report.json", r.report_json); !s) return s;
+    if (Status s = write_file_atomic(dir + "/rd.svg", r.rd_svg); !s) return s;
+    written.push_back(out + "/report.json and " + out + "/rd.svg");
   }
-  if (r.package.empty()) return Status::ok();
-  if (Status s = write_viewer(out); !s) return s;
-  progress.step("wrote " + out + "/index.html and " + out + "/viewer/ (meshmux serve " + out + ")");
+  if (!r.package.empty()) {
+    if (Status s = write_viewer(dir); !s) return s;
+    written.push_back(out + "/index.html and " + out + "/viewer/ (meshmux serve " + out + ")");
+  }
+  if (Status s = txn->commit(); !s) return s;
+  for (const std::string& w : written) progress.step("wrote " + w);
   return Status::ok();
 }
 
@@ -329,10 +360,12 @@ int cmd_convert(const std::vector<std::string>& args) {
   if (p.in.empty()) return usage_error("convert: no input file given");
   if (p.out.empty()) return usage_error("convert: no output given (-o OUT.glb or -o FOLDER)");
   o.stream = !ends_with(p.out, ".glb");
+  if (Status s = refuse_overwriting_input(p.in, p.out, o.stream); !s) return fail(s);
+  clean_stale_temporaries(p.out);
   Warnings warnings;
   CliProgress progress(p.quiet, &warnings);
   progress.step("importing " + p.in);
-  auto scene = import_scene(p.in, ImportOptions{}, &warnings);
+  auto scene = import_scene(p.in, p.import, &warnings);
   if (!scene.ok()) return progress.flush(), fail(scene.status());
   auto r = convert(*scene, o, &warnings, &progress);
   progress.flush();
@@ -346,7 +379,7 @@ int cmd_convert(const std::vector<std::string>& args) {
 // Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
 // images it references (data: URIs are inside the file already). COLLADA textures are not
 // followed (the file size alone is reported).
-uint64_t asset_bytes(const std::string& file) {
+uint64_t asset_bytes(const std::string& file, bool allow_outside) {
   std::error_code ec;
   uint64_t total = std::filesystem::file_size(file, ec);
   if (ec) return 0;
@@ -356,13 +389,19 @@ uint64_t asset_bytes(const std::string& file) {
   auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
   if (!doc.is_object()) return total;
   std::filesystem::path dir = std::filesystem::path(file).parent_path();
+  auto scope = input_scope(file, allow_outside);
+  if (!scope.ok()) return total;
   for (const char* key : {"buffers", "images"}) {
     if (!doc.contains(key) || !doc[key].is_array()) continue;
     for (const auto& item : doc[key]) {
       if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
       std::string uri = item["uri"].get<std::string>();
       if (uri.rfind("data:", 0) == 0) continue;
-      uint64_t n = std::filesystem::file_size(dir / uri, ec);
+      // Only files the importer may read: inside the folder, regular (an absolute path once
+      // reported the size of a system password file).
+      auto path = resolve_in_scope(*scope, (dir / uri).string());
+      if (!path.ok() || !std::filesystem::is_regular_file(*path, ec)) continue;
+      uint64_t n = std::filesystem::file_size(*path, ec);
       if (!ec) total += n;
     }
   }
@@ -370,27 +409,28 @@ uint64_t asset_bytes(const std::string& file) {
 }
 
 int cmd_info(const std::vector<std::string>& args) {
-  std::string file;
   bool json = false;
-  for (const std::string& a : args) {
-    if (a == "--json")
+  Args p("info", args);
+  while (p.next()) {
+    int c = p.common();
+    if (c < 0) return usage_error(p.error);
+    if (c > 0) continue;
+    if (p.current() == "--json")
       json = true;
-    else if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return kExitOk;
-    } else if (!a.empty() && a[0] == '-')
-      return usage_error("info: unknown option " + a);
-    else if (file.empty())
-      file = a;
     else
-      return usage_error("info: more than one file given");
+      return usage_error("info: unknown option " + p.current());
   }
+  if (p.help) {
+    std::fputs(kUsage, stdout);
+    return kExitOk;
+  }
+  const std::string file = p.in;
   if (file.empty()) return usage_error("info: no file given");
   Warnings warnings;
-  auto scene = import_scene(file, ImportOptions{}, &warnings);
+  auto scene = import_scene(file, p.import, &warnings);
   if (!scene.ok()) return fail(scene.status());
   SceneStats s = compute_stats(*scene);
-  uint64_t bytes = asset_bytes(file);
+  uint64_t bytes = asset_bytes(file, p.import.allow_outside);
   Bounds b = scene_bounds(*scene);
   if (json) {
     nlohmann::ordered_json j;
@@ -477,10 +517,12 @@ int cmd_simplify(const std::vector<std::string>& args) {
     return usage_error("simplify: -o OUT.glb is required");
   if (targets != 1)
     return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
+  if (Status s = refuse_overwriting_input(in, out, false); !s) return fail(s);
+  clean_stale_temporaries(out);
   Warnings warnings;
   CliProgress progress(quiet, &warnings);
   progress.step("importing " + in);
-  auto scene = import_scene(in, ImportOptions{}, &warnings);
+  auto scene = import_scene(in, p.import, &warnings);
   progress.flush();
   if (!scene.ok()) return fail(scene.status());
   Scene cleaned = clean(*scene, CleanOptions{});

@@ -153,7 +153,7 @@ int cmd_render(const std::vector<std::string>& args) {
   auto scene = import_scene(in, ImportOptions{}, &warnings);
   if (!scene.ok()) return fail(scene.status());
   Scene s = clean(*scene, CleanOptions{});  // generates missing normals
-  for (Image& image : s.images)  // every primitive draws its own material's texture
+  for (Image& image : s.images)             // every primitive draws its own material's texture
     if (!image.encoded.empty() && !image.decoded())
       if (Status st = decode_image(image); !st) return fail(st.with_prefix(in));
 

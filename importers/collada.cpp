@@ -507,13 +507,18 @@ Result<Parsed> parse_isolated(const std::string& path, uint64_t file_bytes,
 // ---- textures, in the caller's process -----------------------------------------------------
 class TextureLoader {
  public:
-  TextureLoader(const std::string& path, Scene& scene, const ImportOptions& options,
-                Warnings* warnings)
+  TextureLoader(const std::string& path, const InputScope& scope, Scene& scene,
+                const ImportOptions& options, Warnings* warnings)
       : file_(base_name(path)),
         dir_(fs::path(path).parent_path()),
+        scope_(scope),
         scene_(scene),
         options_(options),
         warnings_(warnings) {}
+
+  // The first texture path that named an existing file outside the model's folder (absolute,
+  // "../" or "file://"), with no file of that name inside it: the import fails with it.
+  const std::string& refusal() const { return refusal_; }
 
   void attach(const TextureRequest& t) {
     if (t.material < 0 || size_t(t.material) >= scene_.materials.size()) return;
@@ -549,8 +554,15 @@ class TextureLoader {
     if (!bytes) return {-1, strip_prefix(bytes.status().message(), file)};
     image.encoded = bytes.take();
     if (options_.decode_images) {
-      Status s = decode_image(image, options_.max_image_pixels);
+      // The decoded texels of all images share one budget (ImportOptions::max_texels).
+      bool over = false;
+      Status s = decode_image(image, std::min(options_.max_image_pixels, texels_left_), &over);
+      if (!s && over && texels_left_ < options_.max_image_pixels && refusal_.empty())
+        refusal_ = "decoding it would take the model's images over " +
+                   std::to_string(options_.max_texels) +
+                   " texels in all (the limit from the input's size; --max-texels raises it)";
       if (!s) return {-1, strip_prefix(s.message(), image.name)};
+      texels_left_ -= uint64_t(image.width) * uint64_t(image.height);
     }
     if (image.mime_type.empty()) image.mime_type = sniff_image_mime(image.encoded, t.path);
     if (image.mime_type.empty()) return {-1, "unknown image format"};
@@ -568,20 +580,29 @@ class TextureLoader {
     if (q.size() > 3 && q[0] == '/' && q[2] == ':') q = q.substr(1);  // "/C:/x.png"
     q = percent_decode(q);
     std::vector<std::string> full;
+    std::string outside;
     for (const std::string& c : {p, q, fs::path(q).filename().string()}) {
       if (c.empty()) continue;
       fs::path f = fs::path(c).is_absolute() ? fs::path(c) : dir_ / c;
       full.push_back(f.lexically_normal().string());
       std::error_code ec;
-      if (fs::is_regular_file(full.back(), ec)) return full.back();
+      if (!fs::exists(full.back(), ec)) continue;
+      // Only inside the model's folder (links and ".." resolved), unless --allow-outside.
+      auto inside = resolve_in_scope(scope_, full.back());
+      if (inside.ok()) return *inside;
+      if (outside.empty()) outside = inside.status().message();
     }
+    if (!outside.empty() && refusal_.empty()) refusal_ = outside;
     return full.size() > 1 ? full[1] : (full.empty() ? p : full[0]);
   }
 
   std::string file_;
   fs::path dir_;
+  InputScope scope_;
+  mutable std::string refusal_;  // set by the const resolve()
   Scene& scene_;
   const ImportOptions& options_;
+  uint64_t texels_left_ = options_.max_texels;  // declared after options_: initialized from it
   Warnings* warnings_;
   std::map<std::string, std::pair<int32_t, std::string>> loaded_;  // by resolved path
 };
@@ -610,6 +631,13 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     for (std::string& w : parsed->warnings) warn(warnings, std::move(w));
     Scene scene = std::move(parsed->scene);
     scene.source = path;
+    const ImportOptions limits = resolved_limits(options, file_bytes);
+    if (scene.instances.size() > limits.max_instances)
+      return Status::error(stage + ": the node graph expands to " +
+                               std::to_string(scene.instances.size()) + " instances, over " +
+                               std::to_string(limits.max_instances) +
+                               " (the limit from the input's size; --max-instances raises it)",
+                           ErrorKind::kInput);
     // Assimp 5.2 reports every <shininess> as 0 (roughness 1): the document's own exponent
     // gives the roughness as convert_material maps it.
     for (Material& m : scene.materials)
@@ -618,13 +646,19 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                                        m.roughness_factor >= 1)
         m.roughness_factor =
             clamp01(float(std::pow(2.0 / (double(it->second.shininess) + 2.0), 0.25)));
-    TextureLoader loader(path, scene, options, warnings);
+    auto scope = input_scope(path, options.allow_outside);
+    if (!scope.ok())
+      return Status::error(stage + ": " + scope.status().message(), ErrorKind::kInput);
+    TextureLoader loader(path, *scope, scene, limits, warnings);
     for (TextureRequest& t : parsed->textures) {
       const Material& m = scene.materials[size_t(std::max(0, t.material))];
       if (auto it = info.find(m.name);
           it != info.end() && it->second.uv_set >= 0 && t.material >= 0)
         t.uv = unsigned(it->second.uv_set);
       loader.attach(t);
+      if (!loader.refusal().empty())
+        return Status::error(stage + ": texture '" + t.path + "': " + loader.refusal(),
+                             ErrorKind::kInput);
     }
     Status valid = validate(scene, stage);
     if (!valid) return valid;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <fstream>
 
 #include "importers/collada.h"
 #include "importers/gltf.h"
@@ -20,16 +19,11 @@ Result<Scene> import_scene(const std::string& path, const ImportOptions& options
                  [](unsigned char c) { return std::tolower(c); });
   if (ext == "gltf" || ext == "glb") return import_gltf(path, options, warnings);
   if (ext == "dae" || ext == "xml") return import_collada(path, options, warnings);
-  // Unknown extension: look at the first bytes.
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    auto r = read_whole_file(path, 1);  // for the precise reason (missing, directory, ...)
-    return Status::error("import: " + (r.ok() ? path + ": cannot open" : r.status().message()),
-                         ErrorKind::kInput);
-  }
-  char head[512] = {0};
-  in.read(head, sizeof head);
-  std::string h(head, size_t(in.gcount()));
+  // Unknown extension: look at the first bytes (read as a regular file only: a FIFO or a
+  // device named as the input must not block or stream forever).
+  auto bytes = read_whole_file(path, options.max_file_bytes);
+  if (!bytes.ok()) return Status::error("import: " + bytes.status().message(), ErrorKind::kInput);
+  std::string h(bytes->begin(), bytes->begin() + long(std::min<size_t>(512, bytes->size())));
   if (h.empty())
     return Status::error("import: " + base_name(path) + ": file is empty", ErrorKind::kInput);
   if (h.compare(0, 4, "glTF") == 0 || h.find("\"asset\"") != std::string::npos)

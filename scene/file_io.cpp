@@ -107,8 +107,12 @@ Result<std::string> resolve_in_scope(const InputScope& scope, const std::string&
 }
 
 Status write_file_atomic(const std::string& path, const void* data, size_t size) {
+  // Created exclusively and never through a link: a planted "<path>.tmp-<pid>" symlink is
+  // removed (unlink removes the link, not its target) and the file created afresh.
   std::string tmp = path + ".tmp-" + std::to_string(getpid());
-  int fd = open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const int flags = O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC;
+  int fd = open(tmp.c_str(), flags, 0644);
+  if (fd < 0 && errno == EEXIST && unlink(tmp.c_str()) == 0) fd = open(tmp.c_str(), flags, 0644);
   if (fd < 0)
     return Status::error(path + ": cannot create: " + std::strerror(errno), ErrorKind::kOutput);
   const uint8_t* p = static_cast<const uint8_t*>(data);

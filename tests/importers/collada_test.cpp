@@ -3,6 +3,7 @@
 #include "importers/collada.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -473,6 +474,36 @@ TEST(ColladaImport, PhongShininessGivesTheRoughness) {
   ASSERT_TRUE(m);
   EXPECT_NEAR(m->roughness_factor, std::pow(2.0 / 18.0, 0.25), 1e-4);
   EXPECT_EQ(m->metallic_factor, 0.0f);
+}
+
+// Issue 3/8: <init_from> naming an existing file outside the model's folder (absolute,
+// "../", "file://") was opened and its bytes kept. Refused with one clear error, unless the
+// folder holds a file of that name (authors' absolute paths are common: the bare name beside
+// the .dae is what they meant) or --allow-outside.
+TEST(ColladaImport, TextureOutsideTheFolderIsRefused) {
+  TempDir dir;
+  ASSERT_EQ(mkdir(dir.file("model").c_str(), 0755), 0);
+  testing::write_file(dir.file("secret.png"), kRedBluePng);
+  const std::string outside = dir.file("secret.png");
+  for (const std::string& path :
+       std::vector<std::string>{outside, "../secret.png", "file://" + outside}) {
+    testing::write_text(dir.file("model/m.dae"), textured_document(path));
+    auto s = import_collada(dir.file("model/m.dae"), ImportOptions{}, nullptr);
+    ASSERT_FALSE(s.ok()) << path;
+    EXPECT_NE(s.status().message().find("outside the model's folder"), std::string::npos)
+        << s.status().message();
+    ImportOptions trusted;
+    trusted.allow_outside = true;
+    auto t = import_collada(dir.file("model/m.dae"), trusted, nullptr);
+    ASSERT_TRUE(t.ok()) << t.status().message();
+    EXPECT_EQ(t->images.size(), 1u);
+  }
+  // The same name inside the folder is what an author's absolute path meant: read that.
+  testing::write_file(dir.file("model/secret.png"), kRedBluePng);
+  testing::write_text(dir.file("model/m.dae"), textured_document(outside));
+  auto inside = import_collada(dir.file("model/m.dae"), ImportOptions{}, nullptr);
+  ASSERT_TRUE(inside.ok()) << inside.status().message();
+  EXPECT_EQ(inside->images.size(), 1u);
 }
 
 // ---- the shared models ---------------------------------------------------------------------

@@ -1,0 +1,159 @@
+// Output as a transaction (see output_transaction.h).
+#include "cli/output_transaction.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <set>
+
+namespace meshmux {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// What convert writes into a folder: the only entries an existing OUT may hold.
+const std::set<std::string> kOwnEntries = {"model.glb", "base.glb",   "model.mmxp", "report.json",
+                                           "rd.svg",    "index.html", "viewer"};
+
+bool process_running(long pid) {
+  if (pid <= 0) return false;
+  return kill(pid_t(pid), 0) == 0 || errno == EPERM;
+}
+
+// The pid a temporary's name ends with after `marker`, or -1.
+long pid_after(const std::string& name, const std::string& marker) {
+  if (name.size() <= marker.size() || name.compare(0, marker.size(), marker) != 0) return -1;
+  std::string digits = name.substr(marker.size());
+  if (digits.size() > 4 && digits.compare(digits.size() - 4, 4, "-old") == 0)
+    digits.resize(digits.size() - 4);
+  if (digits.empty() || digits.size() > 9 ||
+      digits.find_first_not_of("0123456789") != std::string::npos)
+    return -1;
+  return std::stol(digits);
+}
+
+std::string parent_of(const std::string& path) {
+  fs::path p = fs::path(path).parent_path();
+  return p.empty() ? "." : p.string();
+}
+
+std::string name_of(const std::string& path) {
+  std::string s = path;
+  while (s.size() > 1 && s.back() == '/') s.pop_back();
+  return fs::path(s).filename().string();
+}
+
+}  // namespace
+
+Status refuse_overwriting_input(const std::string& input, const std::string& out, bool folder) {
+  std::error_code ec;
+  const fs::path in = fs::weakly_canonical(input, ec);
+  if (ec) return Status::ok();  // the importer reports a bad input
+  const fs::path o = fs::weakly_canonical(out, ec);
+  if (ec) return Status::ok();
+  if (in == o)
+    return Status::error(out + ": is the input itself; refused (choose another output)",
+                         ErrorKind::kOutput);
+  if (folder) {
+    const std::string i = in.string(), d = o.string();
+    if (i.size() > d.size() && i.compare(0, d.size(), d) == 0 && i[d.size()] == '/')
+      return Status::error(
+          out + ": holds the input " + input + ", which replacing the folder would delete; refused",
+          ErrorKind::kOutput);
+  }
+  return Status::ok();
+}
+
+void clean_stale_temporaries(const std::string& out) {
+  const std::string name = name_of(out);
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(parent_of(out), ec)) {
+    const std::string n = e.path().filename().string();
+    long pid = pid_after(n, name + ".meshmux-tmp-");
+    if (pid < 0) pid = pid_after(n, name + ".tmp-");
+    if (pid < 0 || process_running(pid)) continue;
+    std::error_code rm;
+    fs::remove_all(e.path(), rm);
+  }
+}
+
+Result<OutputFolder> OutputFolder::begin(const std::string& out) {
+  std::error_code ec;
+  struct stat st;
+  if (lstat(out.c_str(), &st) == 0) {
+    if (S_ISLNK(st.st_mode))
+      return Status::error(out + ": is a symbolic link; refused (name the folder itself)",
+                           ErrorKind::kOutput);
+    if (!S_ISDIR(st.st_mode))
+      return Status::error(out + ": exists and is not a folder", ErrorKind::kOutput);
+    for (const fs::directory_entry& e : fs::directory_iterator(out, ec)) {
+      const std::string n = e.path().filename().string();
+      if (!kOwnEntries.count(n))
+        return Status::error(out + ": holds '" + n +
+                                 "', which meshmux did not write; refused (the folder is "
+                                 "replaced as a whole: choose a new or empty folder)",
+                             ErrorKind::kOutput);
+    }
+    if (ec) return Status::error(out + ": cannot list: " + ec.message(), ErrorKind::kOutput);
+  }
+  const std::string parent = parent_of(out);
+  fs::create_directories(parent, ec);
+  std::string tmp = parent + "/" + name_of(out) + ".meshmux-tmp-" + std::to_string(getpid());
+  fs::remove_all(tmp, ec);  // our own pid's leftover (a reused pid)
+  if (mkdir(tmp.c_str(), 0755) != 0)
+    return Status::error(
+        out + ": cannot create a temporary folder beside it: " + std::strerror(errno),
+        ErrorKind::kOutput);
+  return OutputFolder(out, tmp);
+}
+
+OutputFolder::OutputFolder(OutputFolder&& o) noexcept
+    : out_(std::move(o.out_)), tmp_(std::move(o.tmp_)), done_(o.done_) {
+  o.done_ = true;
+}
+
+OutputFolder::~OutputFolder() {
+  if (done_) return;
+  std::error_code ec;
+  fs::remove_all(tmp_, ec);
+}
+
+Status OutputFolder::commit() {
+  std::error_code ec;
+  struct stat st;
+  if (lstat(out_.c_str(), &st) == 0) {
+    // Atomic swap: OUT becomes the new output, the temporary name the old one.
+    if (renameat2(AT_FDCWD, tmp_.c_str(), AT_FDCWD, out_.c_str(), RENAME_EXCHANGE) != 0) {
+      // No RENAME_EXCHANGE (some filesystems): move the old aside, then the new in.
+      const std::string old = tmp_ + "-old";
+      if (rename(out_.c_str(), old.c_str()) != 0)
+        return Status::error(out_ + ": cannot replace: " + std::strerror(errno),
+                             ErrorKind::kOutput);
+      if (rename(tmp_.c_str(), out_.c_str()) != 0) {
+        int e = errno;
+        rename(old.c_str(), out_.c_str());  // put the previous output back
+        return Status::error(out_ + ": cannot replace: " + std::strerror(e), ErrorKind::kOutput);
+      }
+      fs::remove_all(old, ec);
+      done_ = true;
+      return Status::ok();
+    }
+    fs::remove_all(tmp_, ec);  // the previous output, now under the temporary name
+    done_ = true;
+    return Status::ok();
+  }
+  if (rename(tmp_.c_str(), out_.c_str()) != 0)
+    return Status::error(out_ + ": cannot move the output into place: " + std::strerror(errno),
+                         ErrorKind::kOutput);
+  done_ = true;
+  return Status::ok();
+}
+
+}  // namespace meshmux
