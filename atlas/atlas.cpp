@@ -322,9 +322,17 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
     side *= 2;
     shrink = best_factor(side);
   }
+  // Many small charts (500 separate textured triangles) may not fit even at the smallest
+  // scale, each needing a texel and its gutters: the atlas grows until they do.
+  while (it.any_textured && !(shrink > 0) && side < o.max_size) {
+    side *= 2;
+    shrink = best_factor(side);
+  }
+  if (!it.any_textured && !fits(1, side)) shrink = 0;
   if (!(shrink > 0))
-    return Status::error("atlas: charts do not fit in " + std::to_string(side) + "²",
-                         ErrorKind::kInternal);
+    return Status::error("atlas: " + std::to_string(rects.size()) + " charts do not fit in " +
+                             std::to_string(side) + "² even at one texel each",
+                         ErrorKind::kInput);
   rects_for(shrink);
   pk.packed = pack_cells(rects, side, side);
   if (!pk.packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);

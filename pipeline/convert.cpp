@@ -47,7 +47,12 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
   AtlasReport ar;
   auto atlased = build_atlas(scene, o.atlas_options, &ar, warnings);
-  if (!atlased.ok()) return atlased.status();
+  if (!atlased.ok()) {
+    // Valid input never fails here: a model whose charts cannot share one atlas keeps its
+    // own materials (as --no-atlas), said once.
+    warn(warnings, atlased.status().message() + "; the source materials are kept (no atlas)");
+    return scene;
+  }
   if (!ar.built) {
     report_step(progress, "atlas: not needed (one material, no texture)");
     return scene;

@@ -146,6 +146,48 @@ INSTANTIATE_TEST_SUITE_P(Shared, AtlasSharedModel,
                                            "BoxVertexColors-glb/BoxVertexColors.glb"),
                          [](const auto& info) { return testing::model_test_name(info.param); });
 
+// Issue 3/8: 500 separate textured triangles (each its own chart, each needing a texel and its
+// gutters) failed with "atlas: charts do not fit in 128²" and exit 4. The atlas grows until
+// they fit.
+TEST(Atlas, ManySmallChartsGrowTheAtlasInsteadOfFailing) {
+  Scene s;
+  Image img;
+  img.name = "tiny.png";
+  img.width = img.height = 2;
+  img.rgba = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255};
+  s.images.push_back(img);
+  Material m;
+  m.base_color.image = 0;
+  m.base_color.sampler.wrap_s = m.base_color.sampler.wrap_t = Wrap::kClampToEdge;
+  s.materials.push_back(m);
+  Primitive p;
+  p.material = 0;
+  p.uvs.resize(1);
+  for (int i = 0; i < 500; ++i) {
+    const float x = float(i % 25) * 3, y = float(i / 25) * 3;
+    const uint32_t b = uint32_t(p.positions.size());
+    p.positions.insert(p.positions.end(), {{x, y, 0}, {x + 1, y, 0}, {x, y + 1, 0}});
+    p.normals.insert(p.normals.end(), 3, {0, 0, 1});
+    p.uvs[0].insert(p.uvs[0].end(), {{0.1f, 0.1f}, {0.2f, 0.1f}, {0.1f, 0.2f}});
+    p.indices.insert(p.indices.end(), {b, b + 1, b + 2});
+  }
+  // One face reaches beyond [0, 1] under a clamped sampler: the image cannot be kept as it is
+  // (atlas/source_atlas), so the charts path runs.
+  p.uvs[0][0] = {1.5f, 0.1f};
+  Mesh mesh;
+  mesh.primitives.push_back(p);
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  AtlasReport rep;
+  auto out = build_atlas(clean(s, {}), {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(rep.built);
+  EXPECT_FALSE(rep.reused_source);
+  EXPECT_GE(rep.charts, 400u);
+  EXPECT_GE(rep.size, 256);
+  EXPECT_TRUE(validate(*out).is_ok());
+}
+
 // A scene that needs no atlas (one material, no texture, no vertex colour) passes through.
 TEST(Atlas, SingleUntexturedMaterialPassesThrough) {
   Scene s;
