@@ -43,12 +43,17 @@ namespace fs = std::filesystem;
 constexpr int kExitOk = 0;
 constexpr int kExitUsage = 1;
 constexpr int kExitOutput = 3;
+constexpr size_t kWorkers = 256;  // connections served at once (threads; mostly asleep)
 
 const char* kServeUsage =
-    "usage: meshmux serve DIR [--port P] [--host H] [-q]\n"
-    "  serves the files under DIR over HTTP (GET, HEAD, Range requests, CORS) for the viewer\n"
+    "usage: meshmux serve DIR [--port P] [--host H] [--cors] [-q]\n"
+    "  serves the files under DIR over HTTP (GET, HEAD, Range requests) for the viewer;\n"
+    "  files and folders whose names start with '.' are never served\n"
     "  --port P   TCP port, 0 picks a free one (default 8080)\n"
-    "  --host H   address to listen on (default 127.0.0.1, loopback only)\n"
+    "  --host H   address to listen on (default 127.0.0.1, loopback only; any other address\n"
+    "             is reachable by other machines: a warning says so)\n"
+    "  --cors     allow pages from any origin to fetch the files\n"
+    "             (Access-Control-Allow-Origin: *; off by default)\n"
     "  -q         do not log requests on stderr\n";
 
 int usage_error(const std::string& message) {
@@ -247,6 +252,9 @@ class Site {
       if (path[i] == '%' && is_hex(path[i + 1]) && is_hex(path[i + 2])) return 403;
     std::string rel = path.substr(1);
     if (!rel.empty() && rel[0] == '/') return 403;  // "//etc/passwd": absolute once decoded
+    // Dotfiles and dot-folders (.git, .env, .htpasswd) are never served.
+    for (size_t i = 0; i < path.size(); ++i)
+      if (path[i] == '/' && i + 1 < path.size() && path[i + 1] == '.') return 403;
     if (fs::path(rel).is_absolute() || fs::path(rel).has_root_name()) return 403;
     return resolve_inside(rel.empty() ? root_ : root_ / rel, out);
   }
@@ -358,7 +366,7 @@ std::string url_host(const std::string& host) {
 int cmd_serve(const std::vector<std::string>& args) {
   std::string dir, host = "127.0.0.1";
   int port = 8080;
-  bool quiet = false;
+  bool quiet = false, cors = false;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") {
@@ -366,6 +374,8 @@ int cmd_serve(const std::vector<std::string>& args) {
       return kExitOk;
     } else if (a == "-q" || a == "--quiet") {
       quiet = true;
+    } else if (a == "--cors") {
+      cors = true;
     } else if (a == "--port" || a == "--host") {
       if (i + 1 >= args.size()) return usage_error(a + " needs a value");
       const std::string& v = args[++i];
@@ -402,10 +412,21 @@ int cmd_serve(const std::vector<std::string>& args) {
 
   Site site(root, quiet);
   httplib::Server svr;
-  svr.set_default_headers(
-      {{"Access-Control-Allow-Origin", "*"},
-       {"Access-Control-Expose-Headers", "Content-Range, Content-Length, Accept-Ranges"},
-       {"Cache-Control", "no-cache"}});
+  httplib::Headers defaults = {{"Cache-Control", "no-cache"}};
+  if (cors) {
+    defaults.emplace("Access-Control-Allow-Origin", "*");
+    defaults.emplace("Access-Control-Expose-Headers",
+                     "Content-Range, Content-Length, Accept-Ranges");
+  }
+  svr.set_default_headers(defaults);
+  // Slow or idle clients each hold a worker until a read times out: many workers and short
+  // timeouts keep ordinary requests answered (a full fix needs a connection gate in front of
+  // the workers; see the issue 3/8 note).
+  svr.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
+  svr.set_read_timeout(2, 0);
+  svr.set_write_timeout(10, 0);
+  svr.set_keep_alive_timeout(2);
+  svr.set_payload_max_length(0);  // GET, HEAD and OPTIONS only: no request body is read
   svr.set_pre_routing_handler([&site](const httplib::Request& req, httplib::Response& res) {
     site.handle(req, res);
     return httplib::Server::HandlerResponse::Handled;
@@ -439,6 +460,11 @@ int cmd_serve(const std::vector<std::string>& args) {
     return kExitOutput;
   }
 
+  if (host != "127.0.0.1" && host != "::1" && host != "localhost")
+    std::fprintf(stderr,
+                 "meshmux: serve: warning: listening on %s, beyond loopback: other machines "
+                 "can read %s\n",
+                 host.c_str(), root.c_str());
   std::printf("meshmux: serving %s at http://%s:%d/ (Ctrl-C to stop)\n", root.c_str(),
               url_host(host).c_str(), port);
   std::fflush(stdout);

@@ -256,8 +256,38 @@ TEST_F(Serve, SymlinkOutOfTheFolderIsRefused) {
   EXPECT_EQ(r->body.find(kSecret), std::string::npos);
 }
 
-TEST_F(Serve, CorsHeaderAndPreflight) {
+// CORS only when asked for (--cors): by default another site's page cannot read the files.
+TEST_F(Serve, CorsOnlyWhenAskedFor) {
   start();
+  auto r = client().Get("/model.glb", {{"Origin", "http://example.com"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_FALSE(r->has_header("Access-Control-Allow-Origin"));
+}
+
+// Dotfiles (.env, .git/config) were served; they are refused like paths outside the folder.
+TEST_F(Serve, DotfilesAreRefused) {
+  testing::write_text(site_ + "/.env", kSecret);
+  std::filesystem::create_directories(site_ + "/.git");
+  testing::write_text(site_ + "/.git/config", kSecret);
+  start();
+  auto c = client();
+  for (const char* path : {"/.env", "/.git/config", "/sub/../.env", "/%2Eenv"}) {
+    auto r = c.Get(path);
+    ASSERT_TRUE(r) << path;
+    EXPECT_EQ(r->status, 403) << path;
+    EXPECT_EQ(r->body.find(kSecret), std::string::npos) << path;
+  }
+}
+
+// Binding beyond loopback exposes the folder to other machines: said on stderr.
+TEST_F(Serve, WarnsWhenListeningBeyondLoopback) {
+  start({"--host", "0.0.0.0"});
+  EXPECT_NE(log().find("beyond loopback"), std::string::npos) << log();
+}
+
+TEST_F(Serve, CorsHeaderAndPreflight) {
+  start({"--cors"});
   auto c = client();
   auto r = c.Get("/model.glb", {{"Range", "bytes=0-3"}, {"Origin", "http://example.com"}});
   ASSERT_TRUE(r);
