@@ -13,6 +13,7 @@ debs=(
   libopenimageio-dev openimageio-tools libturbojpeg0-dev
   libassimp-dev libpugixml-dev
   libgtest-dev libgmock-dev libcpp-httplib-dev
+  clang
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   chromium
 )
