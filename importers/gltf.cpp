@@ -966,7 +966,13 @@ bool fs_file_exists(const std::string& path, void* user) {
     return false;
   }
   struct stat st;
-  return stat(resolved->c_str(), &st) == 0 && S_ISREG(st.st_mode);
+  if (stat(resolved->c_str(), &st) != 0) return false;
+  if (!S_ISREG(st.st_mode)) {
+    if (fs->refusal.empty())
+      fs->refusal = path + ": not a regular file (a device, pipe or socket is not read)";
+    return false;
+  }
+  return true;
 }
 
 std::string fs_expand(const std::string& path, void*) { return path; }
