@@ -1,6 +1,12 @@
 // `meshmux serve DIR`: a small static HTTP server for a converted output folder, so the
 // browser viewer can stream it (GET, HEAD, single Range requests, CORS preflight).
 //
+// Connections: httplib accepts, then hands every socket to the ConnectionGate (serve_gate.h),
+// which waits on one epoll thread for a complete request header (≤ 16 KiB, within 10 s, at
+// most 256 connections per client address) before a worker serves it with httplib's request
+// processing; kept-alive connections return to the gate between requests. Idle and slow
+// clients therefore never hold a worker.
+//
 // Every request goes through one pre-routing handler. Paths are decoded once (by httplib) and
 // refused with 403 when they could leave DIR: "..", backslash, NUL, an absolute path, a '%'
 // escape still left after the one decoding (double encoding), or a canonical file outside the
@@ -14,8 +20,11 @@
 // allows.
 #include "cli/serve.h"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <pthread.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -35,6 +44,8 @@
 #include <thread>
 #include <vector>
 
+#include "cli/serve_gate.h"
+
 namespace meshmux {
 namespace {
 
@@ -43,7 +54,6 @@ namespace fs = std::filesystem;
 constexpr int kExitOk = 0;
 constexpr int kExitUsage = 1;
 constexpr int kExitOutput = 3;
-constexpr size_t kWorkers = 256;  // connections served at once (threads; mostly asleep)
 
 const char* kServeUsage =
     "usage: meshmux serve DIR [--port P] [--host H] [--cors] [-q]\n"
@@ -361,6 +371,105 @@ std::string url_host(const std::string& host) {
   return host.find(':') != std::string::npos ? "[" + host + "]" : host;
 }
 
+// One connection's HTTP I/O for httplib's request processing, with our limits: every read of
+// a request must arrive within 10 s of the first, and at most 32 KiB are read per request (the
+// gate already checked the header is complete and at most 16 KiB; GET, HEAD and OPTIONS carry
+// no body). Writes time out after 10 s of no progress.
+class GateStream : public httplib::Stream {
+ public:
+  explicit GateStream(int fd) : fd_(fd), deadline_(Clock::now() + std::chrono::seconds(10)) {}
+  bool is_readable() const override { return wait(POLLIN, deadline_); }
+  bool is_writable() const override {
+    return wait(POLLOUT, Clock::now() + std::chrono::seconds(10));
+  }
+  ssize_t read(char* ptr, size_t size) override {
+    if (read_ >= kMaxRequestBytes || !is_readable()) return -1;
+    size = std::min(size, kMaxRequestBytes - read_);
+    ssize_t n;
+    do n = ::recv(fd_, ptr, size, 0);
+    while (n < 0 && errno == EINTR);
+    if (n > 0) read_ += size_t(n);
+    return n;
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    if (!is_writable()) return -1;
+    ssize_t n;
+    do n = ::send(fd_, ptr, size, MSG_NOSIGNAL);
+    while (n < 0 && errno == EINTR);
+    return n;
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    address(::getpeername, ip, port);
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    address(::getsockname, ip, port);
+  }
+  socket_t socket() const override { return fd_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static constexpr size_t kMaxRequestBytes = 32768;
+  bool wait(short what, Clock::time_point until) const {
+    for (;;) {
+      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now());
+      if (left.count() <= 0) return false;
+      pollfd p{fd_, what, 0};
+      int r = ::poll(&p, 1, int(left.count()));
+      if (r > 0) return true;
+      if (r == 0 || errno != EINTR) return false;
+    }
+  }
+  template <class F>
+  void address(F get, std::string& ip, int& port) const {
+    sockaddr_storage a{};
+    socklen_t n = sizeof a;
+    ip.clear();
+    port = 0;
+    if (get(fd_, reinterpret_cast<sockaddr*>(&a), &n) != 0) return;
+    char text[INET6_ADDRSTRLEN] = "";
+    if (a.ss_family == AF_INET) {
+      auto* v4 = reinterpret_cast<sockaddr_in*>(&a);
+      inet_ntop(AF_INET, &v4->sin_addr, text, sizeof text);
+      port = ntohs(v4->sin_port);
+    } else if (a.ss_family == AF_INET6) {
+      auto* v6 = reinterpret_cast<sockaddr_in6*>(&a);
+      inet_ntop(AF_INET6, &v6->sin6_addr, text, sizeof text);
+      port = ntohs(v6->sin6_port);
+    }
+    ip = text;
+  }
+  int fd_;
+  Clock::time_point deadline_;
+  size_t read_ = 0;
+};
+
+// httplib's server with its connection handling replaced: accepted sockets go to the
+// ConnectionGate (serve_gate.h), which calls serve_one() on a worker once a complete header
+// has arrived; httplib still parses requests and writes responses.
+class GatedServer : public httplib::Server {
+ public:
+  void set_gate(ConnectionGate* gate) { gate_ = gate; }
+  // httplib 0.11 listens with a backlog of 5: a burst of connections then waits for SYN
+  // retransmits (1 s, 3 s, ...). Listening again on the bound socket raises it.
+  void raise_backlog() {
+    if (svr_sock_ != INVALID_SOCKET) ::listen(svr_sock_, SOMAXCONN);
+  }
+  // Answers one request on `fd`; true when the connection may carry another.
+  bool serve_one(int fd) {
+    GateStream stream(fd);
+    bool closed = false;
+    bool ok = process_request(stream, /*close_connection=*/false, closed, nullptr);
+    return ok && !closed;
+  }
+
+ private:
+  bool process_and_close_socket(socket_t sock) override {
+    gate_->add(sock);  // the gate owns and closes it
+    return true;
+  }
+  ConnectionGate* gate_ = nullptr;
+};
+
 }  // namespace
 
 int cmd_serve(const std::vector<std::string>& args) {
@@ -411,7 +520,9 @@ int cmd_serve(const std::vector<std::string>& args) {
   std::signal(SIGPIPE, SIG_IGN);
 
   Site site(root, quiet);
-  httplib::Server svr;
+  GatedServer svr;
+  ConnectionGate gate(GateOptions{}, [&svr](int fd) { return svr.serve_one(fd); });
+  svr.set_gate(&gate);
   httplib::Headers defaults = {{"Cache-Control", "no-cache"}};
   if (cors) {
     defaults.emplace("Access-Control-Allow-Origin", "*");
@@ -419,13 +530,6 @@ int cmd_serve(const std::vector<std::string>& args) {
                      "Content-Range, Content-Length, Accept-Ranges");
   }
   svr.set_default_headers(defaults);
-  // Slow or idle clients each hold a worker until a read times out: many workers and short
-  // timeouts keep ordinary requests answered (a full fix needs a connection gate in front of
-  // the workers; see the issue 3/8 note).
-  svr.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
-  svr.set_read_timeout(2, 0);
-  svr.set_write_timeout(10, 0);
-  svr.set_keep_alive_timeout(2);
   svr.set_payload_max_length(0);  // GET, HEAD and OPTIONS only: no request body is read
   svr.set_pre_routing_handler([&site](const httplib::Request& req, httplib::Response& res) {
     site.handle(req, res);
@@ -453,6 +557,7 @@ int cmd_serve(const std::vector<std::string>& args) {
   } else if (!svr.bind_to_port(host, port)) {
     port = -1;
   }
+  if (port >= 0) svr.raise_backlog();
   if (port < 0) {
     int err = errno;
     std::fprintf(stderr, "meshmux: serve: cannot listen on %s%s%s\n", address.c_str(),

@@ -345,6 +345,61 @@ TEST_F(Serve, OrdinaryRequestAnsweredUnderSlowAndIdleConnections) {
     if (fd >= 0) ::close(fd);
 }
 
+// Reads what the server sends on `fd` until it closes or `seconds` pass.
+std::string read_until_closed(int fd, double seconds) {
+  std::string got;
+  auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    int left = int(std::chrono::duration_cast<std::chrono::milliseconds>(
+                       until - std::chrono::steady_clock::now())
+                       .count());
+    if (left <= 0) break;
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, left) <= 0) break;
+    char buf[4096];
+    ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, size_t(n));
+  }
+  return got;
+}
+
+// Headers were unbounded in total (4 × 250 MB accepted, 1.6 GB RSS): a header over 16 KiB is
+// answered 431 and the connection closed, whatever follows.
+TEST_F(Serve, OversizedHeaderIsRefused) {
+  start({"-q"});
+  int fd = connect_loopback(server_.port());
+  ASSERT_GE(fd, 0);
+  std::string head = "GET /model.glb HTTP/1.1\r\nHost: x\r\n";
+  for (int i = 0; i < 64; ++i)
+    head += "X-Pad-" + std::to_string(i) + ": " + std::string(1000, 'a') + "\r\n";
+  (void)!::send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  std::string answer = read_until_closed(fd, 5);
+  ::close(fd);
+  EXPECT_EQ(answer.rfind("HTTP/1.1 431", 0), 0u) << answer.substr(0, 80);
+  auto r = client().Get("/report.json");  // the server is fine
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+}
+
+// One address may hold at most 256 connections: beyond, new ones are answered 503 and closed.
+TEST_F(Serve, ConnectionsPerClientAreCapped) {
+  start({"-q"});
+  std::vector<int> fds;
+  for (int i = 0; i < 270; ++i) fds.push_back(connect_loopback(server_.port()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  int refused = 0;  // the order the server accepts them in is its own: look at every one
+  for (int fd : fds) {
+    char buf[64] = {0};
+    if (fd >= 0 && ::recv(fd, buf, sizeof buf - 1, MSG_DONTWAIT) > 0 &&
+        std::string(buf).rfind("HTTP/1.1 503", 0) == 0)
+      ++refused;
+  }
+  EXPECT_EQ(refused, 270 - 256);
+  for (int fd : fds)
+    if (fd >= 0) ::close(fd);
+}
+
 TEST_F(Serve, CorsHeaderAndPreflight) {
   start({"--cors"});
   auto c = client();
