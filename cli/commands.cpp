@@ -1,6 +1,7 @@
 // The `meshmux` command: convert, info, sample. Each command parses its own flags, runs the
 // stages in order and maps a failed Status to an exit code. Progress and warnings go to
 // stderr; data (info) goes to stdout.
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include <cctype>
@@ -86,8 +87,9 @@ const char* kUsage =
     "  --max-texels N      decoded texels of all images together\n"
     "  --max-instances N   mesh instances the node graph may expand to\n"
     "  --max-elements N    accessor values read in all (vertices, indices, instance data)\n"
+    "  --max-memory MB     heap and private memory of the whole run\n"
     "                      (defaults from the input's size: at least 67 M texels, 1 M\n"
-    "                      instances and 67 M values, more for larger inputs)\n"
+    "                      instances, 67 M values and 2 GB, more for larger inputs)\n"
     "\n"
     "inputs: .gltf (external or embedded buffers and images), .glb, .dae (COLLADA 1.4/1.5)\n"
     "\n"
@@ -252,6 +254,17 @@ class Args {
     if (a == "-q" || a == "--quiet") return quiet = true, 1;
     if (a == "-h" || a == "--help") return help = true, 1;
     if (a == "--allow-outside") return import.allow_outside = true, 1;
+    if (a == "--max-memory") {
+      std::string v;
+      if (!value(&v)) return -1;
+      char* end = nullptr;
+      errno = 0;
+      unsigned long long mb = std::strtoull(v.c_str(), &end, 10);
+      if (v.empty() || v[0] == '-' || *end != '\0' || errno != 0 || mb == 0)
+        return fail("--max-memory needs a positive whole number of MB, not '" + v + "'") ? 1 : -1;
+      max_memory_mb = mb;
+      return 1;
+    }
     const std::pair<const char*, uint64_t*> limits[] = {{"--max-texels", &import.max_texels},
                                                         {"--max-instances", &import.max_instances},
                                                         {"--max-elements", &import.max_elements}};
@@ -279,7 +292,8 @@ class Args {
   }
   std::string in, out, error;
   bool quiet = false, help = false;
-  ImportOptions import;  // --allow-outside and the resource limits
+  ImportOptions import;        // --allow-outside and the resource limits
+  uint64_t max_memory_mb = 0;  // --max-memory; 0: from the input's size
 
  private:
   std::string cmd_;
@@ -318,6 +332,58 @@ Status write_outputs(const std::string& out, bool folder, const ConvertOutputs& 
   if (Status s = txn->commit(); !s) return s;
   for (const std::string& w : written) progress.step("wrote " + w);
   return Status::ok();
+}
+
+// Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
+// images it references (data: URIs are inside the file already). COLLADA textures are not
+// followed (the file size alone is reported).
+uint64_t asset_bytes(const std::string& file, bool allow_outside) {
+  std::error_code ec;
+  uint64_t total = std::filesystem::file_size(file, ec);
+  if (ec) return 0;
+  if (!ends_with(file, ".gltf")) return total;
+  auto text = read_whole_file(file, uint64_t(256) << 20);
+  if (!text.ok()) return total;
+  auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
+  if (!doc.is_object()) return total;
+  std::filesystem::path dir = std::filesystem::path(file).parent_path();
+  auto scope = input_scope(file, allow_outside);
+  if (!scope.ok()) return total;
+  for (const char* key : {"buffers", "images"}) {
+    if (!doc.contains(key) || !doc[key].is_array()) continue;
+    for (const auto& item : doc[key]) {
+      if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
+      std::string uri = item["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      // Only files the importer may read: inside the folder, regular (an absolute path once
+      // reported the size of a system password file).
+      auto path = resolve_in_scope(*scope, (dir / uri).string());
+      if (!path.ok() || !std::filesystem::is_regular_file(*path, ec)) continue;
+      uint64_t n = std::filesystem::file_size(*path, ec);
+      if (!ec) total += n;
+    }
+  }
+  return total;
+}
+
+// The memory cap (RLIMIT_DATA: heap and private mappings) for converting `in`: --max-memory, or
+// from the input's size, max(2 GiB, 64 × its bytes with external buffers and images). An
+// allocation past it fails, and the top level reports it with the option that raises it.
+// Not under sanitizers (their shadow memory is private mappings of terabytes).
+uint64_t g_memory_limit_mb = 0;
+void apply_memory_limit(const std::string& in, bool allow_outside, uint64_t max_memory_mb) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  (void)in, (void)allow_outside, (void)max_memory_mb;
+#else
+  uint64_t mb = max_memory_mb;
+  if (mb == 0) mb = std::max<uint64_t>(2048, 64 * asset_bytes(in, allow_outside) / 1000000);
+  rlimit rl{};
+  if (getrlimit(RLIMIT_DATA, &rl) != 0) return;
+  rlim_t want = rlim_t(mb) << 20;
+  if (rl.rlim_max != RLIM_INFINITY && want > rl.rlim_max) want = rl.rlim_max;
+  rl.rlim_cur = want;
+  if (setrlimit(RLIMIT_DATA, &rl) == 0) g_memory_limit_mb = mb;
+#endif
 }
 
 int cmd_convert(const std::vector<std::string>& args) {
@@ -362,6 +428,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   o.stream = !ends_with(p.out, ".glb");
   if (Status s = refuse_overwriting_input(p.in, p.out, o.stream); !s) return fail(s);
   clean_stale_temporaries(p.out);
+  apply_memory_limit(p.in, p.import.allow_outside, p.max_memory_mb);
   Warnings warnings;
   CliProgress progress(p.quiet, &warnings);
   progress.step("importing " + p.in);
@@ -374,38 +441,6 @@ int cmd_convert(const std::vector<std::string>& args) {
   progress.step("wrote " + p.out + " (" + std::to_string(r->output.scene_triangles) +
                 " triangles, " + std::to_string(r->output.draw_calls) + " draw calls)");
   return kExitOk;
-}
-
-// Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
-// images it references (data: URIs are inside the file already). COLLADA textures are not
-// followed (the file size alone is reported).
-uint64_t asset_bytes(const std::string& file, bool allow_outside) {
-  std::error_code ec;
-  uint64_t total = std::filesystem::file_size(file, ec);
-  if (ec) return 0;
-  if (!ends_with(file, ".gltf")) return total;
-  auto text = read_whole_file(file, uint64_t(256) << 20);
-  if (!text.ok()) return total;
-  auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
-  if (!doc.is_object()) return total;
-  std::filesystem::path dir = std::filesystem::path(file).parent_path();
-  auto scope = input_scope(file, allow_outside);
-  if (!scope.ok()) return total;
-  for (const char* key : {"buffers", "images"}) {
-    if (!doc.contains(key) || !doc[key].is_array()) continue;
-    for (const auto& item : doc[key]) {
-      if (!item.is_object() || !item.contains("uri") || !item["uri"].is_string()) continue;
-      std::string uri = item["uri"].get<std::string>();
-      if (uri.rfind("data:", 0) == 0) continue;
-      // Only files the importer may read: inside the folder, regular (an absolute path once
-      // reported the size of a system password file).
-      auto path = resolve_in_scope(*scope, (dir / uri).string());
-      if (!path.ok() || !std::filesystem::is_regular_file(*path, ec)) continue;
-      uint64_t n = std::filesystem::file_size(*path, ec);
-      if (!ec) total += n;
-    }
-  }
-  return total;
 }
 
 int cmd_info(const std::vector<std::string>& args) {
@@ -426,6 +461,7 @@ int cmd_info(const std::vector<std::string>& args) {
   }
   const std::string file = p.in;
   if (file.empty()) return usage_error("info: no file given");
+  apply_memory_limit(file, p.import.allow_outside, p.max_memory_mb);
   Warnings warnings;
   auto scene = import_scene(file, p.import, &warnings);
   if (!scene.ok()) return fail(scene.status());
@@ -519,6 +555,7 @@ int cmd_simplify(const std::vector<std::string>& args) {
     return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
   if (Status s = refuse_overwriting_input(in, out, false); !s) return fail(s);
   clean_stale_temporaries(out);
+  apply_memory_limit(in, p.import.allow_outside, p.max_memory_mb);
   Warnings warnings;
   CliProgress progress(quiet, &warnings);
   progress.step("importing " + in);
@@ -613,6 +650,13 @@ int meshmux_main(int argc, char** argv) {
     if (cmd == "render") return cmd_render(rest);
     return usage_error("unknown command '" + cmd + "'");
   } catch (const std::bad_alloc&) {
+    if (g_memory_limit_mb > 0) {
+      std::fprintf(stderr,
+                   "meshmux: out of memory: the run needs more than the memory limit of %llu "
+                   "MB (set from the input's size, or by --max-memory, which raises it)\n",
+                   static_cast<unsigned long long>(g_memory_limit_mb));
+      return kExitInput;
+    }
     std::fprintf(stderr, "meshmux: out of memory\n");
     return kExitInternal;
   } catch (const std::exception& e) {

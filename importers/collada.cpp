@@ -664,7 +664,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     if (!valid) return valid;
     return scene;
   } catch (const std::bad_alloc&) {
-    return Status::error(stage + ": out of memory while importing", ErrorKind::kInput);
+    throw;  // the caller knows the memory limit and the option that raises it
   } catch (const std::exception& e) {
     return Status::error(stage + ": " + one_line(e.what()), ErrorKind::kInternal);
   }

@@ -1100,6 +1100,8 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                                       reinterpret_cast<const char*>(data.data()),
                                       unsigned(data.size()), dir);
     }
+  } catch (const std::bad_alloc&) {
+    throw;  // the caller knows the memory limit and the option that raises it
   } catch (const std::exception& e) {
     return Status::error("gltf: " + file + ": cannot parse: " + e.what(), ErrorKind::kInput);
   }
