@@ -18,6 +18,8 @@ import zlib
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--meshmux", default=os.path.join(os.path.dirname(__file__), "..", "build", "meshmux"))
+ap.add_argument("--cap-gb", type=float, default=0,
+                help="run under prlimit --data=N GB (to try an older build safely)")
 args = ap.parse_args()
 meshmux = os.path.abspath(args.meshmux)
 
@@ -151,13 +153,15 @@ worst = 0
 for name, main, extra in cases:
     out = os.path.join(os.path.dirname(main), "..", "out")
     try:
-        r = subprocess.run(["/usr/bin/time", "-f", "RSS %M", meshmux, "convert", main, "-o", out, "-q", "--no-report"] + extra,
+        cap = ["prlimit", f"--data={int(args.cap_gb * 2**30)}"] if args.cap_gb else []
+        r = subprocess.run(cap + ["/usr/bin/time", "-f", "RSS %M", meshmux, "convert", main, "-o", out, "-q", "--no-report"] + extra,
                            capture_output=True, text=True, timeout=120)
         lines = [l for l in r.stderr.splitlines() if l.strip()]
         rss = next((int(l.split()[1]) for l in lines if l.startswith("RSS ")), 0) / 1024
         msg = [l for l in lines if not l.startswith("RSS ") and not l.startswith("Command ")]
-        last = msg[-1] if msg else "(converted)"
         code = r.returncode
+        last = msg[-1] if msg else ("(converted)" if code == 0 else
+                                    f"(no message; signal {code - 128})" if code > 128 else "(no message)")
     except subprocess.TimeoutExpired:
         rss, last, code = 0, "TIMEOUT (120 s)", -1
     worst = max(worst, rss)
