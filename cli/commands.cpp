@@ -254,20 +254,11 @@ class Args {
     if (a == "-q" || a == "--quiet") return quiet = true, 1;
     if (a == "-h" || a == "--help") return help = true, 1;
     if (a == "--allow-outside") return import.allow_outside = true, 1;
-    if (a == "--max-memory") {
-      std::string v;
-      if (!value(&v)) return -1;
-      char* end = nullptr;
-      errno = 0;
-      unsigned long long mb = std::strtoull(v.c_str(), &end, 10);
-      if (v.empty() || v[0] == '-' || *end != '\0' || errno != 0 || mb == 0)
-        return fail("--max-memory needs a positive whole number of MB, not '" + v + "'") ? 1 : -1;
-      max_memory_mb = mb;
-      return 1;
-    }
+    // The limit flags: positive whole numbers (--max-memory in MB).
     const std::pair<const char*, uint64_t*> limits[] = {{"--max-texels", &import.max_texels},
                                                         {"--max-instances", &import.max_instances},
-                                                        {"--max-elements", &import.max_elements}};
+                                                        {"--max-elements", &import.max_elements},
+                                                        {"--max-memory", &max_memory_mb}};
     for (const auto& [flag, field] : limits) {
       if (a != flag) continue;
       std::string v;

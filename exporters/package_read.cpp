@@ -17,6 +17,7 @@
 #include <string>
 
 #include "exporters/package.h"
+#include "scene/json_depth.h"
 
 namespace meshmux {
 
@@ -132,31 +133,6 @@ Status get_side(const Json& obj, const char* key, int& out, const std::string& w
   if (v == 0) return fail(where + ": \"" + key + "\" is 0");
   out = int(v);
   return Status::ok();
-}
-
-// Bracket nesting depth of JSON text, strings skipped; guards the recursive parts of the JSON
-// library (copying, destruction) against hostile nesting.
-int json_depth(const uint8_t* p, size_t n) {
-  int depth = 0, deepest = 0;
-  bool in_string = false, escaped = false;
-  for (size_t i = 0; i < n; ++i) {
-    uint8_t c = p[i];
-    if (in_string) {
-      if (escaped)
-        escaped = false;
-      else if (c == '\\')
-        escaped = true;
-      else if (c == '"')
-        in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
 }
 
 // The checks decode_part shares with the reader: a part's ranges inside its mesh, counts bounded

@@ -17,6 +17,7 @@
 #include "draco/compression/decode.h"
 #include "image/decode.h"
 #include "scene/file_io.h"
+#include "scene/json_depth.h"
 
 namespace meshmux {
 
@@ -999,31 +1000,6 @@ bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::strin
 bool fs_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
   if (err) *err += "meshmux never writes through the glTF loader";
   return false;
-}
-
-// Deepest nesting of JSON arrays and objects in `text` (strings skipped), stopping early past
-// `limit`: tinygltf's and nlohmann's parsers recurse per level, and 15,000 nested arrays in a
-// 31 kB file overflowed the stack.
-int json_depth(const uint8_t* text, size_t n, int limit) {
-  int depth = 0, deepest = 0;
-  bool in_string = false;
-  for (size_t i = 0; i < n; ++i) {
-    const uint8_t c = text[i];
-    if (in_string) {
-      if (c == '\\')
-        ++i;
-      else if (c == '"')
-        in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > limit) return deepest;
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
 }
 
 constexpr int kMaxJsonDepth = 64;  // real glTF files nest under 12 levels
