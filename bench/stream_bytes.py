@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Where the stream's bytes go, beside the plain download (issue 4/8's acceptance table).
+
+For each folder OUT written by `meshmux convert IN -o OUT` (model.glb + model.mmxp), prints:
+package and model.glb bytes and their ratio; the mesh part of the stream (the base's geometry +
+every mesh chunk) against Draco's geometry bytes for the same final mesh in model.glb, and its
+bits per triangle; the texture part of the stream (the base's level 0 + every texture chunk)
+against the top level alone (model.glb's image); the atlas's pixels.
+
+usage: bench/stream_bytes.py OUT [OUT ...]      (bench/stream_bytes.sh converts the shared models)
+"""
+import json
+import os
+import struct
+import sys
+
+
+def glb_parts(data):
+    """(json, image bytes, other bin bytes) of a GLB."""
+    length = struct.unpack_from("<I", data, 8)[0]
+    off, doc, bin_size = 12, None, 0
+    while off + 8 <= length:
+        size, kind = struct.unpack_from("<II", data, off)
+        if kind == 0x4E4F534A:
+            doc = json.loads(data[off + 8:off + 8 + size])
+        elif kind == 0x004E4942:
+            bin_size = size
+        off += 8 + size
+    image_views = {img["bufferView"] for img in doc.get("images", []) if "bufferView" in img}
+    images = sum(doc["bufferViews"][v]["byteLength"] for v in image_views)
+    other = sum(v["byteLength"] for i, v in enumerate(doc.get("bufferViews", [])) if i not in image_views)
+    return doc, images, other
+
+
+def package_table(data):
+    if data[:4] != b"MMXP":
+        raise ValueError("not a meshmux package")
+    json_size = struct.unpack_from("<I", data, 8)[0]
+    return json.loads(data[12:12 + json_size]), 12 + json_size
+
+
+rows = []
+for out in sys.argv[1:]:
+    name = os.path.basename(os.path.normpath(out))
+    glb_path, pkg_path = os.path.join(out, "model.glb"), os.path.join(out, "model.mmxp")
+    if not os.path.exists(pkg_path):
+        rows.append((name, None))
+        continue
+    glb = open(glb_path, "rb").read()
+    pkg = open(pkg_path, "rb").read()
+    doc, glb_images, glb_geometry = glb_parts(glb)
+    table, header = package_table(pkg)
+    base = table["base"]
+    _, base_images, base_geometry = glb_parts(pkg[base["offset"]:base["offset"] + base["size"]])
+    base_indices = sum(m.get("base_indices", {}).get("size", 0) for m in table["meshes"])
+    mesh_chunks = sum(c["size"] for c in table["chunks"] if c["kind"] == "mesh")
+    tex_chunks = sum(c["size"] for c in table["chunks"] if c["kind"] == "texture")
+    triangles = sum(m["faces"] for m in table["meshes"])
+    mesh_total = base_geometry + base_indices + mesh_chunks
+    tex_total = base_images + tex_chunks
+    tex = table.get("texture") or {}
+    rows.append((name, dict(
+        package=len(pkg), glb=len(glb), header=header, triangles=triangles,
+        mesh=mesh_total, draco=glb_geometry, bpt=8 * mesh_total / max(triangles, 1),
+        tex=tex_total, top=glb_images, pixels=tex.get("width", 0) * tex.get("height", 0),
+        levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0))))
+
+print("| model | triangles | model.glb | package | package / glb (≤ 1.3) | mesh stream | Draco geometry | "
+      "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+for name, r in rows:
+    if r is None:
+        print(f"| {name} | – | – | not streamed | | | | | | | | | |")
+        continue
+    ratio = lambda a, b: f"{a / b:.2f}" if b else "–"
+    print(f"| {name} | {r['triangles']} | {r['glb']} | {r['package']} | {ratio(r['package'], r['glb'])} | "
+          f"{r['mesh']} | {r['draco']} | {ratio(r['mesh'], r['draco'])} | {r['bpt']:.1f} | {r['tex']} | "
+          f"{r['top']} | {ratio(r['tex'], r['top'])} | {r['pixels']} |")

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Issue 4/8's table: converts every shared model (or the ones named) into build/stream_bytes/
+# and prints where the stream's bytes go beside model.glb (bench/stream_bytes.py).
+# usage: bench/stream_bytes.sh [BUILD_DIR] [MODEL ...]
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+build="$here/build"
+if [ $# -gt 0 ] && [ -f "$1/build.ninja" ]; then build=$1; shift; fi
+cmake --build "$build" --target meshmux -j 2 >/dev/null
+models="$here/../shared/models"
+[ -d "$models" ] || { echo "stream_bytes: $models absent" >&2; exit 77; }
+work="$build/stream_bytes"
+mkdir -p "$work"
+names=("$@")
+[ ${#names[@]} -gt 0 ] || mapfile -t names < <(ls "$models" | grep -v MANIFEST)
+outs=()
+for n in "${names[@]}"; do
+  file=$(ls "$models/$n" | grep -iE '\.(glb|gltf|dae)$' | head -1)
+  "$build/meshmux" convert "$models/$n/$file" -o "$work/$n" -q || echo "stream_bytes: $n failed" >&2
+  outs+=("$work/$n")
+done
+python3 "$here/bench/stream_bytes.py" "${outs[@]}"
