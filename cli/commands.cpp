@@ -24,6 +24,7 @@
 #include "pipeline/convert.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
+#include "scene/sanitizers.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 
@@ -363,7 +364,7 @@ uint64_t asset_bytes(const std::string& file, bool allow_outside) {
 // Not under sanitizers (their shadow memory is private mappings of terabytes).
 uint64_t g_memory_limit_mb = 0;
 void apply_memory_limit(const std::string& in, bool allow_outside, uint64_t max_memory_mb) {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#if MESHMUX_SANITIZED
   (void)in, (void)allow_outside, (void)max_memory_mb;
 #else
   uint64_t mb = max_memory_mb;

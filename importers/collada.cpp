@@ -53,6 +53,7 @@
 #include "image/decode.h"
 #include "importers/collada_bindings.h"
 #include "scene/file_io.h"
+#include "scene/sanitizers.h"
 
 namespace meshmux {
 namespace {
@@ -408,11 +409,7 @@ uint64_t current_address_space() {
   return pages * uint64_t(sysconf(_SC_PAGESIZE));
 }
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kLimitAddressSpace = false;  // sanitizers reserve terabytes of shadow memory
-#else
-constexpr bool kLimitAddressSpace = true;
-#endif
+constexpr bool kLimitAddressSpace = !MESHMUX_SANITIZED;  // sanitizers reserve terabytes
 
 // The last line of the child's stderr (ai_assert says there why Assimp aborted).
 std::string last_line(FILE* f) {

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "scene/sanitizers.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -15,7 +16,7 @@ using testing::TempDir;
 // The memory cap (RLIMIT_DATA; by default from the input's size) turns an allocation failure
 // into one line naming --max-memory, instead of a crash or "cannot parse: std::bad_alloc".
 TEST(ResourceLimits, MemoryCapEndsWithOneLineAndNoOutput) {
-#if defined(__SANITIZE_ADDRESS__)
+#if MESHMUX_SANITIZED
   GTEST_SKIP() << "the memory cap is off under AddressSanitizer";
 #endif
   TempDir dir;
