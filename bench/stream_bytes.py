@@ -59,20 +59,27 @@ for out in sys.argv[1:]:
     mesh_total = base_geometry + base_indices + mesh_chunks
     tex_total = base_images + tex_chunks
     tex = table.get("texture") or {}
+    report = os.path.join(out, "report.json")
+    dl = json.load(open(report)).get("download", {}) if os.path.exists(report) else {}
+    area = dl["package_area"] / dl["download_area"] if dl.get("download_area") else None
     rows.append((name, dict(
         package=len(pkg), glb=len(glb), header=header, triangles=triangles,
         mesh=mesh_total, draco=glb_geometry, bpt=8 * mesh_total / max(triangles, 1),
         tex=tex_total, top=glb_images, pixels=tex.get("width", 0) * tex.get("height", 0),
-        levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0))))
+        levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0),
+        area=area)))
 
 print("| model | triangles | model.glb | package | package / glb (≤ 1.3) | mesh stream | Draco geometry | "
-      "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+      "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px | "
+      "area: stream / download (< 1) |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for name, r in rows:
     if r is None:
-        print(f"| {name} | – | – | not streamed | | | | | | | | | |")
+        print(f"| {name} | – | – | not streamed | | | | | | | | | | |")
         continue
     ratio = lambda a, b: f"{a / b:.2f}" if b else "–"
+    area_text = "–" if r["area"] is None else f"{r['area']:.2f}"
     print(f"| {name} | {r['triangles']} | {r['glb']} | {r['package']} | {ratio(r['package'], r['glb'])} | "
           f"{r['mesh']} | {r['draco']} | {ratio(r['mesh'], r['draco'])} | {r['bpt']:.1f} | {r['tex']} | "
-          f"{r['top']} | {ratio(r['tex'], r['top'])} | {r['pixels']} |")
+          f"{r['top']} | {ratio(r['tex'], r['top'])} | {r['pixels']} | "
+          f"{area_text} |")

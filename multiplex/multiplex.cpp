@@ -178,6 +178,15 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   for (const Camera& c : cameras)
     reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
   r.renders += cameras.size();
+  // Nothing shown yet: blank frames against the references.
+  for (const RenderImage& ref : reference) {
+    RenderImage blank;
+    blank.width = ref.width;
+    blank.height = ref.height;
+    blank.rgba.assign(ref.rgba.size(), 0);
+    blank.coverage.assign(ref.coverage.size(), 0);
+    r.empty_distortion += measure_distortion(ref, blank).ciede2000 / double(reference.size());
+  }
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;
   grid.texture_bytes = r.texture_bytes;
@@ -219,7 +228,36 @@ void curve(std::ostringstream& out, const RdPath& p) {
 
 }  // namespace
 
-std::string report_json(const MultiplexResult& r) {
+double step_area(const std::vector<std::pair<uint64_t, double>>& curve) {
+  double a = 0;
+  for (size_t k = 1; k < curve.size(); ++k)
+    a +=
+        curve[k - 1].second * double(curve[k].first - std::min(curve[k].first, curve[k - 1].first));
+  return a;
+}
+
+namespace {
+
+// The download of model.glb as a step curve: nothing until its last byte, then the model.
+std::vector<std::pair<uint64_t, double>> download_curve(const MultiplexResult& r,
+                                                        const DownloadComparison& vs) {
+  return {{0, r.empty_distortion}, {vs.model_glb_bytes, 0.0}};
+}
+
+void points(std::ostringstream& out, const std::vector<std::pair<uint64_t, double>>& c) {
+  out << "[";
+  for (size_t k = 0; k < c.size(); ++k) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s[%llu, %.6g]", k ? ", " : "",
+                  static_cast<unsigned long long>(c[k].first), c[k].second);
+    out << buf;
+  }
+  out << "]";
+}
+
+}  // namespace
+
+std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) {
   std::ostringstream out;
   out << "{\n  \"curves\": {\n    \"rd\": ";
   curve(out, r.rd);
@@ -239,6 +277,28 @@ std::string report_json(const MultiplexResult& r) {
                 area_under(r.constant_ratio), r.metric.c_str(), r.views, r.renders, r.cells_descent,
                 r.cells_evaluated, r.cells_total);
   out << buf;
+  std::snprintf(buf, sizeof buf, "\n  \"empty_distortion\": %.6g,", r.empty_distortion);
+  out << buf;
+  if (vs) {
+    // The package as received against the plain download, areas over the same bytes axis
+    // (each curve held at its last value up to the longer one's end).
+    auto package = vs->package;
+    auto download = download_curve(r, *vs);
+    const uint64_t end = std::max(package.back().first, download.back().first);
+    package.push_back({end, package.back().second});
+    download.push_back({end, download.back().second});
+    const double pa = step_area(package), da = step_area(download);
+    out << "\n  \"download\": {\n    \"model_glb_bytes\": " << vs->model_glb_bytes
+        << ",\n    \"package_bytes\": " << vs->package.back().first << ",\n    \"package_curve\": ";
+    points(out, vs->package);
+    out << ",\n    \"download_curve\": ";
+    points(out, download_curve(r, *vs));
+    std::snprintf(buf, sizeof buf,
+                  ",\n    \"package_area\": %.6g,\n    \"download_area\": %.6g,"
+                  "\n    \"stream_beats_download\": %s\n  },",
+                  pa, da, pa < da ? "true" : "false");
+    out << buf;
+  }
   out << "\n  \"mesh_layer_bytes\": [";
   for (size_t k = 0; k < r.mesh_bytes.size(); ++k) out << (k ? ", " : "") << r.mesh_bytes[k];
   out << "],\n  \"mesh_layer_triangles\": [";
@@ -256,7 +316,7 @@ std::string report_json(const MultiplexResult& r) {
   return out.str();
 }
 
-std::string rd_svg(const MultiplexResult& r) {
+std::string rd_svg(const MultiplexResult& r, const DownloadComparison* vs) {
   const int W = 640, H = 400, L = 60, R = 20, T = 20, B = 50;
   const RdPath* paths[4] = {&r.rd, &r.mesh_first, &r.texture_first, &r.constant_ratio};
   const char* names[4] = {"steepest descent", "mesh first", "texture first", "constant ratio"};
@@ -265,6 +325,14 @@ std::string rd_svg(const MultiplexResult& r) {
   for (const RdPath* p : paths)
     for (size_t k = 0; k < p->bytes.size(); ++k)
       max_b = std::max(max_b, double(p->bytes[k])), max_d = std::max(max_d, p->distortion[k]);
+  // With the download comparison: the package as received and model.glb's download, as steps.
+  std::vector<std::pair<uint64_t, double>> steps[2];
+  if (vs) {
+    steps[0] = vs->package;
+    steps[1] = download_curve(r, *vs);
+    for (const auto& c : steps)
+      for (const auto& [b, d] : c) max_b = std::max(max_b, double(b)), max_d = std::max(max_d, d);
+  }
   std::ostringstream out;
   out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
       << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
@@ -296,6 +364,27 @@ std::string rd_svg(const MultiplexResult& r) {
     out << "\"/>\n";
     std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" fill=\"%s\">%s: area %.3g</text>\n",
                   W - R - 220, T + 15 + 16 * c, colors[c], names[c], area_under(*paths[c]));
+    out << buf;
+  }
+  const char* step_names[2] = {"package as received", "model.glb download"};
+  const char* step_colors[2] = {"#000000", "#ff7f0e"};
+  for (int c = 0; c < 2 && vs; ++c) {
+    out << "<polyline fill=\"none\" stroke=\"" << step_colors[c] << "\" stroke-width=\"1.5\""
+        << (c == 0 ? " stroke-dasharray=\"4 3\"" : "") << " points=\"";
+    for (size_t k = 0; k < steps[c].size(); ++k) {
+      const double x = L + (W - L - R) * double(steps[c][k].first) / max_b;
+      auto y = [&](double d) { return (H - B) - (H - B - T) * d / max_d; };
+      if (k > 0) {
+        std::snprintf(buf, sizeof buf, "%.1f,%.1f ", x, y(steps[c][k - 1].second));
+        out << buf;
+      }
+      std::snprintf(buf, sizeof buf, "%.1f,%.1f ", x, y(steps[c][k].second));
+      out << buf;
+    }
+    out << "\"/>\n";
+    std::snprintf(buf, sizeof buf, "<text x=\"%d\" y=\"%d\" fill=\"%s\">%s: area %.3g</text>\n",
+                  W - R - 220, T + 15 + 16 * (4 + c), step_colors[c], step_names[c],
+                  step_area(steps[c]));
     out << buf;
   }
   out << "</svg>\n";

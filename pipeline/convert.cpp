@@ -189,6 +189,30 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   return write_package(in);
 }
 
+// The package as a viewer receives it (the stored order, real bytes): nothing until the header,
+// table, base and base faces are in, then each chunk. For report.json's download comparison.
+Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& package,
+                                               uint64_t model_glb_bytes, double empty) {
+  auto pkg = read_package(package);
+  if (!pkg.ok()) return pkg.status();
+  DownloadComparison c;
+  c.model_glb_bytes = model_glb_bytes;
+  uint64_t first = pkg->base_offset + pkg->base_size;
+  for (const PackageMesh& mesh : pkg->meshes)
+    first = std::max(first, mesh.base_indices_offset + mesh.base_indices_size);
+  c.package.push_back({0, empty});
+  c.package.push_back({first, pkg->base_distortion});
+  if (!pkg->orders.empty()) {
+    const PackageOrder& order = pkg->orders[0];
+    uint64_t received = first;
+    for (size_t k = 0; k < order.chunks.size(); ++k) {
+      received += pkg->chunks[order.chunks[k]].size;
+      c.package.push_back({received, k < order.distortion.size() ? order.distortion[k] : 0.0});
+    }
+  }
+  return c;
+}
+
 }  // namespace
 
 Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warnings* warnings,
@@ -238,12 +262,12 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   if (!mx->has_value()) return out;
   out.multiplexed = std::move(**mx);
   const MultiplexResult& m = *out.multiplexed;
-  out.report_json = report_json(m);
-  out.rd_svg = rd_svg(m);
   // 9. The stream package.
   if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
   if (!out.not_streamed.empty()) {
     warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
+    out.report_json = report_json(m);
+    out.rd_svg = rd_svg(m);
     return out;
   }
   auto package = package_step(ps, m, *levels, o, warnings);
@@ -251,6 +275,11 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   out.package = package.take();
   out.mesh_chunks = m.layer_parts.size() - 1;
   out.texture_chunks = levels->levels.empty() ? 0 : levels->levels.size() - 1;
+  // 10. The report: the order's curves, and the package as received against model.glb.
+  auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
+  if (!cmp.ok()) return cmp.status();
+  out.report_json = report_json(m, &*cmp);
+  out.rd_svg = rd_svg(m, &*cmp);
   return out;
 }
 

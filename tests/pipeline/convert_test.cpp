@@ -92,6 +92,38 @@ TEST(Convert, FolderOutputsAreAllThereAndSingleFileSkipsTheRest) {
   EXPECT_EQ(one->texture_levels, 1u) << "without a stream only the top level is built";
 }
 
+// Issue 4/8, deliver 5: report.json sets the package, as a viewer receives it (real byte
+// offsets, the stored order), against the plain download of model.glb: both start blank, the
+// download shows the model at its last byte. The figures come from the outputs themselves.
+TEST(Convert, ReportComparesThePackageWithTheDownload) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  const auto& out = converted().out;
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  auto report = nlohmann::json::parse(out->report_json);
+  ASSERT_TRUE(report.contains("download")) << out->report_json.substr(0, 400);
+  const auto& d = report["download"];
+  EXPECT_EQ(d["model_glb_bytes"].get<uint64_t>(), out->model_glb.size());
+  EXPECT_EQ(d["package_bytes"].get<uint64_t>(), out->package.size());
+  const auto& curve = d["package_curve"];
+  ASSERT_GE(curve.size(), 3u);
+  const double empty = report["empty_distortion"].get<double>();
+  EXPECT_GT(empty, 0);
+  EXPECT_EQ(curve[0][0].get<uint64_t>(), 0u);
+  EXPECT_NEAR(curve[0][1].get<double>(), empty, 1e-5 * empty);
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok());
+  EXPECT_GE(curve[1][0].get<uint64_t>(), pkg->base_offset + pkg->base_size);  // the first picture
+  EXPECT_LT(curve[1][1].get<double>(), empty);
+  for (size_t k = 1; k < curve.size(); ++k)
+    EXPECT_GT(curve[k][0].get<uint64_t>(), curve[k - 1][0].get<uint64_t>());
+  const double download = empty * double(out->model_glb.size());  // written with 6 digits
+  EXPECT_NEAR(d["download_area"].get<double>(), download, 1e-5 * download);
+  EXPECT_EQ(d["stream_beats_download"].get<bool>(),
+            d["package_area"].get<double>() < d["download_area"].get<double>());
+  EXPECT_NE(out->rd_svg.find("model.glb download"), std::string::npos);
+}
+
 // base.glb is what the stream shows first: the base mesh with texture level 0 (not the full
 // atlas), Draco-coded; the package's own base holds the same texture level.
 TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
