@@ -28,7 +28,12 @@ def glb_parts(data):
         off += 8 + size
     image_views = {img["bufferView"] for img in doc.get("images", []) if "bufferView" in img}
     images = sum(doc["bufferViews"][v]["byteLength"] for v in image_views)
-    other = sum(v["byteLength"] for i, v in enumerate(doc.get("bufferViews", [])) if i not in image_views)
+    # A view compressed with EXT_meshopt_compression costs its compressed bytes (its own
+    # byteLength is the decoded size, in a data-less fallback buffer).
+    def stored(v):
+        ext = v.get("extensions", {}).get("EXT_meshopt_compression")
+        return ext["byteLength"] if ext else v["byteLength"]
+    other = sum(stored(v) for i, v in enumerate(doc.get("bufferViews", [])) if i not in image_views)
     return doc, images, other
 
 

@@ -17,10 +17,12 @@
 #include <exception>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <utility>
 
 #include "exporters/draco_encode.h"
+#include "exporters/gltf_meshopt.h"
 #include "image/encode.h"
 #include "scene/file_io.h"
 
@@ -38,6 +40,8 @@ constexpr int kElementArrayBuffer = 34963;
 constexpr int kMaxTexCoord = 7;  // highest TEXCOORD_n we are willing to pad a primitive up to
 
 const char* const kDraco = "KHR_draco_mesh_compression";
+const char* const kMeshopt = "EXT_meshopt_compression";
+const char* const kQuantization = "KHR_mesh_quantization";
 const char* const kInstancing = "EXT_mesh_gpu_instancing";
 const char* const kTextureTransform = "KHR_texture_transform";
 const char* const kUnlit = "KHR_materials_unlit";
@@ -415,6 +419,75 @@ class Exporter {
     return prim;
   }
 
+  // A meshopt-coded accessor: its bytes go to the BIN chunk, its bufferView reads the fallback
+  // buffer (1, no data) and points at them through the extension.
+  int add_meshopt_accessor(const MeshoptAccessor& a) {
+    static const char* const kTypes[] = {"SCALAR", "VEC2", "VEC3", "VEC4"};
+    while (bin_.size() % 4) bin_.push_back(0);
+    const size_t at = bin_.size();
+    bin_.insert(bin_.end(), a.encoded.begin(), a.encoded.end());
+    fallback_bytes_ = (fallback_bytes_ + 3) / 4 * 4;
+    const size_t length = size_t(a.count) * a.stride;
+    json v = {{"buffer", 1}, {"byteOffset", fallback_bytes_}, {"byteLength", length}};
+    if (!a.triangles) v["byteStride"] = a.stride;  // index views may not have one
+    v["target"] = a.triangles ? kElementArrayBuffer : kArrayBuffer;
+    v["extensions"][kMeshopt] = {{"buffer", 0},
+                                 {"byteOffset", at},
+                                 {"byteLength", a.encoded.size()},
+                                 {"byteStride", a.stride},
+                                 {"count", a.count},
+                                 {"mode", a.triangles ? "TRIANGLES" : "ATTRIBUTES"}};
+    fallback_bytes_ += length;
+    views_.push_back(std::move(v));
+    json min = a.min.empty() ? json(nullptr) : json(a.min);
+    json max = a.max.empty() ? json(nullptr) : json(a.max);
+    int index = add_accessor(int(views_.size() - 1), a.component_type,
+                             kTypes[std::clamp(a.components, 1, 4) - 1], a.count, std::move(min),
+                             std::move(max));
+    if (a.normalized) accessors_[size_t(index)]["normalized"] = true;
+    return index;
+  }
+
+  // Mesh m's kept primitives written with meshopt, or an empty array (and a warning) when the
+  // encoder fails, so that the caller writes them plain. Records the mesh's grid.
+  json meshopt_primitives(size_t m, const std::vector<size_t>& kept,
+                          const std::vector<Clean>& cleans) {
+    const Mesh& mesh = scene_.meshes[m];
+    const PositionQuantization grid = m < opt_.position_quantization.size()
+                                          ? opt_.position_quantization[m]
+                                          : position_quantization(mesh_bounds(mesh));
+    std::vector<MeshoptInput> in(kept.size());
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const Primitive& p = mesh.primitives[kept[k]];
+      in[k].positions = &p.positions;
+      in[k].normals = &cleans[k].normals;
+      in[k].uvs = &cleans[k].uvs;
+      in[k].colors = &cleans[k].colors;
+      in[k].indices = &p.indices;
+    }
+    auto r = meshopt_encode_mesh(in, grid);
+    const std::string where = "mesh " + std::to_string(m) + " '" + mesh.name + "'";
+    if (!r.ok()) {
+      note(where + ": meshopt: " + r.status().message() + "; written uncompressed");
+      return json::array();
+    }
+    if (r->clamped_coordinates)
+      note(where + ": " + std::to_string(r->clamped_coordinates) +
+           " position coordinates outside the given quantization grid; clamped");
+    std::vector<int> accessor(r->accessors.size());
+    for (size_t a = 0; a < r->accessors.size(); ++a)
+      accessor[a] = add_meshopt_accessor(r->accessors[a]);
+    json prims = json::array();
+    for (const MeshoptPrimitive& p : r->primitives) {
+      json attrs = json::object();
+      for (const auto& [name, a] : p.attributes) attrs[name] = accessor[size_t(a)];
+      prims.push_back({{"attributes", std::move(attrs)}, {"indices", accessor[size_t(p.indices)]}});
+    }
+    grids_[m] = grid;
+    for (const char* e : {kMeshopt, kQuantization}) used_.insert(e), required_.insert(e);
+    return prims;
+  }
+
   void write_meshes() {
     DracoSettings ds;
     ds.position_bits = opt_.position_bits;
@@ -423,9 +496,11 @@ class Exporter {
     ds.color_bits = opt_.color_bits;
     ds.speed = opt_.draco_speed;
     mesh_map_.assign(scene_.meshes.size(), -1);
+    grids_.assign(scene_.meshes.size(), std::nullopt);
     for (size_t m = 0; m < scene_.meshes.size(); ++m) {
       const Mesh& mesh = scene_.meshes[m];
-      json prims = json::array();
+      std::vector<size_t> kept;
+      std::vector<Clean> cleans;
       for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
         const Primitive& p = mesh.primitives[pi];
         const std::string where = "mesh " + std::to_string(m) + " primitive " + std::to_string(pi);
@@ -433,25 +508,35 @@ class Exporter {
           note(where + ": no triangles; primitive left out");
           continue;
         }
-        Clean c = clean_primitive(p, where);
+        kept.push_back(pi);
+        cleans.push_back(clean_primitive(p, where));
+      }
+      json prims = json::array();
+      if (opt_.meshopt && !kept.empty()) prims = meshopt_primitives(m, kept, cleans);
+      const bool coded = !prims.empty();  // by meshopt
+      for (size_t k = 0; !coded && k < kept.size(); ++k) {
+        const Primitive& p = mesh.primitives[kept[k]];
         json prim;
-        if (opt_.draco) {
+        if (opt_.draco && !opt_.meshopt) {
           DracoInput in;
           in.positions = &p.positions;
-          in.normals = &c.normals;
-          in.uvs = &c.uvs;
-          in.colors = &c.colors;
+          in.normals = &cleans[k].normals;
+          in.uvs = &cleans[k].uvs;
+          in.colors = &cleans[k].colors;
           in.indices = &p.indices;
           auto r = draco_encode(in, ds);
           if (r.ok())
             prim = draco_primitive(*r);
           else
-            note(where + ": draco: " + r.status().message() + "; written uncompressed");
+            note("mesh " + std::to_string(m) + " primitive " + std::to_string(kept[k]) +
+                 ": draco: " + r.status().message() + "; written uncompressed");
         }
-        if (prim.is_null()) prim = plain_primitive(p, c);
-        if (p.material >= 0) prim["material"] = p.material;
+        if (prim.is_null()) prim = plain_primitive(p, cleans[k]);
         prims.push_back(std::move(prim));
       }
+      for (size_t k = 0; k < kept.size(); ++k)
+        if (mesh.primitives[kept[k]].material >= 0)
+          prims[k]["material"] = mesh.primitives[kept[k]].material;
       if (prims.empty()) {
         note("mesh " + std::to_string(m) + " '" + mesh.name + "': no triangles; mesh left out");
         continue;
@@ -465,6 +550,12 @@ class Exporter {
   }
 
   // ---- nodes ----
+
+  // translate(origin)·scale(step) of a mesh written on a quantization grid.
+  static Mat4 dequantization(const PositionQuantization& g) {
+    return Mat4::translation(g.origin.x, g.origin.y, g.origin.z) *
+           Mat4::scale(g.step, g.step, g.step);
+  }
 
   Placement place(size_t i) {
     const Instance& inst = scene_.instances[i];
@@ -491,9 +582,14 @@ class Exporter {
     for (size_t i = 0; i < scene_.instances.size(); ++i) {
       if (scene_.instances[i].mesh != mesh || !places[i].trs) continue;
       const Placement& p = places[i];
-      for (int k = 0; k < 3; ++k) t.push_back(float(p.t[k]));
+      double pt[3] = {p.t[0], p.t[1], p.t[2]}, ps[3] = {p.s[0], p.s[1], p.s[2]};
+      if (const auto& g = grids_[mesh]) {  // TRS·D = (t + R(r)·(s ⊙ origin), r, s·step)
+        Mat4 d = Mat4::trs(p.t, p.q, p.s) * dequantization(*g);
+        for (int k = 0; k < 3; ++k) pt[k] = d.at(k, 3), ps[k] *= g->step;
+      }
+      for (int k = 0; k < 3; ++k) t.push_back(float(pt[k]));
       for (int k = 0; k < 4; ++k) r.push_back(float(p.q[k]));
-      for (int k = 0; k < 3; ++k) s.push_back(float(p.s[k]));
+      for (int k = 0; k < 3; ++k) s.push_back(float(ps[k]));
     }
     const size_t count = t.size() / 3;
     json attrs = {
@@ -532,7 +628,14 @@ class Exporter {
     int index = int(nodes_.size());
     parent["children"] = {index + 1};
     json child = {{"mesh", mesh_map_[inst.mesh]}};
+    if (const auto& g = grids_[inst.mesh]) {  // R(qv)·D = (R(qv)·origin, qv, step)
+      Mat4 d = Mat4::rotation(qv[0], qv[1], qv[2], qv[3]) * dequantization(*g);
+      if (d.at(0, 3) != 0 || d.at(1, 3) != 0 || d.at(2, 3) != 0)
+        child["translation"] = {num(d.at(0, 3)), num(d.at(1, 3)), num(d.at(2, 3))};
+    }
     if (qv != std::array<double, 4>{0, 0, 0, 1}) child["rotation"] = rot(qv);
+    if (const auto& g = grids_[inst.mesh]; g && g->step != 1)
+      child["scale"] = {num(g->step), num(g->step), num(g->step)};
     nodes_.push_back(std::move(parent));
     nodes_.push_back(std::move(child));
     return index;
@@ -565,9 +668,10 @@ class Exporter {
       }
       json node = {{"mesh", mesh_map_[inst.mesh]}};
       if (!inst.name.empty()) node["name"] = inst.name;
-      if (!p.world.is_identity()) {
+      const Mat4 world = grids_[inst.mesh] ? p.world * dequantization(*grids_[inst.mesh]) : p.world;
+      if (!world.is_identity()) {
         json m = json::array();
-        for (double v : p.world.m) m.push_back(num(v));
+        for (double v : world.m) m.push_back(num(v));
         node["matrix"] = std::move(m);
       }
       nodes_.push_back(std::move(node));
@@ -597,6 +701,11 @@ class Exporter {
     put("bufferViews", views_);
     while (bin_.size() % 4) bin_.push_back(0);
     if (!bin_.empty()) root["buffers"] = json::array({{{"byteLength", bin_.size()}}});
+    if (fallback_bytes_ > 0) {  // meshopt's data-less fallback buffer: bufferViews' layout
+      json fallback = {{"byteLength", (fallback_bytes_ + 3) / 4 * 4}};
+      fallback["extensions"][kMeshopt] = {{"fallback", true}};
+      root["buffers"].push_back(std::move(fallback));
+    }
     if (!used_.empty()) root["extensionsUsed"] = used_;
     if (!required_.empty()) root["extensionsRequired"] = required_;
 
@@ -639,12 +748,23 @@ class Exporter {
   std::vector<int> image_map_;         // scene image → glTF image, -1 when not embedded
   std::vector<int> material_uv_sets_;  // per material: uv sets its textures need
   std::vector<int> mesh_map_;          // scene mesh → glTF mesh, -1 when left out
+  // Per scene mesh: the grid its positions were quantized on (meshopt), else none.
+  std::vector<std::optional<PositionQuantization>> grids_;
+  size_t fallback_bytes_ = 0;  // meshopt: decoded bytes the fallback buffer stands for
   std::map<std::pair<int, int>, int> textures_index_;
   std::map<std::array<int, 4>, int> samplers_index_;
 };
 
 Status check_options(const GltfExportOptions& o) {
-  if (!o.draco) return Status::ok();
+  for (size_t m = 0; o.meshopt && m < o.position_quantization.size(); ++m) {
+    const PositionQuantization& g = o.position_quantization[m];
+    if (!(g.step > 0) || !std::isfinite(g.step) || !std::isfinite(g.origin.x) ||
+        !std::isfinite(g.origin.y) || !std::isfinite(g.origin.z))
+      return Status::error("gltf export: position_quantization of mesh " + std::to_string(m) +
+                               " has a non-finite origin or a step that is not positive",
+                           ErrorKind::kInternal);
+  }
+  if (!o.draco || o.meshopt) return Status::ok();
   const std::pair<const char*, int> bits[] = {{"position_bits", o.position_bits},
                                               {"normal_bits", o.normal_bits},
                                               {"uv_bits", o.uv_bits},

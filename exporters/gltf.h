@@ -14,12 +14,18 @@
 // - The output is validator-clean (Khronos gltf-validator: 0 errors) and deterministic:
 //   the same scene and options give the same bytes.
 // - export_glb writes through write_file_atomic: no partial file on failure.
+// - With `meshopt` (the stream package's base), meshes are written instead with
+//   EXT_meshopt_compression over KHR_mesh_quantization attributes (exporters/gltf_meshopt.h),
+//   vertex order and face order kept exactly, values as scene/quantize.h gives them; positions
+//   are integers on each mesh's grid and every node that draws the mesh (plain, instanced,
+//   sheared child) has its transform multiplied on the right by translate(origin)·scale(step).
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "scene/quantize.h"
 #include "scene/scene.h"
 
 namespace meshmux {
@@ -34,7 +40,12 @@ struct GltfExportOptions {
   size_t min_gpu_instances = kMinGpuInstances;  // instances per mesh for EXT_mesh_gpu_instancing
   std::string generator = "meshmux";            // asset.generator
   bool tag_meshes =
-      false;  // mesh.extras = {"meshmux_mesh": Scene mesh index} (stream package base)
+      false;             // mesh.extras = {"meshmux_mesh": Scene mesh index} (stream package base)
+  bool meshopt = false;  // EXT_meshopt_compression + KHR_mesh_quantization, vertex order kept
+                         // (stream package base); takes precedence over `draco`
+  std::vector<PositionQuantization>
+      position_quantization;  // meshopt: grid per Scene mesh; missing entries are computed
+                              // from the bounds of the mesh's positions over all its primitives
 };
 
 Result<std::vector<uint8_t>> export_glb_bytes(const Scene& scene, const GltfExportOptions& options,

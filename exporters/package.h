@@ -10,7 +10,7 @@
 //   12  J  JSON table (UTF-8), see below
 //   12+J   the base .glb, then each mesh's base indices, then each chunk, in table order
 // JSON table:
-//   {"version": 3,
+//   {"version": 4,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -21,13 +21,13 @@
 //    "base": {"offset": O, "size": S, "distortion": d0},     // byte range of the base .glb
 //    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
-//                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // position dequantization
+//                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
+//                "quantization": {"origin": [x,y,z], "step": s},  // the position grid
 //                "base_indices": {"offset": o, "size": s}}], // the base's faces, see below
 //    "texture": {"width": W, "height": H} | null,           // full texture size
 //    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
 //                "parts": [{"mesh": m, "vertex_begin": a, "vertex_end": b,
-//                           "face_begin": c, "face_end": e, "vertex_bytes": n1,
-//                           "index_bytes": n2, "updates": u, "update_bytes": n3}]},
+//                           "face_begin": c, "face_end": e, "bytes": n}]},
 //               {"kind": "texture", "offset": o, "size": s, "distortion": d,
 //                "width": w, "height": h, "mime": "image/jpeg"}],
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
@@ -35,21 +35,17 @@
 // Offsets are absolute in the file.
 //
 // The mesh stream (paper 002's shared vertex buffer, made streamable). A client holds per mesh
-// a vertex buffer that is only appended to and an index buffer of every face received so far,
-// in the shared numbering valid at its current level (degenerate faces kept: they draw nothing
-// and may open up later). The base's mesh m has exactly v0 vertices in stream order (the base
-// .glb's mesh with extras {"meshmux_mesh": m}); its faces are "base_indices": the
-// meshopt_encodeIndexBuffer bytes of the f0 faces [0, f0) mapped to that level (corners < v0).
-// A mesh chunk's payload is, per part in order: the meshopt_encodeVertexBuffer bytes of the
-// vertices [a, b) (n1), the meshopt_encodeIndexBuffer bytes of the new faces [c, e) mapped to
-// level b (corners < b; n2), and the meshopt_encodeIndexSequence bytes (n3) of 2u uint32: u
-// ascending corner positions p (3·face + slot in the client's index buffer, face < c) then u
-// vertex values: index[p_i] = value_i moves the faces the new vertices split off onto them.
-// The index codec keeps faces' order and winding but may rotate a face's corners; positions
-// address the corners as the client decoded them. Empty pieces are stored as zero bytes. A
-// vertex is 20 bytes: position as 3 uint16 over the mesh bounds + 1 uint16 zero, normal as 4
-// int8 (xyz·127, 0), uv as 2 uint16 (·65535), parent as uint32 (paper 002's parentIndex, for
-// geomorphs). A texture chunk is a complete JPEG or PNG of that level.
+// a vertex buffer that is only appended to and an index buffer of every face received so far.
+// The base's mesh m has exactly v0 vertices in stream order (the base .glb's mesh with extras
+// {"meshmux_mesh": m}, EXT_meshopt_compression + KHR_mesh_quantization: positions as integers
+// on the grid, q = round((x - origin) / step), the nodes' transforms dequantizing; normals as
+// normalized bytes; uv as normalized shorts, see scene/quantize.h); its faces are
+// "base_indices": the meshopt_encodeIndexBuffer bytes of the f0 base faces (corners < v0; the
+// codec may rotate a face's corners, the client keeps them as decoded). A mesh chunk's payload
+// is its parts' bytes in order; each part is the compact vertex splits taking the mesh from
+// vertex a to b and face c to e (multiplex/vsplit.h: one zlib stream; the splits' order is the
+// stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A
+// texture chunk is a complete JPEG or PNG of that level.
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
 // order is a permutation of the chunks that keeps the mesh chunks' relative order (texture
@@ -70,7 +66,7 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 3;
+constexpr uint32_t kPackageVersion = 4;
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
@@ -110,6 +106,7 @@ struct PackageChunk {
 struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;
   float bounds[6] = {0, 0, 0, 0, 0, 0};
+  double origin[3] = {0, 0, 0}, step = 1;  // the position grid (scene/quantize.h)
   uint64_t base_indices_offset = 0, base_indices_size = 0;
 };
 struct PackageOrder {
@@ -138,15 +135,15 @@ struct Package {
 
 Result<Package> read_package(const std::vector<uint8_t>& bytes);
 
-// A mesh chunk part decoded: packed vertices (kPackedVertexBytes each), new face indices and
-// corner updates (positions ascending, each < 3·face_begin; values < vertex_end).
-struct DecodedPart {
-  std::vector<uint8_t> vertices;
-  std::vector<uint32_t> indices;
-  std::vector<uint32_t> update_positions, update_values;
-};
-Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package& package,
-                                const PackageChunk& chunk, size_t part);
+// Applies part `part` of a mesh chunk to `mesh` (the state decode_base started for its mesh,
+// with every earlier part applied): checks the part against the table and the state, then
+// decodes its vertex splits (multiplex/vsplit.h).
+Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
+                   const PackageChunk& chunk, size_t part, VsplitMesh& mesh);
+// Mesh `mesh`'s client state after the base: the base vertices' quantized attributes (as the
+// base .glb holds them) and the base faces.
+Result<VsplitMesh> decode_base(const std::vector<uint8_t>& bytes, const Package& package,
+                               size_t mesh, const std::vector<QuantizedVertex>& base_vertices);
 // Mesh `mesh`'s base faces (3·base_faces corners, each < base_vertices).
 Result<std::vector<uint32_t>> decode_base_indices(const std::vector<uint8_t>& bytes,
                                                   const Package& package, size_t mesh);

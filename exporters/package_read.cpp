@@ -6,7 +6,7 @@
 // their byte sizes (the codecs cannot shrink data below a fixed ratio), orders permutations
 // keeping the mesh chunks' order, so that decoding never allocates far beyond the file's size.
 // decode_part repeats the checks it relies on (the Package may not come from these bytes) and
-// checks every decoded index and update against the level.
+// the vertex-split decoder (multiplex/vsplit.h) checks everything it decodes.
 #include <meshoptimizer.h>
 
 #include <algorithm>
@@ -25,9 +25,8 @@ namespace {
 
 using Json = nlohmann::json;
 
-// meshopt's vertex codec spends at least 2 bits per byte lane per 16 vertices: encoded bytes
-// are never below 1/64 of the raw bytes. The index codec spends at least 1 byte per triangle.
-constexpr uint64_t kMaxVertexRatio = 64;
+// deflate's longest match (258 bytes) costs at least 2 bits: no stream inflates past 1032×.
+constexpr uint64_t kMaxDeflateRatio = 1032;
 constexpr uint64_t kMaxCount = kMaxStreamElements;
 
 Status fail(const std::string& message) {
@@ -152,22 +151,12 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
     return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " +
                 std::to_string(p.face_end) + ") outside the mesh's " + std::to_string(m.faces) +
                 " faces");
+  // A part is one zlib stream (≥ 8 bytes) of at least 10 bytes per split and 1 per face, and
+  // deflate cannot shrink data past kMaxDeflateRatio.
   uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
-  if ((nv == 0) != (p.vertex_bytes == 0) ||
-      nv * kPackedVertexBytes > p.vertex_bytes * kMaxVertexRatio)
-    return fail(where + ": " + std::to_string(p.vertex_bytes) + " vertex bytes cannot hold " +
-                std::to_string(nv) + " vertices");
-  if ((nf == 0) != (p.index_bytes == 0) || nf > p.index_bytes)
-    return fail(where + ": " + std::to_string(p.index_bytes) + " index bytes cannot hold " +
-                std::to_string(nf) + " faces");
-  // Updates move distinct corners of the faces held before the part, one varint byte each at
-  // least for the position and the value.
-  if (uint64_t(p.updates) > uint64_t(p.face_begin) * 3)
-    return fail(where + ": " + std::to_string(p.updates) + " updates for " +
-                std::to_string(p.face_begin) + " faces");
-  if ((p.updates == 0) != (p.update_bytes == 0) || uint64_t(p.updates) * 2 > p.update_bytes)
-    return fail(where + ": " + std::to_string(p.update_bytes) + " update bytes cannot hold " +
-                std::to_string(p.updates) + " updates");
+  if (p.bytes < 8 || (nv * 10 + nf) > p.bytes * kMaxDeflateRatio)
+    return fail(where + ": " + std::to_string(p.bytes) + " bytes cannot hold " +
+                std::to_string(nv) + " splits and " + std::to_string(nf) + " faces");
   return Status::ok();
 }
 
@@ -180,10 +169,7 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   if (!(s = get_u32(j, "vertex_end", kMaxCount, p.vertex_end, where))) return s;
   if (!(s = get_u32(j, "face_begin", kMaxCount, p.face_begin, where))) return s;
   if (!(s = get_u32(j, "face_end", kMaxCount, p.face_end, where))) return s;
-  if (!(s = get_uint(j, "vertex_bytes", file_size, p.vertex_bytes, where))) return s;
-  if (!(s = get_uint(j, "index_bytes", file_size, p.index_bytes, where))) return s;
-  if (!(s = get_u32(j, "updates", kMaxCount * 3, p.updates, where))) return s;
-  if (!(s = get_uint(j, "update_bytes", file_size, p.update_bytes, where))) return s;
+  if (!(s = get_uint(j, "bytes", file_size, p.bytes, where))) return s;
   return check_part(p, meshes, where);
 }
 
@@ -229,7 +215,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, Package
     if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p,
                         where + " part " + std::to_string(i))))
       return s;
-    sum += p.vertex_bytes + p.index_bytes + p.update_bytes;  // each ≤ file size: no overflow
+    sum += p.bytes;  // each ≤ file size: no overflow
     if (sum > c.size)
       return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
     c.parts.push_back(p);
@@ -267,6 +253,18 @@ Status read_meshes(const Json& j, uint64_t file_size, Package& pkg, uint64_t& en
     }
     for (int i = 0; i < 3; ++i)
       if (pm.bounds[i] > pm.bounds[i + 3]) return fail(where + ": bounds minimum above maximum");
+    auto q = e.find("quantization");
+    if (q == e.end() || !q->is_object())
+      return fail(where + ": \"quantization\" missing or not an object");
+    auto origin = q->find("origin");
+    if (origin == q->end() || !origin->is_array() || origin->size() != 3)
+      return fail(where + ": quantization \"origin\" is not 3 numbers");
+    for (size_t i = 0; i < 3; ++i)
+      if (!(s = get_finite((*origin)[i], pm.origin[i], where + ": quantization origin"))) return s;
+    auto step = q->find("step");
+    if (step == q->end()) return fail(where + ": quantization \"step\" missing");
+    if (!(s = get_finite(*step, pm.step, where + ": quantization step"))) return s;
+    if (!(pm.step > 0)) return fail(where + ": quantization step is not positive");
     auto bi = e.find("base_indices");
     if (bi == e.end() || !bi->is_object())
       return fail(where + ": \"base_indices\" missing or not an object");
@@ -411,8 +409,8 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   return pkg;
 }
 
-Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package& package,
-                                const PackageChunk& chunk, size_t part) {
+Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
+                   const PackageChunk& chunk, size_t part, VsplitMesh& mesh) {
   std::string where = "chunk at offset " + std::to_string(chunk.offset);
   const PackageChunk* first = package.chunks.data();
   if (!package.chunks.empty() && !std::less<const PackageChunk*>()(&chunk, first) &&
@@ -427,54 +425,36 @@ Result<DecodedPart> decode_part(const std::vector<uint8_t>& bytes, const Package
   uint64_t offset = chunk.offset, end = chunk.offset + chunk.size;
   for (size_t i = 0; i <= part; ++i) {
     const PackagePart& p = chunk.parts[i];
-    if (p.vertex_bytes > end - offset || p.index_bytes > end - offset - p.vertex_bytes ||
-        p.update_bytes > end - offset - p.vertex_bytes - p.index_bytes)
+    if (p.bytes > end - offset)
       return fail(where + " part " + std::to_string(i) + ": bytes past the end of the chunk");
-    if (i < part) offset += p.vertex_bytes + p.index_bytes + p.update_bytes;
+    if (i < part) offset += p.bytes;
   }
   where += " part " + std::to_string(part);
   const PackagePart& p = chunk.parts[part];
   if (Status s = check_part(p, package.meshes, where); !s) return s;
+  if (p.vertex_begin != mesh.vertex_count() || p.face_begin != mesh.face_count())
+    return fail(where + ": starts at vertex " + std::to_string(p.vertex_begin) + ", face " +
+                std::to_string(p.face_begin) + "; " + std::to_string(mesh.vertex_count()) +
+                " vertices and " + std::to_string(mesh.face_count()) + " faces are held");
+  Status s = decode_vsplit_part(mesh, bytes.data() + offset, size_t(p.bytes),
+                                p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
+  if (!s) return fail(where + ": " + s.message());
+  return Status::ok();
+}
 
-  DecodedPart out;
-  const uint8_t* data = bytes.data() + offset;
-  size_t nv = p.vertex_end - p.vertex_begin;
-  if (nv > 0) {
-    out.vertices.resize(nv * kPackedVertexBytes);
-    if (meshopt_decodeVertexBuffer(out.vertices.data(), nv, kPackedVertexBytes, data,
-                                   size_t(p.vertex_bytes)) != 0)
-      return fail(where + ": vertex data does not decode");
-  }
-  size_t ni = size_t(p.face_end - p.face_begin) * 3;
-  if (ni > 0) {
-    out.indices.resize(ni);
-    if (meshopt_decodeIndexBuffer(out.indices.data(), ni, sizeof(uint32_t), data + p.vertex_bytes,
-                                  size_t(p.index_bytes)) != 0)
-      return fail(where + ": index data does not decode");
-    for (uint32_t i : out.indices)
-      if (i >= p.vertex_end)
-        return fail(where + ": index " + std::to_string(i) + " out of range (" +
-                    std::to_string(p.vertex_end) + " vertices at this level)");
-  }
-  if (p.updates > 0) {
-    std::vector<uint32_t> seq(size_t(p.updates) * 2);
-    if (meshopt_decodeIndexSequence(seq.data(), seq.size(), sizeof(uint32_t),
-                                    data + p.vertex_bytes + p.index_bytes,
-                                    size_t(p.update_bytes)) != 0)
-      return fail(where + ": update data does not decode");
-    out.update_positions.assign(seq.begin(), seq.begin() + p.updates);
-    out.update_values.assign(seq.begin() + p.updates, seq.end());
-    uint64_t corners = uint64_t(p.face_begin) * 3;
-    for (size_t i = 0; i < p.updates; ++i) {
-      if (out.update_positions[i] >= corners ||
-          (i > 0 && out.update_positions[i] <= out.update_positions[i - 1]))
-        return fail(where + ": update " + std::to_string(i) + ": corner " +
-                    std::to_string(out.update_positions[i]) + " out of range or out of order");
-      if (out.update_values[i] >= p.vertex_end)
-        return fail(where + ": update " + std::to_string(i) + ": vertex " +
-                    std::to_string(out.update_values[i]) + " out of range");
-    }
-  }
+Result<VsplitMesh> decode_base(const std::vector<uint8_t>& bytes, const Package& package,
+                               size_t mesh, const std::vector<QuantizedVertex>& base_vertices) {
+  auto faces = decode_base_indices(bytes, package, mesh);
+  if (!faces.ok()) return faces.status();
+  const PackageMesh& m = package.meshes[mesh];
+  if (base_vertices.size() != m.base_vertices)
+    return fail("mesh " + std::to_string(mesh) + ": " + std::to_string(base_vertices.size()) +
+                " base vertices given, the table says " + std::to_string(m.base_vertices));
+  VsplitMesh out;
+  out.reset(m.vertices, m.faces);
+  for (const QuantizedVertex& q : base_vertices) out.add_vertex(q);
+  for (size_t i = 0; i + 2 < faces->size(); i += 3)
+    out.add_face((*faces)[i], (*faces)[i + 1], (*faces)[i + 2]);
   return out;
 }
 

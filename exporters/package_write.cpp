@@ -91,8 +91,7 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
         if (part.part.mesh >= in.meshes.size())
           return fail(where + "part of mesh " + std::to_string(part.part.mesh) + " out of range");
         c.parts.push_back(part.part);
-        for (const auto* piece : {&part.vertices, &part.indices, &part.updates})
-          c.payload.insert(c.payload.end(), piece->begin(), piece->end());
+        c.payload.insert(c.payload.end(), part.data.begin(), part.data.end());
       }
     }
     chunks.push_back(std::move(c));
@@ -166,6 +165,9 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     e["base_vertices"] = b.base_vertices, e["base_faces"] = b.base_faces;
     e["bounds"] = {double(box.min.x), double(box.min.y), double(box.min.z),
                    double(box.max.x), double(box.max.y), double(box.max.z)};
+    const PositionQuantization& q = b.quantization;
+    e["quantization"] = {{"origin", {double(q.origin.x), double(q.origin.y), double(q.origin.z)}},
+                         {"step", q.step}};
     e["base_indices"] = {{"offset", offset}, {"size", uint64_t(b.base_indices.size())}};
     offset += b.base_indices.size();
     ms.push_back(std::move(e));
@@ -189,10 +191,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                          {"vertex_end", p.vertex_end},
                          {"face_begin", p.face_begin},
                          {"face_end", p.face_end},
-                         {"vertex_bytes", p.vertex_bytes},
-                         {"index_bytes", p.index_bytes},
-                         {"updates", p.updates},
-                         {"update_bytes", p.update_bytes}});
+                         {"bytes", p.bytes}});
       e["parts"] = std::move(parts);
     } else {
       e["width"] = c.texture->width, e["height"] = c.texture->height,

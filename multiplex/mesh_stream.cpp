@@ -1,19 +1,21 @@
-// Mesh stream encoding (multiplex/mesh_stream.h; paper 002's shared vertex buffer made
-// streamable, DESIGN.md "Package"). Per part: the new vertices as 20-byte packed vertices
-// through meshopt_encodeVertexBuffer, the new faces mapped to the part's level through
-// meshopt_encodeIndexBuffer, and the corner updates (faces held before the part whose corners
-// the new vertices take over; paper 002's parent mapping evaluated here, where every parent is
-// known, instead of on the client, which lacks the parents of vertices yet to come) through
-// meshopt_encodeIndexSequence. The encoder decodes its own faces to learn how the codec rotated
-// each one, so updates name the corner slots the client really holds. An empty piece is stored
-// as zero bytes (no codec header).
+// Mesh stream encoding (multiplex/mesh_stream.h): compact vertex splits (multiplex/vsplit.h,
+// DESIGN.md "Package"; paper 002 for the vertex order and parents). The encoder simulates the
+// client's state (its corner lists, the base faces as meshopt's index codec rotates them) and
+// codes each split against it: the parent as a delta within a part whose splits are reordered
+// parents-first then by parent (the batch ordering of compressed progressive meshes), the corners
+// the new vertex takes as a mask over the parent's corners, each new face's third vertex as a
+// ring position, and the new vertex's quantized attributes as residuals from its ring's mean
+// (the barycentric predictor of valence-driven coding). The six byte streams of a part go
+// through zlib so the browser inflates them natively.
 #include "multiplex/mesh_stream.h"
 
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <map>
 #include <string>
 
 namespace meshmux {
@@ -21,22 +23,6 @@ namespace meshmux {
 namespace {
 
 std::atomic<uint64_t> g_parts_encoded{0};
-
-uint16_t quantize16(float x, float lo, float extent) {
-  float t = extent > 0 ? (x - lo) / extent : 0;
-  if (!(t >= 0)) t = 0;  // also NaN
-  if (t > 1) t = 1;
-  return uint16_t(std::lround(t * 65535));
-}
-int8_t quantize8(float x) {
-  if (std::isnan(x)) return 0;
-  return int8_t(std::lround(std::clamp(x * 127, -127.0f, 127.0f)));
-}
-
-uint32_t map_to(const ProgressiveMesh& pm, uint32_t v, uint32_t k) {
-  while (v >= k) v = pm.parent[v];
-  return v;
-}
 
 Status internal(uint32_t mesh, const std::string& what) {
   return Status::error("package: mesh " + std::to_string(mesh) + ": " + what, ErrorKind::kInternal);
@@ -62,9 +48,14 @@ Status check_mesh(const ProgressiveMesh& pm, uint32_t m) {
 
 uint64_t mesh_parts_encoded() { return g_parts_encoded.load(); }
 
-MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t mesh,
+MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
+                                     const PositionQuantization& quantization, uint32_t mesh,
                                      size_t base_level)
-    : pm_(pm), bounds_(bounds), mesh_(mesh), level_(base_level), base_(std::vector<uint8_t>{}) {
+    : pm_(pm),
+      quantization_(quantization),
+      mesh_(mesh),
+      level_(base_level),
+      base_(std::vector<uint8_t>{}) {
   if (Status s = check_mesh(pm, mesh); !s) {
     base_ = s;
     return;
@@ -73,38 +64,100 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm, const Bounds& bo
     base_ = internal(mesh, "base level out of range");
     return;
   }
+  const uint32_t nv = uint32_t(pm.vertex_count()), nf = uint32_t(pm.face_count());
+  for (uint32_t v = 0; v < nv; ++v)
+    if (pm.parent[v] > v || (pm.parent[v] == v && v >= pm.levels[0].vertex_end)) {
+      base_ = internal(
+          mesh, "vertex " + std::to_string(v) + " has parent " + std::to_string(pm.parent[v]));
+      return;
+    }
+  rank_.resize(nv);
+  for (uint32_t v = 0; v < nv; ++v) rank_[v] = v;
   const ProgressiveLevel& b = pm.levels[base_level];
-  base_ = encode_faces(0, b.face_end, b.vertex_end);
-}
-
-// Encodes faces [face_begin, face_end) mapped to the level with `vertex_end` vertices, decodes
-// them back and records each face's rotation (any rotation the decoded corners match: when
-// several do, the corners are equal and every choice is the same triangle once they split).
-Result<std::vector<uint8_t>> MeshStreamEncoder::encode_faces(uint32_t face_begin, uint32_t face_end,
-                                                             uint32_t vertex_end) {
-  std::vector<uint8_t> out;
-  size_t count = size_t(face_end - face_begin) * 3;
-  if (count == 0) return out;
-  std::vector<uint32_t> mapped(count);
-  for (size_t i = 0; i < count; ++i)
-    mapped[i] = map_to(pm_, pm_.indices[size_t(face_begin) * 3 + i], vertex_end);
-  out.resize(meshopt_encodeIndexBufferBound(count, std::max<size_t>(vertex_end, 1)));
-  size_t size = meshopt_encodeIndexBuffer(out.data(), out.size(), mapped.data(), count);
-  if (size == 0) return internal(mesh_, "index encoding failed");
+  sim_.reset(nv, nf);
+  orig_.reserve(size_t(nf) * 3);
+  // The base's faces in vertex-cache order and its vertices in the order those faces first use
+  // them: what meshopt's index and vertex codecs compress best (the base .glb is written in
+  // this order too, MeshStreamBase::base_order). Later vertices keep their order per part.
+  size_t count = size_t(b.face_end) * 3;
+  std::vector<uint32_t> mapped(count), cached(count);
+  for (size_t i = 0; i < count; ++i) mapped[i] = rep(pm.indices[i], b.vertex_end);
+  if (count > 0) meshopt_optimizeVertexCache(cached.data(), mapped.data(), count, b.vertex_end);
+  std::vector<uint32_t> face_of(count / 3);  // cached face → the base face it is
+  {
+    std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> faces;
+    for (uint32_t f = uint32_t(count / 3); f-- > 0;)
+      faces[{mapped[f * 3], mapped[f * 3 + 1], mapped[f * 3 + 2]}].push_back(f);
+    for (size_t f = 0; f < count / 3; ++f) {
+      auto& list = faces[{cached[f * 3], cached[f * 3 + 1], cached[f * 3 + 2]}];
+      if (list.empty()) {
+        base_ = internal(mesh, "vertex cache optimization changed a face");
+        return;
+      }
+      face_of[f] = list.back();
+      list.pop_back();
+    }
+  }
+  std::vector<uint32_t> remap(b.vertex_end, ~0u);
+  size_t used =
+      count > 0 ? meshopt_optimizeVertexFetchRemap(remap.data(), cached.data(), count, b.vertex_end)
+                : 0;
+  for (uint32_t v = 0; v < b.vertex_end; ++v)
+    if (remap[v] == ~0u) remap[v] = uint32_t(used++);
+  order_.assign(b.vertex_end, 0);
+  for (uint32_t v = 0; v < b.vertex_end; ++v) rank_[v] = remap[v], order_[remap[v]] = v;
+  for (uint32_t i = 0; i < b.vertex_end; ++i)
+    sim_.add_vertex(quantize_vertex(pm, quantization, order_[i]));
+  if (count == 0) return;
+  for (uint32_t& i : cached) i = remap[i];
+  std::vector<uint8_t> out(
+      meshopt_encodeIndexBufferBound(count, std::max<size_t>(b.vertex_end, 1)));
+  size_t size = meshopt_encodeIndexBuffer(out.data(), out.size(), cached.data(), count);
+  if (size == 0) {
+    base_ = internal(mesh, "index encoding failed");
+    return;
+  }
   out.resize(size);
   std::vector<uint32_t> decoded(count);
-  if (meshopt_decodeIndexBuffer(decoded.data(), count, sizeof(uint32_t), out.data(), size) != 0)
-    return internal(mesh_, "index data does not decode");
-  rotation_.resize(face_end, 0);
+  if (meshopt_decodeIndexBuffer(decoded.data(), count, sizeof(uint32_t), out.data(), size) != 0) {
+    base_ = internal(mesh, "index data does not decode");
+    return;
+  }
   for (size_t f = 0; f < count / 3; ++f) {
-    const uint32_t *d = &decoded[f * 3], *e = &mapped[f * 3];
+    const uint32_t *d = &decoded[f * 3], *e = &cached[f * 3];
     int r = 0;
     while (r < 3 && !(d[0] == e[r] && d[1] == e[(r + 1) % 3] && d[2] == e[(r + 2) % 3])) ++r;
-    if (r == 3) return internal(mesh_, "index codec changed a face");
-    rotation_[face_begin + f] = uint8_t(r);
+    if (r == 3) {
+      base_ = internal(mesh, "index codec changed a face");
+      return;
+    }
+    sim_.add_face(d[0], d[1], d[2]);
+    // Cached face f is base face face_of[f] with its corners as mapped (the cache optimizer
+    // keeps each face's corner order): slot s holds original corner (s + r) % 3.
+    for (int s = 0; s < 3; ++s)
+      orig_.push_back(pm.indices[size_t(face_of[f]) * 3 + size_t((s + r) % 3)]);
   }
-  return out;
+  base_ = std::move(out);
 }
+
+uint32_t MeshStreamEncoder::rep(uint32_t v, uint32_t prefix) const {
+  while (rank_[v] >= prefix) v = pm_.parent[v];
+  return v;
+}
+
+namespace {
+
+struct BitWriter {
+  std::vector<uint8_t> bytes;
+  uint64_t bits = 0;
+  void put(bool b) {
+    if ((bits & 7) == 0) bytes.push_back(0);
+    if (b) bytes.back() |= uint8_t(1u << (bits & 7));
+    ++bits;
+  }
+};
+
+}  // namespace
 
 Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   if (!base_.ok()) return base_.status();
@@ -113,49 +166,127 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   const ProgressiveLevel &from = pm_.levels[level_], &to = pm_.levels[level];
   if (to.vertex_end < from.vertex_end || to.face_end < from.face_end)
     return internal(mesh_, "levels shrink");
+  const uint32_t va = from.vertex_end, vb = to.vertex_end, fa = from.face_end, fb = to.face_end;
   EncodedMeshPart e;
-  e.part.mesh = mesh_;
-  e.part.vertex_begin = from.vertex_end, e.part.vertex_end = to.vertex_end;
-  e.part.face_begin = from.face_end, e.part.face_end = to.face_end;
-  size_t n = size_t(to.vertex_end - from.vertex_end);
-  if (n > 0) {
-    std::vector<uint8_t> packed = pack_vertices(pm_, bounds_, from.vertex_end, to.vertex_end);
-    e.vertices.resize(meshopt_encodeVertexBufferBound(n, kPackedVertexBytes));
-    size_t size = meshopt_encodeVertexBuffer(e.vertices.data(), e.vertices.size(), packed.data(), n,
-                                             kPackedVertexBytes);
-    if (size == 0) return internal(mesh_, "vertex encoding failed");
-    e.vertices.resize(size);
+  e.part = {mesh_, va, vb, fa, fb, 0};
+  // Stream order of this part's splits: by generation (a parent split in this part comes
+  // first), then by the parent's stream index.
+  std::vector<uint32_t> gen(vb - va, 0);
+  uint32_t generations = 0;
+  for (uint32_t x = va; x < vb; ++x) {
+    uint32_t p = pm_.parent[x];
+    gen[x - va] = p >= va ? gen[p - va] + 1 : 0;
+    generations = std::max(generations, gen[x - va] + 1);
   }
-  // Corners of the faces already held that the new vertices take over.
-  std::vector<std::pair<uint32_t, uint32_t>> moves;
-  if (n > 0) {
-    for (uint32_t f = 0; f < from.face_end; ++f)
-      for (uint32_t t = 0; t < 3; ++t) {
-        uint32_t w = pm_.indices[size_t(f) * 3 + t];
-        if (w < from.vertex_end) continue;
-        uint32_t was = map_to(pm_, w, from.vertex_end), now = map_to(pm_, w, to.vertex_end);
-        if (was == now) continue;
-        uint32_t slot = (t + 3 - rotation_[f]) % 3;
-        moves.push_back({f * 3 + slot, now});
+  std::vector<std::vector<uint32_t>> by_gen(generations);
+  for (uint32_t x = va; x < vb; ++x) by_gen[gen[x - va]].push_back(x);
+  uint32_t id = va;
+  for (auto& bucket : by_gen) {
+    std::stable_sort(bucket.begin(), bucket.end(), [this](uint32_t a, uint32_t b) {
+      return rank_[pm_.parent[a]] < rank_[pm_.parent[b]];
+    });
+    for (uint32_t x : bucket) rank_[x] = id++, order_.push_back(x);
+  }
+  // Each new face appears at the split that first makes its three corners distinct; faces that
+  // do not (none in a well-formed record) are sent whole after the splits.
+  std::vector<std::vector<uint32_t>> faces_of(vb - va);
+  std::vector<uint32_t> extras;
+  auto distinct = [&](uint32_t f, uint32_t prefix) {
+    uint32_t a = rep(pm_.indices[size_t(f) * 3], prefix),
+             b = rep(pm_.indices[size_t(f) * 3 + 1], prefix),
+             c = rep(pm_.indices[size_t(f) * 3 + 2], prefix);
+    return a != b && b != c && a != c;
+  };
+  for (uint32_t f = fa; f < fb; ++f) {
+    if (!distinct(f, vb) || distinct(f, va)) {
+      extras.push_back(f);
+      continue;
+    }
+    uint32_t lo = va, hi = vb;  // not distinct at lo, distinct at hi
+    while (hi - lo > 1) {
+      uint32_t mid = lo + (hi - lo) / 2;
+      (distinct(f, mid) ? hi : lo) = mid;
+    }
+    faces_of[hi - 1 - va].push_back(f);
+  }
+  std::vector<uint8_t> C, E, P, N, T;
+  BitWriter M;
+  std::vector<uint32_t> ring;
+  uint32_t previous = 0;
+  for (uint32_t v = va; v < vb; ++v) {
+    uint32_t x = order_[v], p = rank_[pm_.parent[x]];
+    put_varint(C, zigzag(int32_t(p) - int32_t(previous)));
+    previous = p;
+    sim_.add_vertex(QuantizedVertex{});
+    for (int32_t c = sim_.head[p], prev = -1; c >= 0;) {
+      int32_t after = sim_.next[size_t(c)];
+      bool take = rep(orig_[size_t(c)], v + 1) == x;
+      M.put(take);
+      if (take)
+        sim_.move_corner(p, prev, c, v);
+      else
+        prev = c;
+      c = after;
+    }
+    // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
+    struct NewFace {
+      uint32_t w, flip, orig[3];
+    };
+    std::vector<NewFace> made;
+    for (uint32_t f : faces_of[v - va]) {
+      const uint32_t* o = &pm_.indices[size_t(f) * 3];
+      uint32_t s[3];
+      for (int k = 0; k < 3; ++k) s[k] = rank_[rep(o[k], v + 1)];
+      int j = s[0] == v ? 0 : s[1] == v ? 1 : 2;
+      uint32_t s1 = s[(j + 1) % 3], s2 = s[(j + 2) % 3];
+      NewFace nf{0, 0, {o[j], o[(j + 1) % 3], o[(j + 2) % 3]}};
+      if (s[j] != v || (s1 != p && s2 != p)) {
+        extras.push_back(f);  // not a split face (a malformed record): sent whole
+        continue;
       }
-    std::sort(moves.begin(), moves.end());
+      nf.flip = s1 == p ? 0 : 1;
+      nf.w = s1 == p ? s2 : s1;
+      made.push_back(nf);
+    }
+    put_varint(C, uint32_t(made.size()));
+    if (!made.empty()) sim_.ring(p, v, kRingLimit, ring);
+    for (const NewFace& nf : made) {
+      uint32_t i = uint32_t(std::find(ring.begin(), ring.end(), nf.w) - ring.begin());
+      put_varint(C, (i << 1) | nf.flip);
+      if (i == ring.size()) put_varint(E, nf.w);
+      if (nf.flip)
+        sim_.add_face(v, nf.w, p);
+      else
+        sim_.add_face(v, p, nf.w);
+      orig_.insert(orig_.end(), nf.orig, nf.orig + 3);
+    }
+    QuantizedVertex pred = sim_.predict(v, p), q = quantize_vertex(pm_, quantization_, x);
+    for (int k = 0; k < 3; ++k) put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
+    for (int k = 0; k < 3; ++k) put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
+    for (int k = 0; k < 2; ++k) put_varint(T, zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])));
+    sim_.vertices[v] = q;
   }
-  if (!moves.empty()) {
-    std::vector<uint32_t> seq(moves.size() * 2);
-    for (size_t i = 0; i < moves.size(); ++i)
-      seq[i] = moves[i].first, seq[moves.size() + i] = moves[i].second;
-    size_t top = std::max<size_t>(size_t(from.face_end) * 3, to.vertex_end);
-    e.updates.resize(meshopt_encodeIndexSequenceBound(seq.size(), top));
-    size_t size =
-        meshopt_encodeIndexSequence(e.updates.data(), e.updates.size(), seq.data(), seq.size());
-    if (size == 0) return internal(mesh_, "update encoding failed");
-    e.updates.resize(size);
+  put_varint(C, uint32_t(extras.size()));
+  for (uint32_t f : extras) {
+    uint32_t s[3];
+    for (int k = 0; k < 3; ++k) {
+      uint32_t o = pm_.indices[size_t(f) * 3 + size_t(k)];
+      s[k] = rank_[rep(o, vb)];
+      put_varint(E, s[k]);
+    }
+    sim_.add_face(s[0], s[1], s[2]);
+    for (int k = 0; k < 3; ++k) orig_.push_back(pm_.indices[size_t(f) * 3 + size_t(k)]);
   }
-  auto faces = encode_faces(from.face_end, to.face_end, to.vertex_end);
-  if (!faces.ok()) return faces.status();
-  e.indices = faces.take();
-  e.part.vertex_bytes = e.vertices.size(), e.part.index_bytes = e.indices.size();
-  e.part.updates = uint32_t(moves.size()), e.part.update_bytes = e.updates.size();
+  std::vector<uint8_t> plain;
+  for (const auto* stream : {&C, &M.bytes, &E, &P, &N, &T})
+    put_varint(plain, uint32_t(stream->size()));
+  for (const auto* stream : {&C, &M.bytes, &E, &P, &N, &T})
+    plain.insert(plain.end(), stream->begin(), stream->end());
+  if (plain.size() > kPartBytesPerElement * (uint64_t(vb - va) + (fb - fa)) + kPartBytesConstant)
+    return internal(mesh_, "a part's splits exceed the format's size limit");
+  e.data = deflate_bytes(plain);
+  if (e.data.empty()) return internal(mesh_, "zlib failed");
+  e.part.bytes = e.data.size();
   level_ = level;
   ++g_parts_encoded;
   return e;
@@ -169,28 +300,21 @@ Bounds package_bounds(const ProgressiveMesh& pm) {
   return b;
 }
 
-std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& box, uint32_t begin,
-                                   uint32_t end) {
-  end = uint32_t(std::min<size_t>(end, pm.vertex_count()));
-  begin = std::min(begin, end);
-  std::vector<uint8_t> out(size_t(end - begin) * kPackedVertexBytes, 0);
-  Vec3 ext = box.max - box.min;
-  auto put16 = [](uint8_t* p, uint16_t v) { p[0] = uint8_t(v), p[1] = uint8_t(v >> 8); };
-  for (uint32_t v = begin; v < end; ++v) {
-    uint8_t* q = &out[size_t(v - begin) * kPackedVertexBytes];
-    Vec3 p = pm.positions[v];
-    put16(q + 0, quantize16(p.x, box.min.x, ext.x));
-    put16(q + 2, quantize16(p.y, box.min.y, ext.y));
-    put16(q + 4, quantize16(p.z, box.min.z, ext.z));  // q[6..7] stay 0
-    Vec3 n = v < pm.normals.size() ? pm.normals[v] : Vec3{0, 0, 1};
-    q[8] = uint8_t(quantize8(n.x)), q[9] = uint8_t(quantize8(n.y)),
-    q[10] = uint8_t(quantize8(n.z));  // q[11] = 0
-    Vec2 t = !pm.uvs.empty() && v < pm.uvs[0].size() ? pm.uvs[0][v] : Vec2{};
-    put16(q + 12, quantize16(t.x, 0, 1));
-    put16(q + 14, quantize16(t.y, 0, 1));
-    uint32_t parent = v < pm.parent.size() ? pm.parent[v] : v;
-    for (int i = 0; i < 4; ++i) q[16 + i] = uint8_t(parent >> (8 * i));
-  }
+PositionQuantization package_quantization(const ProgressiveMesh& pm) {
+  return position_quantization(package_bounds(pm));
+}
+
+QuantizedVertex quantize_vertex(const ProgressiveMesh& pm, const PositionQuantization& q,
+                                uint32_t v) {
+  QuantizedVertex out;
+  Vec3 p = pm.positions[v];
+  out.p[0] = quantize_coordinate(p.x, q.origin.x, q.step);
+  out.p[1] = quantize_coordinate(p.y, q.origin.y, q.step);
+  out.p[2] = quantize_coordinate(p.z, q.origin.z, q.step);
+  Vec3 n = v < pm.normals.size() ? unit_normal(pm.normals[v]) : Vec3{0, 0, 1};
+  out.n[0] = quantize_normal(n.x), out.n[1] = quantize_normal(n.y), out.n[2] = quantize_normal(n.z);
+  Vec2 t = !pm.uvs.empty() && v < pm.uvs[0].size() ? pm.uvs[0][v] : Vec2{};
+  out.t[0] = quantize_uv(t.x), out.t[1] = quantize_uv(t.y);
   return out;
 }
 

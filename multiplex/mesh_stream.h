@@ -7,76 +7,89 @@
 #include <cstdint>
 #include <vector>
 
+#include "multiplex/vsplit.h"
 #include "scene/progressive.h"
+#include "scene/quantize.h"
 #include "scene/scene.h"
 
 namespace meshmux {
 
-constexpr int kPackedVertexBytes = 20;
 // Vertices or faces per mesh the stream format allows; the package table carries it to the
 // reader and the web client ("limits").
 constexpr uint64_t kMaxStreamElements = uint64_t(1) << 28;
 
 // One part of a mesh chunk: the vertices [vertex_begin, vertex_end) and faces
-// [face_begin, face_end) of one mesh, with the byte sizes of its three pieces.
+// [face_begin, face_end) of one mesh, coded as `bytes` bytes of compact vertex splits
+// (multiplex/vsplit.h).
 struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
-  uint64_t vertex_bytes = 0, index_bytes = 0;
-  uint32_t updates = 0;  // corner updates
-  uint64_t update_bytes = 0;
+  uint64_t bytes = 0;
 };
-// A part with its encoded pieces (vertices, new faces, corner updates, in payload order).
+// A part with its encoded bytes (one zlib stream).
 struct EncodedMeshPart {
   PackagePart part;
-  std::vector<uint8_t> vertices, indices, updates;
-  uint64_t bytes() const { return vertices.size() + indices.size() + updates.size(); }
+  std::vector<uint8_t> data;
+  uint64_t bytes() const { return data.size(); }
 };
 
 // What the package table says of one mesh, and its base faces, encoded.
 struct MeshStreamBase {
   uint32_t vertices = 0, faces = 0;            // the full progressive mesh
   uint32_t base_vertices = 0, base_faces = 0;  // what the base holds
-  Bounds bounds;                               // position dequantization
+  Bounds bounds;                               // of every position the stream will hold
+  PositionQuantization quantization;           // the grid positions are coded on
   std::vector<uint8_t> base_indices;           // meshopt_encodeIndexBuffer of the base faces
+  // Per base vertex in stream order, its progressive-mesh vertex: the base .glb holds the
+  // base vertices in this order (the order the base faces first use them).
+  std::vector<uint32_t> base_order;
 };
 
-// Encodes one progressive mesh's stream from a base level on, part by part, tracking what a
-// client holds (each face's corner rotation as meshopt's index codec decodes it) so updates
-// address the client's corners. Memory O(V + F); each part costs O(F received) to find the
-// corners it moves. The constructor checks the mesh (counts within kMaxStreamElements, parents
-// and indices in range); a failure shows in base_indices().
+// Encodes one progressive mesh's stream from a base level on, part by part, as compact vertex
+// splits (multiplex/vsplit.h), simulating what the client holds (its corner lists, and each base
+// face's corner rotation as meshopt's index codec decodes it) so that masks and ring positions
+// address the client's state exactly. Within a part the splits are reordered (parents before
+// children, then by parent) so parents cost small deltas, and the base's vertices are numbered
+// in the order its vertex-cache-ordered faces first use them (what meshopt's codecs compress
+// best): stream vertex i is pm vertex stream_order()[i]. Memory O(V + F); a part costs O(its splits
+// × (the parent's corners + ancestry depth)). The constructor checks the mesh (counts within
+// kMaxStreamElements, parents and indices in range); a failure shows in base_indices().
 class MeshStreamEncoder {
  public:
-  MeshStreamEncoder(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t mesh,
-                    size_t base_level);
+  MeshStreamEncoder(const ProgressiveMesh& pm, const PositionQuantization& quantization,
+                    uint32_t mesh, size_t base_level);
   // The base's faces (meshopt_encodeIndexBuffer bytes); an error status if encoding failed.
   const Result<std::vector<uint8_t>>& base_indices() const { return base_; }
   // The part from the current level to `level` (≥ the current one); then `level` is current.
   Result<EncodedMeshPart> next(size_t level);
   size_t level() const { return level_; }
+  const std::vector<uint32_t>& stream_order() const { return order_; }
+  // The client's state as the encoder simulates it (for tests).
+  const VsplitMesh& client() const { return sim_; }
 
  private:
   const ProgressiveMesh& pm_;
-  Bounds bounds_;
+  PositionQuantization quantization_;
   uint32_t mesh_ = 0;
   size_t level_ = 0;
-  std::vector<uint8_t> rotation_;  // per face received: decoded slot s holds corner (s + r) % 3
+  VsplitMesh sim_;
+  std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
+  std::vector<uint32_t> rank_;   // per pm vertex: its stream index (identity past the parts sent)
+  std::vector<uint32_t> order_;  // per stream vertex: its pm vertex
   Result<std::vector<uint8_t>> base_;
-  Result<std::vector<uint8_t>> encode_faces(uint32_t face_begin, uint32_t face_end,
-                                            uint32_t vertex_end);
+  uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
 };
 
 // Parts encoded by every MeshStreamEncoder of this process so far (a counter for tests that
 // check each part is encoded once per conversion). Thread-safe.
 uint64_t mesh_parts_encoded();
 
-// The packed vertices [begin, end) of `pm` (kPackedVertexBytes each, the layout in package.h)
-// with positions quantized over `bounds`; what a mesh chunk's vertex bytes decode to. A clamped
-// range: end is capped at the vertex count.
-std::vector<uint8_t> pack_vertices(const ProgressiveMesh& pm, const Bounds& bounds, uint32_t begin,
-                                   uint32_t end);
+// Vertex v of `pm` quantized as the stream codes it (scene/quantize.h): position on the grid,
+// unit normal ·127 (+Z when absent or zero), first uv set on kUvBits bits.
+QuantizedVertex quantize_vertex(const ProgressiveMesh& pm, const PositionQuantization& q,
+                                uint32_t v);
 // The bounds the stream quantizes `pm`'s positions over: min/max of every finite position
-// (all zero for a mesh without any).
+// (all zero for a mesh without any), and the grid over them.
 Bounds package_bounds(const ProgressiveMesh& pm);
+PositionQuantization package_quantization(const ProgressiveMesh& pm);
 
 }  // namespace meshmux

@@ -1,10 +1,7 @@
 // The multiplexer, paper 004 §3: layers with their stream bytes, renders from the viewing
 // sphere, distortion against the full-quality render, steepest descent and the baselines.
-// Mesh-layer bytes use meshoptimizer's order-preserving codecs (DESIGN.md "Package": the
-// refinement chunks keep the vertex order the progressive mesh defines).
+// Mesh-layer bytes are the stream's compact vertex splits (multiplex/mesh_stream.h).
 #include "multiplex/multiplex.h"
-
-#include <meshoptimizer.h>
 
 #include <algorithm>
 #include <chrono>
@@ -28,31 +25,17 @@ double since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// Encoded bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh with the
-// stream package's codecs (packed vertices through meshopt_encodeVertexBuffer, faces through
-// meshopt_encodeIndexBuffer), without the corner updates: an estimate for sizing the layers
-// and for the base; the refinement layers are costed by the package's own encoder below.
-uint64_t chunk_bytes(const ProgressiveMesh& pm, const Bounds& box, uint32_t v0, uint32_t v1,
-                     uint32_t f0, uint32_t f1) {
-  uint64_t total = 0;
-  if (v1 > v0) {
-    std::vector<uint8_t> packed = pack_vertices(pm, box, v0, v1);
-    size_t count = v1 - v0;
-    std::vector<unsigned char> buf(meshopt_encodeVertexBufferBound(count, kPackedVertexBytes));
-    total += meshopt_encodeVertexBuffer(buf.data(), buf.size(), packed.data(), count,
-                                        kPackedVertexBytes);
-  }
-  if (f1 > f0) {
-    size_t count = size_t(f1 - f0) * 3;
-    std::vector<unsigned char> buf(meshopt_encodeIndexBufferBound(count, pm.vertex_count()));
-    total += meshopt_encodeIndexBuffer(buf.data(), buf.size(), &pm.indices[size_t(f0) * 3], count);
-  }
-  return total;
+// Estimated bytes of the vertices [v0, v1) and faces [f0, f1) of a progressive mesh: quantized
+// vertices and faces through order-preserving codecs cost about 6 bytes per vertex and 1.5 per
+// face (meshopt on the base, vertex splits on refinements). For sizing the layers and for the
+// base; the refinement layers are costed by the package's own encoder below.
+uint64_t chunk_bytes(uint32_t v0, uint32_t v1, uint32_t f0, uint32_t f1) {
+  return uint64_t(v1 - v0) * 6 + (uint64_t(f1 - f0) * 3 + 1) / 2;
 }
 
 // Bytes to go from one selection to the next (previous == nullptr: the base from nothing).
-uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxes,
-                     const LodSelection* previous, const LodSelection& next) {
+uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
+                     const LodSelection& next) {
   uint64_t total = 0;
   for (size_t m = 0; m < ps.meshes.size(); ++m) {
     const ProgressiveMesh& pm = ps.meshes[m];
@@ -62,7 +45,7 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const std::vector<Bounds>& boxe
       const ProgressiveLevel& a = pm.levels[previous->level[m]];
       v0 = a.vertex_end, f0 = a.face_end;
     }
-    total += chunk_bytes(pm, boxes[m], v0, b.vertex_end, f0, b.face_end);
+    total += chunk_bytes(v0, b.vertex_end, f0, b.face_end);
   }
   return total;
 }
@@ -74,11 +57,9 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   auto start = Clock::now();
   MultiplexResult r;
   // --- Mesh layers: scene-wide selections from the base to the full detail. ---
-  std::vector<Bounds> boxes;
-  for (const ProgressiveMesh& pm : ps.meshes) boxes.push_back(package_bounds(pm));
   LodSelection base = select_base(ps), full = select_full(ps);
   uint64_t base_tris = selection_triangles(ps, base), full_tris = selection_triangles(ps, full);
-  uint64_t refine_bytes = layer_bytes(ps, boxes, &base, full);
+  uint64_t refine_bytes = layer_bytes(ps, &base, full);
   int m = 1;
   if (full_tris > base_tris) {
     m = int(std::ceil(double(refine_bytes) / double(std::max<uint64_t>(1, o.layer_bytes))));
@@ -101,7 +82,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   std::vector<MeshStreamEncoder> encoders;
   encoders.reserve(ps.meshes.size());
   for (size_t i = 0; i < ps.meshes.size(); ++i) {
-    encoders.emplace_back(ps.meshes[i], boxes[i], uint32_t(i), base.level[i]);
+    encoders.emplace_back(ps.meshes[i], package_quantization(ps.meshes[i]), uint32_t(i),
+                          base.level[i]);
     const auto& indices = encoders.back().base_indices();
     if (!indices.ok()) return indices.status().with_prefix("multiplex");
     const ProgressiveMesh& pm = ps.meshes[i];
@@ -109,15 +91,17 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
     head.base_vertices = pm.levels[base.level[i]].vertex_end;
     head.base_faces = pm.levels[base.level[i]].face_end;
-    head.bounds = boxes[i];
+    head.bounds = package_bounds(pm);
+    head.quantization = package_quantization(pm);
     head.base_indices = *indices;
+    head.base_order = encoders.back().stream_order();
     r.mesh_streams.push_back(std::move(head));
   }
   r.layer_parts.resize(size_t(m));
   for (int k = 0; k < m; ++k) {
     uint64_t bytes = 0;
     if (k == 0) {
-      bytes = layer_bytes(ps, boxes, nullptr, layers[0]);
+      bytes = layer_bytes(ps, nullptr, layers[0]);
     } else {
       for (size_t i = 0; i < ps.meshes.size(); ++i) {
         if (layers[size_t(k)].level[i] == encoders[i].level()) continue;

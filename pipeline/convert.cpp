@@ -158,7 +158,34 @@ Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps
   return std::optional<MultiplexResult>(mx.take());
 }
 
-// 9. The stream package: the base (mesh layer 0 with texture level 0, no Draco, every prefix
+// Puts a primitive's vertices in the order `order` (new vertex i = old vertex order[i]), its
+// faces following them.
+Status permute_vertices(Primitive& p, const std::vector<uint32_t>& order) {
+  const size_t n = p.positions.size();
+  if (order.size() != n)
+    return Status::error("package: base order of " + std::to_string(order.size()) +
+                             " vertices for a primitive of " + std::to_string(n),
+                         ErrorKind::kInternal);
+  std::vector<uint32_t> inverse(n, UINT32_MAX);
+  for (uint32_t i = 0; i < n; ++i) {
+    if (order[i] >= n || inverse[order[i]] != UINT32_MAX)
+      return Status::error("package: base order is not a permutation", ErrorKind::kInternal);
+    inverse[order[i]] = i;
+  }
+  auto apply = [&](auto& values) {
+    if (values.size() != n) return;
+    auto old = values;
+    for (size_t i = 0; i < n; ++i) values[i] = old[order[i]];
+  };
+  apply(p.positions);
+  apply(p.normals);
+  apply(p.colors);
+  for (auto& set : p.uvs) apply(set);
+  for (uint32_t& i : p.indices) i = inverse[i];
+  return Status::ok();
+}
+
+// 9. The stream package: the base (mesh layer 0 with texture level 0, meshopt, every prefix
 // vertex kept so vertex i is the stream's vertex i), then the descent's steps as chunks made of
 // the bytes the multiplexer encoded; the baselines ride along as orders of the same chunks.
 Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
@@ -166,14 +193,24 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
                                           Warnings* warnings) {
   auto plan = stream_plan(mx);
   if (!plan.ok()) return plan.status();
+  // The base: meshoptimizer's order-keeping codecs over attributes quantized exactly as the
+  // stream codes them (scene/quantize.h), so vertex i is the stream's vertex i and its integers
+  // are the ones the vertex splits are predicted from.
   GltfExportOptions plain = o.gltf;
   plain.draco = false;
+  plain.meshopt = true;
   plain.tag_meshes = true;
+  for (const MeshStreamBase& m : mx.mesh_streams)
+    plain.position_quantization.push_back(m.quantization);
   Scene base_scene = level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true);
   // The stream's vertices carry normals (the client appends to the base's), so the package's
   // base keeps them even for flat-shaded sources, whose .glb files go without.
   for (Mesh& mesh : base_scene.meshes)
     for (Primitive& p : mesh.primitives) p.flat = false;
+  // Its vertices in the stream's base order (every primitive holds the whole prefix).
+  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m)
+    for (Primitive& p : base_scene.meshes[m].primitives)
+      if (Status s = permute_vertices(p, mx.mesh_streams[m].base_order); !s) return s;
   auto base = export_glb_bytes(base_scene, plain, warnings);
   if (!base.ok()) return base.status();
   PackageInput in;

@@ -569,6 +569,7 @@ TEST(ConvertFolder, WritesRateDistortionReport) {
 }  // namespace meshmux
 
 #include "exporters/package.h"
+#include "scene/quantize.h"
 
 namespace meshmux {
 namespace {
@@ -589,10 +590,43 @@ TEST(ConvertFolder, WritesStreamPackage) {
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
   EXPECT_GT(pkg->chunks.size(), 2u);
   size_t mesh_chunks = 0, texture_chunks = 0;
+  // The base vertices' integers, read back from the base .glb as a client reads them (our
+  // importer keeps KHR_mesh_quantization's integer positions and puts the grid in the nodes).
+  std::vector<uint8_t> glb(bytes.begin() + long(pkg->base_offset),
+                           bytes.begin() + long(pkg->base_offset + pkg->base_size));
+  testing::write_file(dir.file("base.glb"), glb);
+  Warnings w;
+  auto base_scene = import_scene(dir.file("base.glb"), ImportOptions{}, &w);
+  ASSERT_TRUE(base_scene.ok()) << base_scene.status().message();
+  ASSERT_EQ(base_scene->meshes.size(), pkg->meshes.size());
+  std::vector<VsplitMesh> clients;
+  for (size_t m = 0; m < pkg->meshes.size(); ++m) {
+    const Primitive& p = base_scene->meshes[m].primitives.at(0);
+    std::vector<QuantizedVertex> vertices(p.positions.size());
+    for (size_t i = 0; i < vertices.size(); ++i) {
+      QuantizedVertex& q = vertices[i];
+      const float* pos = &p.positions[i].x;
+      for (int k = 0; k < 3; ++k) q.p[k] = uint16_t(std::lround(pos[k]));
+      if (i < p.normals.size()) {
+        const float* n = &p.normals[i].x;
+        for (int k = 0; k < 3; ++k) q.n[k] = int8_t(std::lround(n[k] * 127));
+      }
+      if (!p.uvs.empty()) {
+        q.t[0] = unorm16_to_uv12(uint16_t(std::lround(p.uvs[0][i].x * 65535)));
+        q.t[1] = unorm16_to_uv12(uint16_t(std::lround(p.uvs[0][i].y * 65535)));
+      }
+    }
+    auto c = decode_base(bytes, *pkg, m, vertices);
+    ASSERT_TRUE(c.ok()) << c.status().message();
+    clients.push_back(c.take());
+  }
   for (const PackageChunk& c : pkg->chunks) {
     if (c.kind == StreamStep::kMesh) {
       ++mesh_chunks;
-      for (size_t p = 0; p < c.parts.size(); ++p) ASSERT_TRUE(decode_part(bytes, *pkg, c, p).ok());
+      for (size_t p = 0; p < c.parts.size(); ++p) {
+        Status s = decode_part(bytes, *pkg, c, p, clients[c.parts[p].mesh]);
+        ASSERT_TRUE(s.is_ok()) << s.message();
+      }
     } else {
       ++texture_chunks;
     }

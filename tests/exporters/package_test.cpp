@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -83,13 +85,15 @@ const Fixture& fixture() {
     if (glb.ok()) f->input.base_glb = glb.take();
     const ProgressiveMesh& pm = f->ps.meshes[0];
     f->base_level = base.level[0];
-    MeshStreamEncoder encoder(pm, package_bounds(pm), 0, f->base_level);
+    MeshStreamEncoder encoder(pm, package_quantization(pm), 0, f->base_level);
     MeshStreamBase head;
     head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
     head.base_vertices = pm.levels[f->base_level].vertex_end;
     head.base_faces = pm.levels[f->base_level].face_end;
     head.bounds = package_bounds(pm);
+    head.quantization = package_quantization(pm);
     if (encoder.base_indices().ok()) head.base_indices = *encoder.base_indices();
+    head.base_order = encoder.stream_order();
     f->input.meshes = {head};
     f->layers.resize(1);  // layer 0: the base
     f->input.mesh_layers = &f->layers;
@@ -138,37 +142,44 @@ Bounds bounds_of(const PackageMesh& m) {
   return b;
 }
 
-// A streaming client's state for one mesh, as viewers/web/meshmux.js keeps it: the vertex
-// count and every face received so far, in the numbering of the current level.
-struct Client {
-  uint32_t vertices = 0;
-  std::vector<uint32_t> indices;
-  void apply(const DecodedPart& d, const PackagePart& p) {
-    ASSERT_EQ(p.vertex_begin, vertices);
-    ASSERT_EQ(p.face_begin * 3, indices.size());
-    vertices = p.vertex_end;
-    for (size_t u = 0; u < d.update_positions.size(); ++u)
-      indices[d.update_positions[u]] = d.update_values[u];
-    indices.insert(indices.end(), d.indices.begin(), d.indices.end());
+using PositionFace = std::array<std::array<uint16_t, 3>, 3>;
+// Faces as their corners' quantized positions (the smallest corner first, winding kept),
+// sorted, degenerate faces dropped: comparable across vertex numberings.
+std::vector<PositionFace> position_faces(
+    const std::vector<uint32_t>& indices,
+    const std::function<std::array<uint16_t, 3>(uint32_t)>& at) {
+  std::vector<PositionFace> out;
+  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
+    uint32_t a = indices[i], b = indices[i + 1], c = indices[i + 2];
+    if (a == b || b == c || a == c) continue;
+    PositionFace f{at(a), at(b), at(c)};
+    int r = f[1] < f[0] && f[1] < f[2] ? 1 : f[2] < f[0] && f[2] < f[1] ? 2 : 0;
+    out.push_back({f[size_t(r)], f[size_t((r + 1) % 3)], f[size_t((r + 2) % 3)]});
   }
-};
-
-// The non-degenerate faces of `held` equal `level` (level_indices: degenerate ones dropped),
-// in order, each up to a rotation of its corners (meshopt's index codec may rotate them).
-bool same_faces(const std::vector<uint32_t>& held, const std::vector<uint32_t>& level) {
-  size_t j = 0;
-  for (size_t t = 0; t + 2 < held.size(); t += 3) {
-    const uint32_t* a = &held[t];
-    if (a[0] == a[1] || a[1] == a[2] || a[0] == a[2]) continue;
-    if (j + 2 >= level.size()) return false;
-    const uint32_t* e = &level[j];
-    bool same = false;
-    for (int r = 0; r < 3; ++r)
-      same = same || (a[r] == e[0] && a[(r + 1) % 3] == e[1] && a[(r + 2) % 3] == e[2]);
-    if (!same) return false;
-    j += 3;
-  }
-  return j == level.size();
+  std::sort(out.begin(), out.end());
+  return out;
+}
+// A client state's faces / a progressive mesh level's faces, by quantized position.
+std::vector<PositionFace> client_faces(const VsplitMesh& m) {
+  return position_faces(m.indices, [&](uint32_t v) {
+    return std::array<uint16_t, 3>{m.vertices[v].p[0], m.vertices[v].p[1], m.vertices[v].p[2]};
+  });
+}
+std::vector<PositionFace> level_faces(const ProgressiveMesh& pm, size_t level) {
+  PositionQuantization q = package_quantization(pm);
+  return position_faces(level_indices(pm, level), [&](uint32_t v) {
+    QuantizedVertex x = quantize_vertex(pm, q, v);
+    return std::array<uint16_t, 3>{x.p[0], x.p[1], x.p[2]};
+  });
+}
+// The base vertices' quantized attributes, in the stream's base order, as the base .glb holds
+// them in a package (the pipeline writes it in that order).
+std::vector<QuantizedVertex> base_vertices(const ProgressiveMesh& pm,
+                                           const std::vector<uint32_t>& order) {
+  std::vector<QuantizedVertex> out;
+  PositionQuantization q = package_quantization(pm);
+  for (uint32_t v : order) out.push_back(quantize_vertex(pm, q, v));
+  return out;
 }
 
 TEST(Package, FixtureIsStreamable) {
@@ -223,17 +234,14 @@ TEST(Package, RoundTripDecodesEveryPart) {
   EXPECT_EQ(pkg->chunks.back().offset + pkg->chunks.back().size, bytes->size());
   uint32_t v = base.vertex_end, fc = base.face_end;
   size_t mesh_step = 0;
-  std::vector<uint8_t> all_vertices;
   // The base: its faces decode to the base level; the base .glb's mesh holds the stream's
   // first base_vertices vertices in order, tagged with its package mesh.
   auto base_faces = decode_base_indices(*bytes, *pkg, 0);
   ASSERT_TRUE(base_faces.ok()) << base_faces.status().message();
   ASSERT_EQ(base_faces->size(), size_t(base.face_end) * 3);
-  EXPECT_TRUE(same_faces(*base_faces, level_indices(pm, f.base_level)));
-  Client client;
-  client.vertices = base.vertex_end;
-  client.indices = *base_faces;
-  size_t updates = 0;
+  auto client = decode_base(*bytes, *pkg, 0, base_vertices(pm, f.input.meshes[0].base_order));
+  ASSERT_TRUE(client.ok()) << client.status().message();
+  EXPECT_EQ(client_faces(*client), level_faces(pm, f.base_level));
   {
     testing::TempDir dir;
     std::string glb = dir.path() + "/base.glb";
@@ -283,23 +291,18 @@ TEST(Package, RoundTripDecodesEveryPart) {
     EXPECT_EQ(p.vertex_end, to.vertex_end);
     EXPECT_EQ(p.face_begin, fc);
     EXPECT_EQ(p.face_end, to.face_end);
-    EXPECT_EQ(p.vertex_bytes + p.index_bytes + p.update_bytes, c.size);
-    auto d = decode_part(*bytes, *pkg, c, 0);
-    ASSERT_TRUE(d.ok()) << d.status().message();
-    EXPECT_EQ(d->vertices, pack_vertices(pm, box, v, to.vertex_end)) << "chunk " << i;
-    // What a client holds after the part equals the level, face for face.
-    client.apply(*d, p);
-    EXPECT_TRUE(same_faces(client.indices, level_indices(pm, level))) << "chunk " << i;
-    EXPECT_EQ(p.updates, d->update_positions.size());
-    updates += p.updates;
-    all_vertices.insert(all_vertices.end(), d->vertices.begin(), d->vertices.end());
+    EXPECT_EQ(p.bytes, c.size);
+    Status d = decode_part(*bytes, *pkg, c, 0, *client);
+    ASSERT_TRUE(d.is_ok()) << d.message();
+    // What a client holds after the part draws the level, face for face.
+    EXPECT_EQ(client_faces(*client), level_faces(pm, level)) << "chunk " << i;
     v = to.vertex_end, fc = to.face_end;
-    EXPECT_FALSE(decode_part(*bytes, *pkg, c, 1).ok());
+    EXPECT_FALSE(decode_part(*bytes, *pkg, c, 1, *client).is_ok());
+    EXPECT_FALSE(decode_part(*bytes, *pkg, c, 0, *client).is_ok()) << "a part applies once";
   }
   EXPECT_EQ(v, pm.vertex_count());
   EXPECT_EQ(fc, pm.face_count());
-  EXPECT_GT(updates, 0u) << "refinements must move corners of faces already held";
-  EXPECT_EQ(client.vertices, pm.vertex_count());
+  EXPECT_EQ(client->vertex_count(), pm.vertex_count());
   // The orders: the stored one first, then the baseline as given.
   EXPECT_EQ(pkg->base_distortion, 7.75);
   ASSERT_EQ(pkg->orders.size(), 2u);
@@ -309,19 +312,8 @@ TEST(Package, RoundTripDecodesEveryPart) {
   EXPECT_EQ(pkg->orders[1].name, "texture-first");
   EXPECT_EQ(pkg->orders[1].chunks, f.input.orders[0].steps);
   EXPECT_EQ(pkg->orders[1].distortion, f.input.orders[0].distortion);
-  // The packed vertices dequantize to the positions (to 16 bits over the bounds), carry parents.
-  ASSERT_EQ(all_vertices.size(), size_t(pm.vertex_count() - base.vertex_end) * kPackedVertexBytes);
-  for (uint32_t k = base.vertex_end; k < pm.vertex_count(); ++k) {
-    const uint8_t* q = &all_vertices[size_t(k - base.vertex_end) * kPackedVertexBytes];
-    uint16_t x = uint16_t(q[0] | q[1] << 8);
-    float px = box.min.x + (box.max.x - box.min.x) * float(x) / 65535.0f;
-    ASSERT_NEAR(px, pm.positions[k].x, (box.max.x - box.min.x) / 65535.0f);
-    uint32_t parent =
-        uint32_t(q[16]) | uint32_t(q[17]) << 8 | uint32_t(q[18]) << 16 | uint32_t(q[19]) << 24;
-    ASSERT_EQ(parent, pm.parent[k]);
-  }
   // Texture chunks and decode_part.
-  EXPECT_FALSE(decode_part(*bytes, *pkg, pkg->chunks[1], 0).ok());
+  EXPECT_FALSE(decode_part(*bytes, *pkg, pkg->chunks[1], 0, *client).is_ok());
   // Determinism.
   auto again = write_package(f.input);
   ASSERT_TRUE(again.ok());
@@ -518,30 +510,39 @@ TEST(Package, SurvivesThousandCorruptions) {
       continue;
     }
     bool all_ok = true;
+    std::vector<Result<VsplitMesh>> clients;
     for (size_t m = 0; m < pkg->meshes.size(); ++m) {
       auto b = decode_base_indices(bytes, *pkg, m);
-      if (!b.ok()) {
-        all_ok = false;
-        continue;
+      if (b.ok())
+        for (uint32_t i : *b) ASSERT_LT(i, pkg->meshes[m].base_vertices);
+      // The base vertices come from the base .glb, which holds at most what the file holds.
+      if (pkg->meshes[m].base_vertices > bytes.size()) {
+        clients.push_back(Status::error("too many base vertices", ErrorKind::kInput));
+      } else {
+        clients.push_back(decode_base(bytes, *pkg, m,
+                                      std::vector<QuantizedVertex>(pkg->meshes[m].base_vertices)));
       }
-      for (uint32_t i : *b) ASSERT_LT(i, pkg->meshes[m].base_vertices);
+      if (!clients.back().ok()) all_ok = false;
     }
     for (const PackageChunk& c : pkg->chunks) {
       ASSERT_LE(c.offset + c.size, bytes.size());
       for (size_t p = 0; p < c.parts.size(); ++p) {
-        auto d = decode_part(bytes, *pkg, c, p);
-        if (!d.ok()) {
+        const PackagePart& part = c.parts[p];
+        if (part.mesh >= clients.size() || !clients[part.mesh].ok()) {
           all_ok = false;
-          ASSERT_FALSE(d.status().message().empty());
           continue;
         }
-        const PackagePart& part = c.parts[p];
-        ASSERT_EQ(d->vertices.size(),
-                  size_t(part.vertex_end - part.vertex_begin) * kPackedVertexBytes);
-        ASSERT_EQ(d->indices.size(), size_t(part.face_end - part.face_begin) * 3);
-        for (uint32_t i : d->indices) ASSERT_LT(i, part.vertex_end);
-        for (uint32_t i : d->update_positions) ASSERT_LT(i, uint64_t(part.face_begin) * 3);
-        for (uint32_t i : d->update_values) ASSERT_LT(i, part.vertex_end);
+        VsplitMesh& client = *clients[part.mesh];
+        Status d = decode_part(bytes, *pkg, c, p, client);
+        if (!d.is_ok()) {
+          all_ok = false;
+          ASSERT_EQ(d.message().rfind("package: ", 0), 0u) << d.message();
+          clients[part.mesh] = d;  // a client stops at the first bad part
+          continue;
+        }
+        ASSERT_EQ(client.vertex_count(), part.vertex_end);
+        ASSERT_EQ(client.face_count(), part.face_end);
+        for (uint32_t i : client.indices) ASSERT_LT(i, client.vertex_count());
       }
     }
     ++(all_ok ? accepted : rejected_decode);
@@ -598,10 +599,21 @@ TEST(Package, DecodeChecksItsArguments) {
   ASSERT_TRUE(pkg.ok());
   const PackageChunk& good = pkg->chunks[0];
   ASSERT_EQ(good.kind, StreamStep::kMesh);
-  ASSERT_TRUE(decode_part(*bytes, *pkg, good, 0).ok());
+  const Fixture& fx = fixture();
+  auto fresh = [&](const Package& p) {
+    auto c =
+        decode_base(*bytes, p, 0, base_vertices(fx.ps.meshes[0], fx.input.meshes[0].base_order));
+    EXPECT_TRUE(c.ok()) << c.status().message();
+    return c.ok() ? c.take() : VsplitMesh{};
+  };
+  {
+    VsplitMesh client = fresh(*pkg);
+    ASSERT_TRUE(decode_part(*bytes, *pkg, good, 0, client).is_ok());
+  }
   auto fails = [&](const PackageChunk& c, const Package& p, const std::vector<uint8_t>& b) {
-    auto r = decode_part(b, p, c, 0);
-    return !r.ok() && r.status().message().rfind("package: ", 0) == 0;
+    VsplitMesh client = fresh(*pkg);
+    Status r = decode_part(b, p, c, 0, client);
+    return !r.is_ok() && r.message().rfind("package: ", 0) == 0;
   };
   PackageChunk c = good;
   c.offset = bytes->size();
@@ -613,19 +625,16 @@ TEST(Package, DecodeChecksItsArguments) {
   c.parts[0].mesh = 7;
   EXPECT_TRUE(fails(c, *pkg, *bytes));
   c = good;
-  c.parts[0].vertex_bytes += 1000000;
+  c.parts[0].bytes += 1000000;
   EXPECT_TRUE(fails(c, *pkg, *bytes));
-  Package p = *pkg;
-  p.meshes[0].vertices = 10;  // decoded indices out of range
-  EXPECT_TRUE(fails(good, p, *bytes));
+  c = good;
+  c.parts[0].vertex_begin += 1;  // not where the client is
+  EXPECT_TRUE(fails(c, *pkg, *bytes));
   std::vector<uint8_t> cut(bytes->begin(), bytes->begin() + long(good.offset + good.size - 1));
   EXPECT_TRUE(fails(good, *pkg, cut));
   std::vector<uint8_t> flipped = *bytes;
   for (uint64_t i = 0; i < good.size; ++i) flipped[good.offset + i] = 0xff;
-  auto r = decode_part(flipped, *pkg, good, 0);  // garbage decodes or fails, never crashes
-  if (!r.ok()) {
-    EXPECT_FALSE(r.status().message().empty());
-  }
+  EXPECT_TRUE(fails(good, *pkg, flipped));  // not a zlib stream
 }
 
 }  // namespace

@@ -10,10 +10,24 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);
   auto package = meshmux::read_package(bytes);
   if (!package.ok()) return 0;
-  for (size_t m = 0; m < package->meshes.size(); ++m)
+  // Base vertices come from the base .glb (at most one per byte of the file); zeros stand in.
+  std::vector<meshmux::Result<meshmux::VsplitMesh>> clients;
+  for (size_t m = 0; m < package->meshes.size(); ++m) {
     (void)meshmux::decode_base_indices(bytes, *package, m);
+    if (package->meshes[m].base_vertices > size) {
+      clients.push_back(meshmux::Status::error("base", meshmux::ErrorKind::kInput));
+      continue;
+    }
+    clients.push_back(meshmux::decode_base(
+        bytes, *package, m,
+        std::vector<meshmux::QuantizedVertex>(package->meshes[m].base_vertices)));
+  }
   for (const meshmux::PackageChunk& chunk : package->chunks)
-    for (size_t p = 0; p < chunk.parts.size(); ++p)
-      (void)meshmux::decode_part(bytes, *package, chunk, p);
+    for (size_t p = 0; p < chunk.parts.size(); ++p) {
+      uint32_t m = chunk.parts[p].mesh;
+      if (m >= clients.size() || !clients[m].ok()) continue;
+      meshmux::Status s = meshmux::decode_part(bytes, *package, chunk, p, *clients[m]);
+      if (!s.is_ok()) clients[m] = s;
+    }
   return 0;
 }

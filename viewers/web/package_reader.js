@@ -1,13 +1,16 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 3; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 4; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 3;
-export const VERTEX_BYTES = 20;  // position 3×u16 + pad u16, normal 4×i8, uv 2×u16, parent u32
+export const PACKAGE_VERSION = 4;
+// Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
+export const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
 // enforces the same number); this only bounds what a hostile table may claim, at what typed
-// arrays of 20-byte vertices can hold.
+// arrays of a client's vertices can hold.
 const TYPED_ARRAY_ELEMENTS = 2 ** 30 / VERTEX_BYTES;
+// A part inflates to at most this many bytes per split and face, plus a constant (multiplex/vsplit.h).
+export const PART_BYTES_PER_ELEMENT = 256, PART_BYTES_CONSTANT = 65536;
 
 // ---- The package table -----------------------------------------------------------------------
 
@@ -57,9 +60,10 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     const d = {
       vertices: int(m.vertices, `${w}.vertices`, MAX_ELEMENTS), faces: int(m.faces, `${w}.faces`, MAX_ELEMENTS),
       base_vertices: int(m.base_vertices, `${w}.base_vertices`, m.vertices), base_faces: int(m.base_faces, `${w}.base_faces`, m.faces),
-      bounds: arr(m.bounds, `${w}.bounds`), base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
+      bounds: arr(m.bounds, `${w}.bounds`), quantization: obj(m.quantization, `${w}.quantization`), base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
     };
     need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
+    d.quantization = { origin: vec3(d.quantization.origin, `${w}.quantization.origin`), step: num(d.quantization.step, `${w}.quantization.step`, Number.MIN_VALUE) };
     need((d.base_faces > 0) === (d.base_indices.size > 0), `${w}: ${d.base_faces} base faces in ${d.base_indices.size} bytes`);
     return d;
   });
@@ -83,21 +87,18 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
       const pw = `${w}.parts[${j}]`;
       const mesh = int(obj(p, pw).mesh, `${pw}.mesh`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
-      const part = { mesh, updates: int(p.updates ?? 0, `${pw}.updates`, 3 * h.faces), update_bytes: int(p.update_bytes ?? 0, `${pw}.update_bytes`) };
-      for (const key of ['vertex_begin', 'vertex_end', 'face_begin', 'face_end', 'vertex_bytes', 'index_bytes']) part[key] = int(p[key], `${pw}.${key}`);
+      const part = { mesh };
+      for (const key of ['vertex_begin', 'vertex_end', 'face_begin', 'face_end', 'bytes']) part[key] = int(p[key], `${pw}.${key}`);
       need(part.vertex_begin === h.vertices, `${pw}: vertex_begin ${part.vertex_begin}, but mesh ${mesh} holds ${h.vertices} vertices there`);
       need(part.face_begin === h.faces, `${pw}: face_begin ${part.face_begin}, but mesh ${mesh} holds ${h.faces} faces there`);
       need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
       need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
       const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
-      for (const [name, count, size] of [['vertices', nv, part.vertex_bytes], ['faces', nf, part.index_bytes], ['updates', part.updates, part.update_bytes]]) {
-        need((count > 0) === (size > 0), `${pw}: ${count} ${name} in ${size} bytes`);
-      }
+      // One zlib stream (≥ 8 bytes) of ≥ 10 bytes per split and 1 per face; deflate expands ≤ 1032×.
+      need(part.bytes >= 8 && 10 * nv + nf <= 1032 * part.bytes, `${pw}: ${part.bytes} bytes cannot hold ${nv} splits and ${nf} faces`);
       h.vertices = part.vertex_end;
       h.faces = part.face_end;
-      bytes += part.vertex_bytes + part.index_bytes + part.update_bytes;
-      heapBytes = Math.max(heapBytes, VERTEX_BYTES * (nv + 3) + part.vertex_bytes, 12 * nf + 12 + part.index_bytes,
-        8 * part.updates + 12 + part.update_bytes);
+      bytes += part.bytes;
       return part;
     });
     need(bytes === chunk.size, `${w}: its parts hold ${bytes} bytes, the chunk ${chunk.size}`);

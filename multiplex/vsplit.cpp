@@ -1,0 +1,316 @@
+// Compact vertex splits (multiplex/vsplit.h): the state both ends of the stream keep and the
+// decoder. DESIGN.md "Package"; paper 002 (vertex order, parents); the ring-relative connectivity
+// and barycentric prediction follow compressed progressive meshes (Pajarola & Rossignac 2000)
+// and valence-driven progressive coding (Alliez & Desbrun 2001), adapted to corner lists.
+#include "multiplex/vsplit.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <string>
+
+namespace meshmux {
+
+void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
+  vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
+  solid = 0, stamp_value_ = 0;
+  capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
+}
+
+uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
+  vertices.push_back(q);
+  head.push_back(-1);
+  stamp_.push_back(0);
+  return uint32_t(vertices.size() - 1);
+}
+
+void VsplitMesh::add_face(uint32_t a, uint32_t b, uint32_t c) {
+  for (uint32_t v : {a, b, c}) {
+    int32_t corner = int32_t(indices.size());
+    indices.push_back(v);
+    next.push_back(head[v]);
+    head[v] = corner;
+  }
+  if (a != b && b != c && a != c) ++solid;
+}
+
+void VsplitMesh::move_corner(uint32_t p, int32_t previous, int32_t corner, uint32_t v) {
+  if (previous < 0)
+    head[p] = next[size_t(corner)];
+  else
+    next[size_t(previous)] = next[size_t(corner)];
+  size_t f = size_t(corner) / 3 * 3;
+  bool before = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&
+                indices[f] != indices[f + 2];
+  indices[size_t(corner)] = v;
+  next[size_t(corner)] = head[v];
+  head[v] = corner;
+  bool after = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&
+               indices[f] != indices[f + 2];
+  solid += uint64_t(after) - uint64_t(before);
+}
+
+uint32_t VsplitMesh::new_stamp() {
+  if (++stamp_value_ == 0) {  // wrapped: clear and start again
+    std::fill(stamp_.begin(), stamp_.end(), 0);
+    stamp_value_ = 1;
+  }
+  return stamp_value_;
+}
+
+void VsplitMesh::ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out) {
+  out.clear();
+  uint32_t s = new_stamp();
+  stamp_[p] = stamp_[v] = s;
+  for (uint32_t centre : {v, p})
+    for (int32_t c = head[centre]; c >= 0; c = next[size_t(c)]) {
+      size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
+      for (size_t k = 1; k <= 2; ++k) {
+        uint32_t w = indices[f + (slot + k) % 3];
+        if (stamp_[w] == s) continue;
+        stamp_[w] = s;
+        out.push_back(w);
+        if (out.size() >= limit) return;
+      }
+    }
+}
+
+namespace {
+// round(sum / n) with halves up, for any sign: floor((2·sum + n) / (2n)).
+int64_t mean(int64_t sum, int64_t n) {
+  int64_t a = 2 * sum + n, b = 2 * n;
+  int64_t q = a / b;
+  if ((a % b != 0) && (a < 0)) --q;
+  return q;
+}
+}  // namespace
+
+QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p) {
+  int64_t sp[3] = {0, 0, 0}, sn[3] = {0, 0, 0}, st[2] = {0, 0};
+  int64_t n = 0;
+  uint32_t s = new_stamp();
+  stamp_[v] = s;
+  for (int32_t c = head[v]; c >= 0; c = next[size_t(c)]) {
+    size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
+    for (size_t k = 1; k <= 2; ++k) {
+      uint32_t w = indices[f + (slot + k) % 3];
+      if (stamp_[w] == s) continue;
+      stamp_[w] = s;
+      const QuantizedVertex& q = vertices[w];
+      for (int i = 0; i < 3; ++i) sp[i] += q.p[i], sn[i] += q.n[i];
+      st[0] += q.t[0], st[1] += q.t[1];
+      ++n;
+    }
+  }
+  if (n == 0) return vertices[p];
+  QuantizedVertex out;
+  for (int i = 0; i < 3; ++i)
+    out.p[i] = uint16_t(mean(sp[i], n)), out.n[i] = int8_t(mean(sn[i], n));
+  out.t[0] = uint16_t(mean(st[0], n)), out.t[1] = uint16_t(mean(st[1], n));
+  return out;
+}
+
+void put_varint(std::vector<uint8_t>& out, uint32_t v) {
+  while (v >= 0x80) {
+    out.push_back(uint8_t(v | 0x80));
+    v >>= 7;
+  }
+  out.push_back(uint8_t(v));
+}
+
+std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in) {
+  uLongf size = compressBound(uLong(in.size()));
+  std::vector<uint8_t> out(size);
+  if (compress2(out.data(), &size, in.data(), uLong(in.size()), 9) != Z_OK) return {};
+  out.resize(size);
+  return out;
+}
+
+Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit) {
+  z_stream z{};
+  if (inflateInit(&z) != Z_OK)
+    return Status::error("zlib: cannot initialize", ErrorKind::kInternal);
+  std::vector<uint8_t> out;
+  z.next_in = const_cast<Bytef*>(data);
+  z.avail_in = uInt(size);
+  int r = Z_OK;
+  uint8_t buffer[16384];
+  while (r == Z_OK) {
+    z.next_out = buffer;
+    z.avail_out = sizeof buffer;
+    r = inflate(&z, Z_NO_FLUSH);
+    if (r != Z_OK && r != Z_STREAM_END) break;
+    size_t got = sizeof buffer - z.avail_out;
+    if (out.size() + got > limit) {
+      inflateEnd(&z);
+      return Status::error("inflates past its limit of " + std::to_string(limit) + " bytes",
+                           ErrorKind::kInput);
+    }
+    out.insert(out.end(), buffer, buffer + got);
+    if (r == Z_OK && got == 0 && z.avail_in == 0) break;  // truncated
+  }
+  bool done = r == Z_STREAM_END && z.avail_in == 0;
+  inflateEnd(&z);
+  if (!done) return Status::error("not a complete zlib stream", ErrorKind::kInput);
+  return out;
+}
+
+namespace {
+
+// A bounded reader over one of the six streams.
+struct Reader {
+  const uint8_t* p = nullptr;
+  const uint8_t* end = nullptr;
+  bool varint(uint32_t& v) {
+    v = 0;
+    for (int shift = 0; shift < 35; shift += 7) {
+      if (p == end) return false;
+      uint8_t b = *p++;
+      if (shift == 28 && (b & 0x70)) return false;  // past 32 bits
+      v |= uint32_t(b & 0x7f) << shift;
+      if (!(b & 0x80)) return true;
+    }
+    return false;
+  }
+};
+struct BitReader {
+  const uint8_t* p = nullptr;
+  uint64_t bits = 0, at = 0;
+  bool bit(bool& b) {
+    if (at >= bits) return false;
+    b = (p[at >> 3] >> (at & 7)) & 1;
+    ++at;
+    return true;
+  }
+};
+
+}  // namespace
+
+Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
+                          uint32_t faces) {
+  uint64_t limit = kPartBytesPerElement * (uint64_t(splits) + uint64_t(faces)) + kPartBytesConstant;
+  auto inflated = inflate_bytes(data, size, limit);
+  if (!inflated.ok()) return inflated.status();
+  const std::vector<uint8_t>& bytes = *inflated;
+  Reader head{bytes.data(), bytes.data() + bytes.size()};
+  uint32_t len[6];
+  uint64_t total = 0;
+  for (uint32_t& l : len) {
+    if (!head.varint(l)) return Status::error("stream lengths cut short", ErrorKind::kInput);
+    total += l;
+  }
+  if (total != uint64_t(head.end - head.p))
+    return Status::error("stream lengths add up to " + std::to_string(total) + " bytes, " +
+                             std::to_string(head.end - head.p) + " follow",
+                         ErrorKind::kInput);
+  Reader s[6];
+  const uint8_t* at = head.p;
+  for (int i = 0; i < 6; ++i) s[i] = {at, at + len[i]}, at += len[i];
+  Reader &C = s[0], &E = s[2], &P = s[3], &N = s[4], &T = s[5];
+  BitReader M{s[1].p, uint64_t(len[1]) * 8, 0};
+  if (uint64_t(mesh.vertex_count()) + splits > mesh.capacity_vertices_ ||
+      uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
+    return Status::error("more vertices or faces than the mesh holds", ErrorKind::kInput);
+  const uint32_t face_goal = mesh.face_count() + faces;
+  uint32_t previous = 0;
+  std::vector<uint32_t> ring;
+  auto where = [](uint32_t i) { return "split " + std::to_string(i) + ": "; };
+  for (uint32_t i = 0; i < splits; ++i) {
+    uint32_t z, k;
+    if (!C.varint(z) || !C.varint(k))
+      return Status::error(where(i) + "connectivity cut short", ErrorKind::kInput);
+    int64_t parent = int64_t(previous) + unzigzag(z);
+    if (parent < 0 || parent >= int64_t(mesh.vertex_count()))
+      return Status::error(where(i) + "parent " + std::to_string(parent) + " of " +
+                               std::to_string(mesh.vertex_count()) + " vertices",
+                           ErrorKind::kInput);
+    uint32_t p = uint32_t(parent);
+    previous = p;
+    uint32_t v = mesh.add_vertex(QuantizedVertex{});
+    for (int32_t c = mesh.head[p], prev = -1; c >= 0;) {
+      int32_t after = mesh.next[size_t(c)];
+      bool take;
+      if (!M.bit(take)) return Status::error(where(i) + "corner mask cut short", ErrorKind::kInput);
+      if (take)
+        mesh.move_corner(p, prev, c, v);
+      else
+        prev = c;
+      c = after;
+    }
+    if (k > 0) mesh.ring(p, v, kRingLimit, ring);
+    if (uint64_t(mesh.face_count()) + k > face_goal)
+      return Status::error(where(i) + "more than the part's " + std::to_string(faces) + " faces",
+                           ErrorKind::kInput);
+    for (uint32_t f = 0; f < k; ++f) {
+      uint32_t code, w;
+      if (!C.varint(code))
+        return Status::error(where(i) + "face codes cut short", ErrorKind::kInput);
+      uint32_t index = code >> 1;
+      if (index < ring.size()) {
+        w = ring[index];
+      } else if (index == ring.size()) {
+        if (!E.varint(w))
+          return Status::error(where(i) + "escaped vertices cut short", ErrorKind::kInput);
+        if (w >= v || w == p)
+          return Status::error(where(i) + "face names vertex " + std::to_string(w),
+                               ErrorKind::kInput);
+      } else {
+        return Status::error(where(i) + "ring position " + std::to_string(index) + " of " +
+                                 std::to_string(ring.size()),
+                             ErrorKind::kInput);
+      }
+      if (code & 1)
+        mesh.add_face(v, w, p);
+      else
+        mesh.add_face(v, p, w);
+    }
+    QuantizedVertex q = mesh.predict(v, p);
+    uint32_t r[8];
+    for (int c = 0; c < 3; ++c)
+      if (!P.varint(r[c]))
+        return Status::error(where(i) + "positions cut short", ErrorKind::kInput);
+    for (int c = 0; c < 3; ++c)
+      if (!N.varint(r[3 + c]))
+        return Status::error(where(i) + "normals cut short", ErrorKind::kInput);
+    for (int c = 0; c < 2; ++c)
+      if (!T.varint(r[6 + c]))
+        return Status::error(where(i) + "texture coordinates cut short", ErrorKind::kInput);
+    for (int c = 0; c < 3; ++c) {
+      int64_t x = int64_t(q.p[c]) + unzigzag(r[c]), y = int64_t(q.n[c]) + unzigzag(r[3 + c]);
+      if (x < 0 || x > 65535 || y < -128 || y > 127)
+        return Status::error(where(i) + "attribute out of range", ErrorKind::kInput);
+      q.p[c] = uint16_t(x), q.n[c] = int8_t(y);
+    }
+    for (int c = 0; c < 2; ++c) {
+      int64_t x = int64_t(q.t[c]) + unzigzag(r[6 + c]);
+      if (x < 0 || x > 65535)
+        return Status::error(where(i) + "attribute out of range", ErrorKind::kInput);
+      q.t[c] = uint16_t(x);
+    }
+    mesh.vertices[v] = q;
+  }
+  uint32_t extra;
+  if (!C.varint(extra)) return Status::error("extra face count missing", ErrorKind::kInput);
+  if (uint64_t(mesh.face_count()) + extra != face_goal)
+    return Status::error(std::to_string(face_goal - mesh.face_count()) + " faces expected, " +
+                             std::to_string(extra) + " extra faces follow the splits",
+                         ErrorKind::kInput);
+  for (uint32_t f = 0; f < extra; ++f) {
+    uint32_t a, b, c;
+    if (!E.varint(a) || !E.varint(b) || !E.varint(c))
+      return Status::error("extra faces cut short", ErrorKind::kInput);
+    if (a >= mesh.vertex_count() || b >= mesh.vertex_count() || c >= mesh.vertex_count())
+      return Status::error("extra face " + std::to_string(f) + " names a vertex not received",
+                           ErrorKind::kInput);
+    mesh.add_face(a, b, c);
+  }
+  for (int i = 0; i < 6; ++i)
+    if (i != 1 && s[i].p != s[i].end)
+      return Status::error("stream " + std::to_string(i) + " has bytes left over",
+                           ErrorKind::kInput);
+  if ((M.bits - M.at) >= 8)
+    return Status::error("corner mask has bytes left over", ErrorKind::kInput);
+  return Status::ok();
+}
+
+}  // namespace meshmux

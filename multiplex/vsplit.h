@@ -1,0 +1,116 @@
+// Compact vertex splits: the stream package's mesh refinement coding (DESIGN.md "Package",
+// "Encoding"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
+// web client (viewers/web/meshmux.js, VsplitMesh) mirrors this file operation for operation.
+//
+// Ideas taken from the literature on progressive mesh compression:
+// - Hoppe's progressive meshes / paper 002: a refinement is a vertex split; the new vertex's
+//   parent is the vertex it split from, and the faces it brings are (new, parent, w).
+// - Compressed progressive meshes (Pajarola & Rossignac) and valence-driven progressive coding
+//   (Alliez & Desbrun): splits are sent in batches in an order both ends can derive, so a parent
+//   costs a small delta instead of an absolute index; the connectivity of a split is coded
+//   relative to the parent's neighbourhood (a bit per corner of the parent: which corners the new
+//   vertex takes; the third vertex of each new face as a position in the parent's ring); the new
+//   vertex's attributes are predicted from its ring after the split (the barycentric predictor
+//   of valence-driven coding) and only the residual is sent.
+// Unlike Hoppe's (vl, vr) pair, the per-corner mask needs no manifold ordering: seams, boundaries
+// and non-manifold fans code the same way, and the client's adjacency is a list of corners per
+// vertex, not a half-edge structure.
+//
+// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is a zlib
+// stream (browsers inflate it with DecompressionStream("deflate")) of six varint-counted byte
+// streams:
+//   varint |C| |M| |E| |P| |N| |T|, then C M E P N T
+//   C  per split: zigzag(parent - previous parent) (previous starts at 0 per part), the number k
+//      of new faces, then per new face (i << 1 | flip): the third vertex w is entry i of the ring
+//      (see ring(): v's neighbours, then p's), or i == ring size and w is the next varint of E;
+//      flip 0 makes the face (v, p, w), flip 1 (v, w, p). After the last split: the count x of
+//      extra faces.
+//   M  per split, one bit per corner in the parent's corner list (in list order, before the
+//      split): 1 = the corner moves to the new vertex. Bits LSB first, no padding between splits.
+//   E  escaped third vertices (varint vertex indices), then the x extra faces (3 varints each).
+//   P  per split, 3 × zigzag(position - prediction); N: 3 × zigzag(normal - prediction);
+//   T  2 × zigzag(uv - prediction). Predictions: the rounded mean of the new vertex's ring (every
+//      other vertex of its faces after the split), or the parent's values when it has none.
+// A split on the state: append vertex v (the next index); move the masked corners of p to v
+// (each pushed to the head of v's list in the order met); append the new faces (corners pushed
+// to their vertices' lists, slot 0 first); set v's attributes. Extra faces are appended last.
+// Attributes are integers (scene/quantize.h): positions kPositionBits, normals int8, uv kUvBits.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "scene/status.h"
+
+namespace meshmux {
+
+// A vertex's quantized attributes (scene/quantize.h).
+struct QuantizedVertex {
+  uint16_t p[3] = {0, 0, 0};  // position on the mesh's grid
+  int8_t n[3] = {0, 0, 127};  // normal ·127
+  uint16_t t[2] = {0, 0};     // uv ·kUvMax
+};
+inline bool operator==(const QuantizedVertex& a, const QuantizedVertex& b) {
+  for (int i = 0; i < 3; ++i)
+    if (a.p[i] != b.p[i] || a.n[i] != b.n[i]) return false;
+  return a.t[0] == b.t[0] && a.t[1] == b.t[1];
+}
+
+constexpr uint32_t kRingLimit = 64;  // ring entries a new face's third vertex is coded against
+// Inflated bytes a part may hold: per split and face, and a constant (zlib bombs are refused).
+constexpr uint64_t kPartBytesPerElement = 256;
+constexpr uint64_t kPartBytesConstant = 1 << 16;
+
+// What one end of the stream holds of one mesh: vertices with quantized attributes, faces in
+// the order received (3 corners each; corner c is slot c % 3 of face c / 3) and, per vertex,
+// the list of corners naming it (head, then next per corner; -1 ends).
+class VsplitMesh {
+ public:
+  // Capacities bound what decoding may add (the package table's full counts); memory grows
+  // with what is held, not with the capacities.
+  void reset(uint32_t capacity_vertices, uint32_t capacity_faces);
+  uint32_t vertex_count() const { return uint32_t(vertices.size()); }
+  uint32_t face_count() const { return uint32_t(indices.size() / 3); }
+
+  uint32_t add_vertex(const QuantizedVertex& q);  // returns its index
+  void add_face(uint32_t a, uint32_t b, uint32_t c);
+  // Moves corner `corner` (in p's list, after `previous`, or at its head when previous < 0) to
+  // the head of v's list.
+  void move_corner(uint32_t p, int32_t previous, int32_t corner, uint32_t v);
+  // The vertices of the faces around v then p (the other two corners of each face in list
+  // order), without p, v or repeats, at most `limit`: after the corner moves, a new face's
+  // third vertex bounds v's fan, so it comes early. O(corners of p and v).
+  void ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out);
+  // v's predicted attributes: the rounded mean over its ring (all of it), or p's values.
+  QuantizedVertex predict(uint32_t v, uint32_t p);
+
+  std::vector<QuantizedVertex> vertices;
+  std::vector<uint32_t> indices;
+  std::vector<int32_t> head, next;
+  uint64_t solid = 0;  // faces whose three corners differ
+
+ private:
+  std::vector<uint32_t> stamp_;
+  uint32_t stamp_value_ = 0;
+  uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
+  friend Status decode_vsplit_part(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t);
+  uint32_t new_stamp();
+};
+
+// Appends one part to `mesh`: inflates `data`, applies `splits` splits and checks that exactly
+// `faces` faces were appended. Every count, index and length is checked before use; errors name
+// the problem ("split 12: parent 4001 of 4000 vertices"). Work is bounded by the inflated size,
+// itself bounded by kPartBytesPerElement·(splits + faces) + kPartBytesConstant. On error the
+// mesh is left in an unspecified but valid state.
+Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
+                          uint32_t faces);
+
+// Byte-stream helpers shared with the encoder.
+void put_varint(std::vector<uint8_t>& out, uint32_t v);
+inline uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
+inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
+// zlib-compresses (level 9) / inflates at most `limit` bytes (an error past it).
+std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in);
+Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit);
+
+}  // namespace meshmux
