@@ -3,6 +3,8 @@
 // tinygltf's symbols, and a writer that resolves into the wrong copy is a hazard we need not take.
 #include "exporters/gltf.h"
 
+#include "scene/quantize.h"
+
 // GCC 12 reports a false -Wmaybe-uninitialized inside Eigen's 3x3 JacobiSVD.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
@@ -332,13 +334,10 @@ class Exporter {
     const std::vector<Vec3>& normals = p.flat ? none : p.normals;
     c.normals.reserve(normals.size());
     for (Vec3 v : normals) {
+      // unit_normal is what the stream's vertex splits quantize too (scene/quantize.h).
       double l = std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
-      if (!(l > 1e-20) || !std::isfinite(l)) {
-        c.normals.push_back({0, 0, 1});
-        ++fixed;
-      } else {
-        c.normals.push_back({float(v.x / l), float(v.y / l), float(v.z / l)});
-      }
+      if (!(l > 1e-20) || !std::isfinite(l)) ++fixed;
+      c.normals.push_back(unit_normal(v));
     }
     if (fixed)
       note(where + ": " + std::to_string(fixed) + " zero or non-finite normals written as +Z");

@@ -212,6 +212,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   std::vector<uint8_t> C, E, P, N, T;
   BitWriter M;
   std::vector<uint32_t> ring;
+  struct NewFace {
+    uint32_t w, flip, orig[3];
+  };
+  std::vector<NewFace> made;  // one split's new faces (reused)
   uint32_t previous = 0;
   for (uint32_t v = va; v < vb; ++v) {
     uint32_t x = order_[v], p = rank_[pm_.parent[x]];
@@ -229,10 +233,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       c = after;
     }
     // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
-    struct NewFace {
-      uint32_t w, flip, orig[3];
-    };
-    std::vector<NewFace> made;
+    made.clear();
     for (uint32_t f : faces_of[v - va]) {
       const uint32_t* o = &pm_.indices[size_t(f) * 3];
       uint32_t s[3];

@@ -4,12 +4,41 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <string>
 #include <vector>
 
 #include "scene/scene.h"
 
 namespace meshmux::testing {
+
+// A face rotated to start at its smallest corner, winding kept: faces compare up to rotation
+// (meshopt's index codec may rotate corners).
+template <class T>
+std::array<T, 3> canonical_face(const T& a, const T& b, const T& c) {
+  if (b < a && b < c) return {b, c, a};
+  if (c < a && c < b) return {c, a, b};
+  return {a, b, c};
+}
+// The faces of `indices` (3 per face) with each corner mapped through `corner`, canonical,
+// degenerate ones (repeated corner indices) dropped, sorted: comparable across face orders
+// and vertex numberings.
+template <class F>
+auto sorted_faces(const std::vector<uint32_t>& indices, F corner) {
+  using T = decltype(corner(uint32_t(0)));
+  std::vector<std::array<T, 3>> out;
+  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
+    uint32_t a = indices[i], b = indices[i + 1], c = indices[i + 2];
+    if (a == b || b == c || a == c) continue;
+    out.push_back(canonical_face(corner(a), corner(b), corner(c)));
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+inline std::vector<std::array<uint32_t, 3>> sorted_faces(const std::vector<uint32_t>& indices) {
+  return sorted_faces(indices, [](uint32_t v) { return v; });
+}
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
 class TempDir {

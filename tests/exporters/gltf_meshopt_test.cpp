@@ -137,23 +137,6 @@ double max_world_error(const Primitive& want, const Mat4& want_world, const Prim
   return worst;
 }
 
-// The faces as a sorted list, each rotated to start at its smallest corner (winding kept): the
-// writer puts faces in vertex-cache order and the codec may rotate a face's corners.
-std::vector<std::array<uint32_t, 3>> face_set(const std::vector<uint32_t>& indices) {
-  std::vector<std::array<uint32_t, 3>> out;
-  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
-    uint32_t a = indices[i], b = indices[i + 1], c = indices[i + 2];
-    if (b < a && b < c)
-      out.push_back({b, c, a});
-    else if (c < a && c < b)
-      out.push_back({c, a, b});
-    else
-      out.push_back({a, b, c});
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 // ---- tests ----
 
 TEST(GltfMeshopt, RoundTripKeepsVertexOrderAndFaces) {
@@ -177,7 +160,7 @@ TEST(GltfMeshopt, RoundTripKeepsVertexOrderAndFaces) {
     EXPECT_LE(std::abs(got.uvs[0][i].y - src.uvs[0][i].y), 1.0f / 4095) << i;
   }
   ASSERT_EQ(got.indices.size(), src.indices.size());
-  EXPECT_EQ(face_set(got.indices), face_set(src.indices));
+  EXPECT_EQ(testing::sorted_faces(got.indices), testing::sorted_faces(src.indices));
 }
 
 // The values are scene/quantize.h's, bit for bit (the stream encoder codes the same integers):
@@ -501,7 +484,7 @@ TEST(GltfMeshopt, LargeMeshUsesUnsignedIntIndices) {
   ASSERT_EQ(back.meshes.size(), 1u);
   const Primitive& got = back.meshes[0].primitives[0];
   ASSERT_EQ(got.indices.size(), p.indices.size());
-  EXPECT_EQ(face_set(got.indices), face_set(p.indices));
+  EXPECT_EQ(testing::sorted_faces(got.indices), testing::sorted_faces(p.indices));
   EXPECT_LE(max_world_error(p, Mat4{}, got, back.instances[0].world), grid_of(p).step / 2 + 1e-3);
 }
 

@@ -143,21 +143,12 @@ Bounds bounds_of(const PackageMesh& m) {
 }
 
 using PositionFace = std::array<std::array<uint16_t, 3>, 3>;
-// Faces as their corners' quantized positions (the smallest corner first, winding kept),
-// sorted, degenerate faces dropped: comparable across vertex numberings.
+// Faces as their corners' quantized positions (testing::sorted_faces): comparable across
+// vertex numberings.
 std::vector<PositionFace> position_faces(
     const std::vector<uint32_t>& indices,
     const std::function<std::array<uint16_t, 3>(uint32_t)>& at) {
-  std::vector<PositionFace> out;
-  for (size_t i = 0; i + 2 < indices.size(); i += 3) {
-    uint32_t a = indices[i], b = indices[i + 1], c = indices[i + 2];
-    if (a == b || b == c || a == c) continue;
-    PositionFace f{at(a), at(b), at(c)};
-    int r = f[1] < f[0] && f[1] < f[2] ? 1 : f[2] < f[0] && f[2] < f[1] ? 2 : 0;
-    out.push_back({f[size_t(r)], f[size_t((r + 1) % 3)], f[size_t((r + 2) % 3)]});
-  }
-  std::sort(out.begin(), out.end());
-  return out;
+  return testing::sorted_faces(indices, at);
 }
 // A client state's faces / a progressive mesh level's faces, by quantized position.
 std::vector<PositionFace> client_faces(const VsplitMesh& m) {

@@ -35,22 +35,8 @@ ProgressiveMesh sphere_record() {
 }
 
 using Triangle = std::array<uint32_t, 3>;
-// A face with its smallest corner first, winding kept.
-Triangle canonical(uint32_t a, uint32_t b, uint32_t c) {
-  if (b < a && b < c) return {b, c, a};
-  if (c < a && c < b) return {c, a, b};
-  return {a, b, c};
-}
 // The non-degenerate faces of a client state, sorted.
-std::vector<Triangle> drawn(const VsplitMesh& m) {
-  std::vector<Triangle> out;
-  for (size_t i = 0; i + 2 < m.indices.size(); i += 3) {
-    uint32_t a = m.indices[i], b = m.indices[i + 1], c = m.indices[i + 2];
-    if (a != b && b != c && a != c) out.push_back(canonical(a, b, c));
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
+std::vector<Triangle> drawn(const VsplitMesh& m) { return testing::sorted_faces(m.indices); }
 // The progressive mesh's level `level` in stream numbering (`rank`: pm vertex → stream vertex).
 std::vector<Triangle> level_faces(const ProgressiveMesh& pm, size_t level,
                                   const std::vector<uint32_t>& order) {
@@ -65,7 +51,8 @@ std::vector<Triangle> level_faces(const ProgressiveMesh& pm, size_t level,
       while (v >= l.vertex_end) v = pm.parent[v];
       r[k] = rank[v];
     }
-    if (r[0] != r[1] && r[1] != r[2] && r[0] != r[2]) out.push_back(canonical(r[0], r[1], r[2]));
+    if (r[0] != r[1] && r[1] != r[2] && r[0] != r[2])
+      out.push_back(testing::canonical_face(r[0], r[1], r[2]));
   }
   std::sort(out.begin(), out.end());
   return out;
@@ -128,7 +115,6 @@ TEST(Vsplit, OneLevelPerPartDecodes) {
   ProgressiveMesh pm = sphere_record();
   size_t n = std::min<size_t>(40, pm.levels.size() - 1 - pm.base_level);
   pm.levels.resize(pm.base_level + n + 1);
-  pm.vertex_count();
   round_trip(pm, int(n));
 }
 

@@ -24,9 +24,9 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
-import { PACKAGE_VERSION, VERTEX_BYTES, PART_BYTES_PER_ELEMENT, PART_BYTES_CONSTANT, RangeReader, validateTable } from './package_reader.js';
+import { PACKAGE_VERSION, PART_BYTES_PER_ELEMENT, PART_BYTES_CONSTANT, RangeReader, validateTable } from './package_reader.js';
 
-export { PACKAGE_VERSION, VERTEX_BYTES, validateTable };
+export { PACKAGE_VERSION, validateTable };
 const HEADER_BYTES = 12;
 const PROBE_BYTES = 65536;       // the first request: header, table and often the base too
 

@@ -4,7 +4,7 @@
 
 export const PACKAGE_VERSION = 4;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
-export const VERTEX_BYTES = 48;
+const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
 // enforces the same number); this only bounds what a hostile table may claim, at what typed
 // arrays of a client's vertices can hold.
