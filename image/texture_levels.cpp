@@ -2,8 +2,10 @@
 // clean when no chart crosses a power-of-two boundary).
 #include "image/texture_levels.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 
 #include "image/color.h"
 #include "image/encode.h"
@@ -57,20 +59,50 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
         ErrorKind::kInternal);
   bool alpha = false;
   for (size_t i = 3; i < texture.rgba.size() && !alpha; i += 4) alpha = texture.rgba[i] != 255;
-  // The chain, full size first, down to the base.
+  if (o.level_halvings < 1 || o.level_halvings > 4)
+    return Status::error(
+        who + ": level_halvings " + std::to_string(o.level_halvings) + " is not in 1..4",
+        ErrorKind::kInternal);
+  // The mip chain, full size first (each step a 2×2 box filter), down to the base; every
+  // level_halvings-th is a level.
+  const size_t step = size_t(o.level_halvings);
   std::vector<Image> chain{texture};
-  while (std::max(chain.back().width, chain.back().height) > o.base_size)
+  while (std::max(chain.back().width, chain.back().height) > 1 &&
+         (std::max(chain.back().width, chain.back().height) > o.base_size ||
+          (chain.size() - 1) % step != 0))
     chain.push_back(downsample_half(chain.back()));
   TextureLevels levels;
   for (size_t i = chain.size(); i-- > 0;) {
+    if (i % step != 0 && i + 1 != chain.size()) continue;
     TextureLevel level;
     level.width = chain[i].width;
     level.height = chain[i].height;
-    auto bytes = alpha ? encode_png(chain[i]) : encode_jpeg(chain[i], o.jpeg_quality);
+    auto bytes = alpha ? encode_png(chain[i])
+                       : encode_jpeg(chain[i], i == 0 ? o.jpeg_quality : o.preview_quality);
     if (!bytes.ok()) return bytes.status().with_prefix(who);
     level.mime_type = alpha ? "image/png" : "image/jpeg";
     level.encoded = bytes.take();
     levels.levels.push_back(std::move(level));
+  }
+  auto total = [&] {
+    uint64_t n = 0;
+    for (const TextureLevel& l : levels.levels) n += l.encoded.size();
+    return n;
+  };
+  const double top = double(levels.levels.back().encoded.size());
+  while (levels.levels.size() > 2 && double(total()) > o.max_pyramid_ratio * top) {
+    auto largest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
+                                    [](const TextureLevel& a, const TextureLevel& b) {
+                                      return a.encoded.size() < b.encoded.size();
+                                    });
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  "with it the levels cost %.3f× the top level (limit %.2f); the largest level "
+                  "between the smallest and the top goes first",
+                  double(total()) / top, o.max_pyramid_ratio);
+    levels.dropped.push_back(
+        {largest->width, largest->height, uint64_t(largest->encoded.size()), why});
+    levels.levels.erase(largest);
   }
   return levels;
 }

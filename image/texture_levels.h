@@ -13,8 +13,18 @@
 namespace meshmux {
 
 struct TextureLevelOptions {
-  int base_size = 128;    // the smallest level's larger side, in pixels (a power of two)
-  int jpeg_quality = 85;  // 1..100, for opaque textures
+  int base_size = 128;       // the smallest level's larger side is at most this (a power of two)
+  int jpeg_quality = 85;     // 1..100, for opaque textures: the top level (model.glb's)
+  int preview_quality = 75;  // 1..100, the levels below the top (shown while it is on its way)
+  // Halvings of each side between consecutive levels (1..4): 1 ships every mip level (the
+  // pyramid's pixels 4/3 of the top's), 2 every other one (each level 1/16 of the pixels of the
+  // next: 1.07× the top's pixels), so the stream's textures cost little more than the top
+  // level alone (issue 4/8: ≤ 1.15×). The smallest level lands on a multiple of this below the
+  // top, at or under base_size.
+  int level_halvings = 2;
+  // Levels between the smallest and the top are dropped, most bytes first, while all levels
+  // together cost more than this times the top level (issue 4/8: pay only for levels that pay).
+  double max_pyramid_ratio = 1.15;
 };
 
 // Requires a decoded image whose width and height are powers of two. Errors name the image.

@@ -127,8 +127,11 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       Status s = decode_image(img);  // render what the client decodes, JPEG losses included
       if (!s) return s.with_prefix("multiplex");
       r.texture_bytes.push_back(l.encoded.size());
+      r.texture_levels_shipped.push_back(
+          {uint64_t(l.width), uint64_t(l.height), uint64_t(l.encoded.size())});
       textures.push_back(std::move(img));
     }
+    r.texture_levels_dropped = levels.dropped;
   } else {
     r.texture_bytes.push_back(0);
   }
@@ -290,7 +293,19 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
     out << (k ? ", " : "") << r.layer_triangles[k];
   out << "],\n  \"texture_level_bytes\": [";
   for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
-  out << "],\n  \"order\": [";
+  out << "],\n  \"texture_levels\": {\"shipped\": [";
+  for (size_t k = 0; k < r.texture_levels_shipped.size(); ++k) {
+    const auto& l = r.texture_levels_shipped[k];
+    out << (k ? ", " : "") << "{\"width\": " << l[0] << ", \"height\": " << l[1]
+        << ", \"bytes\": " << l[2] << "}";
+  }
+  out << "], \"dropped\": [";
+  for (size_t k = 0; k < r.texture_levels_dropped.size(); ++k) {
+    const DroppedTextureLevel& l = r.texture_levels_dropped[k];
+    out << (k ? ", " : "") << "{\"width\": " << l.width << ", \"height\": " << l.height
+        << ", \"bytes\": " << l.bytes << ", \"why\": \"" << l.why << "\"}";
+  }
+  out << "]},\n  \"order\": [";
   for (size_t k = 0; k < r.rd.cells.size(); ++k)
     out << (k ? ", " : "") << "[" << r.rd.cells[k].first << ", " << r.rd.cells[k].second << "]";
   std::snprintf(buf, sizeof buf,

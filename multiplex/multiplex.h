@@ -6,6 +6,7 @@
 // from the same cached renders.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,10 @@ struct MultiplexResult {
   double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
   double empty_distortion = 0;  // the metric for showing nothing yet (blank frames against the
                                 // references): where every download starts
+  // The texture levels shipped (width, height, bytes; smallest first) and those dropped, with
+  // why: copied from the TextureLevels the stream was made of, for report.json.
+  std::vector<std::array<uint64_t, 3>> texture_levels_shipped;
+  std::vector<DroppedTextureLevel> texture_levels_dropped;
 };
 
 // The stream as a viewer receives it, beside the plain download of model.glb (issue 4/8). Both

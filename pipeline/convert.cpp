@@ -114,9 +114,13 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
   if (!levels.ok()) return levels.status();
   texture->encoded = levels->levels.back().encoded;
   texture->mime_type = levels->levels.back().mime_type;
-  report_step(progress, format("texture levels: %zu, %dx%d down to %dx%d", levels->levels.size(),
-                               levels->levels.back().width, levels->levels.back().height,
-                               levels->levels.front().width, levels->levels.front().height));
+  std::string dropped;
+  for (const DroppedTextureLevel& d : levels->dropped)
+    dropped += format(", %dx%d dropped (%s)", d.width, d.height, d.why.c_str());
+  report_step(progress,
+              format("texture levels: %zu, %dx%d down to %dx%d%s", levels->levels.size(),
+                     levels->levels.back().width, levels->levels.back().height,
+                     levels->levels.front().width, levels->levels.front().height, dropped.c_str()));
   return levels;
 }
 

@@ -14,8 +14,16 @@ struct TextureLevel {
   std::vector<uint8_t> encoded;  // the level's file bytes, independently decodable
 };
 
+// A level that was built and not shipped, and why (for report.json).
+struct DroppedTextureLevel {
+  int width = 0, height = 0;
+  uint64_t bytes = 0;
+  std::string why;
+};
+
 struct TextureLevels {
   std::vector<TextureLevel> levels;  // smallest first; levels.back() is the full size
+  std::vector<DroppedTextureLevel> dropped;
 };
 
 }  // namespace meshmux

@@ -70,6 +70,8 @@ const Fixture& fixture() {
     f->ps = build_progressive(cleaned, so);
     TextureLevelOptions to;
     to.base_size = 64;
+    to.level_halvings = 1;  // three levels: the steps below use 1 and 2
+    to.max_pyramid_ratio = INFINITY;
     auto levels = make_texture_levels(s.images[0], to);
     if (levels.ok()) f->textures = levels.take();
     LodSelection base = select_base(f->ps);

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "image/decode.h"
 
@@ -27,10 +29,13 @@ Image ramp(int w, int h, bool alpha = false) {
   return img;
 }
 
-// 512² gives 128², 256² and 512², smallest first, each a JPEG that decodes on its own to its
-// size and roughly its content.
+// 512² gives 128², 256² and 512² with every mip level shipped, smallest first, each a JPEG
+// that decodes on its own to its size and roughly its content.
 TEST(TextureLevels, PyramidFromBaseToFullAsIndependentJpegs) {
-  auto levels = make_texture_levels(ramp(512, 512), {});
+  TextureLevelOptions every;
+  every.level_halvings = 1;
+  every.max_pyramid_ratio = INFINITY;
+  auto levels = make_texture_levels(ramp(512, 512), every);
   ASSERT_TRUE(levels.ok()) << levels.status().message();
   ASSERT_EQ(levels->levels.size(), 3u);
   int expected = 128;
@@ -73,9 +78,78 @@ TEST(TextureLevels, SmallAndNonSquareTextures) {
   EXPECT_EQ(small->levels[0].width, 64);
   auto wide = make_texture_levels(ramp(512, 128), {});
   ASSERT_TRUE(wide.ok());
-  ASSERT_EQ(wide->levels.size(), 3u);
+  ASSERT_EQ(wide->levels.size(), 2u);  // every other mip level: 128×32 and 512×128
   EXPECT_EQ(wide->levels[0].width, 128);
   EXPECT_EQ(wide->levels[0].height, 32);
+  EXPECT_EQ(wide->levels[1].width, 512);
+}
+
+// A detailed texture (as atlases are): grain on top of smooth structure.
+Image detailed(int size) {
+  Image img;
+  img.name = "detail";
+  img.width = img.height = size;
+  img.rgba.resize(size_t(size) * size_t(size) * 4);
+  uint32_t seed = 12345;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      seed = seed * 1664525u + 1013904223u;
+      uint8_t* p = &img.rgba[(size_t(y) * size_t(size) + size_t(x)) * 4];
+      double v = 128 + 60 * std::sin(x * 0.05) * std::cos(y * 0.031) + int(seed >> 28) - 8;
+      p[0] = uint8_t(std::clamp(v, 0.0, 255.0));
+      p[1] = uint8_t(std::clamp(255 - v + 20 * std::sin(x * y * 1e-4), 0.0, 255.0));
+      p[2] = uint8_t((x ^ y) & 0xff);
+      p[3] = 255;
+    }
+  return img;
+}
+double pyramid_ratio(const TextureLevels& l) {
+  size_t n = 0;
+  for (const TextureLevel& t : l.levels) n += t.encoded.size();
+  return double(n) / double(l.levels.back().encoded.size());
+}
+
+// By default every other mip level ships (1024² → 1024², 256², 64², previews at a lower
+// quality) and the whole pyramid costs at most 1.15× the top level (issue 4/8); every mip level
+// at one quality costs more.
+TEST(TextureLevels, DefaultPyramidCostsLittleMoreThanItsTop) {
+  Image img = detailed(1024);
+  auto def = make_texture_levels(img, {});
+  ASSERT_TRUE(def.ok());
+  ASSERT_EQ(def->levels.size(), 3u);
+  EXPECT_EQ(def->levels[0].width, 64);
+  EXPECT_EQ(def->levels[1].width, 256);
+  EXPECT_TRUE(def->dropped.empty());
+  TextureLevelOptions every;
+  every.level_halvings = 1;
+  every.preview_quality = every.jpeg_quality;
+  every.max_pyramid_ratio = INFINITY;
+  auto all = make_texture_levels(img, every);
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->levels.size(), 4u);
+  std::printf("[ levels ] pyramid / top: default %.3f, every level at one quality %.3f\n",
+              pyramid_ratio(*def), pyramid_ratio(*all));
+  EXPECT_LE(pyramid_ratio(*def), 1.15);
+  EXPECT_GT(pyramid_ratio(*all), pyramid_ratio(*def));
+  EXPECT_EQ(def->levels.back().encoded, all->levels.back().encoded);  // the same top level
+}
+
+// Levels that would take the pyramid past the limit are dropped, most bytes first, the
+// smallest and the top kept, and each drop says why.
+TEST(TextureLevels, LevelsPastTheByteLimitAreDroppedWithAReason) {
+  TextureLevelOptions o;
+  o.level_halvings = 1;
+  o.preview_quality = o.jpeg_quality;
+  o.max_pyramid_ratio = 1.1;
+  auto l = make_texture_levels(detailed(1024), o);
+  ASSERT_TRUE(l.ok());
+  ASSERT_FALSE(l->dropped.empty());
+  EXPECT_LE(pyramid_ratio(*l), 1.1);
+  EXPECT_EQ(l->levels.front().width, 128);
+  EXPECT_EQ(l->levels.back().width, 1024);
+  EXPECT_EQ(l->levels.size() + l->dropped.size(), 4u);
+  EXPECT_EQ(l->dropped[0].width, 512);  // the largest between the smallest and the top
+  EXPECT_NE(l->dropped[0].why.find("limit 1.10"), std::string::npos) << l->dropped[0].why;
 }
 
 TEST(TextureLevels, RejectsNonPowerOfTwo) {
