@@ -5,8 +5,9 @@
 // parents-first then by parent (the batch ordering of compressed progressive meshes), the corners
 // the new vertex takes as a mask over the parent's corners, each new face's third vertex as a
 // ring position, and the new vertex's quantized attributes as residuals from its ring's mean
-// (the barycentric predictor of valence-driven coding). The six byte streams of a part go
-// through zlib so the browser inflates them natively.
+// (the barycentric predictor of valence-driven coding), or, for a seam or hard-edge copy,
+// the twin it coincides with. The nine byte streams of a part go through zlib so the browser
+// inflates them natively.
 #include "multiplex/mesh_stream.h"
 
 #include <meshoptimizer.h>
@@ -209,7 +210,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     }
     faces_of[hi - 1 - va].push_back(f);
   }
-  std::vector<uint8_t> C, E, P, N, T;
+  std::vector<uint8_t> Z, K, F, E, W, P, N, T;
   BitWriter M;
   std::vector<uint32_t> ring;
   struct NewFace {
@@ -219,7 +220,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   uint32_t previous = 0;
   for (uint32_t v = va; v < vb; ++v) {
     uint32_t x = order_[v], p = rank_[pm_.parent[x]];
-    put_varint(C, zigzag(int32_t(p) - int32_t(previous)));
+    put_varint(Z, zigzag(int32_t(p) - int32_t(previous)));
     previous = p;
     sim_.add_vertex(QuantizedVertex{});
     for (int32_t c = sim_.head[p], prev = -1; c >= 0;) {
@@ -249,11 +250,11 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       nf.w = s1 == p ? s2 : s1;
       made.push_back(nf);
     }
-    put_varint(C, uint32_t(made.size()));
+    put_varint(K, uint32_t(made.size()));
     if (!made.empty()) sim_.ring(p, v, kRingLimit, ring);
     for (const NewFace& nf : made) {
       uint32_t i = uint32_t(std::find(ring.begin(), ring.end(), nf.w) - ring.begin());
-      put_varint(C, (i << 1) | nf.flip);
+      put_varint(F, (i << 1) | nf.flip);
       if (i == ring.size()) put_varint(E, nf.w);
       if (nf.flip)
         sim_.add_face(v, nf.w, p);
@@ -262,12 +263,23 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       orig_.insert(orig_.end(), nf.orig, nf.orig + 3);
     }
     QuantizedVertex pred = sim_.predict(v, p), q = quantize_vertex(pm_, quantization_, x);
-    for (int k = 0; k < 3; ++k) put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
+    // A twin where the new vertex sits (a seam or hard-edge copy split with another) spares
+    // its position.
+    uint32_t twin[kTwinLimit], twins = sim_.twins(p, twin), pick = 0;
+    for (uint32_t t = 0; t < twins && pick == 0; ++t) {
+      const QuantizedVertex& u = sim_.vertices[twin[t]];
+      if (u.p[0] == q.p[0] && u.p[1] == q.p[1] && u.p[2] == q.p[2]) pick = t + 1;
+    }
+    if (twins > 0) put_varint(W, pick);
+    e.twins += pick > 0;
+    for (int k = 0; k < 3 && pick == 0; ++k)
+      put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
     for (int k = 0; k < 3; ++k) put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
     for (int k = 0; k < 2; ++k) put_varint(T, zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])));
     sim_.vertices[v] = q;
+    sim_.add_twin(p, v);
   }
-  put_varint(C, uint32_t(extras.size()));
+  put_varint(K, uint32_t(extras.size()));
   for (uint32_t f : extras) {
     uint32_t s[3];
     for (int k = 0; k < 3; ++k) {
@@ -279,10 +291,9 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     for (int k = 0; k < 3; ++k) orig_.push_back(pm_.indices[size_t(f) * 3 + size_t(k)]);
   }
   std::vector<uint8_t> plain;
-  for (const auto* stream : {&C, &M.bytes, &E, &P, &N, &T})
-    put_varint(plain, uint32_t(stream->size()));
-  for (const auto* stream : {&C, &M.bytes, &E, &P, &N, &T})
-    plain.insert(plain.end(), stream->begin(), stream->end());
+  const std::vector<uint8_t>* streams[kVsplitStreams] = {&Z, &K, &F, &M.bytes, &E, &W, &P, &N, &T};
+  for (const auto* stream : streams) put_varint(plain, uint32_t(stream->size()));
+  for (const auto* stream : streams) plain.insert(plain.end(), stream->begin(), stream->end());
   if (plain.size() > kPartBytesPerElement * (uint64_t(vb - va) + (fb - fa)) + kPartBytesConstant)
     return internal(mesh_, "a part's splits exceed the format's size limit");
   e.data = deflate_bytes(plain);

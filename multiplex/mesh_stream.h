@@ -29,6 +29,7 @@ struct PackagePart {
 struct EncodedMeshPart {
   PackagePart part;
   std::vector<uint8_t> data;
+  uint32_t twins = 0;  // splits whose position came from a twin (multiplex/vsplit.h), for tests
   uint64_t bytes() const { return data.size(); }
 };
 

@@ -13,6 +13,7 @@ namespace meshmux {
 
 void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
+  twin_latest_.clear(), twin_previous_.clear();
   solid = 0, stamp_value_ = 0;
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
@@ -21,6 +22,7 @@ uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
   vertices.push_back(q);
   head.push_back(-1);
   stamp_.push_back(0);
+  twin_previous_.push_back(-1);
   return uint32_t(vertices.size() - 1);
 }
 
@@ -110,6 +112,29 @@ QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p) {
   return out;
 }
 
+namespace {
+uint64_t position_key(const QuantizedVertex& q) {
+  return uint64_t(q.p[0]) << 32 | uint64_t(q.p[1]) << 16 | uint64_t(q.p[2]);
+}
+}  // namespace
+
+uint32_t VsplitMesh::twins(uint32_t p, uint32_t* out) const {
+  auto it = twin_latest_.find(position_key(vertices[p]));
+  uint32_t n = 0;
+  for (int32_t u = it == twin_latest_.end() ? -1 : int32_t(it->second); u >= 0 && n < kTwinLimit;
+       u = twin_previous_[size_t(u)])
+    out[n++] = uint32_t(u);
+  return n;
+}
+
+void VsplitMesh::add_twin(uint32_t p, uint32_t v) {
+  auto [it, fresh] = twin_latest_.try_emplace(position_key(vertices[p]), v);
+  if (!fresh) {
+    twin_previous_[v] = int32_t(it->second);
+    it->second = v;
+  }
+}
+
 void put_varint(std::vector<uint8_t>& out, uint32_t v) {
   while (v >= 0x80) {
     out.push_back(uint8_t(v | 0x80));
@@ -157,7 +182,7 @@ Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uin
 
 namespace {
 
-// A bounded reader over one of the six streams.
+// A bounded reader over one of a part's byte streams.
 struct Reader {
   const uint8_t* p = nullptr;
   const uint8_t* end = nullptr;
@@ -193,7 +218,7 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
   if (!inflated.ok()) return inflated.status();
   const std::vector<uint8_t>& bytes = *inflated;
   Reader head{bytes.data(), bytes.data() + bytes.size()};
-  uint32_t len[6];
+  uint32_t len[kVsplitStreams];
   uint64_t total = 0;
   for (uint32_t& l : len) {
     if (!head.varint(l)) return Status::error("stream lengths cut short", ErrorKind::kInput);
@@ -203,34 +228,34 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     return Status::error("stream lengths add up to " + std::to_string(total) + " bytes, " +
                              std::to_string(head.end - head.p) + " follow",
                          ErrorKind::kInput);
-  Reader s[6];
+  Reader s[kVsplitStreams];
   const uint8_t* at = head.p;
-  for (int i = 0; i < 6; ++i) s[i] = {at, at + len[i]}, at += len[i];
-  Reader &C = s[0], &E = s[2], &P = s[3], &N = s[4], &T = s[5];
-  BitReader M{s[1].p, uint64_t(len[1]) * 8, 0};
+  for (int i = 0; i < kVsplitStreams; ++i) s[i] = {at, at + len[i]}, at += len[i];
+  Reader &Z = s[0], &K = s[1], &F = s[2], &E = s[4], &W = s[5], &P = s[6], &N = s[7], &T = s[8];
+  BitReader M{s[3].p, uint64_t(len[3]) * 8, 0};
   if (uint64_t(mesh.vertex_count()) + splits > mesh.capacity_vertices_ ||
       uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
     return Status::error("more vertices or faces than the mesh holds", ErrorKind::kInput);
   const uint32_t face_goal = mesh.face_count() + faces;
   uint32_t previous = 0;
   std::vector<uint32_t> ring;
-  auto where = [](uint32_t i) { return "split " + std::to_string(i) + ": "; };
+  auto fail = [](uint32_t i, const std::string& what) {
+    return Status::error("split " + std::to_string(i) + ": " + what, ErrorKind::kInput);
+  };
   for (uint32_t i = 0; i < splits; ++i) {
     uint32_t z, k;
-    if (!C.varint(z) || !C.varint(k))
-      return Status::error(where(i) + "connectivity cut short", ErrorKind::kInput);
+    if (!Z.varint(z) || !K.varint(k)) return fail(i, "connectivity cut short");
     int64_t parent = int64_t(previous) + unzigzag(z);
     if (parent < 0 || parent >= int64_t(mesh.vertex_count()))
-      return Status::error(where(i) + "parent " + std::to_string(parent) + " of " +
-                               std::to_string(mesh.vertex_count()) + " vertices",
-                           ErrorKind::kInput);
+      return fail(i, "parent " + std::to_string(parent) + " of " +
+                         std::to_string(mesh.vertex_count()) + " vertices");
     uint32_t p = uint32_t(parent);
     previous = p;
     uint32_t v = mesh.add_vertex(QuantizedVertex{});
     for (int32_t c = mesh.head[p], prev = -1; c >= 0;) {
       int32_t after = mesh.next[size_t(c)];
       bool take;
-      if (!M.bit(take)) return Status::error(where(i) + "corner mask cut short", ErrorKind::kInput);
+      if (!M.bit(take)) return fail(i, "corner mask cut short");
       if (take)
         mesh.move_corner(p, prev, c, v);
       else
@@ -239,25 +264,19 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     }
     if (k > 0) mesh.ring(p, v, kRingLimit, ring);
     if (uint64_t(mesh.face_count()) + k > face_goal)
-      return Status::error(where(i) + "more than the part's " + std::to_string(faces) + " faces",
-                           ErrorKind::kInput);
+      return fail(i, "more than the part's " + std::to_string(faces) + " faces");
     for (uint32_t f = 0; f < k; ++f) {
       uint32_t code, w;
-      if (!C.varint(code))
-        return Status::error(where(i) + "face codes cut short", ErrorKind::kInput);
+      if (!F.varint(code)) return fail(i, "face codes cut short");
       uint32_t index = code >> 1;
       if (index < ring.size()) {
         w = ring[index];
       } else if (index == ring.size()) {
-        if (!E.varint(w))
-          return Status::error(where(i) + "escaped vertices cut short", ErrorKind::kInput);
-        if (w >= v || w == p)
-          return Status::error(where(i) + "face names vertex " + std::to_string(w),
-                               ErrorKind::kInput);
+        if (!E.varint(w)) return fail(i, "escaped vertices cut short");
+        if (w >= v || w == p) return fail(i, "face names vertex " + std::to_string(w));
       } else {
-        return Status::error(where(i) + "ring position " + std::to_string(index) + " of " +
-                                 std::to_string(ring.size()),
-                             ErrorKind::kInput);
+        return fail(
+            i, "ring position " + std::to_string(index) + " of " + std::to_string(ring.size()));
       }
       if (code & 1)
         mesh.add_face(v, w, p);
@@ -265,32 +284,32 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
         mesh.add_face(v, p, w);
     }
     QuantizedVertex q = mesh.predict(v, p);
+    uint32_t twin[kTwinLimit], twins = mesh.twins(p, twin), pick = 0;
+    if (twins > 0 && (!W.varint(pick) || pick > twins))
+      return fail(i, "twin index missing or past the candidates");
     uint32_t r[8];
+    for (int c = 0; c < 3 && pick == 0; ++c)
+      if (!P.varint(r[c])) return fail(i, "positions cut short");
     for (int c = 0; c < 3; ++c)
-      if (!P.varint(r[c]))
-        return Status::error(where(i) + "positions cut short", ErrorKind::kInput);
-    for (int c = 0; c < 3; ++c)
-      if (!N.varint(r[3 + c]))
-        return Status::error(where(i) + "normals cut short", ErrorKind::kInput);
+      if (!N.varint(r[3 + c])) return fail(i, "normals cut short");
     for (int c = 0; c < 2; ++c)
-      if (!T.varint(r[6 + c]))
-        return Status::error(where(i) + "texture coordinates cut short", ErrorKind::kInput);
+      if (!T.varint(r[6 + c])) return fail(i, "texture coordinates cut short");
     for (int c = 0; c < 3; ++c) {
-      int64_t x = int64_t(q.p[c]) + unzigzag(r[c]), y = int64_t(q.n[c]) + unzigzag(r[3 + c]);
-      if (x < 0 || x > 65535 || y < -128 || y > 127)
-        return Status::error(where(i) + "attribute out of range", ErrorKind::kInput);
+      int64_t x = pick ? mesh.vertices[twin[pick - 1]].p[c] : int64_t(q.p[c]) + unzigzag(r[c]);
+      int64_t y = int64_t(q.n[c]) + unzigzag(r[3 + c]);
+      if (x < 0 || x > 65535 || y < -128 || y > 127) return fail(i, "attribute out of range");
       q.p[c] = uint16_t(x), q.n[c] = int8_t(y);
     }
     for (int c = 0; c < 2; ++c) {
       int64_t x = int64_t(q.t[c]) + unzigzag(r[6 + c]);
-      if (x < 0 || x > 65535)
-        return Status::error(where(i) + "attribute out of range", ErrorKind::kInput);
+      if (x < 0 || x > 65535) return fail(i, "attribute out of range");
       q.t[c] = uint16_t(x);
     }
     mesh.vertices[v] = q;
+    mesh.add_twin(p, v);
   }
   uint32_t extra;
-  if (!C.varint(extra)) return Status::error("extra face count missing", ErrorKind::kInput);
+  if (!K.varint(extra)) return Status::error("extra face count missing", ErrorKind::kInput);
   if (uint64_t(mesh.face_count()) + extra != face_goal)
     return Status::error(std::to_string(face_goal - mesh.face_count()) + " faces expected, " +
                              std::to_string(extra) + " extra faces follow the splits",
@@ -304,8 +323,8 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
                            ErrorKind::kInput);
     mesh.add_face(a, b, c);
   }
-  for (int i = 0; i < 6; ++i)
-    if (i != 1 && s[i].p != s[i].end)
+  for (int i = 0; i < kVsplitStreams; ++i)
+    if (i != 3 && s[i].p != s[i].end)
       return Status::error("stream " + std::to_string(i) + " has bytes left over",
                            ErrorKind::kInput);
   if ((M.bits - M.at) >= 8)

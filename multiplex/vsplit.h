@@ -17,27 +17,33 @@
 // vertex, not a half-edge structure.
 //
 // One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is a zlib
-// stream (browsers inflate it with DecompressionStream("deflate")) of six varint-counted byte
-// streams:
-//   varint |C| |M| |E| |P| |N| |T|, then C M E P N T
-//   C  per split: zigzag(parent - previous parent) (previous starts at 0 per part), the number k
-//      of new faces, then per new face (i << 1 | flip): the third vertex w is entry i of the ring
-//      (see ring(): v's neighbours, then p's), or i == ring size and w is the next varint of E;
-//      flip 0 makes the face (v, p, w), flip 1 (v, w, p). After the last split: the count x of
-//      extra faces.
+// stream (browsers inflate it with DecompressionStream("deflate")) of nine varint-counted byte
+// streams, each field in its own so deflate's codes fit its values:
+//   varint |Z| |K| |F| |M| |E| |W| |P| |N| |T|, then Z K F M E W P N T
+//   Z  per split: zigzag(parent - previous parent) (previous starts at 0 per part).
+//   K  per split: the number k of new faces; after the last split, the count x of extra faces.
+//   F  per new face (i << 1 | flip): the third vertex w is entry i of the ring (see ring(): v's
+//      neighbours, then p's), or i == ring size and w is the next varint of E; flip 0 makes the
+//      face (v, p, w), flip 1 (v, w, p).
 //   M  per split, one bit per corner in the parent's corner list (in list order, before the
 //      split): 1 = the corner moves to the new vertex. Bits LSB first, no padding between splits.
 //   E  escaped third vertices (varint vertex indices), then the x extra faces (3 varints each).
-//   P  per split, 3 × zigzag(position - prediction); N: 3 × zigzag(normal - prediction);
-//   T  2 × zigzag(uv - prediction). Predictions: the rounded mean of the new vertex's ring (every
-//      other vertex of its faces after the split), or the parent's values when it has none.
+//   W  per split whose parent's position was split from before (twins(): seam and hard-edge
+//      copies split together): 0, or i ≥ 1 when the new vertex sits exactly where twin
+//      candidate i - 1 does (its position is then not sent).
+//   P  per split without a twin, 3 × zigzag(position - prediction); N: 3 × zigzag(normal -
+//   prediction); T: 2 × zigzag(uv - prediction). Predictions: the rounded mean of the new
+//      vertex's ring (every other vertex of its faces after the split), or the parent's values
+//      when it has none.
 // A split on the state: append vertex v (the next index); move the masked corners of p to v
 // (each pushed to the head of v's list in the order met); append the new faces (corners pushed
-// to their vertices' lists, slot 0 first); set v's attributes. Extra faces are appended last.
-// Attributes are integers (scene/quantize.h): positions kPositionBits, normals int8, uv kUvBits.
+// to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest
+// twin. Extra faces are appended last. Attributes are integers (scene/quantize.h): positions
+// kPositionBits, normals int8, uv kUvBits.
 #pragma once
 
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "scene/status.h"
@@ -57,6 +63,8 @@ inline bool operator==(const QuantizedVertex& a, const QuantizedVertex& b) {
 }
 
 constexpr uint32_t kRingLimit = 64;  // ring entries a new face's third vertex is coded against
+constexpr uint32_t kTwinLimit = 4;   // twin candidates a new vertex's position is matched against
+constexpr int kVsplitStreams = 9;    // byte streams in a part
 // Inflated bytes a part may hold: per split and face, and a constant (zlib bombs are refused).
 constexpr uint64_t kPartBytesPerElement = 256;
 constexpr uint64_t kPartBytesConstant = 1 << 16;
@@ -83,6 +91,11 @@ class VsplitMesh {
   void ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out);
   // v's predicted attributes: the rounded mean over its ring (all of it), or p's values.
   QuantizedVertex predict(uint32_t v, uint32_t p);
+  // The vertices split so far from parents at p's position, newest first, at most kTwinLimit,
+  // into out; returns how many. O(kTwinLimit).
+  uint32_t twins(uint32_t p, uint32_t* out) const;
+  // Records v (split from p, attributes set) as the newest twin at p's position.
+  void add_twin(uint32_t p, uint32_t v);
 
   std::vector<QuantizedVertex> vertices;
   std::vector<uint32_t> indices;
@@ -90,6 +103,8 @@ class VsplitMesh {
   uint64_t solid = 0;  // faces whose three corners differ
 
  private:
+  std::unordered_map<uint64_t, uint32_t> twin_latest_;  // parent position → newest split
+  std::vector<int32_t> twin_previous_;                  // per vertex: the twin before it, or -1
   std::vector<uint32_t> stamp_;
   uint32_t stamp_value_ = 0;
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;

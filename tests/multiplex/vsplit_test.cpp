@@ -62,7 +62,7 @@ std::vector<Triangle> level_faces(const ProgressiveMesh& pm, size_t level,
 // a client state built from the base as the package reader would; checks after every part.
 struct RoundTrip {
   std::vector<std::vector<uint8_t>> parts;
-  uint64_t bytes = 0, new_faces = 0;
+  uint64_t bytes = 0, new_faces = 0, twins = 0;
 };
 RoundTrip round_trip(const ProgressiveMesh& pm, int parts) {
   RoundTrip out;
@@ -93,6 +93,7 @@ RoundTrip round_trip(const ProgressiveMesh& pm, int parts) {
     EXPECT_EQ(drawn(client), level_faces(pm, level, encoder.stream_order())) << "part " << k;
     out.bytes += part->data.size();
     out.new_faces += p.face_end - p.face_begin;
+    out.twins += part->twins;
     out.parts.push_back(part->data);
   }
   // Every vertex carries its own quantized attributes.
@@ -108,6 +109,9 @@ TEST(Vsplit, DecoderRebuildsEveryLevelOfASphere) {
   ASSERT_LT(pm.base_level + 10, pm.levels.size());
   RoundTrip r = round_trip(pm, 4);
   EXPECT_EQ(r.parts.size(), 4u);
+  // The sphere's uv seam splits in pairs: the second of each takes its position from its twin
+  // (and the decoder rebuilt those positions above).
+  EXPECT_GT(r.twins, 10u);
 }
 
 // A single split per part (the smallest batches) decodes as well as large ones.

@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 4).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 5).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -33,6 +33,7 @@ const PROBE_BYTES = 65536;       // the first request: header, table and often t
 // ---- Decoding: compact vertex splits (multiplex/vsplit.h, operation for operation) -----------
 
 const RING_LIMIT = 64;   // ring entries a new face's third vertex is coded against
+const TWIN_LIMIT = 4;    // twin candidates a new vertex's position is matched against
 const UV_MAX = 4095;     // uv bits (scene/quantize.h)
 
 // Inflates one part (a zlib stream) with the browser's DecompressionStream, refusing output past
@@ -132,6 +133,14 @@ export class StreamMesh {
     this.stamp = new Uint32Array(V);
     this.stampValue = 0;
     this.ring = new Int32Array(RING_LIMIT);
+    // Twins (VsplitMesh::twins): an open-addressing table from a parent position to the newest
+    // vertex split from a parent there (keys compared through parentOf), and per vertex the
+    // twin before it.
+    let slots = 1;
+    while (slots < 2 * V + 2) slots *= 2;
+    this.twinTable = new Int32Array(slots).fill(-1);
+    this.twinPrevious = new Int32Array(V).fill(-1);
+    this.parentOf = new Int32Array(V).fill(-1);
     // Commit the memory now (load time) rather than page by page while refining.
     for (const a of [this.position, this.normal, this.uv, this.indices, this.qp, this.qn, this.qt, this.next, this.stamp]) a.fill(0);
     const g = this.geometry = new THREE.BufferGeometry();
@@ -234,7 +243,7 @@ export class StreamMesh {
     const fail = (message) => new Error(`mesh ${this.index}: ${message}`);
     const len = [];
     let at = 0, total = 0;
-    for (let k = 0; k < 6; k++) {
+    for (let k = 0; k < 9; k++) {
       const l = readVarint(d, at, d.length);
       if (l < 0) throw fail('stream lengths cut short');
       at = vpos;
@@ -242,12 +251,17 @@ export class StreamMesh {
       total += l;
     }
     if (total !== d.length - at) throw fail(`stream lengths add up to ${total} bytes, ${d.length - at} follow`);
-    let cp = at; const ce = cp + len[0];
-    const maskStart = ce, maskBits = 8 * len[1];
-    let ep = maskStart + len[1]; const ee = ep + len[2];
-    let pp = ee; const pe = pp + len[3];
-    let np = pe; const ne = np + len[4];
-    let tp = ne; const te = tp + len[5];
+    // Streams Z K F M E W P N T (multiplex/vsplit.h).
+    let zp = at; const ze = zp + len[0];
+    let kp = ze; const ke = kp + len[1];
+    let cp = ke; const ce = cp + len[2];
+    const maskStart = ce, maskBits = 8 * len[3];
+    let ep = maskStart + len[3]; const ee = ep + len[4];
+    let wp = ee; const we = wp + len[5];
+    let pp = we; const pe = pp + len[6];
+    let np = pe; const ne = np + len[7];
+    let tp = ne; const te = tp + len[8];
+    const table = this.twinTable, tmask = table.length - 1, twinPrevious = this.twinPrevious, parentOf = this.parentOf;
     let maskAt = 0;
     const v0 = this.vertices, f0 = this.faces;
     if (v0 + splits > this.capacityVertices || f0 + faces > this.capacityFaces) throw fail('more vertices or faces than the mesh holds');
@@ -255,8 +269,8 @@ export class StreamMesh {
     let nf = f0, solid = this.solid, previous = 0, stampValue = this.stampValue;
     if (stampValue > 0x7fffffff - 2 * splits) { stamp.fill(0); stampValue = 0; }
     for (let i = 0; i < splits; i++) {
-      const z = readVarint(d, cp, ce); cp = vpos;
-      const k = readVarint(d, cp, ce); cp = vpos;
+      const z = readVarint(d, zp, ze); zp = vpos;
+      const k = readVarint(d, kp, ke); kp = vpos;
       if (z < 0 || k < 0) throw fail(`split ${i}: connectivity cut short`);
       const p = previous + (z % 2 ? -(z + 1) / 2 : z / 2), v = v0 + i;
       if (!(p >= 0 && p < v)) throw fail(`split ${i}: parent ${p} of ${v} vertices`);
@@ -346,7 +360,24 @@ export class StreamMesh {
         pred[3] = mean(n0, n); pred[4] = mean(n1, n); pred[5] = mean(n2, n);
         pred[6] = mean(t0, n); pred[7] = mean(t1, n);
       }
-      for (let j = 0; j < 3; j++) {
+      // Twins: the vertices split from parents at p's position, newest first.
+      const px = qp[3 * p], py = qp[3 * p + 1], pz = qp[3 * p + 2];
+      let slot = (Math.imul(px, 73856093) ^ Math.imul(py, 19349663) ^ Math.imul(pz, 83492791)) & tmask;
+      for (;; slot = (slot + 1) & tmask) {
+        const u = table[slot];
+        if (u < 0) break;
+        const q = 3 * parentOf[u];
+        if (qp[q] === px && qp[q + 1] === py && qp[q + 2] === pz) break;
+      }
+      let pick = 0;
+      if (table[slot] >= 0) {
+        pick = readVarint(d, wp, we); wp = vpos;
+        let t = table[slot], n = 1;
+        for (; n < pick && t >= 0 && n < TWIN_LIMIT; n++) t = twinPrevious[t];
+        if (pick < 0 || pick > TWIN_LIMIT || (pick > 0 && (t < 0 || n !== pick))) throw fail(`split ${i}: twin index missing or past the candidates`);
+        if (pick > 0) { qp[3 * v] = qp[3 * t]; qp[3 * v + 1] = qp[3 * t + 1]; qp[3 * v + 2] = qp[3 * t + 2]; }
+      }
+      for (let j = 0; j < 3 && pick === 0; j++) {
         const r = readVarint(d, pp, pe); pp = vpos;
         if (r < 0) throw fail(`split ${i}: positions cut short`);
         const x = pred[j] + (r % 2 ? -(r + 1) / 2 : r / 2);
@@ -367,9 +398,13 @@ export class StreamMesh {
         if (x < 0 || x > 65535) throw fail(`split ${i}: attribute out of range`);
         qt[2 * v + j] = x;
       }
+      // v is now the newest twin at p's position.
+      parentOf[v] = p;
+      twinPrevious[v] = table[slot];
+      table[slot] = v;
     }
     this.stampValue = stampValue;
-    const extra = readVarint(d, cp, ce); cp = vpos;
+    const extra = readVarint(d, kp, ke); kp = vpos;
     if (extra < 0) throw fail('extra face count missing');
     if (nf + extra !== faceGoal) throw fail(`${faceGoal - nf} faces expected, ${extra} extra faces follow the splits`);
     const vn = v0 + splits;
@@ -382,7 +417,7 @@ export class StreamMesh {
       solid += addFace(I, head, next, 3 * nf, a, b, c);
       nf++;
     }
-    if (cp !== ce || ep !== ee || pp !== pe || np !== ne || tp !== te) throw fail('a stream has bytes left over');
+    if (zp !== ze || kp !== ke || cp !== ce || ep !== ee || wp !== we || pp !== pe || np !== ne || tp !== te) throw fail('a stream has bytes left over');
     if (maskBits - maskAt >= 8) throw fail('corner mask has bytes left over');
     // What the GPU draws: the new vertices, and the whole index buffer (corners moved anywhere).
     const P = this.position, N = this.normal, T = this.uv, o = this.origin, st = this.step;
