@@ -10,7 +10,7 @@
 //   12  J  JSON table (UTF-8), see below
 //   12+J   the base .glb, then each mesh's base indices, then each chunk, in table order
 // JSON table:
-//   {"version": 5,
+//   {"version": 6,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -22,12 +22,14 @@
 //    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
 //                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
+//                                                            // (floats, shortest decimals)
 //                "quantization": {"origin": [x,y,z], "step": s},  // the position grid
 //                "base_indices": {"offset": o, "size": s}}], // the base's faces, see below
 //    "texture": {"width": W, "height": H} | null,           // full texture size
 //    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
-//                "parts": [{"mesh": m, "vertex_begin": a, "vertex_end": b,
-//                           "face_begin": c, "face_end": e, "bytes": n}]},
+//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n bytes,
+//                                                  // from where m stands (its base, then the
+//                                                  // parts before in file order): vertex a, face c
 //               {"kind": "texture", "offset": o, "size": s, "distortion": d,
 //                "width": w, "height": h, "mime": "image/jpeg"}],
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
@@ -66,7 +68,7 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 5;
+constexpr uint32_t kPackageVersion = 6;
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table

@@ -160,20 +160,35 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
   return Status::ok();
 }
 
+// A part is [mesh, vertex_end, face_end, bytes]; it starts where its mesh stands (`held`: per
+// mesh the vertices and faces of the base and the parts before it), which it then advances.
 Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t file_size,
-                 PackagePart& p, const std::string& where) {
-  if (!j.is_object()) return fail(where + " is not an object");
-  Status s;
-  if (!(s = get_u32(j, "mesh", kMaxCount, p.mesh, where))) return s;
-  if (!(s = get_u32(j, "vertex_begin", kMaxCount, p.vertex_begin, where))) return s;
-  if (!(s = get_u32(j, "vertex_end", kMaxCount, p.vertex_end, where))) return s;
-  if (!(s = get_u32(j, "face_begin", kMaxCount, p.face_begin, where))) return s;
-  if (!(s = get_u32(j, "face_end", kMaxCount, p.face_end, where))) return s;
-  if (!(s = get_uint(j, "bytes", file_size, p.bytes, where))) return s;
-  return check_part(p, meshes, where);
+                 std::vector<std::pair<uint32_t, uint32_t>>& held, PackagePart& p,
+                 const std::string& where) {
+  if (!j.is_array() || j.size() != 4)
+    return fail(where + " is not [mesh, vertex_end, face_end, bytes]");
+  uint64_t v[4];
+  const uint64_t max[4] = {kMaxCount, kMaxCount, kMaxCount, file_size};
+  for (size_t i = 0; i < 4; ++i) {
+    if (!j[i].is_number_unsigned() && !(j[i].is_number_integer() && j[i].get<int64_t>() >= 0))
+      return fail(where + ": entry " + std::to_string(i) + " is not an unsigned integer");
+    v[i] = j[i].get<uint64_t>();
+    if (v[i] > max[i])
+      return fail(where + ": entry " + std::to_string(i) + " = " + std::to_string(v[i]) +
+                  " exceeds " + std::to_string(max[i]));
+  }
+  if (v[0] >= meshes.size() || v[0] >= held.size())
+    return fail(where + ": mesh " + std::to_string(v[0]) + " out of range");
+  p.mesh = uint32_t(v[0]);
+  p.vertex_begin = held[p.mesh].first, p.face_begin = held[p.mesh].second;
+  p.vertex_end = uint32_t(v[1]), p.face_end = uint32_t(v[2]), p.bytes = v[3];
+  if (Status s = check_part(p, meshes, where); !s) return s;
+  held[p.mesh] = {p.vertex_end, p.face_end};
+  return Status::ok();
 }
 
-Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, PackageChunk& c,
+Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size,
+                  std::vector<std::pair<uint32_t, uint32_t>>& held, PackageChunk& c,
                   const std::string& where) {
   if (!j.is_object()) return fail(where + " is not an object");
   auto kind = j.find("kind");
@@ -212,7 +227,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, Package
   uint64_t sum = 0;
   for (size_t i = 0; i < parts->size(); ++i) {
     PackagePart p;
-    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, p,
+    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, held, p,
                         where + " part " + std::to_string(i))))
       return s;
     sum += p.bytes;  // each ≤ file size: no overflow
@@ -392,10 +407,12 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
 
   auto chunks = j.find("chunks");
   if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
+  std::vector<std::pair<uint32_t, uint32_t>> held;  // per mesh: vertices, faces so far
+  for (const PackageMesh& m : pkg.meshes) held.push_back({m.base_vertices, m.base_faces});
   for (size_t i = 0; i < chunks->size(); ++i) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
-    if (!(s = read_chunk((*chunks)[i], pkg, file_size, c, where))) return s;
+    if (!(s = read_chunk((*chunks)[i], pkg, file_size, held, c, where))) return s;
     if (c.offset < end)
       return fail(where + ": offset " + std::to_string(c.offset) +
                   " overlaps the base or the chunk before");

@@ -5,6 +5,8 @@
 // Output is a pure function of the input.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -130,17 +132,30 @@ Result<std::vector<StreamOrder>> check_orders(const PackageInput& in) {
   return orders;
 }
 
+// A float as the double of its shortest decimal that reads back as the same float (the JSON
+// then holds "0.8", not "0.800000011920929"); readers casting to float get it exactly.
+double short_float(float f) {
+  char buf[32];
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, double(f));
+    if (std::strtof(buf, nullptr) == f) break;
+  }
+  return std::strtod(buf, nullptr);
+}
+
 OrderedJson view_json(const PackageInput& in) {
   const ViewOptions& v = in.view;
   const RenderOptions& r = in.shading;
-  return {{"fov_y_degrees", double(v.fov_y_degrees)},
-          {"fill", double(v.fill)},
-          {"direction", {double(v.direction.x), double(v.direction.y), double(v.direction.z)}},
-          {"clip_margin", double(v.clip_margin)},
-          {"ambient", double(r.ambient)},
-          {"diffuse", double(r.diffuse)},
+  return {{"fov_y_degrees", short_float(v.fov_y_degrees)},
+          {"fill", short_float(v.fill)},
+          {"direction",
+           {short_float(v.direction.x), short_float(v.direction.y), short_float(v.direction.z)}},
+          {"clip_margin", short_float(v.clip_margin)},
+          {"ambient", short_float(r.ambient)},
+          {"diffuse", short_float(r.diffuse)},
           {"light_direction",
-           {double(r.light_direction.x), double(r.light_direction.y), double(r.light_direction.z)}},
+           {short_float(r.light_direction.x), short_float(r.light_direction.y),
+            short_float(r.light_direction.z)}},
           {"light_follows_camera", r.light_follows_camera}};
 }
 
@@ -163,8 +178,8 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     OrderedJson e;
     e["vertices"] = b.vertices, e["faces"] = b.faces;
     e["base_vertices"] = b.base_vertices, e["base_faces"] = b.base_faces;
-    e["bounds"] = {double(box.min.x), double(box.min.y), double(box.min.z),
-                   double(box.max.x), double(box.max.y), double(box.max.z)};
+    e["bounds"] = {short_float(box.min.x), short_float(box.min.y), short_float(box.min.z),
+                   short_float(box.max.x), short_float(box.max.y), short_float(box.max.z)};
     const PositionQuantization& q = b.quantization;
     e["quantization"] = {{"origin", {double(q.origin.x), double(q.origin.y), double(q.origin.z)}},
                          {"step", q.step}};
@@ -186,12 +201,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     if (c.mesh) {
       OrderedJson parts = OrderedJson::array();
       for (const PackagePart& p : c.parts)
-        parts.push_back({{"mesh", p.mesh},
-                         {"vertex_begin", p.vertex_begin},
-                         {"vertex_end", p.vertex_end},
-                         {"face_begin", p.face_begin},
-                         {"face_end", p.face_end},
-                         {"bytes", p.bytes}});
+        parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
       e["parts"] = std::move(parts);
     } else {
       e["width"] = c.texture->width, e["height"] = c.texture->height,

@@ -1,8 +1,8 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 5; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 6; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 5;
+export const PACKAGE_VERSION = 6;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -85,12 +85,12 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
+      // [mesh, vertex_end, face_end, bytes], starting where its mesh stands.
       const pw = `${w}.parts[${j}]`;
-      const mesh = int(obj(p, pw).mesh, `${pw}.mesh`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
-      const part = { mesh };
-      for (const key of ['vertex_begin', 'vertex_end', 'face_begin', 'face_end', 'bytes']) part[key] = int(p[key], `${pw}.${key}`);
-      need(part.vertex_begin === h.vertices, `${pw}: vertex_begin ${part.vertex_begin}, but mesh ${mesh} holds ${h.vertices} vertices there`);
-      need(part.face_begin === h.faces, `${pw}: face_begin ${part.face_begin}, but mesh ${mesh} holds ${h.faces} faces there`);
+      need(Array.isArray(p) && p.length === 4, `${pw} must be [mesh, vertex_end, face_end, bytes]`);
+      const mesh = int(p[0], `${pw}[0] (mesh)`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
+      const part = { mesh, vertex_begin: h.vertices, vertex_end: int(p[1], `${pw}[1] (vertex_end)`),
+        face_begin: h.faces, face_end: int(p[2], `${pw}[2] (face_end)`), bytes: int(p[3], `${pw}[3] (bytes)`) };
       need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
       need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
       const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;

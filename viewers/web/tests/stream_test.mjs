@@ -184,13 +184,14 @@ try {
   // run counts; each part is inflated (DecompressionStream) and its splits applied. Triangles =
   // new faces, reported beside the vertex splits that bring them.
   const bench = await page.evaluate(async () => {
-    const { StreamMesh, applyMeshChunk } = await import('./viewer/meshmux.js');
+    const { StreamMesh, applyMeshChunk, validateTable } = await import('./viewer/meshmux.js');
     const { MeshoptDecoder } = await import('three/addons/libs/meshopt_decoder.module.js');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
     await MeshoptDecoder.ready;
     const bytes = new Uint8Array(await (await fetch('model.mmxp')).arrayBuffer());
     const J = new DataView(bytes.buffer).getUint32(8, true);
-    const table = JSON.parse(new TextDecoder().decode(bytes.subarray(12, 12 + J)));
+    const table = validateTable(JSON.parse(new TextDecoder().decode(bytes.subarray(12, 12 + J))),
+      { fileSize: bytes.length, dataStart: 12 + J, fail: (m) => new Error(m) });
     const chunks = table.chunks.filter((c) => c.kind === 'mesh' && c.parts.length);
     let faces = 0, splits = 0, best = Infinity;
     for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
