@@ -168,12 +168,9 @@ class MeshEncoder {
     acc.count = uint32_t(idx.size());
     acc.stride = vertices <= 65535 ? 2 : 4;
     acc.component_type = acc.stride == 2 ? kUnsignedShort : kUnsignedInt;
-    // Faces in vertex-cache order (a .glb's face order is free; vertex order is not).
-    std::vector<uint32_t> ordered(idx.size());
-    meshopt_optimizeVertexCache(ordered.data(), idx.data(), idx.size(), vertices);
     acc.encoded.resize(meshopt_encodeIndexBufferBound(idx.size(), vertices));
-    size_t size = meshopt_encodeIndexBuffer(acc.encoded.data(), acc.encoded.size(), ordered.data(),
-                                            ordered.size());
+    size_t size =
+        meshopt_encodeIndexBuffer(acc.encoded.data(), acc.encoded.size(), idx.data(), idx.size());
     if (size == 0) return Status::error("meshopt index encoding failed", ErrorKind::kInternal);
     acc.encoded.resize(size);
     out_.accessors.push_back(std::move(acc));

@@ -1,8 +1,8 @@
 // One mesh → EXT_meshopt_compression bufferViews over KHR_mesh_quantization attributes, for the
-// glTF exporter (exporters/gltf.h, option `meshopt`). Vertex order is kept exactly (the stream
-// package needs vertex i of its base to be the stream's vertex i); faces are written in
-// vertex-cache order (meshopt_optimizeVertexCache) and the index codec may rotate a triangle's
-// corners, which keeps its winding. Values use scene/quantize.h so
+// glTF exporter (exporters/gltf.h, option `meshopt`). Vertex order and face order are kept
+// exactly (the stream package's client takes the vertices and faces of its base as the stream
+// encoder laid them out, in vertex-cache order); the index codec (version 1) may rotate a
+// triangle's corners, which keeps its winding. Values use scene/quantize.h so
 // they agree bit for bit with the stream encoder:
 // - POSITION: unsigned short (not normalized) VEC3 on the mesh's grid, stride 8 (4th short 0);
 //   the dequantization translate(origin)·scale(step) belongs in the transforms of the nodes.

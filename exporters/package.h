@@ -8,9 +8,9 @@
 //   4   4  uint32 version (kPackageVersion)
 //   8   4  uint32 JSON length J (bytes, padded with spaces to a multiple of 4)
 //   12  J  JSON table (UTF-8), see below
-//   12+J   the base .glb, then each mesh's base indices, then each chunk, in table order
+//   12+J   the base .glb, then each chunk, in table order
 // JSON table:
-//   {"version": 6,
+//   {"version": 7,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -23,8 +23,7 @@
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
 //                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
 //                                                            // (floats, shortest decimals)
-//                "quantization": {"origin": [x,y,z], "step": s},  // the position grid
-//                "base_indices": {"offset": o, "size": s}}], // the base's faces, see below
+//                "quantization": {"origin": [x,y,z], "step": s}}],  // the position grid
 //    "texture": {"width": W, "height": H} | null,           // full texture size
 //    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
 //                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n bytes,
@@ -41,9 +40,9 @@
 // The base's mesh m has exactly v0 vertices in stream order (the base .glb's mesh with extras
 // {"meshmux_mesh": m}, EXT_meshopt_compression + KHR_mesh_quantization: positions as integers
 // on the grid, q = round((x - origin) / step), the nodes' transforms dequantizing; normals as
-// normalized bytes; uv as normalized shorts, see scene/quantize.h); its faces are
-// "base_indices": the meshopt_encodeIndexBuffer bytes of the f0 base faces (corners < v0; the
-// codec may rotate a face's corners, the client keeps them as decoded). A mesh chunk's payload
+// normalized bytes; uv as normalized shorts, see scene/quantize.h); its f0 faces are the
+// concatenation of that mesh's primitives' indices in primitive order, as decoded (meshopt's
+// index codec may rotate a face's corners; the client keeps them so). A mesh chunk's payload
 // is its parts' bytes in order; each part is the compact vertex splits taking the mesh from
 // vertex a to b and face c to e (multiplex/vsplit.h: one zlib stream; the splits' order is the
 // stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A
@@ -68,7 +67,7 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 6;
+constexpr uint32_t kPackageVersion = 7;
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
@@ -109,7 +108,6 @@ struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;
   float bounds[6] = {0, 0, 0, 0, 0, 0};
   double origin[3] = {0, 0, 0}, step = 1;  // the position grid (scene/quantize.h)
-  uint64_t base_indices_offset = 0, base_indices_size = 0;
 };
 struct PackageOrder {
   std::string name;
@@ -142,12 +140,11 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes);
 // decodes its vertex splits (multiplex/vsplit.h).
 Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
                    const PackageChunk& chunk, size_t part, VsplitMesh& mesh);
-// Mesh `mesh`'s client state after the base: the base vertices' quantized attributes (as the
-// base .glb holds them) and the base faces.
-Result<VsplitMesh> decode_base(const std::vector<uint8_t>& bytes, const Package& package,
-                               size_t mesh, const std::vector<QuantizedVertex>& base_vertices);
-// Mesh `mesh`'s base faces (3·base_faces corners, each < base_vertices).
-Result<std::vector<uint32_t>> decode_base_indices(const std::vector<uint8_t>& bytes,
-                                                  const Package& package, size_t mesh);
+// Mesh `mesh`'s client state after the base, from what the base .glb holds of it: its
+// vertices' quantized attributes and its faces (its primitives' indices concatenated). Counts
+// and indices are checked against the table.
+Result<VsplitMesh> decode_base(const Package& package, size_t mesh,
+                               const std::vector<QuantizedVertex>& base_vertices,
+                               const std::vector<uint32_t>& base_faces);
 
 }  // namespace meshmux

@@ -1,7 +1,7 @@
 // The stream package reader and part decoder (exporters/package.h). Untrusted input: the
 // header, the JSON (nesting depth checked before parsing, parsed without exceptions) and every
 // field's type and range are checked before anything is exposed: ranges inside the file and
-// after the header, base indices and chunks in order without overlap, parts inside their mesh,
+// after the header, base and chunks in order without overlap, parts inside their mesh,
 // part bytes summing to the chunk size, counts bounded (kMaxStreamElements) and plausible for
 // their byte sizes (the codecs cannot shrink data below a fixed ratio), orders permutations
 // keeping the mesh chunks' order, so that decoding never allocates far beyond the file's size.
@@ -241,9 +241,8 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size,
   return Status::ok();
 }
 
-// The table's "meshes": counts, bounds and each mesh's base indices, which follow the data
-// before them without a gap (`end`: where that data ends; advanced past them).
-Status read_meshes(const Json& j, uint64_t file_size, Package& pkg, uint64_t& end) {
+// The table's "meshes": counts, bounds and the position grid of each.
+Status read_meshes(const Json& j, Package& pkg) {
   Status s;
   auto meshes = j.find("meshes");
   if (meshes == j.end() || !meshes->is_array()) return fail("\"meshes\" missing or not an array");
@@ -280,22 +279,6 @@ Status read_meshes(const Json& j, uint64_t file_size, Package& pkg, uint64_t& en
     if (step == q->end()) return fail(where + ": quantization \"step\" missing");
     if (!(s = get_finite(*step, pm.step, where + ": quantization step"))) return s;
     if (!(pm.step > 0)) return fail(where + ": quantization step is not positive");
-    auto bi = e.find("base_indices");
-    if (bi == e.end() || !bi->is_object())
-      return fail(where + ": \"base_indices\" missing or not an object");
-    std::string bwhere = where + " base_indices";
-    if (!(s = get_uint(*bi, "offset", file_size, pm.base_indices_offset, bwhere)) ||
-        !(s = get_uint(*bi, "size", file_size, pm.base_indices_size, bwhere)))
-      return s;
-    if (pm.base_indices_offset != end)
-      return fail(bwhere + ": offset " + std::to_string(pm.base_indices_offset) +
-                  " is not where the data before it ends (" + std::to_string(end) + ")");
-    if (pm.base_indices_size > file_size - pm.base_indices_offset)
-      return fail(bwhere + ": range past the end of the file");
-    if ((pm.base_faces == 0) != (pm.base_indices_size == 0) || pm.base_faces > pm.base_indices_size)
-      return fail(bwhere + ": " + std::to_string(pm.base_indices_size) + " bytes cannot hold " +
-                  std::to_string(pm.base_faces) + " faces");
-    end += pm.base_indices_size;
     pkg.meshes.push_back(pm);
   }
 
@@ -394,7 +377,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
   uint64_t end = pkg.base_offset + pkg.base_size;
 
-  if (!(s = read_meshes(j, file_size, pkg, end))) return s;
+  if (!(s = read_meshes(j, pkg))) return s;
 
   auto texture = j.find("texture");
   if (texture == j.end()) return fail("\"texture\" missing");
@@ -459,41 +442,28 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
   return Status::ok();
 }
 
-Result<VsplitMesh> decode_base(const std::vector<uint8_t>& bytes, const Package& package,
-                               size_t mesh, const std::vector<QuantizedVertex>& base_vertices) {
-  auto faces = decode_base_indices(bytes, package, mesh);
-  if (!faces.ok()) return faces.status();
+Result<VsplitMesh> decode_base(const Package& package, size_t mesh,
+                               const std::vector<QuantizedVertex>& base_vertices,
+                               const std::vector<uint32_t>& base_faces) {
+  std::string where = "mesh " + std::to_string(mesh);
+  if (mesh >= package.meshes.size()) return fail(where + ": no such mesh");
   const PackageMesh& m = package.meshes[mesh];
   if (base_vertices.size() != m.base_vertices)
-    return fail("mesh " + std::to_string(mesh) + ": " + std::to_string(base_vertices.size()) +
+    return fail(where + ": " + std::to_string(base_vertices.size()) +
                 " base vertices given, the table says " + std::to_string(m.base_vertices));
+  if (base_faces.size() != size_t(m.base_faces) * 3)
+    return fail(where + ": " + std::to_string(base_faces.size() / 3) +
+                " base faces given, the table says " + std::to_string(m.base_faces));
   VsplitMesh out;
   out.reset(m.vertices, m.faces);
   for (const QuantizedVertex& q : base_vertices) out.add_vertex(q);
-  for (size_t i = 0; i + 2 < faces->size(); i += 3)
-    out.add_face((*faces)[i], (*faces)[i + 1], (*faces)[i + 2]);
-  return out;
-}
-
-Result<std::vector<uint32_t>> decode_base_indices(const std::vector<uint8_t>& bytes,
-                                                  const Package& package, size_t mesh) {
-  std::string where = "mesh " + std::to_string(mesh) + " base_indices";
-  if (mesh >= package.meshes.size()) return fail(where + ": no such mesh");
-  const PackageMesh& m = package.meshes[mesh];
-  uint64_t size = bytes.size();
-  if (m.base_indices_offset > size || m.base_indices_size > size - m.base_indices_offset)
-    return fail(where + ": range past the end of the file");
-  if (m.base_faces > kMaxCount || m.base_faces > m.base_indices_size)
-    return fail(where + ": too few bytes for " + std::to_string(m.base_faces) + " faces");
-  std::vector<uint32_t> out(size_t(m.base_faces) * 3);
-  if (!out.empty() && meshopt_decodeIndexBuffer(out.data(), out.size(), sizeof(uint32_t),
-                                                bytes.data() + m.base_indices_offset,
-                                                size_t(m.base_indices_size)) != 0)
-    return fail(where + ": index data does not decode");
-  for (uint32_t i : out)
-    if (i >= m.base_vertices)
-      return fail(where + ": index " + std::to_string(i) + " out of range (" +
-                  std::to_string(m.base_vertices) + " base vertices)");
+  for (size_t i = 0; i + 2 < base_faces.size(); i += 3) {
+    for (size_t k = 0; k < 3; ++k)
+      if (base_faces[i + k] >= m.base_vertices)
+        return fail(where + ": base face " + std::to_string(i / 3) + " names vertex " +
+                    std::to_string(base_faces[i + k]) + " of " + std::to_string(m.base_vertices));
+    out.add_face(base_faces[i], base_faces[i + 1], base_faces[i + 2]);
+  }
   return out;
 }
 

@@ -183,8 +183,6 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     const PositionQuantization& q = b.quantization;
     e["quantization"] = {{"origin", {double(q.origin.x), double(q.origin.y), double(q.origin.z)}},
                          {"step", q.step}};
-    e["base_indices"] = {{"offset", offset}, {"size", uint64_t(b.base_indices.size())}};
-    offset += b.base_indices.size();
     ms.push_back(std::move(e));
   }
   j["meshes"] = std::move(ms);
@@ -243,7 +241,6 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   text.resize(size_t(reserved), ' ');
 
   uint64_t total = kPackageHeaderBytes + reserved + in.base_glb.size();
-  for (const MeshStreamBase& b : in.meshes) total += b.base_indices.size();
   for (const Chunk& c : *chunks) total += c.payload.size();
   std::vector<uint8_t> out;
   out.reserve(size_t(total));
@@ -253,8 +250,6 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   put_u32(out, 8, uint32_t(reserved));
   out.insert(out.end(), text.begin(), text.end());
   out.insert(out.end(), in.base_glb.begin(), in.base_glb.end());
-  for (const MeshStreamBase& b : in.meshes)
-    out.insert(out.end(), b.base_indices.begin(), b.base_indices.end());
   for (const Chunk& c : *chunks) out.insert(out.end(), c.payload.begin(), c.payload.end());
   return out;
 }

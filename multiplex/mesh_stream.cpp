@@ -52,23 +52,19 @@ uint64_t mesh_parts_encoded() { return g_parts_encoded.load(); }
 MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
                                      const PositionQuantization& quantization, uint32_t mesh,
                                      size_t base_level)
-    : pm_(pm),
-      quantization_(quantization),
-      mesh_(mesh),
-      level_(base_level),
-      base_(std::vector<uint8_t>{}) {
+    : pm_(pm), quantization_(quantization), mesh_(mesh), level_(base_level) {
   if (Status s = check_mesh(pm, mesh); !s) {
-    base_ = s;
+    status_ = s;
     return;
   }
   if (base_level >= pm.levels.size()) {
-    base_ = internal(mesh, "base level out of range");
+    status_ = internal(mesh, "base level out of range");
     return;
   }
   const uint32_t nv = uint32_t(pm.vertex_count()), nf = uint32_t(pm.face_count());
   for (uint32_t v = 0; v < nv; ++v)
     if (pm.parent[v] > v || (pm.parent[v] == v && v >= pm.levels[0].vertex_end)) {
-      base_ = internal(
+      status_ = internal(
           mesh, "vertex " + std::to_string(v) + " has parent " + std::to_string(pm.parent[v]));
       return;
     }
@@ -77,68 +73,87 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   const ProgressiveLevel& b = pm.levels[base_level];
   sim_.reset(nv, nf);
   orig_.reserve(size_t(nf) * 3);
-  // The base's faces in vertex-cache order and its vertices in the order those faces first use
-  // them: what meshopt's index and vertex codecs compress best (the base .glb is written in
-  // this order too, MeshStreamBase::base_order). Later vertices keep their order per part.
-  size_t count = size_t(b.face_end) * 3;
-  std::vector<uint32_t> mapped(count), cached(count);
-  for (size_t i = 0; i < count; ++i) mapped[i] = rep(pm.indices[i], b.vertex_end);
-  if (count > 0) meshopt_optimizeVertexCache(cached.data(), mapped.data(), count, b.vertex_end);
-  std::vector<uint32_t> face_of(count / 3);  // cached face → the base face it is
-  {
-    std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> faces;
-    for (uint32_t f = uint32_t(count / 3); f-- > 0;)
-      faces[{mapped[f * 3], mapped[f * 3 + 1], mapped[f * 3 + 2]}].push_back(f);
-    for (size_t f = 0; f < count / 3; ++f) {
-      auto& list = faces[{cached[f * 3], cached[f * 3 + 1], cached[f * 3 + 2]}];
+  // The base's faces grouped by source primitive (the base .glb writes one glTF primitive per
+  // group, in primitive order, with exactly these indices), each group in vertex-cache order,
+  // and its vertices in the order those faces first use them: what meshopt's index and vertex
+  // codecs compress best (MeshStreamBase::base_order). Later vertices keep their order per part.
+  const size_t nbase = b.face_end;
+  auto primitive_of = [&](size_t f) {
+    return f < pm.face_primitive.size() ? size_t(pm.face_primitive[f]) : size_t(0);
+  };
+  size_t nprim = 0;
+  for (size_t f = 0; f < nbase; ++f) nprim = std::max(nprim, primitive_of(f) + 1);
+  std::vector<std::vector<uint32_t>> group(nprim);  // base faces per primitive
+  for (uint32_t f = 0; f < nbase; ++f) group[primitive_of(f)].push_back(f);
+  std::vector<uint32_t> cached, face_of;  // all groups' faces in cache order; their base faces
+  std::vector<size_t> group_end;
+  for (const std::vector<uint32_t>& faces : group) {
+    if (faces.empty()) continue;
+    const size_t count = faces.size() * 3;
+    std::vector<uint32_t> mapped(count), out(count);
+    for (size_t k = 0; k < faces.size(); ++k)
+      for (size_t c = 0; c < 3; ++c)
+        mapped[k * 3 + c] = rep(pm.indices[size_t(faces[k]) * 3 + c], b.vertex_end);
+    meshopt_optimizeVertexCache(out.data(), mapped.data(), count, b.vertex_end);
+    // The optimizer keeps each face's corners as they were: find each output face's source.
+    std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> source;
+    for (size_t k = faces.size(); k-- > 0;)
+      source[{mapped[k * 3], mapped[k * 3 + 1], mapped[k * 3 + 2]}].push_back(faces[k]);
+    for (size_t k = 0; k < faces.size(); ++k) {
+      auto& list = source[{out[k * 3], out[k * 3 + 1], out[k * 3 + 2]}];
       if (list.empty()) {
-        base_ = internal(mesh, "vertex cache optimization changed a face");
+        status_ = internal(mesh, "vertex cache optimization changed a face");
         return;
       }
-      face_of[f] = list.back();
+      face_of.push_back(list.back());
       list.pop_back();
     }
+    cached.insert(cached.end(), out.begin(), out.end());
+    group_end.push_back(cached.size());
   }
   std::vector<uint32_t> remap(b.vertex_end, ~0u);
-  size_t used =
-      count > 0 ? meshopt_optimizeVertexFetchRemap(remap.data(), cached.data(), count, b.vertex_end)
-                : 0;
+  size_t used = cached.empty() ? 0
+                               : meshopt_optimizeVertexFetchRemap(remap.data(), cached.data(),
+                                                                  cached.size(), b.vertex_end);
   for (uint32_t v = 0; v < b.vertex_end; ++v)
     if (remap[v] == ~0u) remap[v] = uint32_t(used++);
   order_.assign(b.vertex_end, 0);
   for (uint32_t v = 0; v < b.vertex_end; ++v) rank_[v] = remap[v], order_[remap[v]] = v;
   for (uint32_t i = 0; i < b.vertex_end; ++i)
     sim_.add_vertex(quantize_vertex(pm, quantization, order_[i]));
-  if (count == 0) return;
   for (uint32_t& i : cached) i = remap[i];
-  std::vector<uint8_t> out(
-      meshopt_encodeIndexBufferBound(count, std::max<size_t>(b.vertex_end, 1)));
-  size_t size = meshopt_encodeIndexBuffer(out.data(), out.size(), cached.data(), count);
-  if (size == 0) {
-    base_ = internal(mesh, "index encoding failed");
-    return;
-  }
-  out.resize(size);
-  std::vector<uint32_t> decoded(count);
-  if (meshopt_decodeIndexBuffer(decoded.data(), count, sizeof(uint32_t), out.data(), size) != 0) {
-    base_ = internal(mesh, "index data does not decode");
-    return;
-  }
-  for (size_t f = 0; f < count / 3; ++f) {
-    const uint32_t *d = &decoded[f * 3], *e = &cached[f * 3];
-    int r = 0;
-    while (r < 3 && !(d[0] == e[r] && d[1] == e[(r + 1) % 3] && d[2] == e[(r + 2) % 3])) ++r;
-    if (r == 3) {
-      base_ = internal(mesh, "index codec changed a face");
+  // Each group as the client decodes it from the .glb (meshopt's index codec, version 1, may
+  // rotate a face's corners): the encoder learns the rotation by decoding its own bytes.
+  meshopt_encodeIndexVersion(1);
+  size_t begin = 0;
+  for (size_t end : group_end) {
+    const size_t count = end - begin;
+    std::vector<uint32_t> faces(cached.begin() + long(begin), cached.begin() + long(end));
+    std::vector<uint8_t> bytes(
+        meshopt_encodeIndexBufferBound(count, std::max<size_t>(b.vertex_end, 1)));
+    size_t size = meshopt_encodeIndexBuffer(bytes.data(), bytes.size(), faces.data(), count);
+    std::vector<uint32_t> decoded(count);
+    if (size == 0 || meshopt_decodeIndexBuffer(decoded.data(), count, sizeof(uint32_t),
+                                               bytes.data(), size) != 0) {
+      status_ = internal(mesh, "base faces do not encode and decode");
       return;
     }
-    sim_.add_face(d[0], d[1], d[2]);
-    // Cached face f is base face face_of[f] with its corners as mapped (the cache optimizer
-    // keeps each face's corner order): slot s holds original corner (s + r) % 3.
-    for (int s = 0; s < 3; ++s)
-      orig_.push_back(pm.indices[size_t(face_of[f]) * 3 + size_t((s + r) % 3)]);
+    for (size_t f = 0; f < count / 3; ++f) {
+      const uint32_t *d = &decoded[f * 3], *e = &faces[f * 3];
+      int r = 0;
+      while (r < 3 && !(d[0] == e[r] && d[1] == e[(r + 1) % 3] && d[2] == e[(r + 2) % 3])) ++r;
+      if (r == 3) {
+        status_ = internal(mesh, "index codec changed a face");
+        return;
+      }
+      sim_.add_face(d[0], d[1], d[2]);
+      // Slot s of the decoded face holds original corner (s + r) % 3.
+      const size_t source = face_of[begin / 3 + f];
+      for (int s = 0; s < 3; ++s) orig_.push_back(pm.indices[source * 3 + size_t((s + r) % 3)]);
+    }
+    base_faces_.push_back(std::move(faces));
+    begin = end;
   }
-  base_ = std::move(out);
 }
 
 uint32_t MeshStreamEncoder::rep(uint32_t v, uint32_t prefix) const {
@@ -161,7 +176,7 @@ struct BitWriter {
 }  // namespace
 
 Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
-  if (!base_.ok()) return base_.status();
+  if (!status_) return status_;
   if (level >= pm_.levels.size() || level < level_)
     return internal(mesh_, "level " + std::to_string(level) + " out of order");
   const ProgressiveLevel &from = pm_.levels[level_], &to = pm_.levels[level];

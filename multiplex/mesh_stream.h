@@ -33,16 +33,19 @@ struct EncodedMeshPart {
   uint64_t bytes() const { return data.size(); }
 };
 
-// What the package table says of one mesh, and its base faces, encoded.
+// What the package table says of one mesh, and what its base .glb must hold.
 struct MeshStreamBase {
   uint32_t vertices = 0, faces = 0;            // the full progressive mesh
   uint32_t base_vertices = 0, base_faces = 0;  // what the base holds
   Bounds bounds;                               // of every position the stream will hold
   PositionQuantization quantization;           // the grid positions are coded on
-  std::vector<uint8_t> base_indices;           // meshopt_encodeIndexBuffer of the base faces
   // Per base vertex in stream order, its progressive-mesh vertex: the base .glb holds the
   // base vertices in this order (the order the base faces first use them).
   std::vector<uint32_t> base_order;
+  // The base faces per source primitive that has any (ascending primitive index), in stream
+  // vertex indices: the base .glb's primitives hold exactly these index lists, in this order,
+  // and the client's base faces are their concatenation as meshopt decodes them.
+  std::vector<std::vector<uint32_t>> base_primitive_faces;
 };
 
 // Encodes one progressive mesh's stream from a base level on, part by part, as compact vertex
@@ -53,13 +56,14 @@ struct MeshStreamBase {
 // in the order its vertex-cache-ordered faces first use them (what meshopt's codecs compress
 // best): stream vertex i is pm vertex stream_order()[i]. Memory O(V + F); a part costs O(its splits
 // × (the parent's corners + ancestry depth)). The constructor checks the mesh (counts within
-// kMaxStreamElements, parents and indices in range); a failure shows in base_indices().
+// kMaxStreamElements, parents and indices in range); a failure shows in status().
 class MeshStreamEncoder {
  public:
   MeshStreamEncoder(const ProgressiveMesh& pm, const PositionQuantization& quantization,
                     uint32_t mesh, size_t base_level);
-  // The base's faces (meshopt_encodeIndexBuffer bytes); an error status if encoding failed.
-  const Result<std::vector<uint8_t>>& base_indices() const { return base_; }
+  const Status& status() const { return status_; }
+  // The base faces per source primitive (MeshStreamBase::base_primitive_faces).
+  const std::vector<std::vector<uint32_t>>& base_faces() const { return base_faces_; }
   // The part from the current level to `level` (≥ the current one); then `level` is current.
   Result<EncodedMeshPart> next(size_t level);
   size_t level() const { return level_; }
@@ -76,7 +80,8 @@ class MeshStreamEncoder {
   std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
   std::vector<uint32_t> rank_;   // per pm vertex: its stream index (identity past the parts sent)
   std::vector<uint32_t> order_;  // per stream vertex: its pm vertex
-  Result<std::vector<uint8_t>> base_;
+  Status status_;
+  std::vector<std::vector<uint32_t>> base_faces_;
   uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
 };
 

@@ -84,8 +84,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   for (size_t i = 0; i < ps.meshes.size(); ++i) {
     encoders.emplace_back(ps.meshes[i], package_quantization(ps.meshes[i]), uint32_t(i),
                           base.level[i]);
-    const auto& indices = encoders.back().base_indices();
-    if (!indices.ok()) return indices.status().with_prefix("multiplex");
+    if (!encoders.back().status()) return encoders.back().status().with_prefix("multiplex");
     const ProgressiveMesh& pm = ps.meshes[i];
     MeshStreamBase head;
     head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
@@ -93,8 +92,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     head.base_faces = pm.levels[base.level[i]].face_end;
     head.bounds = package_bounds(pm);
     head.quantization = package_quantization(pm);
-    head.base_indices = *indices;
     head.base_order = encoders.back().stream_order();
+    head.base_primitive_faces = encoders.back().base_faces();
     r.mesh_streams.push_back(std::move(head));
   }
   r.layer_parts.resize(size_t(m));

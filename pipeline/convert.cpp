@@ -211,10 +211,25 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   // base keeps them even for flat-shaded sources, whose .glb files go without.
   for (Mesh& mesh : base_scene.meshes)
     for (Primitive& p : mesh.primitives) p.flat = false;
-  // Its vertices in the stream's base order (every primitive holds the whole prefix).
-  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m)
-    for (Primitive& p : base_scene.meshes[m].primitives)
-      if (Status s = permute_vertices(p, mx.mesh_streams[m].base_order); !s) return s;
+  // Its vertices in the stream's base order (every primitive holds the whole prefix), and its
+  // primitives' faces exactly as the stream's client takes them (MeshStreamBase).
+  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m) {
+    const MeshStreamBase& stream = mx.mesh_streams[m];
+    std::vector<Primitive>& prims = base_scene.meshes[m].primitives;
+    if (prims.size() != stream.base_primitive_faces.size())
+      return Status::error("package: mesh " + std::to_string(m) + ": " +
+                               std::to_string(prims.size()) + " base primitives, the stream has " +
+                               std::to_string(stream.base_primitive_faces.size()),
+                           ErrorKind::kInternal);
+    for (size_t k = 0; k < prims.size(); ++k) {
+      if (Status s = permute_vertices(prims[k], stream.base_order); !s) return s;
+      if (prims[k].indices.size() != stream.base_primitive_faces[k].size())
+        return Status::error("package: mesh " + std::to_string(m) + " primitive " +
+                                 std::to_string(k) + ": base faces differ from the stream's",
+                             ErrorKind::kInternal);
+      prims[k].indices = stream.base_primitive_faces[k];
+    }
+  }
   auto base = export_glb_bytes(base_scene, plain, warnings);
   if (!base.ok()) return base.status();
   PackageInput in;
@@ -231,7 +246,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
 }
 
 // The package as a viewer receives it (the stored order, real bytes): nothing until the header,
-// table, base and base faces are in, then each chunk. For report.json's download comparison.
+// table and base are in, then each chunk. For report.json's download comparison.
 Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& package,
                                                uint64_t model_glb_bytes, double empty) {
   auto pkg = read_package(package);
@@ -239,8 +254,6 @@ Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& packa
   DownloadComparison c;
   c.model_glb_bytes = model_glb_bytes;
   uint64_t first = pkg->base_offset + pkg->base_size;
-  for (const PackageMesh& mesh : pkg->meshes)
-    first = std::max(first, mesh.base_indices_offset + mesh.base_indices_size);
   c.package.push_back({0, empty});
   c.package.push_back({first, pkg->base_distortion});
   if (!pkg->orders.empty()) {

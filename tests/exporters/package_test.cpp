@@ -46,6 +46,7 @@ struct Fixture {
   TextureLevels textures;
   PackageInput input;
   size_t base_level = 0;                             // mesh 0's base level
+  std::vector<uint32_t> base_faces;                  // mesh 0's base faces as a client holds them
   std::vector<size_t> step_levels;                   // per mesh step: the level of mesh 0
   std::vector<std::vector<EncodedMeshPart>> layers;  // per mesh layer, as the multiplexer gives
 };
@@ -94,7 +95,8 @@ const Fixture& fixture() {
     head.base_faces = pm.levels[f->base_level].face_end;
     head.bounds = package_bounds(pm);
     head.quantization = package_quantization(pm);
-    if (encoder.base_indices().ok()) head.base_indices = *encoder.base_indices();
+    head.base_primitive_faces = encoder.base_faces();
+    f->base_faces = encoder.client().indices;  // as a client decodes them from the base .glb
     head.base_order = encoder.stream_order();
     f->input.meshes = {head};
     f->layers.resize(1);  // layer 0: the base
@@ -229,10 +231,8 @@ TEST(Package, RoundTripDecodesEveryPart) {
   size_t mesh_step = 0;
   // The base: its faces decode to the base level; the base .glb's mesh holds the stream's
   // first base_vertices vertices in order, tagged with its package mesh.
-  auto base_faces = decode_base_indices(*bytes, *pkg, 0);
-  ASSERT_TRUE(base_faces.ok()) << base_faces.status().message();
-  ASSERT_EQ(base_faces->size(), size_t(base.face_end) * 3);
-  auto client = decode_base(*bytes, *pkg, 0, base_vertices(pm, f.input.meshes[0].base_order));
+  ASSERT_EQ(f.base_faces.size(), size_t(base.face_end) * 3);
+  auto client = decode_base(*pkg, 0, base_vertices(pm, f.input.meshes[0].base_order), f.base_faces);
   ASSERT_TRUE(client.ok()) << client.status().message();
   EXPECT_EQ(client_faces(*client), level_faces(pm, f.base_level));
   {
@@ -505,15 +505,17 @@ TEST(Package, SurvivesThousandCorruptions) {
     bool all_ok = true;
     std::vector<Result<VsplitMesh>> clients;
     for (size_t m = 0; m < pkg->meshes.size(); ++m) {
-      auto b = decode_base_indices(bytes, *pkg, m);
-      if (b.ok())
-        for (uint32_t i : *b) ASSERT_LT(i, pkg->meshes[m].base_vertices);
-      // The base vertices come from the base .glb, which holds at most what the file holds.
-      if (pkg->meshes[m].base_vertices > bytes.size()) {
+      // The base vertices and faces come from the base .glb, which holds at most what the file
+      // holds: the fixture's faces where the table still agrees, zeros (degenerate) elsewhere.
+      const PackageMesh& pm = pkg->meshes[m];
+      if (pm.base_vertices > bytes.size() || pm.base_faces > bytes.size()) {
         clients.push_back(Status::error("too many base vertices", ErrorKind::kInput));
       } else {
-        clients.push_back(decode_base(bytes, *pkg, m,
-                                      std::vector<QuantizedVertex>(pkg->meshes[m].base_vertices)));
+        std::vector<uint32_t> faces = m == 0 && f.base_faces.size() == size_t(pm.base_faces) * 3
+                                          ? f.base_faces
+                                          : std::vector<uint32_t>(size_t(pm.base_faces) * 3, 0);
+        clients.push_back(
+            decode_base(*pkg, m, std::vector<QuantizedVertex>(pm.base_vertices), faces));
       }
       if (!clients.back().ok()) all_ok = false;
     }
@@ -594,8 +596,8 @@ TEST(Package, DecodeChecksItsArguments) {
   ASSERT_EQ(good.kind, StreamStep::kMesh);
   const Fixture& fx = fixture();
   auto fresh = [&](const Package& p) {
-    auto c =
-        decode_base(*bytes, p, 0, base_vertices(fx.ps.meshes[0], fx.input.meshes[0].base_order));
+    auto c = decode_base(p, 0, base_vertices(fx.ps.meshes[0], fx.input.meshes[0].base_order),
+                         fx.base_faces);
     EXPECT_TRUE(c.ok()) << c.status().message();
     return c.ok() ? c.take() : VsplitMesh{};
   };

@@ -1,5 +1,5 @@
 // libFuzzer target: the stream package reader (exporters/package_read) on arbitrary bytes,
-// and, when the table reads, every base-index and mesh-part decoder it leads to (the codecs
+// and, when the table reads, every mesh-part decoder it leads to (the codecs
 // that run on bytes a server sends).
 #include <cstdint>
 #include <vector>
@@ -10,17 +10,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);
   auto package = meshmux::read_package(bytes);
   if (!package.ok()) return 0;
-  // Base vertices come from the base .glb (at most one per byte of the file); zeros stand in.
+  // Base vertices and faces come from the base .glb (at most one per byte of the file); zeros
+  // stand in (degenerate faces), so every part decodes against a state of the table's sizes.
   std::vector<meshmux::Result<meshmux::VsplitMesh>> clients;
   for (size_t m = 0; m < package->meshes.size(); ++m) {
-    (void)meshmux::decode_base_indices(bytes, *package, m);
-    if (package->meshes[m].base_vertices > size) {
+    const meshmux::PackageMesh& pm = package->meshes[m];
+    if (pm.base_vertices > size || pm.base_faces > size) {
       clients.push_back(meshmux::Status::error("base", meshmux::ErrorKind::kInput));
       continue;
     }
-    clients.push_back(meshmux::decode_base(
-        bytes, *package, m,
-        std::vector<meshmux::QuantizedVertex>(package->meshes[m].base_vertices)));
+    clients.push_back(meshmux::decode_base(*package, m,
+                                           std::vector<meshmux::QuantizedVertex>(pm.base_vertices),
+                                           std::vector<uint32_t>(size_t(pm.base_faces) * 3, 0)));
   }
   for (const meshmux::PackageChunk& chunk : package->chunks)
     for (size_t p = 0; p < chunk.parts.size(); ++p) {

@@ -68,7 +68,7 @@ RoundTrip round_trip(const ProgressiveMesh& pm, int parts) {
   RoundTrip out;
   PositionQuantization q = package_quantization(pm);
   MeshStreamEncoder encoder(pm, q, 0, pm.base_level);
-  EXPECT_TRUE(encoder.base_indices().ok());
+  EXPECT_TRUE(encoder.status().is_ok()) << encoder.status().message();
   const ProgressiveLevel& base = pm.levels[pm.base_level];
   VsplitMesh client;
   client.reset(uint32_t(pm.vertex_count()), uint32_t(pm.face_count()));

@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 6).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 7).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -212,23 +212,23 @@ export class StreamMesh {
     this.head[v] = c;
   }
 
-  // Decodes meshopt index-codec bytes of `count` base faces into the index buffer and the
-  // corner lists; every corner must name a vertex already received.
-  appendFaces(source, count) {
-    const f = this.faces, I = this.indices, start = 3 * f, corners = 3 * count;
-    if (f + count > this.capacityFaces) throw new Error(`mesh ${this.index}: ${f + count} faces exceed its capacity ${this.capacityFaces}`);
-    MeshoptDecoder.decodeIndexBuffer(new Uint8Array(I.buffer, I.byteOffset + 4 * start, 4 * corners), corners, 4, source);
+  // Appends base faces (`indices`: a glTF primitive's index array, 3 per face, as the base .glb
+  // decoded them) to the index buffer and the corner lists; every corner must name a vertex
+  // already received.
+  appendIndices(indices) {
+    const f = this.faces, I = this.indices, start = 3 * f, corners = indices.length;
+    if (corners % 3 !== 0) throw new Error(`mesh ${this.index}: ${corners} base indices are not whole faces`);
+    if (f + corners / 3 > this.capacityFaces) throw new Error(`mesh ${this.index}: ${f + corners / 3} faces exceed its capacity ${this.capacityFaces}`);
     let solid = 0;
-    for (let i = start; i < start + corners; i += 3) {
-      const a = I[i], b = I[i + 1], c = I[i + 2];
+    for (let i = 0; i < corners; i += 3) {
+      const a = indices[i], b = indices[i + 1], c = indices[i + 2], j = start + i;
       if (a >= this.vertices || b >= this.vertices || c >= this.vertices) {
-        throw new Error(`mesh ${this.index}: face ${i / 3} names vertex ${Math.max(a, b, c)}, only ${this.vertices} are received`);
+        throw new Error(`mesh ${this.index}: base face ${(j / 3)} names vertex ${Math.max(a, b, c)}, only ${this.vertices} are received`);
       }
-      if (a !== b && b !== c && a !== c) solid++;
-      this._pushCorner(i, a); this._pushCorner(i + 1, b); this._pushCorner(i + 2, c);
+      solid += addFace(I, this.head, this.next, j, a, b, c);
     }
     this.solid += solid;
-    this.faces = f + count;
+    this.faces = f + corners / 3;
     this.indexAttribute.addUpdateRange(start, corners);
     this.indexAttribute.needsUpdate = true;
     this.geometry.setDrawRange(0, 3 * this.faces);
@@ -469,27 +469,6 @@ export async function applyMeshChunk(meshes, chunk, payload) {
   return added;
 }
 
-// ---- Warm-up ---------------------------------------------------------------------------------
-
-// Prepares the decode path before the first chunk is applied (called while its bytes are on
-// their way): grows the meshopt decoder's WebAssembly heap to `heapBytes` (the base faces'
-// decode) at once, since growing it mid-stream detaches its ArrayBuffer and V8 then drops the
-// code it optimized.
-let heapReserved = 0;
-function warmUp(heapBytes) {
-  try {
-    if (heapBytes > heapReserved) {
-      const n = Math.ceil(heapBytes / 5);  // a zero sequence of n values takes 4n + n + 5 bytes
-      const source = new Uint8Array(n + 5);
-      source[0] = 0xd0;
-      MeshoptDecoder.decodeIndexSequence(new Uint8Array(4 * n), n, 4, source);
-      heapReserved = heapBytes;
-    }
-  } catch (e) {
-    // Only a warm-up: the real decodes do the same work with the real data.
-  }
-}
-
 // ---- Textures and material -------------------------------------------------------------------
 
 // Texels used as stored bytes (no colour management), glTF's uv convention (no flip),
@@ -666,22 +645,19 @@ export class MeshmuxStream extends EventTarget {
       }
       const table = validateTable(raw, { fileSize: Number.isFinite(this._reader.size) ? this._reader.size : Infinity, dataStart, fail: (m) => this._fail(m) });
       if (!Number.isFinite(this._reader.size)) {  // the server hid the size: the table's end stands in
-        const ends = [table.base, ...table.meshes.map((m) => m.base_indices), ...table.chunks].map((r) => r.offset + r.size);
+        const ends = [table.base, ...table.chunks].map((r) => r.offset + r.size);
         this._reader.size = Math.max(dataStart, ...ends);
       }
       this.notes.push(...table.notes);
       const order = table.orders.find((o) => o.name === this.options.order);
       if (!order) throw this._fail(`no order "${this.options.order}" (the package has ${table.orders.map((o) => o.name).join(', ')})`);
 
-      // The base .glb and the base faces (stored one after the other): one request.
-      const ranges = [table.base, ...table.meshes.map((m) => m.base_indices).filter((r) => r.size > 0)];
-      const lo = Math.min(...ranges.map((r) => r.offset)), hi = Math.max(...ranges.map((r) => r.offset + r.size));
-      const sum = ranges.reduce((s, r) => s + r.size, 0);
-      const block = await this._reader.read(lo, hi, signal);
-      await this._buildBase(table, (r) => block.subarray(r.offset - lo, r.offset - lo + r.size));
+      // The base .glb: one request.
+      const base = await this._reader.read(table.base.offset, table.base.offset + table.base.size, signal);
+      await this._buildBase(table, base);
       this.table = table;
       this.order = order;
-      this._bytes = dataStart + sum;
+      this._bytes = dataStart + table.base.size;
       this._state = 'base';
       this._emit('base');
       this._emit('progress');
@@ -696,8 +672,7 @@ export class MeshmuxStream extends EventTarget {
   }
 
   // Parses the base .glb; swaps in the streaming geometries and the shared shading.
-  async _buildBase(table, slice) {
-    const bytes = slice(table.base);
+  async _buildBase(table, bytes) {
     const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
     let gltf;
     try {
@@ -712,6 +687,7 @@ export class MeshmuxStream extends EventTarget {
 
     this.meshes = table.meshes.map((d, i) => new StreamMesh(d, i));
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
+    const baseFaces = new Set(), facesDone = new Set();
     for (const o of objects) {
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
       if (!materialFor.has(source)) {
@@ -734,12 +710,19 @@ export class MeshmuxStream extends EventTarget {
           throw this._fail(`base .glb mesh ${m} has ${pos ? pos.count : 0} vertices, the table says base_vertices ${d.base_vertices}`);
         }
         mesh.setBaseVertices(o.geometry);
-        try {
-          if (d.base_faces > 0) mesh.appendFaces(slice(d.base_indices), d.base_faces);
-        } catch (e) {
-          throw this._fail(`mesh ${m}: base_indices: ${e.message}`);
-        }
         filled.add(m);
+      }
+      // The base faces: the mesh's primitives' indices in primitive order (its first node's
+      // objects, each primitive's geometry once).
+      if (!baseFaces.has(o.geometry) && !facesDone.has(m)) {
+        baseFaces.add(o.geometry);
+        try {
+          if (o.geometry.index) mesh.appendIndices(o.geometry.index.array);
+        } catch (e) {
+          throw this._fail(`mesh ${m}: base faces: ${e.message}`);
+        }
+      } else if (baseFaces.has(o.geometry)) {
+        facesDone.add(m);  // a second node drawing the mesh: its faces are in
       }
       oldGeometries.add(o.geometry);
       o.geometry = mesh.geometry;
@@ -749,7 +732,10 @@ export class MeshmuxStream extends EventTarget {
       }
       mesh.instances += o.isInstancedMesh ? o.count : 1;
     }
-    this.meshes.forEach((_, m) => { if (!filled.has(m)) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`); });
+    this.meshes.forEach((mesh, m) => {
+      if (!filled.has(m)) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`);
+      else if (mesh.faces !== table.meshes[m].base_faces) throw this._fail(`base .glb mesh ${m} has ${mesh.faces} faces, the table says base_faces ${table.meshes[m].base_faces}`);
+    });
     for (const g of oldGeometries) g.dispose();
     for (const material of oldMaterials) {
       for (const value of Object.values(material)) if (value && value.isTexture && value !== this._map.value) value.dispose();
@@ -816,7 +802,6 @@ export class MeshmuxStream extends EventTarget {
     this._state = 'streaming';
     try {
       let batch = this._planBatch(this._position, this._bytes), fetching = read(batch);
-      if (batch) warmUp(this.table.heapBytes);  // while the first batch is on its way
       while (batch) {
         const data = await fetching;
         const next = this._planBatch(this._position + batch.indices.length, batch.bytes);

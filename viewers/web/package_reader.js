@@ -1,8 +1,8 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 6; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 7; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 6;
+export const PACKAGE_VERSION = 7;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -60,11 +60,10 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     const d = {
       vertices: int(m.vertices, `${w}.vertices`, MAX_ELEMENTS), faces: int(m.faces, `${w}.faces`, MAX_ELEMENTS),
       base_vertices: int(m.base_vertices, `${w}.base_vertices`, m.vertices), base_faces: int(m.base_faces, `${w}.base_faces`, m.faces),
-      bounds: arr(m.bounds, `${w}.bounds`), quantization: obj(m.quantization, `${w}.quantization`), base_indices: range(obj(m.base_indices, `${w}.base_indices`), `${w}.base_indices`),
+      bounds: arr(m.bounds, `${w}.bounds`), quantization: obj(m.quantization, `${w}.quantization`),
     };
     need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
     d.quantization = { origin: vec3(d.quantization.origin, `${w}.quantization.origin`), step: num(d.quantization.step, `${w}.quantization.step`, Number.MIN_VALUE) };
-    need((d.base_faces > 0) === (d.base_indices.size > 0), `${w}: ${d.base_faces} base faces in ${d.base_indices.size} bytes`);
     return d;
   });
   const texture = t.texture == null ? null
@@ -72,8 +71,6 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
 
   // Chunks, with the parts simulated in stream order: each continues where its mesh stands.
   const held = meshes.map((m) => ({ vertices: m.base_vertices, faces: m.base_faces }));
-  let heapBytes = 0;  // the largest decode ahead, in decoder heap bytes (target + source)
-  for (const m of meshes) heapBytes = Math.max(heapBytes, 12 * m.base_faces + 12 + m.base_indices.size);
   const chunks = arr(t.chunks, 'chunks').map((c, i) => {
     const w = `chunks[${i}]`;
     const chunk = { kind: obj(c, w).kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
@@ -130,7 +127,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // Not fatal: a complete stream should end on the full mesh sizes.
   const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
     : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
-  return { version: t.version, view, base, meshes, texture, chunks, orders, notes, heapBytes };
+  return { version: t.version, view, base, meshes, texture, chunks, orders, notes };
 }
 
 // ---- HTTP ranges -----------------------------------------------------------------------------

@@ -198,14 +198,19 @@ try {
     // The base vertices' quantized values, which the splits are predicted from.
     const glb = bytes.slice(table.base.offset, table.base.offset + table.base.size).buffer;
     const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(glb, '');
-    const baseGeometry = [];
-    gltf.scene.traverse((o) => { if (o.isMesh && o.userData.meshmux_mesh !== undefined) baseGeometry[o.userData.meshmux_mesh] = o.geometry; });
+    // Per mesh, its primitives' geometries in primitive order (the first node drawing it).
+    const baseGeometry = [], done = new Set();
+    gltf.scene.traverse((o) => {
+      const m = o.isMesh ? o.userData.meshmux_mesh : undefined;
+      if (m === undefined || done.has(m)) return;
+      const list = baseGeometry[m] || (baseGeometry[m] = []);
+      if (list.includes(o.geometry)) done.add(m); else list.push(o.geometry);
+    });
     for (let run = 0; run < 5; ++run) {
       const meshes = table.meshes.map((d, i) => {
         const m = new StreamMesh(d, i);
-        m.setBaseVertices(baseGeometry[i]);
-        const b = d.base_indices;
-        if (b.size) m.appendFaces(bytes.subarray(b.offset, b.offset + b.size), d.base_faces);
+        m.setBaseVertices(baseGeometry[i][0]);
+        for (const g of baseGeometry[i]) if (g.index) m.appendIndices(g.index.array);
         return m;
       });
       const t0 = performance.now();
