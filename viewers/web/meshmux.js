@@ -445,25 +445,33 @@ export class StreamMesh {
   dispose() { this.geometry.dispose(); }
 }
 
-// Applies one mesh chunk's payload to the stream meshes, part by part (each part inflated,
-// then its splits applied). Resolves with the faces added.
+// Applies one mesh chunk's payload to the stream meshes: every part's zlib stream is inflated
+// at once (the browser works on them together), then the parts' splits are applied in order.
+// Resolves with the faces added.
 export async function applyMeshChunk(meshes, chunk, payload) {
-  let at = 0, added = 0;
-  for (const part of chunk.parts) {
-    const mesh = meshes[part.mesh];
+  let at = 0;
+  const inflated = chunk.parts.map((part) => {
+    const bytes = payload.subarray(at, at += part.bytes);
+    const limit = PART_BYTES_PER_ELEMENT * (part.vertex_end - part.vertex_begin + part.face_end - part.face_begin) + PART_BYTES_CONSTANT;
+    const promise = inflate(bytes, limit);
+    promise.catch(() => {});  // awaited below, in order
+    return promise;
+  });
+  let added = 0;
+  for (let k = 0; k < chunk.parts.length; k++) {
+    const part = chunk.parts[k], mesh = meshes[part.mesh];
     if (part.vertex_begin !== mesh.vertices || part.face_begin !== mesh.faces) {
       throw new Error(`mesh ${part.mesh}: part starts at vertex ${part.vertex_begin}, face ${part.face_begin}, ` +
         `but ${mesh.vertices} vertices and ${mesh.faces} faces are received`);
     }
-    const bytes = payload.subarray(at, at += part.bytes);
-    const splits = part.vertex_end - part.vertex_begin, faces = part.face_end - part.face_begin;
     let d;
     try {
-      d = await inflate(bytes, PART_BYTES_PER_ELEMENT * (splits + faces) + PART_BYTES_CONSTANT);
+      d = await inflated[k];
     } catch (e) {
       throw new Error(`mesh ${part.mesh}: ${e.message}`);
     }
-    mesh.applySplits(d, splits, faces);
+    const faces = part.face_end - part.face_begin;
+    mesh.applySplits(d, part.vertex_end - part.vertex_begin, faces);
     added += faces;
   }
   return added;
