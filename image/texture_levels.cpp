@@ -13,6 +13,10 @@
 namespace meshmux {
 
 namespace {
+constexpr int kMinPreviewSide = 8;  // a preview level is never halved below this
+}  // namespace
+
+namespace {
 
 bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
@@ -103,6 +107,36 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
     levels.dropped.push_back(
         {largest->width, largest->height, uint64_t(largest->encoded.size()), why});
     levels.levels.erase(largest);
+  }
+  // Still too dear with only the smallest level below the top: that level halves again (a
+  // smaller first picture) until the pyramid fits or it is a single texel.
+  Image smallest = chain.back();
+  while (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top &&
+         std::max(smallest.width, smallest.height) > kMinPreviewSide) {
+    TextureLevel& first = levels.levels.front();
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  "with it the levels cost %.3f× the top level (limit %.2f); the smallest level "
+                  "halves instead",
+                  double(total()) / top, o.max_pyramid_ratio);
+    levels.dropped.push_back({first.width, first.height, uint64_t(first.encoded.size()), why});
+    smallest = downsample_half(smallest);
+    auto bytes = alpha ? encode_png(smallest) : encode_jpeg(smallest, o.preview_quality);
+    if (!bytes.ok()) return bytes.status().with_prefix(who);
+    first.width = smallest.width, first.height = smallest.height;
+    first.encoded = bytes.take();
+  }
+  // A preview that small still too dear (a tiny texture: the file's headers dominate): the top
+  // level is the only one.
+  if (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top) {
+    const TextureLevel& first = levels.levels.front();
+    char why[160];
+    std::snprintf(why, sizeof why,
+                  "with it the levels cost %.3f× the top level (limit %.2f) even at %dx%d: the "
+                  "top level is the only one",
+                  double(total()) / top, o.max_pyramid_ratio, first.width, first.height);
+    levels.dropped.push_back({first.width, first.height, uint64_t(first.encoded.size()), why});
+    levels.levels.erase(levels.levels.begin());
   }
   return levels;
 }

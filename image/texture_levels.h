@@ -23,7 +23,8 @@ struct TextureLevelOptions {
   // top, at or under base_size.
   int level_halvings = 2;
   // Levels between the smallest and the top are dropped, most bytes first, while all levels
-  // together cost more than this times the top level (issue 4/8: pay only for levels that pay).
+  // together cost more than this times the top level (issue 4/8: pay only for levels that pay);
+  // with only the smallest left below the top, it halves until the pyramid fits.
   double max_pyramid_ratio = 1.15;
 };
 

@@ -76,7 +76,9 @@ TEST(TextureLevels, SmallAndNonSquareTextures) {
   ASSERT_TRUE(small.ok());
   ASSERT_EQ(small->levels.size(), 1u);
   EXPECT_EQ(small->levels[0].width, 64);
-  auto wide = make_texture_levels(ramp(512, 128), {});
+  TextureLevelOptions unbounded;  // a ramp's tiny files are all headers: no byte bound here
+  unbounded.max_pyramid_ratio = INFINITY;
+  auto wide = make_texture_levels(ramp(512, 128), unbounded);
   ASSERT_TRUE(wide.ok());
   ASSERT_EQ(wide->levels.size(), 2u);  // every other mip level: 128×32 and 512×128
   EXPECT_EQ(wide->levels[0].width, 128);
@@ -150,6 +152,35 @@ TEST(TextureLevels, LevelsPastTheByteLimitAreDroppedWithAReason) {
   EXPECT_EQ(l->levels.size() + l->dropped.size(), 4u);
   EXPECT_EQ(l->dropped[0].width, 512);  // the largest between the smallest and the top
   EXPECT_NE(l->dropped[0].why.find("limit 1.10"), std::string::npos) << l->dropped[0].why;
+}
+
+// A small detailed top level whose one preview level is too dear: the preview halves (and the
+// level it replaced is reported) until the pair costs at most 1.15× the top.
+TEST(TextureLevels, ATooDearSmallestLevelHalves) {
+  TextureLevelOptions o;
+  o.base_size = 64;
+  o.preview_quality = o.jpeg_quality;
+  auto l = make_texture_levels(detailed(256), o);  // 256² and 64²
+  ASSERT_TRUE(l.ok());
+  ASSERT_EQ(l->levels.size(), 2u);
+  EXPECT_LE(pyramid_ratio(*l), 1.15);
+  ASSERT_FALSE(l->dropped.empty());
+  EXPECT_EQ(l->dropped[0].width, 64);
+  EXPECT_LT(l->levels[0].width, 64);
+  EXPECT_NE(l->dropped[0].why.find("halves"), std::string::npos);
+}
+
+// A tiny texture whose every preview costs more than 15% of it (JPEG headers): the top level
+// ships alone, and the report says why.
+TEST(TextureLevels, TinyTexturesShipTheirTopLevelAlone) {
+  TextureLevelOptions o;
+  o.base_size = 32;
+  auto l = make_texture_levels(ramp(128, 128), o);
+  ASSERT_TRUE(l.ok());
+  ASSERT_EQ(l->levels.size(), 1u);
+  EXPECT_EQ(l->levels[0].width, 128);
+  ASSERT_FALSE(l->dropped.empty());
+  EXPECT_NE(l->dropped.back().why.find("only one"), std::string::npos) << l->dropped.back().why;
 }
 
 TEST(TextureLevels, RejectsNonPowerOfTwo) {
