@@ -10,7 +10,7 @@
 //   12  J  JSON table (UTF-8), see below
 //   12+J   the base .glb, then each chunk, in table order
 // JSON table:
-//   {"version": 7,
+//   {"version": 8,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -30,7 +30,10 @@
 //                                                  // from where m stands (its base, then the
 //                                                  // parts before in file order): vertex a, face c
 //               {"kind": "texture", "offset": o, "size": s, "distortion": d,
-//                "width": w, "height": h, "mime": "image/jpeg"}],
+//                "width": w, "height": h,                  // every map's size
+//                "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...]}],
+//                   // the payload is the maps' files in this order; base_color comes first,
+//                   // then any of kTextureChannels (issue 5/8's physically based maps)
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
 //               {"name": "mesh-first", ...}, ...]}                  // see below
 // Offsets are absolute in the file.
@@ -46,7 +49,7 @@
 // is its parts' bytes in order; each part is the compact vertex splits taking the mesh from
 // vertex a to b and face c to e (multiplex/vsplit.h: one zlib stream; the splits' order is the
 // stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A
-// texture chunk is a complete JPEG or PNG of that level.
+// texture chunk is the complete JPEG or PNG files of that level's maps, one per channel.
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
 // order is a permutation of the chunks that keeps the mesh chunks' relative order (texture
@@ -67,10 +70,16 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 7;
+constexpr uint32_t kPackageVersion = 8;
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
+// The material channels a texture step's maps may stand for (glTF metal-roughness).
+constexpr const char* kBaseColorChannel = "base_color";
+inline bool is_texture_channel(const std::string& c) {
+  return c == kBaseColorChannel || c == "normal" || c == "occlusion_roughness_metallic" ||
+         c == "emissive";
+}
 
 // Everything the package holds, already encoded: the writer lays bytes out and encodes nothing.
 struct PackageInput {
@@ -96,13 +105,18 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& input);
 
 // The parsed package. Every offset, size and count is checked against the file and the table
 // before anything is exposed; errors name the problem ("package: chunk 3: offset past the end").
+// One map of a texture chunk: its channel, file type and absolute byte range.
+struct PackageMap {
+  std::string channel, mime;
+  uint64_t offset = 0, size = 0;
+};
 struct PackageChunk {
   StreamStep::Kind kind = StreamStep::kMesh;
   uint64_t offset = 0, size = 0;
   double distortion = 0;
   std::vector<PackagePart> parts;  // mesh chunks
   int width = 0, height = 0;       // texture chunks
-  std::string mime;
+  std::vector<PackageMap> maps;    // texture chunks: base_color first
 };
 struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;

@@ -212,13 +212,37 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size,
     if (!(s = get_side(j, "width", c.width, where)) ||
         !(s = get_side(j, "height", c.height, where)))
       return s;
-    auto mime = j.find("mime");
-    if (mime == j.end() || !mime->is_string())
-      return fail(where + ": \"mime\" missing or not a string");
-    c.mime = mime->get<std::string>();
-    if (c.mime != "image/jpeg" && c.mime != "image/png")
-      return fail(where + ": mime type is neither JPEG nor PNG");
-    if (c.size == 0) return fail(where + ": empty texture");
+    auto maps = j.find("maps");
+    if (maps == j.end() || !maps->is_array() || maps->empty())
+      return fail(where + ": \"maps\" missing, not an array or empty");
+    uint64_t at = c.offset;
+    for (size_t i = 0; i < maps->size(); ++i) {
+      const Json& e = (*maps)[i];
+      std::string mw = where + " map " + std::to_string(i);
+      if (!e.is_object()) return fail(mw + " is not an object");
+      auto channel = e.find("channel"), mime = e.find("mime");
+      if (channel == e.end() || !channel->is_string() || mime == e.end() || !mime->is_string())
+        return fail(mw + ": \"channel\" or \"mime\" missing or not a string");
+      PackageMap m;
+      m.channel = channel->get<std::string>(), m.mime = mime->get<std::string>();
+      if (!is_texture_channel(m.channel))
+        return fail(mw + ": unknown channel \"" + m.channel + "\"");
+      if ((i == 0) != (m.channel == kBaseColorChannel))
+        return fail(mw + ": base_color must come first, once");
+      for (const PackageMap& before : c.maps)
+        if (before.channel == m.channel) return fail(mw + ": channel " + m.channel + " twice");
+      if (m.mime != "image/jpeg" && m.mime != "image/png")
+        return fail(mw + ": mime type is neither JPEG nor PNG");
+      if (!(s = get_uint(e, "size", c.size, m.size, mw))) return s;
+      if (m.size == 0) return fail(mw + ": empty map");
+      if (m.size > c.offset + c.size - at) return fail(mw + ": maps hold more than the chunk");
+      m.offset = at;
+      at += m.size;
+      c.maps.push_back(std::move(m));
+    }
+    if (at != c.offset + c.size)
+      return fail(where + ": maps hold " + std::to_string(at - c.offset) + " bytes, the chunk " +
+                  std::to_string(c.size));
     return Status::ok();
   }
   auto parts = j.find("parts");

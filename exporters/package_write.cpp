@@ -43,6 +43,13 @@ Status check_texture_level(const TextureLevel& t, const std::string& where) {
                 std::to_string(t.height) + " is empty or has a bad size");
   if (t.mime_type != "image/jpeg" && t.mime_type != "image/png")
     return fail(where + "texture level mime type \"" + t.mime_type + "\" is neither JPEG nor PNG");
+  for (const TextureMap& m : t.other_maps) {
+    if (!is_texture_channel(m.channel) || m.channel == kBaseColorChannel)
+      return fail(where + "texture level map channel \"" + m.channel +
+                  "\" is not a further channel");
+    if (m.encoded.empty() || (m.mime_type != "image/jpeg" && m.mime_type != "image/png"))
+      return fail(where + "texture level " + m.channel + " map is empty or neither JPEG nor PNG");
+  }
   return Status::ok();
 }
 
@@ -83,6 +90,8 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
       c.mesh = false;
       c.texture = &t;
       c.payload = t.encoded;
+      for (const TextureMap& m : t.other_maps)
+        c.payload.insert(c.payload.end(), m.encoded.begin(), m.encoded.end());
     } else {
       if (!in.mesh_layers || step.mesh_layer >= in.mesh_layers->size() ||
           step.mesh_layer < next_layer)
@@ -202,8 +211,15 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
         parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
       e["parts"] = std::move(parts);
     } else {
-      e["width"] = c.texture->width, e["height"] = c.texture->height,
-      e["mime"] = c.texture->mime_type;
+      e["width"] = c.texture->width, e["height"] = c.texture->height;
+      OrderedJson maps = OrderedJson::array();
+      maps.push_back({{"channel", kBaseColorChannel},
+                      {"mime", c.texture->mime_type},
+                      {"size", uint64_t(c.texture->encoded.size())}});
+      for (const TextureMap& m : c.texture->other_maps)
+        maps.push_back(
+            {{"channel", m.channel}, {"mime", m.mime_type}, {"size", uint64_t(m.encoded.size())}});
+      e["maps"] = std::move(maps);
     }
     offset += c.payload.size();
     cs.push_back(std::move(e));

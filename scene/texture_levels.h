@@ -8,10 +8,20 @@
 
 namespace meshmux {
 
+// A further material channel's map at a level's resolution ("normal",
+// "occlusion_roughness_metallic", "emissive"): a texture step may carry several (issue 4/8,
+// deliver 6; issue 5/8 fills them).
+struct TextureMap {
+  std::string channel;           // the glTF channel it stands for
+  std::string mime_type;         // "image/jpeg" or "image/png"
+  std::vector<uint8_t> encoded;  // independently decodable
+};
+
 struct TextureLevel {
-  int width = 0, height = 0;     // pixels
-  std::string mime_type;         // "image/jpeg", or "image/png" when the texture has alpha
-  std::vector<uint8_t> encoded;  // the level's file bytes, independently decodable
+  int width = 0, height = 0;           // pixels
+  std::string mime_type;               // "image/jpeg", or "image/png" when the texture has alpha
+  std::vector<uint8_t> encoded;        // the base colour map's file bytes, independently decodable
+  std::vector<TextureMap> other_maps;  // further channels at the same size (none yet)
 };
 
 // A level that was built and not shipped, and why (for report.json).

@@ -264,7 +264,10 @@ TEST(Package, RoundTripDecodesEveryPart) {
       const TextureLevel& l = f.textures.levels[step.texture_level];
       EXPECT_EQ(c.width, l.width);
       EXPECT_EQ(c.height, l.height);
-      EXPECT_EQ(c.mime, l.mime_type);
+      ASSERT_EQ(c.maps.size(), 1u);
+      EXPECT_EQ(c.maps[0].channel, "base_color");
+      EXPECT_EQ(c.maps[0].mime, l.mime_type);
+      EXPECT_EQ(c.maps[0].offset, c.offset);
       ASSERT_EQ(c.size, l.encoded.size());
       EXPECT_TRUE(std::equal(l.encoded.begin(), l.encoded.end(), bytes->begin() + long(c.offset)));
       continue;
@@ -311,6 +314,48 @@ TEST(Package, RoundTripDecodesEveryPart) {
   auto again = write_package(f.input);
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(*again, *bytes);
+}
+
+// A texture step may carry several maps at one resolution (issue 4/8, deliver 6): each is
+// listed with its channel, type and bytes, base colour first, and reads back at its own range.
+TEST(Package, TextureStepsCarrySeveralMaps) {
+  const Fixture& f = fixture();
+  TextureLevels levels = f.textures;
+  PackageInput in = f.input;
+  in.textures = &levels;
+  TextureMap normal;
+  normal.channel = "normal";
+  normal.mime_type = "image/png";
+  normal.encoded = {1, 2, 3, 4, 5, 6, 7};  // the reader checks ranges, not pixels
+  for (TextureLevel& l : levels.levels) l.other_maps = {normal};
+  auto bytes = write_package(in);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  size_t texture_chunks = 0;
+  for (size_t i = 0; i < pkg->chunks.size(); ++i) {
+    const PackageChunk& c = pkg->chunks[i];
+    if (c.kind != StreamStep::kTexture) continue;
+    ++texture_chunks;
+    const TextureLevel& l = levels.levels[in.steps[i].texture_level];
+    ASSERT_EQ(c.maps.size(), 2u);
+    EXPECT_EQ(c.maps[0].channel, "base_color");
+    EXPECT_EQ(c.maps[0].size, l.encoded.size());
+    EXPECT_EQ(c.maps[1].channel, "normal");
+    EXPECT_EQ(c.maps[1].mime, "image/png");
+    EXPECT_EQ(c.maps[1].offset, c.offset + l.encoded.size());
+    EXPECT_EQ(c.size, l.encoded.size() + 7);
+    EXPECT_TRUE(std::equal(normal.encoded.begin(), normal.encoded.end(),
+                           bytes->begin() + long(c.maps[1].offset)));
+  }
+  EXPECT_EQ(texture_chunks, 2u);
+  // A map that names the base colour again, or no known channel, is refused by the writer.
+  for (const char* bad : {"base_color", "specular"}) {
+    for (TextureLevel& l : levels.levels) l.other_maps[0].channel = bad;
+    auto r = write_package(in);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.status().message().find("channel"), std::string::npos) << r.status().message();
+  }
 }
 
 TEST(Package, WriterRejectsInconsistentInput) {

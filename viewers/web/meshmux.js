@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 7).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 8).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -593,6 +593,7 @@ export class MeshmuxStream extends EventTarget {
     this._reader = new RangeReader(this.url);
     this._map = { value: null };  // the texture uniform shared by the materials
     this._ownTextures = new Set();
+    this._unshownChannels = new Set();  // texture channels streamed that this client does not shade yet
     this._state = 'idle';
     this._abort = null;
     this._playing = null;
@@ -877,13 +878,22 @@ export class MeshmuxStream extends EventTarget {
       }
       return;
     }
-    // A texture level: a complete JPEG/PNG, decoded off the main thread, bytes as stored.
+    // A texture level: its maps' complete JPEG/PNG files; the base colour map is decoded off
+    // the main thread, bytes as stored. Further channels wait for physically based shading.
+    const map = chunk.maps[0];
+    for (const other of chunk.maps.slice(1)) {
+      if (!this._unshownChannels.has(other.channel)) {
+        this._unshownChannels.add(other.channel);
+        this.notes.push(`texture maps of channel ${other.channel} are streamed but not shown yet`);
+      }
+    }
     let bitmap;
     try {
-      bitmap = await createImageBitmap(new Blob([payload], { type: chunk.mime }),
+      const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
+      bitmap = await createImageBitmap(new Blob([bytes], { type: map.mime }),
         { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
     } catch (e) {
-      throw this._fail(`chunk ${index}: the ${chunk.mime} texture level cannot be decoded (${e.message})`);
+      throw this._fail(`chunk ${index}: the ${map.mime} texture level cannot be decoded (${e.message})`);
     }
     if (this._state === 'disposed') { bitmap.close(); return; }
     if (bitmap.width !== chunk.width || bitmap.height !== chunk.height) {

@@ -1,8 +1,8 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 7; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 8; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 7;
+export const PACKAGE_VERSION = 8;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -75,9 +75,25 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     const w = `chunks[${i}]`;
     const chunk = { kind: obj(c, w).kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
     if (c.kind === 'texture') {
-      need(/^image\/(jpeg|png|webp)$/.test(c.mime), `${w}.mime ${JSON.stringify(c.mime)} is not image/jpeg or image/png`);
-      need(chunk.size > 0, `${w}: an empty texture`);
-      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), mime: c.mime };
+      // Its maps' files one after another, base colour first (one texture step may carry
+      // several channels at one size).
+      const CHANNELS = ['base_color', 'normal', 'occlusion_roughness_metallic', 'emissive'];
+      let at = chunk.offset;
+      const maps = arr(c.maps, `${w}.maps`).map((m, j) => {
+        const mw = `${w}.maps[${j}]`;
+        obj(m, mw);
+        need(CHANNELS.includes(m.channel), `${mw}.channel ${JSON.stringify(m.channel)} is not one of ${CHANNELS.join(', ')}`);
+        need((j === 0) === (m.channel === 'base_color'), `${mw}: base_color must come first, once`);
+        need(/^image\/(jpeg|png)$/.test(m.mime), `${mw}.mime ${JSON.stringify(m.mime)} is not image/jpeg or image/png`);
+        const size = int(m.size, `${mw}.size`);
+        need(size > 0 && at + size <= chunk.offset + chunk.size, `${mw}: ${size} bytes do not fit the chunk`);
+        const map = { channel: m.channel, mime: m.mime, offset: at, size };
+        at += size;
+        return map;
+      });
+      need(maps.length > 0 && at === chunk.offset + chunk.size, `${w}: its maps hold ${at - chunk.offset} bytes, the chunk ${chunk.size}`);
+      need(new Set(maps.map((m) => m.channel)).size === maps.length, `${w}: a channel appears twice`);
+      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), maps };
     }
     need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
     let bytes = 0;
