@@ -225,7 +225,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     }
     faces_of[hi - 1 - va].push_back(f);
   }
-  std::vector<uint8_t> Z, K, F, E, W, P, N, T;
+  std::vector<uint8_t> Z, K, F, E, W, P, N, T, A;
+  std::vector<uint8_t> takes, moved;  // per corner of the parent: taken by the new vertex
   BitWriter M;
   std::vector<uint32_t> ring;
   struct NewFace {
@@ -238,16 +239,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     put_varint(Z, zigzag(int32_t(p) - int32_t(previous)));
     previous = p;
     sim_.add_vertex(QuantizedVertex{});
-    for (int32_t c = sim_.head[p], prev = -1; c >= 0;) {
-      int32_t after = sim_.next[size_t(c)];
-      bool take = rep(orig_[size_t(c)], v + 1) == x;
-      M.put(take);
-      if (take)
-        sim_.move_corner(p, prev, c, v);
-      else
-        prev = c;
-      c = after;
-    }
+    // Which of p's corners (in list order) the new vertex takes.
+    takes.clear();
+    for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)])
+      takes.push_back(rep(orig_[size_t(c)], v + 1) == x);
     // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
     made.clear();
     for (uint32_t f : faces_of[v - va]) {
@@ -265,12 +260,43 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       nf.w = s1 == p ? s2 : s1;
       made.push_back(nf);
     }
-    put_varint(K, uint32_t(made.size()));
-    if (!made.empty()) sim_.ring(p, v, kRingLimit, ring);
+    // Hoppe's split on a manifold fan (VsplitMesh::fan) when the new faces are (v, p, vl) and
+    // (v, vr, p) and the corners taken are the fan from vl to vr: two small numbers instead of
+    // the mask, the face count and the face codes.
+    bool fan_mode = false;
+    if (made.size() == 2 && made[0].flip != made[1].flip) {
+      if (made[0].flip) std::swap(made[0], made[1]);
+      uint32_t start = 0, count = 0, position = 0, vl = 0, vr = 0;
+      bool found = false;
+      for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)], ++position) {
+        size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
+        if (!found && sim_.indices[f + (slot + 1) % 3] == made[0].w) start = position, found = true;
+      }
+      for (uint8_t t : takes) count += t;
+      fan_mode = found && count > 0 && sim_.fan(p, start, count, moved, vl, vr) &&
+                 vl == made[0].w && vr == made[1].w && moved == takes;
+      if (fan_mode) put_varint(A, start), put_varint(A, count - 1);
+    }
+    M.put(fan_mode);
+    if (!fan_mode)
+      for (uint8_t t : takes) M.put(t != 0);
+    uint32_t position = 0;
+    for (int32_t c = sim_.head[p], prev = -1; c >= 0; ++position) {
+      int32_t after = sim_.next[size_t(c)];
+      if (takes[position])
+        sim_.move_corner(p, prev, c, v);
+      else
+        prev = c;
+      c = after;
+    }
+    if (!fan_mode) put_varint(K, uint32_t(made.size()));
+    if (!fan_mode && !made.empty()) sim_.ring(p, v, kRingLimit, ring);
     for (const NewFace& nf : made) {
-      uint32_t i = uint32_t(std::find(ring.begin(), ring.end(), nf.w) - ring.begin());
-      put_varint(F, (i << 1) | nf.flip);
-      if (i == ring.size()) put_varint(E, nf.w);
+      if (!fan_mode) {
+        uint32_t i = uint32_t(std::find(ring.begin(), ring.end(), nf.w) - ring.begin());
+        put_varint(F, (i << 1) | nf.flip);
+        if (i == ring.size()) put_varint(E, nf.w);
+      }
       if (nf.flip)
         sim_.add_face(v, nf.w, p);
       else
@@ -306,7 +332,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     for (int k = 0; k < 3; ++k) orig_.push_back(pm_.indices[size_t(f) * 3 + size_t(k)]);
   }
   std::vector<uint8_t> plain;
-  const std::vector<uint8_t>* streams[kVsplitStreams] = {&Z, &K, &F, &M.bytes, &E, &W, &P, &N, &T};
+  const std::vector<uint8_t>* streams[kVsplitStreams] = {&Z, &K, &F, &M.bytes, &E,
+                                                         &W, &P, &N, &T,       &A};
   for (const auto* stream : streams) put_varint(plain, uint32_t(stream->size()));
   for (const auto* stream : streams) plain.insert(plain.end(), stream->begin(), stream->end());
   if (plain.size() > kPartBytesPerElement * (uint64_t(vb - va) + (fb - fa)) + kPartBytesConstant)

@@ -112,6 +112,34 @@ QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p) {
   return out;
 }
 
+bool VsplitMesh::fan(uint32_t p, uint32_t start, uint32_t count, std::vector<uint8_t>& moved,
+                     uint32_t& vl, uint32_t& vr) const {
+  uint32_t n1[kFanLimit], n2[kFanLimit], d = 0;
+  for (int32_t c = head[p]; c >= 0; c = next[size_t(c)]) {
+    if (d == kFanLimit) return false;
+    size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
+    n1[d] = indices[f + (slot + 1) % 3], n2[d] = indices[f + (slot + 2) % 3];
+    if (n1[d] == p || n2[d] == p || n1[d] == n2[d]) return false;
+    for (uint32_t j = 0; j < d; ++j)
+      if (n1[j] == n1[d]) return false;
+    ++d;
+  }
+  if (start >= d || count == 0 || count > d) return false;
+  moved.assign(d, 0);
+  uint32_t at = start;
+  for (uint32_t k = 0;; ++k) {
+    if (moved[at]) return false;
+    moved[at] = 1;
+    if (k + 1 == count) break;
+    uint32_t j = 0;
+    while (j < d && n1[j] != n2[at]) ++j;
+    if (j == d) return false;
+    at = j;
+  }
+  vl = n1[start], vr = n2[at];
+  return vl != vr;
+}
+
 namespace {
 uint64_t position_key(const QuantizedVertex& q) {
   return uint64_t(q.p[0]) << 32 | uint64_t(q.p[1]) << 16 | uint64_t(q.p[2]);
@@ -231,7 +259,8 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
   Reader s[kVsplitStreams];
   const uint8_t* at = head.p;
   for (int i = 0; i < kVsplitStreams; ++i) s[i] = {at, at + len[i]}, at += len[i];
-  Reader &Z = s[0], &K = s[1], &F = s[2], &E = s[4], &W = s[5], &P = s[6], &N = s[7], &T = s[8];
+  Reader &Z = s[0], &K = s[1], &F = s[2], &E = s[4], &W = s[5], &P = s[6], &N = s[7], &T = s[8],
+         &A = s[9];
   BitReader M{s[3].p, uint64_t(len[3]) * 8, 0};
   if (uint64_t(mesh.vertex_count()) + splits > mesh.capacity_vertices_ ||
       uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
@@ -239,12 +268,15 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
   const uint32_t face_goal = mesh.face_count() + faces;
   uint32_t previous = 0;
   std::vector<uint32_t> ring;
+  std::vector<uint8_t> moved;
   auto fail = [](uint32_t i, const std::string& what) {
     return Status::error("split " + std::to_string(i) + ": " + what, ErrorKind::kInput);
   };
   for (uint32_t i = 0; i < splits; ++i) {
-    uint32_t z, k;
-    if (!Z.varint(z) || !K.varint(k)) return fail(i, "connectivity cut short");
+    uint32_t z, k = 0;
+    bool fan_mode;
+    if (!Z.varint(z) || !M.bit(fan_mode)) return fail(i, "connectivity cut short");
+    if (!fan_mode && !K.varint(k)) return fail(i, "face count cut short");
     int64_t parent = int64_t(previous) + unzigzag(z);
     if (parent < 0 || parent >= int64_t(mesh.vertex_count()))
       return fail(i, "parent " + std::to_string(parent) + " of " +
@@ -252,19 +284,37 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     uint32_t p = uint32_t(parent);
     previous = p;
     uint32_t v = mesh.add_vertex(QuantizedVertex{});
-    for (int32_t c = mesh.head[p], prev = -1; c >= 0;) {
+    uint32_t vl = 0, vr = 0;
+    if (fan_mode) {
+      uint32_t start, count;
+      if (!A.varint(start) || !A.varint(count) || count == UINT32_MAX)
+        return fail(i, "fan arguments cut short");
+      if (!mesh.fan(p, start, count + 1, moved, vl, vr))
+        return fail(i, "parent " + std::to_string(p) + " has no such fan");
+      k = 2;
+    }
+    uint32_t position = 0;
+    for (int32_t c = mesh.head[p], prev = -1; c >= 0; ++position) {
       int32_t after = mesh.next[size_t(c)];
       bool take;
-      if (!M.bit(take)) return fail(i, "corner mask cut short");
+      if (fan_mode)
+        take = moved[position] != 0;
+      else if (!M.bit(take))
+        return fail(i, "corner mask cut short");
       if (take)
         mesh.move_corner(p, prev, c, v);
       else
         prev = c;
       c = after;
     }
-    if (k > 0) mesh.ring(p, v, kRingLimit, ring);
+    if (!fan_mode && k > 0) mesh.ring(p, v, kRingLimit, ring);
     if (uint64_t(mesh.face_count()) + k > face_goal)
       return fail(i, "more than the part's " + std::to_string(faces) + " faces");
+    if (fan_mode) {
+      mesh.add_face(v, p, vl);
+      mesh.add_face(v, vr, p);
+      k = 0;
+    }
     for (uint32_t f = 0; f < k; ++f) {
       uint32_t code, w;
       if (!F.varint(code)) return fail(i, "face codes cut short");

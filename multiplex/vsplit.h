@@ -19,14 +19,19 @@
 // One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is a zlib
 // stream (browsers inflate it with DecompressionStream("deflate")) of nine varint-counted byte
 // streams, each field in its own so deflate's codes fit its values:
-//   varint |Z| |K| |F| |M| |E| |W| |P| |N| |T|, then Z K F M E W P N T
+//   varint |Z| |K| |F| |M| |E| |W| |P| |N| |T| |A|, then Z K F M E W P N T A
 //   Z  per split: zigzag(parent - previous parent) (previous starts at 0 per part).
-//   K  per split: the number k of new faces; after the last split, the count x of extra faces.
-//   F  per new face (i << 1 | flip): the third vertex w is entry i of the ring (see ring(): v's
-//      neighbours, then p's), or i == ring size and w is the next varint of E; flip 0 makes the
-//      face (v, p, w), flip 1 (v, w, p).
-//   M  per split, one bit per corner in the parent's corner list (in list order, before the
-//      split): 1 = the corner moves to the new vertex. Bits LSB first, no padding between splits.
+//   M  per split, a mode bit, then for a mask split one bit per corner in the parent's corner
+//      list (in list order, before the split): 1 = the corner moves to the new vertex. Bits LSB
+//      first, no padding between splits.
+//   A  per fan split (mode bit 1; Hoppe's vsplit, fan()): the list position of vl's corner,
+//      then the count of corners moved minus one. The corners fan() walks move to v and the
+//      new faces are (v, p, vl) then (v, vr, p).
+//   K  per mask split: the number k of new faces; after the last split, the count x of extra
+//      faces.
+//   F  per new face of a mask split (i << 1 | flip): the third vertex w is entry i of the ring
+//      (see ring(): v's neighbours, then p's), or i == ring size and w is the next varint of E;
+//      flip 0 makes the face (v, p, w), flip 1 (v, w, p).
 //   E  escaped third vertices (varint vertex indices), then the x extra faces (3 varints each).
 //   W  per split whose parent's position was split from before (twins(): seam and hard-edge
 //      copies split together): 0, or i ≥ 1 when the new vertex sits exactly where twin
@@ -35,8 +40,8 @@
 //   prediction); T: 2 × zigzag(uv - prediction). Predictions: the rounded mean of the new
 //      vertex's ring (every other vertex of its faces after the split), or the parent's values
 //      when it has none.
-// A split on the state: append vertex v (the next index); move the masked corners of p to v
-// (each pushed to the head of v's list in the order met); append the new faces (corners pushed
+// A split on the state: append vertex v (the next index); move the masked (or walked) corners of p
+// to v (each pushed to the head of v's list in the order met); append the new faces (corners pushed
 // to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest
 // twin. Extra faces are appended last. Attributes are integers (scene/quantize.h): positions
 // kPositionBits, normals int8, uv kUvBits.
@@ -64,7 +69,8 @@ inline bool operator==(const QuantizedVertex& a, const QuantizedVertex& b) {
 
 constexpr uint32_t kRingLimit = 64;  // ring entries a new face's third vertex is coded against
 constexpr uint32_t kTwinLimit = 4;   // twin candidates a new vertex's position is matched against
-constexpr int kVsplitStreams = 9;    // byte streams in a part
+constexpr int kVsplitStreams = 10;   // byte streams in a part
+constexpr uint32_t kFanLimit = 32;   // corners a parent may have for a fan-coded split
 // Inflated bytes a part may hold: per split and face, and a constant (zlib bombs are refused).
 constexpr uint64_t kPartBytesPerElement = 256;
 constexpr uint64_t kPartBytesConstant = 1 << 16;
@@ -89,6 +95,14 @@ class VsplitMesh {
   // order), without p, v or repeats, at most `limit`: after the corner moves, a new face's
   // third vertex bounds v's fan, so it comes early. O(corners of p and v).
   void ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out);
+  // Hoppe's vertex split on a manifold fan: p's corners in list order (at most kFanLimit, every
+  // face non-degenerate, the vertex following p in each face, n1, distinct); walking from the
+  // corner at list position `start` (n1 = vl) to the corner whose n1 is the previous one's
+  // following-following vertex (n2), `count` corners. Marks them in `moved` (per list position)
+  // and sets vl and the last corner's n2, vr. False when p's fan does not allow it. O(count ·
+  // kFanLimit).
+  bool fan(uint32_t p, uint32_t start, uint32_t count, std::vector<uint8_t>& moved, uint32_t& vl,
+           uint32_t& vr) const;
   // v's predicted attributes: the rounded mean over its ring (all of it), or p's values.
   QuantizedVertex predict(uint32_t v, uint32_t p);
   // The vertices split so far from parents at p's position, newest first, at most kTwinLimit,

@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 8).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 9).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -34,6 +34,8 @@ const PROBE_BYTES = 65536;       // the first request: header, table and often t
 
 const RING_LIMIT = 64;   // ring entries a new face's third vertex is coded against
 const TWIN_LIMIT = 4;    // twin candidates a new vertex's position is matched against
+const FAN_LIMIT = 32;    // corners a parent may have for a fan-coded split
+const FAN_N1 = new Int32Array(FAN_LIMIT), FAN_N2 = new Int32Array(FAN_LIMIT), FAN_MOVED = new Uint8Array(FAN_LIMIT);
 const UV_MAX = 4095;     // uv bits (scene/quantize.h)
 
 // Inflates one part (a zlib stream) with the browser's DecompressionStream, refusing output past
@@ -243,7 +245,7 @@ export class StreamMesh {
     const fail = (message) => new Error(`mesh ${this.index}: ${message}`);
     const len = [];
     let at = 0, total = 0;
-    for (let k = 0; k < 9; k++) {
+    for (let k = 0; k < 10; k++) {
       const l = readVarint(d, at, d.length);
       if (l < 0) throw fail('stream lengths cut short');
       at = vpos;
@@ -251,7 +253,7 @@ export class StreamMesh {
       total += l;
     }
     if (total !== d.length - at) throw fail(`stream lengths add up to ${total} bytes, ${d.length - at} follow`);
-    // Streams Z K F M E W P N T (multiplex/vsplit.h).
+    // Streams Z K F M E W P N T A (multiplex/vsplit.h).
     let zp = at; const ze = zp + len[0];
     let kp = ze; const ke = kp + len[1];
     let cp = ke; const ce = cp + len[2];
@@ -261,6 +263,7 @@ export class StreamMesh {
     let pp = we; const pe = pp + len[6];
     let np = pe; const ne = np + len[7];
     let tp = ne; const te = tp + len[8];
+    let ap = te; const ae = ap + len[9];
     const table = this.twinTable, tmask = table.length - 1, twinPrevious = this.twinPrevious, parentOf = this.parentOf;
     let maskAt = 0;
     const v0 = this.vertices, f0 = this.faces;
@@ -270,18 +273,55 @@ export class StreamMesh {
     if (stampValue > 0x7fffffff - 2 * splits) { stamp.fill(0); stampValue = 0; }
     for (let i = 0; i < splits; i++) {
       const z = readVarint(d, zp, ze); zp = vpos;
-      const k = readVarint(d, kp, ke); kp = vpos;
-      if (z < 0 || k < 0) throw fail(`split ${i}: connectivity cut short`);
+      if (z < 0 || maskAt >= maskBits) throw fail(`split ${i}: connectivity cut short`);
+      const fanMode = (d[maskStart + (maskAt >> 3)] >> (maskAt & 7)) & 1;
+      maskAt++;
+      let k = 2;
+      if (!fanMode) { k = readVarint(d, kp, ke); kp = vpos; }
+      if (k < 0) throw fail(`split ${i}: face count cut short`);
       const p = previous + (z % 2 ? -(z + 1) / 2 : z / 2), v = v0 + i;
       if (!(p >= 0 && p < v)) throw fail(`split ${i}: parent ${p} of ${v} vertices`);
       previous = p;
       head[v] = -1;
-      // The corner mask: p's corners in list order, 1 = moves to v.
-      for (let c = head[p], prev = -1; c >= 0;) {
+      // Hoppe's split on p's manifold fan (VsplitMesh::fan): the corners from vl's on, each to
+      // the one whose first neighbour is its second, `count` of them.
+      let vl = -1, vr = -1;
+      if (fanMode) {
+        const start = readVarint(d, ap, ae); ap = vpos;
+        const count = readVarint(d, ap, ae) + 1; ap = vpos;
+        if (start < 0 || count <= 0) throw fail(`split ${i}: fan arguments cut short`);
+        let nd = 0, ok = true;
+        for (let c = head[p]; c >= 0 && ok; c = next[c]) {
+          if (nd === FAN_LIMIT) { ok = false; break; }
+          const f = c - (c % 3), slot = c - f, a = I[f + (slot + 1) % 3], b = I[f + (slot + 2) % 3];
+          if (a === p || b === p || a === b) ok = false;
+          for (let j = 0; j < nd && ok; j++) if (FAN_N1[j] === a) ok = false;
+          FAN_N1[nd] = a; FAN_N2[nd] = b; FAN_MOVED[nd] = 0; nd++;
+        }
+        if (!ok || start >= nd || count > nd) throw fail(`split ${i}: parent ${p} has no such fan`);
+        let at = start;
+        for (let j = 0; ; j++) {
+          if (FAN_MOVED[at]) throw fail(`split ${i}: parent ${p} has no such fan`);
+          FAN_MOVED[at] = 1;
+          if (j + 1 === count) break;
+          let m = 0;
+          while (m < nd && FAN_N1[m] !== FAN_N2[at]) m++;
+          if (m === nd) throw fail(`split ${i}: parent ${p} has no such fan`);
+          at = m;
+        }
+        vl = FAN_N1[start]; vr = FAN_N2[at];
+        if (vl === vr) throw fail(`split ${i}: parent ${p} has no such fan`);
+      }
+      // The corners of p in list order that move to v: the fan's, or the mask's 1 bits.
+      for (let c = head[p], prev = -1, position = 0; c >= 0; position++) {
         const after = next[c];
-        if (maskAt >= maskBits) throw fail(`split ${i}: corner mask cut short`);
-        const take = (d[maskStart + (maskAt >> 3)] >> (maskAt & 7)) & 1;
-        maskAt++;
+        let take;
+        if (fanMode) take = FAN_MOVED[position];
+        else {
+          if (maskAt >= maskBits) throw fail(`split ${i}: corner mask cut short`);
+          take = (d[maskStart + (maskAt >> 3)] >> (maskAt & 7)) & 1;
+          maskAt++;
+        }
         if (take) {
           if (prev < 0) head[p] = after; else next[prev] = after;
           const f = c - (c % 3);
@@ -317,6 +357,19 @@ export class StreamMesh {
       let pc = head[p], pSlot = 1;  // where the ring's walk of p's corners stands
       if (nf + k > faceGoal) throw fail(`split ${i}: more than the part's ${faces} faces`);
       for (let j = 0; j < k; j++) {
+        if (fanMode) {  // (v, p, vl) then (v, vr, p)
+          const w = j === 0 ? vl : vr;
+          solid += j === 0 ? addFace(I, head, next, 3 * nf, v, p, w) : addFace(I, head, next, 3 * nf, v, w, p);
+          nf++;
+          if (stamp[w] !== sA) {
+            stamp[w] = sA;
+            s0 += qp[3 * w]; s1 += qp[3 * w + 1]; s2 += qp[3 * w + 2];
+            n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
+            t0 += qt[2 * w]; t1 += qt[2 * w + 1];
+            n++;
+          }
+          continue;
+        }
         const code = readVarint(d, cp, ce); cp = vpos;
         if (code < 0) throw fail(`split ${i}: face codes cut short`);
         const index = code >>> 1;
@@ -417,7 +470,7 @@ export class StreamMesh {
       solid += addFace(I, head, next, 3 * nf, a, b, c);
       nf++;
     }
-    if (zp !== ze || kp !== ke || cp !== ce || ep !== ee || wp !== we || pp !== pe || np !== ne || tp !== te) throw fail('a stream has bytes left over');
+    if (zp !== ze || kp !== ke || cp !== ce || ep !== ee || wp !== we || pp !== pe || np !== ne || tp !== te || ap !== ae) throw fail('a stream has bytes left over');
     if (maskBits - maskAt >= 8) throw fail('corner mask has bytes left over');
     // What the GPU draws: the new vertices, and the whole index buffer (corners moved anywhere).
     const P = this.position, N = this.normal, T = this.uv, o = this.origin, st = this.step;
