@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Issue 4/8's table: converts every shared model (or the ones named) into build/stream_bytes/
+# Issue 4/8's table: converts every shared model (or the ones named; with none, also a generated
+# 1M-triangle mesh) into build/stream_bytes/
 # and prints where the stream's bytes go beside model.glb (bench/stream_bytes.py).
 # usage: bench/stream_bytes.sh [BUILD_DIR] [MODEL ...]
 set -euo pipefail
@@ -19,4 +20,11 @@ for n in "${names[@]}"; do
   "$build/meshmux" convert "$models/$n/$file" -o "$work/$n" -q || echo "stream_bytes: $n failed" >&2
   outs+=("$work/$n")
 done
+# With no model named, also the generated 1M-triangle mesh (bench/generated_mesh.py).
+if [ $# -eq 0 ]; then
+  gen="$work/generated-1M.glb"
+  [ -f "$gen" ] || python3 "$here/bench/generated_mesh.py" "$gen" >/dev/null
+  "$build/meshmux" convert "$gen" -o "$work/generated-1M" -q || echo "stream_bytes: generated-1M failed" >&2
+  outs+=("$work/generated-1M")
+fi
 python3 "$here/bench/stream_bytes.py" "${outs[@]}"
