@@ -357,37 +357,32 @@ export class StreamMesh {
       let pc = head[p], pSlot = 1;  // where the ring's walk of p's corners stands
       if (nf + k > faceGoal) throw fail(`split ${i}: more than the part's ${faces} faces`);
       for (let j = 0; j < k; j++) {
-        if (fanMode) {  // (v, p, vl) then (v, vr, p)
-          const w = j === 0 ? vl : vr;
-          solid += j === 0 ? addFace(I, head, next, 3 * nf, v, p, w) : addFace(I, head, next, 3 * nf, v, w, p);
-          nf++;
-          if (stamp[w] !== sA) {
-            stamp[w] = sA;
-            s0 += qp[3 * w]; s1 += qp[3 * w + 1]; s2 += qp[3 * w + 2];
-            n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
-            t0 += qt[2 * w]; t1 += qt[2 * w + 1];
-            n++;
+        // The face's third vertex w and its winding: the fan's (v, p, vl) then (v, vr, p), or a
+        // ring code (walking p's corners into the ring only as far as the code reaches).
+        let w, flip;
+        if (fanMode) {
+          w = j === 0 ? vl : vr;
+          flip = j;
+        } else {
+          const code = readVarint(d, cp, ce); cp = vpos;
+          if (code < 0) throw fail(`split ${i}: face codes cut short`);
+          const index = code >>> 1;
+          flip = code & 1;
+          while (index >= ringSize && ringSize < RING_LIMIT && pc >= 0) {
+            const f = pc - (pc % 3), u = I[f + (pc - f + pSlot) % 3];
+            if (pSlot === 2) { pSlot = 1; pc = next[pc]; } else pSlot = 2;
+            if (stamp[u] === sA || stamp[u] === sB) continue;
+            stamp[u] = sB;
+            ring[ringSize++] = u;
           }
-          continue;
+          if (index < ringSize) w = ring[index];
+          else if (index === ringSize && (ringSize >= RING_LIMIT || pc < 0)) {
+            w = readVarint(d, ep, ee); ep = vpos;
+            if (w < 0) throw fail(`split ${i}: escaped vertices cut short`);
+            if (w >= v || w === p) throw fail(`split ${i}: face names vertex ${w}`);
+          } else throw fail(`split ${i}: ring position ${index} of ${ringSize}`);
         }
-        const code = readVarint(d, cp, ce); cp = vpos;
-        if (code < 0) throw fail(`split ${i}: face codes cut short`);
-        const index = code >>> 1;
-        while (index >= ringSize && ringSize < RING_LIMIT && pc >= 0) {
-          const f = pc - (pc % 3), w = I[f + (pc - f + pSlot) % 3];
-          if (pSlot === 2) { pSlot = 1; pc = next[pc]; } else pSlot = 2;
-          if (stamp[w] === sA || stamp[w] === sB) continue;
-          stamp[w] = sB;
-          ring[ringSize++] = w;
-        }
-        let w;
-        if (index < ringSize) w = ring[index];
-        else if (index === ringSize && (ringSize >= RING_LIMIT || pc < 0)) {
-          w = readVarint(d, ep, ee); ep = vpos;
-          if (w < 0) throw fail(`split ${i}: escaped vertices cut short`);
-          if (w >= v || w === p) throw fail(`split ${i}: face names vertex ${w}`);
-        } else throw fail(`split ${i}: ring position ${index} of ${ringSize}`);
-        solid += (code & 1) ? addFace(I, head, next, 3 * nf, v, w, p) : addFace(I, head, next, 3 * nf, v, p, w);
+        solid += flip ? addFace(I, head, next, 3 * nf, v, w, p) : addFace(I, head, next, 3 * nf, v, p, w);
         nf++;
         if (stamp[w] !== sA) {  // a neighbour of v not met among the moved corners
           stamp[w] = sA;
