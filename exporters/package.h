@@ -10,7 +10,7 @@
 //   12  J  JSON table (UTF-8), see below
 //   12+J   the base .glb, then each chunk, in table order
 // JSON table:
-//   {"version": 9,
+//   {"version": 10,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -70,7 +70,7 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 9;
+constexpr uint32_t kPackageVersion = 10;
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table

@@ -316,6 +316,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     for (int k = 0; k < 3 && pick == 0; ++k)
       put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
     for (int k = 0; k < 3; ++k) put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
+    sim_.predict_uv(v, p, q.p, pred.t);  // the decoder knows v's position by then
     for (int k = 0; k < 2; ++k) put_varint(T, zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])));
     sim_.vertices[v] = q;
     sim_.add_twin(p, v);

@@ -7,7 +7,10 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
+
+#include "scene/quantize.h"
 
 namespace meshmux {
 
@@ -138,6 +141,49 @@ bool VsplitMesh::fan(uint32_t p, uint32_t start, uint32_t count, std::vector<uin
   }
   vl = n1[start], vr = n2[at];
   return vl != vr;
+}
+
+bool VsplitMesh::predict_uv(uint32_t v, uint32_t p, const uint16_t position[3],
+                            uint16_t uv[2]) const {
+  // w: the third vertex of v's newest face with p.
+  int64_t w = -1;
+  for (int32_t c = head[v]; c >= 0 && w < 0; c = next[size_t(c)]) {
+    size_t f = size_t(c) / 3 * 3;
+    uint32_t a = indices[f], b = indices[f + 1], d = indices[f + 2];
+    if (a == p || b == p || d == p) w = int64_t(a != v && a != p ? a : b != v && b != p ? b : d);
+  }
+  if (w < 0 || uint32_t(w) == v || uint32_t(w) == p) return false;
+  // x: the third vertex of p's first face with w but without v (across the edge p-w).
+  int64_t x = -1;
+  for (int32_t c = head[p]; c >= 0 && x < 0; c = next[size_t(c)]) {
+    size_t f = size_t(c) / 3 * 3;
+    uint32_t a = indices[f], b = indices[f + 1], d = indices[f + 2];
+    if (a == v || b == v || d == v || (a != w && b != w && d != w)) continue;
+    x = int64_t(a != uint32_t(w) && a != p ? a : b != uint32_t(w) && b != p ? b : d);
+  }
+  if (x < 0 || uint32_t(x) == p || uint32_t(x) == uint32_t(w)) return false;
+  // v's place along and off the edge p→w in 3D, carried to uv space on the side away from x.
+  // Plain double operations in a fixed order, as the web client does them.
+  const QuantizedVertex &P = vertices[p], &W = vertices[size_t(w)], &X = vertices[size_t(x)];
+  double ex = double(W.p[0]) - double(P.p[0]), ey = double(W.p[1]) - double(P.p[1]),
+         ez = double(W.p[2]) - double(P.p[2]);
+  double dx = double(position[0]) - double(P.p[0]), dy = double(position[1]) - double(P.p[1]),
+         dz = double(position[2]) - double(P.p[2]);
+  double ee = ex * ex + ey * ey + ez * ez;
+  if (!(ee > 0)) return false;
+  double s = (dx * ex + dy * ey + dz * ez) / ee;
+  double rx = dx - s * ex, ry = dy - s * ey, rz = dz - s * ez;
+  double t = std::sqrt((rx * rx + ry * ry + rz * rz) / ee);
+  double ux = double(W.t[0]) - double(P.t[0]), uy = double(W.t[1]) - double(P.t[1]);
+  double side = ux * (double(X.t[1]) - double(P.t[1])) - uy * (double(X.t[0]) - double(P.t[0]));
+  double k = side > 0 ? -t : t;  // along the left normal (-uy, ux), away from x
+  double u0 = double(P.t[0]) + s * ux - k * uy, u1 = double(P.t[1]) + s * uy + k * ux;
+  auto round_uv = [](double a) {
+    double r = std::floor(a + 0.5);
+    return uint16_t(r < 0 ? 0 : r > kUvMax ? kUvMax : r);
+  };
+  uv[0] = round_uv(u0), uv[1] = round_uv(u1);
+  return true;
 }
 
 namespace {
@@ -350,6 +396,7 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
       if (x < 0 || x > 65535 || y < -128 || y > 127) return fail(i, "attribute out of range");
       q.p[c] = uint16_t(x), q.n[c] = int8_t(y);
     }
+    mesh.predict_uv(v, p, q.p, q.t);  // with v's position known, when a face allows
     for (int c = 0; c < 2; ++c) {
       int64_t x = int64_t(q.t[c]) + unzigzag(r[6 + c]);
       if (x < 0 || x > 65535) return fail(i, "attribute out of range");

@@ -39,7 +39,7 @@
 //   P  per split without a twin, 3 × zigzag(position - prediction); N: 3 × zigzag(normal -
 //   prediction); T: 2 × zigzag(uv - prediction). Predictions: the rounded mean of the new
 //      vertex's ring (every other vertex of its faces after the split), or the parent's values
-//      when it has none.
+//      when it has none; uv from the decoded position where predict_uv() applies.
 // A split on the state: append vertex v (the next index); move the masked (or walked) corners of p
 // to v (each pushed to the head of v's list in the order met); append the new faces (corners pushed
 // to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest
@@ -103,6 +103,12 @@ class VsplitMesh {
   // kFanLimit).
   bool fan(uint32_t p, uint32_t start, uint32_t count, std::vector<uint8_t>& moved, uint32_t& vl,
            uint32_t& vr) const;
+  // v's uv predicted from its position (parallelogram-style, as Draco predicts texture
+  // coordinates): w is the third vertex of v's newest face with p, x the third vertex of p's
+  // first face with w but not v; v's offset along and off the edge p→w in 3D, relative to its
+  // length, is carried to uv space on the side of that edge away from x. Overwrites uv and
+  // returns true when those faces exist and the edge has length. O(corners of v and p).
+  bool predict_uv(uint32_t v, uint32_t p, const uint16_t position[3], uint16_t uv[2]) const;
   // v's predicted attributes: the rounded mean over its ring (all of it), or p's values.
   QuantizedVertex predict(uint32_t v, uint32_t p);
   // The vertices split so far from parents at p's position, newest first, at most kTwinLimit,

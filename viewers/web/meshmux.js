@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 9).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 10).
 //
 // A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -93,6 +93,40 @@ function faceSolid(I, f) {
   const a = I[f], b = I[f + 1], c = I[f + 2];
   return a !== b && b !== c && a !== c ? 1 : 0;
 }
+// v's uv predicted from its position (VsplitMesh::predict_uv, the same operations in the same
+// order): w the third vertex of v's newest face with p, x the third vertex of p's first face
+// with w but not v; v's offset along and off the edge p→w in 3D, relative to its length,
+// carried to uv space away from x. Writes pred[6..7] and returns true, or leaves them.
+function predictUv(I, head, next, qp, qt, v, p, pred) {
+  let w = -1, x = -1;
+  for (let c = head[v]; c >= 0 && w < 0; c = next[c]) {
+    const f = c - (c % 3), a = I[f], b = I[f + 1], d = I[f + 2];
+    if (a === p || b === p || d === p) w = a !== v && a !== p ? a : b !== v && b !== p ? b : d;
+  }
+  if (w < 0 || w === v || w === p) return false;
+  for (let c = head[p]; c >= 0 && x < 0; c = next[c]) {
+    const f = c - (c % 3), a = I[f], b = I[f + 1], d = I[f + 2];
+    if (a === v || b === v || d === v || (a !== w && b !== w && d !== w)) continue;
+    x = a !== w && a !== p ? a : b !== w && b !== p ? b : d;
+  }
+  if (x < 0 || x === p || x === w) return false;
+  const ex = qp[3 * w] - qp[3 * p], ey = qp[3 * w + 1] - qp[3 * p + 1], ez = qp[3 * w + 2] - qp[3 * p + 2];
+  const dx = qp[3 * v] - qp[3 * p], dy = qp[3 * v + 1] - qp[3 * p + 1], dz = qp[3 * v + 2] - qp[3 * p + 2];
+  const ee = ex * ex + ey * ey + ez * ez;
+  if (!(ee > 0)) return false;
+  const s = (dx * ex + dy * ey + dz * ez) / ee;
+  const rx = dx - s * ex, ry = dy - s * ey, rz = dz - s * ez;
+  const t = Math.sqrt((rx * rx + ry * ry + rz * rz) / ee);
+  const ux = qt[2 * w] - qt[2 * p], uy = qt[2 * w + 1] - qt[2 * p + 1];
+  const side = ux * (qt[2 * x + 1] - qt[2 * p + 1]) - uy * (qt[2 * x] - qt[2 * p]);
+  const k = side > 0 ? -t : t;
+  const u0 = qt[2 * p] + s * ux - k * uy, u1 = qt[2 * p + 1] + s * uy + k * ux;
+  const r0 = Math.floor(u0 + 0.5), r1 = Math.floor(u1 + 0.5);
+  pred[6] = r0 < 0 ? 0 : r0 > UV_MAX ? UV_MAX : r0;
+  pred[7] = r1 < 0 ? 0 : r1 > UV_MAX ? UV_MAX : r1;
+  return true;
+}
+
 // Writes face (a, b, c) at corner f and pushes its corners to their vertices' lists (slot 0
 // first); returns 1 when it is not degenerate.
 function addFace(I, head, next, f, a, b, c) {
@@ -439,6 +473,7 @@ export class StreamMesh {
         if (x < -128 || x > 127) throw fail(`split ${i}: attribute out of range`);
         qn[3 * v + j] = x;
       }
+      predictUv(I, head, next, qp, qt, v, p, pred);  // from v's position, when a face allows
       for (let j = 0; j < 2; j++) {
         const r = readVarint(d, tp, te); tp = vpos;
         if (r < 0) throw fail(`split ${i}: texture coordinates cut short`);

@@ -1,8 +1,8 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 9; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 10; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 9;
+export const PACKAGE_VERSION = 10;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
