@@ -114,6 +114,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
     r.layer_levels.push_back(layers[size_t(k)].level);
   }
+  for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
   // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
   // decoded here to render what the client decodes). ---
   std::vector<Image> textures;
@@ -290,6 +291,9 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
   out << "],\n  \"mesh_layer_triangles\": [";
   for (size_t k = 0; k < r.layer_triangles.size(); ++k)
     out << (k ? ", " : "") << r.layer_triangles[k];
+  out << "],\n  \"stream_digests\": [";
+  for (size_t k = 0; k < r.stream_digests.size(); ++k)
+    out << (k ? ", " : "") << r.stream_digests[k];
   out << "],\n  \"texture_level_bytes\": [";
   for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
   out << "],\n  \"texture_levels\": {\"shipped\": [";

@@ -37,6 +37,7 @@ struct MultiplexResult {
   // the parts that take the meshes from the layer before to it (layer 0, the base: none).
   std::vector<MeshStreamBase> mesh_streams;
   std::vector<std::vector<EncodedMeshPart>> layer_parts;
+  std::vector<uint32_t> stream_digests;  // per mesh: state_digest of a client after every part
   RdPath rd, mesh_first, texture_first, constant_ratio;
   std::string metric = "ciede2000";  // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;

@@ -209,6 +209,18 @@ void VsplitMesh::add_twin(uint32_t p, uint32_t v) {
   }
 }
 
+uint32_t state_digest(const VsplitMesh& mesh) {
+  uint32_t h = 2166136261u;
+  auto byte = [&h](uint32_t b) { h = (h ^ (b & 0xffu)) * 16777619u; };
+  for (const QuantizedVertex& q : mesh.vertices) {
+    for (uint16_t x : q.p) byte(x), byte(x >> 8);
+    for (int8_t x : q.n) byte(uint8_t(x));
+    for (uint16_t x : q.t) byte(x), byte(x >> 8);
+  }
+  for (uint32_t i : mesh.indices) byte(i), byte(i >> 8), byte(i >> 16), byte(i >> 24);
+  return h;
+}
+
 void put_varint(std::vector<uint8_t>& out, uint32_t v) {
   while (v >= 0x80) {
     out.push_back(uint8_t(v | 0x80));

@@ -140,6 +140,12 @@ class VsplitMesh {
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces);
 
+// FNV-1a (32-bit) over a client state: per vertex its position (3 little-endian u16), normal
+// (3 i8) and uv (2 little-endian u16), then every index (little-endian u32). What a client that
+// decoded the whole stream must hold; report.json carries it per mesh ("stream_digests") and
+// the browser test checks the web client against it.
+uint32_t state_digest(const VsplitMesh& mesh);
+
 // Byte-stream helpers shared with the encoder.
 void put_varint(std::vector<uint8_t>& out, uint32_t v);
 inline uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }

@@ -90,6 +90,7 @@ RoundTrip round_trip(const ProgressiveMesh& pm, int parts) {
     EXPECT_EQ(client.indices, sim.indices) << "part " << k;
     EXPECT_TRUE(client.vertices == sim.vertices) << "part " << k;
     EXPECT_EQ(client.solid, sim.solid);
+    EXPECT_EQ(state_digest(client), state_digest(sim));
     EXPECT_EQ(drawn(client), level_faces(pm, level, encoder.stream_order())) << "part " << k;
     out.bytes += part->data.size();
     out.new_faces += p.face_end - p.face_begin;

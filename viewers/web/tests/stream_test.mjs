@@ -193,7 +193,7 @@ try {
     const table = validateTable(JSON.parse(new TextDecoder().decode(bytes.subarray(12, 12 + J))),
       { fileSize: bytes.length, dataStart: 12 + J, fail: (m) => new Error(m) });
     const chunks = table.chunks.filter((c) => c.kind === 'mesh' && c.parts.length);
-    let faces = 0, splits = 0, best = Infinity;
+    let faces = 0, splits = 0, best = Infinity, digests = [];
     for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
     // The base vertices' quantized values, which the splits are predicted from.
     const glb = bytes.slice(table.base.offset, table.base.offset + table.base.size).buffer;
@@ -216,10 +216,31 @@ try {
       const t0 = performance.now();
       for (const c of chunks) await applyMeshChunk(meshes, c, bytes.subarray(c.offset, c.offset + c.size));
       best = Math.min(best, (performance.now() - t0) / 1000);
+      if (run === 4) {  // the state every mesh ends in, as multiplex/vsplit.h state_digest
+        digests = meshes.map((m) => {
+          let h = 2166136261;
+          const byte = (b) => { h = Math.imul(h ^ (b & 0xff), 16777619) >>> 0; };
+          for (let i = 0; i < m.vertices; i++) {
+            for (let k = 0; k < 3; k++) { byte(m.qp[3 * i + k]); byte(m.qp[3 * i + k] >> 8); }
+            for (let k = 0; k < 3; k++) byte(m.qn[3 * i + k]);
+            for (let k = 0; k < 2; k++) { byte(m.qt[2 * i + k]); byte(m.qt[2 * i + k] >> 8); }
+          }
+          for (let i = 0; i < 3 * m.faces; i++) { const x = m.indices[i]; byte(x); byte(x >> 8); byte(x >> 16); byte(x >>> 24); }
+          return h;
+        });
+      }
       meshes.forEach((m) => m.dispose());
     }
-    return { faces, splits, seconds: best };
+    return { faces, splits, seconds: best, digests };
   });
+  // The web client ends in exactly the state the C++ encoder simulated (report.json).
+  const expected = JSON.parse(fs.readFileSync(path.join(out, 'report.json'), 'utf8')).stream_digests;
+  if (JSON.stringify(bench.digests) !== JSON.stringify(expected)) {
+    fail(`decoded state digests ${JSON.stringify(bench.digests)} differ from the encoder's ${JSON.stringify(expected)}`);
+  } else {
+    console.log(`decoded state: ${bench.digests.length} mesh digests equal the encoder's`);
+  }
+  delete bench.digests;
   const perSecond = bench.seconds > 0 ? bench.faces / bench.seconds : 0;
   result.refinement = { ...bench, trianglesPerSecond: perSecond };
   console.log(`refinement, steady state: ${bench.faces} new triangles (${bench.splits} vertex splits) in ` +
