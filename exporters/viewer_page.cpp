@@ -24,6 +24,7 @@
 MESHMUX_INCBIN(index_html, MESHMUX_WEB_DIR "/index.html")
 MESHMUX_INCBIN(meshmux_js, MESHMUX_WEB_DIR "/meshmux.js")
 MESHMUX_INCBIN(package_reader_js, MESHMUX_WEB_DIR "/package_reader.js")
+MESHMUX_INCBIN(stream_mesh_js, MESHMUX_WEB_DIR "/stream_mesh.js")
 MESHMUX_INCBIN(viewer_js, MESHMUX_WEB_DIR "/viewer.js")
 MESHMUX_INCBIN(viewer_css, MESHMUX_WEB_DIR "/viewer.css")
 MESHMUX_INCBIN(three_module, MESHMUX_THREE_DIR "/build/three.module.js")
@@ -47,6 +48,7 @@ std::vector<ViewerFile> viewer_files() {
       MESHMUX_FILE("index.html", index_html),
       MESHMUX_FILE("viewer/meshmux.js", meshmux_js),
       MESHMUX_FILE("viewer/package_reader.js", package_reader_js),
+      MESHMUX_FILE("viewer/stream_mesh.js", stream_mesh_js),
       MESHMUX_FILE("viewer/viewer.js", viewer_js),
       MESHMUX_FILE("viewer/viewer.css", viewer_css),
       MESHMUX_FILE("viewer/three/three.module.js", three_module),

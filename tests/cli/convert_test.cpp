@@ -644,7 +644,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
   EXPECT_EQ(pkg->orders[3].name, "constant-ratio");
   // The viewer page and the modules it imports sit beside the package.
   for (const char* f :
-       {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/viewer.js",
+       {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
+        "viewer/viewer.js",
         "viewer/viewer.css", "viewer/three/three.module.js", "viewer/three/three.core.js",
         "viewer/three/LICENSE", "viewer/three/addons/loaders/GLTFLoader.js",
         "viewer/three/addons/libs/meshopt_decoder.module.js",
