@@ -20,6 +20,18 @@ namespace meshmux {
 
 namespace {
 
+// The output's further channels: which are baked, and the factors shared when not.
+struct ChannelNeeds {
+  BakeChannels bake;        // baked channels (emissive_scale: the largest emissive component)
+  Vec3 orm{1, 1, 1};        // shared occlusion-roughness-metallic factors (when not baked)
+  Vec3 emissive{0, 0, 0};   // shared emissive factor (when not baked)
+};
+
+// The images a bake produced, in Scene::images order after the base colour (index 0).
+struct ChannelImages {
+  Image normal, orm, emissive;  // empty when not baked
+};
+
 // Corner positions of a mesh face.
 struct MeshView {
   const Mesh& mesh;
@@ -142,6 +154,48 @@ bool needs_atlas(const Scene& scene) {
   return false;
 }
 
+void name_channels(ChannelImages& c) {
+  c.normal.name = "atlas normal";
+  c.orm.name = "atlas occlusion-roughness-metallic";
+  c.emissive.name = "atlas emissive";
+}
+
+// Which channels besides base colour the output needs as textures (issue 5/8): a channel some
+// material in use samples a texture for, or whose factors differ between the materials in use
+// (a metal part and a plastic one). Otherwise the factor they share is the output's.
+ChannelNeeds channel_needs(const Scene& scene) {
+  ChannelNeeds need;
+  bool first = true;
+  auto decoded = [&](const TextureRef& t) {
+    return t.present() && size_t(t.image) < scene.images.size() &&
+           scene.images[size_t(t.image)].decoded();
+  };
+  for (const Mesh& mesh : scene.meshes)
+    for (const Primitive& p : mesh.primitives) {
+      if (p.indices.empty()) continue;
+      Material def;  // the glTF default material
+      const Material& m = p.material >= 0 && size_t(p.material) < scene.materials.size()
+                              ? scene.materials[size_t(p.material)]
+                              : def;
+      const Vec3 orm{1, m.roughness_factor, m.metallic_factor};
+      need.bake.normal |= decoded(m.normal);
+      need.bake.orm |= decoded(m.metallic_roughness) || decoded(m.occlusion);
+      need.bake.emissive |= decoded(m.emissive) && !(m.emissive_factor == Vec3{0, 0, 0});
+      if (first) {
+        need.orm = orm;
+        need.emissive = m.emissive_factor;
+        first = false;
+      }
+      need.bake.orm |= !(orm == need.orm);
+      need.bake.emissive |= !(m.emissive_factor == need.emissive);
+      for (float v : {m.emissive_factor.x, m.emissive_factor.y, m.emissive_factor.z})
+        if (std::isfinite(v)) need.bake.emissive_scale = std::max(need.bake.emissive_scale, v);
+    }
+  if (!(need.bake.emissive_scale > 0)) need.bake.emissive = false;
+  if (!need.bake.emissive) need.bake.emissive_scale = 1;
+  return need;
+}
+
 // Step 1: textured charts flattened (split where they will not flatten); flat charts pass.
 struct FlatCharts {
   ChartSet charts;
@@ -225,13 +279,16 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
                          : double(o.vertex_color_target) * o.vertex_color_target;
   it.target_texels = T;
   it.any_textured = sum_a > 0;
-  std::map<std::array<uint32_t, 4>, size_t> flat_slot;
+  std::map<std::array<uint32_t, 10>, size_t> flat_slot;
   it.chart_item.resize(charts.size());
   for (size_t i = 0; i < charts.size(); ++i) {
     const Chart& c = charts[i];
     if (!c.textured) {
-      std::array<uint32_t, 4> key{float_bits(c.color.x), float_bits(c.color.y),
-                                  float_bits(c.color.z), float_bits(c.color.w)};
+      std::array<uint32_t, 10> key{float_bits(c.color.x),    float_bits(c.color.y),
+                                   float_bits(c.color.z),    float_bits(c.color.w),
+                                   float_bits(c.orm.y),      float_bits(c.orm.z),
+                                   float_bits(c.emissive.x), float_bits(c.emissive.y),
+                                   float_bits(c.emissive.z), float_bits(c.orm.x)};
       auto [slot, fresh] = flat_slot.emplace(key, it.rects.size());
       if (fresh) {
         int side = o.flat_block + 2 * std::max(0, o.bake.gutter);  // block and dilation rings
@@ -422,12 +479,19 @@ GroupKey group_key(const Scene& scene, const Primitive& p) {
   return k;
 }
 
-// The group's material: metallic and roughness area-weighted over the group's faces; `dropped`
-// when a source had maps the atlas does not bake.
+// Indices into the output's images of the further channels (-1: not baked).
+struct ChannelSlots {
+  int32_t normal = -1, orm = -1, emissive = -1;
+};
+
+// The group's material: the atlas's base colour; the baked channels' images (factors folded in,
+// so the output's factors are 1), or the factors the sources share (metallic and roughness
+// area-weighted over the group's faces, equal when they agree).
 // `prim_group[m][p]`: the group of mesh m's primitive p, computed once by build_atlas.
 Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
                          const std::vector<std::vector<int32_t>>& prim_group, int32_t group,
-                         const GroupKey& key, bool* dropped) {
+                         const GroupKey& key, const ChannelNeeds& need,
+                         const ChannelSlots& slots) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
@@ -449,8 +513,6 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
         const Material& sm = scene.materials[size_t(src.material)];
         mat.metallic_factor += float(area * sm.metallic_factor);
         mat.roughness_factor += float(area * sm.roughness_factor);
-        *dropped |= sm.normal.present() || sm.occlusion.present() ||
-                    sm.metallic_roughness.present() || sm.emissive.present();
       } else {
         mat.metallic_factor += float(area * 1.0);
         mat.roughness_factor += float(area * 1.0);
@@ -460,8 +522,24 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
     mat.metallic_factor = float(mat.metallic_factor / area_total);
     mat.roughness_factor = float(mat.roughness_factor / area_total);
   } else {
-    mat.metallic_factor = 0, mat.roughness_factor = 1;
+    mat.metallic_factor = need.orm.z, mat.roughness_factor = need.orm.y;
   }
+  auto channel = [&](TextureRef& ref, int32_t image) {
+    ref.image = image;
+    ref.sampler = mat.base_color.sampler;
+  };
+  if (slots.orm >= 0) {
+    channel(mat.metallic_roughness, slots.orm);
+    channel(mat.occlusion, slots.orm);
+    mat.metallic_factor = mat.roughness_factor = 1;
+  }
+  mat.emissive_factor = need.emissive;
+  if (slots.emissive >= 0) {
+    channel(mat.emissive, slots.emissive);
+    const float e = need.bake.emissive_scale;
+    mat.emissive_factor = {e, e, e};
+  }
+  if (slots.normal >= 0) channel(mat.normal, slots.normal);
   mat.alpha_mode = AlphaMode(key.alpha_mode);
   mat.alpha_cutoff = key.cutoff;
   mat.double_sided = key.double_sided;
@@ -535,7 +613,7 @@ Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& co
 // alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs.
 Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
                const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv, Image atlas,
-               Warnings* warnings) {
+               ChannelImages channels, const ChannelNeeds& need) {
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
@@ -554,14 +632,20 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
     for (const Primitive& p : scene.meshes[m].primitives)
       prim_group[m].push_back(
           int32_t(std::find(groups.begin(), groups.end(), group_key(scene, p)) - groups.begin()));
-  bool dropped = false;
+  // The images: the base colour first, then the baked channels.
+  atlas.name = "atlas";
+  out.images.push_back(std::move(atlas));
+  ChannelSlots slots;
+  for (auto [image, slot] : {std::pair{&channels.normal, &slots.normal},
+                             std::pair{&channels.orm, &slots.orm},
+                             std::pair{&channels.emissive, &slots.emissive}})
+    if (image->decoded()) {
+      *slot = int32_t(out.images.size());
+      out.images.push_back(std::move(*image));
+    }
   for (size_t g = 0; g < groups.size(); ++g)
     out.materials.push_back(
-        merged_material(scene, views, prim_group, int32_t(g), groups[g], &dropped));
-  if (dropped)
-    warn(warnings,
-         "atlas: normal, occlusion, metallic-roughness and emissive textures are not baked into "
-         "the atlas; dropped");
+        merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots));
   // Each mesh splits into one mesh per group it has faces in (one primitive each, so the stream
   // can refine it); its instances place every part.
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
@@ -581,8 +665,6 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
       out.instances.push_back(std::move(copy));
     }
   }
-  atlas.name = "atlas";
-  out.images.push_back(std::move(atlas));
   return out;
 }
 
@@ -597,6 +679,15 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     return scene;
   }
   rep.built = true;
+  const ChannelNeeds need = channel_needs(scene);
+  for (const Material& m : scene.materials)
+    for (auto [ref, what] : {std::pair{&m.normal, "normal"}, std::pair{&m.occlusion, "occlusion"},
+                             std::pair{&m.metallic_roughness, "metallic-roughness"},
+                             std::pair{&m.emissive, "emissive"}})
+      if (ref->present() && (size_t(ref->image) >= scene.images.size() ||
+                             !scene.images[size_t(ref->image)].decoded()))
+        warn(warnings, "atlas: material '" + m.name + "': its " + what +
+                           " texture is not decoded; its factors stand in for it");
   std::vector<MeshView> views;
   for (const Mesh& m : scene.meshes) views.emplace_back(m);
   // 0. The source's one texture already is an atlas: keep it and its uvs (no resampling).
@@ -625,7 +716,17 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
               const Vec2 t = uv[mv.corner(f, k)];
               return Vec2{t.x - cell.x, t.y - cell.y};
             });
-      Scene out = assemble(scene, views, corner_uv, std::move(atlas), warnings);
+      ChannelImages channels;
+      const float es = need.bake.emissive_scale;
+      if (need.bake.normal)
+        channels.normal = source_atlas_channel(scene, *source, AtlasChannel::kNormal, es);
+      if (need.bake.orm)
+        channels.orm = source_atlas_channel(scene, *source,
+                                            AtlasChannel::kOcclusionRoughnessMetallic, es);
+      if (need.bake.emissive)
+        channels.emissive = source_atlas_channel(scene, *source, AtlasChannel::kEmissive, es);
+      name_channels(channels);
+      Scene out = assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need);
       rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       if (report) *report = std::move(rep);
       return out;
@@ -645,7 +746,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   rep.utilization = packing->utilization;
   // 4. Bake every chart into its cell.
   AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
-  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake);
+  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake, need.bake);
   rep.texel_chart = std::move(baked.texel_chart);
   for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
     rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
@@ -660,7 +761,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
     corner_uv.push_back(
         [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
-  Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), warnings);
+  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive)};
+  name_channels(channels);
+  Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
   return out;

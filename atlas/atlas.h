@@ -8,10 +8,14 @@
 //
 // The single material: base colour = the atlas (factors and vertex colours folded in), alpha
 // mode BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE;
-// double-sided if any source is; metallic and roughness factors area-weighted. Normal,
-// occlusion, metallic-roughness and emissive textures are dropped with a warning (baking them
-// is future work). Scenes with no texture, no vertex colour and at most one material are
-// returned unchanged (they already have one material and need no texture).
+// double-sided if any source is. The physically based channels (issue 5/8) go through the same
+// charts: when a material in use samples a normal, occlusion, metallic-roughness or emissive
+// texture, or the materials' factors for a channel differ, that channel is baked into an image
+// of the atlas's size (Scene::images after the base colour: normal, occlusion-roughness-metallic
+// packed as glTF packs it, emissive), factors folded in; otherwise the shared factors stay
+// factors. Normal maps are re-expressed in the tangent frame viewers derive from the atlas uvs
+// (atlas/tangent_frame.h). Scenes with no texture, no vertex colour and at most one material
+// are returned unchanged (they already have one material and need no texture).
 #pragma once
 
 #include <cstdint>

@@ -27,6 +27,8 @@
 #include <limits>
 
 #include "atlas/material_sample.h"
+#include "atlas/tangent_frame.h"
+#include "scene/dvec3.h"
 
 namespace meshmux {
 namespace {
@@ -128,6 +130,13 @@ class Source {
       const Vec2& u = cu.corner_uv[3 * size_t(job.k) + size_t(j)];
       corner_[j] = {off.x + scale * u.x, off.y + scale * u.y};
     }
+    // The source normal map's uvs (transformed, as the frame follows them).
+    uint32_t set = 0;
+    TextureTransform tt;
+    normal_mapped_ = normal_map_uv(scene_, prim_->material, &set, &tt) &&
+                     set < prim_->uvs.size() && prim_->uvs[set].size() >= prim_->vertex_count();
+    if (normal_mapped_)
+      for (int j = 0; j < 3; ++j) map_uv_[j] = apply_transform(tt, prim_->uvs[set][idx_[j]]);
     current_ = job;
     return true;
   }
@@ -138,6 +147,57 @@ class Source {
   Vec4 color_at(P2 p) {
     double w[3];
     nearest_barycentric(corner_, p, w);
+    return color_at(w);
+  }
+
+  // Every channel `ch` asks for at the surface point of the current face nearest to atlas
+  // point p (normal: the map value for the atlas's frame, atlas/tangent_frame.h).
+  struct Texel {
+    Vec4 color;
+    Vec3 orm{1, 1, 1}, emissive{0, 0, 0};
+    DVec3 normal{0, 0, 1};
+  };
+  Texel sample(P2 p, const BakeChannels& ch) {
+    double w[3];
+    nearest_barycentric(corner_, p, w);
+    Texel t;
+    t.color = color_at(w);  // fills uv_
+    if (ch.orm) t.orm = sample_occlusion_roughness_metallic(scene_, prim_->material, uv_);
+    if (ch.emissive) t.emissive = sample_emissive(scene_, prim_->material, uv_);
+    if (ch.normal) t.normal = normal_at(w);
+    return t;
+  }
+
+ private:
+  // The shading normal the source shows (its interpolated normal, or the face's, perturbed by
+  // its normal map in the frame three.js derives from the source uvs), as a map value in the
+  // frame it derives from the atlas uvs.
+  DVec3 normal_at(const double w[3]) {
+    DVec3 p[3];
+    for (int j = 0; j < 3; ++j) p[j] = to_dvec3(prim_->positions[idx_[j]]);
+    const DVec3 e1 = sub(p[1], p[0]), e2 = sub(p[2], p[0]);
+    const DVec3 nf = normalize(cross(e1, e2));
+    DVec3 n = nf;
+    if (prim_->normals.size() >= prim_->vertex_count()) {
+      DVec3 s{0, 0, 0};
+      for (int j = 0; j < 3; ++j) s = add(s, mul(to_dvec3(prim_->normals[idx_[j]]), w[j]));
+      if (length(s) > 1e-12) n = normalize(s);
+    }
+    if (!(length(n) > 0)) return {0, 0, 1};
+    DVec3 shaded = n;
+    if (normal_mapped_) {
+      const Vec3 m = sample_normal_map(scene_, prim_->material, uv_);
+      const TangentFrame fs =
+          derivative_frame(e1, e2, {map_uv_[1].x - map_uv_[0].x, map_uv_[1].y - map_uv_[0].y},
+                           {map_uv_[2].x - map_uv_[0].x, map_uv_[2].y - map_uv_[0].y}, n);
+      shaded = apply_normal_map(fs, to_dvec3(m));
+    }
+    const Vec2 d1{float(corner_[1].x - corner_[0].x), float(corner_[1].y - corner_[0].y)};
+    const Vec2 d2{float(corner_[2].x - corner_[0].x), float(corner_[2].y - corner_[0].y)};
+    return encode_normal_map(derivative_frame(e1, e2, d1, d2, n), shaded);
+  }
+
+  Vec4 color_at(const double w[3]) {
     uv_.resize(prim_->uvs.size());
     for (size_t s = 0; s < prim_->uvs.size(); ++s) {
       const std::vector<Vec2>& set = prim_->uvs[s];
@@ -155,7 +215,6 @@ class Source {
     return sample_base_color(scene_, prim_->material, uv_, vc);
   }
 
- private:
   const Scene& scene_;
   const ChartSet& charts_;
   const std::vector<ChartUv>& uvs_;
@@ -167,6 +226,8 @@ class Source {
   uint32_t idx_[3] = {0, 0, 0};
   P2 corner_[3];
   std::vector<Vec2> uv_;
+  bool normal_mapped_ = false;  // the current face's material has a decoded normal map
+  Vec2 map_uv_[3];              // its corners' normal-map uvs, transformed
 };
 
 constexpr double kMargin = 0.5;  // conservative coverage margin, texels
@@ -217,13 +278,23 @@ void encode(Vec4 c, uint8_t* p) {
   p[3] = uint8_t(std::lround(std::clamp(c.w, 0.0f, 1.0f) * 255.0f));
 }
 
+void encode_data(Vec4 c, uint8_t* p) {
+  const float v[4] = {c.x, c.y, c.z, c.w};
+  for (int k = 0; k < 4; ++k) p[k] = uint8_t(std::lround(std::clamp(v[k], 0.0f, 1.0f) * 255.0f));
+}
+
 // Ring-by-ring dilation from the filled texels of `rgba` (sRGB bytes; averages are taken in
 // linear light). Each ring's texels are computed from the texels filled before the ring, so the
 // result does not depend on visiting order (which is deterministic anyway). With `per_chart`, a new
 // texel joins the majority chart of its filled 8-neighbours (ties: the smaller index) and averages
 // only that chart's neighbours; otherwise it averages all filled neighbours and keeps chart -1.
 // Stops after `rings` rings (< 0: when nothing is left to fill).
-void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
+struct Layer {
+  std::vector<uint8_t>* rgba;  // n × n RGBA8
+  bool srgb;                   // colour (averaged in linear light) or data (averaged as stored)
+};
+
+void dilate(int n, const std::vector<Layer>& layers, std::vector<int32_t>& chart,
             std::vector<uint8_t>& filled, int rings, bool per_chart) {
   std::vector<uint8_t> queued(filled.size(), 0);
   std::vector<size_t> frontier;
@@ -252,10 +323,10 @@ void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
       break;
     }
   }
-  std::vector<uint8_t> new_rgba;
+  std::vector<std::vector<uint8_t>> new_rgba(layers.size());
   std::vector<int32_t> new_chart;
   for (int ring = 0; (rings < 0 || ring < rings) && !frontier.empty(); ++ring) {
-    new_rgba.assign(frontier.size() * 4, 0);
+    for (std::vector<uint8_t>& v : new_rgba) v.assign(frontier.size() * 4, 0);
     new_chart.assign(frontier.size(), -1);
     for (size_t f = 0; f < frontier.size(); ++f) {
       const size_t i = frontier[f];
@@ -284,22 +355,31 @@ void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
           }
         }
       }
-      double sum[4] = {0, 0, 0, 0};
-      int used = 0;
-      for (int a = 0; a < count; ++a) {
-        if (per_chart && ids[a] != who) continue;
-        Linear4 c = decode(&rgba[js[a] * 4]);
-        for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
-        ++used;
+      for (size_t l = 0; l < layers.size(); ++l) {
+        const std::vector<uint8_t>& rgba = *layers[l].rgba;
+        double sum[4] = {0, 0, 0, 0};
+        int used = 0;
+        for (int a = 0; a < count; ++a) {
+          if (per_chart && ids[a] != who) continue;
+          const uint8_t* q = &rgba[js[a] * 4];
+          Linear4 c = layers[l].srgb ? decode(q) : Linear4{{q[0] / 255.0f, q[1] / 255.0f,
+                                                             q[2] / 255.0f, q[3] / 255.0f}};
+          for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
+          ++used;
+        }
+        if (used == 0) continue;
+        const Vec4 mean{float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
+                        float(sum[3] / used)};
+        if (layers[l].srgb)
+          encode(mean, &new_rgba[l][f * 4]);
+        else
+          encode_data(mean, &new_rgba[l][f * 4]);
       }
-      if (used > 0)
-        encode({float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
-                float(sum[3] / used)},
-               &new_rgba[f * 4]);
       new_chart[f] = who;
     }
     for (size_t f = 0; f < frontier.size(); ++f) {
-      std::copy_n(&new_rgba[f * 4], 4, &rgba[frontier[f] * 4]);
+      for (size_t l = 0; l < layers.size(); ++l)
+        std::copy_n(&new_rgba[l][f * 4], 4, &(*layers[l].rgba)[frontier[f] * 4]);
       chart[frontier[f]] = new_chart[f];
       filled[frontier[f]] = 1;
     }
@@ -312,7 +392,7 @@ void dilate(int n, std::vector<uint8_t>& rgba, std::vector<int32_t>& chart,
 }  // namespace
 
 BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
-                      const AtlasLayout& layout, const BakeOptions& options) {
+                      const AtlasLayout& layout, const BakeOptions& options, const BakeChannels& channels) {
   BakeResult result;
   const int n = layout.size;
   if (n <= 0) return result;
@@ -358,6 +438,32 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   img.name = "atlas";
   img.width = img.height = n;
   img.rgba.assign(texels * 4, 0);
+  // The further channels: same size, alpha 255.
+  auto channel_image = [&](bool on, Image& out, const char* name) -> std::vector<uint8_t>* {
+    if (!on) return nullptr;
+    out.name = name;
+    out.width = out.height = n;
+    out.rgba.assign(texels * 4, 255);
+    return &out.rgba;
+  };
+  std::vector<uint8_t>* normal = channel_image(channels.normal, result.normal, "atlas normal");
+  std::vector<uint8_t>* orm =
+      channel_image(channels.orm, result.orm, "atlas occlusion-roughness-metallic");
+  std::vector<uint8_t>* emissive =
+      channel_image(channels.emissive, result.emissive, "atlas emissive");
+  const float emissive_scale =
+      channels.emissive_scale > 0 && std::isfinite(channels.emissive_scale)
+          ? channels.emissive_scale
+          : 1.0f;
+  auto put_channels = [&](size_t i, Vec3 o, Vec3 e, DVec3 m) {
+    if (orm) encode_data({o.x, o.y, o.z, 1}, &(*orm)[i * 4]);
+    if (emissive)
+      encode({e.x / emissive_scale, e.y / emissive_scale, e.z / emissive_scale, 1},
+             &(*emissive)[i * 4]);
+    if (normal)
+      encode_data({float(0.5 * m.x + 0.5), float(0.5 * m.y + 0.5), float(0.5 * m.z + 0.5), 1},
+                  &(*normal)[i * 4]);
+  };
   result.texel_chart.assign(texels, -1);
   std::vector<uint8_t> filled(texels, 0);
   const int ss = std::max(1, options.supersample);
@@ -369,13 +475,15 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
       result.texel_chart[i] = int32_t(own.chart);
       filled[i] = 1;
       if (own.k == kFlat) {
-        encode(charts.charts[own.chart].color, &img.rgba[i * 4]);
+        const Chart& chart = charts.charts[own.chart];
+        encode(chart.color, &img.rgba[i * 4]);
+        put_channels(i, chart.orm, chart.emissive, {0, 0, 1});
         continue;
       }
-      Vec4 color;
+      Source::Texel texel;
       if (ss == 1) {
         src.select(own);
-        color = src.color_at({x + 0.5, y + 0.5});
+        texel = src.sample({x + 0.5, y + 0.5}, channels);
       } else {
         int32_t cand[9];
         int nc = 0;
@@ -388,6 +496,8 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
           if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
         }
         double sum[4] = {0, 0, 0, 0};
+        double orm_sum[3] = {0, 0, 0}, em_sum[3] = {0, 0, 0};
+        DVec3 n_sum{0, 0, 0};
         for (int sy = 0; sy < ss; ++sy)
           for (int sx = 0; sx < ss; ++sx) {
             const P2 p{x + (sx + 0.5) / ss, y + (sy + 0.5) / ss};
@@ -403,23 +513,34 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
               }
             }
             src.select(jobs[size_t(best)]);
-            Vec4 c = src.color_at(p);
-            sum[0] += c.x;
-            sum[1] += c.y;
-            sum[2] += c.z;
-            sum[3] += c.w;
+            const Source::Texel t = src.sample(p, channels);
+            sum[0] += t.color.x;
+            sum[1] += t.color.y;
+            sum[2] += t.color.z;
+            sum[3] += t.color.w;
+            orm_sum[0] += t.orm.x, orm_sum[1] += t.orm.y, orm_sum[2] += t.orm.z;
+            em_sum[0] += t.emissive.x, em_sum[1] += t.emissive.y, em_sum[2] += t.emissive.z;
+            n_sum = add(n_sum, t.normal);
           }
         const double inv = 1.0 / (ss * ss);
-        color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
-                 float(sum[3] * inv)};
+        texel.color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
+                       float(sum[3] * inv)};
+        texel.orm = {float(orm_sum[0] * inv), float(orm_sum[1] * inv), float(orm_sum[2] * inv)};
+        texel.emissive = {float(em_sum[0] * inv), float(em_sum[1] * inv), float(em_sum[2] * inv)};
+        texel.normal = length(n_sum) > 0 ? normalize(n_sum) : DVec3{0, 0, 1};
       }
-      encode(color, &img.rgba[i * 4]);
+      encode(texel.color, &img.rgba[i * 4]);
+      put_channels(i, texel.orm, texel.emissive, texel.normal);
     }
   owner.clear();
   owner.shrink_to_fit();
 
+  std::vector<Layer> layers{{&img.rgba, true}};
+  if (normal) layers.push_back({normal, false});
+  if (orm) layers.push_back({orm, false});
+  if (emissive) layers.push_back({emissive, true});
   // Gutters.
-  if (options.gutter > 0) dilate(n, img.rgba, result.texel_chart, filled, options.gutter, true);
+  if (options.gutter > 0) dilate(n, layers, result.texel_chart, filled, options.gutter, true);
 
   // Translucency of what was baked (charts and their gutters).
   for (size_t i = 0; i < texels && !result.has_alpha; ++i)
@@ -427,7 +548,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   // The empty space takes the nearest charts' colour and alpha (chart -1), so no mip level
   // averages a chart with transparent black: at the sizes a model is seen at, a coarse level
   // is what shows, and black there darkens every chart edge (and thins alpha-masked ones).
-  dilate(n, img.rgba, result.texel_chart, filled, -1, false);
+  dilate(n, layers, result.texel_chart, filled, -1, false);
   if (!result.has_alpha)
     for (size_t i = 0; i < texels; ++i) img.rgba[i * 4 + 3] = 255;
   return result;

@@ -5,7 +5,9 @@
 // their colour. Gutters are then filled by dilation (each empty texel next to filled ones takes
 // their average, ring by ring, `gutter` rings), so bilinear filtering and every mip level stay
 // clean at chart borders. Texels no chart reaches take the colour and alpha of the nearest
-// charts by dilation to convergence (opaque when no source uses alpha).
+// charts by dilation to convergence (opaque when no source uses alpha). The further channels
+// (BakeChannels) are sampled at the same surface points from the same source material
+// (condition/material_sample) and dilated alike (data channels averaged as stored).
 #pragma once
 
 #include <cstdint>
@@ -31,14 +33,26 @@ struct BakeOptions {
   int supersample = 1;  // samples per texel side (1 = texel centre only)
 };
 
+// The material channels a bake fills besides base colour (build_atlas decides which), each in
+// an image of the atlas's size with the same charts, gutters and fill.
+struct BakeChannels {
+  bool normal = false;  // tangent-space normal map (linear), in the frame glTF viewers derive
+                        // from the atlas uvs (atlas/tangent_frame.h); 1 sample per texel
+  bool orm = false;     // occlusion (R), roughness (G), metallic (B), linear, factors folded in
+  bool emissive = false;     // emissive radiance / emissive_scale, sRGB
+  float emissive_scale = 1;  // the divisor (> 0): the largest emissive component
+};
+
 struct BakeResult {
   Image atlas;  // size × size RGBA8, sRGB, row 0 at the top
+  Image normal, orm, emissive;  // size × size RGBA8 (alpha 255) when baked, else empty
   std::vector<int32_t>
       texel_chart;         // per texel: the chart it belongs to (incl. its gutter), -1 none
   bool has_alpha = false;  // some baked texel has alpha < 255
 };
 
 BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
-                      const AtlasLayout& layout, const BakeOptions& options = {});
+                      const AtlasLayout& layout, const BakeOptions& options = {},
+                      const BakeChannels& channels = {});
 
 }  // namespace meshmux

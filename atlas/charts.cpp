@@ -188,7 +188,14 @@ class Segmenter {
   const ChartOptions& options_;
   double diag2_ = 1;
   std::vector<Face> faces_;
-  std::vector<Vec4> colors_;  // flat colour per class id (index 0 unused: textured)
+  struct FlatClass {
+    Vec4 color;
+    Vec3 orm, emissive;
+    bool operator==(const FlatClass& o) const {
+      return color == o.color && orm == o.orm && emissive == o.emissive;
+    }
+  };
+  std::vector<FlatClass> colors_;  // flat colour per class id (index 0 unused: textured)
   std::vector<std::vector<uint32_t>> twin_groups_;
   std::vector<ChartState> charts_;  // one per face at the start; chart i starts as face i
   std::vector<uint32_t> next_;      // per face: next face of its chart
@@ -208,9 +215,9 @@ void Segmenter::build_faces() {
   Vector3d origin = b.empty() ? Vector3d::Zero() : to_d(b.center());
 
   std::unordered_map<PositionKey, uint32_t, PositionKeyHash> pos_ids;
-  colors_.assign(1, Vec4{1, 1, 1, 1});
-  auto color_class = [&](Vec4 c) -> uint32_t {
-    // Exact colour identity: all four channels equal.
+  colors_.assign(1, FlatClass{{1, 1, 1, 1}, {1, 1, 1}, {0, 0, 0}});
+  auto color_class = [&](const FlatClass& c) -> uint32_t {
+    // Exact identity: colour and factors equal.
     for (uint32_t i = 1; i < colors_.size(); ++i)
       if (colors_[i] == c) return i;
     colors_.push_back(c);
@@ -221,10 +228,14 @@ void Segmenter::build_faces() {
     // Textured or one flat colour, decided per primitive (charts.h).
     bool textured = false;
     Vec4 factor{1, 1, 1, 1};
+    Vec3 orm{1, 1, 1}, emissive{0, 0, 0};  // the glTF default material's
     if (p.material >= 0 && size_t(p.material) < scene_.materials.size()) {
       const Material& m = scene_.materials[size_t(p.material)];
-      textured = m.base_color.present();
+      textured = m.base_color.present() || m.normal.present() || m.occlusion.present() ||
+                 m.metallic_roughness.present() || m.emissive.present();
       factor = m.base_color_factor;
+      orm = {1, m.roughness_factor, m.metallic_factor};
+      emissive = m.emissive_factor;
     }
     Vec4 vertex_color{1, 1, 1, 1};
     if (!p.colors.empty()) {
@@ -234,8 +245,10 @@ void Segmenter::build_faces() {
     }
     uint32_t cls = 0;
     if (!textured)
-      cls = color_class({factor.x * vertex_color.x, factor.y * vertex_color.y,
-                         factor.z * vertex_color.z, factor.w * vertex_color.w});
+      cls = color_class({{factor.x * vertex_color.x, factor.y * vertex_color.y,
+                          factor.z * vertex_color.z, factor.w * vertex_color.w},
+                         orm,
+                         emissive});
 
     for (size_t t = 0; t < p.triangle_count(); ++t) {
       Face f;
@@ -556,7 +569,11 @@ void Segmenter::run(uint32_t mesh_index, std::vector<Chart>& charts,
       Chart out;
       out.mesh = mesh_index;
       out.textured = charts_[c].cls == 0;
-      out.color = out.textured ? Vec4{1, 1, 1, 1} : colors_[charts_[c].cls];
+      if (!out.textured) {
+        out.color = colors_[charts_[c].cls].color;
+        out.orm = colors_[charts_[c].cls].orm;
+        out.emissive = colors_[charts_[c].cls].emissive;
+      }
       charts.push_back(std::move(out));
     }
     charts[local[c]].faces.push_back(f);  // ascending: f runs in order

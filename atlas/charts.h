@@ -7,10 +7,11 @@
 // log(1 + E_current) / log(1 + E_max) ≥ 0.9, E_current the merge being made and E_max the
 // dearest merge still queued.
 //
-// Rules: charts never span meshes; a textured face (its material samples a base-colour texture
-// or its primitive has varying vertex colours) merges only with textured faces; a flat-colour
-// face (constant colour: factor × constant vertex colour) merges only with faces of exactly the
-// same colour; two faces that are back-to-back twins (same three positions, opposite winding)
+// Rules: charts never span meshes; a textured face (its material samples a texture of any
+// channel, or its primitive has varying vertex colours) merges only with textured faces; a
+// flat-colour face (constant colour: factor × constant vertex colour, with its material's
+// occlusion-roughness-metallic and emissive factors) merges only with faces of exactly the same
+// colour and factors; two faces that are back-to-back twins (same three positions, opposite winding)
 // never share a chart; faces meet across an edge when they share its two positions (so uv seams
 // and material borders of the input do not block merging, but the rules above do).
 // Deterministic. Complexity O(F log F) per mesh.
@@ -36,6 +37,8 @@ struct Chart {
   std::vector<uint32_t> faces;  // mesh face numbers, ascending
   bool textured = true;         // false: one flat colour (see `color`)
   Vec4 color{1, 1, 1, 1};       // the flat colour (linear RGBA) when !textured
+  Vec3 orm{1, 1, 1};            // when !textured: occlusion, roughness, metallic factors
+  Vec3 emissive{0, 0, 0};       // when !textured: emissive factor (linear, may exceed 1)
 };
 
 struct ChartOptions {

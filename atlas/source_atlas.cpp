@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "atlas/material_sample.h"
 #include "image/color.h"
 
 namespace meshmux {
@@ -101,31 +102,72 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
   return -1;
 }
 
+namespace {
+
+bool same_ref(const TextureRef& a, const TextureRef& b) {
+  return a.image == b.image && (!a.present() || (a.tex_coord == b.tex_coord && a.scale == b.scale &&
+                                                 a.transform.is_identity() &&
+                                                 b.transform.is_identity()));
+}
+
+// The channels other than base colour, compared.
+bool same_channels(const Material& a, const Material& b) {
+  return same_ref(a.normal, b.normal) && same_ref(a.occlusion, b.occlusion) &&
+         same_ref(a.metallic_roughness, b.metallic_roughness) && same_ref(a.emissive, b.emissive) &&
+         a.metallic_factor == b.metallic_factor && a.roughness_factor == b.roughness_factor &&
+         a.emissive_factor == b.emissive_factor;
+}
+
+bool any_channel_texture(const Material& m) {
+  return m.normal.present() || m.occlusion.present() || m.metallic_roughness.present() ||
+         m.emissive.present();
+}
+
+}  // namespace
+
 std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   std::optional<SourceAtlas> found;
   std::vector<Vec4> flat;
+  std::vector<int32_t> flat_material;
+  const Material default_material;
   // Pass 1: one image, one uv set, one factor; the plain colours.
   for (const Mesh& mesh : scene.meshes)
     for (const Primitive& p : mesh.primitives) {
       if (p.indices.empty()) continue;
       if (!p.colors.empty() || p.material >= int32_t(scene.materials.size())) return std::nullopt;
       if (p.material < 0 || !scene.materials[size_t(p.material)].base_color.present()) {
-        const Vec4 c = p.material < 0 ? Vec4{1, 1, 1, 1}
-                                      : scene.materials[size_t(p.material)].base_color_factor;
-        if (std::find(flat.begin(), flat.end(), c) == flat.end()) flat.push_back(c);
+        const Material& m = p.material < 0 ? default_material : scene.materials[size_t(p.material)];
+        if (any_channel_texture(m)) return std::nullopt;
+        const Vec4 c = m.base_color_factor;
+        auto at = std::find(flat.begin(), flat.end(), c);
+        if (at == flat.end()) {
+          flat.push_back(c);
+          flat_material.push_back(p.material);
+        } else {
+          const int32_t other = flat_material[size_t(at - flat.begin())];
+          if (!same_channels(m, other < 0 ? default_material : scene.materials[size_t(other)]))
+            return std::nullopt;
+        }
         continue;
       }
       const Material& m = scene.materials[size_t(p.material)];
       const TextureRef& t = m.base_color;
       if (!t.transform.is_identity() || t.tex_coord >= p.uvs.size()) return std::nullopt;
+      for (const TextureRef* c : {&m.normal, &m.occlusion, &m.metallic_roughness, &m.emissive})
+        if (c->present() && (c->tex_coord != t.tex_coord || !c->transform.is_identity() ||
+                             size_t(c->image) >= scene.images.size() ||
+                             !scene.images[size_t(c->image)].decoded()))
+          return std::nullopt;
       SourceAtlas here;
       here.image = t.image;
       here.tex_coord = t.tex_coord;
       here.factor = m.base_color_factor;
+      here.material = p.material;
       if (!found) {
         found = here;
       } else if (found->image != here.image || found->tex_coord != here.tex_coord ||
-                 !(found->factor == here.factor)) {
+                 !(found->factor == here.factor) ||
+                 !same_channels(m, scene.materials[size_t(found->material)])) {
         return std::nullopt;
       }
     }
@@ -190,6 +232,7 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   }
   found->block = block;
   found->flat_colors = flat;
+  found->flat_material = flat_material;
   for (size_t i = 0; i < flat.size(); ++i) {
     found->flat_x.push_back(cells[i].first);
     found->flat_y.push_back(cells[i].second);
@@ -225,6 +268,69 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     put(px, source.flat_colors[c]);
+    for (int y = source.flat_y[c]; y < source.flat_y[c] + source.block; ++y)
+      for (int x = source.flat_x[c]; x < source.flat_x[c] + source.block; ++x)
+        std::copy(px, px + 4, &out.rgba[(size_t(y) * w + size_t(x)) * 4]);
+  }
+  return out;
+}
+
+Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasChannel channel,
+                           float emissive_scale) {
+  const Image& in = scene.images[size_t(source.image)];
+  Image out;
+  out.width = source.width;
+  out.height = source.height;
+  out.rgba.assign(size_t(out.width) * size_t(out.height) * 4, 255);
+  const float es = emissive_scale > 0 && std::isfinite(emissive_scale) ? emissive_scale : 1.0f;
+  std::vector<Vec2> uvs(size_t(source.tex_coord) + 1, Vec2{0, 0});
+  auto value = [&](int32_t material, Vec2 uv, uint8_t* px) {
+    uvs[source.tex_coord] = uv;
+    auto byte = [](double v) { return uint8_t(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); };
+    switch (channel) {
+      case AtlasChannel::kNormal: {
+        Vec3 m = sample_normal_map(scene, material, uvs);
+        double l = std::sqrt(double(m.x) * m.x + double(m.y) * m.y + double(m.z) * m.z);
+        if (!(l > 0) || !std::isfinite(l)) m = {0, 0, 1}, l = 1;
+        px[0] = byte(0.5 + 0.5 * m.x / l);
+        px[1] = byte(0.5 + 0.5 * m.y / l);
+        px[2] = byte(0.5 + 0.5 * m.z / l);
+        break;
+      }
+      case AtlasChannel::kOcclusionRoughnessMetallic: {
+        const Vec3 v = sample_occlusion_roughness_metallic(scene, material, uvs);
+        px[0] = byte(v.x), px[1] = byte(v.y), px[2] = byte(v.z);
+        break;
+      }
+      case AtlasChannel::kEmissive: {
+        const Vec3 e = sample_emissive(scene, material, uvs);
+        px[0] = linear_to_srgb(e.x / es);
+        px[1] = linear_to_srgb(e.y / es);
+        px[2] = linear_to_srgb(e.z / es);
+        break;
+      }
+    }
+    px[3] = 255;
+  };
+  const size_t w = size_t(out.width);
+  for (int y = 0; y < in.height; ++y)
+    for (int x = 0; x < in.width; ++x)
+      value(source.material, {float((x + 0.5) / in.width), float((y + 0.5) / in.height)},
+            &out.rgba[(size_t(y) * w + size_t(x)) * 4]);
+  // Plain colours: their material's factors (no texture samples, so the uv is irrelevant).
+  auto flat_value = [&](size_t c, uint8_t* px) {
+    value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px);
+    if (channel == AtlasChannel::kNormal) px[0] = 128, px[1] = 128, px[2] = 255;
+  };
+  if (source.height > in.height && !source.flat_colors.empty()) {
+    uint8_t px[4];
+    flat_value(0, px);
+    for (size_t i = w * size_t(in.height); i < w * size_t(out.height); ++i)
+      std::copy(px, px + 4, &out.rgba[i * 4]);
+  }
+  for (size_t c = 0; c < source.flat_colors.size(); ++c) {
+    uint8_t px[4];
+    flat_value(c, px);
     for (int y = source.flat_y[c]; y < source.flat_y[c] + source.block; ++y)
       for (int x = source.flat_x[c]; x < source.flat_x[c] + source.block; ++x)
         std::copy(px, px + 4, &out.rgba[(size_t(y) * w + size_t(x)) * 4]);

@@ -31,7 +31,14 @@ struct SourceAtlas {
   std::vector<Vec2> flat_uv;        // per flat colour: its block's centre, atlas uv
   std::vector<int> flat_x, flat_y;  // per flat colour: its block's top-left texel
   int block = 0;                    // block side, texels (0: no flat colours)
+  int32_t material = -1;            // the first textured face's material (all textured faces'
+                                    // materials agree on every channel, see below)
+  std::vector<int32_t> flat_material;  // per flat colour: the first material showing it (-1:
+                                       // the default material)
 };
+
+// The further material channels an atlas image may carry (issue 5/8).
+enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive };
 
 // The kept image, when:
 // - every primitive with faces either samples, through its material's base-colour texture, the
@@ -44,6 +51,9 @@ struct SourceAtlas {
 // - the image is decoded, both sides are powers of two and at most `max_size`;
 // - the plain colours find aligned free blocks (4 to 64 texels, 8 texels clear of every
 //   textured face) in the image or in a second image height appended below it (≤ max_size).
+// - the textured faces' materials agree on their normal, occlusion, metallic-roughness and
+//   emissive textures (through the same uv set, no transform) and factors; plain-colour
+//   materials sample no texture, and those sharing a colour share their factors.
 // Otherwise nullopt (the atlas is built from charts). O(referenced uvs + texels of the
 // textured faces' uv bounding boxes + image texels).
 std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size);
@@ -60,5 +70,14 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
 // re-encoded; alpha × factor.w; unchanged when the factor is 1), the appended half (if any)
 // filled with the first plain colour, and each plain colour's block. Named "atlas".
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
+
+// A further channel as an image of the atlas's size: each texel of the source's part takes the
+// textured material's value at its centre (condition/material_sample: factors folded in), the
+// appended half and each plain colour's block take their material's factors. Normal: the
+// source's map (normalized, scale folded; the uvs and so the tangent frame are the source's),
+// flat (0, 0, 1) in the blocks. Occlusion-roughness-metallic: linear bytes. Emissive: sRGB
+// bytes of the radiance / emissive_scale. Alpha 255.
+Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasChannel channel,
+                           float emissive_scale);
 
 }  // namespace meshmux

@@ -22,7 +22,9 @@ bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
 }  // namespace
 
-Image downsample_half(const Image& in) {
+Image downsample_half(const Image& in) { return downsample_half(in, TexelFilter::kSrgb); }
+
+Image downsample_half(const Image& in, TexelFilter filter) {
   Image out;
   out.name = in.name;
   out.width = std::max(1, in.width / 2);
@@ -36,18 +38,32 @@ Image downsample_half(const Image& in) {
         for (int dx = 0; dx < 2; ++dx) {
           int sx = std::min(in.width - 1, 2 * x + dx), sy = std::min(in.height - 1, 2 * y + dy);
           const uint8_t* p = &in.rgba[(size_t(sy) * size_t(in.width) + size_t(sx)) * 4];
-          for (int c = 0; c < 3; ++c) acc[c] += srgb_to_linear(p[c]);
+          for (int c = 0; c < 3; ++c)
+            acc[c] += filter == TexelFilter::kSrgb     ? srgb_to_linear(p[c])
+                      : filter == TexelFilter::kNormal ? p[c] / 127.5f - 1.0f
+                                                       : p[c] / 255.0f;
           alpha += p[3];
           ++n;
         }
       uint8_t* q = &out.rgba[(size_t(y) * size_t(out.width) + size_t(x)) * 4];
-      for (int c = 0; c < 3; ++c) q[c] = linear_to_srgb(acc[c] / float(n));
+      if (filter == TexelFilter::kSrgb) {
+        for (int c = 0; c < 3; ++c) q[c] = linear_to_srgb(acc[c] / float(n));
+      } else if (filter == TexelFilter::kNormal) {
+        float l = std::sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2]);
+        if (!(l > 1e-6f)) acc[0] = acc[1] = 0, acc[2] = l = 1;
+        for (int c = 0; c < 3; ++c)
+          q[c] = uint8_t(std::lround(std::clamp((acc[c] / l + 1.0f) * 127.5f, 0.0f, 255.0f)));
+      } else {
+        for (int c = 0; c < 3; ++c)
+          q[c] = uint8_t(std::lround(std::clamp(acc[c] / float(n) * 255.0f, 0.0f, 255.0f)));
+      }
       q[3] = uint8_t((alpha + n / 2) / n);
     }
   return out;
 }
 
-Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& o) {
+Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& o,
+                                          const std::vector<ChannelTexture>& channels) {
   std::string who =
       "texture levels: " + (texture.name.empty() ? std::string("texture") : texture.name);
   if (!texture.decoded())
@@ -57,6 +73,13 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
                              std::to_string(texture.height) +
                              " is not a power of two in both dimensions",
                          ErrorKind::kInternal);
+  for (const ChannelTexture& c : channels)
+    if (!c.image || !c.image->decoded() || c.image->width != texture.width ||
+        c.image->height != texture.height)
+      return Status::error(who + ": channel " + c.channel + " is not decoded at " +
+                               std::to_string(texture.width) + "x" +
+                               std::to_string(texture.height),
+                           ErrorKind::kInternal);
   if (!power_of_two(o.base_size))
     return Status::error(
         who + ": base size " + std::to_string(o.base_size) + " is not a power of two",
@@ -68,63 +91,84 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
         who + ": level_halvings " + std::to_string(o.level_halvings) + " is not in 1..4",
         ErrorKind::kInternal);
   // The mip chain, full size first (each step a 2×2 box filter), down to the base; every
-  // level_halvings-th is a level.
+  // level_halvings-th is a level. Each chain entry holds the base colour and every channel.
   const size_t step = size_t(o.level_halvings);
-  std::vector<Image> chain{texture};
-  while (std::max(chain.back().width, chain.back().height) > 1 &&
-         (std::max(chain.back().width, chain.back().height) > o.base_size ||
+  using Maps = std::vector<Image>;
+  auto halve = [&](const Maps& m) {
+    Maps out{downsample_half(m[0])};
+    for (size_t c = 0; c < channels.size(); ++c)
+      out.push_back(downsample_half(m[c + 1], channels[c].filter));
+    return out;
+  };
+  std::vector<Maps> chain(1, Maps{texture});
+  for (const ChannelTexture& c : channels) chain[0].push_back(*c.image);
+  while (std::max(chain.back()[0].width, chain.back()[0].height) > 1 &&
+         (std::max(chain.back()[0].width, chain.back()[0].height) > o.base_size ||
           (chain.size() - 1) % step != 0))
-    chain.push_back(downsample_half(chain.back()));
+    chain.push_back(halve(chain.back()));
+  // One level's files: the base colour (PNG with alpha), the channels (JPEG).
+  auto encode_level = [&](const Maps& m, int quality, TextureLevel* level) -> Status {
+    level->width = m[0].width;
+    level->height = m[0].height;
+    auto bytes = alpha ? encode_png(m[0]) : encode_jpeg(m[0], quality);
+    if (!bytes.ok()) return bytes.status().with_prefix(who);
+    level->mime_type = alpha ? "image/png" : "image/jpeg";
+    level->encoded = bytes.take();
+    level->other_maps.clear();
+    for (size_t c = 0; c < channels.size(); ++c) {
+      auto more = encode_jpeg(m[c + 1], quality);
+      if (!more.ok()) return more.status().with_prefix(who + ": " + channels[c].channel);
+      level->other_maps.push_back({channels[c].channel, "image/jpeg", more.take()});
+    }
+    return Status::ok();
+  };
+  auto level_bytes = [](const TextureLevel& l) {
+    uint64_t n = l.encoded.size();
+    for (const TextureMap& m : l.other_maps) n += m.encoded.size();
+    return n;
+  };
   TextureLevels levels;
   for (size_t i = chain.size(); i-- > 0;) {
     if (i % step != 0 && i + 1 != chain.size()) continue;
     TextureLevel level;
-    level.width = chain[i].width;
-    level.height = chain[i].height;
-    auto bytes = alpha ? encode_png(chain[i])
-                       : encode_jpeg(chain[i], i == 0 ? o.jpeg_quality : o.preview_quality);
-    if (!bytes.ok()) return bytes.status().with_prefix(who);
-    level.mime_type = alpha ? "image/png" : "image/jpeg";
-    level.encoded = bytes.take();
+    if (Status s = encode_level(chain[i], i == 0 ? o.jpeg_quality : o.preview_quality, &level);
+        !s.is_ok())
+      return s;
     levels.levels.push_back(std::move(level));
   }
   auto total = [&] {
     uint64_t n = 0;
-    for (const TextureLevel& l : levels.levels) n += l.encoded.size();
+    for (const TextureLevel& l : levels.levels) n += level_bytes(l);
     return n;
   };
-  const double top = double(levels.levels.back().encoded.size());
+  const double top = double(level_bytes(levels.levels.back()));
   while (levels.levels.size() > 2 && double(total()) > o.max_pyramid_ratio * top) {
     auto largest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
-                                    [](const TextureLevel& a, const TextureLevel& b) {
-                                      return a.encoded.size() < b.encoded.size();
+                                    [&](const TextureLevel& a, const TextureLevel& b) {
+                                      return level_bytes(a) < level_bytes(b);
                                     });
     char why[160];
     std::snprintf(why, sizeof why,
                   "with it the levels cost %.3f× the top level (limit %.2f); the largest level "
                   "between the smallest and the top goes first",
                   double(total()) / top, o.max_pyramid_ratio);
-    levels.dropped.push_back(
-        {largest->width, largest->height, uint64_t(largest->encoded.size()), why});
+    levels.dropped.push_back({largest->width, largest->height, level_bytes(*largest), why});
     levels.levels.erase(largest);
   }
   // Still too dear with only the smallest level below the top: that level halves again (a
   // smaller first picture) until the pyramid fits or it is a single texel.
-  Image smallest = chain.back();
+  Maps smallest = chain.back();
   while (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top &&
-         std::max(smallest.width, smallest.height) > kMinPreviewSide) {
+         std::max(smallest[0].width, smallest[0].height) > kMinPreviewSide) {
     TextureLevel& first = levels.levels.front();
     char why[160];
     std::snprintf(why, sizeof why,
                   "with it the levels cost %.3f× the top level (limit %.2f); the smallest level "
                   "halves instead",
                   double(total()) / top, o.max_pyramid_ratio);
-    levels.dropped.push_back({first.width, first.height, uint64_t(first.encoded.size()), why});
-    smallest = downsample_half(smallest);
-    auto bytes = alpha ? encode_png(smallest) : encode_jpeg(smallest, o.preview_quality);
-    if (!bytes.ok()) return bytes.status().with_prefix(who);
-    first.width = smallest.width, first.height = smallest.height;
-    first.encoded = bytes.take();
+    levels.dropped.push_back({first.width, first.height, level_bytes(first), why});
+    smallest = halve(smallest);
+    if (Status s = encode_level(smallest, o.preview_quality, &first); !s.is_ok()) return s;
   }
   // A preview that small still too dear (a tiny texture: the file's headers dominate): the top
   // level is the only one.
@@ -135,7 +179,7 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
                   "with it the levels cost %.3f× the top level (limit %.2f) even at %dx%d: the "
                   "top level is the only one",
                   double(total()) / top, o.max_pyramid_ratio, first.width, first.height);
-    levels.dropped.push_back({first.width, first.height, uint64_t(first.encoded.size()), why});
+    levels.dropped.push_back({first.width, first.height, level_bytes(first), why});
     levels.levels.erase(levels.levels.begin());
   }
   return levels;

@@ -7,6 +7,9 @@
 // Complexity: O(pixels) for the filtering (4/3 of the full size in all), plus encoding.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "scene/scene.h"
 #include "scene/texture_levels.h"
 
@@ -28,11 +31,33 @@ struct TextureLevelOptions {
   double max_pyramid_ratio = 1.15;
 };
 
-// Requires a decoded image whose width and height are powers of two. Errors name the image.
-Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& options);
+// How a channel's texels average when a level halves.
+enum class TexelFilter {
+  kSrgb,    // colour: averaged in linear light, alpha as is
+  kData,    // data (occlusion, roughness, metallic): averaged as stored
+  kNormal,  // tangent-space normals (2 · texel − 1): averaged, then renormalized
+};
+
+// A further material channel carried at every level beside the base colour (issue 5/8): the
+// same size as the base colour texture, opaque, JPEG-coded like it.
+struct ChannelTexture {
+  std::string channel;  // "normal", "occlusion_roughness_metallic" or "emissive"
+  const Image* image = nullptr;
+  TexelFilter filter = TexelFilter::kData;
+};
+
+// Requires a decoded image whose width and height are powers of two (and channels of its size).
+// Errors name the image. The channels move with the base colour: each level carries every
+// channel at its size (TextureLevel::other_maps, in `channels` order), and the byte bounds above
+// count them all.
+Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& options,
+                                          const std::vector<ChannelTexture>& channels = {});
 
 // One 2x2 box-filter reduction in linear light (width and height halved, never below 1).
 // Exposed for tests and for the renderer's mip chain.
 Image downsample_half(const Image& image);
+
+// The same reduction for other texel kinds.
+Image downsample_half(const Image& image, TexelFilter filter);
 
 }  // namespace meshmux

@@ -126,9 +126,12 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       img.mime_type = l.mime_type;
       Status s = decode_image(img);  // render what the client decodes, JPEG losses included
       if (!s) return s.with_prefix("multiplex");
-      r.texture_bytes.push_back(l.encoded.size());
-      r.texture_levels_shipped.push_back(
-          {uint64_t(l.width), uint64_t(l.height), uint64_t(l.encoded.size())});
+      // A level's cost is all its maps (the channels move together; only base colour is
+      // rendered so far).
+      uint64_t bytes = l.encoded.size();
+      for (const TextureMap& m : l.other_maps) bytes += m.encoded.size();
+      r.texture_bytes.push_back(bytes);
+      r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
       textures.push_back(std::move(img));
     }
     r.texture_levels_dropped = levels.dropped;

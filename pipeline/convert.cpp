@@ -102,18 +102,49 @@ Image* stream_texture(Scene& scene) {
   return i < scene.images.size() && scene.images[i].decoded() ? &scene.images[i] : nullptr;
 }
 
+// The atlas's further channels (issue 5/8), in the order the texture levels carry them: the
+// image each stands for in `scene` and how its texels filter.
+struct SceneChannel {
+  const char* channel;
+  int32_t image;
+  TexelFilter filter;
+};
+std::vector<SceneChannel> scene_channels(const Scene& scene) {
+  std::vector<SceneChannel> out;
+  if (scene.materials.empty()) return out;
+  const Material& m = scene.materials[0];
+  auto add = [&](const TextureRef& t, const char* name, TexelFilter f) {
+    if (t.present() && size_t(t.image) < scene.images.size() &&
+        scene.images[size_t(t.image)].decoded())
+      out.push_back({name, t.image, f});
+  };
+  add(m.normal, "normal", TexelFilter::kNormal);
+  add(m.metallic_roughness, "occlusion_roughness_metallic", TexelFilter::kData);
+  add(m.emissive, "emissive", TexelFilter::kSrgb);
+  return out;
+}
+
 // 4. Texture levels, encoded once (model.glb embeds the top level, the stream all of them).
-// Without a stream only the top level is built.
+// Without a stream only the top level is built. The atlas's channels move together: every level
+// carries each at its size.
 Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool whole_pyramid,
                                    Progress* progress) {
   Image* texture = o.atlas ? stream_texture(scene) : nullptr;
   if (!texture) return TextureLevels{};
   TextureLevelOptions to = o.textures;
   if (!whole_pyramid) to.base_size = 1 << 30;  // a base larger than the texture: one level
-  auto levels = make_texture_levels(*texture, to);
+  const std::vector<SceneChannel> sc = scene_channels(scene);
+  std::vector<ChannelTexture> channels;
+  for (const SceneChannel& c : sc) channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
+  auto levels = make_texture_levels(*texture, to, channels);
   if (!levels.ok()) return levels.status();
   texture->encoded = levels->levels.back().encoded;
   texture->mime_type = levels->levels.back().mime_type;
+  for (size_t c = 0; c < sc.size(); ++c) {
+    Image& img = scene.images[size_t(sc[c].image)];
+    img.encoded = levels->levels.back().other_maps[c].encoded;
+    img.mime_type = levels->levels.back().other_maps[c].mime_type;
+  }
   std::string dropped;
   for (const DroppedTextureLevel& d : levels->dropped)
     dropped += format(", %dx%d dropped (%s)", d.width, d.height, d.why.c_str());
@@ -131,12 +162,21 @@ Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const Tex
   Image* texture = stream_texture(s);
   if (texture && level < levels.levels.size()) {
     const TextureLevel& l = levels.levels[level];
+    const std::vector<SceneChannel> sc = scene_channels(s);
     Image img;
     img.name = "texture level " + std::to_string(level);
     img.encoded = l.encoded;
     img.mime_type = l.mime_type;
     img.width = l.width, img.height = l.height;
     *texture = std::move(img);
+    for (size_t c = 0; c < sc.size() && c < l.other_maps.size(); ++c) {
+      Image& ci = s.images[size_t(sc[c].image)];
+      ci = Image{};
+      ci.name = "texture level " + std::to_string(level) + " " + sc[c].channel;
+      ci.encoded = l.other_maps[c].encoded;
+      ci.mime_type = l.other_maps[c].mime_type;
+      ci.width = l.width, ci.height = l.height;
+    }
   }
   return s;
 }

@@ -110,7 +110,11 @@ TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
   ASSERT_TRUE(out.ok()) << out.status().message();
   ASSERT_TRUE(rep.built);
   EXPECT_EQ(out->materials.size(), 1u);
-  ASSERT_EQ(out->images.size(), 1u);
+  // The base colour, and one image per further channel the material samples (issue 5/8).
+  const Material& mat = out->materials[0];
+  EXPECT_EQ(out->images.size(), 1u + mat.normal.present() + mat.metallic_roughness.present() +
+                                    mat.emissive.present());
+  EXPECT_EQ(mat.occlusion.image, mat.metallic_roughness.image);
   EXPECT_TRUE(out->materials[0].base_color.present());
   EXPECT_TRUE(validate(*out).is_ok()) << validate(*out).message();
   ASSERT_EQ(out->meshes.size(), cleaned.meshes.size());
@@ -436,6 +440,147 @@ TEST(Atlas, OneMaterialPerAlphaModeAndSidedness) {
         AlphaMode::kMask;
   EXPECT_EQ(masked_instances, 2u);
   EXPECT_EQ(compute_stats(*out).scene_triangles, compute_stats(s).scene_triangles);
+}
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Two unit quads side by side, one per material, in one mesh.
+Scene two_material_quads(const Material& a, const Material& b) {
+  Scene s;
+  Mesh mesh;
+  for (int k = 0; k < 2; ++k) {
+    Primitive p;
+    const float x = float(k) * 1.5f;
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.materials = {a, b};
+  s.instances.push_back({0, Mat4::identity(), ""});
+  return s;
+}
+
+// A metal part and a plastic part with no textures at all: one material cannot carry both as
+// factors (the area-weighted mean made DamagedHelmet-like models half metal everywhere), so the
+// channel is baked; the factors become 1 and the map carries the values.
+TEST(AtlasChannels, DifferingMetalRoughnessFactorsBakeAMap) {
+  Material metal, plastic;
+  metal.base_color_factor = {0.8f, 0.8f, 0.8f, 1};
+  metal.metallic_factor = 1, metal.roughness_factor = 0.2f;
+  plastic.base_color_factor = {0.1f, 0.2f, 0.8f, 1};
+  plastic.metallic_factor = 0, plastic.roughness_factor = 0.9f;
+  AtlasReport rep;
+  auto out = build_atlas(two_material_quads(metal, plastic), {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->materials.size(), 1u);
+  const Material& m = out->materials[0];
+  ASSERT_TRUE(m.metallic_roughness.present());
+  EXPECT_EQ(m.occlusion.image, m.metallic_roughness.image);
+  EXPECT_FALSE(m.normal.present());
+  EXPECT_FALSE(m.emissive.present());
+  EXPECT_EQ(m.metallic_factor, 1);
+  EXPECT_EQ(m.roughness_factor, 1);
+  ASSERT_EQ(out->images.size(), 2u);
+  // Every face reads its own part's values through the atlas.
+  const Image& orm = out->images[size_t(m.metallic_roughness.image)];
+  ASSERT_TRUE(orm.decoded());
+  const Primitive& p = out->meshes[0].primitives[0];
+  for (size_t f = 0; f < p.indices.size(); f += 3) {
+    Vec2 c{0, 0};
+    float x = 0;
+    for (int k = 0; k < 3; ++k) {
+      c.x += p.uvs[0][p.indices[f + k]].x / 3;
+      c.y += p.uvs[0][p.indices[f + k]].y / 3;
+      x += p.positions[p.indices[f + k]].x / 3;
+    }
+    const Vec4 v = sample_image_data(orm, m.metallic_roughness.sampler, c);
+    const bool is_metal = x < 1.25f;
+    EXPECT_NEAR(v.z, is_metal ? 1.0 : 0.0, 1.5 / 255) << "face " << f / 3;
+    EXPECT_NEAR(v.y, is_metal ? 0.2 : 0.9, 1.5 / 255) << "face " << f / 3;
+    EXPECT_NEAR(v.x, 1.0, 1.5 / 255);
+  }
+}
+
+// Materials that share their factors keep them as factors: no texture where none is needed
+// (and the emissive factor, which the atlas used to drop, survives).
+TEST(AtlasChannels, SharedFactorsStayFactors) {
+  Material a, b;
+  a.base_color_factor = {1, 0, 0, 1};
+  b.base_color_factor = {0, 1, 0, 1};
+  for (Material* m : {&a, &b}) {
+    m->metallic_factor = 0.25f;
+    m->roughness_factor = 0.5f;
+    m->emissive_factor = {0.1f, 0.2f, 0.3f};
+  }
+  auto out = build_atlas(two_material_quads(a, b), {}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->images.size(), 1u);
+  const Material& m = out->materials[0];
+  EXPECT_FALSE(m.metallic_roughness.present());
+  EXPECT_FALSE(m.emissive.present());
+  EXPECT_FLOAT_EQ(m.metallic_factor, 0.25f);
+  EXPECT_FLOAT_EQ(m.roughness_factor, 0.5f);
+  EXPECT_EQ(m.emissive_factor, (Vec3{0.1f, 0.2f, 0.3f}));
+}
+
+// A single-texture model whose maps share its uvs (DamagedHelmet's layout) keeps every map
+// texel for texel beside the kept base colour: no resampling of any channel.
+TEST(AtlasChannels, KeptSourceTextureKeepsItsMapsTexelForTexel) {
+  Scene s;
+  auto noise = [](int seed) {
+    Image img;
+    img.width = img.height = 16;
+    std::mt19937 engine{uint32_t(seed)};
+    for (int i = 0; i < 16 * 16; ++i)
+      for (int c = 0; c < 4; ++c) img.rgba.push_back(c == 3 ? 255 : uint8_t(engine() % 256));
+    return img;
+  };
+  s.images = {noise(1), noise(2), noise(3)};
+  Material m;
+  m.base_color.image = 0;
+  m.normal.image = 1;
+  m.metallic_roughness.image = 2;
+  s.materials.push_back(m);
+  Mesh mesh;
+  Primitive p;
+  p.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  p.normals.assign(4, {0, 0, 1});
+  p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+  p.indices = {0, 1, 2, 0, 2, 3};
+  p.material = 0;
+  mesh.primitives.push_back(p);
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(rep.reused_source);
+  const Material& o = out->materials[0];
+  ASSERT_TRUE(o.normal.present());
+  ASSERT_TRUE(o.metallic_roughness.present());
+  const Image& nm = out->images[size_t(o.normal.image)];
+  const Image& mr = out->images[size_t(o.metallic_roughness.image)];
+  ASSERT_EQ(nm.width, 16);
+  int normal_off = 0;
+  for (size_t i = 0; i < nm.rgba.size(); i += 4) {
+    // Normals are renormalized on the way (a map's texels are not always unit length).
+    const double x = s.images[1].rgba[i] / 127.5 - 1, y = s.images[1].rgba[i + 1] / 127.5 - 1,
+                 z = s.images[1].rgba[i + 2] / 127.5 - 1, l = std::sqrt(x * x + y * y + z * z);
+    if (l < 0.05) continue;
+    normal_off += std::abs(nm.rgba[i] - std::lround((x / l * 0.5 + 0.5) * 255)) > 1;
+    EXPECT_EQ(mr.rgba[i + 1], s.images[2].rgba[i + 1]);  // roughness
+    EXPECT_EQ(mr.rgba[i + 2], s.images[2].rgba[i + 2]);  // metallic
+    EXPECT_EQ(mr.rgba[i], 255);                          // no occlusion map: 1
+  }
+  EXPECT_EQ(normal_off, 0);
 }
 
 }  // namespace

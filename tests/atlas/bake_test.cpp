@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "atlas/material_sample.h"
+#include "atlas/tangent_frame.h"
 
 namespace meshmux {
 namespace {
@@ -357,6 +358,138 @@ TEST(Bake, Deterministic) {
   BakeResult b = bake_atlas(s, cs, uvs, layout, {});
   EXPECT_EQ(a.atlas.rgba, b.atlas.rgba);
   EXPECT_EQ(a.texel_chart, b.texel_chart);
+}
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+Image solid(int side, Rgba c) {
+  Image img;
+  img.width = img.height = side;
+  for (int i = 0; i < side * side; ++i) img.rgba.insert(img.rgba.end(), c.begin(), c.end());
+  return img;
+}
+
+// Occlusion, roughness and metallic come from two source images and three factors and must
+// land packed as glTF packs them (R occlusion with its strength, G roughness, B metallic), so a
+// three.js MeshStandardMaterial reading the atlas shades as it shaded the source.
+TEST(BakeChannels, OcclusionRoughnessMetallicPackedWithFactorsFolded) {
+  Scene s = scene_with(checker());
+  s.images.push_back(solid(4, {0, 128, 255, 255}));  // metallic-roughness: G 128, B 255
+  s.images.push_back(solid(4, {100, 0, 0, 255}));    // occlusion: R 100
+  Material& m = s.materials[0];
+  m.metallic_roughness.image = 1;
+  m.occlusion.image = 2;
+  m.occlusion.scale = 0.5f;  // strength
+  m.roughness_factor = 0.5f;
+  m.metallic_factor = 0.8f;
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 8;
+  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {2, 2}, 1.0, 6);
+  BakeChannels ch;
+  ch.orm = true;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, BakeOptions{}, ch);
+  ASSERT_EQ(r.orm.width, 8);
+  EXPECT_TRUE(r.normal.rgba.empty());
+  EXPECT_TRUE(r.emissive.rgba.empty());
+  const double occlusion = 1 + 0.5 * (100 / 255.0 - 1);
+  for (int y = 2; y < 6; ++y)
+    for (int x = 2; x < 6; ++x) {
+      Rgba t = texel(r.orm, x, y);
+      EXPECT_NEAR(t[0], occlusion * 255, 1);
+      EXPECT_NEAR(t[1], 0.5 * 128, 1);
+      EXPECT_NEAR(t[2], 0.8 * 255, 1);
+      EXPECT_EQ(t[3], 255);
+    }
+}
+
+// Emissive radiance beyond 1 (KHR_materials_emissive_strength) is stored divided by the scale
+// the output's emissiveFactor carries.
+TEST(BakeChannels, EmissiveDividedByItsScale) {
+  Scene s = scene_with(checker());
+  s.materials[0].emissive_factor = {2, 1, 0};
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 8;
+  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {2, 2}, 1.0, 6);
+  BakeChannels ch;
+  ch.emissive = true;
+  ch.emissive_scale = 2;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, BakeOptions{}, ch);
+  ASSERT_EQ(r.emissive.width, 8);
+  Rgba t = texel(r.emissive, 3, 3);
+  EXPECT_EQ(t[0], 255);
+  EXPECT_EQ(t[1], linear_to_srgb(0.5f));
+  EXPECT_EQ(t[2], 0);
+}
+
+// The point of re-expressing normal maps: the source's uvs run rotated against the atlas's, so
+// copying its texels would tilt every bump the wrong way. The baked map, read in the frame a
+// viewer derives from the atlas uvs, must shade with the normal the source shaded with.
+TEST(BakeChannels, NormalMapShadesAsTheSourceInTheAtlasFrame) {
+  Scene s = scene_with(checker());
+  // Source uvs rotated a quarter turn: u = y, v = 1 − x.
+  s.meshes[0].primitives[0].uvs = {{{0, 1}, {0, 0}, {1, 0}, {1, 1}}};
+  const DVec3 m_src = normalize(DVec3{0.4, -0.3, 0.85});
+  auto byte = [](double v) { return uint8_t(std::lround((v * 0.5 + 0.5) * 255)); };
+  s.images.push_back(solid(4, {byte(m_src.x), byte(m_src.y), byte(m_src.z), 255}));
+  s.materials[0].normal.image = 1;
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 8;
+  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {2, 2}, 1.0, 6);
+  BakeChannels ch;
+  ch.normal = true;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, BakeOptions{}, ch);
+  ASSERT_EQ(r.normal.width, 8);
+  // Both faces' frames: edges e1 = p1 − p0, e2 = p2 − p0 of face (0 1 2); the quad is planar
+  // and its uv maps are affine, so face (0 2 3) has the same frames.
+  const DVec3 e1{1, 0, 0}, e2{1, 1, 0}, n{0, 0, 1};
+  const TangentFrame source = derivative_frame(e1, e2, {0, -1}, {1, -1}, n);
+  const TangentFrame atlas = derivative_frame(e1, e2, {4, 0}, {4, 4}, n);
+  const DVec3 want = apply_normal_map(source, m_src);
+  EXPECT_GT(std::acos(dot(want, apply_normal_map(atlas, m_src))) * 180 / M_PI, 20)
+      << "the test needs frames that differ";
+  for (int y = 2; y < 6; ++y)
+    for (int x = 2; x < 6; ++x) {
+      Rgba t = texel(r.normal, x, y);
+      const DVec3 m{t[0] / 127.5 - 1, t[1] / 127.5 - 1, t[2] / 127.5 - 1};
+      const double deg = std::acos(std::clamp(dot(want, apply_normal_map(atlas, m)), -1.0, 1.0)) *
+                         180 / M_PI;
+      EXPECT_LT(deg, 1.0) << x << "," << y;
+    }
+}
+
+// Flat charts (a plain material) carry their factors into every channel, and a flat normal.
+TEST(BakeChannels, FlatChartsCarryTheirFactors) {
+  Scene s = scene_with(checker());
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 8;
+  Chart c = flat_chart({1, 0, 0, 1});
+  c.orm = {1, 0.25f, 0.75f};
+  c.emissive = {0, 1, 0};
+  add_chart(cs, uvs, layout, c, quad_uv(4), {0, 0}, 0.0, 4);
+  BakeChannels ch;
+  ch.normal = ch.orm = ch.emissive = true;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, BakeOptions{}, ch);
+  Rgba o = texel(r.orm, 1, 1), e = texel(r.emissive, 1, 1), nm = texel(r.normal, 1, 1);
+  EXPECT_EQ(o[0], 255);
+  EXPECT_NEAR(o[1], 64, 1);
+  EXPECT_NEAR(o[2], 191, 1);
+  EXPECT_EQ(e[1], 255);
+  EXPECT_EQ(e[0], 0);
+  EXPECT_EQ(nm[0], 128);
+  EXPECT_EQ(nm[1], 128);
+  EXPECT_EQ(nm[2], 255);
 }
 
 }  // namespace

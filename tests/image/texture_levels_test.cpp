@@ -217,3 +217,67 @@ TEST(TextureLevels, DownsamplesInLinearLight) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Issue 5/8: the atlas's channels move with the base colour, so every level carries each map
+// at the level's size (a client swaps them together), and the byte bound counts them all.
+TEST(TextureLevels, ChannelsRideEveryLevelAtItsSize) {
+  Image base = ramp(256, 256), normal = ramp(256, 256), orm = ramp(256, 256);
+  TextureLevelOptions o;
+  o.base_size = 16;
+  auto levels = make_texture_levels(base, o,
+                                    {{"normal", &normal, TexelFilter::kNormal},
+                                     {"occlusion_roughness_metallic", &orm, TexelFilter::kData}});
+  ASSERT_TRUE(levels.ok()) << levels.status().message();
+  uint64_t total = 0, top = 0;
+  for (const TextureLevel& l : levels->levels) {
+    ASSERT_EQ(l.other_maps.size(), 2u);
+    EXPECT_EQ(l.other_maps[0].channel, "normal");
+    EXPECT_EQ(l.other_maps[1].channel, "occlusion_roughness_metallic");
+    uint64_t bytes = l.encoded.size();
+    for (const TextureMap& m : l.other_maps) {
+      Image img;
+      img.encoded = m.encoded;
+      img.mime_type = m.mime_type;
+      ASSERT_TRUE(decode_image(img).is_ok());
+      EXPECT_EQ(img.width, l.width);
+      EXPECT_EQ(img.height, l.height);
+      bytes += m.encoded.size();
+    }
+    total += bytes;
+    top = bytes;
+  }
+  EXPECT_LE(double(total), o.max_pyramid_ratio * double(top));
+}
+
+// A channel of another size than the base colour cannot ride its levels: an internal error,
+// not a silent mismatch.
+TEST(TextureLevels, ChannelOfAnotherSizeIsRefused) {
+  Image base = ramp(64, 64), small = ramp(32, 32);
+  auto levels = make_texture_levels(base, {}, {{"normal", &small, TexelFilter::kNormal}});
+  ASSERT_FALSE(levels.ok());
+  EXPECT_NE(levels.status().message().find("normal"), std::string::npos);
+}
+
+// Normal maps halve as directions: the mean of two opposite tilts is straight up, unit length
+// (averaging the bytes would give a shortened vector that shades darker).
+TEST(TextureLevels, NormalFilterRenormalizes) {
+  Image img;
+  img.width = img.height = 2;
+  const double t = std::sqrt(0.5);
+  auto byte = [](double v) { return uint8_t(std::lround((v * 0.5 + 0.5) * 255)); };
+  for (int i = 0; i < 4; ++i) {
+    const double x = i % 2 ? t : -t;
+    img.rgba.insert(img.rgba.end(), {byte(x), byte(0), byte(t), 255});
+  }
+  const Image half = downsample_half(img, TexelFilter::kNormal);
+  ASSERT_EQ(half.width, 1);
+  EXPECT_NEAR(half.rgba[0], 128, 1);
+  EXPECT_NEAR(half.rgba[1], 128, 1);
+  EXPECT_EQ(half.rgba[2], 255);
+}
+
+}  // namespace
+}  // namespace meshmux

@@ -62,7 +62,11 @@ TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
   EXPECT_EQ(parts, package_parts) << "mesh parts encoded vs parts in the package";
   ASSERT_GE(out->texture_levels, 2u);  // every other mip level: 512 and 128 high
   EXPECT_EQ(texture_chunks + 1, out->texture_levels) << "level 0 rides in the base";
-  EXPECT_EQ(images, out->texture_levels) << "images encoded vs texture levels";
+  // Each level carries the base colour and the atlas's further channels (issue 5/8).
+  size_t maps = 1;
+  for (const PackageChunk& c : pkg->chunks)
+    if (c.kind == StreamStep::kTexture) maps = c.maps.size();
+  EXPECT_EQ(images, out->texture_levels * maps) << "images encoded vs texture levels × maps";
   EXPECT_EQ(out->mesh_chunks, mesh_chunks);
   EXPECT_EQ(out->texture_chunks, texture_chunks);
 }
@@ -176,8 +180,11 @@ TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
   // with a plain-colour block row below it is 256×512, so level 0 is 64×128).
   ASSERT_GT(pkg->texture_width, 0);
   const int shift = std::max(pkg->texture_width, pkg->texture_height) / 128;
-  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(),
-            uint64_t(pkg->texture_width / shift) * uint64_t(pkg->texture_height / shift))
+  size_t maps = 1;  // base colour and the atlas's further channels, all at the level's size
+  for (const PackageChunk& c : pkg->chunks)
+    if (c.kind == StreamStep::kTexture) maps = c.maps.size();
+  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(), uint64_t(pkg->texture_width / shift) *
+                                                     uint64_t(pkg->texture_height / shift) * maps)
       << "texture level 0";
   EXPECT_EQ(std::max(pkg->texture_width, pkg->texture_height) / shift, 128);
   std::string text(out->base_glb.begin(), out->base_glb.end());
