@@ -1,7 +1,8 @@
 // The fidelity harness's page (bench/fidelity.mjs drives it in headless chromium): loads a
 // model with three.js's own loaders (GLTFLoader with DRACOLoader and the meshopt decoder, or
 // ColladaLoader), renders it with its materials under RoomEnvironment (lit) or with base colour
-// × alpha only (unlit), from cameras the driver gives, and measures how much of the surface is
+// × alpha only (unlit) or as its shading normals with normal maps applied (for the normal-map
+// angular error), from cameras the driver gives, and measures how much of the surface is
 // shaded against its winding. meshmux's own renderer is not involved: this is the judge.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -164,6 +165,48 @@ function standard(m) {
   return s;
 }
 
+// The shading-normal twin of a material, for the normal-map angular error: the same material
+// (a clone, so its normal map, normalScale, normalMapType, vertex tangents or derivative tangent
+// frame, flat shading, side and alpha test all act exactly as when lit) whose fragment shader
+// ends by writing three.js's final perturbed view-space `normal` instead of the lit colour, as
+// raw floats (rgb) with alpha 1. Written unpacked, into a float target, so multisampling
+// averages it (a silhouette pixel's alpha is its coverage) and the driver renormalises it.
+// Blending is off (a transparent surface's normal is not mixed with what lies behind it);
+// transmission is off (its extra pass would sample the scene). Materials without a shading
+// normal (MeshBasicMaterial: KHR_materials_unlit) get MeshNormalMaterial's geometric normal.
+function normalTwin(m) {
+  if (!m || !(m.isMeshStandardMaterial || m.isMeshPhongMaterial || m.isMeshLambertMaterial)) {
+    const n = new THREE.MeshNormalMaterial({ side: m ? m.side : THREE.FrontSide });
+    n.onBeforeCompile = normalOutput;
+    return n;
+  }
+  const c = m.clone();
+  c.transparent = false;
+  c.blending = THREE.NoBlending;
+  c.depthWrite = true;
+  c.opacity = 1;
+  if (c.isMeshPhysicalMaterial) c.transmission = 0;
+  c.onBeforeCompile = normalOutput;
+  return c;
+}
+function normalOutput(shader) {
+  // Appended at the very end of main(), after everything that writes gl_FragColor; `normal`
+  // is final once normal_fragment_maps has run (the shader is seen before includes resolve).
+  if (!shader.fragmentShader.includes('#include <normal_fragment_maps>') || !/}\s*$/.test(shader.fragmentShader))
+    throw new Error('normal twin: fragment shader computes no shading normal');
+  shader.fragmentShader = shader.fragmentShader.replace(/}\s*$/, '\tgl_FragColor = vec4( normalize( normal ), 1.0 );\n}\n');
+}
+// Float colour target for the normal renders (32-bit if the GPU renders to it, else 16-bit
+// half floats: ≤ 0.06° rounding either way), multisampled like the canvas.
+let normalTarget = null;
+function floatTarget() {
+  if (normalTarget) return normalTarget;
+  const type = renderer.extensions.has('EXT_color_buffer_float') ? THREE.FloatType : THREE.HalfFloatType;
+  normalTarget = new THREE.WebGLRenderTarget(size, size, { type, format: THREE.RGBAFormat, samples: 4,
+    colorSpace: THREE.NoColorSpace, depthBuffer: true });
+  return normalTarget;
+}
+
 window.fidelity = {
   // Loads a model; returns its handle, world bounds and normal statistics.
   async load(url) {
@@ -181,7 +224,11 @@ window.fidelity = {
     normals.traverse((o) => {
       if (o.isMesh) o.material = new THREE.MeshNormalMaterial({ side: [o.material].flat()[0].side });
     });
-    models.push({ lit, flat, normals });
+    const perturbed = root.clone(true);
+    perturbed.traverse((o) => {
+      if (o.isMesh) o.material = Array.isArray(o.material) ? o.material.map(normalTwin) : normalTwin(o.material);
+    });
+    models.push({ lit, flat, normals, perturbed });
     // What each material became (for the JSON report: a lit difference starts here).
     const materials = new Map();
     root.traverse((o) => {
@@ -197,30 +244,53 @@ window.fidelity = {
     return { handle: models.length - 1, center: c.toArray(), radius: r, min: box.min.toArray(), max: box.max.toArray(),
       normals: normalsAgainstWinding(root), materials: [...materials.values()], lightsRemoved: root.userData.lightsRemoved };
   },
-  // Renders model `handle` lit (its materials, RoomEnvironment), unlit, or its view-space
-  // shading normals ('normals', for dumps) from a camera
-  // {eye, target, up, fov, near, far}; returns base64 RGBA, rows top first, alpha 0 = background.
+  // Renders model `handle` lit (its materials, RoomEnvironment), unlit, its view-space
+  // geometric shading normals ('normals', MeshNormalMaterial, 8-bit), or its view-space shading
+  // normals with normal maps applied ('perturbed': float RGBA, rgb = the normal, un-normalised
+  // where multisampling averaged it, a = coverage) from a camera {eye, target, up, fov, near,
+  // far}; returns base64 of the pixels (RGBA bytes, or little-endian float32 ×4 for
+  // 'perturbed'), rows top first, alpha 0 = background.
   render(handle, camera, mode) {
     const m = models[handle];
     const scene = new THREE.Scene();
     scene.environment = mode === 'lit' ? environment : null;
-    const shown = mode === 'lit' ? m.lit : mode === 'normals' ? m.normals : m.flat;
+    const shown = mode === 'lit' ? m.lit : mode === 'normals' ? m.normals : mode === 'perturbed' ? m.perturbed : m.flat;
     scene.add(shown);
     const cam = new THREE.PerspectiveCamera(camera.fov, 1, camera.near, camera.far);
     cam.position.fromArray(camera.eye);
     cam.up.fromArray(camera.up);
     cam.lookAt(new THREE.Vector3().fromArray(camera.target));
     cam.updateProjectionMatrix();
-    renderer.render(scene, cam);
+    let px;
+    if (mode === 'perturbed') {
+      const target = floatTarget();
+      renderer.setRenderTarget(target);
+      renderer.clear();
+      renderer.render(scene, cam);
+      renderer.setRenderTarget(null);
+      px = new Float32Array(size * size * 4);
+      if (target.texture.type === THREE.FloatType) renderer.readRenderTargetPixels(target, 0, 0, size, size, px);
+      else {
+        const half = new Uint16Array(px.length);
+        renderer.readRenderTargetPixels(target, 0, 0, size, size, half);
+        for (let i = 0; i < half.length; ++i) px[i] = THREE.DataUtils.fromHalfFloat(half[i]);
+      }
+    } else {
+      renderer.render(scene, cam);
+      const gl = renderer.getContext();
+      px = new Uint8Array(size * size * 4);
+      gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    }
     scene.remove(shown);
-    const gl = renderer.getContext();
-    const px = new Uint8Array(size * size * 4);
-    gl.readPixels(0, 0, size, size, gl.RGBA, gl.UNSIGNED_BYTE, px);
-    const flipped = new Uint8Array(px.length);
-    for (let y = 0; y < size; ++y) flipped.set(px.subarray((size - 1 - y) * size * 4, (size - y) * size * 4), y * size * 4);
+    const row = size * 4;
+    const flipped = new px.constructor(px.length);
+    for (let y = 0; y < size; ++y) flipped.set(px.subarray((size - 1 - y) * row, (size - y) * row), y * row);
+    const bytes = new Uint8Array(flipped.buffer);
     let s = '';
-    for (let i = 0; i < flipped.length; i += 0x8000) s += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
+    for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
     return btoa(s);
   },
+  // What the normal renders are stored as ('float' or 'half-float' before readback).
+  normalPrecision() { return floatTarget().texture.type === THREE.FloatType ? 'float' : 'half-float'; },
 };
 document.body.dataset.ready = '1';
