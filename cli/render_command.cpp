@@ -23,10 +23,13 @@ namespace {
 
 const char* kRenderUsage =
     "usage: meshmux render IN -o OUT.png|OUT.pam [options]\n"
-    "  Renders IN offscreen as the web viewer draws it: perspective camera, base-colour texture\n"
-    "  (mipmapped, anisotropic), colour x (0.35 + 0.65 Lambert) with the light following the\n"
-    "  camera, transparent background. Each primitive shows its own material's base-colour\n"
-    "  texture (with the uv set it names) and factor.\n"
+    "  Renders IN offscreen as the web viewer draws it: perspective camera, mipmapped anisotropic\n"
+    "  textures, glTF metal-roughness shading as three.js's MeshStandardMaterial (normal,\n"
+    "  occlusion-roughness-metallic and emissive maps) under a uniform environment and a light\n"
+    "  following the camera, sRGB output, transparent background. Each primitive shows its own\n"
+    "  material's textures (with the uv set its base colour names) and factors.\n"
+    "  --shading physical|lambert  lambert: colour x (0.35 + 0.65 Lambert), texels as stored\n"
+    "                      (how packages before physically based shading were measured)\n"
     "  --size WxH          image size in pixels (default 512x512)\n"
     "  --eye X,Y,Z         camera position (default: framed like the viewer's first view)\n"
     "  --target X,Y,Z      looked-at point (default: the centre of the model's bounds)\n"
@@ -103,6 +106,7 @@ int cmd_render(const std::vector<std::string>& args) {
   bool have_near = false, have_far = false;
   Vec3 eye, target, up{0, 1, 0};
   double fov = 45, near_plane = 0, far_plane = 0;
+  Shading shading = Shading::kPhysical;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&](std::string* v) {
@@ -116,6 +120,10 @@ int cmd_render(const std::vector<std::string>& args) {
       return 0;
     } else if (a == "-q" || a == "--quiet") {
       quiet = true;
+    } else if (a == "--shading") {
+      if (!value(&v) || (v != "physical" && v != "lambert"))
+        return usage_error("--shading expects physical or lambert");
+      shading = v == "physical" ? Shading::kPhysical : Shading::kLambert;
     } else if (a == "-o" || a == "--output") {
       if (!value(&out)) return usage_error(a + " needs a file name");
     } else if (a == "--size") {
@@ -178,7 +186,8 @@ int cmd_render(const std::vector<std::string>& args) {
   if (have_far) cam.far_plane = float(far_plane);
   if (!(cam.far_plane > cam.near_plane)) return usage_error("--far must exceed --near");
 
-  RenderOptions ro;
+  RenderOptions ro = physical_shading();
+  ro.shading = shading;
   ro.width = width, ro.height = height;
   auto renderer = Renderer::create(ro);
   if (!renderer.ok()) return fail(renderer.status());

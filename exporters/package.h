@@ -15,7 +15,10 @@
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
 //             margin·radius, "light_direction": [x, y, z],                  // shading (light in
-//             view space "light_follows_camera": true},                 // when it follows the
+//             view space "light_follows_camera": true,                  // when it follows the
+//             "shading": "lambert" | "physical", "environment": e,      // physical: uniform
+//             "light_intensity": i},                                    // environment radiance e,
+//                                                                       // light intensity i
 //             camera)
 //    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
 //    "base": {"offset": O, "size": S, "distortion": d0},     // byte range of the base .glb
@@ -135,6 +138,9 @@ struct PackageView {
   double ambient = 0, diffuse = 0;
   double light_direction[3] = {0, 0, 0};
   bool light_follows_camera = true;
+  bool physical = false;     // "shading": "physical" (else "lambert", also when absent)
+  double environment = 0;    // physical: uniform environment radiance
+  double light_intensity = 0;  // physical: the directional light's intensity
 };
 struct Package {
   uint32_t version = 0;

@@ -107,6 +107,22 @@ Status read_view(const Json& j, PackageView& v) {
   if (follows == e.end() || !follows->is_boolean())
     return fail("view: \"light_follows_camera\" missing or not a boolean");
   v.light_follows_camera = follows->get<bool>();
+  // Physically based shading (issue 5/8); packages without the fields were shaded Lambert.
+  auto shading = e.find("shading");
+  if (shading != e.end()) {
+    if (!shading->is_string() ||
+        (shading->get<std::string>() != "lambert" && shading->get<std::string>() != "physical"))
+      return fail("view: \"shading\" must be \"lambert\" or \"physical\"");
+    v.physical = shading->get<std::string>() == "physical";
+  }
+  if (v.physical) {
+    if (!(s = get_number(e, "environment", v.environment, "view")) ||
+        !(s = get_number(e, "light_intensity", v.light_intensity, "view")))
+      return s;
+    if (!(v.environment >= 0 && v.environment <= 100) ||
+        !(v.light_intensity >= 0 && v.light_intensity <= 1000))
+      return fail("view: environment or light intensity out of range");
+  }
   return Status::ok();
 }
 

@@ -165,7 +165,10 @@ OrderedJson view_json(const PackageInput& in) {
           {"light_direction",
            {short_float(r.light_direction.x), short_float(r.light_direction.y),
             short_float(r.light_direction.z)}},
-          {"light_follows_camera", r.light_follows_camera}};
+          {"light_follows_camera", r.light_follows_camera},
+          {"shading", r.shading == Shading::kPhysical ? "physical" : "lambert"},
+          {"environment", short_float(r.environment)},
+          {"light_intensity", short_float(r.light_intensity)}};
 }
 
 // The JSON table for a given start of the data (12 + reserved JSON length).

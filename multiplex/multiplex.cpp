@@ -117,22 +117,39 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
   // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
   // decoded here to render what the client decodes). ---
-  std::vector<Image> textures;
+  // Per level: its maps decoded, base colour first, each with the channel it stands for.
+  struct LevelMap {
+    std::string channel;
+    Image image;
+  };
+  std::vector<std::vector<LevelMap>> textures;
   if (!levels.levels.empty()) {
     for (const TextureLevel& l : levels.levels) {
-      Image img;
-      img.name = "level " + std::to_string(l.width);
-      img.encoded = l.encoded;
-      img.mime_type = l.mime_type;
-      Status s = decode_image(img);  // render what the client decodes, JPEG losses included
-      if (!s) return s.with_prefix("multiplex");
-      // A level's cost is all its maps (the channels move together; only base colour is
-      // rendered so far).
+      std::vector<LevelMap> maps;
+      auto add = [&](const std::string& channel, const std::vector<uint8_t>& bytes,
+                     const std::string& mime) -> Status {
+        LevelMap map{channel, {}};
+        map.image.name = "level " + std::to_string(l.width) + " " + channel;
+        map.image.encoded = bytes;
+        map.image.mime_type = mime;
+        Status s = decode_image(map.image);  // what the client decodes, JPEG losses included
+        if (!s) return s.with_prefix("multiplex");
+        maps.push_back(std::move(map));
+        return Status::ok();
+      };
+      if (r.texture_channels.empty()) {
+        r.texture_channels.push_back("base_color");
+        for (const TextureMap& tm : l.other_maps) r.texture_channels.push_back(tm.channel);
+      }
+      if (Status s = add("base_color", l.encoded, l.mime_type); !s) return s;
+      for (const TextureMap& tm : l.other_maps)
+        if (Status s = add(tm.channel, tm.encoded, tm.mime_type); !s) return s;
+      // A level's cost is all its maps: the channels move together.
       uint64_t bytes = l.encoded.size();
-      for (const TextureMap& m : l.other_maps) bytes += m.encoded.size();
+      for (const TextureMap& tm : l.other_maps) bytes += tm.encoded.size();
       r.texture_bytes.push_back(bytes);
       r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
-      textures.push_back(std::move(img));
+      textures.push_back(std::move(maps));
     }
     r.texture_levels_dropped = levels.dropped;
   } else {
@@ -150,10 +167,21 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
     return geometry[size_t(i)];
   };
-  std::vector<int> texture(textures.size(), -1);
+  std::vector<TextureSet> texture(textures.size());
+  std::vector<char> uploaded(textures.size(), 0);
   auto texture_of = [&](int j) {
-    if (textures.empty()) return -1;
-    if (texture[size_t(j)] < 0) texture[size_t(j)] = gl.add_texture(textures[size_t(j)]);
+    if (textures.empty()) return TextureSet{};
+    if (!uploaded[size_t(j)]) {
+      uploaded[size_t(j)] = 1;
+      TextureSet& set = texture[size_t(j)];
+      for (const LevelMap& map : textures[size_t(j)]) {
+        if (map.channel == "base_color") set.base_color = gl.add_texture(map.image, true);
+        if (map.channel == "normal") set.normal = gl.add_texture(map.image, false);
+        if (map.channel == "occlusion_roughness_metallic")
+          set.orm = gl.add_texture(map.image, false);
+        if (map.channel == "emissive") set.emissive = gl.add_texture(map.image, true);
+      }
+    }
     return texture[size_t(j)];
   };
   ViewingSphere sphere = viewing_sphere(o.view_layers);
@@ -311,7 +339,13 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
     out << (k ? ", " : "") << "{\"width\": " << l.width << ", \"height\": " << l.height
         << ", \"bytes\": " << l.bytes << ", \"why\": \"" << l.why << "\"}";
   }
-  out << "]},\n  \"order\": [";
+  out << "], \"channels\": [";
+  for (size_t k = 0; k < r.texture_channels.size(); ++k)
+    out << (k ? ", " : "") << "\"" << r.texture_channels[k] << "\"";
+  out << "], \"channels_move\": \"together\", \"channels_why\": \"each level carries every "
+         "channel at its size, so the shading never mixes a base colour and a normal map of "
+         "different resolutions; one step per level keeps the descent's grid one texture axis\"";
+  out << "},\n  \"order\": [";
   for (size_t k = 0; k < r.rd.cells.size(); ++k)
     out << (k ? ", " : "") << "[" << r.rd.cells[k].first << ", " << r.rd.cells[k].second << "]";
   std::snprintf(buf, sizeof buf,

@@ -21,7 +21,7 @@ namespace meshmux {
 
 struct MultiplexOptions {
   int view_layers = 1;               // viewing sphere subdivision: 1 → 10 views
-  RenderOptions render{};            // image size and shading (256² by default)
+  RenderOptions render = physical_shading();  // image size and shading (256², physical)
   ViewOptions views{};               // framing
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
   int max_mesh_layers = 12;          // and at most this many
@@ -52,6 +52,7 @@ struct MultiplexResult {
   // why: copied from the TextureLevels the stream was made of, for report.json.
   std::vector<std::array<uint64_t, 3>> texture_levels_shipped;
   std::vector<DroppedTextureLevel> texture_levels_dropped;
+  std::vector<std::string> texture_channels;  // the maps every texture level carries, in order
 };
 
 // The stream as a viewer receives it, beside the plain download of model.glb (issue 4/8). Both

@@ -45,6 +45,8 @@
 #include <mutex>
 #include <string>
 
+#include "multiplex/dfg_lut.h"
+#include "multiplex/render_shaders.h"
 #include "scene/dvec3.h"
 
 #ifndef GL_MAX_TEXTURE_MAX_ANISOTROPY
@@ -128,56 +130,6 @@ Mat4 perspective(double fov_y_degrees, double aspect, double n, double f) {
   return p;
 }
 
-// ---- Shaders -------------------------------------------------------------------------------
-
-const char* kVertexShader = R"(#version 450 core
-layout(location = 0) in vec3 a_position;
-layout(location = 1) in vec3 a_normal;
-layout(location = 2) in vec2 a_uv;
-uniform mat4 u_mvp;     // projection * view * model
-uniform mat3 u_normal;  // model's inverse transpose (world-space normals)
-out vec3 v_normal;
-out vec2 v_uv;
-void main() {
-  gl_Position = u_mvp * vec4(a_position, 1.0);
-  v_normal = u_normal * a_normal;
-  v_uv = a_uv;
-}
-)";
-
-const char* kFragmentShader = R"(#version 450 core
-in vec3 v_normal;
-in vec2 v_uv;
-uniform sampler2D u_texture;        // trilinear + anisotropic (minification)
-uniform sampler2D u_texture_plain;  // the same texture, trilinear only (magnification)
-uniform vec2 u_texture_size;
-uniform bool u_textured;
-uniform vec4 u_factor;
-uniform vec3 u_light;   // unit, world space, towards the light
-uniform float u_ambient;
-uniform float u_diffuse;
-out vec4 o_color;
-void main() {
-  // Texels are sRGB bytes used as stored (see render.cpp's top comment).
-  // llvmpipe's anisotropic filter blurs and perturbs magnified textures (GPUs filter those
-  // bilinearly), so the anisotropic sampler is used only where the pixel footprint spans more
-  // than one texel. Both samples are taken in uniform control flow (implicit derivatives).
-  vec4 base = u_factor;
-  if (u_textured) {
-    vec2 t = v_uv * u_texture_size;
-    vec2 dx = dFdx(t), dy = dFdy(t);
-    bool minified = max(dot(dx, dx), dot(dy, dy)) > 1.0;
-    vec4 a = texture(u_texture, v_uv), p = texture(u_texture_plain, v_uv);
-    base *= minified ? a : p;
-  }
-  float len = length(v_normal);
-  vec3 n = len > 1e-20 ? v_normal / len : vec3(0.0, 0.0, 1.0);
-  if (!gl_FrontFacing) n = -n;  // two-sided lighting
-  float lambert = max(dot(n, u_light), 0.0);
-  o_color = vec4(base.rgb * (u_ambient + u_diffuse * lambert), 1.0);
-}
-)";
-
 Result<GLuint> compile(GLenum type, const char* source) {
   GLuint s = glCreateShader(type);
   glShaderSource(s, 1, &source, nullptr);
@@ -204,7 +156,9 @@ struct GpuPrimitive {
   GLuint vao = 0, vbo = 0, ibo = 0;
   GLsizei index_count = 0;
   Vec4 factor{1, 1, 1, 1};
-  int texture = -1;  // its material's base-colour texture (add_geometry with_textures), or -1
+  float metallic = 1, roughness = 1, occlusion_strength = 1, normal_scale = 1;
+  Vec3 emissive{0, 0, 0};
+  TextureSet textures;  // its material's own textures (add_geometry with_textures), or none
 };
 
 struct GpuInstance {
@@ -228,7 +182,15 @@ struct Renderer::Impl {
   GLuint program = 0;
   GLint u_mvp = -1, u_normal = -1, u_texture = -1, u_texture_plain = -1, u_texture_size = -1,
         u_textured = -1, u_factor = -1, u_light = -1, u_ambient = -1, u_diffuse = -1;
-  GLuint sampler_aniso = 0, sampler_plain = 0;  // texture units 0 and 1
+  GLint u_model_view = -1, u_normal_view = -1, u_physical = -1, u_normal_map = -1,
+        u_orm_map = -1, u_emissive_map = -1, u_dfg = -1, u_has_normal_map = -1,
+        u_has_orm_map = -1, u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1,
+        u_occlusion_strength = -1, u_normal_scale = -1, u_emissive = -1, u_environment = -1,
+        u_light_intensity = -1;
+  // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
+  // occlusion-roughness-metallic, 4 emissive (anisotropic sampler), 5 the DFG table.
+  GLuint sampler_aniso = 0, sampler_plain = 0, sampler_table = 0;
+  GLuint dfg_texture = 0;
   float max_anisotropy = 1;
   std::vector<GpuGeometry> geometries;
   struct Texture {
@@ -342,9 +304,9 @@ Status Renderer::Impl::init_gl() {
     return fail(std::string("framebuffer incomplete (") + buf + ")");
   }
 
-  auto vs = compile(GL_VERTEX_SHADER, kVertexShader);
+  auto vs = compile(GL_VERTEX_SHADER, kRenderVertexShader);
   if (!vs) return vs.status();
-  auto fs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+  auto fs = compile(GL_FRAGMENT_SHADER, kRenderFragmentShader);
   if (!fs) {
     glDeleteShader(*vs);
     return fs.status();
@@ -372,6 +334,23 @@ Status Renderer::Impl::init_gl() {
   u_light = glGetUniformLocation(program, "u_light");
   u_ambient = glGetUniformLocation(program, "u_ambient");
   u_diffuse = glGetUniformLocation(program, "u_diffuse");
+  u_model_view = glGetUniformLocation(program, "u_model_view");
+  u_normal_view = glGetUniformLocation(program, "u_normal_view");
+  u_physical = glGetUniformLocation(program, "u_physical");
+  u_normal_map = glGetUniformLocation(program, "u_normal_map");
+  u_orm_map = glGetUniformLocation(program, "u_orm_map");
+  u_emissive_map = glGetUniformLocation(program, "u_emissive_map");
+  u_dfg = glGetUniformLocation(program, "u_dfg");
+  u_has_normal_map = glGetUniformLocation(program, "u_has_normal_map");
+  u_has_orm_map = glGetUniformLocation(program, "u_has_orm_map");
+  u_has_emissive_map = glGetUniformLocation(program, "u_has_emissive_map");
+  u_metallic = glGetUniformLocation(program, "u_metallic");
+  u_roughness = glGetUniformLocation(program, "u_roughness");
+  u_occlusion_strength = glGetUniformLocation(program, "u_occlusion_strength");
+  u_normal_scale = glGetUniformLocation(program, "u_normal_scale");
+  u_emissive = glGetUniformLocation(program, "u_emissive");
+  u_environment = glGetUniformLocation(program, "u_environment");
+  u_light_intensity = glGetUniformLocation(program, "u_light_intensity");
 
   // Sampling state lives in sampler objects (they override the textures' own parameters).
   glGenSamplers(1, &sampler_aniso);
@@ -387,6 +366,23 @@ Status Renderer::Impl::init_gl() {
   glGetError();  // tolerate a driver without anisotropic filtering
   glBindSampler(0, sampler_aniso);
   glBindSampler(1, sampler_plain);
+  for (GLuint unit : {2u, 3u, 4u}) glBindSampler(unit, sampler_aniso);
+  // The DFG table: 16×16 RG floats, bilinear, clamped (as three.js samples its own).
+  glGenSamplers(1, &sampler_table);
+  glSamplerParameteri(sampler_table, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glSamplerParameteri(sampler_table, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glSamplerParameteri(sampler_table, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glSamplerParameteri(sampler_table, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glBindSampler(5, sampler_table);
+  if (options.shading == Shading::kPhysical) {
+    const std::vector<float> table = dfg_lut();
+    glGenTextures(1, &dfg_texture);
+    glActiveTexture(GL_TEXTURE5);
+    glBindTexture(GL_TEXTURE_2D, dfg_texture);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, kDfgLutSize, kDfgLutSize, 0, GL_RG, GL_FLOAT,
+                 table.data());
+    glActiveTexture(GL_TEXTURE0);
+  }
 
   // Fixed state: depth test, no culling, no blending, no dithering, no sRGB conversion.
   glEnable(GL_DEPTH_TEST);
@@ -428,6 +424,8 @@ Renderer::~Renderer() {
     if (m.program) glDeleteProgram(m.program);
     if (m.sampler_aniso) glDeleteSamplers(1, &m.sampler_aniso);
     if (m.sampler_plain) glDeleteSamplers(1, &m.sampler_plain);
+    if (m.sampler_table) glDeleteSamplers(1, &m.sampler_table);
+    if (m.dfg_texture) glDeleteTextures(1, &m.dfg_texture);
     if (m.fbo) glDeleteFramebuffers(1, &m.fbo);
     if (m.color_rb) glDeleteRenderbuffers(1, &m.color_rb);
     if (m.depth_rb) glDeleteRenderbuffers(1, &m.depth_rb);
@@ -447,14 +445,15 @@ const RenderOptions& Renderer::options() const { return impl_->options; }
 int Renderer::add_geometry(const Scene& scene, bool with_textures) {
   Impl& m = *impl_;
   m.make_current();
-  // Each material's decoded base-colour image, uploaded once.
-  std::vector<int> image_texture(scene.images.size(), -1);
-  if (with_textures)
-    for (const Material& mat : scene.materials) {
-      int32_t i = mat.base_color.image;
-      if (i >= 0 && size_t(i) < scene.images.size() && image_texture[size_t(i)] < 0)
-        image_texture[size_t(i)] = add_texture(scene.images[size_t(i)]);
-    }
+  // Each material's decoded images, uploaded once (as colour or as data).
+  std::vector<int> image_texture(scene.images.size(), -1), data_texture(scene.images.size(), -1);
+  auto upload = [&](const TextureRef& ref, bool color) {
+    const int32_t i = ref.image;
+    if (!with_textures || i < 0 || size_t(i) >= scene.images.size()) return -1;
+    int& slot = (color ? image_texture : data_texture)[size_t(i)];
+    if (slot < 0) slot = add_texture(scene.images[size_t(i)], color);
+    return slot;
+  };
   m.make_current();
   GpuGeometry geo;
   geo.live = true;
@@ -469,12 +468,15 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
       const Material* material = p.material >= 0 && size_t(p.material) < scene.materials.size()
                                      ? &scene.materials[size_t(p.material)]
                                      : nullptr;
-      int texture = -1;
+      TextureSet own;
       size_t uv_set = 0;  // the set the primitive's own texture reads (set 0 without one)
-      if (with_textures && material && material->base_color.present() &&
-          size_t(material->base_color.image) < image_texture.size()) {
-        texture = image_texture[size_t(material->base_color.image)];
-        if (material->base_color.tex_coord < p.uvs.size()) uv_set = material->base_color.tex_coord;
+      if (with_textures && material) {
+        own.base_color = upload(material->base_color, true);
+        own.normal = upload(material->normal, false);
+        own.orm = upload(material->metallic_roughness, false);
+        own.emissive = upload(material->emissive, true);
+        if (material->base_color.present() && material->base_color.tex_coord < p.uvs.size())
+          uv_set = material->base_color.tex_coord;
       }
       bool has_uvs = uv_set < p.uvs.size() && p.uvs[uv_set].size() == n;
       vertices.resize(n);
@@ -499,8 +501,20 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
       if (indices.empty()) continue;
       GpuPrimitive gp;
       gp.index_count = GLsizei(indices.size());
-      if (material) gp.factor = material->base_color_factor;
-      gp.texture = texture;
+      if (material) {
+        gp.factor = material->base_color_factor;
+        gp.metallic = material->metallic_factor;
+        gp.roughness = material->roughness_factor;
+        gp.emissive = material->emissive_factor;
+        gp.normal_scale = std::isfinite(material->normal.scale) ? material->normal.scale : 1.0f;
+        // glTF packs occlusion into the metallic-roughness image's R when both name it.
+        gp.occlusion_strength =
+            material->occlusion.image == material->metallic_roughness.image &&
+                    material->occlusion.present()
+                ? material->occlusion.scale
+                : 0.0f;
+      }
+      gp.textures = own;
       glGenVertexArrays(1, &gp.vao);
       glBindVertexArray(gp.vao);
       glGenBuffers(1, &gp.vbo);
@@ -530,7 +544,7 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
   return int(m.geometries.size() - 1);
 }
 
-int Renderer::add_texture(const Image& image) {
+int Renderer::add_texture(const Image& image, bool color) {
   Impl& m = *impl_;
   if (!image.decoded() || image.rgba.size() < size_t(image.width) * image.height * 4) return -1;
   m.make_current();
@@ -541,8 +555,11 @@ int Renderer::add_texture(const Image& image) {
   glGenTextures(1, &tex);
   glBindTexture(GL_TEXTURE_2D, tex);
   // Top row first: GL's t = 0 is the image's top row, i.e. glTF's v = 0.
-  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-               image.rgba.data());
+  // Physical shading decodes colour textures (mip levels then average in linear light, as
+  // WebGL's SRGB8_ALPHA8 textures do); Lambert shading uses every texel as stored.
+  const bool decode = color && m.options.shading == Shading::kPhysical;
+  glTexImage2D(GL_TEXTURE_2D, 0, decode ? GL_SRGB8_ALPHA8 : GL_RGBA8, image.width, image.height, 0,
+               GL_RGBA, GL_UNSIGNED_BYTE, image.rgba.data());
   glGenerateMipmap(GL_TEXTURE_2D);
   // Filtering and wrapping come from the sampler objects made in init_gl().
   glBindTexture(GL_TEXTURE_2D, 0);
@@ -573,8 +590,15 @@ void Renderer::remove_texture(int handle) {
 }
 
 RenderImage Renderer::render(int g, int t, const Camera& camera) {
+  TextureSet set;
+  set.base_color = t;
+  return render(g, set, camera);
+}
+
+RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
   Impl& m = *impl_;
   const RenderOptions& o = m.options;
+  const bool physical = o.shading == Shading::kPhysical;
   m.make_current();
   const int w = o.width, h = o.height;
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
@@ -584,8 +608,10 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
+  auto live = [&](int k) { return k >= 0 && size_t(k) < m.textures.size() && m.textures[k].id; };
   bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
-  bool textured = t >= 0 && size_t(t) < m.textures.size() && m.textures[t].id != 0;
+  // An explicit set overrides the materials' own textures.
+  const bool explicit_set = t.base_color >= 0 || t.normal >= 0 || t.orm >= 0 || t.emissive >= 0;
   if (geometry_ok) {
     DVec3 axes[3];
     Mat4 view = look_at(camera, axes);
@@ -593,58 +619,99 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
         perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) *
         view;
     DVec3 l = normalize(to_dvec3(o.light_direction));
-    if (o.light_follows_camera)  // camera space → world: inverse (= transposed) view rotation
+    DVec3 l_view = l;  // physical shading works in view space
+    if (o.light_follows_camera) {  // camera space → world: inverse (= transposed) view rotation
       l = normalize(DVec3{axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
                           axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
                           axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
+    } else {
+      l_view = normalize(DVec3{dot(axes[0], l), dot(axes[1], l), dot(axes[2], l)});
+    }
 
     glUseProgram(m.program);
-    glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
+    glUniform1i(m.u_physical, physical ? 1 : 0);
+    if (physical)
+      glUniform3f(m.u_light, float(l_view.x), float(l_view.y), float(l_view.z));
+    else
+      glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
     glUniform1f(m.u_ambient, o.ambient);
     glUniform1f(m.u_diffuse, o.diffuse);
+    glUniform1f(m.u_environment, o.environment);
+    glUniform1f(m.u_light_intensity, o.light_intensity);
     glUniform1i(m.u_texture, 0);
     glUniform1i(m.u_texture_plain, 1);
-    // Binds texture `k` (or none) to both samplers and says so to the shader.
-    int bound = -2;
-    auto bind = [&](int k) {
-      if (k == bound) return;
-      bound = k;
-      bool on = k >= 0 && size_t(k) < m.textures.size() && m.textures[size_t(k)].id != 0;
-      glUniform1i(m.u_textured, on ? 1 : 0);
-      glUniform2f(m.u_texture_size, on ? float(m.textures[size_t(k)].width) : 1.0f,
-                  on ? float(m.textures[size_t(k)].height) : 1.0f);
-      for (GLenum unit : {GL_TEXTURE0, GL_TEXTURE1}) {
-        glActiveTexture(unit);
-        glBindTexture(GL_TEXTURE_2D, on ? m.textures[size_t(k)].id : 0);
-      }
+    glUniform1i(m.u_normal_map, 2);
+    glUniform1i(m.u_orm_map, 3);
+    glUniform1i(m.u_emissive_map, 4);
+    glUniform1i(m.u_dfg, 5);
+    // Binds a texture set (once per change) and says which maps are there.
+    TextureSet bound{-2, -2, -2, -2};
+    auto bind_unit = [&](GLenum unit, int k) {
+      glActiveTexture(unit);
+      glBindTexture(GL_TEXTURE_2D, live(k) ? m.textures[size_t(k)].id : 0);
     };
-    bind(textured ? t : -1);
+    auto bind = [&](const TextureSet& set) {
+      if (set.base_color != bound.base_color) {
+        const int k = set.base_color;
+        glUniform1i(m.u_textured, live(k) ? 1 : 0);
+        glUniform2f(m.u_texture_size, live(k) ? float(m.textures[size_t(k)].width) : 1.0f,
+                    live(k) ? float(m.textures[size_t(k)].height) : 1.0f);
+        bind_unit(GL_TEXTURE0, k);
+        bind_unit(GL_TEXTURE1, k);
+      }
+      if (set.normal != bound.normal) {
+        glUniform1i(m.u_has_normal_map, physical && live(set.normal) ? 1 : 0);
+        bind_unit(GL_TEXTURE2, set.normal);
+      }
+      if (set.orm != bound.orm) {
+        glUniform1i(m.u_has_orm_map, physical && live(set.orm) ? 1 : 0);
+        bind_unit(GL_TEXTURE3, set.orm);
+      }
+      if (set.emissive != bound.emissive) {
+        glUniform1i(m.u_has_emissive_map, physical && live(set.emissive) ? 1 : 0);
+        bind_unit(GL_TEXTURE4, set.emissive);
+      }
+      glActiveTexture(GL_TEXTURE5);
+      glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
+      glActiveTexture(GL_TEXTURE0);
+      bound = set;
+    };
     const GpuGeometry& geo = m.geometries[g];
     for (const GpuInstance& inst : geo.instances) {
       const auto& prims = geo.meshes[inst.mesh];
       if (prims.empty()) continue;
       Mat4 mvp = view_proj * inst.world;
-      float mvp_f[16];
-      for (int i = 0; i < 16; ++i) mvp_f[i] = float(mvp.m[i]);
-      // Normal matrix: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
+      Mat4 model_view = view * inst.world;
+      float mvp_f[16], mv_f[16];
+      for (int i = 0; i < 16; ++i) mvp_f[i] = float(mvp.m[i]), mv_f[i] = float(model_view.m[i]);
+      // Normal matrices: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
       // so mirrored transforms keep outward normals; the shader renormalizes.
-      const Mat4& a = inst.world;
-      double det = a.det3();
-      double sign = det < 0 ? -1 : 1;
-      float nm[9];  // column-major mat3
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) {
-          int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
-          double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
-          nm[c * 3 + r] = float(sign * cof);
-        }
+      auto normal_matrix = [](const Mat4& a, float nm[9]) {
+        const double sign = a.det3() < 0 ? -1 : 1;
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) {
+            int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+            double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
+            nm[c * 3 + r] = float(sign * cof);  // column-major mat3
+          }
+      };
+      float nm[9], nv[9];
+      normal_matrix(inst.world, nm);
+      normal_matrix(model_view, nv);
       glUniformMatrix4fv(m.u_mvp, 1, GL_FALSE, mvp_f);
+      glUniformMatrix4fv(m.u_model_view, 1, GL_FALSE, mv_f);
       glUniformMatrix3fv(m.u_normal, 1, GL_FALSE, nm);
+      glUniformMatrix3fv(m.u_normal_view, 1, GL_FALSE, nv);
       // Mirroring transforms reverse the screen-space winding of front faces.
-      glFrontFace(det < 0 ? GL_CW : GL_CCW);
+      glFrontFace(inst.world.det3() < 0 ? GL_CW : GL_CCW);
       for (const GpuPrimitive& p : prims) {
         glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
-        bind(textured ? t : p.texture);  // an explicit texture overrides the materials'
+        glUniform1f(m.u_metallic, p.metallic);
+        glUniform1f(m.u_roughness, p.roughness);
+        glUniform1f(m.u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
+        glUniform1f(m.u_normal_scale, p.normal_scale);
+        glUniform3f(m.u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
+        bind(explicit_set ? t : p.textures);
         glBindVertexArray(p.vao);
         glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
       }

@@ -1,7 +1,8 @@
 // Offscreen rendering the way the web client draws (paper 004 §3: distortion is measured on
 // rendered images): OpenGL 4.5 core through EGL's surfaceless platform (Mesa llvmpipe without a
 // GPU), perspective camera, base colour texture with mipmapped trilinear filtering and 16x
-// anisotropy, shading = base colour × (ambient + Lambert from a fixed light). Returns RGBA8 and a
+// anisotropy, shading = base colour × (ambient + Lambert from a fixed light), or physically
+// based (normal, occlusion-roughness-metallic and emissive maps; multiplex/render_shaders.cpp). Returns RGBA8 and a
 // coverage mask. Deterministic: identical inputs give identical images. Not thread-safe: one
 // Renderer per thread. No GL or EGL type leaks out of render.cpp.
 #pragma once
@@ -22,13 +23,40 @@ struct Camera {
   float near_plane = 0.01f, far_plane = 100;
 };
 
+enum class Shading {
+  kLambert,   // base colour × (ambient + diffuse · Lambert), texels used as stored bytes
+  kPhysical,  // glTF metal-roughness as three.js's MeshStandardMaterial shades it (issue 5/8)
+};
+
 struct RenderOptions {
   int width = 256, height = 256;  // pixels
-  float ambient = 0.35f;          // light terms, as the web viewer uses them
+  Shading shading = Shading::kLambert;
+  float ambient = 0.35f;  // Lambert: light terms, as the web viewer uses them
   float diffuse = 0.65f;
   Vec3 light_direction{0.4f, 0.8f, 0.45f};  // towards the light, world space (normalized inside)
   bool light_follows_camera = true;         // light direction given in camera space instead
   float anisotropy = 16;                    // max anisotropic filtering
+  // Physical: a uniform environment of this radiance (linear, white; three.js: a constant
+  // environment map, intensity 1) and a white directional light of this intensity from
+  // light_direction (three.js: DirectionalLight.intensity).
+  float environment = 0.5f;
+  float light_intensity = 1.6f;
+};
+
+// The options the stream is measured and shown with: physically based shading (issue 5/8).
+inline RenderOptions physical_shading() {
+  RenderOptions o;
+  o.shading = Shading::kPhysical;
+  return o;
+}
+
+// The textures a draw samples (handles from add_texture; -1: none). Physical shading reads all
+// four; Lambert only the base colour.
+struct TextureSet {
+  int base_color = -1;  // sRGB colour (with alpha)
+  int normal = -1;      // tangent-space normal map (data)
+  int orm = -1;         // occlusion (R), roughness (G), metallic (B) (data)
+  int emissive = -1;    // sRGB colour
 };
 
 struct RenderImage {
@@ -45,13 +73,15 @@ class Renderer {
   ~Renderer();
 
   // Uploads the geometry of a scene (every mesh's primitives with positions, normals and uv
-  // set 0; every instance's transform; materials' base-colour factors). With `with_textures`
-  // each primitive also gets its material's decoded base-colour image (uploaded once per image)
-  // and reads the uv set that texture names: what `meshmux render` of a multi-material scene
-  // needs. Returns a handle.
+  // set 0; every instance's transform; materials' factors). With `with_textures` each
+  // primitive also gets its material's decoded images (base colour, normal, metallic-roughness
+  // with any occlusion in its R, emissive; uploaded once per image) and reads the uv set the
+  // base colour names: what `meshmux render` of a multi-material scene needs. Returns a handle.
   int add_geometry(const Scene& scene, bool with_textures = false);
-  // Uploads an RGBA8 texture with a full mip chain. Returns a handle.
-  int add_texture(const Image& image);
+  // Uploads an RGBA8 texture with a full mip chain. Returns a handle. `color`: the texels are
+  // sRGB colours (base colour, emissive), decoded by the GL under physical shading; otherwise
+  // data (normal, occlusion-roughness-metallic), read as stored.
+  int add_texture(const Image& image, bool color = true);
   // Frees what add_* uploaded.
   void remove_geometry(int handle);
   void remove_texture(int handle);
@@ -59,6 +89,9 @@ class Renderer {
   // Draws geometry `g` with texture `t` on every primitive; t = -1: each primitive's own texture
   // (add_geometry with_textures), or base-colour factors only.
   RenderImage render(int g, int t, const Camera& camera);
+  // Draws geometry `g` with the texture set `t` on every primitive (its factors from each
+  // primitive's material); an empty set (all -1): each primitive's own textures, as above.
+  RenderImage render(int g, const TextureSet& t, const Camera& camera);
 
   const RenderOptions& options() const;
 

@@ -152,6 +152,17 @@ TEST(Convert, ReportListsTheTextureLevelsShipped) {
   EXPECT_EQ(k, shipped.size());
   for (const auto& d : report["texture_levels"]["dropped"])
     EXPECT_FALSE(d["why"].get<std::string>().empty());
+  // Issue 5/8: the channels the levels carry, as the package's texture steps list them, and
+  // how they move.
+  const auto& channels = report["texture_levels"]["channels"];
+  ASSERT_FALSE(channels.empty());
+  EXPECT_EQ(channels[0], "base_color");
+  for (const PackageChunk& c : pkg->chunks)
+    if (c.kind == StreamStep::kTexture) {
+      ASSERT_EQ(c.maps.size(), channels.size());
+      for (size_t i = 0; i < c.maps.size(); ++i) EXPECT_EQ(c.maps[i].channel, channels[i]);
+    }
+  EXPECT_EQ(report["texture_levels"]["channels_move"], "together");
 }
 
 // base.glb is what the stream shows first: the base mesh with texture level 0 (not the full

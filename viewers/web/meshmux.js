@@ -12,9 +12,12 @@
 // Per package mesh the client keeps ONE BufferGeometry with the capacity of the full mesh: a
 // vertex buffer that is only appended to and an index buffer of every face received so far.
 // Each part is a zlib stream of compact vertex splits (multiplex/vsplit.h), inflated by the
-// browser and applied against the corner lists the client keeps per vertex. Everything is drawn with one shared
-// shading (base colour × texture × two-sided Lambert, light following the camera, no colour
-// management), as meshmux's offscreen renderer draws it.
+// browser and applied against the corner lists the client keeps per vertex. Everything is drawn as
+// meshmux's offscreen renderer drew it to measure the distortion: with the package's view.shading
+// "physical", three.js's MeshStandardMaterial (base colour, normal, occlusion-roughness-metallic
+// and emissive maps, swapped together as levels arrive) under addStreamLighting's rig; with
+// "lambert", one shared shading (base colour × texture × two-sided Lambert, light following the
+// camera, no colour management).
 //
 // Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (base built),
 // 'chunk' (one chunk applied; + chunk, kind), 'progress' (bytes changed), 'complete' (every
@@ -119,6 +122,85 @@ function makeMaterial(source, mapUniform, view) {
   });
 }
 
+// ---- Physically based shading (the package's view.shading "physical", issue 5/8) -----------
+
+// The material channels a texture step carries, and the MeshStandardMaterial slots each fills.
+const CHANNEL_SLOTS = {
+  base_color: ['map'],
+  normal: ['normalMap'],
+  occlusion_roughness_metallic: ['aoMap', 'roughnessMap', 'metalnessMap'],
+  emissive: ['emissiveMap'],
+};
+const COLOR_CHANNELS = new Set(['base_color', 'emissive']);
+
+function configureMap(texture, channel, anisotropy) {
+  configureTexture(texture, anisotropy);
+  texture.colorSpace = COLOR_CHANNELS.has(channel) ? THREE.SRGBColorSpace : THREE.NoColorSpace;
+  return texture;
+}
+
+// A MeshStandardMaterial like the base .glb's (glTF metal-roughness, which GLTFLoader gives),
+// two-sided as meshmux's renderer draws, its maps the stream's shared textures. glTF normal maps
+// without tangents: the map's y is negated (three.js's derivative frame runs against glTF's +y).
+function makeStandardMaterial(source, maps) {
+  const m = new THREE.MeshStandardMaterial({
+    name: `meshmux(${source.name || 'material'})`,
+    side: THREE.DoubleSide,
+    color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
+    metalness: source.metalness ?? 1,
+    roughness: source.roughness ?? 1,
+    emissive: source.emissive ? source.emissive.clone() : new THREE.Color(0, 0, 0),
+    emissiveIntensity: source.emissiveIntensity ?? 1,
+    aoMapIntensity: source.aoMapIntensity ?? 1,
+  });
+  const scale = source.normalScale ? Math.abs(source.normalScale.x) : 1;
+  m.normalScale = new THREE.Vector2(scale, -scale);
+  for (const [channel, slots] of Object.entries(CHANNEL_SLOTS))
+    for (const slot of slots) m[slot] = maps[channel] || null;
+  return m;
+}
+
+// The light rig the package's distortion was measured under when its view is "physical": a
+// uniform environment of radiance view.environment (a constant map through PMREM, which keeps
+// it constant at every roughness) and a white directional light of view.lightIntensity from
+// view.lightDirection in camera space (it follows the camera). meshmux's offscreen renderer
+// evaluates exactly this (multiplex/render_shaders.cpp). An application may light the stream's
+// meshes its own way instead. Returns a function that removes and frees the rig.
+export function addStreamLighting(view, scene, camera, renderer) {
+  const L = view.environment;
+  const data = new Float32Array(8 * 4 * 4);
+  for (let i = 0; i < 32; ++i) data.set([L, L, L, 1], i * 4);
+  const constant = new THREE.DataTexture(data, 8, 4, THREE.RGBAFormat, THREE.FloatType);
+  constant.mapping = THREE.EquirectangularReflectionMapping;
+  constant.colorSpace = THREE.LinearSRGBColorSpace;
+  constant.needsUpdate = true;
+  const pmrem = new THREE.PMREMGenerator(renderer);
+  const environment = pmrem.fromEquirectangular(constant).texture;
+  pmrem.dispose();
+  constant.dispose();
+  const previous = scene.environment;
+  scene.environment = environment;
+  const light = new THREE.DirectionalLight(0xffffff, view.lightIntensity);
+  light.name = 'meshmux light';
+  const target = new THREE.Object3D();
+  light.target = target;
+  if (view.lightFollowsCamera) {
+    light.position.set(...view.lightDirection).normalize();
+    camera.add(light, target);
+    if (!camera.parent) scene.add(camera);
+  } else {
+    light.position.set(...view.lightDirection).normalize();
+    scene.add(light, target);
+  }
+  return () => {
+    light.removeFromParent();
+    target.removeFromParent();
+    light.dispose();
+    if (scene.environment === environment) scene.environment = previous;
+    environment.dispose();
+  };
+}
+
 // Between two chunks: the next animation frame (the page shows every step), or a bare task
 // where there are no frames (workers); 50 ms at most when frames stall (a hidden page).
 const pause = () => new Promise((resolve) => {
@@ -145,7 +227,8 @@ export class MeshmuxStream extends EventTarget {
     this.materials = [];
     this.notes = [];     // non-fatal findings about the package
     this._reader = new RangeReader(this.url);
-    this._map = { value: null };  // the texture uniform shared by the materials
+    this._map = { value: null };  // the texture uniform shared by the materials (Lambert)
+    this._maps = {};              // physical: channel → the texture every material shows
     this._ownTextures = new Set();
     this._unshownChannels = new Set();  // texture channels streamed that this client does not shade yet
     this._state = 'idle';
@@ -251,14 +334,22 @@ export class MeshmuxStream extends EventTarget {
     this.meshes = table.meshes.map((d, i) => new StreamMesh(d, i));
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     const baseFaces = new Set(), facesDone = new Set();
+    const physical = table.view.physical;
     for (const o of objects) {
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
       if (!materialFor.has(source)) {
-        if (source.map && !this._map.value) {
-          this._map.value = configureTexture(source.map, this._anisotropy());
+        if (source.map && !this._map.value && !this._maps.base_color) {
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
+          if (!physical) this._map.value = configureTexture(source.map, this._anisotropy());
         }
-        materialFor.set(source, makeMaterial(source, this._map, table.view));
+        if (physical) {
+          for (const [channel, slots] of Object.entries(CHANNEL_SLOTS))
+            if (!this._maps[channel] && source[slots[0]])
+              this._maps[channel] = configureMap(source[slots[0]], channel, this._anisotropy());
+          materialFor.set(source, makeStandardMaterial(source, this._maps));
+        } else {
+          materialFor.set(source, makeMaterial(source, this._map, table.view));
+        }
       }
       [o.material].flat().forEach((x) => oldMaterials.add(x));
       o.material = materialFor.get(source);
@@ -301,7 +392,8 @@ export class MeshmuxStream extends EventTarget {
     });
     for (const g of oldGeometries) g.dispose();
     for (const material of oldMaterials) {
-      for (const value of Object.values(material)) if (value && value.isTexture && value !== this._map.value) value.dispose();
+      const kept = new Set([this._map.value, ...Object.values(this._maps)]);
+      for (const value of Object.values(material)) if (value && value.isTexture && !kept.has(value)) value.dispose();
       material.dispose();
     }
     this.materials = [...materialFor.values()];
@@ -432,8 +524,9 @@ export class MeshmuxStream extends EventTarget {
       }
       return;
     }
+    if (this.table.view.physical) { await this._applyMaps(index, chunk, payload); return; }
     // A texture level: its maps' complete JPEG/PNG files; the base colour map is decoded off
-    // the main thread, bytes as stored. Further channels wait for physically based shading.
+    // the main thread, bytes as stored. Further channels need physically based shading.
     const map = chunk.maps[0];
     for (const other of chunk.maps.slice(1)) {
       if (!this._unshownChannels.has(other.channel)) {
@@ -461,6 +554,46 @@ export class MeshmuxStream extends EventTarget {
     this._textureSize = [bitmap.width, bitmap.height];
   }
 
+  // Physical shading: every map of the level decoded off the main thread (bytes as stored; the
+  // texture's colour space says how three.js reads them), then swapped in on every material.
+  async _applyMaps(index, chunk, payload) {
+    const decoded = [];
+    try {
+      for (const map of chunk.maps) {
+        const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
+        let bitmap;
+        try {
+          bitmap = await createImageBitmap(new Blob([bytes], { type: map.mime }),
+            { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+        } catch (e) {
+          throw this._fail(`chunk ${index}: the ${map.channel} ${map.mime} map cannot be decoded (${e.message})`);
+        }
+        decoded.push([map.channel, bitmap]);
+        if (bitmap.width !== chunk.width || bitmap.height !== chunk.height)
+          this.notes.push(`chunk ${index}: the ${map.channel} map is ${bitmap.width}×${bitmap.height}, the table says ${chunk.width}×${chunk.height}`);
+      }
+    } catch (e) {
+      for (const [, b] of decoded) b.close();
+      throw e;
+    }
+    if (this._state === 'disposed') { for (const [, b] of decoded) b.close(); return; }
+    for (const [channel, bitmap] of decoded) {
+      if (!CHANNEL_SLOTS[channel]) { bitmap.close(); continue; }
+      const texture = configureMap(new THREE.Texture(bitmap), channel, this._anisotropy());
+      texture.name = `meshmux ${channel} ${bitmap.width}x${bitmap.height}`;
+      this._ownTextures.add(texture);
+      const old = this._maps[channel];
+      this._maps[channel] = texture;
+      for (const m of this.materials) {
+        let changed = false;
+        for (const slot of CHANNEL_SLOTS[channel]) { changed ||= !m[slot]; m[slot] = texture; }
+        if (changed) m.needsUpdate = true;  // a map it did not have: another shader
+      }
+      this._releaseTexture(old);
+      if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
+    }
+  }
+
   _releaseTexture(texture) {
     if (!texture) return;
     texture.dispose();
@@ -480,6 +613,8 @@ export class MeshmuxStream extends EventTarget {
     for (const m of this.materials) m.dispose();
     this._releaseTexture(this._map.value);
     this._map.value = null;
+    for (const t of Object.values(this._maps)) this._releaseTexture(t);
+    this._maps = {};
     this.meshes = [];
     this.materials = [];
   }

@@ -49,7 +49,15 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     direction: vec3(v.direction, 'view.direction'), clipMargin: num(v.clip_margin, 'view.clip_margin', 1e-3, 1e3),
     ambient: num(v.ambient, 'view.ambient', 0, 10), diffuse: num(v.diffuse, 'view.diffuse', 0, 10),
     lightDirection: vec3(v.light_direction, 'view.light_direction'), lightFollowsCamera: v.light_follows_camera !== false,
+    // Issue 5/8: "physical" = MeshStandardMaterial under a uniform environment and a light;
+    // packages without the field were measured with the Lambert shading.
+    physical: v.shading === 'physical',
   };
+  need(v.shading === undefined || v.shading === 'lambert' || v.shading === 'physical', `view.shading must be "lambert" or "physical" (got ${JSON.stringify(v.shading)})`);
+  if (view.physical) {
+    view.environment = num(v.environment, 'view.environment', 0, 100);
+    view.lightIntensity = num(v.light_intensity, 'view.light_intensity', 0, 1000);
+  }
   const limits = obj(t.limits, 'limits');
   const MAX_ELEMENTS = Math.min(int(limits.max_elements, 'limits.max_elements'), TYPED_ARRAY_ELEMENTS);
   const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };

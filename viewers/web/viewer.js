@@ -9,7 +9,7 @@
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { MeshmuxStream } from './meshmux.js';
+import { MeshmuxStream, addStreamLighting } from './meshmux.js';
 
 const PAGE_BACKGROUND = new THREE.Color().setRGB(0.15, 0.15, 0.15, THREE.LinearSRGBColorSpace);
 
@@ -172,6 +172,7 @@ function fillOrders(orders) {
 // ---- Loading and playing -------------------------------------------------------------------
 
 let stream = null;
+let removeLighting = null;  // the physical shading's light rig (addStreamLighting), while shown
 let loading = null;   // the promise of the current load (resolves when it finished playing)
 
 // Loads the package from scratch in `order` and plays it up to `fraction` of the file. Resolves
@@ -193,6 +194,15 @@ function load(order, fraction, play) {
       await s.open();
       if (s !== stream) return s.stats;
       scene.add(s.object);
+      // Shade as the package's distortion was measured: three.js's colour management and the
+      // light rig for physically based packages, stored bytes for Lambert ones.
+      if (removeLighting) { removeLighting(); removeLighting = null; }
+      if (s.table.view.physical) {
+        renderer.outputColorSpace = THREE.SRGBColorSpace;
+        removeLighting = addStreamLighting(s.table.view, scene, camera, renderer);
+      } else {
+        renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
+      }
       if (!framed) frameDefault(s.worldBounds(), s.table.view);
       fillOrders(s.table.orders);
       s.budgetBytes = Math.max(Math.round(fraction * s.stats.bytesTotal), 0);
@@ -288,6 +298,7 @@ async function capture(width, height) {
     type: THREE.UnsignedByteType, format: THREE.RGBAFormat, depthBuffer: true, samples: 0,
     minFilter: THREE.LinearFilter, magFilter: THREE.LinearFilter, generateMipmaps: false,
   });
+  target.texture.colorSpace = renderer.outputColorSpace;  // the bytes the canvas shows
   const saved = {
     aspect: camera.aspect, target: renderer.getRenderTarget(),
     color: renderer.getClearColor(new THREE.Color()), alpha: renderer.getClearAlpha(),

@@ -141,9 +141,13 @@ try {
     if (state === 'error') throw new Error(`viewer error: ${await page.evaluate(() => document.body.innerText)}`);
     return page.evaluate(() => window.meshmuxViewer.stats);
   }
-  async function capture() {
+  // The viewer's frame; also written to WORK/NAME.pam beside the C++ reference, for looking.
+  async function capture(name) {
     const shot = await page.evaluate(async (n) => window.meshmuxViewer.capture(n, n), size);
-    return Buffer.from(shot.rgba, 'base64');
+    const rgba = Buffer.from(shot.rgba, 'base64');
+    fs.writeFileSync(path.join(work, `${name}.pam`), Buffer.concat([
+      Buffer.from(`P7\nWIDTH ${size}\nHEIGHT ${size}\nDEPTH 4\nMAXVAL 255\nTUPLTYPE RGB_ALPHA\nENDHDR\n`), rgba]));
+    return rgba;
   }
   async function reference(name) {
     const v = await page.evaluate(() => window.meshmuxViewer.view());
@@ -156,7 +160,7 @@ try {
 
   // 1. A tenth of the bytes.
   const tenth = await load(`?budget=${budget}`, ['stopped', 'complete']);
-  const early = compare(await capture(), await reference('reference-budget'));
+  const early = compare(await capture('viewer-budget'), await reference('reference-budget'));
   result.tenth = { bytes: tenth.bytesReceived, triangles: tenth.triangles, texture: tenth.textureWidth,
     coverage: early.coveredA / Math.max(1, early.coveredB), psnr: early.psnr };
   console.log(`${budget * 100}% budget: ${tenth.bytesReceived} of ${packageBytes} bytes, ${tenth.triangles} triangles, ` +
@@ -166,7 +170,7 @@ try {
 
   // 2. The whole stream.
   const full = await load('', ['complete']);
-  const final = compare(await capture(), await reference('reference'));
+  const final = compare(await capture('viewer'), await reference('reference'));
   const speed = full.applySeconds > 0 ? full.trianglesApplied / full.applySeconds : 0;
   result.full = { bytes: full.bytesReceived, triangles: full.triangles, texture: full.textureWidth,
     chunks: full.chunksApplied, psnr: final.psnr, covered: final.coveredA, coveredReference: final.coveredB,

@@ -1,0 +1,11 @@
+// GLSL sources of the offscreen renderer (multiplex/render.h): one program with two shadings,
+// the legacy Lambert one and the physically based one the web client's MeshStandardMaterial
+// uses (issue 5/8). Kept apart from render.cpp so the GL plumbing and the shading read alone.
+#pragma once
+
+namespace meshmux {
+
+extern const char* const kRenderVertexShader;
+extern const char* const kRenderFragmentShader;
+
+}  // namespace meshmux
