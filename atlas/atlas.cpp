@@ -20,6 +20,8 @@ namespace meshmux {
 
 namespace {
 
+constexpr double kVertexColorTexelsPerVertex = 256;  // 16 × 16 texels of atlas per vertex
+
 // The output's further channels: which are baked, and the factors shared when not.
 struct ChannelNeeds {
   BakeChannels bake;        // baked channels (emissive_scale: the largest emissive component)
@@ -235,6 +237,17 @@ double referenced_pixels(const Scene& scene) {
   return total;
 }
 
+// T for a scene whose only texture is vertex colour: the colours live at the vertices, so the
+// atlas gets a few texels per vertex (enough for bilinear filtering to reproduce the linear
+// blend across each face), at least 128² and at most vertex_color_target².
+double vertex_color_texels(const Scene& scene, const AtlasOptions& o) {
+  double vertices = 0;
+  for (const Mesh& m : scene.meshes)
+    for (const Primitive& p : m.primitives) vertices += double(p.vertex_count());
+  const double side = std::max(64, o.vertex_color_target);
+  return std::clamp(kVertexColorTexelsPerVertex * vertices, 128.0 * 128.0, side * side);
+}
+
 // Step 2, formula 2 sizing: A''_c = cbrt((L²_c/ΣL²)(A_c/ΣA)(A'_c/ΣA')) · T. A_c is the chart's
 // area in the world (mean over the mesh's instances); A'_c its footprint in the source texture.
 // The pack items: one per textured chart, one block per distinct flat colour.
@@ -244,6 +257,8 @@ struct Items {
   std::vector<double> item_scale;  // per item: texels per chart-uv unit (0: a flat block)
   std::vector<size_t> item_chart;  // the chart whose uv rect the item holds (flat: first)
   double target_texels = 0;        // T
+  double reference_texels = 0;     // the atlas's texel budget: the source texels referenced (the
+                                   // images the materials sample), T for vertex colours
   bool any_textured = false;
   size_t flat_colors = 0;
 };
@@ -276,8 +291,9 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
   double pixels = referenced_pixels(scene);
   Items it;
   double T = sum_src > 0 ? std::min({sum_src, pixels > 0 ? pixels : sum_src, max_t})
-                         : double(o.vertex_color_target) * o.vertex_color_target;
+                         : vertex_color_texels(scene, o);
   it.target_texels = T;
+  it.reference_texels = sum_src > 0 && pixels > 0 ? pixels : T;
   it.any_textured = sum_a > 0;
   std::map<std::array<uint32_t, 10>, size_t> flat_slot;
   it.chart_item.resize(charts.size());
@@ -318,13 +334,16 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
   return it;
 }
 
-// Step 3, packing (paper 000 §4.4: "within a power of two of the target size"). The atlas side
-// S is the smallest power of two with S² ≥ T; one factor f scales every textured chart (keeping
-// formula 2's proportions) and is searched as large as still packs into S. If that costs more
-// than a quarter of the linear resolution (f < 0.75), the next size up is used instead. Around
-// each chart: the baker's dilation rings plus one texel for its conservative rasterization
-// (texel centres within half a texel of a triangle). Then each chart grows to fill the cell it
-// owns (pack_cells), for free resolution.
+// Step 3, packing (paper 000 §4.4: "within a power of two of the target size"). The atlas is
+// W × W or W × W/2 (powers of two: every mip level of either keeps aligned cells apart); one
+// factor f scales every textured chart (keeping formula 2's proportions) and is searched as
+// large as still packs. The first size tried is the smallest whose area reaches T; if that
+// costs more than a quarter of the linear resolution (f < 0.75), the next size up (twice the
+// area) is tried. Issue 4/8: the atlas never holds more texels than the source texels it
+// references, so no size above that budget is taken while one within it packs (the charts
+// then shrink). Around each chart: the baker's dilation rings plus one texel for its
+// conservative rasterization (texel centres within half a texel of a triangle). Then each
+// chart grows to fill the cell it owns (pack_cells), for free resolution.
 struct Packing {
   PackResult packed;
   double shrink = 1;         // the factor f
@@ -349,16 +368,26 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
       rects[k].h = texels(u.size.y) + 2 * gutter;
     }
   };
-  auto fits = [&](double f, int side) {
-    rects_for(f);
-    return pack_cells(rects, side, side).ok;
+  // The sizes, by area: W × W/2 then W × W, W a power of two.
+  struct Size {
+    int w, h;
+    double area() const { return double(w) * h; }
   };
-  auto best_factor = [&](int side) {
+  std::vector<Size> sizes;
+  for (int w = 4; w <= std::max(4, o.max_size); w *= 2) {
+    if (w / 2 >= 2) sizes.push_back({w, w / 2});
+    sizes.push_back({w, w});
+  }
+  auto fits = [&](double f, const Size& s) {
+    rects_for(f);
+    return pack_cells_into(rects, s.w, s.h).ok;
+  };
+  auto best_factor = [&](const Size& s) {
     double lo = 0, hi = 1;
-    while (fits(hi, side) && hi < 1024) lo = hi, hi *= 2;
+    while (fits(hi, s) && hi < 1024) lo = hi, hi *= 2;
     for (int iter = 0; iter < 24; ++iter) {
       double mid = 0.5 * (lo + hi);
-      if (fits(mid, side))
+      if (fits(mid, s))
         lo = mid;
       else
         hi = mid;
@@ -366,32 +395,35 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
     return lo;
   };
   double shrink = 1;
-  int side = std::max(o.min_size, 1);
+  size_t pick = 0;
+  const int min_side = std::max(o.min_size, 1);
   if (!it.any_textured) {
-    // A palette of flat colours: the smallest power of two that holds the blocks.
-    side = 4;
-    while (!fits(1, side) && side < o.max_size) side *= 2;
+    // A palette of flat colours: the smallest size that holds the blocks.
+    while (pick + 1 < sizes.size() && !fits(1, sizes[pick])) ++pick;
   } else {
-    while (double(side) * side < it.target_texels && side < o.max_size) side *= 2;
-    shrink = best_factor(side);
+    const double budget = std::max(it.reference_texels, 1.0);
+    while (pick + 1 < sizes.size() &&
+           (sizes[pick].area() < it.target_texels || sizes[pick].h < min_side))
+      ++pick;
+    while (pick > 0 && sizes[pick].area() > budget && sizes[pick - 1].h >= min_side) --pick;
+    shrink = best_factor(sizes[pick]);
+    while (shrink < 0.75 && pick + 1 < sizes.size() && sizes[pick + 1].area() <= budget) {
+      const double next = best_factor(sizes[pick + 1]);
+      ++pick;
+      shrink = next;
+    }
+    // Many small charts (500 separate textured triangles) may not fit even at the smallest
+    // scale, each needing a texel and its gutters: the atlas grows until they do.
+    while (!(shrink > 0) && pick + 1 < sizes.size()) shrink = best_factor(sizes[++pick]);
   }
-  if (it.any_textured && shrink < 0.75 && side < o.max_size) {
-    side *= 2;
-    shrink = best_factor(side);
-  }
-  // Many small charts (500 separate textured triangles) may not fit even at the smallest
-  // scale, each needing a texel and its gutters: the atlas grows until they do.
-  while (it.any_textured && !(shrink > 0) && side < o.max_size) {
-    side *= 2;
-    shrink = best_factor(side);
-  }
-  if (!it.any_textured && !fits(1, side)) shrink = 0;
+  if (!it.any_textured && !fits(1, sizes[pick])) shrink = 0;
   if (!(shrink > 0))
     return Status::error("atlas: " + std::to_string(rects.size()) + " charts do not fit in " +
-                             std::to_string(side) + "² even at one texel each",
+                             std::to_string(sizes[pick].w) + "x" + std::to_string(sizes[pick].h) +
+                             " even at one texel each",
                          ErrorKind::kInput);
   rects_for(shrink);
-  pk.packed = pack_cells(rects, side, side);
+  pk.packed = pack_cells_into(rects, sizes[pick].w, sizes[pick].h);
   if (!pk.packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);
   pk.shrink = shrink;
   pk.grow.assign(rects.size(), 1.0);
@@ -412,7 +444,7 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
     }
     used += double(rects[k].w) * rects[k].h;
   }
-  pk.utilization = used / (double(pk.packed.size) * pk.packed.size);
+  pk.utilization = used / (double(pk.packed.size) * pk.packed.height);
   return pk;
 }
 
@@ -420,6 +452,7 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
 AtlasLayout make_layout(const Items& it, const Packing& pk, size_t charts, const AtlasOptions& o) {
   AtlasLayout layout;
   layout.size = pk.packed.size;
+  layout.height = pk.packed.height;
   layout.offset.resize(charts);
   layout.scale.resize(charts);
   layout.block.resize(charts);
@@ -555,10 +588,10 @@ Vec2 chart_corner_uv(const FlatCharts& fc, const AtlasLayout& layout,
   const uint32_t ci = fc.charts.face_chart[m][f];
   if (layout.scale[ci] == 0)
     return {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
-            float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.size)};
+            float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.rows())};
   Vec2 cu = fc.uvs[ci].corner_uv[3 * size_t(face_slot[m][f]) + size_t(k)];
   return {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
-          float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.size)};
+          float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.rows())};
 }
 
 // Step 5b: the faces of mesh m in material group `group` (material index `group` of the output)
@@ -695,7 +728,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     if (std::optional<SourceAtlas> source = find_source_atlas(scene, o.max_size)) {
       rep.reused_source = true;
       Image atlas = source_atlas_image(scene, *source);
-      rep.size = std::max(atlas.width, atlas.height);
+      rep.size = atlas.width;
+      rep.height = atlas.height;
+      rep.reference_texels = referenced_pixels(scene);
       rep.utilization = 1;
       const uint32_t set = source->tex_coord;
       std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
@@ -743,6 +778,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   auto packing = pack_charts(items, fc.uvs, o);
   if (!packing.ok()) return packing.status();
   rep.size = packing->packed.size;
+  rep.height = packing->packed.height;
+  rep.reference_texels = items.reference_texels;
   rep.utilization = packing->utilization;
   // 4. Bake every chart into its cell.
   AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);

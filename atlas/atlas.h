@@ -1,6 +1,7 @@
 // One material, one texture (paper 000 §4.2–4.4): charts are segmented and parameterized,
 // sized by formula 2 within a target T = min(Σ source texture area the faces reference,
-// max_size²), packed so no chart crosses a power-of-two boundary, and baked from the source
+// max_size²), packed into W × W or W × W/2 texels (no more than the source texels referenced)
+// so no chart crosses a power-of-two boundary, and baked from the source
 // materials; every mesh becomes one primitive with one uv set into the atlas and the single
 // material. Instancing is untouched (a shared mesh's charts are baked once). When every face
 // already samples one image inside [0, 1] (atlas/source_atlas.h), that image is the atlas and
@@ -36,7 +37,8 @@ struct AtlasOptions {
   int max_size = 4096;               // largest atlas side
   int min_size = 64;                 // smallest atlas side
   int flat_block = 4;                // side of one flat-colour block, texels (gutters around it)
-  int vertex_color_target = 512;     // T (side) for scenes whose only texture is vertex colour
+  int vertex_color_target = 512;     // largest T (side) for scenes whose only texture is vertex
+                                     // colour (T: 256 texels per vertex, at least 128²)
   bool reuse_source_texture = true;  // keep the source's one texture as the atlas when every
                                      // face samples it inside [0, 1] (atlas/source_atlas.h)
 };
@@ -47,13 +49,17 @@ struct AtlasReport {
   size_t charts = 0;           // textured charts after splitting invalid ones
   size_t flat_colors = 0;      // distinct flat-colour blocks
   size_t split = 0;            // charts split because they could not be flattened
-  int size = 0;                // atlas side, texels
+  int size = 0;                // atlas width, texels
+  int height = 0;              // atlas height, texels (size or size / 2)
+  double reference_texels = 0;  // the source texels the materials reference (the atlas's
+                                // budget; T for vertex colours)
   double utilization = 0;      // packed texels / atlas texels
   double target_texels = 0;    // T of formula 2
   double mean_stretch_l2 = 0;  // area-weighted over textured charts
   double max_stretch_l2 = 0;
   double seconds = 0;
-  // The layout, for tests and tools: per atlas texel its chart (gutters included; -1 none), and
+  // The layout, for tests and tools: per atlas texel (size × height, row-major) its chart
+  // (gutters included; -1 none), and
   // per chart its exclusive power-of-two cell (flat charts of one colour share one).
   std::vector<int32_t> texel_chart;
   std::vector<PackPlacement> cell_pos;

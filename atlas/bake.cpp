@@ -234,7 +234,7 @@ constexpr double kMargin = 0.5;  // conservative coverage margin, texels
 
 // Pass 1 for one face: every texel whose centre is within kMargin of the triangle and nearer to
 // it than to any face seen so far takes the face (job) as its owner.
-void cover_face(const P2 c[3], int32_t job, int n, std::vector<int32_t>& owner,
+void cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>& owner,
                 std::vector<float>& dist) {
   double minx = std::min({c[0].x, c[1].x, c[2].x}) - kMargin;
   double maxx = std::max({c[0].x, c[1].x, c[2].x}) + kMargin;
@@ -243,17 +243,16 @@ void cover_face(const P2 c[3], int32_t job, int n, std::vector<int32_t>& owner,
   if (!(std::isfinite(minx) && std::isfinite(maxx) && std::isfinite(miny) && std::isfinite(maxy)))
     return;
   // Texels whose centre i + ½ lies in [min, max].
-  const double last = n - 1;
-  int x0 = int(std::clamp(std::ceil(minx - 0.5), 0.0, double(n)));
-  int x1 = int(std::clamp(std::floor(maxx - 0.5), -1.0, last));
-  int y0 = int(std::clamp(std::ceil(miny - 0.5), 0.0, double(n)));
-  int y1 = int(std::clamp(std::floor(maxy - 0.5), -1.0, last));
+  int x0 = int(std::clamp(std::ceil(minx - 0.5), 0.0, double(w)));
+  int x1 = int(std::clamp(std::floor(maxx - 0.5), -1.0, double(w - 1)));
+  int y0 = int(std::clamp(std::ceil(miny - 0.5), 0.0, double(h)));
+  int y1 = int(std::clamp(std::floor(maxy - 0.5), -1.0, double(h - 1)));
   for (int y = y0; y <= y1; ++y)
     for (int x = x0; x <= x1; ++x) {
       double bary[3];
       double d = nearest_barycentric(c, {x + 0.5, y + 0.5}, bary);
       if (d > kMargin) continue;
-      size_t i = size_t(y) * size_t(n) + size_t(x);
+      size_t i = size_t(y) * size_t(w) + size_t(x);
       if (!(float(d) < dist[i])) continue;  // an earlier face is at least as near
       owner[i] = job;
       dist[i] = float(d);
@@ -290,20 +289,20 @@ void encode_data(Vec4 c, uint8_t* p) {
 // only that chart's neighbours; otherwise it averages all filled neighbours and keeps chart -1.
 // Stops after `rings` rings (< 0: when nothing is left to fill).
 struct Layer {
-  std::vector<uint8_t>* rgba;  // n × n RGBA8
+  std::vector<uint8_t>* rgba;  // w × h RGBA8
   bool srgb;                   // colour (averaged in linear light) or data (averaged as stored)
 };
 
-void dilate(int n, const std::vector<Layer>& layers, std::vector<int32_t>& chart,
+void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>& chart,
             std::vector<uint8_t>& filled, int rings, bool per_chart) {
   std::vector<uint8_t> queued(filled.size(), 0);
   std::vector<size_t> frontier;
   auto enqueue_neighbours = [&](size_t i) {
-    int x = int(i % size_t(n)), y = int(i / size_t(n));
+    int x = int(i % size_t(w)), y = int(i / size_t(w));
     for (int k = 0; k < 8; ++k) {
       int nx = x + kDx[k], ny = y + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
-      size_t j = size_t(ny) * size_t(n) + size_t(nx);
+      if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+      size_t j = size_t(ny) * size_t(w) + size_t(nx);
       if (!filled[j] && !queued[j]) {
         queued[j] = 1;
         frontier.push_back(j);
@@ -313,10 +312,10 @@ void dilate(int n, const std::vector<Layer>& layers, std::vector<int32_t>& chart
   // The first ring: empty texels with a filled neighbour, in texel order.
   for (size_t i = 0; i < filled.size(); ++i) {
     if (filled[i]) continue;
-    const int x = int(i % size_t(n)), y = int(i / size_t(n));
+    const int x = int(i % size_t(w)), y = int(i / size_t(w));
     for (int k = 0; k < 8; ++k) {
       int nx = x + kDx[k], ny = y + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= n || ny >= n || !filled[size_t(ny) * size_t(n) + size_t(nx)])
+      if (nx < 0 || ny < 0 || nx >= w || ny >= h || !filled[size_t(ny) * size_t(w) + size_t(nx)])
         continue;
       queued[i] = 1;
       frontier.push_back(i);
@@ -330,14 +329,14 @@ void dilate(int n, const std::vector<Layer>& layers, std::vector<int32_t>& chart
     new_chart.assign(frontier.size(), -1);
     for (size_t f = 0; f < frontier.size(); ++f) {
       const size_t i = frontier[f];
-      const int x = int(i % size_t(n)), y = int(i / size_t(n));
+      const int x = int(i % size_t(w)), y = int(i / size_t(w));
       int32_t ids[8];
       size_t js[8];
       int count = 0;
       for (int k = 0; k < 8; ++k) {
         int nx = x + kDx[k], ny = y + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
-        size_t j = size_t(ny) * size_t(n) + size_t(nx);
+        if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+        size_t j = size_t(ny) * size_t(w) + size_t(nx);
         if (!filled[j]) continue;
         ids[count] = chart[j];
         js[count] = j;
@@ -394,9 +393,9 @@ void dilate(int n, const std::vector<Layer>& layers, std::vector<int32_t>& chart
 BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
                       const AtlasLayout& layout, const BakeOptions& options, const BakeChannels& channels) {
   BakeResult result;
-  const int n = layout.size;
-  if (n <= 0) return result;
-  const size_t texels = size_t(n) * size_t(n);
+  const int w = layout.size, h = layout.rows();
+  if (w <= 0 || h <= 0) return result;
+  const size_t texels = size_t(w) * size_t(h);
   const size_t chart_count = std::min(charts.charts.size(), layout.offset.size());
   Source src(scene, charts, uvs, layout);
 
@@ -413,9 +412,9 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
         const int bx = int(std::floor(off.x)), by = int(std::floor(off.y));
         const int32_t job = int32_t(jobs.size());
         jobs.push_back({uint32_t(c), kFlat});
-        for (int y = std::max(0, by); y < std::min(n, by + block); ++y)
-          for (int x = std::max(0, bx); x < std::min(n, bx + block); ++x) {
-            size_t i = size_t(y) * size_t(n) + size_t(x);
+        for (int y = std::max(0, by); y < std::min(h, by + block); ++y)
+          for (int x = std::max(0, bx); x < std::min(w, bx + block); ++x) {
+            size_t i = size_t(y) * size_t(w) + size_t(x);
             if (!(0.0f < dist[i])) continue;  // inside an earlier chart's face
             owner[i] = job;
             dist[i] = 0;
@@ -426,7 +425,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
         Job j{uint32_t(c), uint32_t(k)};
         if (!src.select(j)) continue;
         jobs.push_back(j);
-        cover_face(src.corners(), int32_t(jobs.size() - 1), n, owner, dist);
+        cover_face(src.corners(), int32_t(jobs.size() - 1), w, h, owner, dist);
       }
     }
   }
@@ -436,13 +435,15 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   // so texels on an edge between two faces read each side from its own face.
   Image& img = result.atlas;
   img.name = "atlas";
-  img.width = img.height = n;
+  img.width = w;
+  img.height = h;
   img.rgba.assign(texels * 4, 0);
   // The further channels: same size, alpha 255.
   auto channel_image = [&](bool on, Image& out, const char* name) -> std::vector<uint8_t>* {
     if (!on) return nullptr;
     out.name = name;
-    out.width = out.height = n;
+    out.width = w;
+    out.height = h;
     out.rgba.assign(texels * 4, 255);
     return &out.rgba;
   };
@@ -467,9 +468,9 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   result.texel_chart.assign(texels, -1);
   std::vector<uint8_t> filled(texels, 0);
   const int ss = std::max(1, options.supersample);
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const size_t i = size_t(y) * size_t(n) + size_t(x);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * size_t(w) + size_t(x);
       if (owner[i] < 0) continue;
       const Job& own = jobs[size_t(owner[i])];
       result.texel_chart[i] = int32_t(own.chart);
@@ -490,8 +491,8 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
         cand[nc++] = owner[i];
         for (int k = 0; k < 8; ++k) {
           int nx = x + kDx[k], ny = y + kDy[k];
-          if (nx < 0 || ny < 0 || nx >= n || ny >= n) continue;
-          int32_t o = owner[size_t(ny) * size_t(n) + size_t(nx)];
+          if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+          int32_t o = owner[size_t(ny) * size_t(w) + size_t(nx)];
           if (o < 0 || jobs[size_t(o)].chart != own.chart || jobs[size_t(o)].k == kFlat) continue;
           if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
         }
@@ -540,7 +541,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   if (orm) layers.push_back({orm, false});
   if (emissive) layers.push_back({emissive, true});
   // Gutters.
-  if (options.gutter > 0) dilate(n, layers, result.texel_chart, filled, options.gutter, true);
+  if (options.gutter > 0) dilate(w, h, layers, result.texel_chart, filled, options.gutter, true);
 
   // Translucency of what was baked (charts and their gutters).
   for (size_t i = 0; i < texels && !result.has_alpha; ++i)
@@ -548,7 +549,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   // The empty space takes the nearest charts' colour and alpha (chart -1), so no mip level
   // averages a chart with transparent black: at the sizes a model is seen at, a coarse level
   // is what shows, and black there darkens every chart edge (and thins alpha-masked ones).
-  dilate(n, layers, result.texel_chart, filled, -1, false);
+  dilate(w, h, layers, result.texel_chart, filled, -1, false);
   if (!result.has_alpha)
     for (size_t i = 0; i < texels; ++i) img.rgba[i * 4 + 3] = 255;
   return result;

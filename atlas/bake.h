@@ -21,7 +21,9 @@ namespace meshmux {
 
 // Where each chart goes: atlas texel = offset + scale * chart_uv (chart_uv from ChartUv).
 struct AtlasLayout {
-  int size = 0;               // atlas side, texels (power of two)
+  int size = 0;               // atlas width, texels (power of two)
+  int height = 0;             // atlas height, texels (power of two; 0: size)
+  int rows() const { return height > 0 ? height : size; }
   std::vector<Vec2> offset;   // per chart: texel coordinates of chart uv (0, 0)
   std::vector<double> scale;  // per chart: texels per chart-uv unit (0 for flat charts)
   std::vector<int> block;     // per chart: side of its placed rectangle, texels (gutters
@@ -44,8 +46,8 @@ struct BakeChannels {
 };
 
 struct BakeResult {
-  Image atlas;  // size × size RGBA8, sRGB, row 0 at the top
-  Image normal, orm, emissive;  // size × size RGBA8 (alpha 255) when baked, else empty
+  Image atlas;  // size × rows() RGBA8, sRGB, row 0 at the top
+  Image normal, orm, emissive;  // the same size, RGBA8 (alpha 255) when baked, else empty
   std::vector<int32_t>
       texel_chart;         // per texel: the chart it belongs to (incl. its gutter), -1 none
   bool has_alpha = false;  // some baked texel has alpha < 255

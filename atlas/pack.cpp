@@ -258,12 +258,12 @@ int pow2_at_least(int v) {
 
 // A 2D buddy allocator over aligned power-of-two rectangles: a free rectangle (x, y, w, h)
 // always has x % w == 0 and y % h == 0; splitting halves one side, which keeps that.
-bool buddy_pack(const std::vector<PackRect>& cells, const std::vector<size_t>& order, int size,
-                std::vector<PackPlacement>& placed) {
+bool buddy_pack(const std::vector<PackRect>& cells, const std::vector<size_t>& order, int width,
+                int height, std::vector<PackPlacement>& placed) {
   struct Free {
     int x, y, w, h;
   };
-  std::vector<Free> free{{0, 0, size, size}};
+  std::vector<Free> free{{0, 0, width, height}};
   for (size_t idx : order) {
     int cw = cells[idx].w, ch = cells[idx].h;
     // Best fit: the smallest free rectangle that holds the cell (ties: top-most, left-most).
@@ -297,38 +297,67 @@ bool buddy_pack(const std::vector<PackRect>& cells, const std::vector<size_t>& o
 
 }  // namespace
 
-PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_size) {
-  PackResult r;
-  r.cells.resize(rects.size());
+// Each rectangle's cell and the placing order (largest first), for both searches.
+struct CellPlan {
+  std::vector<size_t> order;
   long long area = 0;
   int longest = 1;
+};
+CellPlan plan_cells(const std::vector<PackRect>& rects, PackResult& r) {
+  CellPlan plan;
+  r.cells.resize(rects.size());
   for (size_t i = 0; i < rects.size(); ++i) {
     r.cells[i] = {pow2_at_least(std::max(1, rects[i].w)), pow2_at_least(std::max(1, rects[i].h))};
-    area += (long long)r.cells[i].w * r.cells[i].h;
-    longest = std::max({longest, r.cells[i].w, r.cells[i].h});
+    plan.area += (long long)r.cells[i].w * r.cells[i].h;
+    plan.longest = std::max({plan.longest, r.cells[i].w, r.cells[i].h});
   }
-  std::vector<size_t> order(rects.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+  plan.order.resize(rects.size());
+  for (size_t i = 0; i < plan.order.size(); ++i) plan.order[i] = i;
+  std::stable_sort(plan.order.begin(), plan.order.end(), [&](size_t a, size_t b) {
     long long aa = (long long)r.cells[a].w * r.cells[a].h,
               bb = (long long)r.cells[b].w * r.cells[b].h;
     if (aa != bb) return aa > bb;
     return std::max(r.cells[a].w, r.cells[a].h) > std::max(r.cells[b].w, r.cells[b].h);
   });
+  return plan;
+}
+
+PackResult pack_cells_into(const std::vector<PackRect>& rects, int width, int height) {
+  PackResult r;
+  CellPlan plan = plan_cells(rects, r);
+  r.size = width;
+  r.height = height;
+  r.placed.assign(rects.size(), {});
+  if (width < 1 || height < 1 || plan.area > (long long)width * height) return r;
+  r.ok = buddy_pack(r.cells, plan.order, width, height, r.placed);
+  if (r.ok) {
+    long long used = 0;
+    for (const PackRect& q : rects) used += (long long)q.w * q.h;
+    r.utilization = double(used) / (double(width) * height);
+  }
+  return r;
+}
+
+PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_size) {
+  PackResult r;
+  CellPlan plan = plan_cells(rects, r);
+  const std::vector<size_t>& order = plan.order;
+  const long long area = plan.area;
+  const int longest = plan.longest;
   int size = pow2_at_least(std::max(1, min_size));
   while ((long long)size * size < area || size < longest) size *= 2;
   for (; size <= max_size; size *= 2) {
     r.placed.assign(rects.size(), {});
-    if (buddy_pack(r.cells, order, size, r.placed)) {
+    if (buddy_pack(r.cells, order, size, size, r.placed)) {
       r.ok = true;
-      r.size = size;
+      r.size = r.height = size;
       long long used = 0;
       for (const PackRect& q : rects) used += (long long)q.w * q.h;
       r.utilization = double(used) / (double(size) * size);
       return r;
     }
   }
-  r.size = max_size;
+  r.size = r.height = max_size;
   r.placed.assign(rects.size(), {});
   return r;
 }

@@ -21,7 +21,8 @@ struct PackPlacement {
 
 struct PackResult {
   bool ok = false;                    // everything fitted
-  int size = 0;                       // the atlas side (power of two)
+  int size = 0;                       // the atlas side (power of two); its width when not square
+  int height = 0;                     // pack_cells_into: the atlas height (else = size)
   std::vector<PackPlacement> placed;  // one per input rectangle, input order
   double utilization = 0;             // Σ w·h / size²
   std::vector<PackRect> cells;        // pack_cells only: each rectangle's own cell, input order
@@ -38,6 +39,10 @@ PackResult pack_charts(const std::vector<PackRect>& rects, int min_size, int max
 // from its own cell: no bleeding from smaller charts tucked beside it, which pack_charts allows.
 // The caller may scale each chart up to fill its cell. Same size search as pack_charts.
 PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_size);
+
+// The same cells packed into exactly `width` × `height` texels (powers of two; a rectangle
+// W × W/2 holds aligned cells exactly as the square does). ok = false when they do not fit.
+PackResult pack_cells_into(const std::vector<PackRect>& rects, int width, int height);
 
 // True when the rectangle does not cross a power-of-two boundary (the property above).
 bool respects_power_of_two(int x, int y, int w, int h);

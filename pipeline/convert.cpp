@@ -58,15 +58,17 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     return scene;
   }
   if (ar.reused_source)
-    report_step(progress, format("atlas: the source's one texture kept as it is, %d px on its "
-                                 "larger side, + %zu plain colours in unused texels (no "
-                                 "resampling)",
-                                 ar.size, ar.flat_colors));
+    report_step(progress, format("atlas: the source's one texture kept as it is, %dx%d, + %zu "
+                                 "plain colours in unused texels (no resampling)",
+                                 ar.size, ar.height, ar.flat_colors));
   else
-    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d, %.0f%% used, L2 "
-                                 "stretch mean %.3f max %.3f, %.2f s",
-                                 ar.charts, ar.flat_colors, ar.size, ar.size, 100 * ar.utilization,
-                                 ar.mean_stretch_l2, ar.max_stretch_l2, ar.seconds));
+    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d (%.2f Mpx of %.2f "
+                                 "Mpx referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
+                                 "%.2f s",
+                                 ar.charts, ar.flat_colors, ar.size, ar.height,
+                                 double(ar.size) * ar.height / 1e6, ar.reference_texels / 1e6,
+                                 100 * ar.utilization, ar.mean_stretch_l2, ar.max_stretch_l2,
+                                 ar.seconds));
   Scene out = atlased.take();
   if (should_flatten(out)) {
     out = flatten(out);

@@ -232,8 +232,9 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
   o.reuse_source_texture = false;  // the charts' layout is what is checked
   auto out = build_atlas(clean(*in, {}), o, &rep, nullptr);
   ASSERT_TRUE(out.ok() && rep.built);
-  const int S = rep.size;
-  ASSERT_EQ(rep.texel_chart.size(), size_t(S) * size_t(S));
+  const int S = rep.size, H = rep.height;  // W × W or W × W/2
+  ASSERT_TRUE(H == S || 2 * H == S) << S << "x" << H;
+  ASSERT_EQ(rep.texel_chart.size(), size_t(S) * size_t(H));
   // Cells: aligned powers of two, inside the atlas, not crossing a power-of-two boundary.
   // Charts sharing a cell (one flat colour) form one group.
   std::map<std::pair<int, int>, int> group_of_cell;
@@ -248,7 +249,7 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
         group_of_cell.emplace(std::make_pair(p.x, p.y), int(group_of_cell.size())).first->second;
   }
   // Every texel's chart lies in that chart's cell.
-  for (int y = 0; y < S; ++y)
+  for (int y = 0; y < H; ++y)
     for (int x = 0; x < S; ++x) {
       int32_t c = rep.texel_chart[size_t(y) * size_t(S) + size_t(x)];
       if (c < 0) continue;
@@ -259,10 +260,10 @@ TEST_P(AtlasMipLevels, ChartsNeverShareAMipTexel) {
     }
   // Level by level: the groups gathered by each level-k texel.
   size_t checked = 0;
-  for (int k = 1; (1 << k) <= S; ++k) {
+  for (int k = 1; (1 << k) <= H; ++k) {
     int b = 1 << k, n = S / b;
-    std::vector<int> owner(size_t(n) * size_t(n), -1);  // -1 empty, -2 mixed
-    for (int y = 0; y < S; ++y)
+    std::vector<int> owner(size_t(n) * size_t(H / b), -1);  // -1 empty, -2 mixed
+    for (int y = 0; y < H; ++y)
       for (int x = 0; x < S; ++x) {
         int32_t c = rep.texel_chart[size_t(y) * size_t(S) + size_t(x)];
         if (c < 0) continue;
@@ -582,6 +583,77 @@ TEST(AtlasChannels, KeptSourceTextureKeepsItsMapsTexelForTexel) {
   }
   EXPECT_EQ(normal_off, 0);
 }
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// Issue 4/8: the atlas never holds more texels than the source texels its materials reference.
+// Two textures, 256² and 128² (81,920 texels), on two quads: the power-of-two square that held
+// them before was 512² (262,144 texels, 3.2 times the sources); now a W × W or W × W/2 atlas
+// within the budget.
+TEST(AtlasBudget, NoMoreTexelsThanTheSourcesReference) {
+  Scene s;
+  for (int side : {256, 128}) {
+    Image img;
+    img.width = img.height = side;
+    for (int i = 0; i < side * side; ++i)
+      img.rgba.insert(img.rgba.end(), {uint8_t(i % 251), uint8_t(i % 13 * 19), 90, 255});
+    s.images.push_back(img);
+    Material m;
+    m.base_color.image = int32_t(s.images.size() - 1);
+    s.materials.push_back(m);
+  }
+  Mesh mesh;
+  for (int k = 0; k < 2; ++k) {
+    Primitive p;
+    const float x = 2.0f * float(k);
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_FALSE(rep.reused_source);
+  EXPECT_EQ(rep.reference_texels, 256.0 * 256 + 128 * 128);
+  EXPECT_LE(double(rep.size) * rep.height, rep.reference_texels);
+  const Image& atlas = out->images[0];
+  EXPECT_EQ(atlas.width, rep.size);
+  EXPECT_EQ(atlas.height, rep.height);
+}
+
+// The same budget on every shared model the atlas resamples (the kept-source path holds the
+// source image itself).
+class AtlasBudgetShared : public ::testing::TestWithParam<const char*> {};
+TEST_P(AtlasBudgetShared, NoMoreTexelsThanReferenced) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  AtlasReport rep;
+  auto out = build_atlas(clean(*in, {}), {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_TRUE(rep.built);
+  EXPECT_LE(double(rep.size) * rep.height, rep.reference_texels)
+      << rep.size << "x" << rep.height;
+}
+INSTANTIATE_TEST_SUITE_P(Shared, AtlasBudgetShared,
+                         ::testing::Values("AlphaBlendModeTest-glb/AlphaBlendModeTest.glb",
+                                           "TextureSettingsTest-glb/TextureSettingsTest.glb",
+                                           "NegativeScaleTest-glb/NegativeScaleTest.glb",
+                                           "VertexColorTest-glb/VertexColorTest.glb",
+                                           "BoxVertexColors-glb/BoxVertexColors.glb",
+                                           "SheenChair-gltf/SheenChair.gltf",
+                                           "MultiUVTest-glb/MultiUVTest.glb",
+                                           "DamagedHelmet-glb/DamagedHelmet.glb"),
+                         [](const auto& info) { return testing::model_test_name(info.param); });
 
 }  // namespace
 }  // namespace meshmux
