@@ -6,11 +6,11 @@
 // Layout (little-endian):
 //   0   4  magic "MMXP"
 //   4   4  uint32 version (kPackageVersion)
-//   8   4  uint32 JSON length J (bytes, padded with spaces to a multiple of 4)
-//   12  J  JSON table (UTF-8), see below
-//   12+J   the base .glb, then each chunk, in table order
+//   8   4  uint32 table length J (bytes)
+//   12  J  the JSON table (UTF-8), zlib-deflated (browsers: DecompressionStream("deflate"))
+//   12+J   the data: the base .glb (deflated when "deflated"), then each chunk, in table order
 // JSON table:
-//   {"version": 10,
+//   {"version": 11,
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -21,7 +21,8 @@
 //                                                                       // light intensity i
 //             camera)
 //    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
-//    "base": {"offset": O, "size": S, "distortion": d0},     // byte range of the base .glb
+//    "base": {"offset": O, "size": S, "deflated": z,          // byte range of the base as
+//             "glb_size": G, "distortion": d0},               // stored; the .glb's own size
 //    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
 //                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
@@ -39,7 +40,7 @@
 //                   // then any of kTextureChannels (issue 5/8's physically based maps)
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
 //               {"name": "mesh-first", ...}, ...]}                  // see below
-// Offsets are absolute in the file.
+// Offsets count from the data start (12 + J).
 //
 // The mesh stream (paper 002's shared vertex buffer, made streamable). A client holds per mesh
 // a vertex buffer that is only appended to and an index buffer of every face received so far.
@@ -73,7 +74,9 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 10;
+constexpr uint32_t kPackageVersion = 11;
+constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
+constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
 constexpr size_t kPackageHeaderBytes = 12;
 constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
@@ -145,7 +148,9 @@ struct PackageView {
 struct Package {
   uint32_t version = 0;
   PackageView view;
-  uint64_t base_offset = 0, base_size = 0;
+  uint64_t base_offset = 0, base_size = 0;  // the base as stored (absolute offset)
+  bool base_deflated = false;               // stored zlib-deflated
+  uint64_t base_glb_size = 0;               // the .glb's size once inflated
   double base_distortion = 0;
   std::vector<PackageMesh> meshes;
   int texture_width = 0, texture_height = 0;
@@ -154,6 +159,10 @@ struct Package {
 };
 
 Result<Package> read_package(const std::vector<uint8_t>& bytes);
+
+// The base .glb of a package read from `bytes` (inflated when stored deflated).
+Result<std::vector<uint8_t>> package_base_glb(const std::vector<uint8_t>& bytes,
+                                              const Package& pkg);
 
 // Applies part `part` of a mesh chunk to `mesh` (the state decode_base started for its mesh,
 // with every earlier part applied): checks the part against the table and the state, then

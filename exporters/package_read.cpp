@@ -17,6 +17,7 @@
 #include <string>
 
 #include "exporters/package.h"
+#include "multiplex/vsplit.h"  // inflate_bytes
 #include "scene/json_depth.h"
 
 namespace meshmux {
@@ -203,7 +204,9 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   return Status::ok();
 }
 
-Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size,
+// `file_size`: the bytes after the data start; offsets are relative to it, and made absolute
+// (+ data_start) on the way.
+Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_t data_start,
                   std::vector<std::pair<uint32_t, uint32_t>>& held, PackageChunk& c,
                   const std::string& where) {
   if (!j.is_object()) return fail(where + " is not an object");
@@ -221,6 +224,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size,
   if (!(s = get_uint(j, "offset", file_size, c.offset, where))) return s;
   if (!(s = get_uint(j, "size", file_size, c.size, where))) return s;
   if (c.size > file_size - c.offset) return fail(where + ": range past the end of the file");
+  c.offset += data_start;
   auto d = j.find("distortion");
   if (d == j.end()) return fail(where + ": missing \"distortion\"");
   if (!(s = get_finite(*d, c.distortion, where + ": \"distortion\""))) return s;
@@ -388,13 +392,14 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (json_size > file_size - kPackageHeaderBytes)
     return fail("JSON table length " + std::to_string(json_size) + " past the end of the file (" +
                 std::to_string(file_size) + " bytes)");
-  if (json_size == 0 || json_size % 4)
-    return fail("JSON table length " + std::to_string(json_size) +
-                " is not a positive multiple of 4");
-  const uint8_t* text = bytes.data() + kPackageHeaderBytes;
-  if (json_depth(text, size_t(json_size)) > kMaxJsonDepth)
-    return fail("JSON table nested too deeply");
-  Json j = Json::parse(text, text + json_size, nullptr, /*allow_exceptions=*/false);
+  if (json_size == 0) return fail("JSON table length 0");
+  auto inflated = inflate_bytes(bytes.data() + kPackageHeaderBytes, size_t(json_size),
+                               kMaxTableBytes);
+  if (!inflated.ok()) return fail("JSON table: " + inflated.status().message());
+  const uint8_t* text = inflated->data();
+  const size_t text_size = inflated->size();
+  if (json_depth(text, text_size) > kMaxJsonDepth) return fail("JSON table nested too deeply");
+  Json j = Json::parse(text, text + text_size, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) return fail("JSON table does not parse");
   if (!j.is_object()) return fail("JSON table is not an object");
   Status s;
@@ -407,11 +412,19 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   uint64_t data_start = kPackageHeaderBytes + json_size;
   auto base = j.find("base");
   if (base == j.end() || !base->is_object()) return fail("\"base\" missing or not an object");
-  if (!(s = get_uint(*base, "offset", file_size, pkg.base_offset, "base"))) return s;
-  if (!(s = get_uint(*base, "size", file_size, pkg.base_size, "base"))) return s;
-  if (pkg.base_offset < data_start) return fail("base: offset inside the header");
-  if (pkg.base_size == 0 || pkg.base_size > file_size - pkg.base_offset)
+  const uint64_t data_size = file_size - data_start;
+  if (!(s = get_uint(*base, "offset", data_size, pkg.base_offset, "base"))) return s;
+  if (!(s = get_uint(*base, "size", data_size, pkg.base_size, "base"))) return s;
+  if (pkg.base_size == 0 || pkg.base_size > data_size - pkg.base_offset)
     return fail("base: range empty or past the end of the file");
+  pkg.base_offset += data_start;
+  auto deflated = base->find("deflated");
+  if (deflated == base->end() || !deflated->is_boolean())
+    return fail("base: \"deflated\" missing or not a boolean");
+  pkg.base_deflated = deflated->get<bool>();
+  if (!(s = get_uint(*base, "glb_size", kMaxBaseBytes, pkg.base_glb_size, "base"))) return s;
+  if (!pkg.base_deflated && pkg.base_glb_size != pkg.base_size)
+    return fail("base: glb_size differs from the stored size of a base stored as it is");
   auto base_d = base->find("distortion");
   if (base_d == base->end()) return fail("base: missing \"distortion\"");
   if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
@@ -435,7 +448,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   for (size_t i = 0; i < chunks->size(); ++i) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
-    if (!(s = read_chunk((*chunks)[i], pkg, file_size, held, c, where))) return s;
+    if (!(s = read_chunk((*chunks)[i], pkg, data_size, data_start, held, c, where))) return s;
     if (c.offset < end)
       return fail(where + ": offset " + std::to_string(c.offset) +
                   " overlaps the base or the chunk before");
@@ -447,6 +460,20 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
 
   if (!(s = read_orders(j, pkg))) return s;
   return pkg;
+}
+
+Result<std::vector<uint8_t>> package_base_glb(const std::vector<uint8_t>& bytes,
+                                              const Package& pkg) {
+  if (pkg.base_offset > bytes.size() || pkg.base_size > bytes.size() - pkg.base_offset)
+    return fail("base: range past the end of the file");
+  const uint8_t* at = bytes.data() + pkg.base_offset;
+  if (!pkg.base_deflated) return std::vector<uint8_t>(at, at + pkg.base_size);
+  auto glb = inflate_bytes(at, size_t(pkg.base_size), pkg.base_glb_size);
+  if (!glb.ok()) return fail("base: " + glb.status().message());
+  if (glb->size() != pkg.base_glb_size)
+    return fail("base: inflates to " + std::to_string(glb->size()) + " bytes, the table says " +
+                std::to_string(pkg.base_glb_size));
+  return glb.take();
 }
 
 Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,

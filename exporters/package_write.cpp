@@ -1,8 +1,8 @@
 // The stream package writer (exporters/package.h, DESIGN.md "Package"). It lays out bytes that
-// were encoded upstream (the multiplexer's mesh parts, the texture levels) and encodes nothing
-// itself. The JSON table's length depends on the offsets it holds, so it is built until it fits
-// the space reserved for it (which only grows), then padded with spaces to a multiple of 4.
-// Output is a pure function of the input.
+// were encoded upstream (the multiplexer's mesh parts, the texture levels); it only deflates
+// (zlib, level 9) the JSON table and, when that makes it smaller, the base .glb: on small
+// models those were a third of the package (format 11). Offsets in the table count from its
+// end. Output is a pure function of the input.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -12,6 +12,7 @@
 #include <string>
 
 #include "exporters/package.h"
+#include "multiplex/vsplit.h"  // deflate_bytes
 
 namespace meshmux {
 
@@ -171,9 +172,12 @@ OrderedJson view_json(const PackageInput& in) {
           {"light_intensity", short_float(r.light_intensity)}};
 }
 
-// The JSON table for a given start of the data (12 + reserved JSON length).
+// The JSON table. Offsets count from the end of the table (the data start), so the table does
+// not depend on its own compressed length. `base_stored`: the base's bytes as stored.
 std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
-                       const std::vector<StreamOrder>& orders, uint64_t data_start) {
+                       const std::vector<StreamOrder>& orders, uint64_t base_stored,
+                       bool base_deflated) {
+  const uint64_t data_start = 0;
   OrderedJson j;
   j["version"] = kPackageVersion;
   j["view"] = view_json(in);
@@ -181,10 +185,12 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                  {"max_texture_side", kMaxTextureSide},
                  {"max_json_depth", kMaxJsonDepth}};
   j["base"] = {{"offset", data_start},
-               {"size", uint64_t(in.base_glb.size())},
+               {"size", base_stored},
+               {"deflated", base_deflated},
+               {"glb_size", uint64_t(in.base_glb.size())},
                {"distortion", in.base_distortion}};
   OrderedJson ms = OrderedJson::array();
-  uint64_t offset = data_start + in.base_glb.size();
+  uint64_t offset = data_start + base_stored;
   for (const MeshStreamBase& b : in.meshes) {
     const Bounds& box = b.bounds;
     OrderedJson e;
@@ -244,31 +250,30 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   auto orders = check_orders(in);
   if (!orders.ok()) return orders.status();
 
-  // The table's length depends on the offsets it holds: grow the reserved space until it fits.
-  std::string text;
-  uint64_t reserved = 0;
+  // The base, deflated when that is smaller (a meshopt-coded mesh and the glTF JSON shrink by
+  // a third to a half; a JPEG level does not).
+  std::vector<uint8_t> deflated_base = deflate_bytes(in.base_glb);
+  const bool base_deflated = deflated_base.size() < in.base_glb.size();
+  const std::vector<uint8_t>& base = base_deflated ? deflated_base : in.base_glb;
+  std::vector<uint8_t> table;
   try {
-    for (;;) {
-      text = table_json(in, *chunks, *orders, kPackageHeaderBytes + reserved);
-      if (text.size() <= reserved) break;
-      reserved = (text.size() + 3) / 4 * 4;  // grows only: offsets only get longer
-    }
+    const std::string text = table_json(in, *chunks, *orders, base.size(), base_deflated);
+    table = deflate_bytes(std::vector<uint8_t>(text.begin(), text.end()));
   } catch (const std::exception& e) {
     return fail(std::string("JSON table: ") + e.what());
   }
-  if (reserved > 0xffffffffu) return fail("JSON table too large");
-  text.resize(size_t(reserved), ' ');
+  if (table.size() > 0xffffffffu) return fail("JSON table too large");
 
-  uint64_t total = kPackageHeaderBytes + reserved + in.base_glb.size();
+  uint64_t total = kPackageHeaderBytes + table.size() + base.size();
   for (const Chunk& c : *chunks) total += c.payload.size();
   std::vector<uint8_t> out;
   out.reserve(size_t(total));
   out.resize(kPackageHeaderBytes);
   std::memcpy(out.data(), "MMXP", 4);
   put_u32(out, 4, kPackageVersion);
-  put_u32(out, 8, uint32_t(reserved));
-  out.insert(out.end(), text.begin(), text.end());
-  out.insert(out.end(), in.base_glb.begin(), in.base_glb.end());
+  put_u32(out, 8, uint32_t(table.size()));
+  out.insert(out.end(), table.begin(), table.end());
+  out.insert(out.end(), base.begin(), base.end());
   for (const Chunk& c : *chunks) out.insert(out.end(), c.payload.begin(), c.payload.end());
   return out;
 }

@@ -595,8 +595,9 @@ TEST(ConvertFolder, WritesStreamPackage) {
   size_t mesh_chunks = 0, texture_chunks = 0;
   // The base vertices' integers, read back from the base .glb as a client reads them (our
   // importer keeps KHR_mesh_quantization's integer positions and puts the grid in the nodes).
-  std::vector<uint8_t> glb(bytes.begin() + long(pkg->base_offset),
-                           bytes.begin() + long(pkg->base_offset + pkg->base_size));
+  auto glb_bytes = package_base_glb(bytes, *pkg);
+  ASSERT_TRUE(glb_bytes.ok()) << glb_bytes.status().message();
+  const std::vector<uint8_t>& glb = *glb_bytes;
   testing::write_file(dir.file("base.glb"), glb);
   Warnings w;
   auto base_scene = import_scene(dir.file("base.glb"), ImportOptions{}, &w);
@@ -660,8 +661,9 @@ TEST(ConvertFolder, WritesStreamPackage) {
   auto page = testing::read_file(dir.file("out/index.html"));
   std::string html(page.begin(), page.end());
   EXPECT_NE(html.find("importmap"), std::string::npos);
-  std::vector<uint8_t> base(bytes.begin() + long(pkg->base_offset),
-                            bytes.begin() + long(pkg->base_offset + pkg->base_size));
+  auto base_bytes = package_base_glb(bytes, *pkg);
+  ASSERT_TRUE(base_bytes.ok()) << base_bytes.status().message();
+  const std::vector<uint8_t>& base = *base_bytes;
   testing::write_file(dir.file("base_from_package.glb"), base);
   int errors = testing::gltf_validator_errors(dir.file("base_from_package.glb"));
   if (errors >= 0) {

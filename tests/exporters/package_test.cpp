@@ -19,6 +19,7 @@
 #include "image/texture_levels.h"
 #include "importers/import.h"
 #include "scene/file_io.h"
+#include "multiplex/vsplit.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 #include "test_util.h"
@@ -203,14 +204,15 @@ TEST(Package, RoundTripDecodesEveryPart) {
   auto pkg = read_package(*bytes);
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
   EXPECT_EQ(pkg->version, kPackageVersion);
-  // Header: JSON padded to a multiple of 4, the base right after it.
+  // Header: the deflated table, the base right after it, stored deflated when smaller.
   uint32_t json_size = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 |
                        uint32_t((*bytes)[10]) << 16 | uint32_t((*bytes)[11]) << 24;
-  EXPECT_EQ(json_size % 4, 0u);
   EXPECT_EQ(pkg->base_offset, 12u + json_size);
-  ASSERT_EQ(pkg->base_size, f.input.base_glb.size());
-  EXPECT_TRUE(std::equal(f.input.base_glb.begin(), f.input.base_glb.end(),
-                         bytes->begin() + long(pkg->base_offset)));
+  EXPECT_EQ(pkg->base_glb_size, f.input.base_glb.size());
+  EXPECT_LE(pkg->base_size, f.input.base_glb.size());
+  auto base_glb = package_base_glb(*bytes, *pkg);
+  ASSERT_TRUE(base_glb.ok()) << base_glb.status().message();
+  EXPECT_EQ(*base_glb, f.input.base_glb);
   // The mesh table.
   ASSERT_EQ(pkg->meshes.size(), 1u);
   const PackageMesh& mesh = pkg->meshes[0];
@@ -401,11 +403,12 @@ TEST(Package, WriterRejectsInconsistentInput) {
   EXPECT_EQ(pkg->chunks.size(), mesh_only.size());
 }
 
+// The package with its table replaced by `json` (deflated, as the format stores it; offsets
+// count from the table's end, so the data stays where the table says).
 std::vector<uint8_t> with_header(const std::vector<uint8_t>& original, const std::string& json,
-                                 size_t min_size) {
-  std::string text = json;
-  size_t size = std::max(min_size, (text.size() + 3) / 4 * 4);
-  text.resize(size, ' ');
+                                 size_t /*min_size*/) {
+  const std::vector<uint8_t> text = deflate_bytes(std::vector<uint8_t>(json.begin(), json.end()));
+  const size_t size = text.size();
   uint32_t old = uint32_t(original[8]) | uint32_t(original[9]) << 8 | uint32_t(original[10]) << 16 |
                  uint32_t(original[11]) << 24;
   std::vector<uint8_t> out(12 + size + (original.size() - 12 - old));
@@ -432,7 +435,9 @@ TEST(Package, SurvivesThousandCorruptions) {
   const std::vector<uint8_t>& good = *valid;
   uint32_t json_size = uint32_t(good[8]) | uint32_t(good[9]) << 8 | uint32_t(good[10]) << 16 |
                        uint32_t(good[11]) << 24;
-  nlohmann::json table = nlohmann::json::parse(good.begin() + 12, good.begin() + 12 + json_size);
+  auto inflated = inflate_bytes(good.data() + 12, json_size, kMaxTableBytes);
+  ASSERT_TRUE(inflated.ok()) << inflated.status().message();
+  nlohmann::json table = nlohmann::json::parse(inflated->begin(), inflated->end());
   std::mt19937_64 rng(20240611);
   auto below = [&](uint64_t n) { return n ? rng() % n : 0; };
   int kinds[6] = {0, 0, 0, 0, 0, 0};

@@ -176,8 +176,9 @@ TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
   ASSERT_TRUE(pkg.ok()) << pkg.status().message();
   testing::TempDir dir;
   testing::write_file(dir.file("base.glb"), out->base_glb);
-  std::vector<uint8_t> stream_base(out->package.begin() + long(pkg->base_offset),
-                                   out->package.begin() + long(pkg->base_offset + pkg->base_size));
+  auto base_bytes = package_base_glb(out->package, *pkg);
+  ASSERT_TRUE(base_bytes.ok()) << base_bytes.status().message();
+  const std::vector<uint8_t>& stream_base = *base_bytes;
   testing::write_file(dir.file("stream_base.glb"), stream_base);
   auto info = testing::run_meshmux({"info", dir.file("base.glb"), "--json"});
   auto stream_info = testing::run_meshmux({"info", dir.file("stream_base.glb"), "--json"});

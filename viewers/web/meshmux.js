@@ -1,6 +1,6 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 10).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 11).
 //
-// A package is one file: a 12-byte header ("MMXP", version, JSON length), a JSON table, a base
+// A package is one file: a 12-byte header ("MMXP", version, table length), a deflated JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
 // levels) stored in rate-distortion order. Everything is fetched with HTTP Range requests:
 //
@@ -27,7 +27,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
-import { PACKAGE_VERSION, RangeReader, validateTable } from './package_reader.js';
+import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, validateTable } from './package_reader.js';
 import { StreamMesh, applyMeshChunk, inflate } from './stream_mesh.js';
 
 export { PACKAGE_VERSION, validateTable, StreamMesh, applyMeshChunk, inflate };
@@ -282,12 +282,13 @@ export class MeshmuxStream extends EventTarget {
       const version = view.getUint32(4, true), dataStart = HEADER_BYTES + view.getUint32(8, true);
       if (version !== PACKAGE_VERSION) throw this._fail(`package version ${version} is not supported (this client reads version ${PACKAGE_VERSION})`);
       if (dataStart > this._reader.size) throw this._fail(`the JSON table runs past the end of the file (${this._reader.size} bytes)`);
-      const json = head.length >= dataStart ? head.subarray(HEADER_BYTES, dataStart) : await this._reader.read(HEADER_BYTES, dataStart, signal);
+      const deflated = head.length >= dataStart ? head.subarray(HEADER_BYTES, dataStart) : await this._reader.read(HEADER_BYTES, dataStart, signal);
       let raw;
       try {
+        const json = await inflate(deflated, MAX_TABLE_BYTES);
         raw = JSON.parse(new TextDecoder('utf-8', { fatal: true }).decode(json));
       } catch (e) {
-        throw this._fail(`the JSON table cannot be parsed (${e.message})`);
+        throw this._fail(`the JSON table cannot be read (${e.message})`);
       }
       const table = validateTable(raw, { fileSize: Number.isFinite(this._reader.size) ? this._reader.size : Infinity, dataStart, fail: (m) => this._fail(m) });
       if (!Number.isFinite(this._reader.size)) {  // the server hid the size: the table's end stands in
@@ -318,7 +319,16 @@ export class MeshmuxStream extends EventTarget {
   }
 
   // Parses the base .glb; swaps in the streaming geometries and the shared shading.
-  async _buildBase(table, bytes) {
+  async _buildBase(table, stored) {
+    let bytes = stored;
+    if (table.base.deflated) {
+      try {
+        bytes = await inflate(stored, table.base.glbSize);
+      } catch (e) {
+        throw this._fail(`the base .glb cannot be inflated (${e.message})`);
+      }
+    }
+    if (bytes.length !== table.base.glbSize) throw this._fail(`the base .glb is ${bytes.length} bytes, the table says ${table.base.glbSize}`);
     const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
     let gltf;
     try {

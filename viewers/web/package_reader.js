@@ -1,8 +1,10 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 10; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 11; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 10;
+export const PACKAGE_VERSION = 11;
+// The JSON table and the base .glb inflate to at most these (exporters/package.h).
+export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -15,7 +17,8 @@ export const PART_BYTES_PER_ELEMENT = 256, PART_BYTES_CONSTANT = 65536;
 // ---- The package table -----------------------------------------------------------------------
 
 // Validates the parsed JSON table against the file and returns it normalized (numbers checked,
-// mesh parts contiguous, orders complete). `fail(message)` makes the Error to throw.
+// mesh parts contiguous, orders complete; offsets, which count from the data start, made
+// absolute). `fail(message)` makes the Error to throw.
 export function validateTable(t, { fileSize, dataStart, fail }) {
   const need = (ok, message) => { if (!ok) throw fail(message); };
   const obj = (v, what) => { need(v && typeof v === 'object' && !Array.isArray(v), `${what} must be an object`); return v; };
@@ -29,8 +32,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     return v == null ? NaN : v;
   };
   const range = (r, what) => {
-    const offset = int(r.offset, `${what}.offset`), size = int(r.size, `${what}.size`);
-    need(size === 0 || offset >= dataStart, `${what} starts at ${offset}, inside the header and table (${dataStart} bytes)`);
+    const offset = dataStart + int(r.offset, `${what}.offset`), size = int(r.size, `${what}.size`);
     need(offset + size <= fileSize, `${what} [${offset}, ${offset + size}) runs past the end of the file (${fileSize} bytes)`);
     return { offset, size };
   };
@@ -61,7 +63,11 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   const limits = obj(t.limits, 'limits');
   const MAX_ELEMENTS = Math.min(int(limits.max_elements, 'limits.max_elements'), TYPED_ARRAY_ELEMENTS);
   const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };
-  need(base.size >= 20, `the base .glb is ${base.size} bytes, too small for a glb`);
+  need(typeof t.base.deflated === 'boolean', 'base.deflated must be true or false');
+  base.deflated = t.base.deflated;
+  base.glbSize = int(t.base.glb_size, 'base.glb_size', MAX_BASE_BYTES);
+  need(base.deflated || base.glbSize === base.size, `base.glb_size ${base.glbSize} differs from its stored size ${base.size}`);
+  need(base.glbSize >= 20, `the base .glb is ${base.glbSize} bytes, too small for a glb`);
   const meshes = arr(t.meshes, 'meshes').map((m, i) => {
     const w = `meshes[${i}]`;
     obj(m, w);

@@ -188,19 +188,20 @@ try {
   // run counts; each part is inflated (DecompressionStream) and its splits applied. Triangles =
   // new faces, reported beside the vertex splits that bring them.
   const bench = await page.evaluate(async () => {
-    const { StreamMesh, applyMeshChunk, validateTable } = await import('./viewer/meshmux.js');
+    const { StreamMesh, applyMeshChunk, validateTable, inflate } = await import('./viewer/meshmux.js');
     const { MeshoptDecoder } = await import('three/addons/libs/meshopt_decoder.module.js');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
     await MeshoptDecoder.ready;
     const bytes = new Uint8Array(await (await fetch('model.mmxp')).arrayBuffer());
     const J = new DataView(bytes.buffer).getUint32(8, true);
-    const table = validateTable(JSON.parse(new TextDecoder().decode(bytes.subarray(12, 12 + J))),
+    const table = validateTable(JSON.parse(new TextDecoder().decode(await inflate(bytes.subarray(12, 12 + J), 64 << 20))),
       { fileSize: bytes.length, dataStart: 12 + J, fail: (m) => new Error(m) });
     const chunks = table.chunks.filter((c) => c.kind === 'mesh' && c.parts.length);
     let faces = 0, splits = 0, best = Infinity, digests = [];
     for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
     // The base vertices' quantized values, which the splits are predicted from.
-    const glb = bytes.slice(table.base.offset, table.base.offset + table.base.size).buffer;
+    const stored = bytes.slice(table.base.offset, table.base.offset + table.base.size);
+    const glb = (table.base.deflated ? (await inflate(stored, table.base.glbSize)).slice() : stored).buffer;
     const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(glb, '');
     // Per mesh, its primitives' geometries in primitive order (the first node drawing it).
     const baseGeometry = [], done = new Set();
