@@ -27,11 +27,13 @@ struct ChannelNeeds {
   BakeChannels bake;        // baked channels (emissive_scale: the largest emissive component)
   Vec3 orm{1, 1, 1};        // shared occlusion-roughness-metallic factors (when not baked)
   Vec3 emissive{0, 0, 0};   // shared emissive factor (when not baked)
+  Vec3 sheen{0, 0, 0};      // shared sheen colour factor (when not baked)
+  float sheen_roughness = 0;  // sheen roughness: area-weighted over the sheen materials
 };
 
 // The images a bake produced, in Scene::images order after the base colour (index 0).
 struct ChannelImages {
-  Image normal, orm, emissive;  // empty when not baked
+  Image normal, orm, emissive, sheen;  // empty when not baked
 };
 
 // Corner positions of a mesh face.
@@ -160,14 +162,29 @@ void name_channels(ChannelImages& c) {
   c.normal.name = "atlas normal";
   c.orm.name = "atlas occlusion-roughness-metallic";
   c.emissive.name = "atlas emissive";
+  c.sheen.name = "atlas sheen";
 }
 
 // Which channels besides base colour the output needs as textures (issue 5/8): a channel some
 // material in use samples a texture for, or whose factors differ between the materials in use
 // (a metal part and a plastic one). Otherwise the factor they share is the output's.
+double primitive_area(const Primitive& p) {
+  double area = 0;
+  for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+    if (p.indices[i] >= p.positions.size() || p.indices[i + 1] >= p.positions.size() ||
+        p.indices[i + 2] >= p.positions.size())
+      continue;
+    const Vec3 a = p.positions[p.indices[i]], b = p.positions[p.indices[i + 1]],
+               c = p.positions[p.indices[i + 2]];
+    area += 0.5 * double(length(cross(b - a, c - a)));
+  }
+  return area;
+}
+
 ChannelNeeds channel_needs(const Scene& scene) {
   ChannelNeeds need;
   bool first = true;
+  double sheen_roughness = 0, sheen_area = 0;
   auto decoded = [&](const TextureRef& t) {
     return t.present() && size_t(t.image) < scene.images.size() &&
            scene.images[size_t(t.image)].decoded();
@@ -183,16 +200,25 @@ ChannelNeeds channel_needs(const Scene& scene) {
       need.bake.normal |= decoded(m.normal);
       need.bake.orm |= decoded(m.metallic_roughness) || decoded(m.occlusion);
       need.bake.emissive |= decoded(m.emissive) && !(m.emissive_factor == Vec3{0, 0, 0});
+      need.bake.sheen |= decoded(m.sheen_color) && !(m.sheen_color_factor == Vec3{0, 0, 0});
       if (first) {
         need.orm = orm;
         need.emissive = m.emissive_factor;
+        need.sheen = m.sheen_color_factor;
         first = false;
       }
       need.bake.orm |= !(orm == need.orm);
       need.bake.emissive |= !(m.emissive_factor == need.emissive);
+      need.bake.sheen |= !(m.sheen_color_factor == need.sheen);
+      if (!(m.sheen_color_factor == Vec3{0, 0, 0})) {
+        const double area = primitive_area(p);
+        sheen_roughness += area * m.sheen_roughness_factor;
+        sheen_area += area;
+      }
       for (float v : {m.emissive_factor.x, m.emissive_factor.y, m.emissive_factor.z})
         if (std::isfinite(v)) need.bake.emissive_scale = std::max(need.bake.emissive_scale, v);
     }
+  need.sheen_roughness = sheen_area > 0 ? float(sheen_roughness / sheen_area) : 0.0f;
   if (!(need.bake.emissive_scale > 0)) need.bake.emissive = false;
   if (!need.bake.emissive) need.bake.emissive_scale = 1;
   return need;
@@ -346,6 +372,7 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
 // chart grows to fill the cell it owns (pack_cells), for free resolution.
 struct Packing {
   PackResult packed;
+  int flat_block = 4;        // side of each flat colour's block, texels
   double shrink = 1;         // the factor f
   std::vector<double> grow;  // per item: the fill-the-cell factor
   int gutter = 0;            // texels around each textured chart
@@ -378,8 +405,18 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
     if (w / 2 >= 2) sizes.push_back({w, w / 2});
     sizes.push_back({w, w});
   }
+  // A flat colour's block stays one colour down to the stream's smallest texture level (at
+  // least 1/64 of the atlas width: levels stop at 128 px or less, every other mip level), so the
+  // first picture shows plain parts in their colour, not in their neighbours' average.
+  auto flat_block_for = [&](const Size& s) { return std::max(o.flat_block, s.w / 64); };
+  auto set_flat = [&](const Size& s) {
+    const int side = flat_block_for(s) + 2 * std::max(0, o.bake.gutter);
+    for (size_t k = 0; k < rects.size(); ++k)
+      if (it.item_scale[k] == 0) rects[k] = {side, side};
+  };
   auto fits = [&](double f, const Size& s) {
     rects_for(f);
+    set_flat(s);
     return pack_cells_into(rects, s.w, s.h).ok;
   };
   auto best_factor = [&](const Size& s) {
@@ -423,6 +460,8 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
                              " even at one texel each",
                          ErrorKind::kInput);
   rects_for(shrink);
+  set_flat(sizes[pick]);
+  pk.flat_block = flat_block_for(sizes[pick]);
   pk.packed = pack_cells_into(rects, sizes[pick].w, sizes[pick].h);
   if (!pk.packed.ok) return Status::error("atlas: packing failed", ErrorKind::kInternal);
   pk.shrink = shrink;
@@ -463,7 +502,7 @@ AtlasLayout make_layout(const Items& it, const Packing& pk, size_t charts, const
       int ring = std::max(0, o.bake.gutter);
       layout.offset[i] = {float(pl.x + ring), float(pl.y + ring)};
       layout.scale[i] = 0;
-      layout.block[i] = o.flat_block;
+      layout.block[i] = pk.flat_block;
     } else {
       layout.offset[i] = {float(pl.x + pk.gutter), float(pl.y + pk.gutter)};
       layout.scale[i] = it.item_scale[k] * pk.shrink * pk.grow[k];
@@ -514,7 +553,7 @@ GroupKey group_key(const Scene& scene, const Primitive& p) {
 
 // Indices into the output's images of the further channels (-1: not baked).
 struct ChannelSlots {
-  int32_t normal = -1, orm = -1, emissive = -1;
+  int32_t normal = -1, orm = -1, emissive = -1, sheen = -1;
 };
 
 // The group's material: the atlas's base colour; the baked channels' images (factors folded in,
@@ -573,6 +612,12 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
     mat.emissive_factor = {e, e, e};
   }
   if (slots.normal >= 0) channel(mat.normal, slots.normal);
+  mat.sheen_color_factor = need.sheen;
+  mat.sheen_roughness_factor = need.sheen_roughness;
+  if (slots.sheen >= 0) {
+    channel(mat.sheen_color, slots.sheen);
+    mat.sheen_color_factor = {1, 1, 1};
+  }
   mat.alpha_mode = AlphaMode(key.alpha_mode);
   mat.alpha_cutoff = key.cutoff;
   mat.double_sided = key.double_sided;
@@ -671,7 +716,8 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
   ChannelSlots slots;
   for (auto [image, slot] : {std::pair{&channels.normal, &slots.normal},
                              std::pair{&channels.orm, &slots.orm},
-                             std::pair{&channels.emissive, &slots.emissive}})
+                             std::pair{&channels.emissive, &slots.emissive},
+                             std::pair{&channels.sheen, &slots.sheen}})
     if (image->decoded()) {
       *slot = int32_t(out.images.size());
       out.images.push_back(std::move(*image));
@@ -760,6 +806,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
                                             AtlasChannel::kOcclusionRoughnessMetallic, es);
       if (need.bake.emissive)
         channels.emissive = source_atlas_channel(scene, *source, AtlasChannel::kEmissive, es);
+      if (need.bake.sheen)
+        channels.sheen = source_atlas_channel(scene, *source, AtlasChannel::kSheen, es);
       name_channels(channels);
       Scene out = assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need);
       rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -798,7 +846,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
     corner_uv.push_back(
         [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
-  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive)};
+  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
+                         std::move(baked.sheen)};
   name_channels(channels);
   Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -36,7 +36,8 @@ struct AtlasOptions {
   BakeOptions bake;                  // resampling and gutters
   int max_size = 4096;               // largest atlas side
   int min_size = 64;                 // smallest atlas side
-  int flat_block = 4;                // side of one flat-colour block, texels (gutters around it)
+  int flat_block = 4;                // least side of one flat-colour block, texels (gutters
+                                     // around it); at least 1/64 of the atlas width
   int vertex_color_target = 512;     // largest T (side) for scenes whose only texture is vertex
                                      // colour (T: 256 texels per vertex, at least 128²)
   bool reuse_source_texture = true;  // keep the source's one texture as the atlas when every

@@ -154,7 +154,7 @@ class Source {
   // point p (normal: the map value for the atlas's frame, atlas/tangent_frame.h).
   struct Texel {
     Vec4 color;
-    Vec3 orm{1, 1, 1}, emissive{0, 0, 0};
+    Vec3 orm{1, 1, 1}, emissive{0, 0, 0}, sheen{0, 0, 0};
     DVec3 normal{0, 0, 1};
   };
   Texel sample(P2 p, const BakeChannels& ch) {
@@ -164,6 +164,7 @@ class Source {
     t.color = color_at(w);  // fills uv_
     if (ch.orm) t.orm = sample_occlusion_roughness_metallic(scene_, prim_->material, uv_);
     if (ch.emissive) t.emissive = sample_emissive(scene_, prim_->material, uv_);
+    if (ch.sheen) t.sheen = sample_sheen_color(scene_, prim_->material, uv_);
     if (ch.normal) t.normal = normal_at(w);
     return t;
   }
@@ -452,11 +453,13 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
       channel_image(channels.orm, result.orm, "atlas occlusion-roughness-metallic");
   std::vector<uint8_t>* emissive =
       channel_image(channels.emissive, result.emissive, "atlas emissive");
+  std::vector<uint8_t>* sheen = channel_image(channels.sheen, result.sheen, "atlas sheen");
   const float emissive_scale =
       channels.emissive_scale > 0 && std::isfinite(channels.emissive_scale)
           ? channels.emissive_scale
           : 1.0f;
-  auto put_channels = [&](size_t i, Vec3 o, Vec3 e, DVec3 m) {
+  auto put_channels = [&](size_t i, Vec3 o, Vec3 e, DVec3 m, Vec3 sh) {
+    if (sheen) encode({sh.x, sh.y, sh.z, 1}, &(*sheen)[i * 4]);
     if (orm) encode_data({o.x, o.y, o.z, 1}, &(*orm)[i * 4]);
     if (emissive)
       encode({e.x / emissive_scale, e.y / emissive_scale, e.z / emissive_scale, 1},
@@ -478,7 +481,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
       if (own.k == kFlat) {
         const Chart& chart = charts.charts[own.chart];
         encode(chart.color, &img.rgba[i * 4]);
-        put_channels(i, chart.orm, chart.emissive, {0, 0, 1});
+        put_channels(i, chart.orm, chart.emissive, {0, 0, 1}, chart.sheen);
         continue;
       }
       Source::Texel texel;
@@ -497,7 +500,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
           if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
         }
         double sum[4] = {0, 0, 0, 0};
-        double orm_sum[3] = {0, 0, 0}, em_sum[3] = {0, 0, 0};
+        double orm_sum[3] = {0, 0, 0}, em_sum[3] = {0, 0, 0}, sh_sum[3] = {0, 0, 0};
         DVec3 n_sum{0, 0, 0};
         for (int sy = 0; sy < ss; ++sy)
           for (int sx = 0; sx < ss; ++sx) {
@@ -521,6 +524,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
             sum[3] += t.color.w;
             orm_sum[0] += t.orm.x, orm_sum[1] += t.orm.y, orm_sum[2] += t.orm.z;
             em_sum[0] += t.emissive.x, em_sum[1] += t.emissive.y, em_sum[2] += t.emissive.z;
+            sh_sum[0] += t.sheen.x, sh_sum[1] += t.sheen.y, sh_sum[2] += t.sheen.z;
             n_sum = add(n_sum, t.normal);
           }
         const double inv = 1.0 / (ss * ss);
@@ -528,10 +532,11 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
                        float(sum[3] * inv)};
         texel.orm = {float(orm_sum[0] * inv), float(orm_sum[1] * inv), float(orm_sum[2] * inv)};
         texel.emissive = {float(em_sum[0] * inv), float(em_sum[1] * inv), float(em_sum[2] * inv)};
+        texel.sheen = {float(sh_sum[0] * inv), float(sh_sum[1] * inv), float(sh_sum[2] * inv)};
         texel.normal = length(n_sum) > 0 ? normalize(n_sum) : DVec3{0, 0, 1};
       }
       encode(texel.color, &img.rgba[i * 4]);
-      put_channels(i, texel.orm, texel.emissive, texel.normal);
+      put_channels(i, texel.orm, texel.emissive, texel.normal, texel.sheen);
     }
   owner.clear();
   owner.shrink_to_fit();
@@ -540,6 +545,7 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   if (normal) layers.push_back({normal, false});
   if (orm) layers.push_back({orm, false});
   if (emissive) layers.push_back({emissive, true});
+  if (sheen) layers.push_back({sheen, true});
   // Gutters.
   if (options.gutter > 0) dilate(w, h, layers, result.texel_chart, filled, options.gutter, true);
 

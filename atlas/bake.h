@@ -42,12 +42,14 @@ struct BakeChannels {
                         // from the atlas uvs (atlas/tangent_frame.h); 1 sample per texel
   bool orm = false;     // occlusion (R), roughness (G), metallic (B), linear, factors folded in
   bool emissive = false;     // emissive radiance / emissive_scale, sRGB
+  bool sheen = false;        // sheen colour (KHR_materials_sheen), sRGB
   float emissive_scale = 1;  // the divisor (> 0): the largest emissive component
 };
 
 struct BakeResult {
   Image atlas;  // size × rows() RGBA8, sRGB, row 0 at the top
-  Image normal, orm, emissive;  // the same size, RGBA8 (alpha 255) when baked, else empty
+  Image normal, orm, emissive, sheen;  // the same size, RGBA8 (alpha 255) when baked, else
+                                       // empty
   std::vector<int32_t>
       texel_chart;         // per texel: the chart it belongs to (incl. its gutter), -1 none
   bool has_alpha = false;  // some baked texel has alpha < 255

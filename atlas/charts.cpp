@@ -190,9 +190,9 @@ class Segmenter {
   std::vector<Face> faces_;
   struct FlatClass {
     Vec4 color;
-    Vec3 orm, emissive;
+    Vec3 orm, emissive, sheen;
     bool operator==(const FlatClass& o) const {
-      return color == o.color && orm == o.orm && emissive == o.emissive;
+      return color == o.color && orm == o.orm && emissive == o.emissive && sheen == o.sheen;
     }
   };
   std::vector<FlatClass> colors_;  // flat colour per class id (index 0 unused: textured)
@@ -215,7 +215,7 @@ void Segmenter::build_faces() {
   Vector3d origin = b.empty() ? Vector3d::Zero() : to_d(b.center());
 
   std::unordered_map<PositionKey, uint32_t, PositionKeyHash> pos_ids;
-  colors_.assign(1, FlatClass{{1, 1, 1, 1}, {1, 1, 1}, {0, 0, 0}});
+  colors_.assign(1, FlatClass{{1, 1, 1, 1}, {1, 1, 1}, {0, 0, 0}, {0, 0, 0}});
   auto color_class = [&](const FlatClass& c) -> uint32_t {
     // Exact identity: colour and factors equal.
     for (uint32_t i = 1; i < colors_.size(); ++i)
@@ -228,14 +228,16 @@ void Segmenter::build_faces() {
     // Textured or one flat colour, decided per primitive (charts.h).
     bool textured = false;
     Vec4 factor{1, 1, 1, 1};
-    Vec3 orm{1, 1, 1}, emissive{0, 0, 0};  // the glTF default material's
+    Vec3 orm{1, 1, 1}, emissive{0, 0, 0}, sheen{0, 0, 0};  // the glTF default material's
     if (p.material >= 0 && size_t(p.material) < scene_.materials.size()) {
       const Material& m = scene_.materials[size_t(p.material)];
       textured = m.base_color.present() || m.normal.present() || m.occlusion.present() ||
-                 m.metallic_roughness.present() || m.emissive.present();
+                 m.metallic_roughness.present() || m.emissive.present() ||
+                 m.sheen_color.present();
       factor = m.base_color_factor;
       orm = {1, m.roughness_factor, m.metallic_factor};
       emissive = m.emissive_factor;
+      sheen = m.sheen_color_factor;
     }
     Vec4 vertex_color{1, 1, 1, 1};
     if (!p.colors.empty()) {
@@ -248,7 +250,8 @@ void Segmenter::build_faces() {
       cls = color_class({{factor.x * vertex_color.x, factor.y * vertex_color.y,
                           factor.z * vertex_color.z, factor.w * vertex_color.w},
                          orm,
-                         emissive});
+                         emissive,
+                         sheen});
 
     for (size_t t = 0; t < p.triangle_count(); ++t) {
       Face f;
@@ -573,6 +576,7 @@ void Segmenter::run(uint32_t mesh_index, std::vector<Chart>& charts,
         out.color = colors_[charts_[c].cls].color;
         out.orm = colors_[charts_[c].cls].orm;
         out.emissive = colors_[charts_[c].cls].emissive;
+        out.sheen = colors_[charts_[c].cls].sheen;
       }
       charts.push_back(std::move(out));
     }

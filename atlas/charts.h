@@ -39,6 +39,7 @@ struct Chart {
   Vec4 color{1, 1, 1, 1};       // the flat colour (linear RGBA) when !textured
   Vec3 orm{1, 1, 1};            // when !textured: occlusion, roughness, metallic factors
   Vec3 emissive{0, 0, 0};       // when !textured: emissive factor (linear, may exceed 1)
+  Vec3 sheen{0, 0, 0};          // when !textured: sheen colour factor (linear)
 };
 
 struct ChartOptions {

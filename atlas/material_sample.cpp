@@ -163,6 +163,15 @@ Vec3 sample_emissive(const Scene& scene, int32_t material, const std::vector<Vec
   return e;
 }
 
+Vec3 sample_sheen_color(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs) {
+  const Material* m = material_at(scene, material);
+  if (!m) return {0, 0, 0};
+  Vec3 c = m->sheen_color_factor;
+  if (std::optional<Vec4> t = sample_ref(scene, m->sheen_color, uvs, true))
+    c = {c.x * t->x, c.y * t->y, c.z * t->z};
+  return c;
+}
+
 Vec3 sample_normal_map(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs) {
   const Material* m = material_at(scene, material);
   if (!m) return {0, 0, 1};

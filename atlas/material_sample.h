@@ -38,6 +38,10 @@ Vec3 sample_occlusion_roughness_metallic(const Scene& scene, int32_t material,
 // may exceed 1) × the sRGB-decoded texture. Linear RGB.
 Vec3 sample_emissive(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs);
 
+// Sheen colour (KHR_materials_sheen) of `material` at the point: factor × the sRGB-decoded
+// texture. Linear RGB; (0, 0, 0) without sheen.
+Vec3 sample_sheen_color(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs);
+
 // The tangent-space normal the material's normal map stores at the point (2 · texel − 1, x and
 // y multiplied by normalTexture.scale; not normalized), or (0, 0, 1) without a normal map.
 Vec3 sample_normal_map(const Scene& scene, int32_t material, const std::vector<Vec2>& uvs);

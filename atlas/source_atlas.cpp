@@ -114,13 +114,15 @@ bool same_ref(const TextureRef& a, const TextureRef& b) {
 bool same_channels(const Material& a, const Material& b) {
   return same_ref(a.normal, b.normal) && same_ref(a.occlusion, b.occlusion) &&
          same_ref(a.metallic_roughness, b.metallic_roughness) && same_ref(a.emissive, b.emissive) &&
-         a.metallic_factor == b.metallic_factor && a.roughness_factor == b.roughness_factor &&
-         a.emissive_factor == b.emissive_factor;
+         same_ref(a.sheen_color, b.sheen_color) && a.metallic_factor == b.metallic_factor &&
+         a.roughness_factor == b.roughness_factor && a.emissive_factor == b.emissive_factor &&
+         a.sheen_color_factor == b.sheen_color_factor &&
+         a.sheen_roughness_factor == b.sheen_roughness_factor;
 }
 
 bool any_channel_texture(const Material& m) {
   return m.normal.present() || m.occlusion.present() || m.metallic_roughness.present() ||
-         m.emissive.present();
+         m.emissive.present() || m.sheen_color.present();
 }
 
 }  // namespace
@@ -153,7 +155,8 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
       const Material& m = scene.materials[size_t(p.material)];
       const TextureRef& t = m.base_color;
       if (!t.transform.is_identity() || t.tex_coord >= p.uvs.size()) return std::nullopt;
-      for (const TextureRef* c : {&m.normal, &m.occlusion, &m.metallic_roughness, &m.emissive})
+      for (const TextureRef* c :
+           {&m.normal, &m.occlusion, &m.metallic_roughness, &m.emissive, &m.sheen_color})
         if (c->present() && (c->tex_coord != t.tex_coord || !c->transform.is_identity() ||
                              size_t(c->image) >= scene.images.size() ||
                              !scene.images[size_t(c->image)].decoded()))
@@ -300,6 +303,13 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
       case AtlasChannel::kOcclusionRoughnessMetallic: {
         const Vec3 v = sample_occlusion_roughness_metallic(scene, material, uvs);
         px[0] = byte(v.x), px[1] = byte(v.y), px[2] = byte(v.z);
+        break;
+      }
+      case AtlasChannel::kSheen: {
+        const Vec3 c = sample_sheen_color(scene, material, uvs);
+        px[0] = linear_to_srgb(c.x);
+        px[1] = linear_to_srgb(c.y);
+        px[2] = linear_to_srgb(c.z);
         break;
       }
       case AtlasChannel::kEmissive: {

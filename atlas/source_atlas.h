@@ -38,7 +38,7 @@ struct SourceAtlas {
 };
 
 // The further material channels an atlas image may carry (issue 5/8).
-enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive };
+enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive, kSheen };
 
 // The kept image, when:
 // - every primitive with faces either samples, through its material's base-colour texture, the

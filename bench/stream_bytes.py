@@ -5,14 +5,17 @@ For each folder OUT written by `meshmux convert IN -o OUT` (model.glb + model.mm
 package and model.glb bytes and their ratio; the mesh part of the stream (the base's geometry +
 every mesh chunk) against Draco's geometry bytes for the same final mesh in model.glb, and its
 bits per triangle; the texture part of the stream (the base's level 0 + every texture chunk)
-against the top level alone (model.glb's image); the atlas's pixels.
+against the top level alone (model.glb's image); the atlas's pixels against the source pixels
+its materials reference (from OUT.convert.log, convert's progress).
 
 usage: bench/stream_bytes.py OUT [OUT ...]      (bench/stream_bytes.sh converts the shared models)
 """
 import json
 import os
+import re
 import struct
 import sys
+import zlib
 
 
 def glb_parts(data):
@@ -38,10 +41,26 @@ def glb_parts(data):
 
 
 def package_table(data):
+    """The JSON table (format 11: deflated) and the data start its offsets count from."""
     if data[:4] != b"MMXP":
         raise ValueError("not a meshmux package")
     json_size = struct.unpack_from("<I", data, 8)[0]
-    return json.loads(data[12:12 + json_size]), 12 + json_size
+    return json.loads(zlib.decompress(data[12:12 + json_size])), 12 + json_size
+
+
+def atlas_texels(out):
+    """(atlas texels, referenced source texels) from convert's progress (OUT.convert.log)."""
+    log = os.path.normpath(out) + ".convert.log"
+    if not os.path.exists(log):
+        return None, None
+    text = open(log, encoding="utf-8").read()
+    m = re.search(r"atlas: .*?, (\d+)x(\d+) \((\d+) texels of (\d+) referenced\)", text)
+    if m:
+        return int(m.group(1)) * int(m.group(2)), int(m.group(4))
+    m = re.search(r"atlas: the source's one texture kept as it is, (\d+)x(\d+)", text)
+    if m:
+        return int(m.group(1)) * int(m.group(2)), int(m.group(1)) * int(m.group(2))
+    return None, None
 
 
 rows = []
@@ -56,7 +75,13 @@ for out in sys.argv[1:]:
     doc, glb_images, glb_geometry = glb_parts(glb)
     table, header = package_table(pkg)
     base = table["base"]
-    _, base_images, base_geometry = glb_parts(pkg[base["offset"]:base["offset"] + base["size"]])
+    stored = pkg[header + base["offset"]:header + base["offset"] + base["size"]]
+    base_glb = zlib.decompress(stored) if base.get("deflated") else stored
+    _, base_images, base_geometry = glb_parts(base_glb)
+    if base.get("deflated"):
+        # Images (JPEG/PNG) do not deflate: the rest of the stored bytes is the mesh's (and the
+        # glTF JSON's, deflated with it).
+        base_geometry = len(stored) - base_images
     base_indices = sum(m.get("base_indices", {}).get("size", 0) for m in table["meshes"])
     mesh_chunks = sum(c["size"] for c in table["chunks"] if c["kind"] == "mesh")
     tex_chunks = sum(c["size"] for c in table["chunks"] if c["kind"] == "texture")
@@ -64,6 +89,7 @@ for out in sys.argv[1:]:
     mesh_total = base_geometry + base_indices + mesh_chunks
     tex_total = base_images + tex_chunks
     tex = table.get("texture") or {}
+    atlas_px, referenced_px = atlas_texels(out)
     report = os.path.join(out, "report.json")
     dl = json.load(open(report)).get("download", {}) if os.path.exists(report) else {}
     area = dl["package_area"] / dl["download_area"] if dl.get("download_area") else None
@@ -71,20 +97,22 @@ for out in sys.argv[1:]:
         package=len(pkg), glb=len(glb), header=header, triangles=triangles,
         mesh=mesh_total, draco=glb_geometry, bpt=8 * mesh_total / max(triangles, 1),
         tex=tex_total, top=glb_images, pixels=tex.get("width", 0) * tex.get("height", 0),
+        referenced=referenced_px,
         levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0),
         area=area)))
 
 print("| model | triangles | model.glb | package | package / glb (≤ 1.3) | mesh stream | Draco geometry | "
       "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px | "
-      "area: stream / download (< 1) |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+      "referenced px | atlas / referenced (≤ 1) | area: stream / download (< 1) |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for name, r in rows:
     if r is None:
-        print(f"| {name} | – | – | not streamed | | | | | | | | | | |")
+        print(f"| {name} | – | – | not streamed | | | | | | | | | | | | |")
         continue
     ratio = lambda a, b: f"{a / b:.2f}" if b else "–"
     area_text = "–" if r["area"] is None else f"{r['area']:.2f}"
     print(f"| {name} | {r['triangles']} | {r['glb']} | {r['package']} | {ratio(r['package'], r['glb'])} | "
           f"{r['mesh']} | {r['draco']} | {ratio(r['mesh'], r['draco'])} | {r['bpt']:.1f} | {r['tex']} | "
           f"{r['top']} | {ratio(r['tex'], r['top'])} | {r['pixels']} | "
-          f"{area_text} |")
+          f"{'–' if r['referenced'] is None else int(r['referenced'])} | "
+          f"{'–' if not r['referenced'] else ratio(r['pixels'], r['referenced'])} | {area_text} |")

@@ -17,14 +17,17 @@ names=("$@")
 outs=()
 for n in "${names[@]}"; do
   file=$(ls "$models/$n" | grep -iE '\.(glb|gltf|dae)$' | head -1)
-  "$build/meshmux" convert "$models/$n/$file" -o "$work/$n" -q || echo "stream_bytes: $n failed" >&2
+  # Progress goes beside the folder (convert refuses folders holding files it did not write).
+  "$build/meshmux" convert "$models/$n/$file" -o "$work/$n" 2> "$work/$n.convert.log" ||
+    echo "stream_bytes: $n failed" >&2
   outs+=("$work/$n")
 done
 # With no model named, also the generated 1M-triangle mesh (bench/generated_mesh.py).
 if [ $# -eq 0 ]; then
   gen="$work/generated-1M.glb"
   [ -f "$gen" ] || python3 "$here/bench/generated_mesh.py" "$gen" >/dev/null
-  "$build/meshmux" convert "$gen" -o "$work/generated-1M" -q || echo "stream_bytes: generated-1M failed" >&2
+  "$build/meshmux" convert "$gen" -o "$work/generated-1M" 2> "$work/generated-1M.convert.log" ||
+    echo "stream_bytes: generated-1M failed" >&2
   outs+=("$work/generated-1M")
 fi
 python3 "$here/bench/stream_bytes.py" "${outs[@]}"

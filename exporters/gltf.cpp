@@ -48,6 +48,7 @@ const char* const kInstancing = "EXT_mesh_gpu_instancing";
 const char* const kTextureTransform = "KHR_texture_transform";
 const char* const kUnlit = "KHR_materials_unlit";
 const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
+const char* const kSheen = "KHR_materials_sheen";
 
 // The JSON number that prints as the shortest decimal reading back to exactly `f`.
 json num(float f) {
@@ -136,7 +137,8 @@ class Exporter {
     std::set<int32_t> referenced;
     for (const Material& m : scene_.materials)
       for (const TextureRef* t :
-           {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion, &m.emissive})
+           {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion, &m.emissive,
+            &m.sheen_color})
         if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
     image_map_.assign(scene_.images.size(), -1);
     for (int32_t i : referenced) {
@@ -299,6 +301,20 @@ class Exporter {
       if (strength > 1) {
         j["extensions"][kEmissiveStrength] = {{"emissiveStrength", num(strength)}};
         used_.insert(kEmissiveStrength);
+      }
+      // A sheen layer (cloth): its colour factor and texture, its roughness factor.
+      const Vec3 sc = m.sheen_color_factor;
+      if (sc.x > 0 || sc.y > 0 || sc.z > 0 || m.sheen_color.present()) {
+        json sheen = json::object();
+        sheen["sheenColorFactor"] = {num(bounded(sc.x, 0, 1, 0, where + ": sheenColorFactor")),
+                                     num(bounded(sc.y, 0, 1, 0, where + ": sheenColorFactor")),
+                                     num(bounded(sc.z, 0, 1, 0, where + ": sheenColorFactor"))};
+        if (json t = tex(m.sheen_color, "sheenColorTexture"); !t.is_null())
+          sheen["sheenColorTexture"] = std::move(t);
+        const float r = bounded(m.sheen_roughness_factor, 0, 1, 0, where + ": sheenRoughness");
+        if (r != 0) sheen["sheenRoughnessFactor"] = num(r);
+        j["extensions"][kSheen] = std::move(sheen);
+        used_.insert(kSheen);
       }
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";

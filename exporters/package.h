@@ -84,7 +84,7 @@ constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON tabl
 constexpr const char* kBaseColorChannel = "base_color";
 inline bool is_texture_channel(const std::string& c) {
   return c == kBaseColorChannel || c == "normal" || c == "occlusion_roughness_metallic" ||
-         c == "emissive";
+         c == "emissive" || c == "sheen_color";
 }
 
 // Everything the package holds, already encoded: the writer lays bytes out and encodes nothing.

@@ -26,7 +26,6 @@ namespace {
 // Material extensions that change appearance, with what the output shows instead: the
 // metal-roughness core of the material (factors and maps) is kept, the effect is not.
 const std::map<std::string, std::string> kAppearanceExtensions = {
-    {"KHR_materials_sheen", "sheen dropped (cloth shows its base colour without the sheen layer)"},
     {"KHR_materials_clearcoat", "clearcoat dropped (no second specular layer)"},
     {"KHR_materials_transmission",
      "transmission approximated as alpha blending (alpha × (1 − transmissionFactor); the "
@@ -493,6 +492,12 @@ class Importer {
       mark_texture(m.normalTexture.index);
       mark_texture(m.occlusionTexture.index);
       mark_texture(m.emissiveTexture.index);
+      if (auto it = m.extensions.find("KHR_materials_sheen");
+          it != m.extensions.end() && it->second.IsObject() &&
+          it->second.Has("sheenColorTexture") && it->second.Get("sheenColorTexture").IsObject() &&
+          it->second.Get("sheenColorTexture").Has("index") &&
+          it->second.Get("sheenColorTexture").Get("index").IsInt())
+        mark_texture(it->second.Get("sheenColorTexture").Get("index").GetNumberAsInt());
     }
     return used;
   }
@@ -616,6 +621,22 @@ class Importer {
       mat->emissive_factor = {mat->emissive_factor.x * strength, mat->emissive_factor.y * strength,
                               mat->emissive_factor.z * strength};
     }
+    // KHR_materials_sheen is carried: its colour (factor and texture), its roughness factor.
+    if (auto it = src.extensions.find("KHR_materials_sheen"); it != src.extensions.end()) {
+      const tinygltf::Value& v = it->second;
+      if (v.IsObject() && v.Has("sheenColorFactor") && v.Get("sheenColorFactor").IsArray() &&
+          v.Get("sheenColorFactor").ArrayLen() == 3) {
+        float c[3];
+        for (int k = 0; k < 3; ++k) {
+          const tinygltf::Value& e = v.Get("sheenColorFactor").Get(k);
+          const double d = e.IsNumber() ? e.GetNumberAsDouble() : 0.0;
+          c[k] = float(std::isfinite(d) ? std::clamp(d, 0.0, 1.0) : 0.0);
+        }
+        mat->sheen_color_factor = {c[0], c[1], c[2]};
+      }
+      mat->sheen_roughness_factor =
+          float(std::clamp(number(v, "sheenRoughnessFactor", 0.0), 0.0, 1.0));
+    }
     if (auto it = src.extensions.find("KHR_materials_transmission");
         it != src.extensions.end() && !mat->unlit) {
       const double t = std::clamp(number(it->second, "transmissionFactor", 0.0), 0.0, 1.0);
@@ -661,6 +682,18 @@ class Importer {
       mat.double_sided = src.doubleSided;
       mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
       approximate_extensions(src, &mat);
+      if (auto it = src.extensions.find("KHR_materials_sheen");
+          it != src.extensions.end() && it->second.IsObject() &&
+          it->second.Has("sheenColorTexture") && it->second.Get("sheenColorTexture").IsObject()) {
+        const tinygltf::Value& info = it->second.Get("sheenColorTexture");
+        const int index = info.Has("index") && info.Get("index").IsInt()
+                              ? info.Get("index").GetNumberAsInt()
+                              : -1;
+        const int coord = info.Has("texCoord") && info.Get("texCoord").IsInt()
+                              ? info.Get("texCoord").GetNumberAsInt()
+                              : 0;
+        if (index >= 0) mat.sheen_color = texture(index, coord, {}, where + " sheen colour");
+      }
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
       scene_.materials.push_back(std::move(mat));

@@ -180,6 +180,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
         if (map.channel == "occlusion_roughness_metallic")
           set.orm = gl.add_texture(map.image, false);
         if (map.channel == "emissive") set.emissive = gl.add_texture(map.image, true);
+        if (map.channel == "sheen_color") set.sheen = gl.add_texture(map.image, true);
       }
     }
     return texture[size_t(j)];

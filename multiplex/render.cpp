@@ -158,6 +158,8 @@ struct GpuPrimitive {
   Vec4 factor{1, 1, 1, 1};
   float metallic = 1, roughness = 1, occlusion_strength = 1, normal_scale = 1;
   Vec3 emissive{0, 0, 0};
+  Vec3 sheen{0, 0, 0};  // sheen colour factor (0: no sheen layer)
+  float sheen_roughness = 0;
   TextureSet textures;  // its material's own textures (add_geometry with_textures), or none
 };
 
@@ -186,9 +188,11 @@ struct Renderer::Impl {
         u_orm_map = -1, u_emissive_map = -1, u_dfg = -1, u_has_normal_map = -1,
         u_has_orm_map = -1, u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1,
         u_occlusion_strength = -1, u_normal_scale = -1, u_emissive = -1, u_environment = -1,
-        u_light_intensity = -1;
+        u_light_intensity = -1, u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1,
+        u_sheen_roughness = -1;
   // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
-  // occlusion-roughness-metallic, 4 emissive (anisotropic sampler), 5 the DFG table.
+  // occlusion-roughness-metallic, 4 emissive, 6 sheen colour (anisotropic sampler), 5 the DFG
+  // table.
   GLuint sampler_aniso = 0, sampler_plain = 0, sampler_table = 0;
   GLuint dfg_texture = 0;
   float max_anisotropy = 1;
@@ -351,6 +355,10 @@ Status Renderer::Impl::init_gl() {
   u_emissive = glGetUniformLocation(program, "u_emissive");
   u_environment = glGetUniformLocation(program, "u_environment");
   u_light_intensity = glGetUniformLocation(program, "u_light_intensity");
+  u_sheen_map = glGetUniformLocation(program, "u_sheen_map");
+  u_has_sheen_map = glGetUniformLocation(program, "u_has_sheen_map");
+  u_sheen = glGetUniformLocation(program, "u_sheen");
+  u_sheen_roughness = glGetUniformLocation(program, "u_sheen_roughness");
 
   // Sampling state lives in sampler objects (they override the textures' own parameters).
   glGenSamplers(1, &sampler_aniso);
@@ -366,7 +374,7 @@ Status Renderer::Impl::init_gl() {
   glGetError();  // tolerate a driver without anisotropic filtering
   glBindSampler(0, sampler_aniso);
   glBindSampler(1, sampler_plain);
-  for (GLuint unit : {2u, 3u, 4u}) glBindSampler(unit, sampler_aniso);
+  for (GLuint unit : {2u, 3u, 4u, 6u}) glBindSampler(unit, sampler_aniso);
   // The DFG table: 16×16 RG floats, bilinear, clamped (as three.js samples its own).
   glGenSamplers(1, &sampler_table);
   glSamplerParameteri(sampler_table, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -475,6 +483,7 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
         own.normal = upload(material->normal, false);
         own.orm = upload(material->metallic_roughness, false);
         own.emissive = upload(material->emissive, true);
+        own.sheen = upload(material->sheen_color, true);
         if (material->base_color.present() && material->base_color.tex_coord < p.uvs.size())
           uv_set = material->base_color.tex_coord;
       }
@@ -506,6 +515,8 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
         gp.metallic = material->metallic_factor;
         gp.roughness = material->roughness_factor;
         gp.emissive = material->emissive_factor;
+        gp.sheen = material->sheen_color_factor;
+        gp.sheen_roughness = material->sheen_roughness_factor;
         gp.normal_scale = std::isfinite(material->normal.scale) ? material->normal.scale : 1.0f;
         // glTF packs occlusion into the metallic-roughness image's R when both name it.
         gp.occlusion_strength =
@@ -611,7 +622,8 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
   auto live = [&](int k) { return k >= 0 && size_t(k) < m.textures.size() && m.textures[k].id; };
   bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
   // An explicit set overrides the materials' own textures.
-  const bool explicit_set = t.base_color >= 0 || t.normal >= 0 || t.orm >= 0 || t.emissive >= 0;
+  const bool explicit_set =
+      t.base_color >= 0 || t.normal >= 0 || t.orm >= 0 || t.emissive >= 0 || t.sheen >= 0;
   if (geometry_ok) {
     DVec3 axes[3];
     Mat4 view = look_at(camera, axes);
@@ -644,8 +656,9 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
     glUniform1i(m.u_orm_map, 3);
     glUniform1i(m.u_emissive_map, 4);
     glUniform1i(m.u_dfg, 5);
+    glUniform1i(m.u_sheen_map, 6);
     // Binds a texture set (once per change) and says which maps are there.
-    TextureSet bound{-2, -2, -2, -2};
+    TextureSet bound{-2, -2, -2, -2, -2};
     auto bind_unit = [&](GLenum unit, int k) {
       glActiveTexture(unit);
       glBindTexture(GL_TEXTURE_2D, live(k) ? m.textures[size_t(k)].id : 0);
@@ -670,6 +683,10 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
       if (set.emissive != bound.emissive) {
         glUniform1i(m.u_has_emissive_map, physical && live(set.emissive) ? 1 : 0);
         bind_unit(GL_TEXTURE4, set.emissive);
+      }
+      if (set.sheen != bound.sheen) {
+        glUniform1i(m.u_has_sheen_map, physical && live(set.sheen) ? 1 : 0);
+        bind_unit(GL_TEXTURE6, set.sheen);
       }
       glActiveTexture(GL_TEXTURE5);
       glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
@@ -711,6 +728,8 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
         glUniform1f(m.u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
         glUniform1f(m.u_normal_scale, p.normal_scale);
         glUniform3f(m.u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
+        glUniform3f(m.u_sheen, p.sheen.x, p.sheen.y, p.sheen.z);
+        glUniform1f(m.u_sheen_roughness, p.sheen_roughness);
         bind(explicit_set ? t : p.textures);
         glBindVertexArray(p.vao);
         glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);

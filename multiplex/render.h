@@ -51,12 +51,13 @@ inline RenderOptions physical_shading() {
 }
 
 // The textures a draw samples (handles from add_texture; -1: none). Physical shading reads all
-// four; Lambert only the base colour.
+// of them; Lambert only the base colour.
 struct TextureSet {
   int base_color = -1;  // sRGB colour (with alpha)
   int normal = -1;      // tangent-space normal map (data)
   int orm = -1;         // occlusion (R), roughness (G), metallic (B) (data)
   int emissive = -1;    // sRGB colour
+  int sheen = -1;       // sheen colour (KHR_materials_sheen), sRGB
 };
 
 struct RenderImage {

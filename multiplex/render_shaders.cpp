@@ -64,6 +64,10 @@ uniform bool u_has_normal_map, u_has_orm_map, u_has_emissive_map;
 uniform float u_metallic, u_roughness, u_occlusion_strength, u_normal_scale;
 uniform vec3 u_emissive;
 uniform float u_environment, u_light_intensity;
+uniform sampler2D u_sheen_map;
+uniform bool u_has_sheen_map;
+uniform vec3 u_sheen;  // sheen colour factor (0: no sheen layer)
+uniform float u_sheen_roughness;
 out vec4 o_color;
 
 const float PI = 3.141592653589793;
@@ -93,6 +97,24 @@ void scattering(vec2 dfg, vec3 f0, out vec3 single, out vec3 multi) {
   single = fss_ess;
   multi = fms * ems;
 }
+// The sheen layer (KHR_materials_sheen): Estevez and Kulla's "Charlie" distribution, Neubelt
+// and Pettineo's visibility, and Estevez and Kulla's fit of its directional albedo (the
+// energy the layer takes from the layers below it and the image-based sheen term).
+float sheen_distribution(float roughness, float nh) {
+  float alpha = roughness * roughness, inv = 1.0 / alpha;
+  float sin2h = max(1.0 - nh * nh, 0.0078125);
+  return (2.0 + inv) * pow(sin2h, inv * 0.5) / (2.0 * PI);
+}
+float sheen_visibility(float nv, float nl) {
+  return clamp(1.0 / (4.0 * (nl + nv - nl * nv)), 0.0, 1.0);
+}
+float sheen_albedo(float cos_theta, float roughness) {
+  float r2 = roughness * roughness, inv = 1.0 / (roughness + 0.1);
+  float a = -1.9362 + 1.0678 * roughness + 0.4573 * r2 - 0.8469 * inv;
+  float b = -0.6014 + 0.5538 * roughness - 0.4670 * r2 - 0.1255 * inv;
+  return clamp(exp(a * cos_theta + b), 0.0, 1.0);
+}
+
 vec3 srgb_encode(vec3 c) {
   return mix(pow(c, vec3(0.41666)) * 1.055 - vec3(0.055), c * 12.92,
              vec3(lessThanEqual(c, vec3(0.0031308))));
@@ -126,6 +148,7 @@ void main() {
   vec4 normal_texel = texture(u_normal_map, v_uv);
   vec4 orm_texel = texture(u_orm_map, v_uv);
   vec4 emissive_texel = texture(u_emissive_map, v_uv);
+  vec4 sheen_texel = texture(u_sheen_map, v_uv);
   float len = length(v_view_normal);
   vec3 n = (len > 1e-20 ? v_view_normal / len : vec3(0.0, 0.0, 1.0)) * face;
   vec3 dxy = max(abs(dFdx(n)), abs(dFdy(n)));
@@ -176,8 +199,26 @@ void main() {
   env_diffuse *= occlusion;
   env_specular *= clamp(pow(nv + occlusion, exp2(-16.0 * roughness - 1.0)) - 1.0 + occlusion, 0.0, 1.0);
 
+  vec3 sheen = vec3(0.0);
+  if (max(max(u_sheen.r, u_sheen.g), u_sheen.b) > 0.0) {
+    vec3 sheen_color = u_sheen * (u_has_sheen_map ? sheen_texel.rgb : vec3(1.0));
+    float sheen_roughness = clamp(u_sheen_roughness, 0.0001, 1.0);
+    float strongest = max(max(sheen_color.r, sheen_color.g), sheen_color.b);
+    float albedo_v = sheen_albedo(nv, sheen_roughness);
+    // Direct: the layer's lobe, and less light for the layers below.
+    sheen = irradiance * sheen_color * (sheen_distribution(sheen_roughness, nh) *
+                                        sheen_visibility(nv, nl));
+    float direct_left = 1.0 - strongest * max(albedo_v, sheen_albedo(nl, sheen_roughness));
+    lit *= direct_left;
+    specular *= direct_left;
+    // Environment: π L irradiance through the albedo fit (÷ π), occluded like diffuse light.
+    float env_left = 1.0 - strongest * albedo_v;
+    env_specular *= env_left;
+    env_diffuse *= env_left;
+    sheen += env * sheen_color * albedo_v * occlusion;
+  }
   vec3 emissive = u_emissive * (u_has_emissive_map ? emissive_texel.rgb : vec3(1.0));
-  vec3 color = lit + specular + env_diffuse + env_specular + emissive;
+  vec3 color = lit + specular + env_diffuse + env_specular + sheen + emissive;
   o_color = vec4(srgb_encode(max(color, vec3(0.0))), 1.0);
 }
 )";

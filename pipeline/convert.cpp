@@ -62,11 +62,11 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                                  "plain colours in unused texels (no resampling)",
                                  ar.size, ar.height, ar.flat_colors));
   else
-    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d (%.2f Mpx of %.2f "
-                                 "Mpx referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
+    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "
+                                 "%.0f referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
                                  "%.2f s",
                                  ar.charts, ar.flat_colors, ar.size, ar.height,
-                                 double(ar.size) * ar.height / 1e6, ar.reference_texels / 1e6,
+                                 double(ar.size) * ar.height, ar.reference_texels,
                                  100 * ar.utilization, ar.mean_stretch_l2, ar.max_stretch_l2,
                                  ar.seconds));
   Scene out = atlased.take();
@@ -123,6 +123,7 @@ std::vector<SceneChannel> scene_channels(const Scene& scene) {
   add(m.normal, "normal", TexelFilter::kNormal);
   add(m.metallic_roughness, "occlusion_roughness_metallic", TexelFilter::kData);
   add(m.emissive, "emissive", TexelFilter::kSrgb);
+  add(m.sheen_color, "sheen_color", TexelFilter::kSrgb);
   return out;
 }
 

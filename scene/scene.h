@@ -58,6 +58,9 @@ struct Material {
   TextureRef occlusion;                // linear; R = occlusion
   TextureRef emissive;                 // sRGB
   Vec3 emissive_factor{0, 0, 0};       // linear RGB; may exceed 1 (KHR_materials_emissive_strength)
+  Vec3 sheen_color_factor{0, 0, 0};    // KHR_materials_sheen: linear RGB (0: no sheen layer)
+  TextureRef sheen_color;              // sRGB, RGB multiplied by the factor
+  float sheen_roughness_factor = 0;    // [0,1]; its texture is not carried (factor only)
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
   bool double_sided = false;  // render back faces

@@ -113,7 +113,7 @@ TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
   // The base colour, and one image per further channel the material samples (issue 5/8).
   const Material& mat = out->materials[0];
   EXPECT_EQ(out->images.size(), 1u + mat.normal.present() + mat.metallic_roughness.present() +
-                                    mat.emissive.present());
+                                    mat.emissive.present() + mat.sheen_color.present());
   EXPECT_EQ(mat.occlusion.image, mat.metallic_roughness.image);
   EXPECT_TRUE(out->materials[0].base_color.present());
   EXPECT_TRUE(validate(*out).is_ok()) << validate(*out).message();
@@ -654,6 +654,109 @@ INSTANTIATE_TEST_SUITE_P(Shared, AtlasBudgetShared,
                                            "MultiUVTest-glb/MultiUVTest.glb",
                                            "DamagedHelmet-glb/DamagedHelmet.glb"),
                          [](const auto& info) { return testing::model_test_name(info.param); });
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// The stream's first picture is the atlas's smallest level (every other mip level, down to
+// 128 px or less: a 1024-wide atlas shows at 64 px, 16 times smaller). A plain part's block
+// must still hold its colour there; 4-texel blocks averaged with their neighbours and showed
+// TextureSettingsTest's blue panel grey.
+TEST(AtlasBudget, FlatColoursSurviveToTheSmallestLevel) {
+  Scene s;
+  Image img;
+  img.width = img.height = 1024;
+  for (int i = 0; i < 1024 * 1024; ++i)
+    img.rgba.insert(img.rgba.end(), {uint8_t(i * 7 % 256), uint8_t(i / 1024 % 256), 40, 255});
+  s.images.push_back(img);
+  Material textured, red;
+  textured.base_color.image = 0;
+  red.base_color_factor = {1, 0, 0, 1};
+  s.materials = {textured, red};
+  Mesh mesh;
+  for (int k = 0; k < 2; ++k) {
+    Primitive p;
+    const float x = 2.0f * float(k);
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  AtlasOptions o;
+  o.reuse_source_texture = false;
+  AtlasReport rep;
+  auto out = build_atlas(s, o, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_GE(rep.size, 1024);
+  Image level = out->images[0];
+  while (std::max(level.width, level.height) > rep.size / 16) level = downsample_half(level);
+  // The red quad's faces (those at x ≥ 2) in the output mesh, read at their uv centre.
+  const Primitive& p = out->meshes[0].primitives[0];
+  int checked = 0;
+  for (size_t f = 0; f < p.indices.size(); f += 3) {
+    Vec2 c{0, 0};
+    float x = 0;
+    for (int k = 0; k < 3; ++k) {
+      c.x += p.uvs[0][p.indices[f + k]].x / 3;
+      c.y += p.uvs[0][p.indices[f + k]].y / 3;
+      x += p.positions[p.indices[f + k]].x / 3;
+    }
+    if (x < 2) continue;
+    // Within 3 sRGB levels of pure red (a 4-texel block there is half the noise's average).
+    const Vec4 v = sample_image(level, out->materials[0].base_color.sampler, c);
+    EXPECT_NEAR(v.x, 1.0, 0.05);
+    EXPECT_NEAR(v.y, 0.0, 0.03);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 2);
+}
+
+}  // namespace
+}  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// KHR_materials_sheen (SheenChair's velvet): a velvet part and a wooden one. The sheen colour
+// differs between them, so it is baked as its own channel; its roughness stays a factor.
+TEST(AtlasChannels, SheenColourIsBakedWhereItDiffers) {
+  Material velvet, wood;
+  velvet.base_color_factor = {0.8f, 0.2f, 0.1f, 1};
+  velvet.sheen_color_factor = {1, 0.329f, 0.1f};
+  velvet.sheen_roughness_factor = 0.8f;
+  wood.base_color_factor = {0.3f, 0.2f, 0.1f, 1};
+  auto out = build_atlas(two_material_quads(velvet, wood), {}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  const Material& m = out->materials[0];
+  ASSERT_TRUE(m.sheen_color.present());
+  EXPECT_EQ(m.sheen_color_factor, (Vec3{1, 1, 1}));
+  EXPECT_FLOAT_EQ(m.sheen_roughness_factor, 0.8f);
+  const Image& sheen = out->images[size_t(m.sheen_color.image)];
+  const Primitive& p = out->meshes[0].primitives[0];
+  for (size_t f = 0; f < p.indices.size(); f += 3) {
+    Vec2 c{0, 0};
+    float x = 0;
+    for (int k = 0; k < 3; ++k) {
+      c.x += p.uvs[0][p.indices[f + k]].x / 3;
+      c.y += p.uvs[0][p.indices[f + k]].y / 3;
+      x += p.positions[p.indices[f + k]].x / 3;
+    }
+    const Vec4 v = sample_image(sheen, m.sheen_color.sampler, c);
+    if (x < 1.25f) {
+      EXPECT_NEAR(v.x, 1.0, 0.01);
+      EXPECT_NEAR(v.y, 0.329, 0.01);
+    } else {
+      EXPECT_NEAR(v.x, 0.0, 0.01);
+    }
+  }
+}
 
 }  // namespace
 }  // namespace meshmux

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "image/encode.h"
+#include "importers/import.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -391,6 +392,41 @@ TEST(GltfExport, MaterialFieldsSurvive) {
   EXPECT_FALSE(flat.contains("doubleSided"));
   EXPECT_TRUE(has(doc["extensionsUsed"], "KHR_materials_unlit"));
   expect_valid(bytes, "materials.glb");
+}
+
+// A sheen layer (issue 5/8) is written as KHR_materials_sheen and read back the same: colour
+// factor, colour texture, roughness factor; validator-clean.
+TEST(GltfExport, SheenRoundTrips) {
+  Scene scene = textured_cube_scene();
+  Material& m = scene.materials[0];
+  m.sheen_color_factor = {1, 0.5f, 0.25f};
+  // Its own image (one no other slot names: the importer reads only images materials use).
+  Image sheen_image = scene.images[size_t(m.base_color.image)];
+  sheen_image.encoded.clear();
+  sheen_image.mime_type.clear();
+  sheen_image.name = "sheen";
+  scene.images.push_back(sheen_image);
+  m.sheen_color = m.base_color;
+  m.sheen_color.image = int32_t(scene.images.size() - 1);
+  m.sheen_color.transform = {};
+  m.sheen_roughness_factor = 0.75f;
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& sheen = glb.doc["materials"][0]["extensions"]["KHR_materials_sheen"];
+  EXPECT_EQ(sheen["sheenColorFactor"], json({1.0, 0.5, 0.25}));
+  EXPECT_FLOAT_EQ(sheen["sheenRoughnessFactor"].get<float>(), 0.75f);
+  EXPECT_TRUE(sheen.contains("sheenColorTexture"));
+  EXPECT_TRUE(has(glb.doc["extensionsUsed"], "KHR_materials_sheen"));
+  expect_valid(bytes, "sheen.glb");
+  TempDir dir;
+  testing::write_file(dir.file("sheen.glb"), bytes);
+  auto back = import_scene(dir.file("sheen.glb"), {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->materials[0].sheen_color_factor, (Vec3{1, 0.5f, 0.25f}));
+  EXPECT_FLOAT_EQ(back->materials[0].sheen_roughness_factor, 0.75f);
+  ASSERT_TRUE(back->materials[0].sheen_color.present());
+  EXPECT_NE(back->materials[0].sheen_color.image, back->materials[0].base_color.image);
+  EXPECT_TRUE(back->images[size_t(back->materials[0].sheen_color.image)].decoded());
 }
 
 // An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is

@@ -150,3 +150,24 @@ TEST(PhysicalShading, OcclusionDarkensTheEnvironmentLight) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// A sheen layer adds its lobe and its share of the environment (velvet glows at its rim): a
+// black surface with a white sheen is no longer black.
+TEST(PhysicalShading, SheenAddsItsLayer) {
+  MAKE_RENDERER(r, headlight());
+  Material plain;
+  plain.base_color_factor = {0, 0, 0, 1};
+  plain.metallic_factor = 0;
+  Material velvet = plain;
+  velvet.sheen_color_factor = {1, 1, 1};
+  velvet.sheen_roughness_factor = 0.8f;
+  const RenderImage a = r->render(r->add_geometry(quad_scene(plain)), -1, head_on());
+  const RenderImage b = r->render(r->add_geometry(quad_scene(velvet)), -1, head_on());
+  EXPECT_GT(int(centre(b)[0]), int(centre(a)[0]) + 10);
+}
+
+}  // namespace
+}  // namespace meshmux

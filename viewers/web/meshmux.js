@@ -130,8 +130,9 @@ const CHANNEL_SLOTS = {
   normal: ['normalMap'],
   occlusion_roughness_metallic: ['aoMap', 'roughnessMap', 'metalnessMap'],
   emissive: ['emissiveMap'],
+  sheen_color: ['sheenColorMap'],
 };
-const COLOR_CHANNELS = new Set(['base_color', 'emissive']);
+const COLOR_CHANNELS = new Set(['base_color', 'emissive', 'sheen_color']);
 
 function configureMap(texture, channel, anisotropy) {
   configureTexture(texture, anisotropy);
@@ -143,7 +144,9 @@ function configureMap(texture, channel, anisotropy) {
 // two-sided as meshmux's renderer draws, its maps the stream's shared textures. glTF normal maps
 // without tangents: the map's y is negated (three.js's derivative frame runs against glTF's +y).
 function makeStandardMaterial(source, maps) {
-  const m = new THREE.MeshStandardMaterial({
+  // A sheen layer (KHR_materials_sheen, which GLTFLoader gives as MeshPhysicalMaterial.sheen).
+  const sheen = source.isMeshPhysicalMaterial && source.sheen > 0;
+  const m = new (sheen ? THREE.MeshPhysicalMaterial : THREE.MeshStandardMaterial)({
     name: `meshmux(${source.name || 'material'})`,
     side: THREE.DoubleSide,
     color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
@@ -153,6 +156,11 @@ function makeStandardMaterial(source, maps) {
     emissiveIntensity: source.emissiveIntensity ?? 1,
     aoMapIntensity: source.aoMapIntensity ?? 1,
   });
+  if (sheen) {
+    m.sheen = source.sheen;
+    m.sheenColor = source.sheenColor.clone();
+    m.sheenRoughness = source.sheenRoughness;
+  }
   const scale = source.normalScale ? Math.abs(source.normalScale.x) : 1;
   m.normalScale = new THREE.Vector2(scale, -scale);
   for (const [channel, slots] of Object.entries(CHANNEL_SLOTS))

@@ -91,7 +91,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     if (c.kind === 'texture') {
       // Its maps' files one after another, base colour first (one texture step may carry
       // several channels at one size).
-      const CHANNELS = ['base_color', 'normal', 'occlusion_roughness_metallic', 'emissive'];
+      const CHANNELS = ['base_color', 'normal', 'occlusion_roughness_metallic', 'emissive', 'sheen_color'];
       let at = chunk.offset;
       const maps = arr(c.maps, `${w}.maps`).map((m, j) => {
         const mw = `${w}.maps[${j}]`;
