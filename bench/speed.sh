@@ -6,8 +6,8 @@
 #   folder conversion (`convert IN -o DIR`: model.glb, base.glb, the stream) vs `gltfpack -cc`
 #   single file (`convert IN -o X.glb`) vs `gltfpack -cc`
 #   `simplify --ratio 0.2` vs `gltfpack -si 0.2`
-#   the progressive record's rate (input triangles / the simplifier's time, from convert's
-#   progress) and peak RSS (GNU time's maximum resident set size).
+#   the progressive record's rate (unique input triangles / the simplifier's time, from
+#   convert's progress) and peak RSS (GNU time's maximum resident set size).
 # Timings are wall seconds on this machine; run it alone.
 # usage: bench/speed.sh [BUILD_DIR] [INPUT ...]
 set -euo pipefail
@@ -41,14 +41,17 @@ fi
 # run NAME CMD...: runs CMD under GNU time; sets SEC and MB (peak RSS), keeps stderr in WORK/NAME.err.
 run() {
   local name=$1; shift
-  if /usr/bin/time -f '%e %M' -o "$work/$name.time" "$@" >/dev/null 2>"$work/$name.err"; then
-    read -r SEC KB < "$work/$name.time"
-    MB=$((KB / 1024))
+  local t0 t1
+  t0=$(date +%s.%N)
+  if /usr/bin/time -f '%M' -o "$work/$name.time" "$@" >/dev/null 2>"$work/$name.err"; then
+    t1=$(date +%s.%N)
+    SEC=$(python3 -c "import sys; print(f'{float(sys.argv[2]) - float(sys.argv[1]):.3f}')" "$t0" "$t1")
+    MB=$(($(tail -1 "$work/$name.time") / 1024))
   else
     SEC=fail; MB=-
   fi
 }
-ratio() { python3 -c "import sys; a, b = sys.argv[1:]; print('–' if 'fail' in (a, b) or float(b) == 0 else f'{float(a) / float(b):.1f}')" "$1" "$2"; }
+ratio() { python3 -c "import sys; a, b = sys.argv[1:]; print('–' if 'fail' in (a, b) or float(b) <= 0 else f'{float(a) / float(b):.1f}')" "$1" "$2"; }
 
 printf '| input | scene triangles | convert -o DIR s | gltfpack -cc s | ratio (≤ 10) | convert -o X.glb s | ratio (≤ 3) | simplify 0.2 s | gltfpack -si 0.2 s | ratio (≤ 3) | record M tri/s (≥ 1) | peak RSS convert MB (≤ 1024) | gltfpack MB |\n'
 printf '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n'
@@ -62,8 +65,10 @@ for in in "${inputs[@]}"; do
   record=$(python3 - "$work/$name.dir.err" <<'PY'
 import re, sys
 t = open(sys.argv[1], encoding="utf-8", errors="replace").read()
-m = re.search(r"base level: \d+ of (\d+) triangles.*?collapses in (\d+) ms", t)
-print(f"{int(m.group(1)) / max(1, int(m.group(2))) / 1000:.2f}" if m else "–")
+# The record is built on the unique (mesh) triangles; instances share theirs.
+u = re.search(r"cleaned: (\d+) unique triangles", t)
+m = re.search(r"collapses in (\d+) ms", t)
+print(f"{int(u.group(1)) / max(1, int(m.group(1))) / 1000:.2f}" if u and m else "–")
 PY
 )
   run "$name.glb" "$mm" convert "$in" -o "$work/$name.mm.glb"; glb=$SEC
