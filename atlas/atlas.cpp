@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "atlas/source_atlas.h"
+#include "scene/dvec3.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -524,6 +525,39 @@ void stretch_figures(const FlatCharts& fc, AtlasReport* rep) {
   if (wsum > 0) rep->mean_stretch_l2 /= wsum;
 }
 
+// How far the tangent frame glTF viewers generate when a mesh has no TANGENT (MikkTSpace: along
+// dp/du per face, averaged) strays from the frame the normal maps are baked in (three.js's
+// derivative frame: along ∇u): the area-weighted mean angle between dp/du and ∇u over the
+// textured charts' faces, degrees. 0 for a conformal parameterization; the charts are flattened
+// with low stretch, so this stays small and TANGENT is not written.
+double tangent_deviation(const std::vector<MeshView>& views, const FlatCharts& fc) {
+  double sum = 0, wsum = 0;
+  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
+    const Chart& c = fc.charts.charts[i];
+    if (!c.textured || c.mesh >= views.size()) continue;
+    const std::vector<Vec2>& uv = fc.uvs[i].corner_uv;
+    for (size_t k = 0; k < c.faces.size() && 3 * k + 2 < uv.size(); ++k) {
+      DVec3 p[3];
+      for (int j = 0; j < 3; ++j) p[j] = to_dvec3(views[c.mesh].position(c.faces[k], j));
+      const DVec3 e1 = sub(p[1], p[0]), e2 = sub(p[2], p[0]);
+      const double u1 = uv[3 * k + 1].x - uv[3 * k].x, v1 = uv[3 * k + 1].y - uv[3 * k].y;
+      const double u2 = uv[3 * k + 2].x - uv[3 * k].x, v2 = uv[3 * k + 2].y - uv[3 * k].y;
+      const double det = u1 * v2 - u2 * v1;
+      const double area = 0.5 * length(cross(e1, e2));
+      const double a = dot(e1, e1), b = dot(e1, e2), d = dot(e2, e2), g = a * d - b * b;
+      if (!(std::fabs(det) > 1e-20) || !(g > 1e-30) || !(area > 0)) continue;
+      const DVec3 dpdu = mul(sub(mul(e1, v2), mul(e2, v1)), 1 / det);
+      const double alpha = (d * u1 - b * u2) / g, beta = (a * u2 - b * u1) / g;
+      const DVec3 grad = add(mul(e1, alpha), mul(e2, beta));
+      const double l = length(dpdu) * length(grad);
+      if (!(l > 0) || !std::isfinite(l)) continue;
+      sum += area * std::acos(std::clamp(dot(dpdu, grad) / l, -1.0, 1.0));
+      wsum += area;
+    }
+  }
+  return wsum > 0 ? sum / wsum * 180 / 3.14159265358979323846 : 0;
+}
+
 // Step 5a: one material per group of source materials that agree on how alpha and back faces
 // show (alpha mode with its cutoff, double-sidedness, unlit): every group samples the one atlas,
 // so a model costs one draw call per group present (usually one).
@@ -838,6 +872,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
   }
   stretch_figures(fc, &rep);
+  rep.tangent_deviation_deg = tangent_deviation(views, fc);
   std::vector<std::vector<uint32_t>> face_slot(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) face_slot[m].resize(views[m].faces.size());
   for (const Chart& c : fc.charts.charts)

@@ -58,6 +58,8 @@ struct AtlasReport {
   double target_texels = 0;    // T of formula 2
   double mean_stretch_l2 = 0;  // area-weighted over textured charts
   double max_stretch_l2 = 0;
+  double tangent_deviation_deg = 0;  // mean angle between dp/du and ∇u over the textured
+                                     // charts (MikkTSpace's frame against the baked one)
   double seconds = 0;
   // The layout, for tests and tools: per atlas texel (size × height, row-major) its chart
   // (gutters included; -1 none), and
