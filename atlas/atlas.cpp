@@ -25,10 +25,10 @@ constexpr double kVertexColorTexelsPerVertex = 256;  // 16 × 16 texels of atlas
 
 // The output's further channels: which are baked, and the factors shared when not.
 struct ChannelNeeds {
-  BakeChannels bake;        // baked channels (emissive_scale: the largest emissive component)
-  Vec3 orm{1, 1, 1};        // shared occlusion-roughness-metallic factors (when not baked)
-  Vec3 emissive{0, 0, 0};   // shared emissive factor (when not baked)
-  Vec3 sheen{0, 0, 0};      // shared sheen colour factor (when not baked)
+  BakeChannels bake;          // baked channels (emissive_scale: the largest emissive component)
+  Vec3 orm{1, 1, 1};          // shared occlusion-roughness-metallic factors (when not baked)
+  Vec3 emissive{0, 0, 0};     // shared emissive factor (when not baked)
+  Vec3 sheen{0, 0, 0};        // shared sheen colour factor (when not baked)
   float sheen_roughness = 0;  // sheen roughness: area-weighted over the sheen materials
 };
 
@@ -596,8 +596,7 @@ struct ChannelSlots {
 // `prim_group[m][p]`: the group of mesh m's primitive p, computed once by build_atlas.
 Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
                          const std::vector<std::vector<int32_t>>& prim_group, int32_t group,
-                         const GroupKey& key, const ChannelNeeds& need,
-                         const ChannelSlots& slots) {
+                         const GroupKey& key, const ChannelNeeds& need, const ChannelSlots& slots) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
@@ -748,10 +747,9 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
   atlas.name = "atlas";
   out.images.push_back(std::move(atlas));
   ChannelSlots slots;
-  for (auto [image, slot] : {std::pair{&channels.normal, &slots.normal},
-                             std::pair{&channels.orm, &slots.orm},
-                             std::pair{&channels.emissive, &slots.emissive},
-                             std::pair{&channels.sheen, &slots.sheen}})
+  for (auto [image, slot] :
+       {std::pair{&channels.normal, &slots.normal}, std::pair{&channels.orm, &slots.orm},
+        std::pair{&channels.emissive, &slots.emissive}, std::pair{&channels.sheen, &slots.sheen}})
     if (image->decoded()) {
       *slot = int32_t(out.images.size());
       out.images.push_back(std::move(*image));
@@ -836,8 +834,8 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       if (need.bake.normal)
         channels.normal = source_atlas_channel(scene, *source, AtlasChannel::kNormal, es);
       if (need.bake.orm)
-        channels.orm = source_atlas_channel(scene, *source,
-                                            AtlasChannel::kOcclusionRoughnessMetallic, es);
+        channels.orm =
+            source_atlas_channel(scene, *source, AtlasChannel::kOcclusionRoughnessMetallic, es);
       if (need.bake.emissive)
         channels.emissive = source_atlas_channel(scene, *source, AtlasChannel::kEmissive, es);
       if (need.bake.sheen)

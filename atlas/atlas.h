@@ -45,18 +45,18 @@ struct AtlasOptions {
 };
 
 struct AtlasReport {
-  bool built = false;          // false: the scene was returned unchanged
-  bool reused_source = false;  // the source's one texture is the atlas (no charts, no baking)
-  size_t charts = 0;           // textured charts after splitting invalid ones
-  size_t flat_colors = 0;      // distinct flat-colour blocks
-  size_t split = 0;            // charts split because they could not be flattened
-  int size = 0;                // atlas width, texels
-  int height = 0;              // atlas height, texels (size or size / 2)
+  bool built = false;           // false: the scene was returned unchanged
+  bool reused_source = false;   // the source's one texture is the atlas (no charts, no baking)
+  size_t charts = 0;            // textured charts after splitting invalid ones
+  size_t flat_colors = 0;       // distinct flat-colour blocks
+  size_t split = 0;             // charts split because they could not be flattened
+  int size = 0;                 // atlas width, texels
+  int height = 0;               // atlas height, texels (size or size / 2)
   double reference_texels = 0;  // the source texels the materials reference (the atlas's
                                 // budget; T for vertex colours)
-  double utilization = 0;      // packed texels / atlas texels
-  double target_texels = 0;    // T of formula 2
-  double mean_stretch_l2 = 0;  // area-weighted over textured charts
+  double utilization = 0;       // packed texels / atlas texels
+  double target_texels = 0;     // T of formula 2
+  double mean_stretch_l2 = 0;   // area-weighted over textured charts
   double max_stretch_l2 = 0;
   double tangent_deviation_deg = 0;  // mean angle between dp/du and ∇u over the textured
                                      // charts (MikkTSpace's frame against the baked one)

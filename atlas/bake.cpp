@@ -133,8 +133,8 @@ class Source {
     // The source normal map's uvs (transformed, as the frame follows them).
     uint32_t set = 0;
     TextureTransform tt;
-    normal_mapped_ = normal_map_uv(scene_, prim_->material, &set, &tt) &&
-                     set < prim_->uvs.size() && prim_->uvs[set].size() >= prim_->vertex_count();
+    normal_mapped_ = normal_map_uv(scene_, prim_->material, &set, &tt) && set < prim_->uvs.size() &&
+                     prim_->uvs[set].size() >= prim_->vertex_count();
     if (normal_mapped_)
       for (int j = 0; j < 3; ++j) map_uv_[j] = apply_transform(tt, prim_->uvs[set][idx_[j]]);
     current_ = job;
@@ -362,8 +362,9 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
         for (int a = 0; a < count; ++a) {
           if (per_chart && ids[a] != who) continue;
           const uint8_t* q = &rgba[js[a] * 4];
-          Linear4 c = layers[l].srgb ? decode(q) : Linear4{{q[0] / 255.0f, q[1] / 255.0f,
-                                                             q[2] / 255.0f, q[3] / 255.0f}};
+          Linear4 c = layers[l].srgb
+                          ? decode(q)
+                          : Linear4{{q[0] / 255.0f, q[1] / 255.0f, q[2] / 255.0f, q[3] / 255.0f}};
           for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
           ++used;
         }
@@ -392,7 +393,8 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
 }  // namespace
 
 BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vector<ChartUv>& uvs,
-                      const AtlasLayout& layout, const BakeOptions& options, const BakeChannels& channels) {
+                      const AtlasLayout& layout, const BakeOptions& options,
+                      const BakeChannels& channels) {
   BakeResult result;
   const int w = layout.size, h = layout.rows();
   if (w <= 0 || h <= 0) return result;
@@ -454,10 +456,9 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   std::vector<uint8_t>* emissive =
       channel_image(channels.emissive, result.emissive, "atlas emissive");
   std::vector<uint8_t>* sheen = channel_image(channels.sheen, result.sheen, "atlas sheen");
-  const float emissive_scale =
-      channels.emissive_scale > 0 && std::isfinite(channels.emissive_scale)
-          ? channels.emissive_scale
-          : 1.0f;
+  const float emissive_scale = channels.emissive_scale > 0 && std::isfinite(channels.emissive_scale)
+                                   ? channels.emissive_scale
+                                   : 1.0f;
   auto put_channels = [&](size_t i, Vec3 o, Vec3 e, DVec3 m, Vec3 sh) {
     if (sheen) encode({sh.x, sh.y, sh.z, 1}, &(*sheen)[i * 4]);
     if (orm) encode_data({o.x, o.y, o.z, 1}, &(*orm)[i * 4]);

@@ -21,8 +21,8 @@ namespace meshmux {
 
 // Where each chart goes: atlas texel = offset + scale * chart_uv (chart_uv from ChartUv).
 struct AtlasLayout {
-  int size = 0;               // atlas width, texels (power of two)
-  int height = 0;             // atlas height, texels (power of two; 0: size)
+  int size = 0;    // atlas width, texels (power of two)
+  int height = 0;  // atlas height, texels (power of two; 0: size)
   int rows() const { return height > 0 ? height : size; }
   std::vector<Vec2> offset;   // per chart: texel coordinates of chart uv (0, 0)
   std::vector<double> scale;  // per chart: texels per chart-uv unit (0 for flat charts)
@@ -38,16 +38,16 @@ struct BakeOptions {
 // The material channels a bake fills besides base colour (build_atlas decides which), each in
 // an image of the atlas's size with the same charts, gutters and fill.
 struct BakeChannels {
-  bool normal = false;  // tangent-space normal map (linear), in the frame glTF viewers derive
-                        // from the atlas uvs (atlas/tangent_frame.h); 1 sample per texel
-  bool orm = false;     // occlusion (R), roughness (G), metallic (B), linear, factors folded in
-  bool emissive = false;     // emissive radiance / emissive_scale, sRGB
-  bool sheen = false;        // sheen colour (KHR_materials_sheen), sRGB
+  bool normal = false;    // tangent-space normal map (linear), in the frame glTF viewers derive
+                          // from the atlas uvs (atlas/tangent_frame.h); 1 sample per texel
+  bool orm = false;       // occlusion (R), roughness (G), metallic (B), linear, factors folded in
+  bool emissive = false;  // emissive radiance / emissive_scale, sRGB
+  bool sheen = false;     // sheen colour (KHR_materials_sheen), sRGB
   float emissive_scale = 1;  // the divisor (> 0): the largest emissive component
 };
 
 struct BakeResult {
-  Image atlas;  // size × rows() RGBA8, sRGB, row 0 at the top
+  Image atlas;                         // size × rows() RGBA8, sRGB, row 0 at the top
   Image normal, orm, emissive, sheen;  // the same size, RGBA8 (alpha 255) when baked, else
                                        // empty
   std::vector<int32_t>

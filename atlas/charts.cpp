@@ -232,8 +232,7 @@ void Segmenter::build_faces() {
     if (p.material >= 0 && size_t(p.material) < scene_.materials.size()) {
       const Material& m = scene_.materials[size_t(p.material)];
       textured = m.base_color.present() || m.normal.present() || m.occlusion.present() ||
-                 m.metallic_roughness.present() || m.emissive.present() ||
-                 m.sheen_color.present();
+                 m.metallic_roughness.present() || m.emissive.present() || m.sheen_color.present();
       factor = m.base_color_factor;
       orm = {1, m.roughness_factor, m.metallic_factor};
       emissive = m.emissive_factor;

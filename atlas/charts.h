@@ -11,9 +11,9 @@
 // channel, or its primitive has varying vertex colours) merges only with textured faces; a
 // flat-colour face (constant colour: factor × constant vertex colour, with its material's
 // occlusion-roughness-metallic and emissive factors) merges only with faces of exactly the same
-// colour and factors; two faces that are back-to-back twins (same three positions, opposite winding)
-// never share a chart; faces meet across an edge when they share its two positions (so uv seams
-// and material borders of the input do not block merging, but the rules above do).
+// colour and factors; two faces that are back-to-back twins (same three positions, opposite
+// winding) never share a chart; faces meet across an edge when they share its two positions (so uv
+// seams and material borders of the input do not block merging, but the rules above do).
 // Deterministic. Complexity O(F log F) per mesh.
 #pragma once
 

@@ -105,9 +105,9 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
 namespace {
 
 bool same_ref(const TextureRef& a, const TextureRef& b) {
-  return a.image == b.image && (!a.present() || (a.tex_coord == b.tex_coord && a.scale == b.scale &&
-                                                 a.transform.is_identity() &&
-                                                 b.transform.is_identity()));
+  return a.image == b.image &&
+         (!a.present() || (a.tex_coord == b.tex_coord && a.scale == b.scale &&
+                           a.transform.is_identity() && b.transform.is_identity()));
 }
 
 // The channels other than base colour, compared.
@@ -157,9 +157,9 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
       if (!t.transform.is_identity() || t.tex_coord >= p.uvs.size()) return std::nullopt;
       for (const TextureRef* c :
            {&m.normal, &m.occlusion, &m.metallic_roughness, &m.emissive, &m.sheen_color})
-        if (c->present() && (c->tex_coord != t.tex_coord || !c->transform.is_identity() ||
-                             size_t(c->image) >= scene.images.size() ||
-                             !scene.images[size_t(c->image)].decoded()))
+        if (c->present() &&
+            (c->tex_coord != t.tex_coord || !c->transform.is_identity() ||
+             size_t(c->image) >= scene.images.size() || !scene.images[size_t(c->image)].decoded()))
           return std::nullopt;
       SourceAtlas here;
       here.image = t.image;

@@ -27,12 +27,12 @@ struct SourceAtlas {
   // Plain colours: faces whose material has no base-colour texture (and no vertex colours)
   // show their factor; each distinct one gets an aligned square block of texels no textured
   // face comes near (`block` texels, clean down to mip level log2(block)).
-  std::vector<Vec4> flat_colors;    // linear RGBA, in first-use order
-  std::vector<Vec2> flat_uv;        // per flat colour: its block's centre, atlas uv
-  std::vector<int> flat_x, flat_y;  // per flat colour: its block's top-left texel
-  int block = 0;                    // block side, texels (0: no flat colours)
-  int32_t material = -1;            // the first textured face's material (all textured faces'
-                                    // materials agree on every channel, see below)
+  std::vector<Vec4> flat_colors;       // linear RGBA, in first-use order
+  std::vector<Vec2> flat_uv;           // per flat colour: its block's centre, atlas uv
+  std::vector<int> flat_x, flat_y;     // per flat colour: its block's top-left texel
+  int block = 0;                       // block side, texels (0: no flat colours)
+  int32_t material = -1;               // the first textured face's material (all textured faces'
+                                       // materials agree on every channel, see below)
   std::vector<int32_t> flat_material;  // per flat colour: the first material showing it (-1:
                                        // the default material)
 };

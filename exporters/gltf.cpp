@@ -136,9 +136,8 @@ class Exporter {
   void prepare_images() {
     std::set<int32_t> referenced;
     for (const Material& m : scene_.materials)
-      for (const TextureRef* t :
-           {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion, &m.emissive,
-            &m.sheen_color})
+      for (const TextureRef* t : {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion,
+                                  &m.emissive, &m.sheen_color})
         if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
     image_map_.assign(scene_.images.size(), -1);
     for (int32_t i : referenced) {

@@ -141,8 +141,8 @@ struct PackageView {
   double ambient = 0, diffuse = 0;
   double light_direction[3] = {0, 0, 0};
   bool light_follows_camera = true;
-  bool physical = false;     // "shading": "physical" (else "lambert", also when absent)
-  double environment = 0;    // physical: uniform environment radiance
+  bool physical = false;       // "shading": "physical" (else "lambert", also when absent)
+  double environment = 0;      // physical: uniform environment radiance
   double light_intensity = 0;  // physical: the directional light's intensity
 };
 struct Package {

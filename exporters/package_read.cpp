@@ -393,8 +393,8 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     return fail("JSON table length " + std::to_string(json_size) + " past the end of the file (" +
                 std::to_string(file_size) + " bytes)");
   if (json_size == 0) return fail("JSON table length 0");
-  auto inflated = inflate_bytes(bytes.data() + kPackageHeaderBytes, size_t(json_size),
-                               kMaxTableBytes);
+  auto inflated =
+      inflate_bytes(bytes.data() + kPackageHeaderBytes, size_t(json_size), kMaxTableBytes);
   if (!inflated.ok()) return fail("JSON table: " + inflated.status().message());
   const uint8_t* text = inflated->data();
   const size_t text_size = inflated->size();

@@ -77,8 +77,7 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
     if (!c.image || !c.image->decoded() || c.image->width != texture.width ||
         c.image->height != texture.height)
       return Status::error(who + ": channel " + c.channel + " is not decoded at " +
-                               std::to_string(texture.width) + "x" +
-                               std::to_string(texture.height),
+                               std::to_string(texture.width) + "x" + std::to_string(texture.height),
                            ErrorKind::kInternal);
   if (!power_of_two(o.base_size))
     return Status::error(

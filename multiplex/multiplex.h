@@ -20,9 +20,9 @@
 namespace meshmux {
 
 struct MultiplexOptions {
-  int view_layers = 1;               // viewing sphere subdivision: 1 → 10 views
+  int view_layers = 1;                        // viewing sphere subdivision: 1 → 10 views
   RenderOptions render = physical_shading();  // image size and shading (256², physical)
-  ViewOptions views{};               // framing
+  ViewOptions views{};                        // framing
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
   int max_mesh_layers = 12;          // and at most this many
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds

@@ -184,12 +184,11 @@ struct Renderer::Impl {
   GLuint program = 0;
   GLint u_mvp = -1, u_normal = -1, u_texture = -1, u_texture_plain = -1, u_texture_size = -1,
         u_textured = -1, u_factor = -1, u_light = -1, u_ambient = -1, u_diffuse = -1;
-  GLint u_model_view = -1, u_normal_view = -1, u_physical = -1, u_normal_map = -1,
-        u_orm_map = -1, u_emissive_map = -1, u_dfg = -1, u_has_normal_map = -1,
-        u_has_orm_map = -1, u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1,
-        u_occlusion_strength = -1, u_normal_scale = -1, u_emissive = -1, u_environment = -1,
-        u_light_intensity = -1, u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1,
-        u_sheen_roughness = -1;
+  GLint u_model_view = -1, u_normal_view = -1, u_physical = -1, u_normal_map = -1, u_orm_map = -1,
+        u_emissive_map = -1, u_dfg = -1, u_has_normal_map = -1, u_has_orm_map = -1,
+        u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1, u_occlusion_strength = -1,
+        u_normal_scale = -1, u_emissive = -1, u_environment = -1, u_light_intensity = -1,
+        u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1, u_sheen_roughness = -1;
   // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
   // occlusion-roughness-metallic, 4 emissive, 6 sheen colour (anisotropic sampler), 5 the DFG
   // table.
@@ -519,11 +518,10 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
         gp.sheen_roughness = material->sheen_roughness_factor;
         gp.normal_scale = std::isfinite(material->normal.scale) ? material->normal.scale : 1.0f;
         // glTF packs occlusion into the metallic-roughness image's R when both name it.
-        gp.occlusion_strength =
-            material->occlusion.image == material->metallic_roughness.image &&
-                    material->occlusion.present()
-                ? material->occlusion.scale
-                : 0.0f;
+        gp.occlusion_strength = material->occlusion.image == material->metallic_roughness.image &&
+                                        material->occlusion.present()
+                                    ? material->occlusion.scale
+                                    : 0.0f;
       }
       gp.textures = own;
       glGenVertexArrays(1, &gp.vao);
@@ -631,7 +629,7 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
         perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) *
         view;
     DVec3 l = normalize(to_dvec3(o.light_direction));
-    DVec3 l_view = l;  // physical shading works in view space
+    DVec3 l_view = l;              // physical shading works in view space
     if (o.light_follows_camera) {  // camera space → world: inverse (= transposed) view rotation
       l = normalize(DVec3{axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
                           axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
@@ -672,22 +670,16 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
         bind_unit(GL_TEXTURE0, k);
         bind_unit(GL_TEXTURE1, k);
       }
-      if (set.normal != bound.normal) {
-        glUniform1i(m.u_has_normal_map, physical && live(set.normal) ? 1 : 0);
-        bind_unit(GL_TEXTURE2, set.normal);
-      }
-      if (set.orm != bound.orm) {
-        glUniform1i(m.u_has_orm_map, physical && live(set.orm) ? 1 : 0);
-        bind_unit(GL_TEXTURE3, set.orm);
-      }
-      if (set.emissive != bound.emissive) {
-        glUniform1i(m.u_has_emissive_map, physical && live(set.emissive) ? 1 : 0);
-        bind_unit(GL_TEXTURE4, set.emissive);
-      }
-      if (set.sheen != bound.sheen) {
-        glUniform1i(m.u_has_sheen_map, physical && live(set.sheen) ? 1 : 0);
-        bind_unit(GL_TEXTURE6, set.sheen);
-      }
+      // A further map: its unit, and the flag saying the shader has it (physical shading).
+      auto bind_map = [&](int want, int have, GLint flag, GLenum unit) {
+        if (want == have) return;
+        glUniform1i(flag, physical && live(want) ? 1 : 0);
+        bind_unit(unit, want);
+      };
+      bind_map(set.normal, bound.normal, m.u_has_normal_map, GL_TEXTURE2);
+      bind_map(set.orm, bound.orm, m.u_has_orm_map, GL_TEXTURE3);
+      bind_map(set.emissive, bound.emissive, m.u_has_emissive_map, GL_TEXTURE4);
+      bind_map(set.sheen, bound.sheen, m.u_has_sheen_map, GL_TEXTURE6);
       glActiveTexture(GL_TEXTURE5);
       glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
       glActiveTexture(GL_TEXTURE0);

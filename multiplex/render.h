@@ -2,9 +2,9 @@
 // rendered images): OpenGL 4.5 core through EGL's surfaceless platform (Mesa llvmpipe without a
 // GPU), perspective camera, base colour texture with mipmapped trilinear filtering and 16x
 // anisotropy, shading = base colour × (ambient + Lambert from a fixed light), or physically
-// based (normal, occlusion-roughness-metallic and emissive maps; multiplex/render_shaders.cpp). Returns RGBA8 and a
-// coverage mask. Deterministic: identical inputs give identical images. Not thread-safe: one
-// Renderer per thread. No GL or EGL type leaks out of render.cpp.
+// based (normal, occlusion-roughness-metallic and emissive maps; multiplex/render_shaders.cpp).
+// Returns RGBA8 and a coverage mask. Deterministic: identical inputs give identical images. Not
+// thread-safe: one Renderer per thread. No GL or EGL type leaks out of render.cpp.
 #pragma once
 
 #include <cstdint>

@@ -62,13 +62,13 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                                  "plain colours in unused texels (no resampling)",
                                  ar.size, ar.height, ar.flat_colors));
   else
-    report_step(progress, format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "
-                                 "%.0f referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
-                                 "tangent frames within %.2f° of MikkTSpace's, %.2f s",
-                                 ar.charts, ar.flat_colors, ar.size, ar.height,
-                                 double(ar.size) * ar.height, ar.reference_texels,
-                                 100 * ar.utilization, ar.mean_stretch_l2, ar.max_stretch_l2,
-                                 ar.tangent_deviation_deg, ar.seconds));
+    report_step(progress,
+                format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "
+                       "%.0f referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
+                       "tangent frames within %.2f° of MikkTSpace's, %.2f s",
+                       ar.charts, ar.flat_colors, ar.size, ar.height, double(ar.size) * ar.height,
+                       ar.reference_texels, 100 * ar.utilization, ar.mean_stretch_l2,
+                       ar.max_stretch_l2, ar.tangent_deviation_deg, ar.seconds));
   Scene out = atlased.take();
   if (should_flatten(out)) {
     out = flatten(out);
@@ -138,7 +138,8 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
   if (!whole_pyramid) to.base_size = 1 << 30;  // a base larger than the texture: one level
   const std::vector<SceneChannel> sc = scene_channels(scene);
   std::vector<ChannelTexture> channels;
-  for (const SceneChannel& c : sc) channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
+  for (const SceneChannel& c : sc)
+    channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
   auto levels = make_texture_levels(*texture, to, channels);
   if (!levels.ok()) return levels.status();
   texture->encoded = levels->levels.back().encoded;

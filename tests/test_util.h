@@ -99,3 +99,12 @@ void write_text(const std::string& path, const std::string& text);
 int gltf_validator_errors(const std::string& path, std::string* report = nullptr);
 
 }  // namespace meshmux::testing
+
+// A Renderer named `var` made with `opts` (multiplex/render.h), in a test body: the test is
+// skipped only when offscreen OpenGL is unavailable here; any other failure fails.
+#define MAKE_RENDERER(var, opts)                                                \
+  auto var##_result = Renderer::create(opts);                                   \
+  if (!var##_result && var##_result.status().kind() == ErrorKind::kUnavailable) \
+    GTEST_SKIP() << var##_result.status().message();                            \
+  ASSERT_TRUE(var##_result.ok()) << var##_result.status().message();            \
+  std::unique_ptr<Renderer> var = var##_result.take()

@@ -641,8 +641,7 @@ TEST_P(AtlasBudgetShared, NoMoreTexelsThanReferenced) {
   auto out = build_atlas(clean(*in, {}), {}, &rep, nullptr);
   ASSERT_TRUE(out.ok()) << out.status().message();
   ASSERT_TRUE(rep.built);
-  EXPECT_LE(double(rep.size) * rep.height, rep.reference_texels)
-      << rep.size << "x" << rep.height;
+  EXPECT_LE(double(rep.size) * rep.height, rep.reference_texels) << rep.size << "x" << rep.height;
 }
 // Normal maps are baked in the derivative frame three.js uses without TANGENT; viewers that
 // generate MikkTSpace tangents instead follow dp/du. On the atlas's flattened charts the two

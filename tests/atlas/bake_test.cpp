@@ -461,8 +461,8 @@ TEST(BakeChannels, NormalMapShadesAsTheSourceInTheAtlasFrame) {
     for (int x = 2; x < 6; ++x) {
       Rgba t = texel(r.normal, x, y);
       const DVec3 m{t[0] / 127.5 - 1, t[1] / 127.5 - 1, t[2] / 127.5 - 1};
-      const double deg = std::acos(std::clamp(dot(want, apply_normal_map(atlas, m)), -1.0, 1.0)) *
-                         180 / M_PI;
+      const double deg =
+          std::acos(std::clamp(dot(want, apply_normal_map(atlas, m)), -1.0, 1.0)) * 180 / M_PI;
       EXPECT_LT(deg, 1.0) << x << "," << y;
     }
 }

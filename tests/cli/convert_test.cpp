@@ -647,13 +647,12 @@ TEST(ConvertFolder, WritesStreamPackage) {
   EXPECT_EQ(pkg->orders[2].name, "texture-first");
   EXPECT_EQ(pkg->orders[3].name, "constant-ratio");
   // The viewer page and the modules it imports sit beside the package.
-  for (const char* f :
-       {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
-        "viewer/viewer.js",
-        "viewer/viewer.css", "viewer/three/three.module.js", "viewer/three/three.core.js",
-        "viewer/three/LICENSE", "viewer/three/addons/loaders/GLTFLoader.js",
-        "viewer/three/addons/libs/meshopt_decoder.module.js",
-        "viewer/three/addons/controls/OrbitControls.js"})
+  for (const char* f : {"index.html", "viewer/meshmux.js", "viewer/package_reader.js",
+                        "viewer/stream_mesh.js", "viewer/viewer.js", "viewer/viewer.css",
+                        "viewer/three/three.module.js", "viewer/three/three.core.js",
+                        "viewer/three/LICENSE", "viewer/three/addons/loaders/GLTFLoader.js",
+                        "viewer/three/addons/libs/meshopt_decoder.module.js",
+                        "viewer/three/addons/controls/OrbitControls.js"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
   EXPECT_EQ(testing::read_file(dir.file("out/viewer/three/three.core.js")),
             testing::read_file(std::string(MESHMUX_SOURCE_DIR) +

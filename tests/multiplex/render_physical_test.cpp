@@ -10,16 +10,10 @@
 #include "image/color.h"
 #include "multiplex/dfg_lut.h"
 #include "multiplex/render.h"
+#include "test_util.h"
 
 namespace meshmux {
 namespace {
-
-#define MAKE_RENDERER(var, opts)                                                \
-  auto var##_result = Renderer::create(opts);                                   \
-  if (!var##_result && var##_result.status().kind() == ErrorKind::kUnavailable) \
-    GTEST_SKIP() << var##_result.status().message();                            \
-  ASSERT_TRUE(var##_result.ok()) << var##_result.status().message();            \
-  std::unique_ptr<Renderer> var = var##_result.take()
 
 // A unit square facing +z, uv (0,0) at its top-left seen from +z (u along +x, v along −y), with
 // one material.
@@ -74,7 +68,8 @@ TEST(PhysicalShading, DielectricHeadOnMatchesTheClosedForm) {
   RenderImage im = r->render(r->add_geometry(quad_scene(m)), -1, head_on());
   const std::vector<float> lut = dfg_lut();
   const size_t last = size_t(kDfgLutSize - 1);
-  const double a = lut[(last * kDfgLutSize + last) * 2], b = lut[(last * kDfgLutSize + last) * 2 + 1];
+  const double a = lut[(last * kDfgLutSize + last) * 2],
+               b = lut[(last * kDfgLutSize + last) * 2 + 1];
   const double pi = 3.14159265358979323846, base = 0.5, f0 = 0.04;
   const double fresnel = std::exp2(-5.55473 - 6.98316);  // at V·H = 1
   const double f = f0 * (1 - fresnel) + fresnel;
@@ -83,7 +78,8 @@ TEST(PhysicalShading, DielectricHeadOnMatchesTheClosedForm) {
   const double direct_diffuse = o.light_intensity * base / pi * (1 - f);
   const double ess = a + b, ems = 1 - ess, fss_ess = f0 * a + b, favg = f0 + (1 - f0) / 21;
   const double multi = fss_ess * favg / (1 - ems * favg) * ems;
-  const double env = o.environment * (fss_ess + multi) + base * (1 - (fss_ess + multi)) * o.environment;
+  const double env =
+      o.environment * (fss_ess + multi) + base * (1 - (fss_ess + multi)) * o.environment;
   const double linear = direct_specular + direct_diffuse + env;
   const uint8_t want = linear_to_srgb(float(linear));
   const uint8_t* px = centre(im);
@@ -142,8 +138,8 @@ TEST(PhysicalShading, OcclusionDarkensTheEnvironmentLight) {
   m.base_color_factor = {0.8f, 0.8f, 0.8f, 1};
   int g = r->add_geometry(quad_scene(m));
   TextureSet open, occluded;
-  open.orm = r->add_texture(solid(4, 255, 255, 0), false);      // roughness 1, dielectric
-  occluded.orm = r->add_texture(solid(4, 0, 255, 0), false);    // occlusion 0
+  open.orm = r->add_texture(solid(4, 255, 255, 0), false);    // roughness 1, dielectric
+  occluded.orm = r->add_texture(solid(4, 0, 255, 0), false);  // occlusion 0
   EXPECT_GT(centre(r->render(g, open, head_on()))[0], 150);
   EXPECT_LT(centre(r->render(g, occluded, head_on()))[0], 5);
 }

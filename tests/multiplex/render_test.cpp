@@ -9,16 +9,10 @@
 #include <cstdlib>
 #include <string>
 
+#include "test_util.h"
+
 namespace meshmux {
 namespace {
-
-// Skips only when offscreen OpenGL is unavailable here; any other failure fails.
-#define MAKE_RENDERER(var, opts)                                                \
-  auto var##_result = Renderer::create(opts);                                   \
-  if (!var##_result && var##_result.status().kind() == ErrorKind::kUnavailable) \
-    GTEST_SKIP() << var##_result.status().message();                            \
-  ASSERT_TRUE(var##_result.ok()) << var##_result.status().message();            \
-  std::unique_ptr<Renderer> var = var##_result.take()
 
 // A square of half-size h in the z = 0 plane facing +z, glTF uvs: (0,0) at the top-left corner
 // as seen from +z with y up.

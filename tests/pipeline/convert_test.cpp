@@ -195,8 +195,8 @@ TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
   size_t maps = 1;  // base colour and the atlas's further channels, all at the level's size
   for (const PackageChunk& c : pkg->chunks)
     if (c.kind == StreamStep::kTexture) maps = c.maps.size();
-  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(), uint64_t(pkg->texture_width / shift) *
-                                                     uint64_t(pkg->texture_height / shift) * maps)
+  EXPECT_EQ(j["texture_pixels"].get<uint64_t>(),
+            uint64_t(pkg->texture_width / shift) * uint64_t(pkg->texture_height / shift) * maps)
       << "texture level 0";
   EXPECT_EQ(std::max(pkg->texture_width, pkg->texture_height) / shift, 128);
   std::string text(out->base_glb.begin(), out->base_glb.end());
