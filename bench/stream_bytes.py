@@ -41,7 +41,7 @@ def glb_parts(data):
 
 
 def package_table(data):
-    """The JSON table (format 11: deflated) and the data start its offsets count from."""
+    """The JSON table (format 11 on: deflated) and the data start its offsets count from."""
     if data[:4] != b"MMXP":
         raise ValueError("not a meshmux package")
     json_size = struct.unpack_from("<I", data, 8)[0]

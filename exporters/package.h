@@ -74,7 +74,8 @@
 
 namespace meshmux {
 
-constexpr uint32_t kPackageVersion = 11;
+// 12: a flat-shaded mesh carries no normals (an empty N stream in its parts, none in the base).
+constexpr uint32_t kPackageVersion = 12;
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
 constexpr size_t kPackageHeaderBytes = 12;

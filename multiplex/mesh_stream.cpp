@@ -68,6 +68,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
           mesh, "vertex " + std::to_string(v) + " has parent " + std::to_string(pm.parent[v]));
       return;
     }
+  normals_ = stream_carries_normals(pm);
   rank_.resize(nv);
   for (uint32_t v = 0; v < nv; ++v) rank_[v] = v;
   const ProgressiveLevel& b = pm.levels[base_level];
@@ -120,7 +121,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   order_.assign(b.vertex_end, 0);
   for (uint32_t v = 0; v < b.vertex_end; ++v) rank_[v] = remap[v], order_[remap[v]] = v;
   for (uint32_t i = 0; i < b.vertex_end; ++i)
-    sim_.add_vertex(quantize_vertex(pm, quantization, order_[i]));
+    sim_.add_vertex(quantize(order_[i]));
   for (uint32_t& i : cached) i = remap[i];
   // Each group as the client decodes it from the .glb (meshopt's index codec, version 1, may
   // rotate a face's corners): the encoder learns the rotation by decoding its own bytes.
@@ -154,6 +155,19 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
     base_faces_.push_back(std::move(faces));
     begin = end;
   }
+}
+
+QuantizedVertex MeshStreamEncoder::quantize(uint32_t pm_vertex) const {
+  QuantizedVertex q = quantize_vertex(pm_, quantization_, pm_vertex);
+  if (!normals_) q.n[0] = 0, q.n[1] = 0, q.n[2] = 127;
+  return q;
+}
+
+bool stream_carries_normals(const ProgressiveMesh& pm) {
+  if (pm.primitive_flat.empty()) return true;
+  for (uint8_t flat : pm.primitive_flat)
+    if (!flat) return true;
+  return false;
 }
 
 uint32_t MeshStreamEncoder::rep(uint32_t v, uint32_t prefix) const {
@@ -275,7 +289,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       for (uint8_t t : takes) count += t;
       fan_mode = found && count > 0 && sim_.fan(p, start, count, moved, vl, vr) &&
                  vl == made[0].w && vr == made[1].w && moved == takes;
-      if (fan_mode) put_varint(A, start), put_varint(A, count - 1);
+      if (fan_mode) {  // start < kFanLimit (fan() allows no more corners): 5 bits
+        A.push_back(uint8_t(start << 3 | std::min(count - 1, 7u)));
+        if (count - 1 >= 7) put_varint(A, count - 8);
+      }
     }
     M.put(fan_mode);
     if (!fan_mode)
@@ -303,7 +320,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
         sim_.add_face(v, p, nf.w);
       orig_.insert(orig_.end(), nf.orig, nf.orig + 3);
     }
-    QuantizedVertex pred = sim_.predict(v, p), q = quantize_vertex(pm_, quantization_, x);
+    QuantizedVertex pred = sim_.predict(v, p), q = quantize(x);
     // A twin where the new vertex sits (a seam or hard-edge copy split with another) spares
     // its position.
     uint32_t twin[kTwinLimit], twins = sim_.twins(p, twin), pick = 0;
@@ -315,7 +332,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     e.twins += pick > 0;
     for (int k = 0; k < 3 && pick == 0; ++k)
       put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
-    for (int k = 0; k < 3; ++k) put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
+    for (int k = 0; k < 3 && normals_; ++k)
+      put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
     sim_.predict_uv(v, p, q.p, pred.t);  // the decoder knows v's position by then
     for (int k = 0; k < 2; ++k) put_varint(T, zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])));
     sim_.vertices[v] = q;

@@ -38,6 +38,10 @@ struct MeshStreamBase {
   uint32_t vertices = 0, faces = 0;            // the full progressive mesh
   uint32_t base_vertices = 0, base_faces = 0;  // what the base holds
   Bounds bounds;                               // of every position the stream will hold
+  // False when every source primitive is flat-shaded (no normals in the source, glTF 3.7.2.1):
+  // the stream then carries no normals (every vertex holds +Z, an empty N stream) and the
+  // base .glb has none, so a viewer shades it flat as it does model.glb.
+  bool normals = true;
   PositionQuantization quantization;           // the grid positions are coded on
   // Per base vertex in stream order, its progressive-mesh vertex: the base .glb holds the
   // base vertices in this order (the order the base faces first use them).
@@ -68,6 +72,8 @@ class MeshStreamEncoder {
   Result<EncodedMeshPart> next(size_t level);
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
+  // Whether the stream carries normals (MeshStreamBase::normals).
+  bool normals() const { return normals_; }
   // The client's state as the encoder simulates it (for tests).
   const VsplitMesh& client() const { return sim_; }
 
@@ -76,6 +82,8 @@ class MeshStreamEncoder {
   PositionQuantization quantization_;
   uint32_t mesh_ = 0;
   size_t level_ = 0;
+  bool normals_ = true;
+  QuantizedVertex quantize(uint32_t pm_vertex) const;  // quantize_vertex, +Z when !normals_
   VsplitMesh sim_;
   std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
   std::vector<uint32_t> rank_;   // per pm vertex: its stream index (identity past the parts sent)
@@ -89,6 +97,8 @@ class MeshStreamEncoder {
 // check each part is encoded once per conversion). Thread-safe.
 uint64_t mesh_parts_encoded();
 
+// Whether `pm`'s stream carries normals: false when every source primitive is flat.
+bool stream_carries_normals(const ProgressiveMesh& pm);
 // Vertex v of `pm` quantized as the stream codes it (scene/quantize.h): position on the grid,
 // unit normal ·127 (+Z when absent or zero), first uv set on kUvBits bits.
 QuantizedVertex quantize_vertex(const ProgressiveMesh& pm, const PositionQuantization& q,

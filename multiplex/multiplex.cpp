@@ -91,6 +91,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     head.base_vertices = pm.levels[base.level[i]].vertex_end;
     head.base_faces = pm.levels[base.level[i]].face_end;
     head.bounds = package_bounds(pm);
+    head.normals = encoders.back().normals();
     head.quantization = package_quantization(pm);
     head.base_order = encoders.back().stream_order();
     head.base_primitive_faces = encoders.back().base_faces();

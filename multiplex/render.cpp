@@ -491,7 +491,8 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
       for (size_t i = 0; i < n; ++i) {
         Vertex& v = vertices[i];
         Vec3 pos = p.positions[i];
-        Vec3 nor = has_normals ? p.normals[i] : Vec3{0, 0, 1};
+        // A flat primitive is drawn with face normals (zero here: the shader derives them).
+        Vec3 nor = p.flat ? Vec3{0, 0, 0} : has_normals ? p.normals[i] : Vec3{0, 0, 1};
         Vec2 uv = has_uvs ? p.uvs[uv_set][i] : Vec2{0, 0};
         v = Vertex{{pos.x, pos.y, pos.z}, {nor.x, nor.y, nor.z}, {uv.x, uv.y}};
       }

@@ -149,8 +149,12 @@ void main() {
   vec4 orm_texel = texture(u_orm_map, v_uv);
   vec4 emissive_texel = texture(u_emissive_map, v_uv);
   vec4 sheen_texel = texture(u_sheen_map, v_uv);
+  // Zero vertex normals mark a flat-shaded primitive: three.js's FLAT_SHADED face normal.
   float len = length(v_view_normal);
-  vec3 n = (len > 1e-20 ? v_view_normal / len : vec3(0.0, 0.0, 1.0)) * face;
+  vec3 flat_normal = cross(q0, q1);
+  float flat_len = length(flat_normal);
+  vec3 n = len > 1e-20 ? v_view_normal / len * face
+                       : (flat_len > 0.0 ? flat_normal / flat_len : vec3(0.0, 0.0, 1.0));
   vec3 dxy = max(abs(dFdx(n)), abs(dFdy(n)));
   float geometry_roughness = max(max(dxy.x, dxy.y), dxy.z);
   if (u_has_normal_map) {

@@ -324,6 +324,7 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
       uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
     return Status::error("more vertices or faces than the mesh holds", ErrorKind::kInput);
   const uint32_t face_goal = mesh.face_count() + faces;
+  const bool normals = len[7] > 0;  // an empty N stream: the mesh carries no normals (+Z)
   uint32_t previous = 0;
   std::vector<uint32_t> ring;
   std::vector<uint8_t> moved;
@@ -344,9 +345,12 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     uint32_t v = mesh.add_vertex(QuantizedVertex{});
     uint32_t vl = 0, vr = 0;
     if (fan_mode) {
-      uint32_t start, count;
-      if (!A.varint(start) || !A.varint(count) || count == UINT32_MAX)
+      uint32_t start, count, more = 0;
+      if (A.p == A.end) return fail(i, "fan arguments cut short");
+      start = *A.p >> 3, count = *A.p++ & 7u;
+      if (count == 7 && (!A.varint(more) || more > kFanLimit))
         return fail(i, "fan arguments cut short");
+      count += more;
       if (!mesh.fan(p, start, count + 1, moved, vl, vr))
         return fail(i, "parent " + std::to_string(p) + " has no such fan");
       k = 2;
@@ -399,7 +403,10 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     for (int c = 0; c < 3 && pick == 0; ++c)
       if (!P.varint(r[c])) return fail(i, "positions cut short");
     for (int c = 0; c < 3; ++c)
-      if (!N.varint(r[3 + c])) return fail(i, "normals cut short");
+      if (!normals)
+        r[3 + c] = zigzag(int32_t(c == 2 ? 127 : 0) - q.n[c]);
+      else if (!N.varint(r[3 + c]))
+        return fail(i, "normals cut short");
     for (int c = 0; c < 2; ++c)
       if (!T.varint(r[6 + c])) return fail(i, "texture coordinates cut short");
     for (int c = 0; c < 3; ++c) {

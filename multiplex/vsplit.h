@@ -24,8 +24,9 @@
 //   M  per split, a mode bit, then for a mask split one bit per corner in the parent's corner
 //      list (in list order, before the split): 1 = the corner moves to the new vertex. Bits LSB
 //      first, no padding between splits.
-//   A  per fan split (mode bit 1; Hoppe's vsplit, fan()): the list position of vl's corner,
-//      then the count of corners moved minus one. The corners fan() walks move to v and the
+//   A  per fan split (mode bit 1; Hoppe's vsplit, fan()): one byte, the list position of vl's
+//      corner (< kFanLimit) << 3 | min(the count of corners moved - 1, 7), and when that is 7,
+//      a varint: the count - 8. One symbol, so deflate codes the pair's joint frequencies. The corners fan() walks move to v and the
 //      new faces are (v, p, vl) then (v, vr, p).
 //   K  per mask split: the number k of new faces; after the last split, the count x of extra
 //      faces.
@@ -40,6 +41,8 @@
 //   prediction); T: 2 × zigzag(uv - prediction). Predictions: the rounded mean of the new
 //      vertex's ring (every other vertex of its faces after the split), or the parent's values
 //      when it has none; uv from the decoded position where predict_uv() applies.
+//      N is empty when the mesh carries no normals (its sources are flat-shaded, glTF 3.7.2.1:
+//      viewers derive face normals): every new vertex's normal is then +Z (0, 0, 127).
 // A split on the state: append vertex v (the next index); move the masked (or walked) corners of p
 // to v (each pushed to the head of v's list in the order met); append the new faces (corners pushed
 // to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest

@@ -251,10 +251,11 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   for (const MeshStreamBase& m : mx.mesh_streams)
     plain.position_quantization.push_back(m.quantization);
   Scene base_scene = level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true);
-  // The stream's vertices carry normals (the client appends to the base's), so the package's
-  // base keeps them even for flat-shaded sources, whose .glb files go without.
-  for (Mesh& mesh : base_scene.meshes)
-    for (Primitive& p : mesh.primitives) p.flat = false;
+  // A mesh whose stream carries normals (the client appends to the base's) keeps them in every
+  // base primitive, flat-shaded or not; a mesh whose sources are all flat has none in either,
+  // so viewers shade the base and the stream flat, as they shade model.glb.
+  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m)
+    for (Primitive& p : base_scene.meshes[m].primitives) p.flat = !mx.mesh_streams[m].normals;
   // Its vertices in the stream's base order (every primitive holds the whole prefix), and its
   // primitives' faces exactly as the stream's client takes them (MeshStreamBase).
   for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m) {

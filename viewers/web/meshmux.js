@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 11).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 12).
 //
 // A package is one file: a 12-byte header ("MMXP", version, table length), a deflated JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -155,6 +155,9 @@ function makeStandardMaterial(source, maps) {
     emissive: source.emissive ? source.emissive.clone() : new THREE.Color(0, 0, 0),
     emissiveIntensity: source.emissiveIntensity ?? 1,
     aoMapIntensity: source.aoMapIntensity ?? 1,
+    // A base without normals (a flat-shaded source: the stream carries none either) is shaded
+    // with face normals, as GLTFLoader shades model.glb.
+    flatShading: !!source.flatShading,
   });
   if (sheen) {
     m.sheen = source.sheen;

@@ -1,8 +1,8 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 11; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 12; layout in
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 11;
+export const PACKAGE_VERSION = 12;
 // The JSON table and the base .glb inflate to at most these (exporters/package.h).
 export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).

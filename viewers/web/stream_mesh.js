@@ -272,6 +272,7 @@ export class StreamMesh {
     let wp = ee; const we = wp + len[5];
     let pp = we; const pe = pp + len[6];
     let np = pe; const ne = np + len[7];
+    const normals = len[7] > 0;  // an empty N stream: the mesh carries no normals (flat-shaded)
     let tp = ne; const te = tp + len[8];
     let ap = te; const ae = ap + len[9];
     const table = this.twinTable, tmask = table.length - 1, twinPrevious = this.twinPrevious, parentOf = this.parentOf;
@@ -297,8 +298,15 @@ export class StreamMesh {
       // the one whose first neighbour is its second, `count` of them.
       let vl = -1, vr = -1;
       if (fanMode) {
-        const start = readVarint(d, ap, ae); ap = vpos;
-        const count = readVarint(d, ap, ae) + 1; ap = vpos;
+        // One byte: start << 3 | min(count - 1, 7); a varint count - 8 follows a 7.
+        if (ap >= ae) throw fail(`split ${i}: fan arguments cut short`);
+        const start = d[ap] >> 3;
+        let count = (d[ap++] & 7) + 1;
+        if (count === 8) {
+          const more = readVarint(d, ap, ae); ap = vpos;
+          if (more < 0 || more > FAN_LIMIT) throw fail(`split ${i}: fan arguments cut short`);
+          count += more;
+        }
         if (start < 0 || count <= 0) throw fail(`split ${i}: fan arguments cut short`);
         let nd = 0, ok = true;
         for (let c = head[p]; c >= 0 && ok; c = next[c]) {
@@ -442,7 +450,8 @@ export class StreamMesh {
         if (x < 0 || x > 65535) throw fail(`split ${i}: attribute out of range`);
         qp[3 * v + j] = x;
       }
-      for (let j = 0; j < 3; j++) {
+      for (let j = 0; j < 3 && !normals; j++) qn[3 * v + j] = j === 2 ? 127 : 0;  // flat: +Z
+      for (let j = 0; j < 3 && normals; j++) {
         const r = readVarint(d, np, ne); np = vpos;
         if (r < 0) throw fail(`split ${i}: normals cut short`);
         const x = pred[3 + j] + (r % 2 ? -(r + 1) / 2 : r / 2);
