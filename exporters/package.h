@@ -30,7 +30,8 @@
 //                "quantization": {"origin": [x,y,z], "step": s}}],  // the position grid
 //    "texture": {"width": W, "height": H} | null,           // full texture size
 //    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
-//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n bytes,
+//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n bytes
+//                                                  // (inflated),
 //                                                  // from where m stands (its base, then the
 //                                                  // parts before in file order): vertex a, face c
 //               {"kind": "texture", "offset": o, "size": s, "distortion": d,
@@ -50,9 +51,10 @@
 // normalized bytes; uv as normalized shorts, see scene/quantize.h); its f0 faces are the
 // concatenation of that mesh's primitives' indices in primitive order, as decoded (meshopt's
 // index codec may rotate a face's corners; the client keeps them so). A mesh chunk's payload
-// is its parts' bytes in order; each part is the compact vertex splits taking the mesh from
-// vertex a to b and face c to e (multiplex/vsplit.h: one zlib stream; the splits' order is the
-// stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A
+// is one raw deflate stream (RFC 1951) of its parts' bytes in order, n bytes each once
+// inflated; each part is the compact vertex splits taking the mesh from vertex a to b and face
+// c to e (multiplex/vsplit.h; the splits' order is the stream's vertex order, so stream vertex
+// i need not be the progressive mesh's vertex i). A
 // texture chunk is the complete JPEG or PNG files of that level's maps, one per channel.
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
@@ -74,7 +76,8 @@
 
 namespace meshmux {
 
-// 12: a flat-shaded mesh carries no normals (an empty N stream in its parts, none in the base).
+// 12: a flat-shaded mesh carries no normals (an empty N stream in its parts, none in the base);
+// a mesh chunk is one raw deflate stream of its parts (11: a zlib stream per part).
 constexpr uint32_t kPackageVersion = 12;
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
@@ -95,6 +98,9 @@ struct PackageInput {
   // Per mesh layer, the encoded parts that take the meshes from the layer before to it
   // (layer 0, the base, has none): what the multiplexer costed (MultiplexResult::layer_parts).
   const std::vector<std::vector<EncodedMeshPart>>* mesh_layers = nullptr;
+  // Per mesh layer, its chunk's payload: those parts deflated together (deflate_mesh_chunk,
+  // MultiplexResult::layer_chunks), as many entries as mesh_layers.
+  const std::vector<std::vector<uint8_t>>* mesh_chunks = nullptr;
   const TextureLevels* textures = nullptr;  // may be null for untextured scenes
   size_t base_texture_level = 0;            // the level embedded in the base .glb
   std::vector<StreamStep> steps;            // in stream order; each mesh layer once

@@ -99,12 +99,16 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
         return fail(where + "mesh layer " + std::to_string(step.mesh_layer) +
                     " out of range or out of order");
       next_layer = step.mesh_layer + 1;
+      if (!in.mesh_chunks || in.mesh_chunks->size() != in.mesh_layers->size())
+        return fail(where + "no deflated payload for mesh layer " +
+                    std::to_string(step.mesh_layer));
       for (const EncodedMeshPart& part : (*in.mesh_layers)[step.mesh_layer]) {
         if (part.part.mesh >= in.meshes.size())
           return fail(where + "part of mesh " + std::to_string(part.part.mesh) + " out of range");
         c.parts.push_back(part.part);
-        c.payload.insert(c.payload.end(), part.data.begin(), part.data.end());
       }
+      c.payload = (*in.mesh_chunks)[step.mesh_layer];
+      if (!c.parts.empty() && c.payload.empty()) return fail(where + "empty mesh payload");
     }
     chunks.push_back(std::move(c));
   }

@@ -6,7 +6,7 @@
 // the new vertex takes as a mask over the parent's corners, each new face's third vertex as a
 // ring position, and the new vertex's quantized attributes as residuals from its ring's mean
 // (the barycentric predictor of valence-driven coding), or, for a seam or hard-edge copy,
-// the twin it coincides with. The nine byte streams of a part go through zlib so the browser
+// the twin it coincides with. A chunk's parts go through one raw deflate stream so the browser
 // inflates them natively.
 #include "multiplex/mesh_stream.h"
 
@@ -355,14 +355,20 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
                                                          &W, &P, &N, &T,       &A};
   for (const auto* stream : streams) put_varint(plain, uint32_t(stream->size()));
   for (const auto* stream : streams) plain.insert(plain.end(), stream->begin(), stream->end());
-  if (plain.size() > kPartBytesPerElement * (uint64_t(vb - va) + (fb - fa)) + kPartBytesConstant)
+  if (plain.size() > part_byte_limit(vb - va, fb - fa))
     return internal(mesh_, "a part's splits exceed the format's size limit");
-  e.data = deflate_bytes(plain);
-  if (e.data.empty()) return internal(mesh_, "zlib failed");
+  e.data = std::move(plain);
   e.part.bytes = e.data.size();
   level_ = level;
   ++g_parts_encoded;
   return e;
+}
+
+std::vector<uint8_t> deflate_mesh_chunk(const std::vector<EncodedMeshPart>& parts) {
+  if (parts.empty()) return {};  // a chunk without parts has no payload
+  std::vector<uint8_t> plain;
+  for (const EncodedMeshPart& p : parts) plain.insert(plain.end(), p.data.begin(), p.data.end());
+  return deflate_raw(plain);
 }
 
 Bounds package_bounds(const ProgressiveMesh& pm) {

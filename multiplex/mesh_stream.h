@@ -25,7 +25,8 @@ struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
   uint64_t bytes = 0;
 };
-// A part with its encoded bytes (one zlib stream).
+// A part with its encoded bytes (multiplex/vsplit.h; not yet deflated: a chunk deflates its
+// parts together, deflate_mesh_chunk).
 struct EncodedMeshPart {
   PackagePart part;
   std::vector<uint8_t> data;
@@ -92,6 +93,10 @@ class MeshStreamEncoder {
   std::vector<std::vector<uint32_t>> base_faces_;
   uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
 };
+
+// A mesh chunk's payload: its parts' bytes in order, as one raw deflate stream (empty without
+// parts, or on a zlib failure). O(total bytes).
+std::vector<uint8_t> deflate_mesh_chunk(const std::vector<EncodedMeshPart>& parts);
 
 // Parts encoded by every MeshStreamEncoder of this process so far (a counter for tests that
 // check each part is encoded once per conversion). Thread-safe.

@@ -98,6 +98,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     r.mesh_streams.push_back(std::move(head));
   }
   r.layer_parts.resize(size_t(m));
+  r.layer_chunks.resize(size_t(m));
   for (int k = 0; k < m; ++k) {
     uint64_t bytes = 0;
     if (k == 0) {
@@ -107,9 +108,13 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
         if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
         auto part = encoders[i].next(layers[size_t(k)].level[i]);
         if (!part.ok()) return part.status().with_prefix("multiplex");
-        bytes += part->bytes();
         r.layer_parts[size_t(k)].push_back(part.take());
       }
+      r.layer_chunks[size_t(k)] = deflate_mesh_chunk(r.layer_parts[size_t(k)]);
+      if (!r.layer_parts[size_t(k)].empty() && r.layer_chunks[size_t(k)].empty())
+        return Status::error("multiplex: zlib failed on mesh layer " + std::to_string(k),
+                             ErrorKind::kInternal);
+      bytes = r.layer_chunks[size_t(k)].size();
     }
     r.mesh_bytes.push_back(bytes);
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));

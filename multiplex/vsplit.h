@@ -16,9 +16,10 @@
 // and non-manifold fans code the same way, and the client's adjacency is a list of corners per
 // vertex, not a half-edge structure.
 //
-// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is a zlib
-// stream (browsers inflate it with DecompressionStream("deflate")) of nine varint-counted byte
-// streams, each field in its own so deflate's codes fit its values:
+// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is ten
+// varint-counted byte streams, each field in its own so deflate's codes fit its values; a
+// package's mesh chunk is its parts one after the other in one raw deflate stream (browsers
+// inflate it with DecompressionStream("deflate-raw")), so small parts share its code tables:
 //   varint |Z| |K| |F| |M| |E| |W| |P| |N| |T| |A|, then Z K F M E W P N T A
 //   Z  per split: zigzag(parent - previous parent) (previous starts at 0 per part).
 //   M  per split, a mode bit, then for a mask split one bit per corner in the parent's corner
@@ -135,11 +136,15 @@ class VsplitMesh {
   uint32_t new_stamp();
 };
 
-// Appends one part to `mesh`: inflates `data`, applies `splits` splits and checks that exactly
-// `faces` faces were appended. Every count, index and length is checked before use; errors name
-// the problem ("split 12: parent 4001 of 4000 vertices"). Work is bounded by the inflated size,
-// itself bounded by kPartBytesPerElement·(splits + faces) + kPartBytesConstant. On error the
-// mesh is left in an unspecified but valid state.
+// The most bytes a part of `splits` splits and `faces` faces may hold (zlib bombs are refused):
+// kPartBytesPerElement·(splits + faces) + kPartBytesConstant.
+uint64_t part_byte_limit(uint64_t splits, uint64_t faces);
+
+// Appends one part to `mesh`: decodes `data` (the part's bytes, inflated), applies `splits`
+// splits and checks that exactly `faces` faces were appended. Every count, index and length is
+// checked before use; errors name the problem ("split 12: parent 4001 of 4000 vertices"). Work
+// is bounded by the size, itself at most part_byte_limit(splits, faces). On error the mesh is
+// left in an unspecified but valid state.
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces);
 
@@ -156,5 +161,9 @@ inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); 
 // zlib-compresses (level 9) / inflates at most `limit` bytes (an error past it).
 std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in);
 Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit);
+// The same as raw deflate (RFC 1951, no zlib header or checksum): mesh chunks. An empty result
+// from deflate_raw is a zlib failure.
+std::vector<uint8_t> deflate_raw(const std::vector<uint8_t>& in);
+Result<std::vector<uint8_t>> inflate_raw(const uint8_t* data, size_t size, uint64_t limit);
 
 }  // namespace meshmux

@@ -281,6 +281,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   in.base_glb = base.take();
   in.meshes = mx.mesh_streams;
   in.mesh_layers = &mx.layer_parts;
+  in.mesh_chunks = &mx.layer_chunks;
   in.textures = levels.levels.empty() ? nullptr : &levels;
   in.steps = plan->steps;
   in.base_distortion = plan->base_distortion;

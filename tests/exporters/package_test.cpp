@@ -50,6 +50,7 @@ struct Fixture {
   std::vector<uint32_t> base_faces;                  // mesh 0's base faces as a client holds them
   std::vector<size_t> step_levels;                   // per mesh step: the level of mesh 0
   std::vector<std::vector<EncodedMeshPart>> layers;  // per mesh layer, as the multiplexer gives
+  std::vector<std::vector<uint8_t>> chunks;          // per mesh layer, its deflated payload
 };
 
 const Fixture& fixture() {
@@ -101,7 +102,9 @@ const Fixture& fixture() {
     head.base_order = encoder.stream_order();
     f->input.meshes = {head};
     f->layers.resize(1);  // layer 0: the base
+    f->chunks.resize(1);
     f->input.mesh_layers = &f->layers;
+    f->input.mesh_chunks = &f->chunks;
     f->input.textures = &f->textures;
     f->input.base_texture_level = 0;
     size_t b = base.level[0], full = pm.levels.size() - 1;
@@ -111,6 +114,7 @@ const Fixture& fixture() {
         auto part = encoder.next(level);
         if (part.ok()) parts.push_back(part.take());
       }
+      f->chunks.push_back(deflate_mesh_chunk(parts));
       f->layers.push_back(std::move(parts));
       StreamStep st;
       st.kind = StreamStep::kMesh, st.mesh_layer = f->layers.size() - 1, st.distortion = d;
@@ -289,7 +293,11 @@ TEST(Package, RoundTripDecodesEveryPart) {
     EXPECT_EQ(p.vertex_end, to.vertex_end);
     EXPECT_EQ(p.face_begin, fc);
     EXPECT_EQ(p.face_end, to.face_end);
-    EXPECT_EQ(p.bytes, c.size);
+    // The chunk is the part deflated (raw): smaller, and it inflates to the part's bytes.
+    EXPECT_LT(c.size, p.bytes);
+    auto plain = inflate_raw(bytes->data() + c.offset, size_t(c.size), p.bytes);
+    ASSERT_TRUE(plain.ok()) << plain.status().message();
+    EXPECT_EQ(plain->size(), p.bytes);
     Status d = decode_part(*bytes, *pkg, c, 0, *client);
     ASSERT_TRUE(d.is_ok()) << d.message();
     // What a client holds after the part draws the level, face for face.

@@ -121,14 +121,17 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
       need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
       const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
-      // One zlib stream (≥ 8 bytes) of ≥ 10 bytes per split and 1 per face; deflate expands ≤ 1032×.
-      need(part.bytes >= 8 && 10 * nv + nf <= 1032 * part.bytes, `${pw}: ${part.bytes} bytes cannot hold ${nv} splits and ${nf} faces`);
+      // Inflated: ten stream lengths and at least a parent byte per split, at most the part limit.
+      need(part.bytes >= 10 + nv && part.bytes <= PART_BYTES_PER_ELEMENT * (nv + nf) + PART_BYTES_CONSTANT,
+        `${pw}: ${part.bytes} bytes cannot hold ${nv} splits and ${nf} faces`);
       h.vertices = part.vertex_end;
       h.faces = part.face_end;
       bytes += part.bytes;
       return part;
     });
-    need(bytes === chunk.size, `${w}: its parts hold ${bytes} bytes, the chunk ${chunk.size}`);
+    // The chunk is one raw deflate stream of the parts; deflate cannot shrink past 1032×.
+    need(bytes <= 1032 * chunk.size && (bytes === 0) === (chunk.size === 0),
+      `${w}: its parts hold ${bytes} bytes, more than the chunk's ${chunk.size} can inflate to`);
     return chunk;
   });
   const n = chunks.length;

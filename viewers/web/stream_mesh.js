@@ -16,8 +16,8 @@ const UV_MAX = 4095;     // uv bits (scene/quantize.h)
 
 // Inflates one part (a zlib stream) with the browser's DecompressionStream, refusing output past
 // `limit` bytes (a zlib bomb) and trailing or missing bytes.
-export async function inflate(bytes, limit) {
-  const stream = new DecompressionStream('deflate');
+export async function inflate(bytes, limit, format = 'deflate') {
+  const stream = new DecompressionStream(format);
   const writer = stream.writable.getWriter();
   writer.write(bytes).catch(() => {});
   writer.close().catch(() => {});
@@ -34,7 +34,7 @@ export async function inflate(bytes, limit) {
     }
   } catch (e) {
     reader.cancel().catch(() => {});
-    throw new Error(e.message.includes('limit') ? e.message : `not a complete zlib stream (${e.message})`);
+    throw new Error(e.message.includes('limit') ? e.message : `not a complete ${format === 'deflate' ? 'zlib' : format} stream (${e.message})`);
   }
   if (pieces.length === 1) return pieces[0];
   const out = new Uint8Array(total);
@@ -517,27 +517,28 @@ export class StreamMesh {
 // at once (the browser works on them together), then the parts' splits are applied in order.
 // Resolves with the faces added.
 export async function applyMeshChunk(meshes, chunk, payload) {
-  let at = 0;
-  const inflated = chunk.parts.map((part) => {
-    const bytes = payload.subarray(at, at += part.bytes);
+  // The payload is one raw deflate stream of every part's bytes (n each, inflated).
+  let total = 0;
+  for (const part of chunk.parts) {
     const limit = PART_BYTES_PER_ELEMENT * (part.vertex_end - part.vertex_begin + part.face_end - part.face_begin) + PART_BYTES_CONSTANT;
-    const promise = inflate(bytes, limit);
-    promise.catch(() => {});  // awaited below, in order
-    return promise;
-  });
-  let added = 0;
+    if (part.bytes > limit) throw new Error(`mesh ${part.mesh}: a part of ${part.bytes} bytes is more than its splits may take`);
+    total += part.bytes;
+  }
+  let plain;
+  try {
+    plain = total > 0 ? await inflate(payload, total, 'deflate-raw') : new Uint8Array(0);
+  } catch (e) {
+    throw new Error(`mesh chunk: ${e.message}`);
+  }
+  if (plain.length !== total) throw new Error(`mesh chunk: inflates to ${plain.length} bytes, its parts hold ${total}`);
+  let added = 0, at = 0;
   for (let k = 0; k < chunk.parts.length; k++) {
     const part = chunk.parts[k], mesh = meshes[part.mesh];
     if (part.vertex_begin !== mesh.vertices || part.face_begin !== mesh.faces) {
       throw new Error(`mesh ${part.mesh}: part starts at vertex ${part.vertex_begin}, face ${part.face_begin}, ` +
         `but ${mesh.vertices} vertices and ${mesh.faces} faces are received`);
     }
-    let d;
-    try {
-      d = await inflated[k];
-    } catch (e) {
-      throw new Error(`mesh ${part.mesh}: ${e.message}`);
-    }
+    const d = plain.subarray(at, at += part.bytes);
     const faces = part.face_end - part.face_begin;
     mesh.applySplits(d, part.vertex_end - part.vertex_begin, faces);
     added += faces;
