@@ -508,8 +508,8 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
   auto plain = inflate_raw(bytes.data() + chunk.offset, size_t(chunk.size), total);
   if (!plain.ok()) return fail(where + ": " + plain.status().message());
   if (plain->size() != total)
-    return fail(where + ": inflates to " + std::to_string(plain->size()) + " bytes, its parts hold " +
-                std::to_string(total));
+    return fail(where + ": inflates to " + std::to_string(plain->size()) +
+                " bytes, its parts hold " + std::to_string(total));
   where += " part " + std::to_string(part);
   const PackagePart& p = chunk.parts[part];
   if (Status s = check_part(p, package.meshes, where); !s) return s;

@@ -120,8 +120,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
     if (remap[v] == ~0u) remap[v] = uint32_t(used++);
   order_.assign(b.vertex_end, 0);
   for (uint32_t v = 0; v < b.vertex_end; ++v) rank_[v] = remap[v], order_[remap[v]] = v;
-  for (uint32_t i = 0; i < b.vertex_end; ++i)
-    sim_.add_vertex(quantize(order_[i]));
+  for (uint32_t i = 0; i < b.vertex_end; ++i) sim_.add_vertex(quantize(order_[i]));
   for (uint32_t& i : cached) i = remap[i];
   // Each group as the client decodes it from the .glb (meshopt's index codec, version 1, may
   // rotate a face's corners): the encoder learns the rotation by decoding its own bytes.

@@ -43,7 +43,7 @@ struct MeshStreamBase {
   // the stream then carries no normals (every vertex holds +Z, an empty N stream) and the
   // base .glb has none, so a viewer shades it flat as it does model.glb.
   bool normals = true;
-  PositionQuantization quantization;           // the grid positions are coded on
+  PositionQuantization quantization;  // the grid positions are coded on
   // Per base vertex in stream order, its progressive-mesh vertex: the base .glb holds the
   // base vertices in this order (the order the base faces first use them).
   std::vector<uint32_t> base_order;

@@ -336,9 +336,8 @@ uint64_t part_byte_limit(uint64_t splits, uint64_t faces) {
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces) {
   if (size > part_byte_limit(splits, faces))
-    return Status::error(std::to_string(size) + " bytes are more than " +
-                             std::to_string(splits) + " splits and " + std::to_string(faces) +
-                             " faces may take",
+    return Status::error(std::to_string(size) + " bytes are more than " + std::to_string(splits) +
+                             " splits and " + std::to_string(faces) + " faces may take",
                          ErrorKind::kInput);
   Reader head{data, data + size};
   uint32_t len[kVsplitStreams];

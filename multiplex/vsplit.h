@@ -27,8 +27,8 @@
 //      first, no padding between splits.
 //   A  per fan split (mode bit 1; Hoppe's vsplit, fan()): one byte, the list position of vl's
 //      corner (< kFanLimit) << 3 | min(the count of corners moved - 1, 7), and when that is 7,
-//      a varint: the count - 8. One symbol, so deflate codes the pair's joint frequencies. The corners fan() walks move to v and the
-//      new faces are (v, p, vl) then (v, vr, p).
+//      a varint: the count - 8. One symbol, so deflate codes the pair's joint frequencies. The
+//      corners fan() walks move to v and the new faces are (v, p, vl) then (v, vr, p).
 //   K  per mask split: the number k of new faces; after the last split, the count x of extra
 //      faces.
 //   F  per new face of a mask split (i << 1 | flip): the third vertex w is entry i of the ring
