@@ -30,8 +30,8 @@
 //                "quantization": {"origin": [x,y,z], "step": s}}],  // the position grid
 //    "texture": {"width": W, "height": H} | null,           // full texture size
 //    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
-//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n bytes
-//                                                  // (inflated),
+//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n coded
+//                                                  // bytes (summing to the chunk's size),
 //                                                  // from where m stands (its base, then the
 //                                                  // parts before in file order): vertex a, face c
 //               {"kind": "texture", "offset": o, "size": s, "distortion": d,
@@ -51,8 +51,7 @@
 // normalized bytes; uv as normalized shorts, see scene/quantize.h); its f0 faces are the
 // concatenation of that mesh's primitives' indices in primitive order, as decoded (meshopt's
 // index codec may rotate a face's corners; the client keeps them so). A mesh chunk's payload
-// is one raw deflate stream (RFC 1951) of its parts' bytes in order, n bytes each once
-// inflated; each part is the compact vertex splits taking the mesh from vertex a to b and face
+// is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits taking the mesh from vertex a to b and face
 // c to e (multiplex/vsplit.h; the splits' order is the stream's vertex order, so stream vertex
 // i need not be the progressive mesh's vertex i). A
 // texture chunk is the complete JPEG or PNG files of that level's maps, one per channel.
@@ -76,9 +75,9 @@
 
 namespace meshmux {
 
-// 12: a flat-shaded mesh carries no normals (an empty N stream in its parts, none in the base);
-// a mesh chunk is one raw deflate stream of its parts (11: a zlib stream per part).
-constexpr uint32_t kPackageVersion = 12;
+// 13: a part is one adaptive range-coded stream (multiplex/range_coder.h; 12: ten byte streams,
+// the chunk's parts deflated together); flat-shaded meshes carry no normals since 12.
+constexpr uint32_t kPackageVersion = 13;
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
 constexpr size_t kPackageHeaderBytes = 12;
@@ -98,7 +97,7 @@ struct PackageInput {
   // Per mesh layer, the encoded parts that take the meshes from the layer before to it
   // (layer 0, the base, has none): what the multiplexer costed (MultiplexResult::layer_parts).
   const std::vector<std::vector<EncodedMeshPart>>* mesh_layers = nullptr;
-  // Per mesh layer, its chunk's payload: those parts deflated together (deflate_mesh_chunk,
+  // Per mesh layer, its chunk's payload: those parts' bytes in order (mesh_chunk_payload,
   // MultiplexResult::layer_chunks), as many entries as mesh_layers.
   const std::vector<std::vector<uint8_t>>* mesh_chunks = nullptr;
   const TextureLevels* textures = nullptr;  // may be null for untextured scenes

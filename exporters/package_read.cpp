@@ -17,7 +17,7 @@
 #include <string>
 
 #include "exporters/package.h"
-#include "multiplex/vsplit.h"  // inflate_bytes
+#include "multiplex/vsplit.h"  // inflate_bytes, part_size_plausible
 #include "scene/json_depth.h"
 
 namespace meshmux {
@@ -26,8 +26,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-// deflate's longest match (258 bytes) costs at least 2 bits: no stream inflates past 1032×.
-constexpr uint64_t kMaxDeflateRatio = 1032;
 constexpr uint64_t kMaxCount = kMaxStreamElements;
 
 Status fail(const std::string& message) {
@@ -168,10 +166,9 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
     return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " +
                 std::to_string(p.face_end) + ") outside the mesh's " + std::to_string(m.faces) +
                 " faces");
-  // A part (inflated) is ten stream lengths and at least a parent byte per split, and at most
-  // part_byte_limit (multiplex/vsplit.h).
+  // A part's coded bytes can stand for only so many splits and faces (multiplex/vsplit.h).
   uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
-  if (p.bytes < kVsplitStreams + nv || p.bytes > part_byte_limit(nv, nf))
+  if (!part_size_plausible(p.bytes, nv, nf))
     return fail(where + ": " + std::to_string(p.bytes) + " bytes cannot hold " +
                 std::to_string(nv) + " splits and " + std::to_string(nf) + " faces");
   return Status::ok();
@@ -185,8 +182,8 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   if (!j.is_array() || j.size() != 4)
     return fail(where + " is not [mesh, vertex_end, face_end, bytes]");
   uint64_t v[4];
-  // n is inflated bytes: at most what the file could inflate to.
-  const uint64_t max[4] = {kMaxCount, kMaxCount, kMaxCount, file_size * kMaxDeflateRatio};
+  // n is coded bytes: within the file.
+  const uint64_t max[4] = {kMaxCount, kMaxCount, kMaxCount, file_size};
   for (size_t i = 0; i < 4; ++i) {
     if (!j[i].is_number_unsigned() && !(j[i].is_number_integer() && j[i].get<int64_t>() >= 0))
       return fail(where + ": entry " + std::to_string(i) + " is not an unsigned integer");
@@ -275,14 +272,12 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
     if (!(s = read_part((*parts)[i], pkg.meshes, file_size, held, p,
                         where + " part " + std::to_string(i))))
       return s;
-    sum += p.bytes;  // each ≤ file size · kMaxDeflateRatio: no overflow
-    // The chunk inflates to its parts' bytes; deflate cannot shrink past kMaxDeflateRatio.
-    if (sum > c.size * kMaxDeflateRatio)
-      return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size) +
-                  " can inflate to");
+    sum += p.bytes;  // each ≤ the file size: no overflow
+    if (sum > c.size)
+      return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(c.size));
     c.parts.push_back(p);
   }
-  if ((sum == 0) != (c.size == 0) || (c.size > 0 && c.size < 2))
+  if (sum != c.size)
     return fail(where + ": parts hold " + std::to_string(sum) + " bytes, the chunk " +
                 std::to_string(c.size));
   return Status::ok();
@@ -492,24 +487,14 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
   uint64_t size = bytes.size();
   if (chunk.offset > size || chunk.size > size - chunk.offset)
     return fail(where + ": range past the end of the file");
-  // The chunk inflated (one raw deflate stream of every part's bytes): the part is a slice.
+  // The part is a slice of the chunk: its bytes after those of the parts before it.
   uint64_t total = 0, offset = 0;
   for (size_t i = 0; i < chunk.parts.size(); ++i) {
-    const PackagePart& p = chunk.parts[i];
-    uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
-    if (p.vertex_begin > p.vertex_end || p.face_begin > p.face_end ||
-        p.bytes > part_byte_limit(nv, nf))
-      return fail(where + " part " + std::to_string(i) + ": implausible size");
     if (i == part) offset = total;
-    total += p.bytes;
+    total += chunk.parts[i].bytes;
+    if (total > chunk.size)
+      return fail(where + ": parts hold more bytes than the chunk's " + std::to_string(chunk.size));
   }
-  if (total > chunk.size * kMaxDeflateRatio)
-    return fail(where + ": parts hold more than the chunk can inflate to");
-  auto plain = inflate_raw(bytes.data() + chunk.offset, size_t(chunk.size), total);
-  if (!plain.ok()) return fail(where + ": " + plain.status().message());
-  if (plain->size() != total)
-    return fail(where + ": inflates to " + std::to_string(plain->size()) +
-                " bytes, its parts hold " + std::to_string(total));
   where += " part " + std::to_string(part);
   const PackagePart& p = chunk.parts[part];
   if (Status s = check_part(p, package.meshes, where); !s) return s;
@@ -517,7 +502,7 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
     return fail(where + ": starts at vertex " + std::to_string(p.vertex_begin) + ", face " +
                 std::to_string(p.face_begin) + "; " + std::to_string(mesh.vertex_count()) +
                 " vertices and " + std::to_string(mesh.face_count()) + " faces are held");
-  Status s = decode_vsplit_part(mesh, plain->data() + offset, size_t(p.bytes),
+  Status s = decode_vsplit_part(mesh, bytes.data() + chunk.offset + offset, size_t(p.bytes),
                                 p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
   if (!s) return fail(where + ": " + s.message());
   return Status::ok();

@@ -100,7 +100,7 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
                     " out of range or out of order");
       next_layer = step.mesh_layer + 1;
       if (!in.mesh_chunks || in.mesh_chunks->size() != in.mesh_layers->size())
-        return fail(where + "no deflated payload for mesh layer " +
+        return fail(where + "no payload for mesh layer " +
                     std::to_string(step.mesh_layer));
       for (const EncodedMeshPart& part : (*in.mesh_layers)[step.mesh_layer]) {
         if (part.part.mesh >= in.meshes.size())

@@ -6,8 +6,8 @@
 // the new vertex takes as a mask over the parent's corners, each new face's third vertex as a
 // ring position, and the new vertex's quantized attributes as residuals from its ring's mean
 // (the barycentric predictor of valence-driven coding), or, for a seam or hard-edge copy,
-// the twin it coincides with. A chunk's parts go through one raw deflate stream so the browser
-// inflates them natively.
+// the twin it coincides with. Everything goes through the adaptive range coder
+// (multiplex/range_coder.h), each field with contexts of its own.
 #include "multiplex/mesh_stream.h"
 
 #include <meshoptimizer.h>
@@ -69,6 +69,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
       return;
     }
   normals_ = stream_carries_normals(pm);
+  uvs_ = !pm.uvs.empty();
   rank_.resize(nv);
   for (uint32_t v = 0; v < nv; ++v) rank_[v] = v;
   const ProgressiveLevel& b = pm.levels[base_level];
@@ -174,20 +175,6 @@ uint32_t MeshStreamEncoder::rep(uint32_t v, uint32_t prefix) const {
   return v;
 }
 
-namespace {
-
-struct BitWriter {
-  std::vector<uint8_t> bytes;
-  uint64_t bits = 0;
-  void put(bool b) {
-    if ((bits & 7) == 0) bytes.push_back(0);
-    if (b) bytes.back() |= uint8_t(1u << (bits & 7));
-    ++bits;
-  }
-};
-
-}  // namespace
-
 Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   if (!status_) return status_;
   if (level >= pm_.levels.size() || level < level_)
@@ -238,24 +225,27 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     }
     faces_of[hi - 1 - va].push_back(f);
   }
-  std::vector<uint8_t> Z, K, F, E, W, P, N, T, A;
+  RangeEncoder out;
+  VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
+  out.put_direct(normals_ ? 1 : 0, 1);
+  out.put_direct(uvs_ ? 1 : 0, 1);
   std::vector<uint8_t> takes, moved;  // per corner of the parent: taken by the new vertex
-  BitWriter M;
   std::vector<uint32_t> ring;
   struct NewFace {
     uint32_t w, flip, orig[3];
   };
   std::vector<NewFace> made;  // one split's new faces (reused)
-  uint32_t previous = 0;
+  uint32_t previous = 0, previous_mode = 1;
   for (uint32_t v = va; v < vb; ++v) {
-    uint32_t x = order_[v], p = rank_[pm_.parent[x]];
-    put_varint(Z, zigzag(int32_t(p) - int32_t(previous)));
+    uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
+    out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
     previous = p;
     sim_.add_vertex(QuantizedVertex{});
     // Which of p's corners (in list order) the new vertex takes.
     takes.clear();
     for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)])
-      takes.push_back(rep(orig_[size_t(c)], v + 1) == x);
+      takes.push_back(rep(orig_[size_t(c)], v + 1) == xv);
+    const uint32_t dc = std::min(uint32_t(takes.size()), kFanLimit);
     // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
     made.clear();
     for (uint32_t f : faces_of[v - va]) {
@@ -277,9 +267,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     // (v, vr, p) and the corners taken are the fan from vl to vr: two small numbers instead of
     // the mask, the face count and the face codes.
     bool fan_mode = false;
+    uint32_t start = 0, count = 0;
     if (made.size() == 2 && made[0].flip != made[1].flip) {
       if (made[0].flip) std::swap(made[0], made[1]);
-      uint32_t start = 0, count = 0, position = 0, vl = 0, vr = 0;
+      uint32_t position = 0, vl = 0, vr = 0;
       bool found = false;
       for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)], ++position) {
         size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
@@ -288,14 +279,20 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       for (uint8_t t : takes) count += t;
       fan_mode = found && count > 0 && sim_.fan(p, start, count, moved, vl, vr) &&
                  vl == made[0].w && vr == made[1].w && moved == takes;
-      if (fan_mode) {  // start < kFanLimit (fan() allows no more corners): 5 bits
-        A.push_back(uint8_t(start << 3 | std::min(count - 1, 7u)));
-        if (count - 1 >= 7) put_varint(A, count - 8);
+    }
+    out.put_bit(x.mode[previous_mode], fan_mode);
+    previous_mode = fan_mode;
+    if (fan_mode) {  // fan() allows at most kFanLimit corners: both fit 5 bits
+      out.put_tree(x.fan_start[dc], start);
+      out.put_tree(x.fan_count[dc], count - 1);
+    } else {
+      out.put_uint(x.faces, uint32_t(made.size()));
+      uint32_t last = 0;
+      for (size_t position = 0; position < takes.size(); ++position) {
+        out.put_bit(x.mask[std::min<size_t>(position, 7)][last], takes[position]);
+        last = takes[position];
       }
     }
-    M.put(fan_mode);
-    if (!fan_mode)
-      for (uint8_t t : takes) M.put(t != 0);
     uint32_t position = 0;
     for (int32_t c = sim_.head[p], prev = -1; c >= 0; ++position) {
       int32_t after = sim_.next[size_t(c)];
@@ -305,13 +302,12 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
         prev = c;
       c = after;
     }
-    if (!fan_mode) put_varint(K, uint32_t(made.size()));
     if (!fan_mode && !made.empty()) sim_.ring(p, v, kRingLimit, ring);
     for (const NewFace& nf : made) {
       if (!fan_mode) {
         uint32_t i = uint32_t(std::find(ring.begin(), ring.end(), nf.w) - ring.begin());
-        put_varint(F, (i << 1) | nf.flip);
-        if (i == ring.size()) put_varint(E, nf.w);
+        out.put_uint(x.face, (i << 1) | nf.flip);
+        if (i == ring.size()) out.put_uint(x.escape, nf.w);
       }
       if (nf.flip)
         sim_.add_face(v, nf.w, p);
@@ -319,7 +315,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
         sim_.add_face(v, p, nf.w);
       orig_.insert(orig_.end(), nf.orig, nf.orig + 3);
     }
-    QuantizedVertex pred = sim_.predict(v, p), q = quantize(x);
+    uint32_t extent_class = 0;
+    QuantizedVertex pred = sim_.predict(v, p, &extent_class), q = quantize(xv);
     // A twin where the new vertex sits (a seam or hard-edge copy split with another) spares
     // its position.
     uint32_t twin[kTwinLimit], twins = sim_.twins(p, twin), pick = 0;
@@ -327,35 +324,47 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       const QuantizedVertex& u = sim_.vertices[twin[t]];
       if (u.p[0] == q.p[0] && u.p[1] == q.p[1] && u.p[2] == q.p[2]) pick = t + 1;
     }
-    if (twins > 0) put_varint(W, pick);
+    if (twins > 0) out.put_tree(x.twin[twins], pick);
     e.twins += pick > 0;
-    for (int k = 0; k < 3 && pick == 0; ++k)
-      put_varint(P, zigzag(int32_t(q.p[k]) - int32_t(pred.p[k])));
+    if (pick == 0) {  // two axes along the fan from the ring's mean, the third on its plane
+      int64_t normal[3];
+      int order[3];
+      sim_.fan_normal(v, pred.p, normal);
+      const bool plane = plane_axes(normal, order);
+      for (int role = 0; role < 3; ++role) {
+        const int axis = order[role];
+        int64_t base = role == 2 && plane
+                           ? plane_predict(normal, order, pred.p, q.p[order[0]], q.p[order[1]])
+                           : int64_t(pred.p[axis]);
+        out.put_uint(x.position[role][extent_class], zigzag(int32_t(int64_t(q.p[axis]) - base)),
+                     kResidualModelledBits);
+      }
+    }
     for (int k = 0; k < 3 && normals_; ++k)
-      put_varint(N, zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])));
-    sim_.predict_uv(v, p, q.p, pred.t);  // the decoder knows v's position by then
-    for (int k = 0; k < 2; ++k) put_varint(T, zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])));
+      out.put_uint(x.normal[k], zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])),
+                   kResidualModelledBits);
+    // The decoder knows v's position by then.
+    const uint32_t uv_predicted = uvs_ && sim_.predict_uv(v, p, q.p, pred.t) ? 1 : 0;
+    for (int k = 0; k < 2 && uvs_; ++k)
+      out.put_uint(x.uv[k][uv_predicted], zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])),
+                   kResidualModelledBits);
     sim_.vertices[v] = q;
     sim_.add_twin(p, v);
   }
-  put_varint(K, uint32_t(extras.size()));
+  out.put_uint(x.extra, uint32_t(extras.size()));
   for (uint32_t f : extras) {
     uint32_t s[3];
     for (int k = 0; k < 3; ++k) {
       uint32_t o = pm_.indices[size_t(f) * 3 + size_t(k)];
       s[k] = rank_[rep(o, vb)];
-      put_varint(E, s[k]);
+      out.put_uint(x.escape, s[k]);
     }
     sim_.add_face(s[0], s[1], s[2]);
     for (int k = 0; k < 3; ++k) orig_.push_back(pm_.indices[size_t(f) * 3 + size_t(k)]);
   }
-  std::vector<uint8_t> plain;
-  const std::vector<uint8_t>* streams[kVsplitStreams] = {&Z, &K, &F, &M.bytes, &E,
-                                                         &W, &P, &N, &T,       &A};
-  for (const auto* stream : streams) put_varint(plain, uint32_t(stream->size()));
-  for (const auto* stream : streams) plain.insert(plain.end(), stream->begin(), stream->end());
-  if (plain.size() > part_byte_limit(vb - va, fb - fa))
-    return internal(mesh_, "a part's splits exceed the format's size limit");
+  std::vector<uint8_t> plain = out.finish();
+  if (!part_size_plausible(plain.size(), vb - va, fb - fa))
+    return internal(mesh_, "a part's splits are more than the format allows for its bytes");
   e.data = std::move(plain);
   e.part.bytes = e.data.size();
   level_ = level;
@@ -363,11 +372,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   return e;
 }
 
-std::vector<uint8_t> deflate_mesh_chunk(const std::vector<EncodedMeshPart>& parts) {
-  if (parts.empty()) return {};  // a chunk without parts has no payload
-  std::vector<uint8_t> plain;
-  for (const EncodedMeshPart& p : parts) plain.insert(plain.end(), p.data.begin(), p.data.end());
-  return deflate_raw(plain);
+std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts) {
+  std::vector<uint8_t> out;
+  for (const EncodedMeshPart& p : parts) out.insert(out.end(), p.data.begin(), p.data.end());
+  return out;
 }
 
 Bounds package_bounds(const ProgressiveMesh& pm) {

@@ -25,8 +25,8 @@ struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
   uint64_t bytes = 0;
 };
-// A part with its encoded bytes (multiplex/vsplit.h; not yet deflated: a chunk deflates its
-// parts together, deflate_mesh_chunk).
+// A part with its coded bytes (multiplex/vsplit.h): a chunk's payload is its parts' bytes one
+// after the other (mesh_chunk_payload).
 struct EncodedMeshPart {
   PackagePart part;
   std::vector<uint8_t> data;
@@ -84,6 +84,7 @@ class MeshStreamEncoder {
   uint32_t mesh_ = 0;
   size_t level_ = 0;
   bool normals_ = true;
+  bool uvs_ = true;  // the mesh has texture coordinates (else the stream carries none)
   QuantizedVertex quantize(uint32_t pm_vertex) const;  // quantize_vertex, +Z when !normals_
   VsplitMesh sim_;
   std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
@@ -94,9 +95,8 @@ class MeshStreamEncoder {
   uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
 };
 
-// A mesh chunk's payload: its parts' bytes in order, as one raw deflate stream (empty without
-// parts, or on a zlib failure). O(total bytes).
-std::vector<uint8_t> deflate_mesh_chunk(const std::vector<EncodedMeshPart>& parts);
+// A mesh chunk's payload: its parts' bytes in order (empty without parts). O(total bytes).
+std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts);
 
 // Parts encoded by every MeshStreamEncoder of this process so far (a counter for tests that
 // check each part is encoded once per conversion). Thread-safe.

@@ -37,7 +37,7 @@ struct MultiplexResult {
   // the parts that take the meshes from the layer before to it (layer 0, the base: none).
   std::vector<MeshStreamBase> mesh_streams;
   std::vector<std::vector<EncodedMeshPart>> layer_parts;
-  // Per mesh layer, its chunk's payload: the parts deflated together (deflate_mesh_chunk);
+  // Per mesh layer, its chunk's payload: the parts' bytes in order (mesh_chunk_payload);
   // mesh_bytes[k] is its size (layer 0: the base's bytes, no payload).
   std::vector<std::vector<uint8_t>> layer_chunks;
   std::vector<uint32_t> stream_digests;  // per mesh: state_digest of a client after every part

@@ -15,6 +15,7 @@
 namespace meshmux {
 
 void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
+  contexts = VsplitContexts();
   vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
   twin_latest_.clear(), twin_previous_.clear();
   solid = 0, stamp_value_ = 0;
@@ -90,8 +91,9 @@ int64_t mean(int64_t sum, int64_t n) {
 }
 }  // namespace
 
-QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p) {
+QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p, uint32_t* extent_class) {
   int64_t sp[3] = {0, 0, 0}, sn[3] = {0, 0, 0}, st[2] = {0, 0};
+  uint32_t lo[3] = {65535, 65535, 65535}, hi[3] = {0, 0, 0};
   int64_t n = 0;
   uint32_t s = new_stamp();
   stamp_[v] = s;
@@ -102,12 +104,18 @@ QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p) {
       if (stamp_[w] == s) continue;
       stamp_[w] = s;
       const QuantizedVertex& q = vertices[w];
-      for (int i = 0; i < 3; ++i) sp[i] += q.p[i], sn[i] += q.n[i];
+      for (int i = 0; i < 3; ++i) {
+        sp[i] += q.p[i], sn[i] += q.n[i];
+        lo[i] = std::min<uint32_t>(lo[i], q.p[i]), hi[i] = std::max<uint32_t>(hi[i], q.p[i]);
+      }
       st[0] += q.t[0], st[1] += q.t[1];
       ++n;
     }
   }
+  *extent_class = 0;
   if (n == 0) return vertices[p];
+  uint32_t extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  *extent_class = uint32_t(std::min(bit_length(extent), kExtentClasses - 1));
   QuantizedVertex out;
   for (int i = 0; i < 3; ++i)
     out.p[i] = uint16_t(mean(sp[i], n)), out.n[i] = int8_t(mean(sn[i], n));
@@ -186,6 +194,50 @@ bool VsplitMesh::predict_uv(uint32_t v, uint32_t p, const uint16_t position[3],
   return true;
 }
 
+void VsplitMesh::fan_normal(uint32_t v, const uint16_t centre[3], int64_t normal[3]) const {
+  int64_t n[3] = {0, 0, 0};
+  for (int32_t c = head[v]; c >= 0; c = next[size_t(c)]) {
+    size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
+    const QuantizedVertex& b = vertices[indices[f + (slot + 1) % 3]];
+    const QuantizedVertex& d = vertices[indices[f + (slot + 2) % 3]];
+    int64_t b0 = int64_t(b.p[0]) - centre[0], b1 = int64_t(b.p[1]) - centre[1],
+            b2 = int64_t(b.p[2]) - centre[2];
+    int64_t d0 = int64_t(d.p[0]) - centre[0], d1 = int64_t(d.p[1]) - centre[1],
+            d2 = int64_t(d.p[2]) - centre[2];
+    n[0] += b1 * d2 - b2 * d1, n[1] += b2 * d0 - b0 * d2, n[2] += b0 * d1 - b1 * d0;
+  }
+  auto half = [](int64_t x) { return x >= 0 ? x / 2 : -((-x + 1) / 2); };  // floor(x / 2)
+  const int64_t limit = int64_t(1) << 31;
+  while (std::abs(n[0]) >= limit || std::abs(n[1]) >= limit || std::abs(n[2]) >= limit)
+    for (int64_t& x : n) x = half(x);
+  for (int i = 0; i < 3; ++i) normal[i] = n[i];
+}
+
+bool plane_axes(const int64_t normal[3], int order[3]) {
+  int a = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(normal[i]) > std::abs(normal[a])) a = i;
+  if (normal[a] == 0) {
+    order[0] = 0, order[1] = 1, order[2] = 2;
+    return false;
+  }
+  order[0] = a == 0 ? 1 : 0, order[1] = a == 2 ? 1 : 2, order[2] = a;
+  return true;
+}
+
+int64_t plane_predict(const int64_t normal[3], const int order[3], const uint16_t mean[3],
+                      int64_t xb, int64_t xc) {
+  const int b = order[0], c = order[1], a = order[2];
+  int64_t num = -(normal[b] * (xb - mean[b]) + normal[c] * (xc - mean[c]));
+  int64_t den = normal[a];
+  if (den < 0) num = -num, den = -den;
+  // floor((2·num + den) / (2·den)): round(num / den), halves up.
+  int64_t top = 2 * num + den, bottom = 2 * den;
+  int64_t q = top / bottom;
+  if (top % bottom != 0 && top < 0) --q;
+  return int64_t(mean[a]) + q;
+}
+
 namespace {
 uint64_t position_key(const QuantizedVertex& q) {
   return uint64_t(q.p[0]) << 32 | uint64_t(q.p[1]) << 16 | uint64_t(q.p[2]);
@@ -221,36 +273,11 @@ uint32_t state_digest(const VsplitMesh& mesh) {
   return h;
 }
 
-void put_varint(std::vector<uint8_t>& out, uint32_t v) {
-  while (v >= 0x80) {
-    out.push_back(uint8_t(v | 0x80));
-    v >>= 7;
-  }
-  out.push_back(uint8_t(v));
-}
-
 std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in) {
   uLongf size = compressBound(uLong(in.size()));
   std::vector<uint8_t> out(size);
   if (compress2(out.data(), &size, in.data(), uLong(in.size()), 9) != Z_OK) return {};
   out.resize(size);
-  return out;
-}
-
-std::vector<uint8_t> deflate_raw(const std::vector<uint8_t>& in) {
-  z_stream z{};
-  // Raw deflate (RFC 1951, no zlib framing), the filtered strategy: the splits' residual
-  // bytes are small numbers with few long matches (a few % smaller than the default).
-  if (deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_FILTERED) != Z_OK) return {};
-  std::vector<uint8_t> out(deflateBound(&z, uLong(in.size())) + 16);
-  z.next_in = const_cast<Bytef*>(in.data());
-  z.avail_in = uInt(in.size());
-  z.next_out = out.data();
-  z.avail_out = uInt(out.size());
-  int r = deflate(&z, Z_FINISH);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  if (r != Z_STREAM_END) return {};
   return out;
 }
 
@@ -294,117 +321,75 @@ Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uin
   return inflate_any(data, size, limit, false);
 }
 
-Result<std::vector<uint8_t>> inflate_raw(const uint8_t* data, size_t size, uint64_t limit) {
-  return inflate_any(data, size, limit, true);
+VsplitContexts::VsplitContexts() {
+  for (uint16_t& p : mode) p = kProbabilityHalf;
+  for (auto& m : mask)
+    for (uint16_t& p : m) p = kProbabilityHalf;
 }
 
-namespace {
-
-// A bounded reader over one of a part's byte streams.
-struct Reader {
-  const uint8_t* p = nullptr;
-  const uint8_t* end = nullptr;
-  bool varint(uint32_t& v) {
-    v = 0;
-    for (int shift = 0; shift < 35; shift += 7) {
-      if (p == end) return false;
-      uint8_t b = *p++;
-      if (shift == 28 && (b & 0x70)) return false;  // past 32 bits
-      v |= uint32_t(b & 0x7f) << shift;
-      if (!(b & 0x80)) return true;
-    }
-    return false;
-  }
-};
-struct BitReader {
-  const uint8_t* p = nullptr;
-  uint64_t bits = 0, at = 0;
-  bool bit(bool& b) {
-    if (at >= bits) return false;
-    b = (p[at >> 3] >> (at & 7)) & 1;
-    ++at;
-    return true;
-  }
-};
-
-}  // namespace
-
-uint64_t part_byte_limit(uint64_t splits, uint64_t faces) {
-  return kPartBytesPerElement * (splits + faces) + kPartBytesConstant;
+bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces) {
+  return bytes >= uint64_t(kRangeCoderFlushBytes) &&
+         splits + faces <= kPartElementsPerByte * bytes + kPartElementsConstant;
 }
 
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces) {
-  if (size > part_byte_limit(splits, faces))
-    return Status::error(std::to_string(size) + " bytes are more than " + std::to_string(splits) +
-                             " splits and " + std::to_string(faces) + " faces may take",
+  if (!part_size_plausible(size, splits, faces))
+    return Status::error(std::to_string(size) + " bytes cannot hold " + std::to_string(splits) +
+                             " splits and " + std::to_string(faces) + " faces",
                          ErrorKind::kInput);
-  Reader head{data, data + size};
-  uint32_t len[kVsplitStreams];
-  uint64_t total = 0;
-  for (uint32_t& l : len) {
-    if (!head.varint(l)) return Status::error("stream lengths cut short", ErrorKind::kInput);
-    total += l;
-  }
-  if (total != uint64_t(head.end - head.p))
-    return Status::error("stream lengths add up to " + std::to_string(total) + " bytes, " +
-                             std::to_string(head.end - head.p) + " follow",
-                         ErrorKind::kInput);
-  Reader s[kVsplitStreams];
-  const uint8_t* at = head.p;
-  for (int i = 0; i < kVsplitStreams; ++i) s[i] = {at, at + len[i]}, at += len[i];
-  Reader &Z = s[0], &K = s[1], &F = s[2], &E = s[4], &W = s[5], &P = s[6], &N = s[7], &T = s[8],
-         &A = s[9];
-  BitReader M{s[3].p, uint64_t(len[3]) * 8, 0};
   if (uint64_t(mesh.vertex_count()) + splits > mesh.capacity_vertices_ ||
       uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
     return Status::error("more vertices or faces than the mesh holds", ErrorKind::kInput);
+  RangeDecoder in(data, size);
+  VsplitContexts& x = mesh.contexts;
+  const bool normals = in.get_direct(1) != 0, uvs = in.get_direct(1) != 0;
   const uint32_t face_goal = mesh.face_count() + faces;
-  const bool normals = len[7] > 0;  // an empty N stream: the mesh carries no normals (+Z)
-  uint32_t previous = 0;
+  uint32_t previous = 0, previous_mode = 1;
   std::vector<uint32_t> ring;
   std::vector<uint8_t> moved;
   auto fail = [](uint32_t i, const std::string& what) {
     return Status::error("split " + std::to_string(i) + ": " + what, ErrorKind::kInput);
   };
   for (uint32_t i = 0; i < splits; ++i) {
-    uint32_t z, k = 0;
-    bool fan_mode;
-    if (!Z.varint(z) || !M.bit(fan_mode)) return fail(i, "connectivity cut short");
-    if (!fan_mode && !K.varint(k)) return fail(i, "face count cut short");
-    int64_t parent = int64_t(previous) + unzigzag(z);
+    if (in.failed()) return fail(i, "the part's bytes end early");
+    int64_t parent = int64_t(previous) + unzigzag(in.get_uint(x.parent));
     if (parent < 0 || parent >= int64_t(mesh.vertex_count()))
       return fail(i, "parent " + std::to_string(parent) + " of " +
                          std::to_string(mesh.vertex_count()) + " vertices");
-    uint32_t p = uint32_t(parent);
+    const uint32_t p = uint32_t(parent);
     previous = p;
-    uint32_t v = mesh.add_vertex(QuantizedVertex{});
-    uint32_t vl = 0, vr = 0;
+    const bool fan_mode = in.get_bit(x.mode[previous_mode]) != 0;
+    previous_mode = fan_mode;
+    uint32_t d = 0;
+    for (int32_t c = mesh.head[p]; c >= 0 && d <= kFanLimit; c = mesh.next[size_t(c)]) ++d;
+    const uint32_t dc = std::min(d, kFanLimit);
+    uint32_t k = 2, vl = 0, vr = 0;
+    const uint32_t v = mesh.add_vertex(QuantizedVertex{});
     if (fan_mode) {
-      uint32_t start, count, more = 0;
-      if (A.p == A.end) return fail(i, "fan arguments cut short");
-      start = *A.p >> 3, count = *A.p++ & 7u;
-      if (count == 7 && (!A.varint(more) || more > kFanLimit))
-        return fail(i, "fan arguments cut short");
-      count += more;
-      if (!mesh.fan(p, start, count + 1, moved, vl, vr))
+      uint32_t start = in.get_tree(x.fan_start[dc]), count = in.get_tree(x.fan_count[dc]) + 1;
+      if (!mesh.fan(p, start, count, moved, vl, vr))
         return fail(i, "parent " + std::to_string(p) + " has no such fan");
-      k = 2;
+    } else {
+      k = in.get_uint(x.faces);
     }
-    uint32_t position = 0;
+    uint32_t position = 0, last = 0;
     for (int32_t c = mesh.head[p], prev = -1; c >= 0; ++position) {
       int32_t after = mesh.next[size_t(c)];
       bool take;
-      if (fan_mode)
+      if (fan_mode) {
         take = moved[position] != 0;
-      else if (!M.bit(take))
-        return fail(i, "corner mask cut short");
+      } else {
+        last = in.get_bit(x.mask[std::min(position, 7u)][last]);
+        take = last != 0;
+      }
       if (take)
         mesh.move_corner(p, prev, c, v);
       else
         prev = c;
       c = after;
     }
+    if (in.failed()) return fail(i, "the part's bytes end early");
     if (!fan_mode && k > 0) mesh.ring(p, v, kRingLimit, ring);
     if (uint64_t(mesh.face_count()) + k > face_goal)
       return fail(i, "more than the part's " + std::to_string(faces) + " faces");
@@ -414,13 +399,13 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
       k = 0;
     }
     for (uint32_t f = 0; f < k; ++f) {
-      uint32_t code, w;
-      if (!F.varint(code)) return fail(i, "face codes cut short");
+      uint32_t code = in.get_uint(x.face), w;
       uint32_t index = code >> 1;
+      if (in.failed()) return fail(i, "the part's bytes end early");
       if (index < ring.size()) {
         w = ring[index];
       } else if (index == ring.size()) {
-        if (!E.varint(w)) return fail(i, "escaped vertices cut short");
+        w = in.get_uint(x.escape);
         if (w >= v || w == p) return fail(i, "face names vertex " + std::to_string(w));
       } else {
         return fail(
@@ -431,56 +416,66 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
       else
         mesh.add_face(v, p, w);
     }
-    QuantizedVertex q = mesh.predict(v, p);
+    uint32_t extent_class = 0;
+    QuantizedVertex q = mesh.predict(v, p, &extent_class);
     uint32_t twin[kTwinLimit], twins = mesh.twins(p, twin), pick = 0;
-    if (twins > 0 && (!W.varint(pick) || pick > twins))
-      return fail(i, "twin index missing or past the candidates");
-    uint32_t r[8];
-    for (int c = 0; c < 3 && pick == 0; ++c)
-      if (!P.varint(r[c])) return fail(i, "positions cut short");
-    for (int c = 0; c < 3; ++c)
-      if (!normals)
-        r[3 + c] = zigzag(int32_t(c == 2 ? 127 : 0) - q.n[c]);
-      else if (!N.varint(r[3 + c]))
-        return fail(i, "normals cut short");
-    for (int c = 0; c < 2; ++c)
-      if (!T.varint(r[6 + c])) return fail(i, "texture coordinates cut short");
-    for (int c = 0; c < 3; ++c) {
-      int64_t x = pick ? mesh.vertices[twin[pick - 1]].p[c] : int64_t(q.p[c]) + unzigzag(r[c]);
-      int64_t y = int64_t(q.n[c]) + unzigzag(r[3 + c]);
-      if (x < 0 || x > 65535 || y < -128 || y > 127) return fail(i, "attribute out of range");
-      q.p[c] = uint16_t(x), q.n[c] = int8_t(y);
+    if (twins > 0 && (pick = in.get_tree(x.twin[twins])) > twins)
+      return fail(i, "twin index past the candidates");
+    if (pick) {
+      q.p[0] = mesh.vertices[twin[pick - 1]].p[0], q.p[1] = mesh.vertices[twin[pick - 1]].p[1];
+      q.p[2] = mesh.vertices[twin[pick - 1]].p[2];
+    } else {
+      int64_t normal[3];
+      int order[3];
+      mesh.fan_normal(v, q.p, normal);
+      const bool plane = plane_axes(normal, order);
+      int64_t got[3];
+      for (int role = 0; role < 3; ++role) {
+        const int axis = order[role];
+        int64_t base = role == 2 && plane ? plane_predict(normal, order, q.p, got[0], got[1])
+                                          : int64_t(q.p[axis]);
+        got[role] =
+            base + unzigzag(in.get_uint(x.position[role][extent_class], kResidualModelledBits));
+        if (got[role] < 0 || got[role] > 65535) return fail(i, "attribute out of range");
+      }
+      for (int role = 0; role < 3; ++role) q.p[order[role]] = uint16_t(got[role]);
     }
-    mesh.predict_uv(v, p, q.p, q.t);  // with v's position known, when a face allows
-    for (int c = 0; c < 2; ++c) {
-      int64_t x = int64_t(q.t[c]) + unzigzag(r[6 + c]);
-      if (x < 0 || x > 65535) return fail(i, "attribute out of range");
-      q.t[c] = uint16_t(x);
+    for (int c = 0; c < 3; ++c) {
+      int64_t y = normals
+                      ? int64_t(q.n[c]) + unzigzag(in.get_uint(x.normal[c], kResidualModelledBits))
+                      : (c == 2 ? 127 : 0);
+      if (y < -128 || y > 127) return fail(i, "attribute out of range");
+      q.n[c] = int8_t(y);
+    }
+    const uint32_t uv_predicted = uvs && mesh.predict_uv(v, p, q.p, q.t) ? 1 : 0;
+    for (int c = 0; c < 2 && !uvs; ++c) q.t[c] = 0;
+    for (int c = 0; c < 2 && uvs; ++c) {
+      int64_t t =
+          int64_t(q.t[c]) + unzigzag(in.get_uint(x.uv[c][uv_predicted], kResidualModelledBits));
+      if (t < 0 || t > 65535) return fail(i, "attribute out of range");
+      q.t[c] = uint16_t(t);
     }
     mesh.vertices[v] = q;
     mesh.add_twin(p, v);
   }
-  uint32_t extra;
-  if (!K.varint(extra)) return Status::error("extra face count missing", ErrorKind::kInput);
+  uint32_t extra = in.get_uint(x.extra);
+  if (in.failed()) return Status::error("extra face count missing", ErrorKind::kInput);
   if (uint64_t(mesh.face_count()) + extra != face_goal)
     return Status::error(std::to_string(face_goal - mesh.face_count()) + " faces expected, " +
                              std::to_string(extra) + " extra faces follow the splits",
                          ErrorKind::kInput);
   for (uint32_t f = 0; f < extra; ++f) {
-    uint32_t a, b, c;
-    if (!E.varint(a) || !E.varint(b) || !E.varint(c))
-      return Status::error("extra faces cut short", ErrorKind::kInput);
+    uint32_t a = in.get_uint(x.escape), b = in.get_uint(x.escape), c = in.get_uint(x.escape);
+    if (in.failed()) return Status::error("extra faces cut short", ErrorKind::kInput);
     if (a >= mesh.vertex_count() || b >= mesh.vertex_count() || c >= mesh.vertex_count())
       return Status::error("extra face " + std::to_string(f) + " names a vertex not received",
                            ErrorKind::kInput);
     mesh.add_face(a, b, c);
   }
-  for (int i = 0; i < kVsplitStreams; ++i)
-    if (i != 3 && s[i].p != s[i].end)
-      return Status::error("stream " + std::to_string(i) + " has bytes left over",
-                           ErrorKind::kInput);
-  if ((M.bits - M.at) >= 8)
-    return Status::error("corner mask has bytes left over", ErrorKind::kInput);
+  if (in.failed()) return Status::error("the part's bytes end early", ErrorKind::kInput);
+  if (in.consumed() != size)
+    return Status::error(std::to_string(size - in.consumed()) + " of the part's bytes left over",
+                         ErrorKind::kInput);
   return Status::ok();
 }
 

@@ -16,34 +16,44 @@
 // and non-manifold fans code the same way, and the client's adjacency is a list of corners per
 // vertex, not a half-edge structure.
 //
-// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is ten
-// varint-counted byte streams, each field in its own so deflate's codes fit its values; a
-// package's mesh chunk is its parts one after the other in one raw deflate stream (browsers
-// inflate it with DecompressionStream("deflate-raw")), so small parts share its code tables:
-//   varint |Z| |K| |F| |M| |E| |W| |P| |N| |T| |A|, then Z K F M E W P N T A
-//   Z  per split: zigzag(parent - previous parent) (previous starts at 0 per part).
-//   M  per split, a mode bit, then for a mask split one bit per corner in the parent's corner
-//      list (in list order, before the split): 1 = the corner moves to the new vertex. Bits LSB
-//      first, no padding between splits.
-//   A  per fan split (mode bit 1; Hoppe's vsplit, fan()): one byte, the list position of vl's
-//      corner (< kFanLimit) << 3 | min(the count of corners moved - 1, 7), and when that is 7,
-//      a varint: the count - 8. One symbol, so deflate codes the pair's joint frequencies. The
-//      corners fan() walks move to v and the new faces are (v, p, vl) then (v, vr, p).
-//   K  per mask split: the number k of new faces; after the last split, the count x of extra
-//      faces.
-//   F  per new face of a mask split (i << 1 | flip): the third vertex w is entry i of the ring
-//      (see ring(): v's neighbours, then p's), or i == ring size and w is the next varint of E;
-//      flip 0 makes the face (v, p, w), flip 1 (v, w, p).
-//   E  escaped third vertices (varint vertex indices), then the x extra faces (3 varints each).
-//   W  per split whose parent's position was split from before (twins(): seam and hard-edge
-//      copies split together): 0, or i ≥ 1 when the new vertex sits exactly where twin
-//      candidate i - 1 does (its position is then not sent).
-//   P  per split without a twin, 3 × zigzag(position - prediction); N: 3 × zigzag(normal -
-//   prediction); T: 2 × zigzag(uv - prediction). Predictions: the rounded mean of the new
-//      vertex's ring (every other vertex of its faces after the split), or the parent's values
-//      when it has none; uv from the decoded position where predict_uv() applies.
-//      N is empty when the mesh carries no normals (its sources are flat-shaded, glTF 3.7.2.1:
-//      viewers derive face normals): every new vertex's normal is then +Z (0, 0, 127).
+// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is one stream
+// of the adaptive binary range coder (multiplex/range_coder.h); a package's mesh chunk is its
+// parts one after the other. The contexts (VsplitContexts) belong to the mesh: they start fresh
+// with its base and carry over from part to part, as parts of one mesh are only ever applied in
+// stream order. In decoding
+// order ("uint" is RangeDecoder::get_uint, "tree" get_tree, each through the named contexts):
+//   header  two direct bits: 1 when the mesh carries normals, 1 when it carries texture
+//           coordinates. A mesh without normals (its sources are flat-shaded, glTF 3.7.2.1:
+//           viewers derive face normals) gives every new vertex +Z (0, 0, 127); one without
+//           texture coordinates gives (0, 0).
+//   per split, with d the parent's corner count before the split:
+//   Z   uint(parent): zigzag(parent - previous parent) (previous starts at 0 per part).
+//   M   bit(mode[previous split's mode]): 1 = a fan split (Hoppe's vsplit, fan()).
+//   fan:  tree5(fan_start[min(d, kFanLimit)]) the list position of vl's corner, then
+//         tree5(fan_count[min(d, kFanLimit)]) the count of corners moved - 1. The corners fan()
+//         walks move to v and the new faces are (v, p, vl) then (v, vr, p).
+//   mask: uint(faces) the number k of new faces, then per corner of p in list order
+//         bit(mask[min(position, 7)][previous bit]): 1 = the corner moves to the new vertex;
+//         then per new face uint(face): i << 1 | flip: the third vertex w is entry i of the
+//         ring (see ring(): v's neighbours, then p's), or i == ring size and w is the next
+//         uint(escape); flip 0 makes the face (v, p, w), flip 1 (v, w, p).
+//   W   when the parent's position was split from before (twins(): seam and hard-edge copies
+//       split together), tree3(twin[candidates]): 0, or i ≥ 1 when the new vertex sits exactly
+//       where twin candidate i - 1 does (its position is then not sent).
+//   P   without a twin, 3 × uint(position[role][c]) of zigzag(position - prediction), c the
+//       bit length of the largest extent of the prediction's ring (at most 15: residuals scale
+//       with the local edge length). The axes go in the order plane_axes() gives: the two
+//       along the new vertex's fan (roles 0 and 1, predicted by the ring's mean m), then the
+//       axis closest to its normal n (role 2), predicted on the fan's plane through m:
+//       m_a + round(-(n_b·(x_b - m_b) + n_c·(x_c - m_c)) / n_a) (halves up), the lift of the
+//       two decoded coordinates onto the plane (the parallelogram idea of single-rate coders,
+//       made from the whole ring). N (when carried): 3 × uint(normal[axis]) of zigzag(normal -
+//       prediction). T (when carried): 2 × uint(uv[axis][u]) of zigzag(uv - prediction), u = 1
+//       when predict_uv() applied. Predictions: the rounded mean of the new vertex's ring
+//       (every other vertex of its faces after the split), or the parent's values when it has
+//       none; uv from the decoded position where predict_uv() applies.
+//   after the last split: uint(extra) the count x of extra faces, then 3 × uint(escape) each.
+// The stream must end exactly there (RangeDecoder::consumed() == its size).
 // A split on the state: append vertex v (the next index); move the masked (or walked) corners of p
 // to v (each pushed to the head of v's list in the order met); append the new faces (corners pushed
 // to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest
@@ -55,6 +65,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "multiplex/range_coder.h"
 #include "scene/status.h"
 
 namespace meshmux {
@@ -73,15 +84,31 @@ inline bool operator==(const QuantizedVertex& a, const QuantizedVertex& b) {
 
 constexpr uint32_t kRingLimit = 64;  // ring entries a new face's third vertex is coded against
 constexpr uint32_t kTwinLimit = 4;   // twin candidates a new vertex's position is matched against
-constexpr int kVsplitStreams = 10;   // byte streams in a part
 constexpr uint32_t kFanLimit = 32;   // corners a parent may have for a fan-coded split
-// Inflated bytes a part may hold: per split and face, and a constant (zlib bombs are refused).
-constexpr uint64_t kPartBytesPerElement = 256;
-constexpr uint64_t kPartBytesConstant = 1 << 16;
+constexpr int kExtentClasses = 16;   // position contexts per axis (ring extent's bit length)
+// Attribute residuals model this many bits below the leading one (the rest are near uniform and
+// go direct: fewer decisions to decode for the same bytes); other integers model three.
+constexpr int kResidualModelledBits = 1;
+// A part's splits and faces may be at most this many per coded byte, plus a constant: every
+// split costs at least a few dozen decisions of ≥ 0.02 bits, so real parts stay far below; a
+// hostile table cannot make a few bytes stand for millions of splits.
+constexpr uint64_t kPartElementsPerByte = 256;
+constexpr uint64_t kPartElementsConstant = 4096;
+
+// The adaptive contexts of one part (fresh per part, both ends).
+struct VsplitContexts {
+  UIntContext parent, faces, face, escape, extra;
+  uint16_t mode[2];
+  uint16_t mask[8][2];
+  TreeContext<5> fan_start[kFanLimit + 1], fan_count[kFanLimit + 1];
+  TreeContext<3> twin[kTwinLimit + 1];
+  UIntContext position[3][kExtentClasses], normal[3], uv[2][2];
+  VsplitContexts();
+};
 
 // What one end of the stream holds of one mesh: vertices with quantized attributes, faces in
-// the order received (3 corners each; corner c is slot c % 3 of face c / 3) and, per vertex,
-// the list of corners naming it (head, then next per corner; -1 ends).
+// the order received (3 corners each; corner c is slot c % 3 of face c / 3), per vertex the
+// list of corners naming it (head, then next per corner; -1 ends), and the coder's contexts.
 class VsplitMesh {
  public:
   // Capacities bound what decoding may add (the package table's full counts); memory grows
@@ -113,8 +140,14 @@ class VsplitMesh {
   // length, is carried to uv space on the side of that edge away from x. Overwrites uv and
   // returns true when those faces exist and the edge has length. O(corners of v and p).
   bool predict_uv(uint32_t v, uint32_t p, const uint16_t position[3], uint16_t uv[2]) const;
-  // v's predicted attributes: the rounded mean over its ring (all of it), or p's values.
-  QuantizedVertex predict(uint32_t v, uint32_t p);
+  // v's predicted attributes: the rounded mean over its ring (all of it), or p's values; and
+  // the position context: the bit length of the ring's largest extent along an axis (max -
+  // min), at most kExtentClasses - 1 (0 without a ring).
+  QuantizedVertex predict(uint32_t v, uint32_t p, uint32_t* extent_class);
+  // The normal of v's fan seen from `centre` (its predicted position): the sum over v's faces
+  // (v, b, c) of (b - centre) × (c - centre), exact in integers, then halved (floor) all three
+  // together until each is below 2^31 in magnitude. O(corners of v).
+  void fan_normal(uint32_t v, const uint16_t centre[3], int64_t normal[3]) const;
   // The vertices split so far from parents at p's position, newest first, at most kTwinLimit,
   // into out; returns how many. O(kTwinLimit).
   uint32_t twins(uint32_t p, uint32_t* out) const;
@@ -124,7 +157,8 @@ class VsplitMesh {
   std::vector<QuantizedVertex> vertices;
   std::vector<uint32_t> indices;
   std::vector<int32_t> head, next;
-  uint64_t solid = 0;  // faces whose three corners differ
+  uint64_t solid = 0;       // faces whose three corners differ
+  VsplitContexts contexts;  // the coder's, fresh at reset(), carried from part to part
 
  private:
   std::unordered_map<uint64_t, uint32_t> twin_latest_;  // parent position → newest split
@@ -136,15 +170,25 @@ class VsplitMesh {
   uint32_t new_stamp();
 };
 
-// The most bytes a part of `splits` splits and `faces` faces may hold (zlib bombs are refused):
-// kPartBytesPerElement·(splits + faces) + kPartBytesConstant.
-uint64_t part_byte_limit(uint64_t splits, uint64_t faces);
+// The order a new vertex's position axes are coded in (multiplex/vsplit.h "P"): the two axes
+// other than a in increasing order, then a, the axis of the normal's largest magnitude (the
+// lowest on ties); returns false (order 0, 1, 2, no plane prediction) for a zero normal.
+bool plane_axes(const int64_t normal[3], int order[3]);
+// The plane prediction of axis order[2]: m_a + round(-(n_b·(x_b - m_b) + n_c·(x_c - m_c)) / n_a),
+// halves up (|n| < 2^31 and coordinates < 2^16 keep every step exact, in doubles too).
+int64_t plane_predict(const int64_t normal[3], const int order[3], const uint16_t mean[3],
+                      int64_t xb, int64_t xc);
 
-// Appends one part to `mesh`: decodes `data` (the part's bytes, inflated), applies `splits`
-// splits and checks that exactly `faces` faces were appended. Every count, index and length is
-// checked before use; errors name the problem ("split 12: parent 4001 of 4000 vertices"). Work
-// is bounded by the size, itself at most part_byte_limit(splits, faces). On error the mesh is
-// left in an unspecified but valid state.
+// Whether `bytes` coded bytes may stand for `splits` splits and `faces` faces: at least the
+// coder's kRangeCoderFlushBytes, and splits + faces ≤ kPartElementsPerByte·bytes +
+// kPartElementsConstant.
+bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces);
+
+// Appends one part to `mesh`: decodes `data` (the part's coded bytes), applies `splits` splits
+// and checks that exactly `faces` faces were appended and every byte was used. Every count,
+// index and length is checked before use; errors name the problem ("split 12: parent 4001 of
+// 4000 vertices"). Work is O(splits × the parents' corners + faces), the counts bounded by
+// part_size_plausible. On error the mesh is left in an unspecified but valid state.
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces);
 
@@ -154,16 +198,11 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
 // the browser test checks the web client against it.
 uint32_t state_digest(const VsplitMesh& mesh);
 
-// Byte-stream helpers shared with the encoder.
-void put_varint(std::vector<uint8_t>& out, uint32_t v);
 inline uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
 inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
-// zlib-compresses (level 9) / inflates at most `limit` bytes (an error past it).
+// zlib-compresses (level 9) / inflates at most `limit` bytes (an error past it): the package's
+// table and base.
 std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in);
 Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit);
-// The same as raw deflate (RFC 1951, no zlib header or checksum): mesh chunks. An empty result
-// from deflate_raw is a zlib failure.
-std::vector<uint8_t> deflate_raw(const std::vector<uint8_t>& in);
-Result<std::vector<uint8_t>> inflate_raw(const uint8_t* data, size_t size, uint64_t limit);
 
 }  // namespace meshmux

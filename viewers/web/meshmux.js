@@ -11,8 +11,8 @@
 //
 // Per package mesh the client keeps ONE BufferGeometry with the capacity of the full mesh: a
 // vertex buffer that is only appended to and an index buffer of every face received so far.
-// Each part is a zlib stream of compact vertex splits (multiplex/vsplit.h), inflated by the
-// browser and applied against the corner lists the client keeps per vertex. Everything is drawn as
+// Each part is a range-coded stream of compact vertex splits (multiplex/vsplit.h), decoded and
+// applied against the corner lists the client keeps per vertex. Everything is drawn as
 // meshmux's offscreen renderer drew it to measure the distortion: with the package's view.shading
 // "physical", three.js's MeshStandardMaterial (base colour, normal, occlusion-roughness-metallic
 // and emissive maps, swapped together as levels arrive) under addStreamLighting's rig; with

@@ -2,7 +2,7 @@
 // exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 12;
+export const PACKAGE_VERSION = 13;
 // The JSON table and the base .glb inflate to at most these (exporters/package.h).
 export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
@@ -11,8 +11,9 @@ const VERTEX_BYTES = 48;
 // enforces the same number); this only bounds what a hostile table may claim, at what typed
 // arrays of a client's vertices can hold.
 const TYPED_ARRAY_ELEMENTS = 2 ** 30 / VERTEX_BYTES;
-// A part inflates to at most this many bytes per split and face, plus a constant (multiplex/vsplit.h).
-export const PART_BYTES_PER_ELEMENT = 256, PART_BYTES_CONSTANT = 65536;
+// A part's coded bytes stand for at most this many splits and faces per byte, plus a constant, and
+// hold at least the range coder's 5 (multiplex/vsplit.h part_size_plausible).
+export const PART_ELEMENTS_PER_BYTE = 256, PART_ELEMENTS_CONSTANT = 4096, PART_MIN_BYTES = 5;
 
 // ---- The package table -----------------------------------------------------------------------
 
@@ -121,17 +122,16 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
       need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
       const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
-      // Inflated: ten stream lengths and at least a parent byte per split, at most the part limit.
-      need(part.bytes >= 10 + nv && part.bytes <= PART_BYTES_PER_ELEMENT * (nv + nf) + PART_BYTES_CONSTANT,
+      // Coded: the range coder's head, and no more splits and faces than its bytes can carry.
+      need(part.bytes >= PART_MIN_BYTES && nv + nf <= PART_ELEMENTS_PER_BYTE * part.bytes + PART_ELEMENTS_CONSTANT,
         `${pw}: ${part.bytes} bytes cannot hold ${nv} splits and ${nf} faces`);
       h.vertices = part.vertex_end;
       h.faces = part.face_end;
       bytes += part.bytes;
       return part;
     });
-    // The chunk is one raw deflate stream of the parts; deflate cannot shrink past 1032×.
-    need(bytes <= 1032 * chunk.size && (bytes === 0) === (chunk.size === 0),
-      `${w}: its parts hold ${bytes} bytes, more than the chunk's ${chunk.size} can inflate to`);
+    // The chunk is the parts' coded bytes one after the other.
+    need(bytes === chunk.size, `${w}: its parts hold ${bytes} bytes, the chunk ${chunk.size}`);
     return chunk;
   });
   const n = chunks.length;

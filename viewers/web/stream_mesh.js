@@ -4,7 +4,7 @@
 
 import * as THREE from 'three';
 
-import { PART_BYTES_PER_ELEMENT, PART_BYTES_CONSTANT } from './package_reader.js';
+import { PART_ELEMENTS_PER_BYTE, PART_ELEMENTS_CONSTANT, PART_MIN_BYTES } from './package_reader.js';
 
 // ---- Decoding: compact vertex splits (multiplex/vsplit.h, operation for operation) -----------
 
@@ -14,7 +14,100 @@ const FAN_LIMIT = 32;    // corners a parent may have for a fan-coded split
 const FAN_N1 = new Int32Array(FAN_LIMIT), FAN_N2 = new Int32Array(FAN_LIMIT), FAN_MOVED = new Uint8Array(FAN_LIMIT);
 const UV_MAX = 4095;     // uv bits (scene/quantize.h)
 
-// Inflates one part (a zlib stream) with the browser's DecompressionStream, refusing output past
+// ---- The adaptive binary range decoder (multiplex/range_coder.h, operation for operation) ---
+// Module-level state: one part is decoded at a time. Every quantity is an integer below 2^32;
+// the range and code live in a Uint32Array (RC[0], RC[1]) so that updating them never boxes a
+// number past 2^31.
+const PROB_BITS = 11, PROB_ONE = 2048, PROB_HALF = 1024, ADAPT_SHIFT = 4, TOP = 16777216;
+const RC = new Uint32Array(2);
+let rcData = null, rcPos = 0, rcEnd = 0, rcFailed = false;
+function rcByte() {
+  if (rcPos >= rcEnd) { rcFailed = true; return 0; }
+  return rcData[rcPos++];
+}
+function rcStart(d, begin, end) {
+  rcData = d; rcPos = begin; rcEnd = end; rcFailed = false;
+  let code = 0;
+  for (let i = 0; i < 5; i++) code = ((code * 256) + rcByte()) >>> 0;
+  RC[0] = 0xFFFFFFFF; RC[1] = code;
+}
+// The coder's state is read into locals once per call and written back at its end; the bit
+// decode is spelled out in each loop (V8 does not inline it into the big applySplits).
+function getBit(probs, i) {
+  const p = probs[i];
+  let range = RC[0], code = RC[1], bit;
+  const bound = (range >>> PROB_BITS) * p;
+  if (code < bound) { range = bound; probs[i] = p + ((PROB_ONE - p) >> ADAPT_SHIFT); bit = 0; }
+  else { code -= bound; range -= bound; probs[i] = p - (p >> ADAPT_SHIFT); bit = 1; }
+  while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
+  RC[0] = range; RC[1] = code;
+  return bit;
+}
+// `bits` equiprobable bits, DIRECT_PIECE at a time (RangeDecoder::get_direct).
+const DIRECT_PIECE = 16;
+function getDirect(bits) {
+  let value = 0, range = RC[0], code = RC[1];
+  while (bits > 0) {
+    const k = bits < DIRECT_PIECE ? bits : DIRECT_PIECE;
+    bits -= k;
+    range = range >>> k;
+    let slice = Math.floor(code / range);  // exact: code < 2^32
+    if (slice >= POW2[k]) { slice = POW2[k] - 1; rcFailed = true; }
+    code -= slice * range;
+    value = value * POW2[k] + slice;
+    while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
+  }
+  RC[0] = range; RC[1] = code;
+  return value;
+}
+const POW2 = new Float64Array(33).map((_, i) => 2 ** i);
+// An integer through UIntContext `o` (RangeDecoder::get_uint): its bit length by a 6-level tree,
+// up to `most` bits below the leading one by contexts per length, the rest direct.
+function getUint(probs, o, most) {
+  let range = RC[0], code = RC[1], node = 1;
+  for (let i = 0; i < 6; i++) {
+    const j = o + node, p = probs[j], bound = (range >>> PROB_BITS) * p;
+    if (code < bound) { range = bound; probs[j] = p + ((PROB_ONE - p) >> ADAPT_SHIFT); node = node << 1; }
+    else { code -= bound; range -= bound; probs[j] = p - (p >> ADAPT_SHIFT); node = (node << 1) | 1; }
+    while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
+  }
+  const n = node - 64;
+  if (n < 2) { RC[0] = range; RC[1] = code; return n; }
+  if (n > 32) { RC[0] = range; RC[1] = code; rcFailed = true; return 0; }
+  const below = n - 1, modelled = below < most ? below : most, m = o + 64 + 8 * n;
+  node = 1;
+  for (let i = 0; i < modelled; i++) {
+    const j = m + node, p = probs[j], bound = (range >>> PROB_BITS) * p;
+    if (code < bound) { range = bound; probs[j] = p + ((PROB_ONE - p) >> ADAPT_SHIFT); node = node << 1; }
+    else { code -= bound; range -= bound; probs[j] = p - (p >> ADAPT_SHIFT); node = (node << 1) | 1; }
+    while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
+  }
+  RC[0] = range; RC[1] = code;
+  let value = node * POW2[below - modelled];  // node holds the leading one and the modelled bits
+  if (below > modelled) value += getDirect(below - modelled);
+  return value;
+}
+function getTree(probs, o, bits) {
+  let range = RC[0], code = RC[1], node = 1;
+  for (let i = 0; i < bits; i++) {
+    const j = o + node, p = probs[j], bound = (range >>> PROB_BITS) * p;
+    if (code < bound) { range = bound; probs[j] = p + ((PROB_ONE - p) >> ADAPT_SHIFT); node = node << 1; }
+    else { code -= bound; range -= bound; probs[j] = p - (p >> ADAPT_SHIFT); node = (node << 1) | 1; }
+    while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
+  }
+  RC[0] = range; RC[1] = code;
+  return node - (1 << bits);
+}
+// VsplitContexts' layout in one array: UIntContext = 328 probabilities (64 + 33 · 8).
+const UINT = 328, EXTENT_CLASSES = 16, RESIDUAL_BITS = 1;
+const C_PARENT = 0, C_FACES = UINT, C_FACE = 2 * UINT, C_ESCAPE = 3 * UINT, C_EXTRA = 4 * UINT;
+const C_MODE = 5 * UINT, C_MASK = C_MODE + 2, C_FAN_START = C_MASK + 16;
+const C_FAN_COUNT = C_FAN_START + 33 * 32, C_TWIN = C_FAN_COUNT + 33 * 32;
+const C_POSITION = C_TWIN + 5 * 8, C_NORMAL = C_POSITION + 3 * EXTENT_CLASSES * UINT;
+const C_UV = C_NORMAL + 3 * UINT, C_TOTAL = C_UV + 4 * UINT;
+const bitLength = (x) => (x === 0 ? 0 : 32 - Math.clz32(x));
+
+// Inflates the package's table or base (a zlib stream) with the browser's DecompressionStream, refusing output past
 // `limit` bytes (a zlib bomb) and trailing or missing bytes.
 export async function inflate(bytes, limit, format = 'deflate') {
   const stream = new DecompressionStream(format);
@@ -43,27 +136,10 @@ export async function inflate(bytes, limit, format = 'deflate') {
   return out;
 }
 
-// LEB128 varint (uint32) at d[p] before `end`: the value, or -1 when cut short or past 32
-// bits; the position after it is left in `vpos` (no allocation on the hot path).
-let vpos = 0;
-function readVarint(d, p, end) {
-  if (p >= end) return -1;
-  let b = d[p++];
-  if (b < 128) { vpos = p; return b; }
-  let v = b & 0x7f, scale = 128;
-  for (let shift = 7; ; shift += 7, scale *= 128) {
-    if (p >= end || shift > 28) return -1;
-    b = d[p++];
-    if (shift === 28 && (b & 0x70)) return -1;
-    v += (b & 0x7f) * scale;
-    if (b < 128) break;
-  }
-  vpos = p;
-  return v;
-}
 // round(sum / n), halves up: floor((2·sum + n) / (2n)).
 const mean = (sum, n) => Math.floor((2 * sum + n) / (2 * n));
 const PRED = new Int32Array(8);
+const NORMAL = new Float64Array(3);  // v's fan normal (exact integers below 2^53)
 // 1 when face f's three corners differ.
 function faceSolid(I, f) {
   const a = I[f], b = I[f + 1], c = I[f + 2];
@@ -145,6 +221,8 @@ export class StreamMesh {
     this.stamp = new Uint32Array(V);
     this.stampValue = 0;
     this.ring = new Int32Array(RING_LIMIT);
+    // The range coder's contexts: fresh with the base, carried from part to part.
+    this.contexts = new Uint16Array(C_TOTAL).fill(PROB_HALF);
     // Twins (VsplitMesh::twins): an open-addressing table from a parent position to the newest
     // vertex split from a parent there (keys compared through parentOf), and per vertex the
     // twin before it.
@@ -246,69 +324,44 @@ export class StreamMesh {
     this.geometry.setDrawRange(0, 3 * this.faces);
   }
 
-  // Applies one inflated part: `splits` vertex splits and `faces` new faces (multiplex/vsplit.h).
-  // Everything read is checked; an Error names the split and the problem. The hot loop keeps
-  // its cursors in locals and calls only small module-level functions (no closures).
-  applySplits(d, splits, faces) {
+  // Applies one part (its coded bytes d[begin, end)): `splits` vertex splits and `faces` new
+  // faces (multiplex/vsplit.h). Everything read is checked; an Error names the split and the
+  // problem. The hot loop keeps its cursors in locals and calls only small module-level
+  // functions (no closures).
+  applySplits(d, begin, end, splits, faces) {
     const I = this.indices, head = this.head, next = this.next, qp = this.qp, qn = this.qn, qt = this.qt;
-    const stamp = this.stamp, ring = this.ring, pred = PRED;
+    const stamp = this.stamp, ring = this.ring, pred = PRED, X = this.contexts;
     const fail = (message) => new Error(`mesh ${this.index}: ${message}`);
-    const len = [];
-    let at = 0, total = 0;
-    for (let k = 0; k < 10; k++) {
-      const l = readVarint(d, at, d.length);
-      if (l < 0) throw fail('stream lengths cut short');
-      at = vpos;
-      len.push(l);
-      total += l;
+    if (end - begin < PART_MIN_BYTES || splits + faces > PART_ELEMENTS_PER_BYTE * (end - begin) + PART_ELEMENTS_CONSTANT) {
+      throw fail(`${end - begin} bytes cannot hold ${splits} splits and ${faces} faces`);
     }
-    if (total !== d.length - at) throw fail(`stream lengths add up to ${total} bytes, ${d.length - at} follow`);
-    // Streams Z K F M E W P N T A (multiplex/vsplit.h).
-    let zp = at; const ze = zp + len[0];
-    let kp = ze; const ke = kp + len[1];
-    let cp = ke; const ce = cp + len[2];
-    const maskStart = ce, maskBits = 8 * len[3];
-    let ep = maskStart + len[3]; const ee = ep + len[4];
-    let wp = ee; const we = wp + len[5];
-    let pp = we; const pe = pp + len[6];
-    let np = pe; const ne = np + len[7];
-    const normals = len[7] > 0;  // an empty N stream: the mesh carries no normals (flat-shaded)
-    let tp = ne; const te = tp + len[8];
-    let ap = te; const ae = ap + len[9];
     const table = this.twinTable, tmask = table.length - 1, twinPrevious = this.twinPrevious, parentOf = this.parentOf;
-    let maskAt = 0;
     const v0 = this.vertices, f0 = this.faces;
     if (v0 + splits > this.capacityVertices || f0 + faces > this.capacityFaces) throw fail('more vertices or faces than the mesh holds');
+    rcStart(d, begin, end);
+    const normals = getDirect(1) === 1;  // 0: the mesh carries no normals (flat-shaded)
+    const uvs = getDirect(1) === 1;      // 0: nor texture coordinates
     const faceGoal = f0 + faces;
-    let nf = f0, solid = this.solid, previous = 0, stampValue = this.stampValue;
+    let nf = f0, solid = this.solid, previous = 0, previousMode = 1, stampValue = this.stampValue;
     if (stampValue > 0x7fffffff - 2 * splits) { stamp.fill(0); stampValue = 0; }
     for (let i = 0; i < splits; i++) {
-      const z = readVarint(d, zp, ze); zp = vpos;
-      if (z < 0 || maskAt >= maskBits) throw fail(`split ${i}: connectivity cut short`);
-      const fanMode = (d[maskStart + (maskAt >> 3)] >> (maskAt & 7)) & 1;
-      maskAt++;
-      let k = 2;
-      if (!fanMode) { k = readVarint(d, kp, ke); kp = vpos; }
-      if (k < 0) throw fail(`split ${i}: face count cut short`);
+      if (rcFailed) throw fail(`split ${i}: the part's bytes end early`);
+      const z = getUint(X, C_PARENT, 3);
       const p = previous + (z % 2 ? -(z + 1) / 2 : z / 2), v = v0 + i;
       if (!(p >= 0 && p < v)) throw fail(`split ${i}: parent ${p} of ${v} vertices`);
       previous = p;
+      const fanMode = getBit(X, C_MODE + previousMode);
+      previousMode = fanMode;
       head[v] = -1;
       // Hoppe's split on p's manifold fan (VsplitMesh::fan): the corners from vl's on, each to
       // the one whose first neighbour is its second, `count` of them.
-      let vl = -1, vr = -1;
+      let vl = -1, vr = -1, k = 2;
       if (fanMode) {
-        // One byte: start << 3 | min(count - 1, 7); a varint count - 8 follows a 7.
-        if (ap >= ae) throw fail(`split ${i}: fan arguments cut short`);
-        const start = d[ap] >> 3;
-        let count = (d[ap++] & 7) + 1;
-        if (count === 8) {
-          const more = readVarint(d, ap, ae); ap = vpos;
-          if (more < 0 || more > FAN_LIMIT) throw fail(`split ${i}: fan arguments cut short`);
-          count += more;
-        }
-        if (start < 0 || count <= 0) throw fail(`split ${i}: fan arguments cut short`);
         let nd = 0, ok = true;
+        for (let c = head[p]; c >= 0 && nd <= FAN_LIMIT; c = next[c]) nd++;
+        const dc = nd < FAN_LIMIT ? nd : FAN_LIMIT;
+        const start = getTree(X, C_FAN_START + 32 * dc, 5), count = getTree(X, C_FAN_COUNT + 32 * dc, 5) + 1;
+        nd = 0;
         for (let c = head[p]; c >= 0 && ok; c = next[c]) {
           if (nd === FAN_LIMIT) { ok = false; break; }
           const f = c - (c % 3), slot = c - f, a = I[f + (slot + 1) % 3], b = I[f + (slot + 2) % 3];
@@ -329,17 +382,16 @@ export class StreamMesh {
         }
         vl = FAN_N1[start]; vr = FAN_N2[at];
         if (vl === vr) throw fail(`split ${i}: parent ${p} has no such fan`);
+      } else {
+        k = getUint(X, C_FACES, 3);
       }
       // The corners of p in list order that move to v: the fan's, or the mask's 1 bits.
+      let last = 0;
       for (let c = head[p], prev = -1, position = 0; c >= 0; position++) {
         const after = next[c];
         let take;
         if (fanMode) take = FAN_MOVED[position];
-        else {
-          if (maskAt >= maskBits) throw fail(`split ${i}: corner mask cut short`);
-          take = (d[maskStart + (maskAt >> 3)] >> (maskAt & 7)) & 1;
-          maskAt++;
-        }
+        else take = last = getBit(X, C_MASK + 2 * (position < 7 ? position : 7) + last);
         if (take) {
           if (prev < 0) head[p] = after; else next[prev] = after;
           const f = c - (c % 3);
@@ -352,13 +404,16 @@ export class StreamMesh {
         }
         c = after;
       }
+      if (rcFailed) throw fail(`split ${i}: the part's bytes end early`);
       // One walk of v's corners (the moved ones) gives both the start of the ring (v's
       // neighbours, then p's: see VsplitMesh::ring) and most of the prediction set (every
       // neighbour of v after the split: these, p when a face joins them, the new faces' third
-      // vertices); p's corners are walked only as far as a face code reaches into the ring.
+      // vertices, with their extent); p's corners are walked only as far as a face code reaches
+      // into the ring.
       const sA = ++stampValue, sB = ++stampValue;
       stamp[v] = stamp[p] = sA;
       let ringSize = 0, n = 0, s0 = 0, s1 = 0, s2 = 0, n0 = 0, n1 = 0, n2 = 0, t0 = 0, t1 = 0, pNear = k > 0;
+      let lo0 = 65535, lo1 = 65535, lo2 = 65535, hi0 = 0, hi1 = 0, hi2 = 0;
       for (let c = head[v]; c >= 0; c = next[c]) {
         const f = c - (c % 3), slot = c - f;
         for (let j = 1; j <= 2; j++) {
@@ -366,7 +421,11 @@ export class StreamMesh {
           if (stamp[w] === sA) { if (w === p) pNear = true; continue; }
           stamp[w] = sA;
           if (ringSize < RING_LIMIT) ring[ringSize++] = w;
-          s0 += qp[3 * w]; s1 += qp[3 * w + 1]; s2 += qp[3 * w + 2];
+          const x0 = qp[3 * w], x1 = qp[3 * w + 1], x2 = qp[3 * w + 2];
+          s0 += x0; s1 += x1; s2 += x2;
+          if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
+          if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
+          if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
           n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
           t0 += qt[2 * w]; t1 += qt[2 * w + 1];
           n++;
@@ -382,10 +441,10 @@ export class StreamMesh {
           w = j === 0 ? vl : vr;
           flip = j;
         } else {
-          const code = readVarint(d, cp, ce); cp = vpos;
-          if (code < 0) throw fail(`split ${i}: face codes cut short`);
-          const index = code >>> 1;
-          flip = code & 1;
+          const code = getUint(X, C_FACE, 3);
+          if (rcFailed) throw fail(`split ${i}: the part's bytes end early`);
+          const index = Math.floor(code / 2);
+          flip = code % 2;
           while (index >= ringSize && ringSize < RING_LIMIT && pc >= 0) {
             const f = pc - (pc % 3), u = I[f + (pc - f + pSlot) % 3];
             if (pSlot === 2) { pSlot = 1; pc = next[pc]; } else pSlot = 2;
@@ -395,8 +454,7 @@ export class StreamMesh {
           }
           if (index < ringSize) w = ring[index];
           else if (index === ringSize && (ringSize >= RING_LIMIT || pc < 0)) {
-            w = readVarint(d, ep, ee); ep = vpos;
-            if (w < 0) throw fail(`split ${i}: escaped vertices cut short`);
+            w = getUint(X, C_ESCAPE, 3);
             if (w >= v || w === p) throw fail(`split ${i}: face names vertex ${w}`);
           } else throw fail(`split ${i}: ring position ${index} of ${ringSize}`);
         }
@@ -404,19 +462,29 @@ export class StreamMesh {
         nf++;
         if (stamp[w] !== sA) {  // a neighbour of v not met among the moved corners
           stamp[w] = sA;
-          s0 += qp[3 * w]; s1 += qp[3 * w + 1]; s2 += qp[3 * w + 2];
+          const x0 = qp[3 * w], x1 = qp[3 * w + 1], x2 = qp[3 * w + 2];
+          s0 += x0; s1 += x1; s2 += x2;
+          if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
+          if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
+          if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
           n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
           t0 += qt[2 * w]; t1 += qt[2 * w + 1];
           n++;
         }
       }
       if (pNear) {
-        s0 += qp[3 * p]; s1 += qp[3 * p + 1]; s2 += qp[3 * p + 2];
+        const x0 = qp[3 * p], x1 = qp[3 * p + 1], x2 = qp[3 * p + 2];
+        s0 += x0; s1 += x1; s2 += x2;
+        if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
+        if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
+        if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
         n0 += qn[3 * p]; n1 += qn[3 * p + 1]; n2 += qn[3 * p + 2];
         t0 += qt[2 * p]; t1 += qt[2 * p + 1];
         n++;
       }
-      // Attributes: the mean of v's neighbours (or p's values) plus the residuals.
+      // Attributes: the mean of v's neighbours (or p's values) plus the residuals; the position
+      // residuals' contexts by the bit length of the neighbours' largest extent.
+      let extentClass = 0;
       if (n === 0) {
         pred[0] = qp[3 * p]; pred[1] = qp[3 * p + 1]; pred[2] = qp[3 * p + 2];
         pred[3] = qn[3 * p]; pred[4] = qn[3 * p + 1]; pred[5] = qn[3 * p + 2];
@@ -425,6 +493,8 @@ export class StreamMesh {
         pred[0] = mean(s0, n); pred[1] = mean(s1, n); pred[2] = mean(s2, n);
         pred[3] = mean(n0, n); pred[4] = mean(n1, n); pred[5] = mean(n2, n);
         pred[6] = mean(t0, n); pred[7] = mean(t1, n);
+        const e = Math.max(hi0 - lo0, hi1 - lo1, hi2 - lo2), b = bitLength(e);
+        extentClass = b < EXTENT_CLASSES - 1 ? b : EXTENT_CLASSES - 1;
       }
       // Twins: the vertices split from parents at p's position, newest first.
       const px = qp[3 * p], py = qp[3 * p + 1], pz = qp[3 * p + 2];
@@ -437,31 +507,64 @@ export class StreamMesh {
       }
       let pick = 0;
       if (table[slot] >= 0) {
-        pick = readVarint(d, wp, we); wp = vpos;
-        let t = table[slot], n = 1;
-        for (; n < pick && t >= 0 && n < TWIN_LIMIT; n++) t = twinPrevious[t];
-        if (pick < 0 || pick > TWIN_LIMIT || (pick > 0 && (t < 0 || n !== pick))) throw fail(`split ${i}: twin index missing or past the candidates`);
-        if (pick > 0) { qp[3 * v] = qp[3 * t]; qp[3 * v + 1] = qp[3 * t + 1]; qp[3 * v + 2] = qp[3 * t + 2]; }
+        let candidates = 0;
+        for (let t = table[slot]; t >= 0 && candidates < TWIN_LIMIT; t = twinPrevious[t]) candidates++;
+        pick = getTree(X, C_TWIN + 8 * candidates, 3);
+        if (pick > candidates) throw fail(`split ${i}: twin index past the candidates`);
+        if (pick > 0) {
+          let t = table[slot];
+          for (let m = 1; m < pick; m++) t = twinPrevious[t];
+          qp[3 * v] = qp[3 * t]; qp[3 * v + 1] = qp[3 * t + 1]; qp[3 * v + 2] = qp[3 * t + 2];
+        }
       }
-      for (let j = 0; j < 3 && pick === 0; j++) {
-        const r = readVarint(d, pp, pe); pp = vpos;
-        if (r < 0) throw fail(`split ${i}: positions cut short`);
-        const x = pred[j] + (r % 2 ? -(r + 1) / 2 : r / 2);
-        if (x < 0 || x > 65535) throw fail(`split ${i}: attribute out of range`);
-        qp[3 * v + j] = x;
+      if (pick === 0) {
+        // Two axes along v's fan from the ring's mean, the third lifted onto the fan's plane
+        // (VsplitMesh::fan_normal, plane_axes, plane_predict).
+        let m0 = 0, m1 = 0, m2 = 0;
+        const c0 = pred[0], c1 = pred[1], c2 = pred[2];
+        for (let c = head[v]; c >= 0; c = next[c]) {
+          const f = c - (c % 3), slot = c - f, b = 3 * I[f + (slot + 1) % 3], e = 3 * I[f + (slot + 2) % 3];
+          const b0 = qp[b] - c0, b1 = qp[b + 1] - c1, b2 = qp[b + 2] - c2;
+          const e0 = qp[e] - c0, e1 = qp[e + 1] - c1, e2 = qp[e + 2] - c2;
+          m0 += b1 * e2 - b2 * e1; m1 += b2 * e0 - b0 * e2; m2 += b0 * e1 - b1 * e0;
+        }
+        while (Math.abs(m0) >= 2147483648 || Math.abs(m1) >= 2147483648 || Math.abs(m2) >= 2147483648) {
+          m0 = Math.floor(m0 / 2); m1 = Math.floor(m1 / 2); m2 = Math.floor(m2 / 2);
+        }
+        NORMAL[0] = m0; NORMAL[1] = m1; NORMAL[2] = m2;
+        let a = 0;
+        if (Math.abs(m1) > Math.abs(NORMAL[a])) a = 1;
+        if (Math.abs(m2) > Math.abs(NORMAL[a])) a = 2;
+        const plane = NORMAL[a] !== 0;
+        const ax = plane ? (a === 0 ? 1 : 0) : 0, bx = plane ? (a === 2 ? 1 : 2) : 1, cx = plane ? a : 2;
+        const pos = C_POSITION + extentClass * UINT, stride = EXTENT_CLASSES * UINT;
+        let r = getUint(X, pos, RESIDUAL_BITS);
+        const xa = pred[ax] + (r % 2 ? -(r + 1) / 2 : r / 2);
+        r = getUint(X, pos + stride, RESIDUAL_BITS);
+        const xb = pred[bx] + (r % 2 ? -(r + 1) / 2 : r / 2);
+        let base = pred[cx];
+        if (plane) {
+          let num = -(NORMAL[ax] * (xa - pred[ax]) + NORMAL[bx] * (xb - pred[bx])), den = NORMAL[cx];
+          if (den < 0) { num = -num; den = -den; }
+          base += Math.floor((2 * num + den) / (2 * den));
+        }
+        r = getUint(X, pos + 2 * stride, RESIDUAL_BITS);
+        const xc = base + (r % 2 ? -(r + 1) / 2 : r / 2);
+        if (xa < 0 || xa > 65535 || xb < 0 || xb > 65535 || xc < 0 || xc > 65535) throw fail(`split ${i}: attribute out of range`);
+        qp[3 * v + ax] = xa; qp[3 * v + bx] = xb; qp[3 * v + cx] = xc;
       }
       for (let j = 0; j < 3 && !normals; j++) qn[3 * v + j] = j === 2 ? 127 : 0;  // flat: +Z
       for (let j = 0; j < 3 && normals; j++) {
-        const r = readVarint(d, np, ne); np = vpos;
-        if (r < 0) throw fail(`split ${i}: normals cut short`);
+        const r = getUint(X, C_NORMAL + j * UINT, RESIDUAL_BITS);
         const x = pred[3 + j] + (r % 2 ? -(r + 1) / 2 : r / 2);
         if (x < -128 || x > 127) throw fail(`split ${i}: attribute out of range`);
         qn[3 * v + j] = x;
       }
-      predictUv(I, head, next, qp, qt, v, p, pred);  // from v's position, when a face allows
-      for (let j = 0; j < 2; j++) {
-        const r = readVarint(d, tp, te); tp = vpos;
-        if (r < 0) throw fail(`split ${i}: texture coordinates cut short`);
+      // From v's position, when a face allows; which predictor applied picks the contexts.
+      const uvPredicted = uvs && predictUv(I, head, next, qp, qt, v, p, pred) ? 1 : 0;
+      if (!uvs) { qt[2 * v] = 0; qt[2 * v + 1] = 0; }
+      for (let j = 0; j < 2 && uvs; j++) {
+        const r = getUint(X, C_UV + (2 * j + uvPredicted) * UINT, RESIDUAL_BITS);
         const x = pred[6 + j] + (r % 2 ? -(r + 1) / 2 : r / 2);
         if (x < 0 || x > 65535) throw fail(`split ${i}: attribute out of range`);
         qt[2 * v + j] = x;
@@ -472,21 +575,19 @@ export class StreamMesh {
       table[slot] = v;
     }
     this.stampValue = stampValue;
-    const extra = readVarint(d, kp, ke); kp = vpos;
-    if (extra < 0) throw fail('extra face count missing');
+    const extra = getUint(X, C_EXTRA, 3);
+    if (rcFailed) throw fail('extra face count missing');
     if (nf + extra !== faceGoal) throw fail(`${faceGoal - nf} faces expected, ${extra} extra faces follow the splits`);
     const vn = v0 + splits;
     for (let j = 0; j < extra; j++) {
-      const a = readVarint(d, ep, ee); ep = vpos;
-      const b = readVarint(d, ep, ee); ep = vpos;
-      const c = readVarint(d, ep, ee); ep = vpos;
-      if (a < 0 || b < 0 || c < 0) throw fail('extra faces cut short');
+      const a = getUint(X, C_ESCAPE, 3), b = getUint(X, C_ESCAPE, 3), c = getUint(X, C_ESCAPE, 3);
+      if (rcFailed) throw fail('extra faces cut short');
       if (a >= vn || b >= vn || c >= vn) throw fail(`extra face ${j} names a vertex not received`);
       solid += addFace(I, head, next, 3 * nf, a, b, c);
       nf++;
     }
-    if (zp !== ze || kp !== ke || cp !== ce || ep !== ee || wp !== we || pp !== pe || np !== ne || tp !== te || ap !== ae) throw fail('a stream has bytes left over');
-    if (maskBits - maskAt >= 8) throw fail('corner mask has bytes left over');
+    if (rcFailed) throw fail("the part's bytes end early");
+    if (rcPos !== end) throw fail(`${end - rcPos} of the part's bytes left over`);
     // What the GPU draws: the new vertices, and the whole index buffer (corners moved anywhere).
     const P = this.position, N = this.normal, T = this.uv, o = this.origin, st = this.step;
     for (let v = v0; v < vn; v++) {
@@ -513,24 +614,12 @@ export class StreamMesh {
   dispose() { this.geometry.dispose(); }
 }
 
-// Applies one mesh chunk's payload to the stream meshes: every part's zlib stream is inflated
-// at once (the browser works on them together), then the parts' splits are applied in order.
-// Resolves with the faces added.
+// Applies one mesh chunk's payload to the stream meshes: its parts' coded bytes one after the
+// other, each applied in order. Resolves with the faces added.
 export async function applyMeshChunk(meshes, chunk, payload) {
-  // The payload is one raw deflate stream of every part's bytes (n each, inflated).
   let total = 0;
-  for (const part of chunk.parts) {
-    const limit = PART_BYTES_PER_ELEMENT * (part.vertex_end - part.vertex_begin + part.face_end - part.face_begin) + PART_BYTES_CONSTANT;
-    if (part.bytes > limit) throw new Error(`mesh ${part.mesh}: a part of ${part.bytes} bytes is more than its splits may take`);
-    total += part.bytes;
-  }
-  let plain;
-  try {
-    plain = total > 0 ? await inflate(payload, total, 'deflate-raw') : new Uint8Array(0);
-  } catch (e) {
-    throw new Error(`mesh chunk: ${e.message}`);
-  }
-  if (plain.length !== total) throw new Error(`mesh chunk: inflates to ${plain.length} bytes, its parts hold ${total}`);
+  for (const part of chunk.parts) total += part.bytes;
+  if (total !== payload.length) throw new Error(`mesh chunk: its parts hold ${total} bytes, the chunk ${payload.length}`);
   let added = 0, at = 0;
   for (let k = 0; k < chunk.parts.length; k++) {
     const part = chunk.parts[k], mesh = meshes[part.mesh];
@@ -538,9 +627,9 @@ export async function applyMeshChunk(meshes, chunk, payload) {
       throw new Error(`mesh ${part.mesh}: part starts at vertex ${part.vertex_begin}, face ${part.face_begin}, ` +
         `but ${mesh.vertices} vertices and ${mesh.faces} faces are received`);
     }
-    const d = plain.subarray(at, at += part.bytes);
     const faces = part.face_end - part.face_begin;
-    mesh.applySplits(d, part.vertex_end - part.vertex_begin, faces);
+    mesh.applySplits(payload, at, at + part.bytes, part.vertex_end - part.vertex_begin, faces);
+    at += part.bytes;
     added += faces;
   }
   return added;

@@ -1,0 +1,161 @@
+// Adaptive binary range coder (multiplex/range_coder.h): arithmetic coding as a carry-
+// propagating range coder (G. N. N. Martin, "Range encoding", 1979; D. Subbotin's carry-less
+// variant's bit models, as in LZMA), with binary contexts adapting by a fixed shift.
+#include "multiplex/range_coder.h"
+
+namespace meshmux {
+
+namespace {
+constexpr uint32_t kTop = 1u << 24;
+constexpr uint32_t kProbabilityOne = 1u << kProbabilityBits;
+}  // namespace
+
+UIntContext::UIntContext() {
+  for (uint16_t& p : length) p = kProbabilityHalf;
+  for (auto& m : mantissa)
+    for (uint16_t& p : m) p = kProbabilityHalf;
+}
+
+void RangeEncoder::shift_low() {
+  if (uint32_t(low_) < 0xFF000000u || (low_ >> 32) != 0) {
+    const uint8_t carry = uint8_t(low_ >> 32);
+    uint8_t byte = cache_;
+    do {
+      out_.push_back(uint8_t(byte + carry));
+      byte = 0xFF;
+    } while (--cache_size_ != 0);
+    cache_ = uint8_t(uint32_t(low_) >> 24);
+  }
+  ++cache_size_;
+  low_ = (low_ & 0x00FFFFFFu) << 8;
+}
+
+void RangeEncoder::put_bit(uint16_t& probability, uint32_t bit) {
+  const uint32_t bound = (range_ >> kProbabilityBits) * probability;
+  if (bit == 0) {
+    range_ = bound;
+    probability = uint16_t(probability + ((kProbabilityOne - probability) >> kAdaptShift));
+  } else {
+    low_ += bound;
+    range_ -= bound;
+    probability = uint16_t(probability - (probability >> kAdaptShift));
+  }
+  while (range_ < kTop) {
+    range_ <<= 8;
+    shift_low();
+  }
+}
+
+void RangeEncoder::put_direct(uint32_t value, int bits) {
+  // In pieces of at most kDirectPiece bits, most significant first: the range is cut into
+  // 2^k equal slices (its remainder left unused) and the value's slice taken.
+  while (bits > 0) {
+    const int k = bits < kDirectPiece ? bits : kDirectPiece;
+    bits -= k;
+    range_ >>= k;
+    low_ += uint64_t((value >> bits) & ((1u << k) - 1)) * range_;
+    while (range_ < kTop) {
+      range_ <<= 8;
+      shift_low();
+    }
+  }
+}
+
+void RangeEncoder::put_uint(UIntContext& c, uint32_t value, int most) {
+  const int n = bit_length(value);
+  uint32_t node = 1;
+  for (int i = 5; i >= 0; --i) {
+    uint32_t bit = (uint32_t(n) >> i) & 1;
+    put_bit(c.length[node], bit);
+    node = node << 1 | bit;
+  }
+  if (n < 2) return;
+  // The n - 1 bits below the leading one: the top three through contexts, the rest direct.
+  const int below = n - 1, modelled = below < most ? below : most;
+  node = 1;
+  for (int i = 0; i < modelled; ++i) {
+    uint32_t bit = (value >> (below - 1 - i)) & 1;
+    put_bit(c.mantissa[n][node], bit);
+    node = node << 1 | bit;
+  }
+  if (below > modelled) put_direct(value & ((1u << (below - modelled)) - 1), below - modelled);
+}
+
+std::vector<uint8_t> RangeEncoder::finish() {
+  for (int i = 0; i < kRangeCoderFlushBytes; ++i) shift_low();
+  return std::move(out_);
+}
+
+RangeDecoder::RangeDecoder(const uint8_t* data, size_t size)
+    : begin_(data), at_(data), end_(data + size) {
+  for (int i = 0; i < kRangeCoderFlushBytes; ++i) code_ = code_ << 8 | next_byte();
+}
+
+uint8_t RangeDecoder::next_byte() {
+  if (at_ == end_) {
+    failed_ = true;
+    return 0;
+  }
+  return *at_++;
+}
+
+uint32_t RangeDecoder::get_bit(uint16_t& probability) {
+  const uint32_t bound = (range_ >> kProbabilityBits) * probability;
+  uint32_t bit;
+  if (code_ < bound) {
+    range_ = bound;
+    probability = uint16_t(probability + ((kProbabilityOne - probability) >> kAdaptShift));
+    bit = 0;
+  } else {
+    code_ -= bound;
+    range_ -= bound;
+    probability = uint16_t(probability - (probability >> kAdaptShift));
+    bit = 1;
+  }
+  while (range_ < kTop) {
+    range_ <<= 8;
+    code_ = code_ << 8 | next_byte();
+  }
+  return bit;
+}
+
+uint32_t RangeDecoder::get_direct(int bits) {
+  uint32_t value = 0;
+  while (bits > 0) {
+    const int k = bits < kDirectPiece ? bits : kDirectPiece;
+    bits -= k;
+    range_ >>= k;
+    uint32_t slice = code_ / range_;
+    if (slice >> k) {  // past the last slice: only a damaged stream gets here
+      slice = (1u << k) - 1;
+      failed_ = true;
+    }
+    code_ -= slice * range_;
+    value = value << k | slice;
+    while (range_ < kTop) {
+      range_ <<= 8;
+      code_ = code_ << 8 | next_byte();
+    }
+  }
+  return value;
+}
+
+uint32_t RangeDecoder::get_uint(UIntContext& c, int most) {
+  uint32_t node = 1;
+  for (int i = 0; i < 6; ++i) node = node << 1 | get_bit(c.length[node]);
+  const int n = int(node - 64);
+  if (n > 32) {
+    failed_ = true;  // no uint32 is that long
+    return 0;
+  }
+  if (n < 2) return uint32_t(n);
+  const int below = n - 1, modelled = below < most ? below : most;
+  node = 1;
+  for (int i = 0; i < modelled; ++i) node = node << 1 | get_bit(c.mantissa[n][node]);
+  // node holds the leading one and the modelled bits; the direct ones follow.
+  uint32_t value = node << (below - modelled);
+  if (below > modelled) value |= get_direct(below - modelled);
+  return value;
+}
+
+}  // namespace meshmux
