@@ -94,6 +94,7 @@ std::string content_type_for(const fs::path& file) {
       {".jpg", "image/jpeg"},
       {".jpeg", "image/jpeg"},
       {".mmxp", "application/octet-stream"},
+      {".wasm", "application/wasm"},
   };
   for (const Entry& e : kTypes)
     if (ext == e.ext) return e.type;

@@ -22,7 +22,8 @@
 //             camera)
 //    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
 //    "base": {"offset": O, "size": S, "deflated": z,          // byte range of the base as
-//             "glb_size": G, "distortion": d0},               // stored; the .glb's own size
+//             "glb_size": G, "distortion": d0,                // stored; the .glb's own size
+//             "whole": true},                                 // optional, see below
 //    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,      // what the base holds
 //                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
@@ -45,16 +46,20 @@
 //
 // The mesh stream (paper 002's shared vertex buffer, made streamable). A client holds per mesh
 // a vertex buffer that is only appended to and an index buffer of every face received so far.
-// The base's mesh m has exactly v0 vertices in stream order (the base .glb's mesh with extras
+// A base that is the whole model ("whole": every mesh ships whole, no mesh chunk follows: the
+// stream is texture levels only) keeps no vertex order, so it is coded as model.glb is (Draco,
+// KHR_draco_mesh_compression, its meshes tagged with extras {"meshmux_mesh": m}); a client
+// draws its objects as they are. Otherwise the base's mesh m has exactly v0 vertices in stream
+// order (the base .glb's mesh with extras
 // {"meshmux_mesh": m}, EXT_meshopt_compression + KHR_mesh_quantization: positions as integers
 // on the grid, q = round((x - origin) / step), the nodes' transforms dequantizing; normals as
 // normalized bytes; uv as normalized shorts, see scene/quantize.h); its f0 faces are the
 // concatenation of that mesh's primitives' indices in primitive order, as decoded (meshopt's
 // index codec may rotate a face's corners; the client keeps them so). A mesh chunk's payload
-// is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits taking the mesh from vertex a to b and face
-// c to e (multiplex/vsplit.h; the splits' order is the stream's vertex order, so stream vertex
-// i need not be the progressive mesh's vertex i). A
-// texture chunk is the complete JPEG or PNG files of that level's maps, one per channel.
+// is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits
+// taking the mesh from vertex a to b and face c to e (multiplex/vsplit.h; the splits' order is the
+// stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A texture
+// chunk is the complete JPEG or PNG files of that level's maps, one per channel.
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
 // order is a permutation of the chunks that keeps the mesh chunks' relative order (texture
@@ -92,7 +97,9 @@ inline bool is_texture_channel(const std::string& c) {
 
 // Everything the package holds, already encoded: the writer lays bytes out and encodes nothing.
 struct PackageInput {
-  std::vector<uint8_t> base_glb;       // the base, encoded (no Draco: vertex order kept)
+  std::vector<uint8_t> base_glb;  // the base, encoded (meshopt: vertex order kept; or whole)
+  // The base is the whole model, Draco-coded (no mesh layers follow; see above).
+  bool base_whole = false;
   std::vector<MeshStreamBase> meshes;  // per Scene mesh: counts, bounds, base faces
   // Per mesh layer, the encoded parts that take the meshes from the layer before to it
   // (layer 0, the base, has none): what the multiplexer costed (MultiplexResult::layer_parts).
@@ -156,6 +163,7 @@ struct Package {
   PackageView view;
   uint64_t base_offset = 0, base_size = 0;  // the base as stored (absolute offset)
   bool base_deflated = false;               // stored zlib-deflated
+  bool base_whole = false;                  // the base is the whole model (no mesh chunks)
   uint64_t base_glb_size = 0;               // the .glb's size once inflated
   double base_distortion = 0;
   std::vector<PackageMesh> meshes;

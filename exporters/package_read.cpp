@@ -423,6 +423,9 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (!(s = get_uint(*base, "glb_size", kMaxBaseBytes, pkg.base_glb_size, "base"))) return s;
   if (!pkg.base_deflated && pkg.base_glb_size != pkg.base_size)
     return fail("base: glb_size differs from the stored size of a base stored as it is");
+  auto whole = base->find("whole");  // optional: a base that is the whole model
+  if (whole != base->end() && !whole->is_boolean()) return fail("base: \"whole\" is not a boolean");
+  pkg.base_whole = whole != base->end() && whole->get<bool>();
   auto base_d = base->find("distortion");
   if (base_d == base->end()) return fail("base: missing \"distortion\"");
   if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
@@ -452,6 +455,8 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
                   " overlaps the base or the chunk before");
     if (c.kind == StreamStep::kTexture && pkg.texture_width == 0)
       return fail(where + ": texture chunk in a package without texture");
+    if (c.kind == StreamStep::kMesh && pkg.base_whole)
+      return fail(where + ": mesh refinement in a package whose base is the whole model");
     end = c.offset + c.size;
     pkg.chunks.push_back(std::move(c));
   }

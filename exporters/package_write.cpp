@@ -94,14 +94,15 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
       for (const TextureMap& m : t.other_maps)
         c.payload.insert(c.payload.end(), m.encoded.begin(), m.encoded.end());
     } else {
+      if (in.base_whole)
+        return fail(where + "a mesh layer in a package whose base is the whole model");
       if (!in.mesh_layers || step.mesh_layer >= in.mesh_layers->size() ||
           step.mesh_layer < next_layer)
         return fail(where + "mesh layer " + std::to_string(step.mesh_layer) +
                     " out of range or out of order");
       next_layer = step.mesh_layer + 1;
       if (!in.mesh_chunks || in.mesh_chunks->size() != in.mesh_layers->size())
-        return fail(where + "no payload for mesh layer " +
-                    std::to_string(step.mesh_layer));
+        return fail(where + "no payload for mesh layer " + std::to_string(step.mesh_layer));
       for (const EncodedMeshPart& part : (*in.mesh_layers)[step.mesh_layer]) {
         if (part.part.mesh >= in.meshes.size())
           return fail(where + "part of mesh " + std::to_string(part.part.mesh) + " out of range");
@@ -193,6 +194,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                {"deflated", base_deflated},
                {"glb_size", uint64_t(in.base_glb.size())},
                {"distortion", in.base_distortion}};
+  if (in.base_whole) j["base"]["whole"] = true;
   OrderedJson ms = OrderedJson::array();
   uint64_t offset = data_start + base_stored;
   for (const MeshStreamBase& b : in.meshes) {

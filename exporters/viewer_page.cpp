@@ -35,6 +35,11 @@ MESHMUX_INCBIN(geometry_utils, MESHMUX_THREE_DIR "/examples/jsm/utils/BufferGeom
 MESHMUX_INCBIN(skeleton_utils, MESHMUX_THREE_DIR "/examples/jsm/utils/SkeletonUtils.js")
 MESHMUX_INCBIN(orbit_controls, MESHMUX_THREE_DIR "/examples/jsm/controls/OrbitControls.js")
 MESHMUX_INCBIN(meshopt_decoder, MESHMUX_THREE_DIR "/examples/jsm/libs/meshopt_decoder.module.js")
+// Draco, for a package whose base is the whole model (exporters/package.h): loaded only then.
+MESHMUX_INCBIN(draco_loader, MESHMUX_THREE_DIR "/examples/jsm/loaders/DRACOLoader.js")
+MESHMUX_INCBIN(draco_wrapper,
+               MESHMUX_THREE_DIR "/examples/jsm/libs/draco/gltf/draco_wasm_wrapper.js")
+MESHMUX_INCBIN(draco_wasm, MESHMUX_THREE_DIR "/examples/jsm/libs/draco/gltf/draco_decoder.wasm")
 
 namespace meshmux {
 
@@ -59,6 +64,9 @@ std::vector<ViewerFile> viewer_files() {
       MESHMUX_FILE("viewer/three/addons/utils/SkeletonUtils.js", skeleton_utils),
       MESHMUX_FILE("viewer/three/addons/controls/OrbitControls.js", orbit_controls),
       MESHMUX_FILE("viewer/three/addons/libs/meshopt_decoder.module.js", meshopt_decoder),
+      MESHMUX_FILE("viewer/three/addons/loaders/DRACOLoader.js", draco_loader),
+      MESHMUX_FILE("viewer/three/addons/libs/draco/gltf/draco_wasm_wrapper.js", draco_wrapper),
+      MESHMUX_FILE("viewer/three/addons/libs/draco/gltf/draco_decoder.wasm", draco_wasm),
   };
 #undef MESHMUX_FILE
 }

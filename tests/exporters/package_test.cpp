@@ -607,6 +607,33 @@ TEST(Package, SurvivesThousandCorruptions) {
   EXPECT_GT(rejected_read, 300);
 }
 
+// "whole" says the base is the whole model: a package claiming it while mesh chunks follow
+// (which need the base's vertex order) is rejected, and the writer refuses to make one.
+TEST(Package, WholeBaseAllowsNoMeshChunk) {
+  const Fixture& f = fixture();
+  auto valid = write_package(f.input);
+  ASSERT_TRUE(valid.ok()) << valid.status().message();
+  EXPECT_FALSE(read_package(*valid)->base_whole);
+  uint32_t json_size = uint32_t((*valid)[8]) | uint32_t((*valid)[9]) << 8 |
+                       uint32_t((*valid)[10]) << 16 | uint32_t((*valid)[11]) << 24;
+  auto inflated = inflate_bytes(valid->data() + 12, json_size, kMaxTableBytes);
+  ASSERT_TRUE(inflated.ok());
+  nlohmann::json table = nlohmann::json::parse(inflated->begin(), inflated->end());
+  table["base"]["whole"] = true;
+  auto r = read_package(with_header(*valid, table.dump(), 0));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("whole model"), std::string::npos) << r.status().message();
+  table["base"]["whole"] = "yes";
+  r = read_package(with_header(*valid, table.dump(), 0));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("not a boolean"), std::string::npos);
+  PackageInput whole = f.input;
+  whole.base_whole = true;
+  auto w = write_package(whole);
+  ASSERT_FALSE(w.ok());
+  EXPECT_NE(w.status().message().find("whole model"), std::string::npos) << w.status().message();
+}
+
 TEST(Package, RejectsBadHeadersWithClearMessages) {
   const Fixture& f = fixture();
   auto valid = write_package(f.input);

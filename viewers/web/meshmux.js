@@ -225,16 +225,20 @@ const pause = () => new Promise((resolve) => {
 export class MeshmuxStream extends EventTarget {
   // options: order (a name from the package's orders), budgetBytes (stop before a chunk would
   // take the bytes received past it), chunkBatchBytes (most bytes per range request, unless
-  // one chunk is larger), renderer (a THREE.WebGLRenderer, for the texture anisotropy).
+  // one chunk is larger), renderer (a THREE.WebGLRenderer, for the texture anisotropy),
+  // dracoDecoderPath (where three's draco/gltf/ decoder files are: a package whose base is the
+  // whole model is Draco-coded; default: beside this module, as `meshmux convert` writes them).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
-    this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null, ...options };
+    this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
+      dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
     this.order = null;   // the chosen order: {name, chunks, distortion}
     this.meshes = [];    // StreamMesh per package mesh
+    this._whole = [];    // a whole base: its objects, drawn as they are
     this.materials = [];
     this.notes = [];     // non-fatal findings about the package
     this._reader = new RangeReader(this.url);
@@ -264,6 +268,12 @@ export class MeshmuxStream extends EventTarget {
   get stats() {
     let triangles = 0, vertices = 0;
     for (const m of this.meshes) { triangles += m.solid * m.instances; vertices += m.vertices; }
+    const counted = new Set();
+    for (const o of this._whole) {
+      const g = o.geometry, count = g.index ? g.index.count : g.getAttribute('position').count;
+      triangles += Math.floor(count / 3) * (o.isInstancedMesh ? o.count : 1);
+      if (!counted.has(g)) { counted.add(g); vertices += g.getAttribute('position').count; }
+    }
     return {
       bytesReceived: this._bytes, bytesTotal: this._reader.size,
       chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
@@ -341,18 +351,26 @@ export class MeshmuxStream extends EventTarget {
     }
     if (bytes.length !== table.base.glbSize) throw this._fail(`the base .glb is ${bytes.length} bytes, the table says ${table.base.glbSize}`);
     const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-    let gltf;
+    let gltf, draco = null;
     try {
-      gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(glb, '');
+      const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+      if (table.base.whole) {  // Draco-coded (exporters/package.h): its decoder, loaded only then
+        const { DRACOLoader } = await import('three/addons/loaders/DRACOLoader.js');
+        draco = new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath);
+        loader.setDRACOLoader(draco);
+      }
+      gltf = await loader.parseAsync(glb, '');
     } catch (e) {
       throw this._fail(`the base .glb cannot be loaded (${e && e.message ? e.message : e})`);
+    } finally {
+      if (draco) draco.dispose();
     }
     const root = gltf.scene || gltf.scenes[0];
     const objects = [];
     if (root) root.traverse((o) => { if (o.isMesh) objects.push(o); });
     if (!objects.length) throw this._fail('the base .glb holds no mesh');
 
-    this.meshes = table.meshes.map((d, i) => new StreamMesh(d, i));
+    this.meshes = table.base.whole ? [] : table.meshes.map((d, i) => new StreamMesh(d, i));
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     const baseFaces = new Set(), facesDone = new Set();
     const physical = table.view.physical;
@@ -376,6 +394,7 @@ export class MeshmuxStream extends EventTarget {
       o.material = materialFor.get(source);
 
       const m = o.userData.meshmux_mesh;
+      if (table.base.whole) { this._whole.push(o); continue; }  // every mesh whole: drawn as it is
       if (m === undefined) { this.notes.push(`base .glb object "${o.name}" has no meshmux_mesh tag: drawn as it is`); continue; }
       const mesh = this.meshes[m];
       if (!Number.isInteger(m) || !mesh) throw this._fail(`base .glb object "${o.name}" names meshmux_mesh ${JSON.stringify(m)}, the package has ${this.meshes.length} meshes`);
@@ -408,6 +427,7 @@ export class MeshmuxStream extends EventTarget {
       mesh.instances += o.isInstancedMesh ? o.count : 1;
     }
     this.meshes.forEach((mesh, m) => {
+      if (table.base.whole) return;
       if (!filled.has(m)) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`);
       else if (mesh.faces !== table.meshes[m].base_faces) throw this._fail(`base .glb mesh ${m} has ${mesh.faces} faces, the table says base_faces ${table.meshes[m].base_faces}`);
     });
@@ -429,12 +449,14 @@ export class MeshmuxStream extends EventTarget {
     this.object.updateWorldMatrix(true, true);
     const matrix = new THREE.Matrix4(), box = new THREE.Box3();
     this.object.traverse((o) => {
-      const mesh = o.isMesh && this.meshes[o.userData.meshmux_mesh];
-      if (!mesh) return;
+      const whole = this._whole.includes(o), mesh = o.isMesh && !whole && this.meshes[o.userData.meshmux_mesh];
+      if (!mesh && !whole) return;
+      const geometry = whole ? o.geometry : mesh.geometry;
+      if (whole && !geometry.boundingBox) geometry.computeBoundingBox();
       for (let i = 0; i < (o.isInstancedMesh ? o.count : 1); i++) {
         if (o.isInstancedMesh) o.getMatrixAt(i, matrix).premultiply(o.matrixWorld);
         else matrix.copy(o.matrixWorld);
-        target.union(box.copy(mesh.geometry.boundingBox).applyMatrix4(matrix));
+        target.union(box.copy(geometry.boundingBox).applyMatrix4(matrix));
       }
     });
     return target;
@@ -631,6 +653,8 @@ export class MeshmuxStream extends EventTarget {
     this._state = 'disposed';
     if (this.object.parent) this.object.parent.remove(this.object);
     for (const m of this.meshes) m.dispose();
+    for (const g of new Set(this._whole.map((o) => o.geometry))) g.dispose();
+    this._whole = [];
     for (const m of this.materials) m.dispose();
     this._releaseTexture(this._map.value);
     this._map.value = null;

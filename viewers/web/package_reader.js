@@ -67,6 +67,9 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   need(typeof t.base.deflated === 'boolean', 'base.deflated must be true or false');
   base.deflated = t.base.deflated;
   base.glbSize = int(t.base.glb_size, 'base.glb_size', MAX_BASE_BYTES);
+  // Optional: the base is the whole model (Draco-coded, no mesh chunk follows).
+  need(t.base.whole === undefined || typeof t.base.whole === 'boolean', 'base.whole must be true or false');
+  base.whole = t.base.whole === true;
   need(base.deflated || base.glbSize === base.size, `base.glb_size ${base.glbSize} differs from its stored size ${base.size}`);
   need(base.glbSize >= 20, `the base .glb is ${base.glbSize} bytes, too small for a glb`);
   const meshes = arr(t.meshes, 'meshes').map((m, i) => {
@@ -111,6 +114,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), maps };
     }
     need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
+    need(!base.whole, `${w}: a mesh refinement in a package whose base is the whole model`);
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
       // [mesh, vertex_end, face_end, bytes], starting where its mesh stands.
