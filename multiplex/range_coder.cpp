@@ -63,12 +63,16 @@ void RangeEncoder::put_direct(uint32_t value, int bits) {
 
 void RangeEncoder::put_uint(UIntContext& c, uint32_t value, int most) {
   const int n = bit_length(value);
+  // The length: below kLengthEscape through a 4-level tree; from it, the escape symbol and
+  // n - kLengthEscape in 5 direct bits (a few dozen times per mesh: vertex indices).
+  const uint32_t symbol = uint32_t(n < kLengthEscape ? n : kLengthEscape);
   uint32_t node = 1;
-  for (int i = 5; i >= 0; --i) {
-    uint32_t bit = (uint32_t(n) >> i) & 1;
+  for (int i = 3; i >= 0; --i) {
+    uint32_t bit = (symbol >> i) & 1;
     put_bit(c.length[node], bit);
     node = node << 1 | bit;
   }
+  if (n >= kLengthEscape) put_direct(uint32_t(n - kLengthEscape), 5);
   if (n < 2) return;
   // The n - 1 bits below the leading one: the top three through contexts, the rest direct.
   const int below = n - 1, modelled = below < most ? below : most;
@@ -142,8 +146,9 @@ uint32_t RangeDecoder::get_direct(int bits) {
 
 uint32_t RangeDecoder::get_uint(UIntContext& c, int most) {
   uint32_t node = 1;
-  for (int i = 0; i < 6; ++i) node = node << 1 | get_bit(c.length[node]);
-  const int n = int(node - 64);
+  for (int i = 0; i < 4; ++i) node = node << 1 | get_bit(c.length[node]);
+  int n = int(node - 16);
+  if (n == kLengthEscape) n += int(get_direct(5));
   if (n > 32) {
     failed_ = true;  // no uint32 is that long
     return 0;

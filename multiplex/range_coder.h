@@ -24,12 +24,15 @@ constexpr int kProbabilityBits = 11;  // probabilities are p(0)·2^11
 constexpr uint16_t kProbabilityHalf = 1 << (kProbabilityBits - 1);
 constexpr int kAdaptShift = 4;            // moved 1/16 of the way per decision
 constexpr int kRangeCoderFlushBytes = 5;  // the encoder's tail; the decoder's head
-constexpr int kDirectPiece = 16;          // equiprobable bits are coded this many at a time at most
+constexpr int kDirectPiece = 16;
+constexpr int kLengthEscape = 15;  // bit lengths from here on are sent as 5 direct bits          //
+                                   // equiprobable bits are coded this many at a time at most
 
-// Contexts for integers (RangeEncoder::put_uint): a 6-level binary tree over the bit length
-// (0..32) and, per bit length, a 3-level tree over the three bits below the leading one.
+// Contexts for integers (RangeEncoder::put_uint): a 4-level binary tree over the bit length
+// (0..14, 15 escaping to 5 direct bits for 15..32) and, per bit length, a 3-level tree over the
+// three bits below the leading one.
 struct UIntContext {
-  uint16_t length[64];
+  uint16_t length[16];
   uint16_t mantissa[33][8];
   UIntContext();
 };

@@ -61,20 +61,26 @@ function getDirect(bits) {
   return value;
 }
 const POW2 = new Float64Array(33).map((_, i) => 2 ** i);
-// An integer through UIntContext `o` (RangeDecoder::get_uint): its bit length by a 6-level tree,
-// up to `most` bits below the leading one by contexts per length, the rest direct.
+// An integer through UIntContext `o` (RangeDecoder::get_uint): its bit length by a 4-level tree
+// (15 escapes to 5 direct bits), up to `most` bits below the leading one by contexts per
+// length, the rest direct.
 function getUint(probs, o, most) {
   let range = RC[0], code = RC[1], node = 1;
-  for (let i = 0; i < 6; i++) {
+  for (let i = 0; i < 4; i++) {
     const j = o + node, p = probs[j], bound = (range >>> PROB_BITS) * p;
     if (code < bound) { range = bound; probs[j] = p + ((PROB_ONE - p) >> ADAPT_SHIFT); node = node << 1; }
     else { code -= bound; range -= bound; probs[j] = p - (p >> ADAPT_SHIFT); node = (node << 1) | 1; }
     while (range < TOP) { range *= 256; code = ((code * 256) + rcByte()) >>> 0; }
   }
-  const n = node - 64;
+  let n = node - 16;
   if (n < 2) { RC[0] = range; RC[1] = code; return n; }
+  if (n === LENGTH_ESCAPE) {
+    RC[0] = range; RC[1] = code;
+    n += getDirect(5);
+    range = RC[0]; code = RC[1];
+  }
   if (n > 32) { RC[0] = range; RC[1] = code; rcFailed = true; return 0; }
-  const below = n - 1, modelled = below < most ? below : most, m = o + 64 + 8 * n;
+  const below = n - 1, modelled = below < most ? below : most, m = o + 16 + 8 * n;
   node = 1;
   for (let i = 0; i < modelled; i++) {
     const j = m + node, p = probs[j], bound = (range >>> PROB_BITS) * p;
@@ -98,8 +104,8 @@ function getTree(probs, o, bits) {
   RC[0] = range; RC[1] = code;
   return node - (1 << bits);
 }
-// VsplitContexts' layout in one array: UIntContext = 328 probabilities (64 + 33 · 8).
-const UINT = 328, EXTENT_CLASSES = 16, RESIDUAL_BITS = 1;
+// VsplitContexts' layout in one array: UIntContext = 280 probabilities (16 + 33 · 8).
+const UINT = 280, EXTENT_CLASSES = 16, RESIDUAL_BITS = 1, LENGTH_ESCAPE = 15;
 const C_PARENT = 0, C_FACES = UINT, C_FACE = 2 * UINT, C_ESCAPE = 3 * UINT, C_EXTRA = 4 * UINT;
 const C_MODE = 5 * UINT, C_MASK = C_MODE + 2, C_FAN_START = C_MASK + 16;
 const C_FAN_COUNT = C_FAN_START + 33 * 32, C_TWIN = C_FAN_COUNT + 33 * 32;
