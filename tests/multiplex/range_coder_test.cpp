@@ -65,6 +65,14 @@ std::vector<uint8_t> encode(const std::vector<Symbol>& symbols) {
   return out.finish();
 }
 
+// Decodes one symbol of the kind `s` describes.
+uint32_t decode(RangeDecoder& in, Contexts& c, const Symbol& s) {
+  if (s.kind == 0) return in.get_bit(c.bit[0]);
+  if (s.kind == 1) return in.get_direct(s.bits);
+  if (s.kind == 2) return in.get_uint(c.uint, s.bits);
+  return in.get_tree(c.tree);
+}
+
 // Every kind of symbol decodes to what was coded, and the decoder ends exactly at the last byte.
 TEST(RangeCoder, MixedSymbolsRoundTrip) {
   for (uint32_t seed : {1u, 2u, 3u}) {
@@ -72,15 +80,9 @@ TEST(RangeCoder, MixedSymbolsRoundTrip) {
     std::vector<uint8_t> bytes = encode(symbols);
     RangeDecoder in(bytes.data(), bytes.size());
     Contexts c;
-    for (size_t i = 0; i < symbols.size(); ++i) {
-      const Symbol& s = symbols[i];
-      uint32_t got = 0;
-      if (s.kind == 0) got = in.get_bit(c.bit[0]);
-      if (s.kind == 1) got = in.get_direct(s.bits);
-      if (s.kind == 2) got = in.get_uint(c.uint, s.bits);
-      if (s.kind == 3) got = in.get_tree(c.tree);
-      ASSERT_EQ(got, s.value) << "seed " << seed << " symbol " << i << " kind " << s.kind;
-    }
+    for (size_t i = 0; i < symbols.size(); ++i)
+      ASSERT_EQ(decode(in, c, symbols[i]), symbols[i].value)
+          << "seed " << seed << " symbol " << i << " kind " << symbols[i].kind;
     EXPECT_FALSE(in.failed());
     EXPECT_EQ(in.consumed(), bytes.size());
   }
@@ -107,24 +109,14 @@ TEST(RangeCoder, TruncationIsNoticed) {
   for (size_t keep : {size_t(0), size_t(3), bytes.size() / 2, bytes.size() - 1}) {
     RangeDecoder in(bytes.data(), keep);
     Contexts c;
-    for (const Symbol& s : symbols) {
-      if (s.kind == 0) in.get_bit(c.bit[0]);
-      if (s.kind == 1) in.get_direct(s.bits);
-      if (s.kind == 2) in.get_uint(c.uint, s.bits);
-      if (s.kind == 3) in.get_tree(c.tree);
-    }
+    for (const Symbol& s : symbols) decode(in, c, s);
     EXPECT_TRUE(in.failed()) << "kept " << keep << " of " << bytes.size();
   }
   std::vector<uint8_t> longer = bytes;
   longer.push_back(7);
   RangeDecoder in(longer.data(), longer.size());
   Contexts c;
-  for (const Symbol& s : symbols) {
-    if (s.kind == 0) in.get_bit(c.bit[0]);
-    if (s.kind == 1) in.get_direct(s.bits);
-    if (s.kind == 2) in.get_uint(c.uint, s.bits);
-    if (s.kind == 3) in.get_tree(c.tree);
-  }
+  for (const Symbol& s : symbols) decode(in, c, s);
   EXPECT_NE(in.consumed(), longer.size());
 }
 
