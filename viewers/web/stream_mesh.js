@@ -363,18 +363,17 @@ export class StreamMesh {
       // the one whose first neighbour is its second, `count` of them.
       let vl = -1, vr = -1, k = 2;
       if (fanMode) {
+        // One walk of p's corners: the fan's neighbours and their count, min(d, FAN_LIMIT), which
+        // picks the contexts of the fan's arguments.
         let nd = 0, ok = true;
-        for (let c = head[p]; c >= 0 && nd <= FAN_LIMIT; c = next[c]) nd++;
-        const dc = nd < FAN_LIMIT ? nd : FAN_LIMIT;
-        const start = getTree(X, C_FAN_START + 32 * dc, 5), count = getTree(X, C_FAN_COUNT + 32 * dc, 5) + 1;
-        nd = 0;
-        for (let c = head[p]; c >= 0 && ok; c = next[c]) {
+        for (let c = head[p]; c >= 0; c = next[c]) {
           if (nd === FAN_LIMIT) { ok = false; break; }
           const f = c - (c % 3), slot = c - f, a = I[f + (slot + 1) % 3], b = I[f + (slot + 2) % 3];
           if (a === p || b === p || a === b) ok = false;
           for (let j = 0; j < nd && ok; j++) if (FAN_N1[j] === a) ok = false;
           FAN_N1[nd] = a; FAN_N2[nd] = b; FAN_MOVED[nd] = 0; nd++;
         }
+        const start = getTree(X, C_FAN_START + 32 * nd, 5), count = getTree(X, C_FAN_COUNT + 32 * nd, 5) + 1;
         if (!ok || start >= nd || count > nd) throw fail(`split ${i}: parent ${p} has no such fan`);
         let at = start;
         for (let j = 0; ; j++) {
