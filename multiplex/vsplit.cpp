@@ -281,12 +281,9 @@ std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in) {
   return out;
 }
 
-namespace {
-
-Result<std::vector<uint8_t>> inflate_any(const uint8_t* data, size_t size, uint64_t limit,
-                                         bool raw) {
+Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit) {
   z_stream z{};
-  if ((raw ? inflateInit2(&z, -15) : inflateInit(&z)) != Z_OK)
+  if (inflateInit(&z) != Z_OK)
     return Status::error("zlib: cannot initialize", ErrorKind::kInternal);
   std::vector<uint8_t> out;
   z.next_in = const_cast<Bytef*>(data);
@@ -309,16 +306,8 @@ Result<std::vector<uint8_t>> inflate_any(const uint8_t* data, size_t size, uint6
   }
   bool done = r == Z_STREAM_END && z.avail_in == 0;
   inflateEnd(&z);
-  if (!done)
-    return Status::error(raw ? "not a complete deflate stream" : "not a complete zlib stream",
-                         ErrorKind::kInput);
+  if (!done) return Status::error("not a complete zlib stream", ErrorKind::kInput);
   return out;
-}
-
-}  // namespace
-
-Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit) {
-  return inflate_any(data, size, limit, false);
 }
 
 VsplitContexts::VsplitContexts() {

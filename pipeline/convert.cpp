@@ -233,33 +233,12 @@ Status permute_vertices(Primitive& p, const std::vector<uint32_t>& order) {
   return Status::ok();
 }
 
-// 9. The stream package: the base (mesh layer 0 with texture level 0: meshopt, every prefix
-// vertex kept so vertex i is the stream's vertex i; Draco when every mesh ships whole), then
-// the descent's steps as chunks made of
-// the bytes the multiplexer encoded; the baselines ride along as orders of the same chunks.
-Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
-                                          const TextureLevels& levels, const ConvertOptions& o,
-                                          Warnings* warnings) {
-  auto plan = stream_plan(mx);
-  if (!plan.ok()) return plan.status();
-  // Every mesh ships whole (no refinement follows; small models, DESIGN.md "Simplify"): no
-  // vertex order needs keeping, so the base is coded as model.glb is, with Draco (about 0.6x
-  // the bytes of meshopt + deflate on Duck), its meshes tagged for the client.
-  bool whole = true;
-  for (const std::vector<EncodedMeshPart>& parts : mx.layer_parts) whole = whole && parts.empty();
-  PackageInput in;
-  if (whole) {
-    GltfExportOptions tagged = o.gltf;
-    tagged.tag_meshes = true;
-    auto base =
-        export_glb_bytes(level_scene(ps, select_base(ps), levels, 0, false), tagged, warnings);
-    if (!base.ok()) return base.status();
-    in.base_glb = base.take();
-    in.base_whole = true;
-  }
-  // Otherwise meshoptimizer's order-keeping codecs over attributes quantized exactly as the
-  // stream codes them (scene/quantize.h), so vertex i is the stream's vertex i and its integers
-  // are the ones the vertex splits are predicted from.
+// The stream package's base when refinements follow: meshoptimizer's order-keeping codecs over
+// attributes quantized exactly as the stream codes them (scene/quantize.h), so vertex i is the
+// stream's vertex i and its integers are the ones the vertex splits are predicted from.
+Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps, const MultiplexResult& mx,
+                                              const TextureLevels& levels, const ConvertOptions& o,
+                                              Warnings* warnings) {
   GltfExportOptions plain = o.gltf;
   plain.draco = false;
   plain.meshopt = true;
@@ -274,7 +253,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
     for (Primitive& p : base_scene.meshes[m].primitives) p.flat = !mx.mesh_streams[m].normals;
   // Its vertices in the stream's base order (every primitive holds the whole prefix), and its
   // primitives' faces exactly as the stream's client takes them (MeshStreamBase).
-  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size() && !whole; ++m) {
+  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m) {
     const MeshStreamBase& stream = mx.mesh_streams[m];
     std::vector<Primitive>& prims = base_scene.meshes[m].primitives;
     if (prims.size() != stream.base_primitive_faces.size())
@@ -291,11 +270,31 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
       prims[k].indices = stream.base_primitive_faces[k];
     }
   }
-  if (!whole) {
-    auto base = export_glb_bytes(base_scene, plain, warnings);
-    if (!base.ok()) return base.status();
-    in.base_glb = base.take();
-  }
+  return export_glb_bytes(base_scene, plain, warnings);
+}
+
+// 9. The stream package: the base (mesh layer 0 with texture level 0: ordered_base_glb, or
+// Draco when every mesh ships whole), then the descent's steps as chunks made of the bytes the
+// multiplexer encoded; the baselines ride along as orders of the same chunks.
+Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
+                                          const TextureLevels& levels, const ConvertOptions& o,
+                                          Warnings* warnings) {
+  auto plan = stream_plan(mx);
+  if (!plan.ok()) return plan.status();
+  // Every mesh ships whole (no refinement follows; small models, DESIGN.md "Simplify"): no
+  // vertex order needs keeping, so the base is coded as model.glb is, with Draco (about 0.6x
+  // the bytes of meshopt + deflate on Duck), its meshes tagged for the client.
+  bool whole = true;
+  for (const std::vector<EncodedMeshPart>& parts : mx.layer_parts) whole = whole && parts.empty();
+  GltfExportOptions tagged = o.gltf;
+  tagged.tag_meshes = true;
+  auto base =
+      whole ? export_glb_bytes(level_scene(ps, select_base(ps), levels, 0, false), tagged, warnings)
+            : ordered_base_glb(ps, mx, levels, o, warnings);
+  if (!base.ok()) return base.status();
+  PackageInput in;
+  in.base_glb = base.take();
+  in.base_whole = whole;
   in.meshes = mx.mesh_streams;
   in.mesh_layers = &mx.layer_parts;
   in.mesh_chunks = &mx.layer_chunks;
