@@ -320,9 +320,12 @@ export class MeshmuxStream extends EventTarget {
       const order = table.orders.find((o) => o.name === this.options.order);
       if (!order) throw this._fail(`no order "${this.options.order}" (the package has ${table.orders.map((o) => o.name).join(', ')})`);
 
-      // The base .glb: one request.
+      // The base .glb: one request. A whole (Draco-coded) base needs three's Draco decoder: it
+      // loads while the base arrives, not after.
+      const draco = table.base.whole ? this._dracoLoader() : null;
+      if (draco) draco.catch(() => {});  // awaited in _buildBase
       const base = await this._reader.read(table.base.offset, table.base.offset + table.base.size, signal);
-      await this._buildBase(table, base);
+      await this._buildBase(table, base, draco);
       this.table = table;
       this.order = order;
       this._bytes = dataStart + table.base.size;
@@ -340,7 +343,13 @@ export class MeshmuxStream extends EventTarget {
   }
 
   // Parses the base .glb; swaps in the streaming geometries and the shared shading.
-  async _buildBase(table, stored) {
+  // three's DRACOLoader with its decoder fetched and compiled (DRACOLoader.preload).
+  async _dracoLoader() {
+    const { DRACOLoader } = await import('three/addons/loaders/DRACOLoader.js');
+    return new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath).preload();
+  }
+
+  async _buildBase(table, stored, dracoLoader = null) {
     let bytes = stored;
     if (table.base.deflated) {
       try {
@@ -355,8 +364,7 @@ export class MeshmuxStream extends EventTarget {
     try {
       const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
       if (table.base.whole) {  // Draco-coded (exporters/package.h): its decoder, loaded only then
-        const { DRACOLoader } = await import('three/addons/loaders/DRACOLoader.js');
-        draco = new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath);
+        draco = await (dracoLoader || this._dracoLoader());
         loader.setDRACOLoader(draco);
       }
       gltf = await loader.parseAsync(glb, '');
