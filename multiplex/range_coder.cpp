@@ -1,6 +1,6 @@
-// Adaptive binary range coder (multiplex/range_coder.h): arithmetic coding as a carry-
-// propagating range coder (G. N. N. Martin, "Range encoding", 1979; D. Subbotin's carry-less
-// variant's bit models, as in LZMA), with binary contexts adapting by a fixed shift.
+// Adaptive binary range coder (multiplex/range_coder.h): arithmetic coding as a range coder
+// (G. N. N. Martin, "Range encoding", 1979) with carry propagation through a cached byte, and
+// binary contexts whose probability moves by a fixed shift, as LZMA's coder does both.
 #include "multiplex/range_coder.h"
 
 namespace meshmux {

@@ -1,17 +1,18 @@
 // An adaptive binary range coder: the entropy coder of the stream's mesh refinements
 // (multiplex/vsplit.h). Each binary decision is coded with a probability that adapts to what
 // its context has seen (11-bit probabilities, moved 1/16 of the way per decision: the
-// carry-propagating "range coder" of Subbotin / Martin 1979 as LZMA uses it); integers are
-// coded as their bit length through a binary tree of such contexts, the three bits below the
-// leading one through contexts of their own, and the rest as equiprobable bits.
+// carry-propagating "range coder" of Martin 1979 as LZMA uses it); integers are coded as their
+// bit length through a binary tree of such contexts, up to three bits below the leading one
+// through contexts of their own, and the rest as equiprobable bits.
 //
 // Why not deflate (package format ≤ 12): deflate codes bytes with one Huffman table per block,
 // so a residual costs a whole number of bits and nothing it has seen about its neighbourhood
 // helps; here each field has its own contexts (the position residual's by the size of the new
-// vertex's ring), which saves 10–20% of a refinement's bytes (bench/stream_bytes.sh).
+// vertex's ring). With format 13's prediction changes the shared models' mesh streams shrank
+// 5–16% (bench/stream_bytes.sh).
 //
-// The web client (viewers/web/stream_mesh.js, RangeDecoder) mirrors the decoder operation for
-// operation: every quantity is a non-negative integer below 2^32.
+// The web client (viewers/web/stream_mesh.js: getBit, getDirect, getUint, getTree) mirrors the
+// decoder operation for operation: every quantity is a non-negative integer below 2^32.
 #pragma once
 
 #include <cstddef>
