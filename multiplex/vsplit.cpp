@@ -350,12 +350,11 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
     previous = p;
     const bool fan_mode = in.get_bit(x.mode[previous_mode]) != 0;
     previous_mode = fan_mode;
-    uint32_t d = 0;
-    for (int32_t c = mesh.head[p]; c >= 0 && d <= kFanLimit; c = mesh.next[size_t(c)]) ++d;
-    const uint32_t dc = std::min(d, kFanLimit);
     uint32_t k = 2, vl = 0, vr = 0;
     const uint32_t v = mesh.add_vertex(QuantizedVertex{});
-    if (fan_mode) {
+    if (fan_mode) {  // the arguments' contexts by the parent's corner count, at most kFanLimit
+      uint32_t dc = 0;
+      for (int32_t c = mesh.head[p]; c >= 0 && dc < kFanLimit; c = mesh.next[size_t(c)]) ++dc;
       uint32_t start = in.get_tree(x.fan_start[dc]), count = in.get_tree(x.fan_count[dc]) + 1;
       if (!mesh.fan(p, start, count, moved, vl, vr))
         return fail(i, "parent " + std::to_string(p) + " has no such fan");
