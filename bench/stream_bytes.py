@@ -65,6 +65,32 @@ def geometry_bytes(data):
     return out
 
 
+# glTF material slots and the atlas channel each fills (DESIGN.md "Atlas").
+SLOT_CHANNELS = (("baseColorTexture", "base_color"), ("normalTexture", "normal"),
+                 ("occlusionTexture", "occlusion_roughness_metallic"),
+                 ("metallicRoughnessTexture", "occlusion_roughness_metallic"),
+                 ("emissiveTexture", "emissive"))
+
+
+def image_bytes_by_channel(doc):
+    """{channel: bytes} of a GLB's embedded images, each image counted once, under the first
+    material slot that references it."""
+    seen, out = set(), {}
+    for mat in doc.get("materials", []):
+        pbr = mat.get("pbrMetallicRoughness", {})
+        for slot, channel in SLOT_CHANNELS:
+            ref = pbr.get(slot) or mat.get(slot)
+            if not ref:
+                continue
+            image = doc["textures"][ref["index"]].get("source")
+            if image is None or image in seen or "bufferView" not in doc["images"][image]:
+                continue
+            seen.add(image)
+            view = doc["bufferViews"][doc["images"][image]["bufferView"]]
+            out[channel] = out.get(channel, 0) + view["byteLength"]
+    return out
+
+
 def package_table(data):
     """The JSON table (format 11 on: deflated) and the data start its offsets count from."""
     if data[:4] != b"MMXP":
@@ -102,7 +128,14 @@ for out in sys.argv[1:]:
     base = table["base"]
     stored = pkg[header + base["offset"]:header + base["offset"] + base["size"]]
     base_glb = zlib.decompress(stored) if base.get("deflated") else stored
-    _, base_images, base_geometry = glb_parts(base_glb)
+    base_doc, base_images, base_geometry = glb_parts(base_glb)
+    # Texture bytes per channel: model.glb's images, and the stream's (the base's images and
+    # every texture chunk's maps).
+    glb_channels = image_bytes_by_channel(doc)
+    stream_channels = image_bytes_by_channel(base_doc)
+    for c in table["chunks"]:
+        for m in c.get("maps", []) if c["kind"] == "texture" else []:
+            stream_channels[m["channel"]] = stream_channels.get(m["channel"], 0) + m["size"]
     if base.get("deflated"):
         # Images (JPEG/PNG) do not deflate: the rest of the stored bytes is the mesh's (and the
         # glTF JSON's, deflated with it).
@@ -133,7 +166,8 @@ for out in sys.argv[1:]:
         tex=tex_total, top=glb_images, pixels=tex.get("width", 0) * tex.get("height", 0),
         referenced=referenced_px,
         levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0),
-        area=area, base=base_mesh + base_indices, base_draco=base_draco)))
+        area=area, base=base_mesh + base_indices, base_draco=base_draco,
+        glb_channels=glb_channels, stream_channels=stream_channels)))
 
 print("| model | triangles | model.glb | package | package / glb (≤ 1.3) | mesh stream | Draco geometry | "
       "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px | "
@@ -153,3 +187,18 @@ for name, r in rows:
           f"{'–' if not r['referenced'] else ratio(r['pixels'], r['referenced'])} | {area_text} | "
           f"{r['base']} | {r['base_draco'] if r['base_draco'] is not None else '–'} | "
           f"{ratio(r['base'], r['base_draco']) if r['base_draco'] else '–'} |")
+
+# Issue 5/8: what the maps beyond base colour cost, in model.glb and in the stream.
+channels = ["base_color", "normal", "occlusion_roughness_metallic", "emissive"]
+textured = [(n, r) for n, r in rows if r and r["stream_channels"]]
+if textured:
+    print()
+    print("| model | channel | model.glb bytes | stream bytes | share of package |")
+    print("|---|---|---:|---:|---:|")
+    for name, r in textured:
+        for c in channels + sorted(set(r["stream_channels"]) - set(channels)):
+            if c not in r["stream_channels"] and c not in r["glb_channels"]:
+                continue
+            sb = r["stream_channels"].get(c, 0)
+            print(f"| {name} | {c} | {r['glb_channels'].get(c, 0)} | {sb} | "
+                  f"{100 * sb / r['package']:.1f}% |")
