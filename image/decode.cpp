@@ -1,14 +1,18 @@
-// Image decoding through OpenImageIO, from memory (IOProxy) so glTF's embedded and data-URI
-// images and files on disk take the same path. Paper 000 §4.3 bakes from these pixels.
+// Image decoding from memory, so glTF's embedded and data-URI images and files on disk take the
+// same path: JPEG through libjpeg-turbo's TurboJPEG API, PNG through libpng, everything else
+// through OpenImageIO (a module loaded on first use, image/oiio_loader.h). Paper 000 §4.3 bakes
+// from these pixels.
 #include "image/decode.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-#include <unistd.h>
+#include <png.h>
+#include <turbojpeg.h>
 
 #include <algorithm>
+#include <csetjmp>
 #include <cstring>
+#include <memory>
 
+#include "image/oiio_loader.h"
 #include "scene/file_io.h"
 
 namespace meshmux {
@@ -39,6 +43,102 @@ std::string oiio_format(const std::string& mime, const std::string& name) {
   std::string ext = lower_extension(name);
   if (ext == "tga") return "targa";
   return ext;
+}
+
+
+// What a direct decoder made of the bytes: pixels, a size over the limit, or a refusal (the
+// caller then asks OpenImageIO, whose message the user sees).
+enum class DirectResult { kDecoded, kOverLimit, kRefused };
+thread_local int direct_width_ = 0, direct_height_ = 0;  // the size an over-limit image declared
+
+// Baseline and progressive JPEG, grey or YCbCr, to RGBA8 (TurboJPEG's default accurate DCT and
+// smooth upsampling, as libjpeg's defaults that OpenImageIO uses). CMYK/YCCK refuse.
+DirectResult decode_jpeg(Image& image, uint64_t max_pixels) {
+  std::unique_ptr<void, int (*)(tjhandle)> tj(tjInitDecompress(), tjDestroy);
+  if (!tj) return DirectResult::kRefused;
+  int w = 0, h = 0, subsampling = 0, colorspace = 0;
+  if (tjDecompressHeader3(tj.get(), image.encoded.data(), (unsigned long)image.encoded.size(), &w,
+                          &h, &subsampling, &colorspace) != 0 ||
+      w <= 0 || h <= 0)
+    return DirectResult::kRefused;
+  if (colorspace == TJCS_CMYK || colorspace == TJCS_YCCK) return DirectResult::kRefused;
+  if (uint64_t(w) * uint64_t(h) > max_pixels) {
+    direct_width_ = w, direct_height_ = h;
+    return DirectResult::kOverLimit;
+  }
+  image.rgba.resize(size_t(w) * size_t(h) * 4);
+  if (tjDecompress2(tj.get(), image.encoded.data(), (unsigned long)image.encoded.size(),
+                    image.rgba.data(), w, w * 4, h, TJPF_RGBA, 0) != 0 &&
+      tjGetErrorCode(tj.get()) == TJERR_FATAL)
+    return DirectResult::kRefused;  // a warning (a truncated scan) keeps its pixels, as libjpeg
+  image.width = w;
+  image.height = h;
+  return DirectResult::kDecoded;
+}
+
+// PNG of any bit depth and colour type to RGBA8: palette and grey expanded, tRNS to alpha,
+// 16-bit scaled (rounded) to 8. No gamma conversion: glTF takes texel values as stored (normal
+// and roughness maps are data), as OpenImageIO returned them.
+struct PngRead {
+  const uint8_t* data;
+  size_t size, at;
+};
+DirectResult decode_png(Image& image, uint64_t max_pixels) {
+  png_structp png = png_create_read_struct(
+      PNG_LIBPNG_VER_STRING, nullptr, [](png_structp p, png_const_charp) { png_longjmp(p, 1); },
+      [](png_structp, png_const_charp) {});
+  if (!png) return DirectResult::kRefused;
+  png_infop info = png_create_info_struct(png);
+  if (!info) {
+    png_destroy_read_struct(&png, nullptr, nullptr);
+    return DirectResult::kRefused;
+  }
+  PngRead src{image.encoded.data(), image.encoded.size(), 0};
+  std::vector<png_bytep> rows;
+  // Everything below may longjmp back here on a libpng error; only PODs and vectors whose
+  // storage is set up before the first libpng call that can fail live across it.
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return DirectResult::kRefused;
+  }
+  png_set_read_fn(png, &src, [](png_structp p, png_bytep out, png_size_t n) {
+    auto* r = static_cast<PngRead*>(png_get_io_ptr(p));
+    if (n > r->size - r->at) png_error(p, "truncated");
+    std::memcpy(out, r->data + r->at, n);
+    r->at += n;
+  });
+  png_set_user_limits(png, 0x7fffffff, 0x7fffffff);
+  png_read_info(png, info);
+  const png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+  if (w == 0 || h == 0) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return DirectResult::kRefused;
+  }
+  if (uint64_t(w) * uint64_t(h) > max_pixels) {
+    direct_width_ = int(w), direct_height_ = int(h);
+    png_destroy_read_struct(&png, &info, nullptr);
+    return DirectResult::kOverLimit;
+  }
+  const int color = png_get_color_type(png, info);
+  png_set_expand(png);  // palette → RGB, grey < 8 bits → 8, tRNS → alpha
+  png_set_scale_16(png);
+  if (color == PNG_COLOR_TYPE_GRAY || color == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(png);
+  png_set_add_alpha(png, 0xFF, PNG_FILLER_AFTER);  // no effect when alpha is present
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  if (png_get_rowbytes(png, info) != size_t(w) * 4) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    return DirectResult::kRefused;
+  }
+  image.rgba.resize(size_t(w) * size_t(h) * 4);
+  rows.resize(h);
+  for (png_uint_32 y = 0; y < h; ++y) rows[y] = &image.rgba[size_t(y) * size_t(w) * 4];
+  png_read_image(png, rows.data());
+  png_read_end(png, nullptr);
+  png_destroy_read_struct(&png, &info, nullptr);
+  image.width = int(w);
+  image.height = int(h);
+  return DirectResult::kDecoded;
 }
 
 }  // namespace
@@ -78,91 +178,33 @@ Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
   if (format == "ktx2")
     return Status::error(name + ": KTX2 images are not supported", ErrorKind::kInput);
 
-  OIIO::Filesystem::IOMemReader proxy(image.encoded.data(), image.encoded.size());
-  std::string pseudo_name = "image." + (format == "targa" ? std::string("tga") : format);
-  std::string tmp_path;
-  try {
-    auto in = OIIO::ImageInput::create(OIIO::string_view(format), false, nullptr, nullptr);
-    if (!in)
-      return Status::error(name + ": no decoder for " + format + " images", ErrorKind::kInput);
-    bool ok;
-    // Straight alpha, as PNG, TGA and WebP store it: without this OpenImageIO premultiplies
-    // RGB by alpha on the way in.
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    if (in->supports("ioproxy")) {
-      in->set_ioproxy(&proxy);
-      OIIO::ImageSpec spec;
-      ok = in->open(pseudo_name, spec, config);
-    } else {
-      // Readers without in-memory support get a private temporary file.
-      char tmpl[] = "/tmp/meshmux-image-XXXXXX";
-      int fd = mkstemp(tmpl);
-      if (fd < 0)
-        return Status::error(name + ": cannot create a temporary file", ErrorKind::kInternal);
-      close(fd);
-      tmp_path = std::string(tmpl) + "." + lower_extension(pseudo_name);
-      std::rename(tmpl, tmp_path.c_str());
-      Status w = write_file_atomic(tmp_path, image.encoded);
-      if (!w) return Status::error(name + ": " + w.message(), ErrorKind::kInternal);
-      OIIO::ImageSpec spec;
-      ok = in->open(tmp_path, spec, config);
+  // JPEG and PNG (nearly every texture) directly; anything else, or a JPEG/PNG these refuse
+  // (CMYK JPEG, a damaged file), through OpenImageIO, loaded on first use (oiio_loader.h).
+  if (format == "jpeg" || format == "png") {
+    const DirectResult r = format == "jpeg" ? decode_jpeg(image, max_pixels)
+                                            : decode_png(image, max_pixels);
+    if (r == DirectResult::kDecoded) {
+      if (image.mime_type.empty()) image.mime_type = "image/" + format;
+      return Status::ok();
     }
-    if (!ok) {
-      std::string e = in->geterror();
-      if (!tmp_path.empty()) unlink(tmp_path.c_str());
-      return Status::error(
-          name + ": cannot decode " + format + " image: " + (e.empty() ? "unreadable" : e),
-          ErrorKind::kInput);
-    }
-    const OIIO::ImageSpec& spec = in->spec();
-    int w = spec.width, h = spec.height, ch = spec.nchannels;
-    if (w <= 0 || h <= 0 || ch <= 0) {
-      if (!tmp_path.empty()) unlink(tmp_path.c_str());
-      return Status::error(name + ": image has no pixels", ErrorKind::kInput);
-    }
-    if (uint64_t(w) * uint64_t(h) > max_pixels) {
-      if (!tmp_path.empty()) unlink(tmp_path.c_str());
-      if (over_limit) *over_limit = true;
-      return Status::error(name + ": image is " + std::to_string(w) + "x" + std::to_string(h) +
-                               ", over the limit of " + std::to_string(max_pixels) + " pixels",
-                           ErrorKind::kInput);
-    }
-    std::vector<uint8_t> pixels(size_t(w) * size_t(h) * size_t(ch));
-    ok = in->read_image(0, 0, 0, ch, OIIO::TypeDesc::UINT8, pixels.data());
-    std::string e = ok ? "" : in->geterror();
-    in->close();
-    if (!tmp_path.empty()) unlink(tmp_path.c_str());
-    if (!ok)
-      return Status::error(name + ": cannot decode " + format + " image: " + e, ErrorKind::kInput);
-    image.width = w;
-    image.height = h;
-    image.rgba.resize(size_t(w) * size_t(h) * 4);
-    size_t n = size_t(w) * size_t(h);
-    for (size_t i = 0; i < n; ++i) {
-      const uint8_t* s = &pixels[i * size_t(ch)];
-      uint8_t* d = &image.rgba[i * 4];
-      if (ch == 1) {
-        d[0] = d[1] = d[2] = s[0];
-        d[3] = 255;
-      } else if (ch == 2) {
-        d[0] = d[1] = d[2] = s[0];
-        d[3] = s[1];
-      } else {
-        d[0] = s[0];
-        d[1] = s[1];
-        d[2] = s[2];
-        d[3] = ch >= 4 ? s[3] : 255;
-      }
-    }
-    if (image.mime_type.empty()) image.mime_type = "image/" + format;
-    return Status::ok();
-  } catch (const std::exception& ex) {
-    if (!tmp_path.empty()) unlink(tmp_path.c_str());
     image.rgba.clear();
     image.width = image.height = 0;
-    return Status::error(name + ": cannot decode image: " + ex.what(), ErrorKind::kInput);
+    if (r == DirectResult::kOverLimit) {
+      if (over_limit) *over_limit = true;
+      return Status::error(name + ": image is " + std::to_string(direct_width_) + "x" +
+                               std::to_string(direct_height_) + ", over the limit of " +
+                               std::to_string(max_pixels) + " pixels",
+                           ErrorKind::kInput);
+    }
   }
+  Status s = oiio_decode(image, format, max_pixels, over_limit);
+  if (!s) {
+    image.rgba.clear();
+    image.width = image.height = 0;
+    return s;
+  }
+  if (image.mime_type.empty()) image.mime_type = "image/" + format;
+  return Status::ok();
 }
 
 Result<Image> load_image_file(const std::string& path) {

@@ -1,5 +1,6 @@
-// Image decoding for both importers, through OpenImageIO: PNG, JPEG, TGA, WebP, BMP, and
-// whatever else the installed OpenImageIO reads. One path for every image so that glTF and
+// Image decoding for both importers: JPEG through libjpeg-turbo, PNG through libpng, and TGA,
+// WebP, BMP and whatever else the installed OpenImageIO reads through its module (loaded only
+// when such an image is met, image/oiio_loader.h). One path for every image so that glTF and
 // COLLADA textures behave the same.
 #pragma once
 

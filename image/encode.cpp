@@ -1,7 +1,9 @@
 #include "image/encode.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
+#include <png.h>
+
+#include <csetjmp>
+#include <vector>
 
 #include <atomic>
 #include <cstring>
@@ -16,6 +18,41 @@ std::atomic<uint64_t> g_images_encoded{0};
 
 std::string image_label(const Image& image) {
   return image.name.empty() ? std::string("image") : "image '" + image.name + "'";
+}
+
+
+// `rows` of w × h pixels of `channels` (3 or 4) bytes as a PNG appended to `out`: zlib level 6
+// and libpng's adaptive filters (OpenImageIO's PNG writer defaults, which this replaced); alpha
+// straight, as PNG stores it. False on a libpng error. Nothing here changes after setjmp.
+bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vector<uint8_t>& out) {
+  png_structp png = png_create_write_struct(
+      PNG_LIBPNG_VER_STRING, nullptr, [](png_structp p, png_const_charp) { png_longjmp(p, 1); },
+      [](png_structp, png_const_charp) {});
+  if (!png) return false;
+  png_infop info = png_create_info_struct(png);
+  std::vector<png_bytep> rows(h);
+  for (size_t y = 0; y < h; ++y)
+    rows[y] = const_cast<png_bytep>(pixels + y * w * size_t(channels));
+  if (!info || setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    return false;
+  }
+  png_set_write_fn(
+      png, &out,
+      [](png_structp p, png_bytep data, png_size_t n) {
+        auto* o = static_cast<std::vector<uint8_t>*>(png_get_io_ptr(p));
+        o->insert(o->end(), data, data + n);
+      },
+      [](png_structp) {});
+  png_set_compression_level(png, 6);
+  png_set_IHDR(png, info, png_uint_32(w), png_uint_32(h), 8,
+               channels == 4 ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  png_write_image(png, rows.data());
+  png_write_end(png, info);
+  png_destroy_write_struct(&png, &info);
+  return true;
 }
 
 }  // namespace
@@ -47,30 +84,13 @@ Result<std::vector<uint8_t>> encode_png(const Image& image) {
       src = pixels.data();
     }
 
-    std::vector<unsigned char> bytes;
-    OIIO::Filesystem::IOVecOutput proxy(bytes);
-    auto out = OIIO::ImageOutput::create("image.png", &proxy);
-    if (!out)
-      return Status::error(where + ": no PNG writer: " + OIIO::geterror(), ErrorKind::kInternal);
-    if (!out->supports("ioproxy"))
-      return Status::error(where + ": PNG writer cannot write to memory", ErrorKind::kInternal);
-    OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
-    // Our pixels carry straight alpha, as PNG does: without this OpenImageIO takes them for
-    // premultiplied and divides RGB by alpha on the way out (grey glass became white).
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (!out->set_ioproxy(&proxy) || !out->open("image.png", spec))
-      return Status::error(where + ": " + out->geterror(), ErrorKind::kInternal);
-    if (!out->write_image(OIIO::TypeDesc::UINT8, src)) {
-      std::string err = out->geterror();
-      out->close();
-      return Status::error(where + ": " + err, ErrorKind::kInternal);
-    }
-    if (!out->close()) return Status::error(where + ": " + out->geterror(), ErrorKind::kInternal);
-    out.reset();
+    std::vector<uint8_t> bytes;
+    if (!write_png(src, w, h, channels, bytes))
+      return Status::error(where + ": the PNG writer failed", ErrorKind::kInternal);
     if (bytes.size() < 8)
       return Status::error(where + ": writer produced no data", ErrorKind::kInternal);
     count_image_encoded();
-    return std::vector<uint8_t>(bytes.begin(), bytes.end());
+    return bytes;
   } catch (const std::exception& e) {
     return Status::error(where + ": " + e.what(), ErrorKind::kInternal);
   }

@@ -1,4 +1,4 @@
-// Encodes decoded RGBA8 pixels: PNG (lossless, alpha kept) through OpenImageIO, JPEG through
+// Encodes decoded RGBA8 pixels: PNG (lossless, alpha kept) through libpng, JPEG through
 // libjpeg-turbo.
 #pragma once
 
