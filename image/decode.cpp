@@ -45,7 +45,6 @@ std::string oiio_format(const std::string& mime, const std::string& name) {
   return ext;
 }
 
-
 // What a direct decoder made of the bytes: pixels, a size over the limit, or a refusal (the
 // caller then asks OpenImageIO, whose message the user sees).
 enum class DirectResult { kDecoded, kOverLimit, kRefused };
@@ -181,8 +180,8 @@ Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
   // JPEG and PNG (nearly every texture) directly; anything else, or a JPEG/PNG these refuse
   // (CMYK JPEG, a damaged file), through OpenImageIO, loaded on first use (oiio_loader.h).
   if (format == "jpeg" || format == "png") {
-    const DirectResult r = format == "jpeg" ? decode_jpeg(image, max_pixels)
-                                            : decode_png(image, max_pixels);
+    const DirectResult r =
+        format == "jpeg" ? decode_jpeg(image, max_pixels) : decode_png(image, max_pixels);
     if (r == DirectResult::kDecoded) {
       if (image.mime_type.empty()) image.mime_type = "image/" + format;
       return Status::ok();

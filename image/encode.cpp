@@ -2,13 +2,12 @@
 
 #include <png.h>
 
-#include <csetjmp>
-#include <vector>
-
 #include <atomic>
+#include <csetjmp>
 #include <cstring>
 #include <exception>
 #include <string>
+#include <vector>
 
 namespace meshmux {
 
@@ -20,7 +19,6 @@ std::string image_label(const Image& image) {
   return image.name.empty() ? std::string("image") : "image '" + image.name + "'";
 }
 
-
 // `rows` of w × h pixels of `channels` (3 or 4) bytes as a PNG appended to `out`: zlib level 6
 // and libpng's adaptive filters (OpenImageIO's PNG writer defaults, which this replaced); alpha
 // straight, as PNG stores it. False on a libpng error. Nothing here changes after setjmp.
@@ -31,8 +29,7 @@ bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vec
   if (!png) return false;
   png_infop info = png_create_info_struct(png);
   std::vector<png_bytep> rows(h);
-  for (size_t y = 0; y < h; ++y)
-    rows[y] = const_cast<png_bytep>(pixels + y * w * size_t(channels));
+  for (size_t y = 0; y < h; ++y) rows[y] = const_cast<png_bytep>(pixels + y * w * size_t(channels));
   if (!info || setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
     return false;

@@ -81,8 +81,7 @@ const Module& module() {
 
 bool oiio_module_loaded() { return g_loaded.load(); }
 
-Status oiio_decode(Image& image, const std::string& format, uint64_t max_pixels,
-                   bool* over_limit) {
+Status oiio_decode(Image& image, const std::string& format, uint64_t max_pixels, bool* over_limit) {
   const Module& m = module();
   if (!m.decode)
     return Status::error(image.name + ": cannot decode " + format + " image: " + m.error,

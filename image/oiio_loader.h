@@ -13,8 +13,7 @@ namespace meshmux {
 
 // Decodes image.encoded (OpenImageIO format name `format`) into image.rgba/width/height.
 // Errors name image.name; `over_limit` is set when the only failure is the pixel limit.
-Status oiio_decode(Image& image, const std::string& format, uint64_t max_pixels,
-                   bool* over_limit);
+Status oiio_decode(Image& image, const std::string& format, uint64_t max_pixels, bool* over_limit);
 
 // True once the module has been loaded in this process (for tests of the fast paths).
 bool oiio_module_loaded();

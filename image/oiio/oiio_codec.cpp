@@ -81,9 +81,9 @@ extern "C" int meshmux_oiio_decode(const uint8_t* data, size_t size, const char*
     int w = spec.width, h = spec.height, ch = spec.nchannels;
     if (w <= 0 || h <= 0 || ch <= 0) return fail(kMeshmuxOiioError, "image has no pixels");
     if (uint64_t(w) * uint64_t(h) > max_pixels)
-      return fail(kMeshmuxOiioOverLimit, "image is " + std::to_string(w) + "x" +
-                                             std::to_string(h) + ", over the limit of " +
-                                             std::to_string(max_pixels) + " pixels");
+      return fail(kMeshmuxOiioOverLimit, "image is " + std::to_string(w) + "x" + std::to_string(h) +
+                                             ", over the limit of " + std::to_string(max_pixels) +
+                                             " pixels");
     std::vector<uint8_t> pixels(size_t(w) * size_t(h) * size_t(ch));
     ok = in->read_image(0, 0, 0, ch, OIIO::TypeDesc::UINT8, pixels.data());
     std::string e = ok ? "" : in->geterror();

@@ -28,9 +28,8 @@ enum MeshmuxOiioResult {
 
 // Decodes `size` bytes of an image in OpenImageIO format `format` ("webp", "targa", "png", ...).
 // `error` receives a NUL-terminated message (without the image's name) on failure. Never throws.
-int meshmux_oiio_decode(const uint8_t* data, size_t size, const char* format,
-                        uint64_t max_pixels, MeshmuxOiioImage* out, char* error,
-                        size_t error_size);
+int meshmux_oiio_decode(const uint8_t* data, size_t size, const char* format, uint64_t max_pixels,
+                        MeshmuxOiioImage* out, char* error, size_t error_size);
 void meshmux_oiio_free(uint8_t* rgba);
 
 // The name the loader resolves, for its messages.

@@ -24,8 +24,8 @@ TEST(ResourceLimits, MemoryCapEndsWithOneLineAndNoOutput) {
   // 4 MB: less than any conversion needs (the sample's takes ~10 MB of heap beyond the process's
   // own). A cap that only starves the renderer (EGL mapping its driver) is another matter: the
   // conversion then ends without the stream, with a warning (multiplex's "no renderer" path).
-  auto r = run_meshmux(
-      {"convert", dir.file("s.glb"), "-o", dir.file("out"), "-q", "--max-memory", "4"});
+  auto r =
+      run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("out"), "-q", "--max-memory", "4"});
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;

@@ -4,10 +4,9 @@
 // load the module: that is what keeps a meshmux process from binding ~260 libraries.
 #include "image/decode.h"
 
-#include <gtest/gtest.h>
-
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <string>
@@ -34,9 +33,8 @@ std::vector<uint16_t> pattern(int w, int h, int channels, int bits) {
 }
 
 // Encodes with OpenImageIO's writer for `extension` (as a file would arrive).
-std::vector<uint8_t> oiio_encode(const std::string& extension, int w, int h, int channels,
-                                 int bits, const std::vector<uint16_t>& values,
-                                 int quality = 90) {
+std::vector<uint8_t> oiio_encode(const std::string& extension, int w, int h, int channels, int bits,
+                                 const std::vector<uint16_t>& values, int quality = 90) {
   std::vector<unsigned char> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);
   auto out = OIIO::ImageOutput::create("image." + extension, &proxy);
@@ -151,7 +149,8 @@ TEST(ImageDecode, DamagedPngAndJpegAreErrorsNamingTheImage) {
   auto jpg = oiio_encode("jpg", 32, 32, 3, 8, pattern(32, 32, 3, 8));
   std::vector<uint8_t> garbage_png(png.begin(), png.begin() + 8);
   garbage_png.resize(200, 0x5A);
-  for (auto [name, bytes] : {std::pair<std::string, std::vector<uint8_t>>{"half.png", {png.begin(), png.begin() + png.size() / 2}},
+  for (auto [name, bytes] : {std::pair<std::string, std::vector<uint8_t>>{
+                                 "half.png", {png.begin(), png.begin() + png.size() / 2}},
                              {"garbage.png", garbage_png},
                              {"header.jpg", {jpg.begin(), jpg.begin() + 20}}}) {
     Image img = from_bytes(name, bytes);
