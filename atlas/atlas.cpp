@@ -237,9 +237,9 @@ FlatCharts flatten_charts(const Scene& scene, const std::vector<MeshView>& views
   for (size_t m = 0; m < scene.meshes.size(); ++m)
     fc.charts.face_chart[m].assign(views[m].faces.size(), 0);
   for (const Chart& c : seg.charts) {
-    if (!c.textured) {
+    if (!c.textured) {  // a palette block: every corner at its centre, no parameterization
       fc.charts.charts.push_back(c);
-      fc.uvs.push_back(parameterize_chart(scene, c, o.parameterize));
+      fc.uvs.emplace_back();
       continue;
     }
     flatten_chart(scene, views[c.mesh], c, o, fc.charts.charts, fc.uvs, split);

@@ -159,12 +159,49 @@ Merged merge_moments(double a1, const Vector3d& c1, const Matrix3d& m1, double a
   return r;
 }
 
+// What one primitive's faces show (charts.h): a texture (or varying vertex colours), or one
+// flat colour with its factors. Returns true when textured; otherwise fills `flat`.
+struct FlatClass {
+  Vec4 color;
+  Vec3 orm, emissive, sheen;
+  bool operator==(const FlatClass& o) const {
+    return color == o.color && orm == o.orm && emissive == o.emissive && sheen == o.sheen;
+  }
+};
+bool primitive_textured(const Scene& scene, const Primitive& p, FlatClass* flat) {
+  bool textured = false;
+  Vec4 factor{1, 1, 1, 1};
+  Vec3 orm{1, 1, 1}, emissive{0, 0, 0}, sheen{0, 0, 0};  // the glTF default material's
+  if (p.material >= 0 && size_t(p.material) < scene.materials.size()) {
+    const Material& m = scene.materials[size_t(p.material)];
+    textured = m.base_color.present() || m.normal.present() || m.occlusion.present() ||
+               m.metallic_roughness.present() || m.emissive.present() || m.sheen_color.present();
+    factor = m.base_color_factor;
+    orm = {1, m.roughness_factor, m.metallic_factor};
+    emissive = m.emissive_factor;
+    sheen = m.sheen_color_factor;
+  }
+  Vec4 vertex_color{1, 1, 1, 1};
+  if (!p.colors.empty()) {
+    vertex_color = p.colors[0];
+    for (const Vec4& c : p.colors)
+      if (!(c == vertex_color)) textured = true;
+  }
+  if (!textured)
+    *flat = {{factor.x * vertex_color.x, factor.y * vertex_color.y, factor.z * vertex_color.z,
+              factor.w * vertex_color.w},
+             orm,
+             emissive,
+             sheen};
+  return textured;
+}
+
 class Segmenter {
  public:
   Segmenter(const Scene& scene, uint32_t mesh_index, const ChartOptions& options)
       : scene_(scene), mesh_(scene.meshes[mesh_index]), options_(options) {}
 
-  // Fills `face_chart` (local chart ids, ordered by first face) and appends the charts.
+  // Appends the charts (ordered by first face) and fills `face_chart` with their indices.
   void run(uint32_t mesh_index, std::vector<Chart>& charts, std::vector<uint32_t>& face_chart);
 
  private:
@@ -188,13 +225,6 @@ class Segmenter {
   const ChartOptions& options_;
   double diag2_ = 1;
   std::vector<Face> faces_;
-  struct FlatClass {
-    Vec4 color;
-    Vec3 orm, emissive, sheen;
-    bool operator==(const FlatClass& o) const {
-      return color == o.color && orm == o.orm && emissive == o.emissive && sheen == o.sheen;
-    }
-  };
   std::vector<FlatClass> colors_;  // flat colour per class id (index 0 unused: textured)
   std::vector<std::vector<uint32_t>> twin_groups_;
   std::vector<ChartState> charts_;  // one per face at the start; chart i starts as face i
@@ -226,31 +256,8 @@ void Segmenter::build_faces() {
 
   for (const Primitive& p : mesh_.primitives) {
     // Textured or one flat colour, decided per primitive (charts.h).
-    bool textured = false;
-    Vec4 factor{1, 1, 1, 1};
-    Vec3 orm{1, 1, 1}, emissive{0, 0, 0}, sheen{0, 0, 0};  // the glTF default material's
-    if (p.material >= 0 && size_t(p.material) < scene_.materials.size()) {
-      const Material& m = scene_.materials[size_t(p.material)];
-      textured = m.base_color.present() || m.normal.present() || m.occlusion.present() ||
-                 m.metallic_roughness.present() || m.emissive.present() || m.sheen_color.present();
-      factor = m.base_color_factor;
-      orm = {1, m.roughness_factor, m.metallic_factor};
-      emissive = m.emissive_factor;
-      sheen = m.sheen_color_factor;
-    }
-    Vec4 vertex_color{1, 1, 1, 1};
-    if (!p.colors.empty()) {
-      vertex_color = p.colors[0];
-      for (const Vec4& c : p.colors)
-        if (!(c == vertex_color)) textured = true;
-    }
-    uint32_t cls = 0;
-    if (!textured)
-      cls = color_class({{factor.x * vertex_color.x, factor.y * vertex_color.y,
-                          factor.z * vertex_color.z, factor.w * vertex_color.w},
-                         orm,
-                         emissive,
-                         sheen});
+    FlatClass flat;
+    const uint32_t cls = primitive_textured(scene_, p, &flat) ? 0 : color_class(flat);
 
     for (size_t t = 0; t < p.triangle_count(); ++t) {
       Face f;
@@ -590,8 +597,44 @@ ChartSet segment_charts(const Scene& scene, const ChartOptions& options) {
   ChartSet out;
   out.face_chart.resize(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
-    Segmenter seg(scene, m, options);
-    seg.run(m, out.charts, out.face_chart[m]);
+    // A mesh whose every primitive is one flat colour needs no segmentation: its faces go to
+    // palette blocks by colour whatever their charts (issue 6/8: a CAD assembly in 7 colours
+    // took seconds to chart). One chart per colour, ordered by first face, as segmentation
+    // orders its charts.
+    const Mesh& mesh = scene.meshes[m];
+    std::vector<FlatClass> classes(mesh.primitives.size());
+    bool any_textured = false;
+    for (size_t i = 0; i < mesh.primitives.size() && !any_textured; ++i)
+      any_textured = primitive_textured(scene, mesh.primitives[i], &classes[i]);
+    if (any_textured) {
+      Segmenter seg(scene, m, options);
+      seg.run(m, out.charts, out.face_chart[m]);
+      continue;
+    }
+    std::vector<size_t> chart_of_class;  // per distinct colour: its chart in out.charts
+    std::vector<FlatClass> distinct;
+    uint32_t face = 0;
+    for (size_t i = 0; i < mesh.primitives.size(); ++i) {
+      size_t k = std::find(distinct.begin(), distinct.end(), classes[i]) - distinct.begin();
+      const size_t triangles = mesh.primitives[i].triangle_count();
+      if (triangles == 0) continue;
+      if (k == distinct.size()) {
+        distinct.push_back(classes[i]);
+        chart_of_class.push_back(out.charts.size());
+        Chart c;
+        c.mesh = m;
+        c.textured = false;
+        c.color = classes[i].color, c.orm = classes[i].orm;
+        c.emissive = classes[i].emissive, c.sheen = classes[i].sheen;
+        out.charts.push_back(std::move(c));
+      }
+      Chart& c = out.charts[chart_of_class[k]];
+      for (size_t t = 0; t < triangles; ++t, ++face) {
+        c.faces.push_back(face);
+        out.face_chart[m].push_back(uint32_t(chart_of_class[k]));
+      }
+    }
+    // Faces ascending per chart: primitives run in order, so they already are.
   }
   return out;
 }

@@ -204,6 +204,22 @@ TEST(Charts, FlatColoursMergeOnlyWhenIdentical) {
   }
 }
 
+// A mesh of flat colours only (a CAD assembly) is not segmented: its faces go to palette blocks
+// by colour, so it gets one chart per colour, even for pieces that do not touch (issue 6/8:
+// charting a 7-colour assembly took most of a conversion's atlas time).
+TEST(Charts, FlatOnlyMeshIsOneChartPerColour) {
+  Primitive far_red = grid(4, 1, 1, 1);
+  for (Vec3& p : far_red.positions) p.x += 10;  // a second red piece, apart from the first
+  Scene s = scene_with({grid(4, 1, 1, 1), grid(4, 1, 1, 2), far_red, grid(4, 1, 1, 3)});
+  ChartSet cs = segment_charts(s);
+  expect_consistent(s, cs);
+  ASSERT_EQ(cs.charts.size(), 2u);
+  EXPECT_EQ(cs.charts[0].color, (Vec4{1, 0, 0, 1}));  // first face first
+  EXPECT_EQ(cs.charts[1].color, (Vec4{0, 0, 1, 1}));
+  EXPECT_EQ(cs.charts[0].faces.size(), 3u * 32u);  // three red grids of 32 triangles
+  EXPECT_EQ(cs.charts[1].faces.size(), 32u);
+}
+
 TEST(Charts, VertexColoursDecideTexturedOrFlat) {
   // Constant vertex colour × factor: flat. Varying vertex colours: textured.
   Primitive constant = grid(4, 1, 1, 1);
