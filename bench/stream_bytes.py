@@ -69,7 +69,7 @@ def geometry_bytes(data):
 SLOT_CHANNELS = (("baseColorTexture", "base_color"), ("normalTexture", "normal"),
                  ("occlusionTexture", "occlusion_roughness_metallic"),
                  ("metallicRoughnessTexture", "occlusion_roughness_metallic"),
-                 ("emissiveTexture", "emissive"))
+                 ("emissiveTexture", "emissive"), ("sheenColorTexture", "sheen_color"))
 
 
 def image_bytes_by_channel(doc):
@@ -80,6 +80,8 @@ def image_bytes_by_channel(doc):
         pbr = mat.get("pbrMetallicRoughness", {})
         for slot, channel in SLOT_CHANNELS:
             ref = pbr.get(slot) or mat.get(slot)
+            if slot == "sheenColorTexture":
+                ref = mat.get("extensions", {}).get("KHR_materials_sheen", {}).get(slot)
             if not ref:
                 continue
             image = doc["textures"][ref["index"]].get("source")
