@@ -3,7 +3,9 @@
 // stderr; data (info) goes to stdout.
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cstdio>
@@ -154,18 +156,39 @@ std::string warning_kind(const std::string& message) {
 }
 
 // Progress on stderr: each step with the elapsed time, then the warnings that came since,
-// grouped: the first two of a kind are printed, the rest counted and summed up at the end.
+// grouped: the first two of a kind are printed, the rest counted and summed up at the end. On a
+// terminal, a step that runs over a second also shows its percentage, live, on a line of its
+// own that the next line replaces (pipes and logs get the step lines only).
 class CliProgress : public Progress {
  public:
   CliProgress(bool quiet, const Warnings* warnings = nullptr)
-      : quiet_(quiet), warnings_(warnings), start_(now()) {}
+      : quiet_(quiet),
+        warnings_(warnings),
+        live_(!quiet && isatty(2)),
+        start_(now()),
+        step_start_(start_),
+        last_live_(start_) {}
   ~CliProgress() override { finish(); }
   void step(const std::string& what) override {
     flush();
+    step_start_ = now();
     if (!quiet_) std::fprintf(stderr, "meshmux: [%6.2f s] %s\n", seconds(), what.c_str());
+  }
+  void fraction(double done) override {
+    if (!live_) return;
+    const auto t = now();
+    if (t - step_start_ < std::chrono::seconds(1) ||
+        t - last_live_ < std::chrono::milliseconds(100))
+      return;
+    last_live_ = t;
+    const int percent = int(std::clamp(done, 0.0, 1.0) * 100);
+    std::fprintf(stderr, "\r\033[Kmeshmux: [%6.2f s]   %d%%", seconds(), percent);
+    std::fflush(stderr);
+    shown_ = true;
   }
   // Prints the warnings not printed yet (two of each kind).
   void flush() {
+    clear_live();
     if (!warnings_) return;
     for (; seen_ < warnings_->items().size(); ++seen_) {
       const std::string& w = warnings_->items()[seen_];
@@ -194,12 +217,20 @@ class CliProgress : public Progress {
     std::string first;  // the first message of the kind
   };
   static std::chrono::steady_clock::time_point now() { return std::chrono::steady_clock::now(); }
+  // Erases the live percentage line, if one is shown.
+  void clear_live() {
+    if (!shown_) return;
+    std::fprintf(stderr, "\r\033[K");
+    shown_ = false;
+  }
   bool quiet_;
   const Warnings* warnings_;
+  bool live_;           // stderr is a terminal and not -q
+  bool shown_ = false;  // a live line is on screen
+  std::chrono::steady_clock::time_point start_, step_start_, last_live_;
   size_t seen_ = 0;
   std::map<std::string, Kind> kinds_;
   std::vector<std::string> order_;  // kinds in order of first appearance
-  std::chrono::steady_clock::time_point start_;
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -557,7 +588,7 @@ int cmd_simplify(const std::vector<std::string>& args) {
   Scene cleaned = clean(*scene, CleanOptions{});
   progress.step("simplifying");
   SimplifyReport sr;
-  ProgressiveScene ps = build_progressive(cleaned, SimplifyOptions{}, &sr);
+  ProgressiveScene ps = build_progressive(cleaned, SimplifyOptions{}, &sr, &progress);
   LodSelection sel;
   if (error >= 0)
     sel = select_error(ps, float(error));

@@ -53,7 +53,7 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
 }  // namespace
 
 Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
-                                  const MultiplexOptions& o) {
+                                  const MultiplexOptions& o, Progress* progress) {
   auto start = Clock::now();
   MultiplexResult r;
   // --- Mesh layers: scene-wide selections from the base to the full detail. ---
@@ -202,10 +202,12 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   r.views = cameras.size();
   int n = int(r.texture_bytes.size());
   auto render_start = Clock::now();
+  const double most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
   std::vector<RenderImage> reference;
-  for (const Camera& c : cameras)
+  for (const Camera& c : cameras) {
     reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
-  r.renders += cameras.size();
+    report_fraction(progress, double(++r.renders) / most_renders);
+  }
   // Nothing shown yet: blank frames against the references.
   for (const RenderImage& ref : reference) {
     RenderImage blank;
@@ -223,7 +225,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     double sum = 0;
     for (size_t v = 0; v < cameras.size(); ++v) {
       RenderImage img = gl.render(geometry_of(i), texture_of(j), cameras[v]);
-      ++r.renders;
+      report_fraction(progress, double(++r.renders) / most_renders);
       sum += measure_distortion(reference[v], img).ciede2000;
     }
     return sum / double(cameras.size());

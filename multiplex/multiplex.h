@@ -14,6 +14,7 @@
 #include "multiplex/render.h"
 #include "multiplex/schedule.h"
 #include "multiplex/viewpoints.h"
+#include "scene/progress.h"
 #include "scene/progressive.h"
 #include "scene/texture_levels.h"
 
@@ -76,8 +77,11 @@ double step_area(const std::vector<std::pair<uint64_t, double>>& curve);
 // `ps` is the progressive record of the atlased scene; `levels` its texture levels, encoded
 // (none for an untextured scene: one empty texture layer). Errors: kUnavailable when no
 // offscreen OpenGL is available, kInternal otherwise.
+// `progress` (optional) receives the fraction done: renders so far over the most the grid can
+// need (every cell from every view, plus the references).
 Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
-                                  const MultiplexOptions& options = {});
+                                  const MultiplexOptions& options = {},
+                                  Progress* progress = nullptr);
 
 // report.json's "curves" and summary as JSON text, and rd.svg plotting the four curves; with
 // `vs`, also the package as received against the download of model.glb ("download" curve,

@@ -191,7 +191,7 @@ Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps
                                                       const ConvertOptions& o, Warnings* warnings,
                                                       Progress* progress) {
   report_step(progress, "multiplexing (rendering levels from the viewing sphere)");
-  auto mx = multiplex(ps, levels, o.multiplex);
+  auto mx = multiplex(ps, levels, o.multiplex, progress);
   if (!mx.ok() && mx.status().kind() == ErrorKind::kUnavailable) {
     warn(warnings,
          "report: " + mx.status().message() + "; report.json, rd.svg and model.mmxp not written");
@@ -357,7 +357,7 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   // 6. Simplify: the instance-aware progressive record and its base.
   report_step(progress, "simplifying (instance-aware progressive record)");
   SimplifyReport sr;
-  ProgressiveScene ps = build_progressive(scene, o.simplify, &sr);
+  ProgressiveScene ps = build_progressive(scene, o.simplify, &sr, progress);
   LodSelection base = select_base(ps);
   out.base_triangles = selection_triangles(ps, base);
   report_step(progress,

@@ -21,6 +21,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <unordered_map>
 
 #include "clean/flatten.h"
@@ -207,8 +208,10 @@ class Simplifier {
   // True greedy: a min-heap of each live position's cheapest valid collapse, invalidated
   // lazily by a per-position stamp; after each collapse only the positions around it are
   // re-costed. A parallel max-heap tracks the dearest candidate for paper 000's E_max.
-  void run() {
+  // `on_progress` (may be empty) is called with the collapses so far, every few thousand.
+  void run(const std::function<void(uint64_t)>& on_progress = {}) {
     size_t np = u_.pos.size();
+    uint64_t done = 0;
     alive_.assign(u_.corners.size() / 3, 1);
     live_faces_ = alive_.size();
     dead_pos_.assign(np, 0);
@@ -227,6 +230,7 @@ class Simplifier {
       float queue_max = dearest();
       ++stamp_[e.c.u];  // consumed: re-costed when its neighbourhood changes
       if (collapse(e.c, e.c.error, std::max(queue_max, e.c.error)) == 0) continue;
+      if ((++done & 4095) == 0 && on_progress) on_progress(done);
       // Re-cost the neighbourhood: the target, and every neighbour of either end.
       // Neighbours of b alone only saw their option "onto b" change (b's quadric grew), so
       // they are re-costed only when that was their choice.
@@ -960,7 +964,7 @@ std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
 }
 
 ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
-                                   SimplifyReport* report) {
+                                   SimplifyReport* report, Progress* progress) {
   auto start = std::chrono::steady_clock::now();
   SimplifyReport r;
   SceneStats st = compute_stats(cleaned);
@@ -976,6 +980,10 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   Bounds box = scene_bounds(scene);
   ps.meshes.resize(scene.meshes.size());
   ps.instance_orders.resize(scene.meshes.size());
+  // Progress: collapses over all submeshes' vertices (an upper bound of the positions).
+  uint64_t total_vertices = 0, done_before = 0;
+  for (const Mesh& mesh : scene.meshes)
+    for (const Primitive& p : mesh.primitives) total_vertices += p.positions.size();
   for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
     std::vector<Mat4> transforms;
     for (const Instance& inst : scene.instances)
@@ -983,7 +991,11 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
     if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
     Unit unit = make_unit(scene.meshes[m], options);
     Simplifier s(unit, transforms, options, r);
-    s.run();
+    s.run([&](uint64_t collapses) {
+      report_fraction(progress, double(done_before + collapses) /
+                                    double(std::max<uint64_t>(1, total_vertices)));
+    });
+    for (const Primitive& p : scene.meshes[m].primitives) done_before += p.positions.size();
     s.record(scene.meshes[m], m, ps.meshes[m]);
     ps.instance_orders[m] = instance_order(scene, m, box);
   }

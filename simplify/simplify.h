@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "scene/progress.h"
 #include "scene/progressive.h"
 #include "scene/scene.h"
 
@@ -65,8 +66,10 @@ struct SimplifyReport {
 
 // Builds the progressive record of a cleaned scene (clean() first: welded, no degenerate
 // faces, normalization_scale set). Deterministic.
+// `progress` (optional) receives the fraction done: collapses so far over the positions of
+// every submesh (the record collapses nearly all of them).
 ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
-                                   SimplifyReport* report = nullptr);
+                                   SimplifyReport* report = nullptr, Progress* progress = nullptr);
 
 }  // namespace meshmux
 
