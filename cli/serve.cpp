@@ -287,12 +287,50 @@ class Site {
     struct stat st;
     if (open->fd < 0 || ::fstat(open->fd, &st) != 0 || !S_ISREG(st.st_mode))
       return set_text(res, 403, "403 forbidden");
-    const uint64_t size = uint64_t(st.st_size);
+    uint64_t size = uint64_t(st.st_size);
     const std::string type = content_type_for(file);
 
-    // Only a single range is answered with 206; several ranges, or an If-Range whose
-    // validator cannot match (none is sent), get the whole file.
-    if (ranges.size() == 1 && !req.has_header("If-Range")) {
+    // A whole-file request that accepts brotli or gzip gets the file's precompressed sibling
+    // (FILE.br, FILE.gz: convert writes them for the viewer) with Content-Encoding; ranges
+    // always get the identity bytes, so that byte offsets mean what the package's table says.
+    std::string encoding;
+    const bool has_br = regular_sibling(file, ".br"), has_gz = regular_sibling(file, ".gz");
+    if (has_br || has_gz) res.set_header("Vary", "Accept-Encoding");
+    if (ranges.empty()) {
+      const std::string accept = req.get_header_value("Accept-Encoding");
+      const char* pick = has_br && accepts(accept, "br")     ? "br"
+                         : has_gz && accepts(accept, "gzip") ? "gzip"
+                                                             : nullptr;
+      if (pick) {
+        const fs::path sibling = file.string() + (pick[0] == 'b' ? ".br" : ".gz");
+        auto encoded = std::make_shared<OpenFile>();
+        encoded->fd = ::open(sibling.c_str(), O_RDONLY | O_CLOEXEC);
+        struct stat est;
+        if (encoded->fd >= 0 && ::fstat(encoded->fd, &est) == 0 && S_ISREG(est.st_mode)) {
+          open = encoded, st = est, size = uint64_t(est.st_size), encoding = pick;
+          res.set_header("Content-Encoding", encoding);
+        }
+      }
+    }
+    // Validators (RFC 9110 §8.8): the ETag names the bytes sent (size, modification time and
+    // encoding), Last-Modified the file's time; a request holding either gets 304 and no body
+    // when nothing changed, so a repeat visit costs headers only.
+    const std::string etag = "\"" + hex(size) + "-" + hex(uint64_t(st.st_mtim.tv_sec)) + "." +
+                             hex(uint64_t(st.st_mtim.tv_nsec)) +
+                             (encoding.empty() ? "" : "-" + encoding) + "\"";
+    res.set_header("ETag", etag);
+    res.set_header("Last-Modified", http_date(st.st_mtim.tv_sec));
+    if (not_modified(req, etag, st.st_mtim.tv_sec)) {
+      res.status = 304;
+      return;
+    }
+
+    // Only a single range is answered with 206; several ranges, or an If-Range naming another
+    // version (its ETag, or a date other than Last-Modified), get the whole file.
+    const std::string if_range = req.get_header_value("If-Range");
+    const bool range_valid =
+        !req.has_header("If-Range") || if_range == etag || if_range == http_date(st.st_mtim.tv_sec);
+    if (ranges.size() == 1 && range_valid) {
       uint64_t first = 0, last = 0;
       if (!satisfiable(ranges[0], size, &first, &last)) {
         res.status = 416;
@@ -307,6 +345,89 @@ class Site {
     }
     res.status = 200;
     set_file_body(res, open, 0, size, type);
+  }
+
+  static bool regular_sibling(const fs::path& file, const char* suffix) {
+    struct stat st;
+    return ::stat((file.string() + suffix).c_str(), &st) == 0 && S_ISREG(st.st_mode);
+  }
+
+  // Whether an Accept-Encoding value lists `coding` without q=0.
+  static bool accepts(const std::string& header, const std::string& coding) {
+    size_t at = 0;
+    while (at < header.size()) {
+      size_t end = header.find(',', at);
+      if (end == std::string::npos) end = header.size();
+      std::string item = header.substr(at, end - at);
+      at = end + 1;
+      const size_t semi = item.find(';');
+      std::string name = item.substr(0, semi),
+                  params = semi == std::string::npos ? "" : item.substr(semi);
+      name.erase(0, name.find_first_not_of(" \t"));
+      name.erase(name.find_last_not_of(" \t") + 1);
+      if (name != coding) continue;
+      params.erase(std::remove(params.begin(), params.end(), ' '), params.end());
+      return params.find("q=0") == std::string::npos || params.find("q=0.") != std::string::npos;
+    }
+    return false;
+  }
+
+  static std::string hex(uint64_t v) {
+    char buf[24];
+    std::snprintf(buf, sizeof buf, "%llx", static_cast<unsigned long long>(v));
+    return buf;
+  }
+
+  // An IMF-fixdate ("Sun, 06 Nov 1994 08:49:37 GMT"), in English whatever the locale.
+  static std::string http_date(time_t t) {
+    static const char* const days[] = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
+    static const char* const months[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
+                                         "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
+    struct tm g;
+    gmtime_r(&t, &g);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s, %02d %s %04d %02d:%02d:%02d GMT", days[g.tm_wday],
+                  g.tm_mday, months[g.tm_mon], g.tm_year + 1900, g.tm_hour, g.tm_min, g.tm_sec);
+    return buf;
+  }
+
+  // The time an IMF-fixdate names, or -1.
+  static time_t parse_http_date(const std::string& s) {
+    static const char* const months[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
+                                         "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
+    char wday[4], mon[4];
+    struct tm g {};
+    if (std::sscanf(s.c_str(), "%3[A-Za-z], %d %3s %d %d:%d:%d GMT", wday, &g.tm_mday, mon,
+                    &g.tm_year, &g.tm_hour, &g.tm_min, &g.tm_sec) != 7)
+      return -1;
+    g.tm_mon = -1;
+    for (int i = 0; i < 12; ++i)
+      if (std::strcmp(mon, months[i]) == 0) g.tm_mon = i;
+    if (g.tm_mon < 0) return -1;
+    g.tm_year -= 1900;
+    return timegm(&g);
+  }
+
+  // RFC 9110 §13.1: If-None-Match (a list of entity tags, or *) decides when present; else
+  // If-Modified-Since, to the second.
+  static bool not_modified(const httplib::Request& req, const std::string& etag, time_t mtime) {
+    if (req.has_header("If-None-Match")) {
+      const std::string list = req.get_header_value("If-None-Match");
+      if (list.find('*') != std::string::npos) return true;
+      // Weak comparison: W/"x" matches "x".
+      for (size_t at = list.find('"'); at != std::string::npos; at = list.find('"', at)) {
+        const size_t end = list.find('"', at + 1);
+        if (end == std::string::npos) break;
+        if (list.compare(at, end - at + 1, etag) == 0) return true;
+        at = end + 1;
+      }
+      return false;
+    }
+    if (req.has_header("If-Modified-Since")) {
+      const time_t since = parse_http_date(req.get_header_value("If-Modified-Since"));
+      return since >= 0 && mtime <= since;
+    }
+    return false;
   }
 
   // One parsed range (first, last; -1 for a missing end) against the file size: the bytes to

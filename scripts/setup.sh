@@ -10,7 +10,7 @@ debs=(
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libdraco-dev libmeshoptimizer-dev gltfpack
   libopenmesh-dev libeigen3-dev
-  libopenimageio-dev openimageio-tools libturbojpeg0-dev libpng-dev
+  libopenimageio-dev openimageio-tools libturbojpeg0-dev libpng-dev esbuild
   libassimp-dev libpugixml-dev zlib1g-dev
   libgtest-dev libgmock-dev libcpp-httplib-dev
   clang

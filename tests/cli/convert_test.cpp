@@ -1,6 +1,7 @@
 // End-to-end tests of the meshmux binary: every shared model converts to a validator-clean
 // .glb whose re-import keeps the counts that matter, and bad input fails cleanly.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <chrono>
 #include <filesystem>
@@ -690,9 +691,27 @@ TEST(ConvertFolder, WritesStreamPackage) {
                         "viewer/three/addons/libs/meshopt_decoder.module.js",
                         "viewer/three/addons/controls/OrbitControls.js"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
-  EXPECT_EQ(testing::read_file(dir.file("out/viewer/three/three.core.js")),
-            testing::read_file(std::string(MESHMUX_SOURCE_DIR) +
-                               "/node_modules/three/build/three.core.js"));
+  // three.js as the build minified it (scripts/viewer_assets.mjs), beside its gzip and brotli
+  // forms for servers to send precompressed (issue 7/8).
+  const auto core = testing::read_file(dir.file("out/viewer/three/three.core.js"));
+  const auto source = testing::read_file(std::string(MESHMUX_SOURCE_DIR) +
+                                         "/node_modules/three/build/three.core.js");
+  EXPECT_EQ(core, testing::read_file(std::filesystem::path(MESHMUX_BINARY).parent_path().string() +
+                                     "/generated/viewer/files/viewer/three/three.core.js"));
+  EXPECT_LT(core.size(), source.size() / 2) << "three.core.js is not minified";
+  const auto gz = testing::read_file(dir.file("out/viewer/three/three.core.js.gz"));
+  std::vector<uint8_t> unzipped(core.size() + 1);
+  z_stream z{};
+  ASSERT_EQ(inflateInit2(&z, 16 + MAX_WBITS), Z_OK);
+  z.next_in = const_cast<Bytef*>(gz.data()), z.avail_in = uInt(gz.size());
+  z.next_out = unzipped.data(), z.avail_out = uInt(unzipped.size());
+  EXPECT_EQ(inflate(&z, Z_FINISH), Z_STREAM_END);
+  unzipped.resize(z.total_out);
+  inflateEnd(&z);
+  EXPECT_EQ(unzipped, core);
+  const auto br = testing::read_file(dir.file("out/viewer/three/three.core.js.br"));
+  EXPECT_GT(br.size(), 0u);
+  EXPECT_LT(br.size(), gz.size());
   auto page = testing::read_file(dir.file("out/index.html"));
   std::string html(page.begin(), page.end());
   EXPECT_NE(html.find("importmap"), std::string::npos);

@@ -214,6 +214,93 @@ TEST_F(Serve, RangeReturnsExactlyTheRequestedBytes) {
   EXPECT_EQ(r->body, model_.substr(900));
 }
 
+// Issue 7/8: convert writes the viewer's files beside their brotli and gzip forms; a request
+// that accepts one gets it with Content-Encoding (the bytes as stored, not recompressed), ranges
+// always get the identity bytes, and caches are told the answer varies with Accept-Encoding.
+TEST_F(Serve, PrecompressedSiblingIsSentWhenAccepted) {
+  testing::write_text(site_ + "/viewer.js", "plain bytes");
+  testing::write_text(site_ + "/viewer.js.br", "brotli bytes");
+  testing::write_text(site_ + "/viewer.js.gz", "gzip bytes");
+  start();
+  auto c = client();
+  c.set_decompress(false);  // the bytes as sent
+  struct Case {
+    const char* accept;
+    const char* body;
+    const char* encoding;
+  };
+  for (Case k : {Case{"gzip, deflate, br", "brotli bytes", "br"},
+                 Case{"gzip", "gzip bytes", "gzip"}, Case{"br;q=0, gzip", "gzip bytes", "gzip"},
+                 Case{"identity", "plain bytes", ""}, Case{"", "plain bytes", ""}}) {
+    httplib::Headers h;
+    if (*k.accept) h.insert({"Accept-Encoding", k.accept});
+    auto r = c.Get("/viewer.js", h);
+    ASSERT_TRUE(r) << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, 200) << k.accept;
+    EXPECT_EQ(r->body, k.body) << k.accept;
+    EXPECT_EQ(r->get_header_value("Content-Encoding"), k.encoding) << k.accept;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "text/javascript") << k.accept;
+    EXPECT_EQ(r->get_header_value("Vary"), "Accept-Encoding") << k.accept;
+  }
+  auto r = c.Get("/viewer.js", {{"Accept-Encoding", "br"}, {"Range", "bytes=0-4"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 206);
+  EXPECT_EQ(r->body, "plain");
+  EXPECT_EQ(r->get_header_value("Content-Encoding"), "");
+  // A file without siblings says nothing about encodings.
+  r = c.Get("/model.glb", {{"Accept-Encoding", "br"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->body, model_);
+  EXPECT_FALSE(r->has_header("Vary"));
+}
+
+// Validators: a repeat visit revalidates with If-None-Match / If-Modified-Since and gets 304
+// with no body; If-Range keeps a range only for the same version.
+TEST_F(Serve, ValidatorsAnswerConditionalRequestsWith304) {
+  start();
+  auto c = client();
+  auto r = c.Get("/model.glb");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  const std::string etag = r->get_header_value("ETag"),
+                    modified = r->get_header_value("Last-Modified");
+  ASSERT_FALSE(etag.empty());
+  EXPECT_EQ(etag.front(), '"');
+  EXPECT_NE(modified.find(" GMT"), std::string::npos) << modified;
+  r = c.Get("/model.glb", {{"If-None-Match", etag}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 304);
+  EXPECT_TRUE(r->body.empty());
+  EXPECT_EQ(r->get_header_value("ETag"), etag);
+  r = c.Get("/model.glb", {{"If-None-Match", "\"other\", W/" + etag}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 304);
+  r = c.Get("/model.glb", {{"If-None-Match", "\"other\""}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->body, model_);
+  r = c.Get("/model.glb", {{"If-Modified-Since", modified}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 304);
+  r = c.Get("/model.glb", {{"If-Modified-Since", "Thu, 01 Jan 1970 00:00:00 GMT"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  r = c.Get("/model.glb", {{"If-Range", etag}, {"Range", "bytes=0-9"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 206);
+  EXPECT_EQ(r->body, model_.substr(0, 10));
+  r = c.Get("/model.glb", {{"If-Range", "\"older\""}, {"Range", "bytes=0-9"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->body, model_);
+  // Another version of the file, another tag.
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  testing::write_text(site_ + "/model.glb", model_ + "!");
+  r = c.Get("/model.glb", {{"If-None-Match", etag}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_NE(r->get_header_value("ETag"), etag);
+}
+
 TEST_F(Serve, SuffixRangeReturnsTheLastBytes) {
   start();
   auto c = client();
