@@ -177,9 +177,7 @@ class CliProgress : public Progress {
   void fraction(double done) override {
     if (!live_) return;
     const auto t = now();
-    if (t - step_start_ < std::chrono::seconds(1) ||
-        t - last_live_ < std::chrono::milliseconds(100))
-      return;
+    if (t - step_start_ < live_after_ || t - last_live_ < std::chrono::milliseconds(100)) return;
     last_live_ = t;
     const int percent = int(std::clamp(done, 0.0, 1.0) * 100);
     std::fprintf(stderr, "\r\033[Kmeshmux: [%6.2f s]   %d%%", seconds(), percent);
@@ -225,7 +223,15 @@ class CliProgress : public Progress {
   }
   bool quiet_;
   const Warnings* warnings_;
-  bool live_;           // stderr is a terminal and not -q
+  bool live_;  // stderr is a terminal and not -q
+  // A step shows its percentage once it has run this long: 1 s, or MESHMUX_LIVE_PROGRESS_AFTER
+  // seconds (tests set 0 to see the live line on small inputs, whatever the machine's speed).
+  std::chrono::duration<double> live_after_ = [] {
+    const char* e = std::getenv("MESHMUX_LIVE_PROGRESS_AFTER");
+    char* end = nullptr;
+    const double v = e ? std::strtod(e, &end) : 1.0;
+    return std::chrono::duration<double>(e && end != e && v >= 0 ? v : 1.0);
+  }();
   bool shown_ = false;  // a live line is on screen
   std::chrono::steady_clock::time_point start_, step_start_, last_live_;
   size_t seen_ = 0;

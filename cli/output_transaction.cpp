@@ -19,8 +19,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // What convert writes into a folder: the only entries an existing OUT may hold.
-const std::set<std::string> kOwnEntries = {"model.glb", "base.glb",   "model.mmxp", "report.json",
-                                           "rd.svg",    "index.html", "viewer"};
+const std::set<std::string> kOwnEntries = {"model.glb",     "base.glb",      "model.mmxp",
+                                           "report.json",   "rd.svg",        "index.html",
+                                           "index.html.gz", "index.html.br", "viewer"};
 
 bool process_running(long pid) {
   if (pid <= 0) return false;

@@ -1,0 +1,105 @@
+// Type declarations of meshmux-stream (meshmux.js): the three.js client of meshmux stream
+// packages. See README.md for an example.
+import type { Box3, Group, PerspectiveCamera, Camera, Scene, WebGLRenderer } from 'three';
+
+/** The package format version this client reads. */
+export const PACKAGE_VERSION: number;
+
+export interface MeshmuxStreamOptions {
+  /** The order to play: a name from the package's orders (default "rate-distortion"). */
+  order?: string;
+  /** Stop before a chunk would take the bytes received past this (default: no limit). */
+  budgetBytes?: number;
+  /** The most bytes per range request, unless one chunk is larger (default 256 kB). */
+  chunkBatchBytes?: number;
+  /** The application's renderer: texture anisotropy and GPU pacing between chunks. */
+  renderer?: WebGLRenderer | null;
+  /**
+   * Where three.js's Draco glTF decoder files are (draco_wasm_wrapper.js, draco_decoder.wasm):
+   * packages of small models carry a Draco-coded base. Default: beside this module, as
+   * `meshmux convert` lays them out; with npm, point it at three's
+   * examples/jsm/libs/draco/gltf/ as served by your site.
+   */
+  dracoDecoderPath?: string;
+}
+
+export type MeshmuxState =
+  | 'idle' | 'opening' | 'base' | 'streaming' | 'complete' | 'stopped' | 'error' | 'disposed';
+
+/** A snapshot of the stream (also every event's detail). */
+export interface MeshmuxStats {
+  bytesReceived: number;
+  bytesTotal: number;
+  chunksApplied: number;
+  chunkCount: number;
+  triangles: number;
+  vertices: number;
+  textureWidth: number;
+  textureHeight: number;
+  /** The distortion the package expects at this point (CIEDE2000, lower is better). */
+  distortion: number;
+  order: string;
+  trianglesApplied: number;
+  applySeconds: number;
+  state: MeshmuxState;
+}
+
+/** The view and shading the package's order was measured with (the table's "view"). */
+export interface MeshmuxView {
+  physical: boolean;
+  environment: number;
+  lightIntensity: number;
+  lightDirection: [number, number, number];
+  lightFollowsCamera: boolean;
+  [key: string]: unknown;
+}
+
+export interface MeshmuxEventMap {
+  /** The base is built: `object` shows the model. */
+  base: CustomEvent<MeshmuxStats>;
+  /** One chunk applied (render now to show it). */
+  chunk: CustomEvent<MeshmuxStats & { chunk: number; kind: 'mesh' | 'texture' }>;
+  /** Bytes received changed. */
+  progress: CustomEvent<MeshmuxStats>;
+  /** Budget reached or stop() called. */
+  stopped: CustomEvent<MeshmuxStats>;
+  error: CustomEvent<MeshmuxStats & { error: Error }>;
+}
+
+export class MeshmuxStream extends EventTarget {
+  constructor(url: string | URL, options?: MeshmuxStreamOptions);
+  readonly url: string;
+  readonly options: Required<MeshmuxStreamOptions>;
+  /** Add this to your scene: standard three.js meshes and materials, updated as chunks arrive. */
+  readonly object: Group;
+  /** The validated package table, once open() resolved. */
+  readonly table: ({ view: MeshmuxView; orders: { name: string }[] } & Record<string, unknown>) | null;
+  /** Non-fatal findings about the package. */
+  readonly notes: string[];
+  budgetBytes: number;
+  readonly state: MeshmuxState;
+  readonly playing: boolean;
+  readonly stats: MeshmuxStats;
+  /** Fetches the table and the base; resolves to `object`, which then shows the model. */
+  open(): Promise<Group>;
+  /** Applies the remaining chunks in order, one per animation frame, up to the budget. */
+  play(): Promise<MeshmuxStats>;
+  /** Stops after the chunk being applied. */
+  stop(): void;
+  /** Releases the geometry, materials and textures; the stream cannot be used after. */
+  dispose(): void;
+  /** The world-space bounds of what is shown. */
+  worldBounds(target?: Box3): Box3;
+  addEventListener<K extends keyof MeshmuxEventMap>(
+    type: K, listener: (event: MeshmuxEventMap[K]) => void, options?: boolean | AddEventListenerOptions): void;
+  addEventListener(type: string, listener: EventListenerOrEventListenerObject | null,
+    options?: boolean | AddEventListenerOptions): void;
+}
+
+/**
+ * Lights `scene` as the package's order was measured (physically based packages: a uniform
+ * environment and a directional light, following `camera` when the view says so). Returns a
+ * function that removes the rig.
+ */
+export function addStreamLighting(view: MeshmuxView, scene: Scene, camera: Camera | PerspectiveCamera,
+  renderer: WebGLRenderer): () => void;

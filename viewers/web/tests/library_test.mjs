@@ -1,0 +1,106 @@
+// The library test (issue 7/8): `npm pack` of viewers/web, installed with three.js into an empty
+// folder (offline: the tarball and the repository's own three), a model converted beside it, and
+// the README's example page (between its example:begin/end markers, verbatim) served by
+// `meshmux serve` and opened in Debian's headless chromium: the stream must reach "complete"
+// with no console error or failed request.
+//
+// usage: node library_test.mjs --meshmux BIN --work DIR [--model FILE] [--chromium PATH]
+// Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
+import { spawn, spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const args = process.argv.slice(2);
+function opt(name, fallback) {
+  const i = args.indexOf(name);
+  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
+}
+const meshmux = opt('--meshmux');
+const work = opt('--work');
+const model = opt('--model');
+const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+if (!meshmux || !work) {
+  console.error('usage: node library_test.mjs --meshmux BIN --work DIR [--model FILE]');
+  process.exit(2);
+}
+if (!fs.existsSync(chromiumPath)) {
+  console.error(`SKIPPED: ${chromiumPath} not installed (apt-get install chromium)`);
+  process.exit(77);
+}
+const web = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
+const repo = path.resolve(web, '..', '..');
+
+function run(cmd, argv, cwd) {
+  const r = spawnSync(cmd, argv, { cwd, encoding: 'utf8', maxBuffer: 1 << 26 });
+  if (r.status !== 0) throw new Error(`${cmd} ${argv.join(' ')} exited ${r.status}: ${r.stderr}`);
+  return r.stdout;
+}
+
+fs.rmSync(work, { recursive: true, force: true });
+const app = path.join(work, 'app');
+fs.mkdirSync(app, { recursive: true });
+// The package as npm would publish it, installed as a user would (copies, not links: the
+// server refuses links that leave its folder).
+const tarball = path.join(work, run('npm', ['pack', web, '--pack-destination', work, '--silent']).trim().split('\n').pop());
+fs.writeFileSync(path.join(app, 'package.json'), '{"name": "app", "private": true}\n');
+run('npm', ['install', '--offline', '--no-audit', '--no-fund', '--install-links', tarball,
+  path.join(repo, 'node_modules', 'three')], app);
+for (const f of ['meshmux.js', 'meshmux.d.ts', 'package_reader.js', 'stream_mesh.js', 'package.json']) {
+  if (!fs.existsSync(path.join(app, 'node_modules', 'meshmux-stream', f))) throw new Error(`the package lacks ${f}`);
+}
+// A model beside it, and the README's page.
+let input = model;
+if (!input) {
+  input = path.join(work, 'sample.glb');
+  run(meshmux, ['sample', '-o', input, '-q']);
+}
+run(meshmux, ['convert', input, '-o', path.join(app, 'model'), '-q']);
+const readme = fs.readFileSync(path.join(web, 'README.md'), 'utf8');
+const example = /<!-- example:begin -->\s*```html\n([\s\S]*?)```\s*<!-- example:end -->/.exec(readme);
+if (!example) throw new Error('README.md has no example between <!-- example:begin --> and <!-- example:end -->');
+fs.writeFileSync(path.join(app, 'index.html'), example[1]);
+
+const server = spawn(meshmux, ['serve', app, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
+const url = await new Promise((resolve, reject) => {
+  let text = '';
+  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
+  server.stdout.on('data', (d) => {
+    text += d;
+    const m = text.match(/http:\/\/[^\s]+\//);
+    if (m) { clearTimeout(timer); resolve(m[0]); }
+  });
+  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
+});
+const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
+const context = await chromium.launchPersistentContext(userData, {
+  executablePath: chromiumPath, headless: true,
+  args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
+});
+const problems = [];
+let final = null;
+try {
+  const page = context.pages()[0] || (await context.newPage());
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()} ${r.failure()?.errorText}`));
+  page.on('response', (r) => { if (r.status() >= 400 && !r.url().endsWith('/favicon.ico')) problems.push(`HTTP ${r.status()}: ${r.url()}`); });
+  const done = new Promise((resolve) => {
+    page.on('console', (m) => {
+      // HTTP errors are judged by status above (the browser's own favicon.ico request aside).
+      if (m.type() === 'error' && !/^Failed to load resource/.test(m.text())) problems.push(`console error: ${m.text()}`);
+      const s = /^meshmux: (\w+)/.exec(m.text());
+      if (s) resolve(s[1]);
+    });
+  });
+  await page.goto(url);
+  final = await Promise.race([done, new Promise((resolve) => setTimeout(() => resolve('timeout'), 300000))]);
+  if (final !== 'complete') problems.push(`the example page ended with "${final}", not "complete"`);
+} finally {
+  await context.close();
+  server.kill();
+  fs.rmSync(userData, { recursive: true, force: true });
+}
+for (const p of problems) console.error(`FAIL: ${p}`);
+console.log(`library: npm pack → ${path.basename(tarball)}, installed offline, README example: ${final}`);
+process.exitCode = problems.length ? 1 : 0;
