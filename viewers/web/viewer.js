@@ -32,6 +32,7 @@ const ui = {
   bytes: $('stat-bytes'), triangles: $('stat-triangles'), texture: $('stat-texture'),
   distortion: $('stat-distortion'), chunks: $('stat-chunks'), speed: $('stat-speed'),
   budget: $('budget'), budgetValue: $('budget-value'), order: $('order'), replay: $('replay'),
+  reset: $('reset-view'),
 };
 
 function setState(state) {
@@ -65,11 +66,14 @@ const camera = new THREE.PerspectiveCamera(45, 1, 0.1, 100);  // framed from the
 let controls = makeControls();
 let frame = { center: new THREE.Vector3(), radius: 1, clipMargin: 1.5 };  // bounding sphere, clip margin (from "view")
 let framed = false;
+let framing = null;   // {box, view} of the default framing, for resizes and "Reset view"
+let userMoved = false;  // the user orbited, zoomed or panned since the default framing
 
 function makeControls() {
   const c = new OrbitControls(camera, canvas);
   c.enableDamping = false;  // a still page renders nothing
   c.addEventListener('change', () => { fitClipPlanes(); requestRender(); });
+  c.addEventListener('start', () => { userMoved = true; });
   return c;
 }
 
@@ -101,17 +105,34 @@ function frameDefault(box, view) {
   camera.lookAt(center);
   camera.updateProjectionMatrix();
   controls.target.copy(center);
+  // Zoom stays between close-up and a speck: a fifth of the bounding sphere's distance up to ten
+  // times it (the clip planes follow the distance).
+  controls.minDistance = 0.2 * radius;
+  controls.maxDistance = 10 * distance;
   framed = true;
+  framing = { box: box.clone(), view };
+  userMoved = false;
 }
 
+// Back to the default framing (the "Reset view" button, or a resize before the user moved).
+function resetView() {
+  if (!framing) return;
+  frameDefault(framing.box, framing.view);
+  requestRender();
+}
+
+// A resize or a phone's rotation re-frames the model for the new shape, unless the user has
+// moved the camera (then only the aspect follows).
 function resize() {
   const w = Math.max(1, window.innerWidth), h = Math.max(1, window.innerHeight);
   renderer.setSize(w, h, false);
   camera.aspect = w / h;
   camera.updateProjectionMatrix();
+  if (framing && !userMoved) frameDefault(framing.box, framing.view);
   requestRender();
 }
 window.addEventListener('resize', resize);
+if (screen.orientation) screen.orientation.addEventListener('change', resize);
 
 // ---- On-demand rendering -------------------------------------------------------------------
 
@@ -133,11 +154,12 @@ const nextFrame = () => new Promise((resolve) => {
 
 // ---- Panel ---------------------------------------------------------------------------------
 
+// Decimal units, as the command line prints them (1 kB = 1000 bytes).
 function formatBytes(n) {
   if (!Number.isFinite(n)) return '?';
-  if (n < 1024) return `${n} B`;
-  if (n < 1024 * 1024) return `${(n / 1024).toFixed(1)} KB`;
-  return `${(n / (1024 * 1024)).toFixed(2)} MB`;
+  if (n < 1000) return `${n} B`;
+  if (n < 1e6) return `${(n / 1e3).toFixed(1)} kB`;
+  return `${(n / 1e6).toFixed(2)} MB`;
 }
 
 function updatePanel() {
@@ -149,9 +171,10 @@ function updatePanel() {
   ui.bytes.textContent = `${formatBytes(s.bytesReceived)} / ${formatBytes(total)} (${(100 * share).toFixed(0)}%)`;
   ui.triangles.textContent = s.triangles.toLocaleString('en-US');
   ui.texture.textContent = s.textureWidth ? `${s.textureWidth}×${s.textureHeight}` : 'none';
-  ui.distortion.textContent = Number.isFinite(s.distortion) ? s.distortion.toFixed(3) : '–';
-  ui.chunks.textContent = `${s.chunksApplied} / ${s.chunkCount}`;
-  ui.speed.textContent = s.applySeconds > 0 ? `${(s.trianglesApplied / s.applySeconds / 1e6).toFixed(1)} M tris/s` : '–';
+  ui.distortion.textContent = Number.isFinite(s.distortion) ? `ΔE ${s.distortion.toFixed(2)}` : '–';
+  ui.chunks.textContent = `${s.chunksApplied} of ${s.chunkCount}`;
+  ui.speed.textContent = s.applySeconds > 0
+    ? `${(s.trianglesApplied / s.applySeconds / 1e6).toFixed(1)} million triangles/s` : '–';
 }
 
 function showBudget() {
@@ -213,6 +236,14 @@ function load(order, fraction, play) {
       if (s !== stream || !play) return s.stats;
       return await playStream(s);
     } catch (e) {
+      // ?order= naming an order the package lacks: say so and play its own order.
+      const unknown = /^meshmux: .*: no order "(.*)" \(the package has (.*)\)$/.exec(e && e.message);
+      if (s === stream && unknown && order !== 'rate-distortion') {
+        const note = `The order "${unknown[1]}" is not in this package (it has ${unknown[2]}); playing rate-distortion.`;
+        const next = load('rate-distortion', fraction, play);
+        ui.message.textContent = note;
+        return next;
+      }
       if (s === stream) showError(e);
       throw e;
     }
@@ -250,6 +281,7 @@ ui.budget.addEventListener('input', () => {
 });
 ui.order.addEventListener('change', () => { replay(ui.order.value, budgetFraction).catch(() => {}); });
 ui.replay.addEventListener('click', () => { replay(ui.order.value || orderName, budgetFraction).catch(() => {}); });
+ui.reset.addEventListener('click', resetView);
 
 function replay(order = orderName, fraction = budgetFraction) {
   return load(String(order), clamp01(Number(fraction), 1), true);
