@@ -118,6 +118,9 @@ struct PackageInput {
   // shades as the multiplexer did.
   ViewOptions view{};
   RenderOptions shading{};
+  // The grid's distortion per view (MultiplexResult::view_table), written as the table's
+  // "view_table" when there is a choice to re-plan (mesh layers and texture levels; issue 7/8).
+  const ViewTable* view_table = nullptr;
 };
 
 Result<std::vector<uint8_t>> write_package(const PackageInput& input);

@@ -244,6 +244,34 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
   for (const StreamOrder& o : orders)
     os.push_back({{"name", o.name}, {"chunks", o.steps}, {"distortion", o.distortion}});
   j["orders"] = std::move(os);
+  // "view_table": the distortion of every cell (mesh layers received × texture levels received)
+  // from each view of the viewing sphere, so that a client re-plans the order for its camera
+  // (paper 004 §3: interpolated over the viewing mesh's triangle around the camera direction).
+  // Cells row-major (i × texture_layers + j); null where not measured. The k-th mesh chunk of the
+  // stored order is mesh layer k + 1, the k-th texture chunk texture level k + 1.
+  const ViewTable* vt = in.view_table;
+  if (vt && vt->mesh_layers > 1 && vt->texture_layers > 1 && !vt->directions.empty() &&
+      vt->cells.size() == size_t(vt->mesh_layers) * size_t(vt->texture_layers)) {
+    OrderedJson dirs = OrderedJson::array(), tris = OrderedJson::array(),
+                cells = OrderedJson::array();
+    for (const Vec3& d : vt->directions)
+      dirs.push_back({short_float(d.x), short_float(d.y), short_float(d.z)});
+    for (const auto& t : vt->triangles) tris.push_back({t[0], t[1], t[2]});
+    for (const std::vector<double>& c : vt->cells) {
+      if (c.size() != vt->directions.size()) {
+        cells.push_back(nullptr);
+        continue;
+      }
+      OrderedJson values = OrderedJson::array();
+      for (double v : c) values.push_back(short_float(float(v)));
+      cells.push_back(std::move(values));
+    }
+    j["view_table"] = {{"directions", std::move(dirs)},
+                       {"triangles", std::move(tris)},
+                       {"mesh_layers", vt->mesh_layers},
+                       {"texture_layers", vt->texture_layers},
+                       {"distortion", std::move(cells)}};
+  }
   return j.dump();
 }
 

@@ -19,6 +19,12 @@
 namespace meshmux {
 
 namespace {
+// The most cells evaluated in full for the per-view table (beyond, the client keeps the stored
+// order where a cell is missing).
+constexpr size_t kViewTableMaxCells = 96;
+}  // namespace
+
+namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) {
@@ -217,16 +223,24 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     blank.coverage.assign(ref.coverage.size(), 0);
     r.empty_distortion += measure_distortion(ref, blank).ciede2000 / double(reference.size());
   }
+  r.view_table.directions = sphere.directions;
+  r.view_table.triangles = sphere.triangles;
+  r.view_table.mesh_layers = m;
+  r.view_table.texture_layers = n;
+  r.view_table.cells.assign(size_t(m) * size_t(n), {});
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;
   grid.texture_bytes = r.texture_bytes;
   grid.distortion = [&](int i, int j) {
+    std::vector<double>& per_view = r.view_table.cells[size_t(i) * size_t(n) + size_t(j)];
+    per_view.assign(cameras.size(), 0.0);
     if (i == m - 1 && j == n - 1) return 0.0;
     double sum = 0;
     for (size_t v = 0; v < cameras.size(); ++v) {
       RenderImage img = gl.render(geometry_of(i), texture_of(j), cameras[v]);
       report_fraction(progress, double(++r.renders) / most_renders);
-      sum += measure_distortion(reference[v], img).ciede2000;
+      per_view[v] = measure_distortion(reference[v], img).ciede2000;
+      sum += per_view[v];
     }
     return sum / double(cameras.size());
   };
@@ -236,6 +250,11 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   r.mesh_first = mesh_first(cache);
   r.texture_first = texture_first(cache);
   r.constant_ratio = constant_ratio(cache);
+  // Where a choice exists (mesh layers and texture levels), every cell: a client re-plans the
+  // order for its own camera from any cell (issue 7/8). Small grids are already complete here.
+  if (m > 1 && n > 1 && size_t(m) * size_t(n) <= kViewTableMaxCells)
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < n; ++j) cache.at(i, j);
   r.cells_evaluated = cache.evaluated();
   r.cells_total = size_t(m) * size_t(n);
   r.seconds_render = since(render_start);

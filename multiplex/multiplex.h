@@ -29,6 +29,16 @@ struct MultiplexOptions {
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
 };
 
+// The distortion of the grid's cells seen from each view of the viewing sphere (paper 004 §3),
+// for a client that re-plans the order for its own camera (issue 7/8).
+struct ViewTable {
+  std::vector<Vec3> directions;                    // unit, from the model's centre to each view
+  std::vector<std::array<uint32_t, 3>> triangles;  // the viewing mesh over them
+  int mesh_layers = 0, texture_layers = 0;         // the grid, m × n
+  // Per cell i * texture_layers + j: the metric from each view (empty: not measured).
+  std::vector<std::vector<double>> cells;
+};
+
 struct MultiplexResult {
   std::vector<uint64_t> mesh_bytes;               // per mesh layer (0: the base geometry)
   std::vector<uint64_t> texture_bytes;            // per texture level (0: the 128² level)
@@ -57,6 +67,7 @@ struct MultiplexResult {
   std::vector<std::array<uint64_t, 3>> texture_levels_shipped;
   std::vector<DroppedTextureLevel> texture_levels_dropped;
   std::vector<std::string> texture_channels;  // the maps every texture level carries, in order
+  ViewTable view_table;                       // every cell evaluated, per view
 };
 
 // The stream as a viewer receives it, beside the plain download of model.glb (issue 4/8). Both

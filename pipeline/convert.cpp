@@ -304,6 +304,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   in.orders = plan->orders;
   in.view = o.multiplex.views;
   in.shading = o.multiplex.render;
+  in.view_table = &mx.view_table;
   return write_package(in);
 }
 

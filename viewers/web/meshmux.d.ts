@@ -21,6 +21,10 @@ export interface MeshmuxStreamOptions {
    * examples/jsm/libs/draco/gltf/ as served by your site.
    */
   dracoDecoderPath?: string;
+  /** The camera the model is seen through: the stored order is re-planned for it before each batch. */
+  camera?: Camera | null;
+  /** false keeps the stored order whatever the camera (default true). */
+  adaptive?: boolean;
 }
 
 export type MeshmuxState =
@@ -39,6 +43,8 @@ export interface MeshmuxStats {
   /** The distortion the package expects at this point (CIEDE2000, lower is better). */
   distortion: number;
   order: string;
+  /** The order being followed: `order`, or "view-adapted" once re-planned for the camera. */
+  orderFollowed: string;
   trianglesApplied: number;
   applySeconds: number;
   state: MeshmuxState;

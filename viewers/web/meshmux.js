@@ -29,6 +29,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, validateTable } from './package_reader.js';
 import { StreamMesh, applyMeshChunk, inflate } from './stream_mesh.js';
+import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
 export { PACKAGE_VERSION, validateTable, StreamMesh, applyMeshChunk, inflate };
 const HEADER_BYTES = 12;
@@ -227,12 +228,16 @@ export class MeshmuxStream extends EventTarget {
   // take the bytes received past it), chunkBatchBytes (most bytes per range request, unless
   // one chunk is larger), renderer (a THREE.WebGLRenderer, for the texture anisotropy),
   // dracoDecoderPath (where three's draco/gltf/ decoder files are: a package whose base is the
-  // whole model is Draco-coded; default: beside this module, as `meshmux convert` writes them).
+  // whole model is Draco-coded; default: beside this module, as `meshmux convert` writes them),
+  // camera (the THREE.Camera the model is seen through: with the package's per-view table the
+  // stored order is re-planned for it before each batch, view_plan.js), adaptive (default true:
+  // false keeps the stored order whatever the camera).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
-      dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href, ...options };
+      dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
+      camera: null, adaptive: true, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -278,8 +283,10 @@ export class MeshmuxStream extends EventTarget {
       bytesReceived: this._bytes, bytesTotal: this._reader.size,
       chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
       triangles, vertices, textureWidth: this._textureSize[0], textureHeight: this._textureSize[1],
-      distortion: this._position > 0 ? this.order.distortion[this._position - 1] : this.table ? this.table.base.distortion : NaN,
+      distortion: this._position > 0 ? this._sequenceDistortion[this._position - 1] : this.table ? this.table.base.distortion : NaN,
       order: this.order ? this.order.name : this.options.order,
+      // The order being followed: the chosen one, or "view-adapted" once re-planned for the camera.
+      orderFollowed: this._followed || (this.order ? this.order.name : this.options.order),
       trianglesApplied: this._trianglesApplied, applySeconds: this._applySeconds, state: this._state,
     };
   }
@@ -328,6 +335,9 @@ export class MeshmuxStream extends EventTarget {
       await this._buildBase(table, base, draco);
       this.table = table;
       this.order = order;
+      this._sequence = order.chunks.slice();  // the chunks in the order followed (re-planned)
+      this._sequenceDistortion = order.distortion.slice();
+      this._followed = order.name;
       this._bytes = dataStart + table.base.size;
       this._state = 'base';
       this._emit('base');
@@ -473,7 +483,8 @@ export class MeshmuxStream extends EventTarget {
   // The next batch from order position `pos`, `planned` bytes being counted before it: chunks
   // consecutive in the file, up to chunkBatchBytes (at least one chunk), none past the budget.
   _planBatch(pos, planned) {
-    const seq = this.order.chunks, chunks = this.table.chunks;
+    this._replan(pos);
+    const seq = this._sequence, chunks = this.table.chunks;
     if (pos >= seq.length || planned + chunks[seq[pos]].size > this.options.budgetBytes) return null;
     const first = chunks[seq[pos]];
     const batch = { indices: [seq[pos]], start: first.offset, end: first.offset + first.size, bytes: planned + first.size };
@@ -486,6 +497,26 @@ export class MeshmuxStream extends EventTarget {
       batch.bytes += c.size;
     }
     return batch;
+  }
+
+  // Re-plans the chunks from position `pos` on for the camera's direction (view_plan.js): only
+  // the stored order is adapted (a baseline chosen by name is played as it is), and only with a
+  // camera and the package's per-view table.
+  _replan(pos) {
+    const camera = this.options.camera, vt = this.table.view_table;
+    if (!this.options.adaptive || !camera || !vt || this.order !== this.table.orders[0] || pos >= this._sequence.length) return;
+    const centre = this.worldBounds().getCenter(new THREE.Vector3());
+    const eye = camera.getWorldPosition(new THREE.Vector3());
+    const direction = eye.sub(centre);
+    this.object.updateWorldMatrix(true, false);
+    direction.transformDirection(new THREE.Matrix4().copy(this.object.matrixWorld).invert());
+    const applied = new Set(this._sequence.slice(0, pos));
+    const stored = this.order.chunks.filter((c) => !applied.has(c));
+    const plan = planRemaining(this.table, viewWeights(vt, direction.toArray()), applied, stored);
+    this._sequence = this._sequence.slice(0, pos).concat(plan.sequence);
+    this._sequenceDistortion = sequenceDistortion(this.table, this._sequence);
+    const adaptedBefore = this._followed === 'view-adapted';
+    this._followed = plan.adapted || adaptedBefore ? 'view-adapted' : this.order.name;
   }
 
   // Fetches and applies chunks in the chosen order until the last one or the budget. Resolves

@@ -161,10 +161,41 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   need(orders.length > 0, 'orders is empty');
   need(orders[0].chunks.every((c, i) => c === i), `orders[0] ("${orders[0].name}") is not the file order`);
 
+  // The per-view table (optional): the distortion of every cell (mesh layers received ×
+  // texture levels received) from each view of the viewing sphere, for re-planning the order
+  // for the viewer's camera (view_plan.js).
+  let viewTable = null;
+  if (t.view_table !== undefined && t.view_table !== null) {
+    const v = obj(t.view_table, 'view_table');
+    const meshLayers = int(v.mesh_layers, 'view_table.mesh_layers', n + 1);
+    const textureLayers = int(v.texture_layers, 'view_table.texture_layers', n + 1);
+    const meshChunks = chunks.filter((c) => c.kind === 'mesh').length;
+    need(meshLayers === meshChunks + 1 && textureLayers === n - meshChunks + 1,
+      `view_table is ${meshLayers} × ${textureLayers} cells, the chunks make ${meshChunks + 1} × ${n - meshChunks + 1}`);
+    const directions = arr(v.directions, 'view_table.directions').map((d, i) => {
+      need(Array.isArray(d) && d.length === 3 && d.every(Number.isFinite), `view_table.directions[${i}] must be 3 finite numbers`);
+      return d.slice();
+    });
+    need(directions.length > 0 && directions.length <= 4096, 'view_table.directions must hold 1 to 4096 views');
+    const triangles = arr(v.triangles, 'view_table.triangles').map((tri, i) => {
+      need(Array.isArray(tri) && tri.length === 3, `view_table.triangles[${i}] must be 3 view indices`);
+      return tri.map((x, k) => int(x, `view_table.triangles[${i}][${k}]`, directions.length - 1));
+    });
+    const cells = arr(v.distortion, 'view_table.distortion');
+    need(cells.length === meshLayers * textureLayers, `view_table.distortion has ${cells.length} cells, not ${meshLayers * textureLayers}`);
+    const distortion = cells.map((c, i) => {
+      if (c === null) return null;
+      need(Array.isArray(c) && c.length === directions.length && c.every(Number.isFinite),
+        `view_table.distortion[${i}] must be null or ${directions.length} finite numbers`);
+      return c.slice();
+    });
+    viewTable = { directions, triangles, mesh_layers: meshLayers, texture_layers: textureLayers, distortion };
+  }
+
   // Not fatal: a complete stream should end on the full mesh sizes.
   const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
     : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
-  return { version: t.version, view, base, meshes, texture, chunks, orders, notes };
+  return { version: t.version, view, base, meshes, texture, chunks, orders, view_table: viewTable, notes };
 }
 
 // ---- HTTP ranges -----------------------------------------------------------------------------

@@ -32,7 +32,7 @@ const ui = {
   bytes: $('stat-bytes'), triangles: $('stat-triangles'), texture: $('stat-texture'),
   distortion: $('stat-distortion'), chunks: $('stat-chunks'), speed: $('stat-speed'),
   budget: $('budget'), budgetValue: $('budget-value'), order: $('order'), replay: $('replay'),
-  reset: $('reset-view'),
+  reset: $('reset-view'), followed: $('stat-followed'),
 };
 
 function setState(state) {
@@ -173,6 +173,7 @@ function updatePanel() {
   ui.texture.textContent = s.textureWidth ? `${s.textureWidth}×${s.textureHeight}` : 'none';
   ui.distortion.textContent = Number.isFinite(s.distortion) ? `ΔE ${s.distortion.toFixed(2)}` : '–';
   ui.chunks.textContent = `${s.chunksApplied} of ${s.chunkCount}`;
+  ui.followed.textContent = s.orderFollowed === 'view-adapted' ? 'adapted to this view' : s.orderFollowed;
   ui.speed.textContent = s.applySeconds > 0
     ? `${(s.trianglesApplied / s.applySeconds / 1e6).toFixed(1)} million triangles/s` : '–';
 }
@@ -205,7 +206,7 @@ function load(order, fraction, play) {
   orderName = order;
   budgetFraction = fraction;
   showBudget();
-  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer });
+  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera });
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');

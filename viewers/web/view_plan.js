@@ -1,0 +1,134 @@
+// view_plan.js — the order re-planned for the viewer's own camera (issue 7/8; paper 004 §3).
+//
+// The package's "view_table" holds the distortion of every cell (i mesh layers received, j
+// texture levels received) seen from each view of the viewing sphere, and the viewing mesh over
+// those views. For a camera direction, the surface is interpolated linearly over the viewing-mesh
+// triangle around it (barycentric weights of its three views: paper 004 §3 interpolates from the
+// triangle's vertices; its printed weights grow with the distance, which would favour the far
+// view, so we use the linear interpolation the text describes). On that surface the steepest
+// descent of paper 004 §2 plans the remaining moves; the plan is followed only where its area
+// under distortion-vs-bytes is below the stored order's remainder on the same surface, so an
+// adapted order is never worse than the stored one for the view it was planned for.
+//
+// Moves: the k-th mesh chunk of the stored order is mesh layer k + 1, the k-th texture chunk
+// texture level k + 1 (the stored order moves one layer at a time, each axis in order).
+
+// Per-view weights (summing to 1) for a direction from the model's centre (any length).
+export function viewWeights(viewTable, direction) {
+  const dirs = viewTable.directions, n = dirs.length;
+  const len = Math.hypot(direction[0], direction[1], direction[2]);
+  const w = new Float64Array(n);
+  if (!(len > 0)) { w.fill(1 / n); return w; }
+  const d = [direction[0] / len, direction[1] / len, direction[2] / len];
+  // The triangle whose cone holds d: d = a·A + b·B + c·C with a, b, c ≥ 0.
+  let best = null, bestMin = -Infinity;
+  for (const [ia, ib, ic] of viewTable.triangles) {
+    const A = dirs[ia], B = dirs[ib], C = dirs[ic];
+    const det = dot(A, cross(B, C));
+    if (Math.abs(det) < 1e-12) continue;
+    const a = dot(d, cross(B, C)) / det, b = dot(A, cross(d, C)) / det, c = dot(A, cross(B, d)) / det;
+    const m = Math.min(a, b, c);
+    if (m > bestMin) { bestMin = m; best = [ia, ib, ic, a, b, c]; }
+  }
+  if (!best || bestMin < -1e-9) {  // no triangle around it: the nearest view
+    let k = 0;
+    for (let v = 1; v < n; v++) if (dot(dirs[v], d) > dot(dirs[k], d)) k = v;
+    w[k] = 1;
+    return w;
+  }
+  const [ia, ib, ic] = best;
+  let [a, b, c] = best.slice(3).map((x) => Math.max(0, x));
+  const s = a + b + c;
+  w[ia] += a / s; w[ib] += b / s; w[ic] += c / s;
+  return w;
+}
+
+function dot(a, b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+function cross(a, b) { return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]; }
+
+// The interpolated surface: per cell (i × texture_layers + j) the weighted distortion, or NaN
+// where the table has no measure.
+export function surface(viewTable, weights) {
+  return viewTable.distortion.map((cell) => {
+    if (!cell) return NaN;
+    let s = 0;
+    for (let v = 0; v < cell.length; v++) s += weights[v] * cell[v];
+    return s;
+  });
+}
+
+// The chunk of each move: mesh[k] the chunk of mesh layer k + 1, texture[k] of level k + 1.
+export function layerChunks(table) {
+  const mesh = [], texture = [];
+  for (const index of table.orders[0].chunks) (table.chunks[index].kind === 'mesh' ? mesh : texture).push(index);
+  return { mesh, texture };
+}
+
+// The state after the chunks `applied` (a set or array of chunk indices): (i, j).
+function stateOf(table, layers, applied) {
+  const has = applied instanceof Set ? applied : new Set(applied);
+  let i = 0, j = 0;
+  while (i < layers.mesh.length && has.has(layers.mesh[i])) i++;
+  while (j < layers.texture.length && has.has(layers.texture[j])) j++;
+  return [i, j];
+}
+
+// Area under the step curve of `sequence` (chunk indices) from state (i, j) on surface D: each
+// distortion holds while the next chunk's bytes arrive. Infinity where a cell is not measured.
+export function pathArea(table, D, layers, i, j, sequence) {
+  const n = table.view_table.texture_layers;
+  let area = 0;
+  for (const index of sequence) {
+    const d = D[i * n + j];
+    if (!Number.isFinite(d)) return Infinity;
+    area += d * table.chunks[index].size;
+    if (table.chunks[index].kind === 'mesh') i++; else j++;
+  }
+  return area;
+}
+
+// The remaining chunks for the view whose weights are given, after `applied` chunks (the
+// sequence's prefix): { sequence, adapted } — the steepest descent on the interpolated surface
+// when its area is below the stored order's remainder (`stored`, the chunks not yet applied in
+// the order being followed), else `stored` itself.
+export function planRemaining(table, weights, applied, stored) {
+  const vt = table.view_table;
+  if (!vt) return { sequence: stored, adapted: false };
+  const layers = layerChunks(table), D = surface(vt, weights), n = vt.texture_layers;
+  let [i, j] = stateOf(table, layers, applied);
+  const i0 = i, j0 = j, plan = [];
+  while (i < layers.mesh.length || j < layers.texture.length) {
+    const here = D[i * n + j];
+    let pick = null, best = -Infinity;
+    if (i < layers.mesh.length) {
+      const c = layers.mesh[i], next = D[(i + 1) * n + j];
+      const slope = (here - next) / Math.max(1, table.chunks[c].size);
+      if (Number.isFinite(slope) && slope > best) { best = slope; pick = 'mesh'; }
+    }
+    if (j < layers.texture.length) {
+      const c = layers.texture[j], next = D[i * n + j + 1];
+      const slope = (here - next) / Math.max(1, table.chunks[c].size);
+      if (Number.isFinite(slope) && slope > best) { best = slope; pick = 'texture'; }
+    }
+    if (!pick) return { sequence: stored, adapted: false };  // a cell without a measure
+    if (pick === 'mesh') plan.push(layers.mesh[i++]); else plan.push(layers.texture[j++]);
+  }
+  const adaptedArea = pathArea(table, D, layers, i0, j0, plan);
+  const storedArea = pathArea(table, D, layers, i0, j0, stored);
+  const same = plan.length === stored.length && plan.every((c, k) => c === stored[k]);
+  return adaptedArea < storedArea && !same ? { sequence: plan, adapted: true } : { sequence: stored, adapted: false };
+}
+
+// The view-independent distortion (the mean over views) after each chunk of `sequence`, from
+// the start: what the stats report as the expected distortion.
+export function sequenceDistortion(table, sequence) {
+  const vt = table.view_table, layers = layerChunks(table), n = vt.texture_layers;
+  const views = vt.directions.length, out = [];
+  let i = 0, j = 0;
+  for (const index of sequence) {
+    if (table.chunks[index].kind === 'mesh') i++; else j++;
+    const cell = vt.distortion[i * n + j];
+    out.push(cell ? cell.reduce((a, b) => a + b, 0) / views : NaN);
+  }
+  return out;
+}
