@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -320,6 +321,12 @@ class Site {
                              (encoding.empty() ? "" : "-" + encoding) + "\"";
     res.set_header("ETag", etag);
     res.set_header("Last-Modified", http_date(st.st_mtim.tv_sec));
+    // A versioned folder (convert writes three.js under viewer/three-r<release>/) never changes
+    // under its name: caches keep it without asking again. The rest is revalidated (no-cache).
+    if (versioned_path(req.path)) {
+      res.headers.erase("Cache-Control");  // the server's default, no-cache
+      res.set_header("Cache-Control", "public, max-age=31536000, immutable");
+    }
     if (not_modified(req, etag, st.st_mtim.tv_sec)) {
       res.status = 304;
       return;
@@ -345,6 +352,18 @@ class Site {
     }
     res.status = 200;
     set_file_body(res, open, 0, size, type);
+  }
+
+  // Whether a request path lies in a folder named NAME-rDIGITS (a release-versioned folder).
+  static bool versioned_path(const std::string& path) {
+    for (size_t at = 0; (at = path.find("-r", at)) != std::string::npos; at += 2) {
+      size_t end = at + 2;
+      while (end < path.size() && std::isdigit(static_cast<unsigned char>(path[end]))) ++end;
+      if (end > at + 2 && end < path.size() && path[end] == '/' &&
+          path.rfind('/', at) != std::string::npos)
+        return true;
+    }
+    return false;
   }
 
   static bool regular_sibling(const fs::path& file, const char* suffix) {

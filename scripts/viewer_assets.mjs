@@ -7,7 +7,11 @@
 // files themselves under OUT/files/ for inspection. Deterministic: same inputs, same bytes
 // (gzip's header carries no time or name).
 //
-// usage: node scripts/viewer_assets.mjs OUT ESBUILD PATH=FILE ...
+// three.js's files (PATH under viewer/three/) go under viewer/three-r<release>/ (0.187.0: r187),
+// and the page's import map and meshmux.js's default Draco path name that folder: a versioned
+// URL that caches may keep for good (issue 7/8; `meshmux serve` marks it immutable).
+//
+// usage: node scripts/viewer_assets.mjs OUT ESBUILD --three-version V PATH=FILE ...
 //   PATH is the file's place under a converted folder ("viewer/three/three.core.js"), FILE its
 //   source.
 import { execFileSync } from 'node:child_process';
@@ -15,10 +19,24 @@ import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
 
-const [out, esbuild, ...pairs] = process.argv.slice(2);
-if (!out || !esbuild || pairs.length === 0) {
-  console.error('usage: node scripts/viewer_assets.mjs OUT ESBUILD PATH=FILE ...');
+const [out, esbuild, flag, threeVersion, ...pairs] = process.argv.slice(2);
+const release = /^0\.(\d+)\.\d+/.exec(threeVersion || '');
+if (!out || !esbuild || flag !== '--three-version' || !release || pairs.length === 0) {
+  console.error('usage: node scripts/viewer_assets.mjs OUT ESBUILD --three-version V PATH=FILE ...');
   process.exit(2);
+}
+const threeFolder = `three-r${release[1]}`;
+// The three.js folder's versioned name, in a path under a converted folder and in the texts
+// that name it.
+const versioned = (rel) => rel.replace(/^viewer\/three\//, `viewer/${threeFolder}/`);
+function renameThree(rel, bytes) {
+  if (rel !== 'index.html' && rel !== 'viewer/meshmux.js') return bytes;
+  const text = bytes.toString('utf8');
+  const renamed = rel === 'index.html'
+    ? text.replaceAll('./viewer/three/', `./viewer/${threeFolder}/`)
+    : text.replaceAll('./three/addons/', `./${threeFolder}/addons/`);
+  if (renamed === text) throw new Error(`${rel}: no three.js path to version`);
+  return Buffer.from(renamed, 'utf8');
 }
 
 // Minified bytes of a .js or .css source. No --format: esbuild then keeps each file's own
@@ -32,6 +50,7 @@ function minify(file) {
     { maxBuffer: 64 << 20 });
 }
 
+fs.rmSync(path.join(out, 'files'), { recursive: true, force: true });  // no stale files left
 const compressible = new Set(['.js', '.css', '.html', '.wasm', '.json', '.svg']);
 const entries = [];
 const chunks = [];
@@ -46,8 +65,8 @@ function add(rel, bytes) {
 }
 for (const pair of pairs) {
   const at = pair.indexOf('=');
-  const rel = pair.slice(0, at), file = pair.slice(at + 1);
-  const bytes = minify(file);
+  const rel = versioned(pair.slice(0, at)), file = pair.slice(at + 1);
+  const bytes = renameThree(rel, minify(file));
   add(rel, bytes);
   if (!compressible.has(path.extname(rel))) continue;
   add(rel + '.gz', zlib.gzipSync(bytes, { level: 9 }));

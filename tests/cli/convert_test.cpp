@@ -515,9 +515,10 @@ TEST(ConvertFolder, WholeModelPackageBaseIsDraco) {
   }
   const double glb = double(std::filesystem::file_size(dir.file("out/model.glb")));
   EXPECT_LE(double(bytes.size()), 1.3 * glb) << bytes.size() << " bytes against " << glb;
-  for (const char* f : {"viewer/three/addons/loaders/DRACOLoader.js",
-                        "viewer/three/addons/libs/draco/gltf/draco_wasm_wrapper.js",
-                        "viewer/three/addons/libs/draco/gltf/draco_decoder.wasm"})
+  for (const char* f :
+       {"viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/DRACOLoader.js",
+        "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/draco/gltf/draco_wasm_wrapper.js",
+        "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/draco/gltf/draco_decoder.wasm"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
 }
 
@@ -684,22 +685,26 @@ TEST(ConvertFolder, WritesStreamPackage) {
   EXPECT_EQ(pkg->orders[2].name, "texture-first");
   EXPECT_EQ(pkg->orders[3].name, "constant-ratio");
   // The viewer page and the modules it imports sit beside the package.
-  for (const char* f : {"index.html", "viewer/meshmux.js", "viewer/package_reader.js",
-                        "viewer/stream_mesh.js", "viewer/viewer.js", "viewer/viewer.css",
-                        "viewer/three/three.module.js", "viewer/three/three.core.js",
-                        "viewer/three/LICENSE", "viewer/three/addons/loaders/GLTFLoader.js",
-                        "viewer/three/addons/libs/meshopt_decoder.module.js",
-                        "viewer/three/addons/controls/OrbitControls.js"})
+  for (const char* f :
+       {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
+        "viewer/viewer.js", "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
+        "viewer/" MESHMUX_THREE_FOLDER "/three.core.js", "viewer/" MESHMUX_THREE_FOLDER "/LICENSE",
+        "viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/GLTFLoader.js",
+        "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",
+        "viewer/" MESHMUX_THREE_FOLDER "/addons/controls/OrbitControls.js"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
   // three.js as the build minified it (scripts/viewer_assets.mjs), beside its gzip and brotli
   // forms for servers to send precompressed (issue 7/8).
-  const auto core = testing::read_file(dir.file("out/viewer/three/three.core.js"));
+  const auto core =
+      testing::read_file(dir.file("out/viewer/" MESHMUX_THREE_FOLDER "/three.core.js"));
   const auto source = testing::read_file(std::string(MESHMUX_SOURCE_DIR) +
                                          "/node_modules/three/build/three.core.js");
   EXPECT_EQ(core, testing::read_file(std::filesystem::path(MESHMUX_BINARY).parent_path().string() +
-                                     "/generated/viewer/files/viewer/three/three.core.js"));
+                                     "/generated/viewer/files/viewer/" MESHMUX_THREE_FOLDER
+                                     "/three.core.js"));
   EXPECT_LT(core.size(), source.size() / 2) << "three.core.js is not minified";
-  const auto gz = testing::read_file(dir.file("out/viewer/three/three.core.js.gz"));
+  const auto gz =
+      testing::read_file(dir.file("out/viewer/" MESHMUX_THREE_FOLDER "/three.core.js.gz"));
   std::vector<uint8_t> unzipped(core.size() + 1);
   z_stream z{};
   ASSERT_EQ(inflateInit2(&z, 16 + MAX_WBITS), Z_OK);
@@ -709,7 +714,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
   unzipped.resize(z.total_out);
   inflateEnd(&z);
   EXPECT_EQ(unzipped, core);
-  const auto br = testing::read_file(dir.file("out/viewer/three/three.core.js.br"));
+  const auto br =
+      testing::read_file(dir.file("out/viewer/" MESHMUX_THREE_FOLDER "/three.core.js.br"));
   EXPECT_GT(br.size(), 0u);
   EXPECT_LT(br.size(), gz.size());
   auto page = testing::read_file(dir.file("out/index.html"));

@@ -254,6 +254,26 @@ TEST_F(Serve, PrecompressedSiblingIsSentWhenAccepted) {
   EXPECT_FALSE(r->has_header("Vary"));
 }
 
+// A release-versioned folder (viewer/three-r187/, as convert writes three.js) never changes
+// under its name: immutable, cached for a year. Everything else is revalidated.
+TEST_F(Serve, VersionedFolderIsImmutableTheRestRevalidated) {
+  std::filesystem::create_directories(site_ + "/viewer/three-r187");
+  testing::write_text(site_ + "/viewer/three-r187/three.core.js", "core");
+  testing::write_text(site_ + "/viewer/meshmux.js", "ours");
+  start();
+  auto c = client();
+  auto r = c.Get("/viewer/three-r187/three.core.js");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value_count("Cache-Control"), 1u);
+  EXPECT_EQ(r->get_header_value("Cache-Control"), "public, max-age=31536000, immutable");
+  for (const char* path : {"/viewer/meshmux.js", "/model.glb"}) {
+    r = c.Get(path);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->get_header_value("Cache-Control"), "no-cache") << path;
+  }
+}
+
 // Validators: a repeat visit revalidates with If-None-Match / If-Modified-Since and gets 304
 // with no body; If-Range keeps a range only for the same version.
 TEST_F(Serve, ValidatorsAnswerConditionalRequestsWith304) {

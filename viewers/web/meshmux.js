@@ -303,6 +303,8 @@ export class MeshmuxStream extends EventTarget {
       probe.catch(() => {});  // awaited below
       await MeshoptDecoder.ready;
       const head = await probe;
+      this._bytes = head.length;  // progress from the first bytes: the page shows them at once
+      this._emit('progress');
       if (head.length < HEADER_BYTES) throw this._fail(`${head.length} bytes: too short for a meshmux package`);
       const magic = String.fromCharCode(...head.subarray(0, 4));
       if (magic !== 'MMXP') throw this._fail(`not a meshmux package (magic ${JSON.stringify(magic)}, expected "MMXP")`);

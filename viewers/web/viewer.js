@@ -213,6 +213,8 @@ function load(order, fraction, play) {
   // Render at once: the stream applies one chunk per animation frame, so the renderer's work
   // on this step is done before the next chunk is decoded (no competition for the CPU).
   s.addEventListener('chunk', () => { if (s === stream) renderNow(); });
+  // Bytes before the first picture (the table, the base): the panel shows them as they come.
+  s.addEventListener('progress', () => { if (s === stream && s.state === 'opening') updatePanel(); });
   loading = (async () => {
     try {
       await s.open();

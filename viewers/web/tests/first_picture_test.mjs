@@ -56,11 +56,14 @@ const out = path.join(work, 'out');
 const r = spawnSync(meshmux, ['convert', model, '-o', out, '-q'], { encoding: 'utf8' });
 if (r.status !== 0) throw new Error(`meshmux convert exited ${r.status}: ${r.stderr}`);
 
-// The plain page: what a site does without meshmux (three.js's loaders, model.glb in one go).
+// The plain page: what a site does without meshmux (three.js's loaders, model.glb in one go),
+// with the three.js files convert wrote (under viewer/three-r<release>/).
+const three = fs.readdirSync(path.join(out, 'viewer')).find((n) => /^three-r\d+$/.test(n));
+if (!three) throw new Error('convert wrote no viewer/three-r<release>/ folder');
 fs.writeFileSync(path.join(out, 'glb.html'), `<!doctype html>
 <html><head><meta charset="utf-8"><link rel="icon" href="data:,">
 <script type="importmap">
-{"imports": {"three": "./viewer/three/three.module.js", "three/addons/": "./viewer/three/addons/"}}
+{"imports": {"three": "./viewer/${three}/three.module.js", "three/addons/": "./viewer/${three}/addons/"}}
 </script>
 <script type="module">
 import * as THREE from 'three';
@@ -68,7 +71,7 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 const renderer = new THREE.WebGLRenderer({ canvas: document.getElementById('view') });
 renderer.setSize(640, 480, false);
-const draco = new DRACOLoader().setDecoderPath('./viewer/three/addons/libs/draco/gltf/');
+const draco = new DRACOLoader().setDecoderPath('./viewer/${three}/addons/libs/draco/gltf/');
 new GLTFLoader().setDRACOLoader(draco).load('./model.glb', (gltf) => {
   const scene = new THREE.Scene();
   scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 2), gltf.scene);
