@@ -4,6 +4,8 @@ import type { Box3, Group, PerspectiveCamera, Camera, Scene, WebGLRenderer } fro
 
 /** The package format version this client reads. */
 export const PACKAGE_VERSION: number;
+/** The bytes of the first request (header, table, often the base). */
+export const PROBE_BYTES: number;
 
 export interface MeshmuxStreamOptions {
   /** The order to play: a name from the package's orders (default "rate-distortion"). */
@@ -25,6 +27,11 @@ export interface MeshmuxStreamOptions {
   camera?: Camera | null;
   /** false keeps the stored order whatever the camera (default true). */
   adaptive?: boolean;
+  /**
+   * A request for the package's first PROBE_BYTES bytes (Range: bytes=0-65535) the page made
+   * before this module loaded: taken over instead of asking again.
+   */
+  firstBytes?: Promise<Response> | null;
 }
 
 export type MeshmuxState =

@@ -33,7 +33,7 @@ import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
 export { PACKAGE_VERSION, validateTable, StreamMesh, applyMeshChunk, inflate };
 const HEADER_BYTES = 12;
-const PROBE_BYTES = 65536;       // the first request: header, table and often the base too
+export const PROBE_BYTES = 65536;  // the first request: header, table and often the base too
 
 // ---- Textures and material -------------------------------------------------------------------
 
@@ -231,13 +231,16 @@ export class MeshmuxStream extends EventTarget {
   // whole model is Draco-coded; default: beside this module, as `meshmux convert` writes them),
   // camera (the THREE.Camera the model is seen through: with the package's per-view table the
   // stored order is re-planned for it before each batch, view_plan.js), adaptive (default true:
-  // false keeps the stored order whatever the camera).
+  // false keeps the stored order whatever the camera), firstBytes (a Promise of the Response to
+  // a request for the package's first PROBE_BYTES bytes, Range: bytes=0-65535, that the page
+  // started before this module loaded: index.html does, so the package arrives beside the
+  // module graph).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
-      camera: null, adaptive: true, ...options };
+      camera: null, adaptive: true, firstBytes: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -299,7 +302,7 @@ export class MeshmuxStream extends EventTarget {
     try {
       this._abort = new AbortController();
       const signal = this._abort.signal;
-      const probe = this._reader.probe(PROBE_BYTES, signal);
+      const probe = this._reader.probe(PROBE_BYTES, signal, this.options.firstBytes);
       probe.catch(() => {});  // awaited below
       await MeshoptDecoder.ready;
       const head = await probe;

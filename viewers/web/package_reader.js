@@ -211,10 +211,11 @@ export class RangeReader {
 
   _error(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
 
-  async _fetch(start, end, signal) {
+  // `pending`: a fetch of exactly this range already under way (a Promise of its Response).
+  async _fetch(start, end, signal, pending = null) {
     let res;
     try {
-      res = await fetch(this.url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal });
+      res = await (pending || fetch(this.url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal }));
     } catch (e) {
       if (e.name === 'AbortError') throw e;
       throw this._error(`cannot fetch bytes ${start}-${end - 1} (${e.message})`);
@@ -231,9 +232,10 @@ export class RangeReader {
     return new Uint8Array(await res.arrayBuffer());
   }
 
-  // The first n bytes (fewer if the file is shorter).
-  async probe(n, signal) {
-    this.prefix = await this._fetch(0, n, signal);
+  // The first n bytes (fewer if the file is shorter); `pending`, a request for them (Range:
+  // bytes=0-(n-1)) the page already made, is taken over instead of asking again.
+  async probe(n, signal, pending = null) {
+    this.prefix = await this._fetch(0, n, signal, pending);
     if (!Number.isFinite(this.size) && this.prefix.length < n) this.size = this.prefix.length;
     return this.prefix;
   }

@@ -206,7 +206,10 @@ function load(order, fraction, play) {
   orderName = order;
   budgetFraction = fraction;
   showBudget();
-  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera });
+  // The first load takes over the request index.html started for the package's first bytes.
+  const early = window.meshmuxFirstBytes && window.meshmuxFirstBytes.src === src ? window.meshmuxFirstBytes.response : null;
+  window.meshmuxFirstBytes = null;
+  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, firstBytes: early });
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');

@@ -128,7 +128,8 @@ async function visits(pageName, count) {
     for (let v = 0; v < count; ++v) {
       bytes = 0;
       await page.goto(url + pageName, { waitUntil: 'commit' });
-      await page.waitForFunction(() => ['base', 'streaming', 'complete', 'stopped', 'error']
+      // (document.body is null while the head is parsed: its scripts run first.)
+      await page.waitForFunction(() => document.body && ['base', 'streaming', 'complete', 'stopped', 'error']
         .includes(document.body.dataset.state), null, { timeout: 120000, polling: 'raf' });
       const shown = await page.evaluate(() => window.shownAt ?? performance.now());
       const state = await page.evaluate(() => document.body.dataset.state);
