@@ -14,16 +14,12 @@
 //        [--latency 40] [--max-seconds 5] [--max-ratio 0.5] [--max-repeat 0.05]
 //        [--chromium /usr/bin/chromium] [--no-check]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium / model missing: said on stderr).
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import { launch, opt, serve, skip } from './harness.mjs';
 
 const args = process.argv.slice(2);
-function opt(name, fallback) {
-  const i = args.indexOf(name);
-  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
-}
 const meshmux = opt('--meshmux');
 const work = opt('--work');
 const model = opt('--model');
@@ -35,10 +31,6 @@ const maxRatio = Number(opt('--max-ratio', '0.5'));
 const maxRepeat = Number(opt('--max-repeat', '0.05'));
 const check = !args.includes('--no-check');
 
-function skip(message) {
-  console.error(`SKIPPED: ${message}`);
-  process.exit(77);
-}
 function fail(message) {
   console.error(`FAIL: ${message}`);
   process.exitCode = 1;
@@ -87,30 +79,13 @@ new GLTFLoader().setDRACOLoader(draco).load('./model.glb', (gltf) => {
 <body data-state="loading"><canvas id="view" width="640" height="480"></canvas></body></html>
 `);
 
-const server = spawn(meshmux, ['serve', out, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
-const url = await new Promise((resolve, reject) => {
-  let text = '';
-  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
-  server.stdout.on('data', (d) => {
-    text += d;
-    const m = text.match(/http:\/\/[^\s]+\//);
-    if (m) { clearTimeout(timer); resolve(m[0]); }
-  });
-  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
-});
+const { server, url } = await serve(meshmux, out);
 
 const problems = [];
 // One browser profile: `visits` loads of `page` in it, each throttled; per visit the time to
 // the first picture (ms from navigation start) and the bytes transferred.
 async function visits(pageName, count) {
-  const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
-  const context = await chromium.launchPersistentContext(userData, {
-    executablePath: chromiumPath,
-    headless: true,
-    viewport: { width: 960, height: 720 },
-    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  const { context, close: closeBrowser } = await launch(work, chromiumPath);
   const results = [];
   try {
     const page = context.pages()[0] || (await context.newPage());
@@ -141,8 +116,7 @@ async function visits(pageName, count) {
       results.push({ seconds: shown / 1000, bytes });
     }
   } finally {
-    await context.close();
-    fs.rmSync(userData, { recursive: true, force: true });
+    await closeBrowser();
   }
   return results;
 }

@@ -6,17 +6,12 @@
 //
 // usage: node library_test.mjs --meshmux BIN --work DIR [--model FILE] [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { launch, opt, serve, skip } from './harness.mjs';
 
-const args = process.argv.slice(2);
-function opt(name, fallback) {
-  const i = args.indexOf(name);
-  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
-}
 const meshmux = opt('--meshmux');
 const work = opt('--work');
 const model = opt('--model');
@@ -25,10 +20,7 @@ if (!meshmux || !work) {
   console.error('usage: node library_test.mjs --meshmux BIN --work DIR [--model FILE]');
   process.exit(2);
 }
-if (!fs.existsSync(chromiumPath)) {
-  console.error(`SKIPPED: ${chromiumPath} not installed (apt-get install chromium)`);
-  process.exit(77);
-}
+if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
 const web = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
 const repo = path.resolve(web, '..', '..');
 
@@ -62,22 +54,8 @@ const example = /<!-- example:begin -->\s*```html\n([\s\S]*?)```\s*<!-- example:
 if (!example) throw new Error('README.md has no example between <!-- example:begin --> and <!-- example:end -->');
 fs.writeFileSync(path.join(app, 'index.html'), example[1]);
 
-const server = spawn(meshmux, ['serve', app, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
-const url = await new Promise((resolve, reject) => {
-  let text = '';
-  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
-  server.stdout.on('data', (d) => {
-    text += d;
-    const m = text.match(/http:\/\/[^\s]+\//);
-    if (m) { clearTimeout(timer); resolve(m[0]); }
-  });
-  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
-});
-const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
-const context = await chromium.launchPersistentContext(userData, {
-  executablePath: chromiumPath, headless: true,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
-});
+const { server, url } = await serve(meshmux, app);
+const { context, close: closeBrowser } = await launch(work, chromiumPath);
 const problems = [];
 let final = null;
 try {
@@ -97,9 +75,8 @@ try {
   final = await Promise.race([done, new Promise((resolve) => setTimeout(() => resolve('timeout'), 300000))]);
   if (final !== 'complete') problems.push(`the example page ended with "${final}", not "complete"`);
 } finally {
-  await context.close();
+  await closeBrowser();
   server.kill();
-  fs.rmSync(userData, { recursive: true, force: true });
 }
 for (const p of problems) console.error(`FAIL: ${p}`);
 console.log(`library: npm pack → ${path.basename(tarball)}, installed offline, README example: ${final}`);

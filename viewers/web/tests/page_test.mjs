@@ -8,16 +8,11 @@
 //
 // usage: node page_test.mjs --meshmux BIN --work DIR [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import { launch, opt, serve, skip } from './harness.mjs';
 
-const args = process.argv.slice(2);
-function opt(name, fallback) {
-  const i = args.indexOf(name);
-  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
-}
 const meshmux = opt('--meshmux');
 const work = opt('--work');
 const chromiumPath = opt('--chromium', '/usr/bin/chromium');
@@ -25,10 +20,7 @@ if (!meshmux || !work) {
   console.error('usage: node page_test.mjs --meshmux BIN --work DIR');
   process.exit(2);
 }
-if (!fs.existsSync(chromiumPath)) {
-  console.error(`SKIPPED: ${chromiumPath} not installed (apt-get install chromium)`);
-  process.exit(77);
-}
+if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
 const failures = [];
 function check(ok, what) {
   console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
@@ -42,22 +34,8 @@ for (const argv of [['sample', '-o', path.join(work, 's.glb'), '-q'], ['convert'
   const r = spawnSync(meshmux, argv, { encoding: 'utf8' });
   if (r.status !== 0) throw new Error(`meshmux ${argv[0]} exited ${r.status}: ${r.stderr}`);
 }
-const server = spawn(meshmux, ['serve', out, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
-const url = await new Promise((resolve, reject) => {
-  let text = '';
-  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
-  server.stdout.on('data', (d) => {
-    text += d;
-    const m = text.match(/http:\/\/[^\s]+\//);
-    if (m) { clearTimeout(timer); resolve(m[0]); }
-  });
-  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
-});
-const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
-const context = await chromium.launchPersistentContext(userData, {
-  executablePath: chromiumPath, headless: true, viewport: { width: 960, height: 720 },
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--no-first-run', '--disable-background-networking'],
-});
+const { server, url } = await serve(meshmux, out);
+const { context, close: closeBrowser } = await launch(work, chromiumPath);
 const settled = (page) => page.waitForFunction(() => ['complete', 'stopped', 'error'].includes(document.body.dataset.state),
   null, { timeout: 120000, polling: 100 });
 try {
@@ -116,8 +94,7 @@ try {
   await page.waitForTimeout(200);
   check(Math.abs((await distance()) - wide) < 1e-3 * wide, `Reset view brings the default camera back (${(await distance()).toFixed(3)})`);
 } finally {
-  await context.close();
+  await closeBrowser();
   server.kill();
-  fs.rmSync(userData, { recursive: true, force: true });
 }
 process.exitCode = failures.length ? 1 : 0;

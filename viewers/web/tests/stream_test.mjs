@@ -13,16 +13,12 @@
 // usage: node stream_test.mjs --meshmux BIN (--model FILE | --sample) --work DIR
 //        [--chromium /usr/bin/chromium] [--min-psnr 30] [--budget 0.1]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium / model missing: said on stderr).
-import { spawn, spawnSync } from 'node:child_process';
+import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import { launch, opt, serve, skip } from './harness.mjs';
 
 const args = process.argv.slice(2);
-function opt(name, fallback) {
-  const i = args.indexOf(name);
-  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
-}
 const meshmux = opt('--meshmux');
 const work = opt('--work');
 const model = opt('--model');
@@ -32,10 +28,6 @@ const minPsnr = Number(opt('--min-psnr', '30'));
 const budget = Number(opt('--budget', '0.1'));  // fraction of the package for the early check
 const size = 512;
 
-function skip(message) {
-  console.error(`SKIPPED: ${message}`);
-  process.exit(77);
-}
 function fail(message) {
   console.error(`FAIL: ${message}`);
   process.exitCode = 1;
@@ -99,26 +91,9 @@ for (const f of ['index.html', 'model.mmxp', 'model.glb', 'viewer/meshmux.js']) 
 const packageBytes = fs.statSync(path.join(out, 'model.mmxp')).size;
 
 // The server: port 0, the URL read from its first line.
-const server = spawn(meshmux, ['serve', out, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });
-const url = await new Promise((resolve, reject) => {
-  let text = '';
-  const timer = setTimeout(() => reject(new Error('meshmux serve printed no URL')), 10000);
-  server.stdout.on('data', (d) => {
-    text += d;
-    const m = text.match(/http:\/\/[^\s]+\//);
-    if (m) { clearTimeout(timer); resolve(m[0]); }
-  });
-  server.on('exit', (code) => reject(new Error(`meshmux serve exited ${code}`)));
-});
+const { server, url } = await serve(meshmux, out);
 
-const userData = fs.mkdtempSync(path.join(work, 'chromium-'));
-const context = await chromium.launchPersistentContext(userData, {
-  executablePath: chromiumPath,
-  headless: true,
-  viewport: { width: 960, height: 720 },
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-});
+const { context, close: closeBrowser } = await launch(work, chromiumPath);
 const problems = [];
 const result = { input, packageBytes, url };
 try {
@@ -267,7 +242,7 @@ try {
 } catch (e) {
   fail(e.stack || String(e));
 } finally {
-  await context.close();
+  await closeBrowser();
   server.kill('SIGTERM');
 }
 if (problems.length) fail(`console problems:\n  ${problems.join('\n  ')}`);
