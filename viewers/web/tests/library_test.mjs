@@ -72,7 +72,10 @@ try {
     });
   });
   await page.goto(url);
-  final = await Promise.race([done, new Promise((resolve) => setTimeout(() => resolve('timeout'), 300000))]);
+  let timer;
+  const timeout = new Promise((resolve) => { timer = setTimeout(() => resolve('timeout'), 300000); });
+  final = await Promise.race([done, timeout]);
+  clearTimeout(timer);  // a pending timer would keep node alive for its whole delay
   if (final !== 'complete') problems.push(`the example page ended with "${final}", not "complete"`);
 } finally {
   await closeBrowser();
