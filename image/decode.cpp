@@ -66,10 +66,11 @@ DirectResult decode_jpeg(Image& image, uint64_t max_pixels) {
     return DirectResult::kOverLimit;
   }
   image.rgba.resize(size_t(w) * size_t(h) * 4);
+  // Any complaint, a warning included (a truncated scan), refuses: OpenImageIO then gives the
+  // verdict users always had for damaged files.
   if (tjDecompress2(tj.get(), image.encoded.data(), (unsigned long)image.encoded.size(),
-                    image.rgba.data(), w, w * 4, h, TJPF_RGBA, 0) != 0 &&
-      tjGetErrorCode(tj.get()) == TJERR_FATAL)
-    return DirectResult::kRefused;  // a warning (a truncated scan) keeps its pixels, as libjpeg
+                    image.rgba.data(), w, w * 4, h, TJPF_RGBA, 0) != 0)
+    return DirectResult::kRefused;
   image.width = w;
   image.height = h;
   return DirectResult::kDecoded;

@@ -141,6 +141,23 @@ TEST(ImageDecode, OtherFormatsLoadTheOpenImageIoModule) {
   EXPECT_EQ(max_difference(img.rgba, oiio_rgba(bytes, "targa")), 0);
 }
 
+// A JPEG cut in its scan data: libjpeg only warns; the direct decoder refuses it and the verdict
+// is OpenImageIO's, as before the direct decoders (pixels and size as OpenImageIO reads them).
+TEST(ImageDecode, TruncatedJpegGetsOpenImageIosVerdict) {
+  auto jpg = oiio_encode("jpg", 64, 64, 3, 8, pattern(64, 64, 3, 8));
+  std::vector<uint8_t> cut(jpg.begin(), jpg.begin() + jpg.size() * 2 / 3);
+  Image img = from_bytes("cut.jpg", cut);
+  Status s = decode_image(img);
+  EXPECT_TRUE(oiio_module_loaded());
+  if (s.is_ok()) {
+    EXPECT_EQ(img.width, 64);
+    EXPECT_EQ(max_difference(img.rgba, oiio_rgba(cut, "jpeg")), 0);
+  } else {
+    EXPECT_NE(s.message().find("cut.jpg"), std::string::npos) << s.message();
+    EXPECT_TRUE(img.rgba.empty());
+  }
+}
+
 // A damaged PNG or JPEG (truncated in its pixel data, garbage after the signature) is an error
 // naming the image, with no pixels left behind: the direct decoder refuses and OpenImageIO's
 // verdict is the one reported.
