@@ -359,9 +359,7 @@ class Site {
     for (size_t at = 0; (at = path.find("-r", at)) != std::string::npos; at += 2) {
       size_t end = at + 2;
       while (end < path.size() && std::isdigit(static_cast<unsigned char>(path[end]))) ++end;
-      if (end > at + 2 && end < path.size() && path[end] == '/' &&
-          path.rfind('/', at) != std::string::npos)
-        return true;
+      if (end > at + 2 && end < path.size() && path[end] == '/') return true;
     }
     return false;
   }
@@ -386,7 +384,8 @@ class Site {
       name.erase(name.find_last_not_of(" \t") + 1);
       if (name != coding) continue;
       params.erase(std::remove(params.begin(), params.end(), ' '), params.end());
-      return params.find("q=0") == std::string::npos || params.find("q=0.") != std::string::npos;
+      const size_t q = params.find("q=");
+      return q == std::string::npos || std::strtod(params.c_str() + q + 2, nullptr) > 0;
     }
     return false;
   }

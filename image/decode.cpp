@@ -48,11 +48,11 @@ std::string oiio_format(const std::string& mime, const std::string& name) {
 // What a direct decoder made of the bytes: pixels, a size over the limit, or a refusal (the
 // caller then asks OpenImageIO, whose message the user sees).
 enum class DirectResult { kDecoded, kOverLimit, kRefused };
-thread_local int direct_width_ = 0, direct_height_ = 0;  // the size an over-limit image declared
 
 // Baseline and progressive JPEG, grey or YCbCr, to RGBA8 (TurboJPEG's default accurate DCT and
 // smooth upsampling, as libjpeg's defaults that OpenImageIO uses). CMYK/YCCK refuse.
-DirectResult decode_jpeg(Image& image, uint64_t max_pixels) {
+// `declared` receives the size the header names (for the over-limit message).
+DirectResult decode_jpeg(Image& image, uint64_t max_pixels, int declared[2]) {
   std::unique_ptr<void, int (*)(tjhandle)> tj(tjInitDecompress(), tjDestroy);
   if (!tj) return DirectResult::kRefused;
   int w = 0, h = 0, subsampling = 0, colorspace = 0;
@@ -62,7 +62,7 @@ DirectResult decode_jpeg(Image& image, uint64_t max_pixels) {
     return DirectResult::kRefused;
   if (colorspace == TJCS_CMYK || colorspace == TJCS_YCCK) return DirectResult::kRefused;
   if (uint64_t(w) * uint64_t(h) > max_pixels) {
-    direct_width_ = w, direct_height_ = h;
+    declared[0] = w, declared[1] = h;
     return DirectResult::kOverLimit;
   }
   image.rgba.resize(size_t(w) * size_t(h) * 4);
@@ -83,7 +83,7 @@ struct PngRead {
   const uint8_t* data;
   size_t size, at;
 };
-DirectResult decode_png(Image& image, uint64_t max_pixels) {
+DirectResult decode_png(Image& image, uint64_t max_pixels, int declared[2]) {
   png_structp png = png_create_read_struct(
       PNG_LIBPNG_VER_STRING, nullptr, [](png_structp p, png_const_charp) { png_longjmp(p, 1); },
       [](png_structp, png_const_charp) {});
@@ -115,7 +115,7 @@ DirectResult decode_png(Image& image, uint64_t max_pixels) {
     return DirectResult::kRefused;
   }
   if (uint64_t(w) * uint64_t(h) > max_pixels) {
-    direct_width_ = int(w), direct_height_ = int(h);
+    declared[0] = int(w), declared[1] = int(h);
     png_destroy_read_struct(&png, &info, nullptr);
     return DirectResult::kOverLimit;
   }
@@ -181,8 +181,9 @@ Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
   // JPEG and PNG (nearly every texture) directly; anything else, or a JPEG/PNG these refuse
   // (CMYK JPEG, a damaged file), through OpenImageIO, loaded on first use (oiio_loader.h).
   if (format == "jpeg" || format == "png") {
-    const DirectResult r =
-        format == "jpeg" ? decode_jpeg(image, max_pixels) : decode_png(image, max_pixels);
+    int declared[2] = {0, 0};
+    const DirectResult r = format == "jpeg" ? decode_jpeg(image, max_pixels, declared)
+                                            : decode_png(image, max_pixels, declared);
     if (r == DirectResult::kDecoded) {
       if (image.mime_type.empty()) image.mime_type = "image/" + format;
       return Status::ok();
@@ -191,8 +192,8 @@ Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
     image.width = image.height = 0;
     if (r == DirectResult::kOverLimit) {
       if (over_limit) *over_limit = true;
-      return Status::error(name + ": image is " + std::to_string(direct_width_) + "x" +
-                               std::to_string(direct_height_) + ", over the limit of " +
+      return Status::error(name + ": image is " + std::to_string(declared[0]) + "x" +
+                               std::to_string(declared[1]) + ", over the limit of " +
                                std::to_string(max_pixels) + " pixels",
                            ErrorKind::kInput);
     }

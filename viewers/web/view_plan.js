@@ -65,7 +65,7 @@ export function layerChunks(table) {
 }
 
 // The state after the chunks `applied` (a set or array of chunk indices): (i, j).
-function stateOf(table, layers, applied) {
+function stateOf(layers, applied) {
   const has = applied instanceof Set ? applied : new Set(applied);
   let i = 0, j = 0;
   while (i < layers.mesh.length && has.has(layers.mesh[i])) i++;
@@ -95,7 +95,7 @@ export function planRemaining(table, weights, applied, stored) {
   const vt = table.view_table;
   if (!vt) return { sequence: stored, adapted: false };
   const layers = layerChunks(table), D = surface(vt, weights), n = vt.texture_layers;
-  let [i, j] = stateOf(table, layers, applied);
+  let [i, j] = stateOf(layers, applied);
   const i0 = i, j0 = j, plan = [];
   while (i < layers.mesh.length || j < layers.texture.length) {
     const here = D[i * n + j];
