@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "clean/clean.h"
+#include "cli/batch_command.h"
 #include "cli/output_transaction.h"
 #include "cli/render_command.h"
 #include "cli/serve.h"
@@ -57,6 +58,11 @@ const char* kUsage =
     "      base, then mesh refinements and texture levels in rate-distortion order),\n"
     "      report.json and rd.svg (that order's curves beside three baselines), and the web\n"
     "      viewer (index.html and viewer/: meshmux serve OUT, then open the printed URL)\n"
+    "  meshmux batch LIST -o OUTROOT [--jobs N | --slurm] [options]\n"
+    "                                        convert many inputs (a list file or a folder) into\n"
+    "                                        OUTROOT/<name>/, each in its own process with time\n"
+    "                                        and memory limits; resumable; OUTROOT/index.html\n"
+    "                                        lists them (meshmux batch --help)\n"
     "  meshmux info FILE [--json]            meshes, instances, triangles, materials,\n"
     "                                        textures, draw calls, bytes (a .gltf counts\n"
     "                                        its external buffers and images too)\n"
@@ -673,6 +679,7 @@ int meshmux_main(int argc, char** argv) {
     }
     if (cmd == "convert") return cmd_convert(rest);
     if (cmd == "info") return cmd_info(rest);
+    if (cmd == "batch") return cmd_batch(rest);
     if (cmd == "sample") return cmd_sample(rest);
     if (cmd == "simplify") return cmd_simplify(rest);
     if (cmd == "serve") return cmd_serve(rest);

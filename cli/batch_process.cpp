@@ -1,0 +1,158 @@
+// Child processes for meshmux batch (see batch_process.h).
+#include "cli/batch_process.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <thread>
+
+namespace meshmux {
+
+std::string self_executable() {
+  std::error_code ec;
+  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("meshmux") : p.string();
+}
+
+namespace {
+
+// Resolves a bare program name on PATH (execv wants a path), as the shell does.
+std::string find_program(const std::string& name) {
+  if (name.find('/') != std::string::npos) return name;
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "/usr/bin:/bin";
+  dirs += ":/usr/sbin:/sbin";
+  size_t start = 0;
+  while (start <= dirs.size()) {
+    size_t end = dirs.find(':', start);
+    if (end == std::string::npos) end = dirs.size();
+    std::string candidate = dirs.substr(start, end - start) + "/" + name;
+    if (end > start && access(candidate.c_str(), X_OK) == 0) return candidate;
+    start = end + 1;
+  }
+  return "";
+}
+
+// Everything the child needs is prepared before fork (no allocation between fork and exec).
+struct Prepared {
+  std::vector<std::string> strings;
+  std::vector<char*> argv;
+};
+
+pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_path,
+                const std::vector<std::pair<std::string, std::string>>& env, int out_fd) {
+  Prepared p;
+  p.strings = args;
+  for (std::string& s : p.strings) p.argv.push_back(s.data());
+  p.argv.push_back(nullptr);
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid != 0) return pid;
+  // The child: its own group, dies with the batch, quiet stdin, output to the log or pipe.
+  setpgid(0, 0);
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (getppid() != parent) _exit(127);  // the batch died before prctl
+  int in = open("/dev/null", O_RDONLY);
+  if (in >= 0) dup2(in, 0);
+  int out = out_fd;
+  if (out < 0)
+    out = open(log_path.empty() ? "/dev/null" : log_path.c_str(),
+               O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out >= 0) {
+    dup2(out, 1);
+    dup2(out, 2);
+  }
+  for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
+  execv(p.argv[0], p.argv.data());
+  const char* msg = "meshmux: batch: could not start the program\n";
+  (void)!write(2, msg, std::strlen(msg));
+  _exit(127);
+}
+
+}  // namespace
+
+Result<pid_t> spawn_process(const std::vector<std::string>& argv, const SpawnOptions& options) {
+  if (argv.empty()) return Status::error("batch: nothing to run", ErrorKind::kInternal);
+  const pid_t pid = fork_exec(argv, options.log_path, options.env, -1);
+  if (pid < 0)
+    return Status::error(std::string("batch: cannot start a process: ") + std::strerror(errno),
+                         ErrorKind::kInternal);
+  setpgid(pid, pid);  // also from this side, so kill_group works at once
+  return pid;
+}
+
+ExitInfo exit_info(int wait_status) {
+  ExitInfo e;
+  if (WIFEXITED(wait_status)) e.code = WEXITSTATUS(wait_status);
+  if (WIFSIGNALED(wait_status)) e.signal = WTERMSIG(wait_status);
+  return e;
+}
+
+std::string ExitInfo::describe() const {
+  if (signal == 0) return "exit code " + std::to_string(code);
+  const char* name = sigabbrev_np(signal);
+  return "signal " + std::to_string(signal) + (name ? std::string(" (SIG") + name + ")" : "");
+}
+
+void kill_group(pid_t pid) {
+  if (pid > 0) kill(-pid, SIGKILL);
+}
+
+Result<CommandOutput> run_command(const std::vector<std::string>& argv, double timeout_seconds) {
+  if (argv.empty()) return Status::error("batch: nothing to run", ErrorKind::kInternal);
+  std::vector<std::string> args = argv;
+  args[0] = find_program(argv[0]);
+  if (args[0].empty())
+    return Status::error(argv[0] + ": not found (is it installed and on PATH?)",
+                         ErrorKind::kUnavailable);
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0)
+    return Status::error(std::string("batch: pipe: ") + std::strerror(errno), ErrorKind::kInternal);
+  const pid_t pid = fork_exec(args, "", {}, fds[1]);
+  close(fds[1]);
+  if (pid < 0) {
+    close(fds[0]);
+    return Status::error(
+        std::string("batch: cannot start ") + argv[0] + ": " + std::strerror(errno),
+        ErrorKind::kInternal);
+  }
+  fcntl(fds[0], F_SETFL, O_NONBLOCK);
+  CommandOutput result;
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(int64_t(timeout_seconds * 1000));
+  int status = 0;
+  bool done = false, timed_out = false;
+  char buf[4096];
+  while (true) {
+    ssize_t n;
+    while ((n = read(fds[0], buf, sizeof buf)) > 0) result.output.append(buf, size_t(n));
+    if (done && n <= 0) break;
+    if (!done && waitpid(pid, &status, WNOHANG) == pid) {
+      done = true;
+      continue;  // drain what is left
+    }
+    if (!done && std::chrono::steady_clock::now() > deadline) {
+      kill_group(pid);
+      waitpid(pid, &status, 0);
+      timed_out = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  close(fds[0]);
+  if (timed_out)
+    return Status::error(
+        argv[0] + ": no answer within " + std::to_string(int(timeout_seconds)) + " s",
+        ErrorKind::kUnavailable);
+  result.exit = exit_info(status);
+  return result;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,50 @@
+// Child processes for `meshmux batch`: a conversion in its own process (its own process group,
+// killed with the batch, output to a log file), and short commands whose output is read back
+// (sbatch, scontrol). POSIX fork/exec; Linux's PR_SET_PDEATHSIG ties a worker's life to the
+// batch's, so `kill -9` of the batch leaves no conversion running.
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "scene/status.h"
+
+namespace meshmux {
+
+// The running executable's absolute path (/proc/self/exe), for re-running meshmux itself.
+std::string self_executable();
+
+struct SpawnOptions {
+  std::string log_path;  // stdout and stderr go here (created or truncated); empty: /dev/null
+  std::vector<std::pair<std::string, std::string>> env;  // set in the child only
+};
+
+// Starts argv[0] (a path) with argv in a new process group whose leader is the child, stdin
+// from /dev/null. The child is killed (SIGKILL) when the calling thread's process dies.
+// Errors (kInternal) when fork fails; a failed exec shows as exit code 127 in the log.
+Result<pid_t> spawn_process(const std::vector<std::string>& argv, const SpawnOptions& options);
+
+// How a child ended.
+struct ExitInfo {
+  int code = -1;                 // exit code, or -1 when killed by a signal
+  int signal = 0;                // the signal that killed it, or 0
+  std::string describe() const;  // "exit code 2", "signal 11 (SIGSEGV)"
+};
+ExitInfo exit_info(int wait_status);
+
+// Runs a command to completion (at most `timeout_seconds`, then it is killed), returning its
+// exit and its combined stdout and stderr. Errors (kUnavailable) when the program cannot be
+// started (not installed), or it ran over the time.
+struct CommandOutput {
+  ExitInfo exit;
+  std::string output;
+};
+Result<CommandOutput> run_command(const std::vector<std::string>& argv, double timeout_seconds);
+
+// Kills a child's whole process group with SIGKILL (the child and anything it started).
+void kill_group(pid_t pid);
+
+}  // namespace meshmux

@@ -1,0 +1,194 @@
+// batch.json and index.html of meshmux batch (see batch_summary.h).
+#include "cli/batch_summary.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "scene/file_io.h"
+
+#ifndef MESHMUX_VERSION
+#define MESHMUX_VERSION "0.0.0"
+#endif
+
+namespace meshmux {
+
+namespace {
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// A path segment for an href (names are letters, digits, '.', '-', '_': nothing to escape,
+// but stay safe).
+std::string url_segment(const std::string& s) {
+  std::string out;
+  for (unsigned char c : s) {
+    if (std::isalnum(c) || c == '.' || c == '-' || c == '_') {
+      out += char(c);
+    } else {
+      char buf[4];
+      std::snprintf(buf, sizeof buf, "%%%02X", c);
+      out += buf;
+    }
+  }
+  return out;
+}
+
+std::string bytes_text(uint64_t b) {
+  char buf[32];
+  if (b == 0) return "";
+  if (b >= 1000000)
+    std::snprintf(buf, sizeof buf, "%.2f MB", double(b) / 1e6);
+  else if (b >= 1000)
+    std::snprintf(buf, sizeof buf, "%.1f kB", double(b) / 1e3);
+  else
+    std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
+  return buf;
+}
+
+const char* kPageStyle =
+    "body{font:14px/1.4 system-ui,sans-serif;margin:2em;color:#222}"
+    "table{border-collapse:collapse;width:100%}th,td{padding:.3em .6em;text-align:left;"
+    "border-bottom:1px solid #ddd;vertical-align:top}td.n{text-align:right;white-space:nowrap}"
+    "th{background:#f4f4f4}.ok{color:#176c2c}.warn{color:#8a5a00}.fail{color:#b00020}"
+    "code{font-size:12px}.err{font-family:monospace;font-size:12px;word-break:break-word}";
+
+}  // namespace
+
+Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::string& state_dir,
+                                        const std::vector<BatchItem>& items,
+                                        const BatchSummaryInfo& info) {
+  BatchCounts counts;
+  const std::set<std::string> reused(info.skipped.begin(), info.skipped.end());
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  std::string rows;
+  for (const BatchItem& item : items) {
+    ++counts.inputs;
+    auto rec = read_record(state_dir, item.name);
+    const bool current = rec && rec->hash == item.hash && rec->options == info.fingerprint &&
+                         rec->input == item.input;
+    nlohmann::ordered_json j;
+    j["input"] = item.input;
+    j["name"] = item.name;
+    std::string status, error, cls;
+    if (!current) {
+      status = "not converted";
+      auto it = info.missing_reason.find(item.name);
+      error = it != info.missing_reason.end() ? it->second : info.missing_default;
+      cls = "fail";
+      ++counts.not_converted;
+    } else if (rec->status == "ok") {
+      status = rec->warnings ? "ok, with warnings" : "ok";
+      cls = rec->warnings ? "warn" : "ok";
+      ++counts.ok;
+      if (rec->warnings) ++counts.with_warnings;
+    } else {
+      status = "failed";
+      error = rec->error;
+      cls = "fail";
+      ++counts.failed;
+    }
+    const bool was_reused = current && reused.count(item.name);
+    if (was_reused) ++counts.reused;
+    j["status"] = status;
+    j["error"] = error;
+    j["cause"] = current ? rec->cause : "not run";
+    j["warnings"] = current ? rec->warnings : 0;
+    j["first_warning"] = current ? rec->first_warning : "";
+    j["seconds"] = current ? std::round(rec->seconds * 100) / 100 : 0.0;
+    j["bytes_in"] = item.bytes_in;
+    j["glb_bytes"] = current ? rec->glb_bytes : 0;
+    j["stream_bytes"] = current ? rec->stream_bytes : 0;
+    const bool ok = current && rec->status == "ok";
+    j["output"] = ok ? item.name + "/" : "";
+    j["viewer"] = ok && rec->viewer ? item.name + "/index.html" : "";
+    j["log"] = ".meshmux-batch/logs/" + item.name + ".log";
+    j["reused"] = was_reused;
+    j["worker"] = current ? rec->worker : "";
+    list.push_back(j);
+
+    // The page's row.
+    std::string link = html_escape(item.name);
+    if (ok)
+      link = "<a href=\"" + url_segment(item.name) + (rec->viewer ? "/index.html" : "/model.glb") +
+             "\">" + link + "</a>";
+    std::string detail = error;
+    if (ok && rec->warnings)
+      detail = std::to_string(rec->warnings) + " warning" + (rec->warnings > 1 ? "s" : "") + ": " +
+               rec->first_warning;
+    char secs[32] = "";
+    if (current) std::snprintf(secs, sizeof secs, "%.1f s", rec->seconds);
+    rows += "<tr><td>" + link + "<br><code>" + html_escape(item.input) +
+            "</code></td><td class=\"" + cls + "\">" + html_escape(status) +
+            (was_reused ? " (earlier run)" : "") + "</td><td class=\"err\">" + html_escape(detail) +
+            "</td><td class=\"n\">" + secs + "</td><td class=\"n\">" + bytes_text(item.bytes_in) +
+            "</td><td class=\"n\">" + (current ? bytes_text(rec->glb_bytes) : "") +
+            "</td><td class=\"n\">" + (current ? bytes_text(rec->stream_bytes) : "") +
+            "</td></tr>\n";
+  }
+
+  nlohmann::ordered_json doc;
+  doc["meshmux"] = MESHMUX_VERSION;
+  doc["outroot"] = outroot;
+  doc["mode"] = info.mode;
+  doc["convert_options"] = info.convert_args;
+  doc["seconds"] = std::round(info.seconds * 100) / 100;
+  doc["counts"] = {{"inputs", counts.inputs},
+                   {"ok", counts.ok},
+                   {"with_warnings", counts.with_warnings},
+                   {"failed", counts.failed},
+                   {"not_converted", counts.not_converted},
+                   {"reused", counts.reused}};
+  if (!info.slurm_json.empty())
+    doc["slurm"] = nlohmann::ordered_json::parse(info.slurm_json, nullptr, false);
+  doc["inputs"] = list;
+  if (Status s = write_file_atomic(outroot + "/batch.json", doc.dump(1) + "\n"); !s) return s;
+
+  char head[512];
+  std::snprintf(head, sizeof head,
+                "%zu inputs: <span class=\"ok\">%zu converted</span> (%zu with warnings, %zu "
+                "from an earlier run), <span class=\"fail\">%zu failed, %zu not converted</span>",
+                counts.inputs, counts.ok, counts.with_warnings, counts.reused, counts.failed,
+                counts.not_converted);
+  std::string page =
+      "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+      "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+      "<title>meshmux batch</title><style>" +
+      std::string(kPageStyle) + "</style></head><body>\n<h1>meshmux batch</h1>\n<p>" + head +
+      ". Each viewer streams its model over HTTP: <code>meshmux serve " + html_escape(outroot) +
+      "</code>, then open the printed address. Every conversion's messages are in "
+      "<code>.meshmux-batch/logs/</code>; the same list is in <a href=\"batch.json\">batch.json"
+      "</a>.</p>\n<table><thead><tr><th>input</th><th>status</th><th>error or warning</th>"
+      "<th>time</th><th>bytes in</th><th>model.glb</th><th>stream</th></tr></thead><tbody>\n" +
+      rows + "</tbody></table>\n</body></html>\n";
+  if (Status s = write_file_atomic(outroot + "/index.html", page); !s) return s;
+  return counts;
+}
+
+}  // namespace meshmux

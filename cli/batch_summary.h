@@ -1,0 +1,37 @@
+// The end of a batch: OUTROOT/batch.json and OUTROOT/index.html, listing every input of the
+// batch (in list order) with its status, error line, time, bytes in and out and a link to its
+// viewer, from the records the conversions left (batch_plan.h). An input without a record is
+// listed as not converted, with the reason the caller knows (interrupted, a Slurm task that
+// ended early), so nothing is lost from the summary.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "cli/batch_plan.h"
+
+namespace meshmux {
+
+struct BatchSummaryInfo {
+  std::string mode;                       // "local" or "slurm"
+  std::vector<std::string> convert_args;  // the options every conversion had
+  std::string fingerprint;                // their fingerprint (records with another: stale)
+  double seconds = 0;                     // this run's wall time
+  // Why an input has no record, by name (e.g. "Slurm task 3 ended FAILED, exit 1:0").
+  std::map<std::string, std::string> missing_reason;
+  std::string missing_default = "not converted (the batch was interrupted)";
+  std::vector<std::string> skipped;  // names reused from an earlier run
+  std::string slurm_json;            // Slurm's job array and task states (JSON), or ""
+};
+
+struct BatchCounts {
+  size_t inputs = 0, ok = 0, with_warnings = 0, failed = 0, not_converted = 0, reused = 0;
+};
+
+// Writes batch.json and index.html into `outroot` (each atomically) and returns the counts.
+Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::string& state_dir,
+                                        const std::vector<BatchItem>& items,
+                                        const BatchSummaryInfo& info);
+
+}  // namespace meshmux
