@@ -35,11 +35,14 @@
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <GL/glcorearb.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -412,7 +415,41 @@ Status Renderer::Impl::init_gl() {
 
 Renderer::Renderer() : impl_(new Impl) {}
 
+namespace {
+
+// Mesa's llvmpipe does not survive running out of memory: under a tight RLIMIT_DATA (meshmux
+// --max-memory) it was seen to crash (SIGSEGV), abort ("LLVM ERROR: out of memory") or hang
+// in a thread that never started. So the renderer starts only when the limit leaves it room:
+// its JIT, framebuffers and bins (~128 MB measured with margin) and one 8 MB stack per
+// rasterizer thread (LP_NUM_THREADS, else one per core, at most 16; thread stacks count as
+// data). Returns "" when there is room, else the reason.
+std::string memory_headroom_problem() {
+  rlimit rl{};
+  if (getrlimit(RLIMIT_DATA, &rl) != 0 || rl.rlim_cur == RLIM_INFINITY) return "";
+  uint64_t used_kb = 0;
+  if (FILE* f = std::fopen("/proc/self/status", "r")) {
+    char line[256];
+    while (std::fgets(line, sizeof line, f))
+      if (std::strncmp(line, "VmData:", 7) == 0) used_kb = std::strtoull(line + 7, nullptr, 10);
+    std::fclose(f);
+  }
+  long threads = sysconf(_SC_NPROCESSORS_ONLN);
+  if (const char* e = std::getenv("LP_NUM_THREADS")) threads = std::atol(e);
+  threads = std::clamp(threads, 0L, 16L);
+  const uint64_t need_mb = 128 + 8 * uint64_t(threads);
+  const uint64_t limit_mb = uint64_t(rl.rlim_cur) >> 20, used_mb = used_kb >> 10;
+  const uint64_t left_mb = limit_mb > used_mb ? limit_mb - used_mb : 0;
+  if (left_mb >= need_mb) return "";
+  return "the memory limit of " + std::to_string(limit_mb) + " MB leaves " +
+         std::to_string(left_mb) + " MB for the offscreen renderer, which needs about " +
+         std::to_string(need_mb) + " MB (--max-memory raises the limit)";
+}
+
+}  // namespace
+
 Result<std::unique_ptr<Renderer>> Renderer::create(const RenderOptions& options) {
+  if (std::string why = memory_headroom_problem(); !why.empty())
+    return Status::error("render: " + why, ErrorKind::kInput);
   std::unique_ptr<Renderer> r(new Renderer());
   r->impl_->options = options;
   Status s = r->impl_->init_egl();

@@ -16,6 +16,7 @@ debs=(
   clang
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   chromium
+  slurm-wlm munge
 )
 # Node.js: any install that provides node and npm will do (Debian's nodejs+npm, or NodeSource's nodejs,
 # which conflicts with Debian's npm package).
