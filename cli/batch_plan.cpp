@@ -46,6 +46,8 @@ std::string clean_name(const std::string& s) {
     out += ok ? c : '_';
   }
   while (!out.empty() && (out.back() == '.')) out.pop_back();
+  // "a.glb.glb" has the stem "a.glb": as an output name, convert would write one file.
+  if (out.size() > 4 && lower(out.substr(out.size() - 4)) == ".glb") out[out.size() - 4] = '_';
   return out.empty() ? "model" : out;
 }
 
@@ -193,7 +195,7 @@ std::vector<std::string> batch_names(const std::vector<std::string>& inputs) {
     std::string s;
     for (size_t k = std::min(depth[i], parents[i].size()); k-- > 0;) s += parents[i][k] + "_";
     s += stems[i];
-    if (with_ext[i]) s += "." + exts[i];
+    if (with_ext[i]) s += "-" + exts[i];  // never ".glb": convert would write one file
     return s;
   };
   const std::set<std::string> reserved = {"index.html", "batch.json", "index.html.gz",
@@ -204,8 +206,13 @@ std::vector<std::string> batch_names(const std::vector<std::string>& inputs) {
     bool changed = false;
     for (auto& [key, members] : groups) {
       if (members.size() < 2) continue;
+      // Files of one name but different extensions (model.glb, model.gltf): the extension
+      // tells them apart; otherwise the folders above do.
+      std::set<std::string> distinct;
+      for (size_t i : members) distinct.insert(exts[i]);
+      const bool by_ext = distinct.size() == members.size();
       for (size_t i : members) {
-        if (depth[i] < parents[i].size()) {
+        if (!by_ext && depth[i] < parents[i].size()) {
           ++depth[i];
           changed = true;
         } else if (!with_ext[i]) {

@@ -187,14 +187,23 @@ TEST(Batch, SameFileNamesInDifferentFoldersGetDistinctOutputs) {
         run_meshmux({"sample", "-o", dir.file(std::string(sub) + "/scene.glb"), "-q"}).exit_code,
         0);
   }
+  // One name, three formats, one folder: the extension tells them apart (not the folders).
+  fs::create_directories(dir.file("carol"));
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("carol/x.glb"), "-q"}).exit_code, 0);
+  write_text(dir.file("carol/x.gltf"), "{}");
+  write_text(dir.file("carol/x.DAE"), "<COLLADA/>");
   auto r = run_meshmux({"batch", dir.path(), "-o", dir.file("out"), "-q"});
-  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_TRUE(fs::is_regular_file(dir.file("out/alice_scene/model.glb")));
   EXPECT_TRUE(fs::is_regular_file(dir.file("out/bob_scene/model.glb")));
+  EXPECT_TRUE(fs::is_regular_file(dir.file("out/x-glb/model.glb")));
+  const auto doc = read_json(dir.file("out/batch.json"));
+  EXPECT_EQ(entry(doc, "x-gltf")["status"], "failed");
+  EXPECT_EQ(entry(doc, "x-dae")["status"], "failed");
   // The output folder inside the walked folder is not taken for input on the next run.
   auto again = run_meshmux({"batch", dir.path(), "-o", dir.file("out")});
-  EXPECT_EQ(again.exit_code, 0) << again.err;
-  EXPECT_NE(again.err.find("2 inputs: 0 to convert"), std::string::npos) << again.err;
+  EXPECT_EQ(again.exit_code, 2) << again.err;
+  EXPECT_NE(again.err.find("5 inputs: 0 to convert"), std::string::npos) << again.err;
 }
 
 // OUTROOT must be new, empty or an earlier batch's: the summary never lands among a user's
