@@ -5,6 +5,8 @@
 //     a batch killed with SIGKILL mid-run, then rerun: every good model converts, every bad
 //     one is listed with its one line, nothing is lost, no temporary is left, no conversion
 //     outlives the batch; a third run converts nothing and touches nothing.
+//   node batch_shared_test.mjs --work DIR --mode list
+//     only writes DIR/list.txt (the shared models and the broken copies) and prints its path.
 //   node batch_shared_test.mjs --meshmux BIN --work DIR --mode slurm
 //     the same list through a real one-node Slurm (scripts/slurm-local.sh) as a job array:
 //     the outputs equal a local-pool run's byte for byte (report.json's timings aside), and
@@ -296,6 +298,13 @@ async function slurm() {
   }
 }
 
+if (mode === 'list') {
+  // For bench/batch.sh: the acceptance's list (every shared model, then the 20 broken copies).
+  const list = path.join(work, 'list.txt');
+  writeList(list, [...shared, ...broken.map((b) => b.file)]);
+  console.log(list);
+  process.exit(0);
+}
 await (mode === 'slurm' ? slurm() : local());
 if (failures) {
   console.error(`${failures} check(s) failed`);
