@@ -211,6 +211,7 @@ int cmd_batch(const std::vector<std::string>& args) {
   if (!use_slurm && (slurm.wait || !slurm.partition.empty() || slurm.tasks))
     return usage("--wait, --partition and --tasks need --slurm");
 
+  install_stop_handlers();
   const auto t0 = std::chrono::steady_clock::now();
   outroot = fs::absolute(outroot).lexically_normal().string();
   while (outroot.size() > 1 && outroot.back() == '/') outroot.pop_back();
@@ -232,9 +233,14 @@ int cmd_batch(const std::vector<std::string>& args) {
     return std::fprintf(stderr, "meshmux: batch: %s: another meshmux batch is running on it\n",
                         outroot.c_str()),
            kOutput;
+  // The fingerprint has the options that decide the outputs: a default memory limit (which
+  // depends on --jobs and the machine) only decides whether a conversion fits, and a failure
+  // over the limit is retried anyway.
+  o.fingerprint = options_fingerprint(o.convert_args, o.max_memory_mb, MESHMUX_VERSION);
   if (o.max_memory_mb == 0 && !use_slurm)
     o.max_memory_mb = std::max<uint64_t>(2048, physical_memory_mb() / uint64_t(o.jobs));
-  o.fingerprint = options_fingerprint(o.convert_args, o.max_memory_mb, MESHMUX_VERSION);
+  if (Status s = check_no_running_slurm_batch(o.state_dir); !s)
+    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
 
   auto inputs = read_batch_inputs(list, outroot);
   if (!inputs.ok())
@@ -248,6 +254,9 @@ int cmd_batch(const std::vector<std::string>& args) {
   std::vector<BatchItem> todo;
   std::vector<std::string> reused;
   for (size_t i = 0; i < items.size(); ++i) {
+    if (stop_requested())
+      return std::fprintf(stderr, "meshmux: batch: interrupted before any conversion\n"),
+             kInterrupted;
     items[i].input = (*inputs)[i];
     items[i].name = names[i];
     fingerprint_input(&items[i]);

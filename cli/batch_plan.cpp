@@ -37,18 +37,49 @@ std::string absolute_path(const std::string& path) {
   return p.lexically_normal().string();
 }
 
-// Restricts a name to letters, digits, '.', '-' and '_' (no leading '.', no "..").
+// Restricts a name to ASCII letters, digits, '-' and '_'. No '.': a name never ends in
+// ".glb" (convert would write one file), never looks like a temporary ("<name>.tmp-<pid>",
+// "<name>.meshmux-tmp-<pid>", which a run removes) and is never hidden.
 std::string clean_name(const std::string& s) {
   std::string out;
   for (char c : s) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ||
-                    (c == '.' && !out.empty() && out.back() != '.');
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '-' || c == '_';
     out += ok ? c : '_';
   }
-  while (!out.empty() && (out.back() == '.')) out.pop_back();
-  // "a.glb.glb" has the stem "a.glb": as an output name, convert would write one file.
-  if (out.size() > 4 && lower(out.substr(out.size() - 4)) == ".glb") out[out.size() - 4] = '_';
   return out.empty() ? "model" : out;
+}
+
+// %XX escapes decoded, as the importers read URIs (glTF 2.0 §2.8: URIs are RFC 3986).
+std::string percent_decode(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += char(std::stoi(s.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+// A .glb's JSON chunk (the first chunk, type "JSON"), or "" when there is none.
+std::string glb_json(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char h[20];
+  if (!in.read(reinterpret_cast<char*>(h), 20)) return "";
+  auto u32 = [&](int at) {
+    return uint32_t(h[at]) | uint32_t(h[at + 1]) << 8 | uint32_t(h[at + 2]) << 16 |
+           uint32_t(h[at + 3]) << 24;
+  };
+  if (u32(0) != 0x46546C67u || u32(16) != 0x4E4F534Au) return "";  // "glTF", "JSON"
+  const uint32_t n = u32(12);
+  if (n > (64u << 20)) return "";
+  std::string json(n, '\0');
+  if (!in.read(json.data(), std::streamsize(n))) return "";
+  return json;
 }
 
 // FNV-1a, 64 bits, continued over several files.
@@ -84,18 +115,25 @@ int64_t hash_file(const std::string& path, Fnv* h) {
 std::vector<std::string> referenced_files(const std::string& model) {
   std::vector<std::string> refs;
   const std::string ext = lower(fs::path(model).extension().string());
-  if (ext != ".gltf" && ext != ".dae") return refs;
-  auto text = read_whole_file(model, uint64_t(256) << 20);
-  if (!text.ok()) return refs;
+  if (ext != ".gltf" && ext != ".dae" && ext != ".glb") return refs;
+  std::string text;
+  if (ext == ".glb") {
+    text = glb_json(model);
+  } else {
+    auto bytes = read_whole_file(model, uint64_t(256) << 20);
+    if (!bytes.ok()) return refs;
+    text.assign(bytes->begin(), bytes->end());
+  }
   const fs::path dir = fs::path(model).parent_path();
   auto add = [&](std::string uri) {
     if (uri.empty() || uri.rfind("data:", 0) == 0) return;
+    uri = percent_decode(uri);
     if (uri.rfind("file://", 0) == 0) uri = uri.substr(7);
     fs::path p = fs::path(uri).is_absolute() ? fs::path(uri) : dir / uri;
     refs.push_back(p.lexically_normal().string());
   };
-  if (ext == ".gltf") {
-    auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
+  if (ext != ".dae") {
+    auto doc = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
     if (!doc.is_object()) return refs;
     for (const char* key : {"buffers", "images"}) {
       if (!doc.contains(key) || !doc[key].is_array()) continue;
@@ -104,7 +142,7 @@ std::vector<std::string> referenced_files(const std::string& model) {
           add(item["uri"].get<std::string>());
     }
   } else {
-    const std::string s(text->begin(), text->end());
+    const std::string& s = text;
     const std::string open = "<init_from>", close = "</init_from>";
     for (size_t at = 0; (at = s.find(open, at)) != std::string::npos;) {
       at += open.size();
@@ -139,7 +177,9 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
       return Status::error("batch: " + list + ": cannot read the folder: " + ec.message(),
                            ErrorKind::kInput);
     for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
-      if (ec) break;
+      if (ec)
+        return Status::error("batch: " + list + ": cannot walk the folder: " + ec.message(),
+                             ErrorKind::kInput);
       const fs::path& p = it->path();
       const std::string leaf = p.filename().string();
       std::error_code e2;
@@ -283,7 +323,8 @@ Status write_record(const std::string& state_dir, const BatchRecord& r) {
   j["worker"] = r.worker;
   std::error_code ec;
   fs::create_directories(state_dir + "/records", ec);
-  return write_file_atomic(record_path(state_dir, r.name), j.dump(1) + "\n");
+  return write_file_atomic(record_path(state_dir, r.name),
+                           j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 std::optional<BatchRecord> read_record(const std::string& state_dir, const std::string& name) {

@@ -53,7 +53,8 @@ struct BatchRecord {
   std::string status;         // "ok" or "failed"
   std::string error;          // failed: one line, why
   int exit_code = 0;          // the conversion's exit code (-1: killed by a signal)
-  std::string cause;          // failed: "input", "timeout", "crash", "internal", "usage"
+  std::string cause;          // failed: "input", "memory", "timeout", "crash", "internal",
+                              // "output", "unavailable", "usage"
   int warnings = 0;           // how many warnings the conversion printed
   std::string first_warning;  // the first of them
   double seconds = 0;         // wall time of the conversion
@@ -70,8 +71,8 @@ std::optional<BatchRecord> read_record(const std::string& state_dir, const std::
 
 // Whether a record means the input needs no new conversion: the same input bytes and options,
 // and either converted (with its output folder present) or failed on its input (a malformed
-// file fails the same way again; `retry_failed` retries those too). Timeouts, crashes and
-// internal errors are always retried.
+// file fails the same way again; `retry_failed` retries those too). Timeouts, memory limits,
+// crashes and internal errors are always retried.
 bool record_is_final(const BatchRecord& record, const BatchItem& item, const std::string& options,
                      const std::string& outroot, bool retry_failed);
 

@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -25,7 +24,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::atomic<int> g_stop_signal{0};
+volatile sig_atomic_t g_stop_signal = 0;
 extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
 
 std::string human_bytes(uint64_t b) {
@@ -130,7 +129,8 @@ BatchRecord finish(const Running& r, const ExitInfo& exit, double seconds, const
         rec.cause = "usage";
         break;
       case 2:
-        rec.cause = "input";
+        // Over the memory limit: another limit (or machine) may convert it; retried.
+        rec.cause = log.error.find("--max-memory") != std::string::npos ? "memory" : "input";
         break;
       case 3:
         rec.cause = "output";
@@ -148,6 +148,19 @@ BatchRecord finish(const Running& r, const ExitInfo& exit, double seconds, const
 }
 
 }  // namespace
+
+void install_stop_handlers() {
+  static bool installed = false;
+  if (installed) return;
+  installed = true;
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+bool stop_requested() { return g_stop_signal != 0; }
 
 std::string options_fingerprint(const std::vector<std::string>& convert_args,
                                 uint64_t max_memory_mb, const std::string& version) {
@@ -177,13 +190,7 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
   if (jobs > 1 && !std::getenv("LP_NUM_THREADS"))
     env.emplace_back("LP_NUM_THREADS", std::to_string(std::max(1L, cores / jobs)));
 
-  struct sigaction sa {
-  }, old_int{}, old_term{};
-  sa.sa_handler = on_stop_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, &old_int);
-  sigaction(SIGTERM, &sa, &old_term);
-  g_stop_signal = 0;
+  install_stop_handlers();
 
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] {
@@ -200,7 +207,8 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
     }
     while (running.size() < size_t(jobs) && next < todo.size() && result.usage_error.empty()) {
       const BatchItem& item = todo[next++];
-      std::vector<std::string> argv = {o.exe, "convert", item.input, "-o",
+      // This very executable, even if its file was replaced meanwhile (a rebuild, an upgrade).
+      std::vector<std::string> argv = {"/proc/self/exe", "convert", item.input, "-o",
                                        o.outroot + "/" + item.name};
       if (o.max_memory_mb)
         argv.insert(argv.end(), {"--max-memory", std::to_string(o.max_memory_mb)});
@@ -265,8 +273,6 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
     if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (!result.usage_error.empty() && running.empty()) break;
   }
-  sigaction(SIGINT, &old_int, nullptr);
-  sigaction(SIGTERM, &old_term, nullptr);
   return result;
 }
 

@@ -21,6 +21,7 @@ struct BatchOptions {
   int jobs = 1;                           // conversions at once (local default: one per core)
   double timeout_seconds = 1800;          // wall time of one conversion, then it is killed
   uint64_t max_memory_mb = 0;             // per conversion (convert --max-memory); 0: convert's
+                                          // (the fingerprint has only a --max-memory given)
   bool retry_failed = false;              // convert again inputs that failed on their input
   bool quiet = false;                     // no progress lines
   std::string worker = "local";           // recorded: "local" or "slurm task N"
@@ -30,6 +31,11 @@ struct BatchOptions {
 // The convert options' fingerprint: a hash of the arguments, limits and meshmux's version.
 std::string options_fingerprint(const std::vector<std::string>& convert_args,
                                 uint64_t max_memory_mb, const std::string& version);
+
+// SIGINT and SIGTERM ask the batch to stop (running conversions are killed, the summary
+// says what was done). Installed once; idempotent.
+void install_stop_handlers();
+bool stop_requested();
 
 struct PoolResult {
   size_t converted = 0;      // ended with exit code 0

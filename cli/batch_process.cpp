@@ -18,7 +18,13 @@ namespace meshmux {
 std::string self_executable() {
   std::error_code ec;
   auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string("meshmux") : p.string();
+  if (ec) return "meshmux";
+  std::string s = p.string();
+  const std::string deleted = " (deleted)";  // the binary was replaced while running
+  if (s.size() > deleted.size() &&
+      s.compare(s.size() - deleted.size(), deleted.size(), deleted) == 0)
+    s.resize(s.size() - deleted.size());
+  return s;
 }
 
 namespace {
@@ -40,11 +46,14 @@ std::string find_program(const std::string& name) {
   return "";
 }
 
-// Everything the child needs is prepared before fork (no allocation between fork and exec).
+// Everything the child needs is prepared before fork: between fork and exec the child only
+// makes system calls (no allocation, no locks), so a batch with threads stays safe.
 struct Prepared {
-  std::vector<std::string> strings;
-  std::vector<char*> argv;
+  std::vector<std::string> strings, env_strings;
+  std::vector<char*> argv, envp;
 };
+
+extern "C" char** environ;
 
 pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_path,
                 const std::vector<std::pair<std::string, std::string>>& env, int out_fd) {
@@ -52,6 +61,18 @@ pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_pat
   p.strings = args;
   for (std::string& s : p.strings) p.argv.push_back(s.data());
   p.argv.push_back(nullptr);
+  // The environment: ours, with `env` replacing or adding entries.
+  for (char** e = environ; e && *e; ++e) {
+    const std::string entry = *e;
+    const std::string key = entry.substr(0, entry.find('='));
+    bool replaced = false;
+    for (const auto& kv : env) replaced = replaced || kv.first == key;
+    if (!replaced) p.env_strings.push_back(entry);
+  }
+  for (const auto& [k, v] : env) p.env_strings.push_back(k + "=" + v);
+  for (std::string& s : p.env_strings) p.envp.push_back(s.data());
+  p.envp.push_back(nullptr);
+  const char* log = log_path.empty() ? "/dev/null" : log_path.c_str();
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid != 0) return pid;
@@ -59,18 +80,16 @@ pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_pat
   setpgid(0, 0);
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (getppid() != parent) _exit(127);  // the batch died before prctl
-  int in = open("/dev/null", O_RDONLY);
+  int in = open("/dev/null", O_RDONLY | O_CLOEXEC);
   if (in >= 0) dup2(in, 0);
   int out = out_fd;
-  if (out < 0)
-    out = open(log_path.empty() ? "/dev/null" : log_path.c_str(),
-               O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0) out = open(log, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0) out = open("/dev/null", O_WRONLY | O_CLOEXEC);
   if (out >= 0) {
     dup2(out, 1);
     dup2(out, 2);
   }
-  for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
-  execv(p.argv[0], p.argv.data());
+  execve(p.argv[0], p.argv.data(), p.envp.data());
   const char* msg = "meshmux: batch: could not start the program\n";
   (void)!write(2, msg, std::strlen(msg));
   _exit(127);
@@ -102,7 +121,8 @@ std::string ExitInfo::describe() const {
 }
 
 void kill_group(pid_t pid) {
-  if (pid > 0) kill(-pid, SIGKILL);
+  if (pid <= 0) return;
+  if (kill(-pid, SIGKILL) != 0) kill(pid, SIGKILL);  // not yet its own group's leader
 }
 
 Result<CommandOutput> run_command(const std::vector<std::string>& argv, double timeout_seconds) {
@@ -117,6 +137,7 @@ Result<CommandOutput> run_command(const std::vector<std::string>& argv, double t
     return Status::error(std::string("batch: pipe: ") + std::strerror(errno), ErrorKind::kInternal);
   const pid_t pid = fork_exec(args, "", {}, fds[1]);
   close(fds[1]);
+  if (pid > 0) setpgid(pid, pid);  // so that kill_group reaches it at once
   if (pid < 0) {
     close(fds[0]);
     return Status::error(

@@ -29,6 +29,13 @@ constexpr int kOk = 0, kSomeFailed = 2, kOutput = 3, kUnavailable = 5;
 
 std::string plan_file(const std::string& state_dir) { return state_dir + "/plan.json"; }
 
+// sbatch expands %-patterns in --output (%a the task, %u the user...): a literal '%' is "%%".
+std::string sbatch_path(const std::string& path) {
+  std::string out;
+  for (char c : path) out += c == '%' ? std::string("%%") : std::string(1, c);
+  return out;
+}
+
 // Single quotes for /bin/sh.
 std::string sh_quote(const std::string& s) {
   std::string out = "'";
@@ -65,7 +72,8 @@ Status write_plan(const Plan& p) {
   j["items"] = items;
   j["todo"] = p.todo;
   j["reused"] = p.reused;
-  return write_file_atomic(plan_file(p.options.state_dir), j.dump(1) + "\n");
+  return write_file_atomic(plan_file(p.options.state_dir),
+                           j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 Result<Plan> read_plan(const std::string& path) {
@@ -177,7 +185,25 @@ Status write_script(const std::string& path, const std::string& body) {
   return Status::ok();
 }
 
+std::string jobs_file(const std::string& state_dir) { return state_dir + "/slurm/jobs.json"; }
+
 }  // namespace
+
+Status check_no_running_slurm_batch(const std::string& state_dir) {
+  auto text = read_whole_file(jobs_file(state_dir), uint64_t(1) << 20);
+  if (!text.ok()) return Status::ok();
+  auto j = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
+  if (!j.is_object()) return Status::ok();
+  const std::string array = j.value("array_job", ""), summary = j.value("summary_job", "");
+  if (summary.empty()) return Status::ok();
+  const std::string state = job_state(summary);
+  if (state.empty() || terminal(state)) return Status::ok();
+  return Status::error("batch: " + state_dir.substr(0, state_dir.rfind('/')) +
+                           ": a Slurm batch is still " + state + " on it (job array " + array +
+                           ", summary job " + summary + "); wait for it, or scancel " + array +
+                           " " + summary,
+                       ErrorKind::kOutput);
+}
 
 int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<BatchItem>& todo,
                        const std::vector<std::string>& reused, const BatchOptions& options,
@@ -230,12 +256,12 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
   std::vector<std::string> common;
   if (!slurm.partition.empty()) common.push_back("--partition=" + slurm.partition);
   std::vector<std::string> array_args = common;
-  array_args.insert(array_args.end(),
-                    {"--job-name=meshmux-batch",
-                     "--array=0-" + std::to_string(plan.tasks - 1) + "%" +
-                         std::to_string(std::max(1, slurm.throttle)),
-                     "--cpus-per-task=" + std::to_string(plan.options.jobs),
-                     "--output=" + slurm_dir + "/task-%a.log", "--chdir=" + options.state_dir});
+  array_args.insert(array_args.end(), {"--job-name=meshmux-batch",
+                                       "--array=0-" + std::to_string(plan.tasks - 1) + "%" +
+                                           std::to_string(std::max(1, slurm.throttle)),
+                                       "--cpus-per-task=" + std::to_string(plan.options.jobs),
+                                       "--output=" + sbatch_path(slurm_dir) + "/task-%a.log",
+                                       "--chdir=" + options.state_dir});
   if (options.max_memory_mb)
     array_args.push_back("--mem=" +
                          std::to_string(options.max_memory_mb * plan.options.jobs + 256));
@@ -252,16 +278,20 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
       !s)
     return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
   std::vector<std::string> summary_args = common;
-  summary_args.insert(
-      summary_args.end(),
-      {"--job-name=meshmux-batch-summary", "--dependency=afterany:" + *array_id,
-       "--output=" + slurm_dir + "/summary.log", "--chdir=" + options.state_dir, summary_sh});
+  summary_args.insert(summary_args.end(),
+                      {"--job-name=meshmux-batch-summary", "--dependency=afterany:" + *array_id,
+                       "--output=" + sbatch_path(slurm_dir) + "/summary.log",
+                       "--chdir=" + options.state_dir, summary_sh});
   auto summary_id = sbatch(summary_args);
   if (!summary_id.ok()) {
     run_command({"scancel", *array_id}, 60);
     std::fprintf(stderr, "meshmux: %s (job array %s cancelled)\n",
                  summary_id.status().message().c_str(), array_id->c_str());
     return kUnavailable;
+  }
+  {
+    nlohmann::ordered_json jobs = {{"array_job", *array_id}, {"summary_job", *summary_id}};
+    (void)write_file_atomic(jobs_file(options.state_dir), jobs.dump() + "\n");
   }
   if (!options.quiet)
     std::fprintf(stderr,
@@ -370,7 +400,7 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
                           {"state", it == states.end() ? "unknown" : it->second.state},
                           {"exit", it == states.end() ? "" : it->second.exit}});
   }
-  info.slurm_json = s.dump();
+  info.slurm_json = s.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   auto counts =
       write_batch_summary(plan->options.outroot, plan->options.state_dir, plan->items, info);
   if (!counts.ok())

@@ -29,6 +29,12 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                        const std::vector<std::string>& reused, const BatchOptions& options,
                        const SlurmOptions& slurm);
 
+// Refuses (kOutput) while a Slurm batch submitted on this OUTROOT is still queued or running
+// (its job ids in .meshmux-batch/slurm/jobs.json, its state from scontrol): a second run
+// would convert the same inputs at once and replace the plan its tasks read. Ok when there
+// was none, it ended, or Slurm cannot be asked.
+Status check_no_running_slurm_batch(const std::string& state_dir);
+
 // Inside the job array: converts this task's share (SLURM_ARRAY_TASK_ID of the plan's tasks).
 // Exit code 0 when every input of the share converted, 2 when one failed.
 int run_slurm_task(const std::string& plan_path);

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -91,8 +92,11 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
   for (const BatchItem& item : items) {
     ++counts.inputs;
     auto rec = read_record(state_dir, item.name);
+    std::error_code ec;
     const bool current = rec && rec->hash == item.hash && rec->options == info.fingerprint &&
-                         rec->input == item.input;
+                         rec->input == item.input &&
+                         (rec->status != "ok" || std::filesystem::is_regular_file(
+                                                     outroot + "/" + item.name + "/model.glb", ec));
     nlohmann::ordered_json j;
     j["input"] = item.input;
     j["name"] = item.name;
@@ -168,7 +172,11 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
   if (!info.slurm_json.empty())
     doc["slurm"] = nlohmann::ordered_json::parse(info.slurm_json, nullptr, false);
   doc["inputs"] = list;
-  if (Status s = write_file_atomic(outroot + "/batch.json", doc.dump(1) + "\n"); !s) return s;
+  if (Status s = write_file_atomic(
+          outroot + "/batch.json",
+          doc.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+      !s)
+    return s;
 
   char head[512];
   std::snprintf(head, sizeof head,

@@ -142,8 +142,13 @@ stop() {
   for d in slurmd slurmctld munged; do
     [ -f "$dir/$d.pid" ] && pids+=("$(cat "$dir/$d.pid")")
   done
-  # Jobs' steps (slurmstepd) first, then the daemons; TERM, then KILL after 5 s.
-  pkill -TERM -f "slurmstepd.*" -P "$(cat "$dir/slurmd.pid" 2>/dev/null || echo 0)" 2>/dev/null || true
+  # The jobs first (their slurmstepd are not slurmd's children), then the daemons; TERM, then
+  # KILL after 5 s.
+  if [ -f "$dir/slurm.conf" ]; then
+    export SLURM_CONF="$dir/slurm.conf" PATH="$PATH:/usr/sbin"
+    scancel --full --quiet --user="$(id -un)" 2>/dev/null || true
+    wait_for "[ -z \"\$(squeue -h -o %i 2>/dev/null)\" ]" 10 || true
+  fi
   for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
   for _ in $(seq 1 50); do
     local alive=0

@@ -122,7 +122,7 @@ function readJson(file) {
 }
 function runBatch(list, out, extra = []) {
   const t0 = Date.now();
-  const r = spawnSync(meshmux, ['batch', list, '-o', out, ...extra], { encoding: 'utf8', maxBuffer: 64 << 20 });
+  const r = spawnSync(meshmux, ['batch', list, '-o', out, ...extra], { encoding: 'utf8', maxBuffer: 64 << 20, timeout: 600000 });
   return { code: r.status, signal: r.signal, err: r.stderr, seconds: (Date.now() - t0) / 1000 };
 }
 // Every file under `dir` (relative path → absolute), dot folders included.
@@ -192,15 +192,13 @@ async function local() {
   // 1. kill -9 once a few conversions have finished.
   const batch = spawn(meshmux, ['batch', list, '-o', out, '--jobs', '2', '-q'], { stdio: 'ignore' });
   const records = path.join(out, '.meshmux-batch', 'records');
+  const recorded = () => (fs.existsSync(records) ? fs.readdirSync(records).filter((f) => f.endsWith('.json')).length : 0);
+  const exited = new Promise((r) => batch.on('exit', r));
   const t0 = Date.now();
-  while (Date.now() - t0 < 120000) {
-    const n = fs.existsSync(records) ? fs.readdirSync(records).filter((f) => f.endsWith('.json')).length : 0;
-    if (n >= 6) break;
-    await sleep(50);
-  }
-  const before = fs.readdirSync(records).filter((f) => f.endsWith('.json')).length;
+  while (Date.now() - t0 < 120000 && batch.exitCode === null && recorded() < 6) await sleep(50);
+  const before = recorded();
   batch.kill('SIGKILL');
-  await new Promise((r) => batch.on('exit', r));
+  await exited;
   await sleep(500);
   const orphans = processesMentioning(out + '/');
   check(orphans.length === 0, `conversions outlived the killed batch:\n${orphans.join('\n')}`);
@@ -233,6 +231,14 @@ async function local() {
   const doc3 = readJson(path.join(out, 'batch.json'));
   check(doc3.counts.reused === doc.counts.ok + doc.counts.failed, `third run reused ${doc3.counts.reused}`);
   console.log(`third run: ${third.seconds.toFixed(1)} s, ${third.err.split('\n')[0]}`);
+
+  // 4. A texture arrives for an upload that lacked it: that input alone converts again.
+  const avocado = broken.find((b) => b.file.endsWith('avocado-no-textures.gltf'));
+  fs.copyFileSync(model('Avocado-gltf/Avocado_baseColor.png'), path.join(path.dirname(avocado.file), 'Avocado_baseColor.png'));
+  const fourth = runBatch(list, out, ['--jobs', '2']);
+  check(/ 1 to convert, /.test(fourth.err), `a changed texture did not convert its model again: ${fourth.err.split('\n')[0]}`);
+  const e4 = readJson(path.join(out, 'batch.json')).inputs.find((e) => e.input === avocado.file);
+  check(e4 && e4.status.startsWith('ok') && !e4.first_warning.includes('Avocado_baseColor'), `the new texture was not used: ${e4 && e4.first_warning}`);
 }
 
 // Files of an output folder that must match: everything but report.json's "seconds" line.
@@ -260,7 +266,7 @@ async function slurm() {
     check(l.code === 2, `local batch exited ${l.code}\n${l.err}`);
     const t0 = Date.now();
     const s = spawnSync(meshmux, ['batch', list, '-o', slurmOut, '--slurm', '--wait', '--tasks', '6', '--throttle', '2'],
-      { encoding: 'utf8', env, maxBuffer: 64 << 20 });
+      { encoding: 'utf8', env, maxBuffer: 64 << 20, timeout: 600000 });
     const slurmSeconds = (Date.now() - t0) / 1000;
     check(s.status === 2, `slurm batch exited ${s.status} (expected 2: broken copies fail)\n${s.stderr}`);
     const ld = readJson(path.join(localOut, 'batch.json'));
