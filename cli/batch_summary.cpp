@@ -88,7 +88,9 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
   BatchCounts counts;
   const std::set<std::string> reused(info.skipped.begin(), info.skipped.end());
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
-  std::string rows;
+  // The page lists what needs attention first: failed, then with warnings, then the rest
+  // (each in list order); batch.json keeps the list order.
+  std::string rows_by_class[3];
   for (const BatchItem& item : items) {
     ++counts.inputs;
     auto rec = read_record(state_dir, item.name);
@@ -148,13 +150,15 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
                rec->first_warning;
     char secs[32] = "";
     if (current) std::snprintf(secs, sizeof secs, "%.1f s", rec->seconds);
-    rows += "<tr><td>" + link + "<br><code>" + html_escape(item.input) +
-            "</code></td><td class=\"" + cls + "\">" + html_escape(status) +
-            (was_reused ? " (earlier run)" : "") + "</td><td class=\"err\">" + html_escape(detail) +
-            "</td><td class=\"n\">" + secs + "</td><td class=\"n\">" + bytes_text(item.bytes_in) +
-            "</td><td class=\"n\">" + (current ? bytes_text(rec->glb_bytes) : "") +
-            "</td><td class=\"n\">" + (current ? bytes_text(rec->stream_bytes) : "") +
-            "</td></tr>\n";
+    rows_by_class[cls == "fail"   ? 0
+                  : cls == "warn" ? 1
+                                  : 2] +=
+        "<tr><td>" + link + "<br><code>" + html_escape(item.input) + "</code></td><td class=\"" +
+        cls + "\">" + html_escape(status) + (was_reused ? " (earlier run)" : "") +
+        "</td><td class=\"err\">" + html_escape(detail) + "</td><td class=\"n\">" + secs +
+        "</td><td class=\"n\">" + bytes_text(item.bytes_in) + "</td><td class=\"n\">" +
+        (current ? bytes_text(rec->glb_bytes) : "") + "</td><td class=\"n\">" +
+        (current ? bytes_text(rec->stream_bytes) : "") + "</td></tr>\n";
   }
 
   nlohmann::ordered_json doc;
@@ -194,7 +198,7 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
       "<code>.meshmux-batch/logs/</code>; the same list is in <a href=\"batch.json\">batch.json"
       "</a>.</p>\n<table><thead><tr><th>input</th><th>status</th><th>error or warning</th>"
       "<th>time</th><th>bytes in</th><th>model.glb</th><th>stream</th></tr></thead><tbody>\n" +
-      rows + "</tbody></table>\n</body></html>\n";
+      rows_by_class[0] + rows_by_class[1] + rows_by_class[2] + "</tbody></table>\n</body></html>\n";
   if (Status s = write_file_atomic(outroot + "/index.html", page); !s) return s;
   return counts;
 }
