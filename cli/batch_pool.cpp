@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "cli/batch_process.h"
+#include "cli/output_transaction.h"
 
 namespace meshmux {
 
@@ -201,7 +202,10 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
   while (next < todo.size() || !running.empty()) {
     if (g_stop_signal) {
       for (const Running& r : running) kill_group(r.pid);
-      for (const Running& r : running) waitpid(r.pid, nullptr, 0);
+      for (const Running& r : running) {
+        waitpid(r.pid, nullptr, 0);
+        clean_stale_temporaries(o.outroot + "/" + r.item.name);  // its half-written output
+      }
       result.interrupted = true;
       break;
     }
@@ -249,6 +253,7 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
       kill_group(r.pid);  // anything the conversion left running in its group
       const ExitInfo exit = w == r.pid ? exit_info(status) : ExitInfo{-1, SIGKILL};
       BatchRecord rec = finish(r, exit, secs, o);
+      if (rec.status != "ok") clean_stale_temporaries(o.outroot + "/" + r.item.name);
       if (rec.cause == "usage" && result.usage_error.empty()) result.usage_error = rec.error;
       if (Status s = write_record(o.state_dir, rec); !s && !o.quiet)
         std::fprintf(stderr, "meshmux: batch: %s\n", s.message().c_str());

@@ -239,6 +239,26 @@ async function local() {
   check(/ 1 to convert, /.test(fourth.err), `a changed texture did not convert its model again: ${fourth.err.split('\n')[0]}`);
   const e4 = readJson(path.join(out, 'batch.json')).inputs.find((e) => e.input === avocado.file);
   check(e4 && e4.status.startsWith('ok') && !e4.first_warning.includes('Avocado_baseColor'), `the new texture was not used: ${e4 && e4.first_warning}`);
+
+  // 5. Ctrl-C (SIGINT) mid-run: exit 130, the summary lists every input (the ones not reached
+  // as not converted), no conversion or temporary is left.
+  const out5 = path.join(work, 'out-interrupted');
+  const b5 = spawn(meshmux, ['batch', list, '-o', out5, '--jobs', '2', '-q'], { stdio: 'ignore' });
+  const exited5 = new Promise((r) => b5.on('exit', (code) => r(code)));
+  const records5 = path.join(out5, '.meshmux-batch', 'records');
+  const t5 = Date.now();
+  while (Date.now() - t5 < 120000 && b5.exitCode === null &&
+         !(fs.existsSync(records5) && fs.readdirSync(records5).length >= 2)) await sleep(50);
+  b5.kill('SIGINT');
+  const code5 = await exited5;
+  check(code5 === 130, `SIGINT: exit ${code5}, expected 130`);
+  const doc5 = readJson(path.join(out5, 'batch.json'));
+  check(doc5.inputs.length === inputs.length && doc5.counts.not_converted > 0,
+    `SIGINT: the summary lists ${doc5.inputs.length} inputs, ${doc5.counts.not_converted} not converted`);
+  check(processesMentioning(out5 + '/').length === 0, 'SIGINT: conversions outlived the batch');
+  const temps5 = [...walk(out5).keys()].filter((f) => /\.meshmux-tmp-|\.tmp-\d+/.test(f));
+  check(temps5.length === 0, `SIGINT: temporaries left: ${temps5.join(', ')}`);
+  console.log(`SIGINT: exit ${code5}; ${JSON.stringify(doc5.counts)}`);
 }
 
 // Files of an output folder that must match: everything but report.json's "seconds" line.
