@@ -382,12 +382,16 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   for (size_t k = 0; k < plan->todo.size(); ++k) {
     const int task = int(k % size_t(plan->tasks));
     auto it = states.find(task);
-    const std::string what = it == states.end()
-                                 ? "state unknown"
-                                 : "ended " + it->second.state + ", exit " + it->second.exit;
+    // A task cancelled while pending leaves no record of its own in scontrol (the array's
+    // remaining ids just lose it); no record at all means Slurm forgot the array already.
+    const std::string what =
+        it != states.end()
+            ? "ended " + it->second.state + ", exit " + it->second.exit + " before converting it"
+        : !states.empty() ? "never ran (cancelled while pending)"
+                          : "ended, in a state Slurm no longer knows, before converting it";
     info.missing_reason[plan->items[plan->todo[k]].name] =
         "not converted: Slurm task " + array_job + "_" + std::to_string(task) + " " + what +
-        " before converting it (see .meshmux-batch/slurm/task-" + std::to_string(task) + ".log)";
+        " (see .meshmux-batch/slurm/task-" + std::to_string(task) + ".log)";
   }
   nlohmann::ordered_json s;
   s["array_job"] = array_job;
@@ -397,7 +401,9 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   for (int t = 0; t < plan->tasks; ++t) {
     auto it = states.find(t);
     s["tasks"].push_back({{"task", t},
-                          {"state", it == states.end() ? "unknown" : it->second.state},
+                          {"state", it != states.end() ? it->second.state
+                                    : states.empty()   ? "unknown"
+                                                       : "never ran (cancelled while pending)"},
                           {"exit", it == states.end() ? "" : it->second.exit}});
   }
   info.slurm_json = s.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);

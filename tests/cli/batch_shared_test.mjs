@@ -319,6 +319,29 @@ async function slurm() {
       console.log(`  JobId=${f('JobId')} ArrayJobId=${f('ArrayJobId')} ArrayTaskId=${f('ArrayTaskId')} JobState=${f('JobState')} ExitCode=${f('ExitCode')}`);
     }
     table(sd);
+
+    // A task that never runs (cancelled while pending) loses no input: the summary lists its
+    // share as not converted, with the task's state.
+    const small = shared.filter((f) => /BoxVertexColors|ConcavePolygon|SimpleInstancing|OrientationTest|VertexColorTest|TextureSettingsTest/.test(f));
+    const list2 = path.join(work, 'list-small.txt');
+    writeList(list2, small);
+    const out2 = path.join(work, 'slurm-cancelled');
+    const sub = spawnSync(meshmux, ['batch', list2, '-o', out2, '--slurm', '--tasks', '2', '--throttle', '1'],
+      { encoding: 'utf8', env, timeout: 120000 });
+    check(sub.status === 0, `--slurm without --wait exited ${sub.status}\n${sub.stderr}`);
+    const arr = (sub.stderr.match(/submitted job array (\d+)/) || [])[1];
+    spawnSync('scancel', [`${arr}_1`], { env });
+    const summary2 = path.join(out2, 'batch.json');
+    const t2 = Date.now();
+    while (!fs.existsSync(summary2) && Date.now() - t2 < 180000) await sleep(200);
+    const d2 = fs.existsSync(summary2) ? readJson(summary2) : { inputs: [], counts: {}, slurm: { tasks: [] } };
+    check(d2.inputs.length === small.length, `cancelled task: the summary lists ${d2.inputs.length} of ${small.length} inputs`);
+    const lost = d2.inputs.filter((e) => e.status === 'not converted');
+    check(lost.length === Math.floor(small.length / 2) && lost.every((e) => e.error.includes(`task ${arr}_1 never ran (cancelled while pending)`)),
+      `cancelled task: ${lost.length} not converted: ${lost.map((e) => e.error).join(' | ')}`);
+    check(d2.inputs.filter((e) => e.status === 'ok').length === small.length - lost.length, 'cancelled task: the other task\'s inputs did not convert');
+    console.log(`cancelled task ${arr}_1: ${JSON.stringify(d2.counts)}; tasks ${d2.slurm.tasks.map((t) => `${t.task} ${t.state} ${t.exit}`).join(', ')}`);
+    if (lost[0]) console.log(`  e.g. ${lost[0].name}: ${lost[0].error}`);
   } finally {
     spawnSync('bash', [`${root}/scripts/slurm-local.sh`, 'stop', env.MESHMUX_SLURM_DIR || ''], { stdio: 'inherit' });
   }
