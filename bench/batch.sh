@@ -24,47 +24,55 @@ mapfile -t inputs < <(grep -v '^#' "$list" | grep -v '^$')
 cores=$(nproc)
 echo "batch: ${#inputs[@]} inputs from $list, $cores cores"
 
-now() { date +%s.%N; }
-seconds() { awk -v a="$1" -v b="$2" 'BEGIN { print b - a }'; }
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
+# Runs a command under GNU time; sets wall and cpu (user + system seconds, children included).
+timed() {
+  /usr/bin/time -f "%e %U %S" -o "$work/time.txt" "$@" || true
+  read -r wall user sys < <(tail -n 1 "$work/time.txt")
+  cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { print u + s }')
+}
+[ -x /usr/bin/time ] || { echo "batch: GNU time is not installed (apt install time)" >&2; exit 77; }
 
 # 1. The loop a user scripts today: one convert after the other.
-t0=$(now)
-i=0
-for f in "${inputs[@]}"; do
-  i=$((i + 1))
-  "$mm" convert "$f" -o "$work/loop/$i" -q 2>/dev/null || true
-done
-t1=$(now)
-loop=$(seconds "$t0" "$t1")
+loop_script() {
+  local i=0
+  for f in "${inputs[@]}"; do
+    i=$((i + 1))
+    "$mm" convert "$f" -o "$work/loop/$i" -q 2>/dev/null || true
+  done
+}
+export -f loop_script 2>/dev/null || true
+timed bash -c "$(declare -f loop_script); mm='$mm'; work='$work'; inputs=($(printf '%q ' "${inputs[@]}")); loop_script"
+loop=$wall loop_cpu=$cpu
 
 # 2. meshmux batch, one worker per core (the default), then one worker (the pool's own cost).
-t0=$(now)
-"$mm" batch "$list" -o "$work/pool" -q || true
-t1=$(now)
-pool=$(seconds "$t0" "$t1")
-t0=$(now)
-"$mm" batch "$list" -o "$work/pool1" --jobs 1 -q || true
-t1=$(now)
-pool1=$(seconds "$t0" "$t1")
+timed "$mm" batch "$list" -o "$work/pool" -q
+pool=$wall pool_cpu=$cpu
+timed "$mm" batch "$list" -o "$work/pool1" --jobs 1 -q
+pool1=$wall pool1_cpu=$cpu
 
 # 3. For scale: gltfpack -cc, one after the other, on the inputs it reads (.glb, .gltf).
 gp="-"
 if command -v gltfpack >/dev/null; then
-  t0=$(now)
-  i=0
-  for f in "${inputs[@]}"; do
-    i=$((i + 1))
-    case "${f,,}" in *.glb | *.gltf) gltfpack -cc -i "$f" -o "$work/gltfpack-$i.glb" >/dev/null 2>&1 || true ;; esac
-  done
-  t1=$(now)
-  gp=$(seconds "$t0" "$t1")
+  gp_script() {
+    local i=0
+    for f in "${inputs[@]}"; do
+      i=$((i + 1))
+      case "${f,,}" in *.glb | *.gltf) gltfpack -cc -i "$f" -o "$work/gltfpack-$i.glb" >/dev/null 2>&1 || true ;; esac
+    done
+  }
+  timed bash -c "$(declare -f gp_script); work='$work'; inputs=($(printf '%q ' "${inputs[@]}")); gp_script"
+  gp=$wall
 fi
 
 ok=$(node -e "const d=require('$work/pool/batch.json'); console.log(d.counts.ok + ' converted, ' + d.counts.failed + ' failed')")
-printf '\n%-44s %9s %9s\n' "run (same ${#inputs[@]} inputs)" "wall s" "vs loop"
-printf '%-44s %9.1f %9s\n' "sequential loop of meshmux convert" "$loop" "1.00"
-printf '%-44s %9.1f %8sx\n' "meshmux batch (--jobs $cores, the default)" "$pool" "$(ratio "$loop" "$pool")"
-printf '%-44s %9.1f %8sx\n' "meshmux batch --jobs 1" "$pool1" "$(ratio "$loop" "$pool1")"
-[ "$gp" = "-" ] || printf '%-44s %9.1f\n' "sequential loop of gltfpack -cc (.glb/.gltf)" "$gp"
+busy() { awk -v c="$1" -v w="$2" 'BEGIN { printf "%.2f", c / w }'; }
+printf '\n%-44s %8s %8s %8s %8s\n' "run (same ${#inputs[@]} inputs)" "wall s" "CPU s" "cores" "vs loop"
+printf '%-44s %8.1f %8.1f %8s %8s\n' "sequential loop of meshmux convert" "$loop" "$loop_cpu" "$(busy "$loop_cpu" "$loop")" "1.00"
+printf '%-44s %8.1f %8.1f %8s %7sx\n' "meshmux batch (--jobs $cores, the default)" "$pool" "$pool_cpu" "$(busy "$pool_cpu" "$pool")" "$(ratio "$loop" "$pool")"
+printf '%-44s %8.1f %8.1f %8s %7sx\n' "meshmux batch --jobs 1" "$pool1" "$pool1_cpu" "$(busy "$pool1_cpu" "$pool1")" "$(ratio "$loop" "$pool1")"
+[ "$gp" = "-" ] || printf '%-44s %8.1f\n' "sequential loop of gltfpack -cc (.glb/.gltf)" "$gp"
+# The most a pool of $cores can gain over the loop: all cores busy, against the cores the loop
+# keeps busy itself (convert's renders run on llvmpipe's rasterizer threads).
+echo "batch: the loop keeps $(busy "$loop_cpu" "$loop") cores busy, so $cores cores allow at most $(awk -v n="$cores" -v c="$loop_cpu" -v w="$loop" 'BEGIN { printf "%.2f", n * w / c }')x; the pool reached $(ratio "$loop" "$pool")x"
 echo "batch: $ok (batch.json)"
