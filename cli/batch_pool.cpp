@@ -18,6 +18,7 @@
 
 #include "cli/batch_process.h"
 #include "cli/output_transaction.h"
+#include "cli/text.h"
 
 namespace meshmux {
 
@@ -27,17 +28,6 @@ namespace {
 
 volatile sig_atomic_t g_stop_signal = 0;
 extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
-
-std::string human_bytes(uint64_t b) {
-  char buf[32];
-  if (b >= 1000000)
-    std::snprintf(buf, sizeof buf, "%.2f MB", double(b) / 1e6);
-  else if (b >= 1000)
-    std::snprintf(buf, sizeof buf, "%.1f kB", double(b) / 1e3);
-  else
-    std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
-  return buf;
-}
 
 std::string human_duration(double s) {
   char buf[32];

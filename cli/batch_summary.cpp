@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "cli/text.h"
 #include "scene/file_io.h"
 
 #ifndef MESHMUX_VERSION
@@ -19,59 +20,8 @@ namespace meshmux {
 
 namespace {
 
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-// A path segment for an href (names are letters, digits, '.', '-', '_': nothing to escape,
-// but stay safe).
-std::string url_segment(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s) {
-    if (std::isalnum(c) || c == '.' || c == '-' || c == '_') {
-      out += char(c);
-    } else {
-      char buf[4];
-      std::snprintf(buf, sizeof buf, "%%%02X", c);
-      out += buf;
-    }
-  }
-  return out;
-}
-
-std::string bytes_text(uint64_t b) {
-  char buf[32];
-  if (b == 0) return "";
-  if (b >= 1000000)
-    std::snprintf(buf, sizeof buf, "%.2f MB", double(b) / 1e6);
-  else if (b >= 1000)
-    std::snprintf(buf, sizeof buf, "%.1f kB", double(b) / 1e3);
-  else
-    std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
-  return buf;
-}
+// Bytes for the page; empty for none.
+std::string bytes_text(uint64_t b) { return b ? human_bytes(b) : ""; }
 
 const char* kPageStyle =
     "body{font:14px/1.4 system-ui,sans-serif;margin:2em;color:#222}"
@@ -142,7 +92,7 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
     // The page's row.
     std::string link = html_escape(item.name);
     if (ok)
-      link = "<a href=\"" + url_segment(item.name) + (rec->viewer ? "/index.html" : "/model.glb") +
+      link = "<a href=\"" + url_escape(item.name) + (rec->viewer ? "/index.html" : "/model.glb") +
              "\">" + link + "</a>";
     std::string detail = error;
     if (ok && rec->warnings)

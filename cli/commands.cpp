@@ -21,6 +21,7 @@
 #include "cli/output_transaction.h"
 #include "cli/render_command.h"
 #include "cli/serve.h"
+#include "cli/text.h"
 #include "exporters/gltf.h"
 #include "exporters/viewer_page.h"
 #include "importers/import.h"
@@ -264,17 +265,6 @@ bool parse_int(const std::string& flag, const std::string& text, int lo, int hi,
   }
   *out = int(v);
   return true;
-}
-
-std::string human_bytes(uint64_t b) {
-  char buf[64];
-  if (b >= 1000000)
-    std::snprintf(buf, sizeof buf, "%.2f MB", double(b) / 1e6);
-  else if (b >= 1000)
-    std::snprintf(buf, sizeof buf, "%.1f kB", double(b) / 1e3);
-  else
-    std::snprintf(buf, sizeof buf, "%llu B", static_cast<unsigned long long>(b));
-  return buf;
 }
 
 // Walks one command's arguments. The flags every command shares (-o/--output, -q/--quiet,

@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "cli/serve_gate.h"
+#include "cli/text.h"
 
 namespace meshmux {
 namespace {
@@ -103,48 +104,6 @@ std::string content_type_for(const fs::path& file) {
 }
 
 bool is_hex(char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; }
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-// Percent-encodes everything but RFC 3986 unreserved characters (for links in the listing).
-std::string url_escape(const std::string& s) {
-  static const char* kHex = "0123456789ABCDEF";
-  std::string out;
-  for (unsigned char c : s) {
-    if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~') {
-      out += char(c);
-    } else {
-      out += '%';
-      out += kHex[c >> 4];
-      out += kHex[c & 15];
-    }
-  }
-  return out;
-}
 
 // Request text for the log: control and non-ASCII bytes as \xHH.
 std::string printable(const std::string& s) {
