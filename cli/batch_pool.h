@@ -19,6 +19,7 @@ struct BatchOptions {
   std::vector<std::string> convert_args;  // convert's options, given to every conversion
   std::string fingerprint;                // of convert_args, the limits and the version
   int jobs = 1;                           // conversions at once (local default: one per core)
+  int cores = 0;                          // cores they share; 0: the machine's
   double timeout_seconds = 1800;          // wall time of one conversion, then it is killed
   uint64_t max_memory_mb = 0;             // per conversion (convert --max-memory); 0: convert's
                                           // (the fingerprint has only a --max-memory given)

@@ -361,6 +361,7 @@ int run_slurm_task(const std::string& plan_path) {
   BatchOptions o = plan->options;
   o.worker = "slurm task " + std::to_string(task);
   if (const char* cpus = std::getenv("SLURM_CPUS_PER_TASK")) o.jobs = std::max(1, std::atoi(cpus));
+  o.cores = o.jobs;  // the task's allocation, not the node
   std::fprintf(stderr, "meshmux: batch: Slurm task %d of %d: %zu inputs, %d at once\n", task,
                plan->tasks, share.size(), o.jobs);
   PoolResult r = run_pool(share, o, 0, share.size());
