@@ -29,6 +29,7 @@
 #include "atlas/material_sample.h"
 #include "atlas/tangent_frame.h"
 #include "scene/dvec3.h"
+#include "scene/parallel.h"
 
 namespace meshmux {
 namespace {
@@ -472,73 +473,78 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   result.texel_chart.assign(texels, -1);
   std::vector<uint8_t> filled(texels, 0);
   const int ss = std::max(1, options.supersample);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * size_t(w) + size_t(x);
-      if (owner[i] < 0) continue;
-      const Job& own = jobs[size_t(owner[i])];
-      result.texel_chart[i] = int32_t(own.chart);
-      filled[i] = 1;
-      if (own.k == kFlat) {
-        const Chart& chart = charts.charts[own.chart];
-        encode(chart.color, &img.rgba[i * 4]);
-        put_channels(i, chart.orm, chart.emissive, {0, 0, 1}, chart.sheen);
-        continue;
-      }
-      Source::Texel texel;
-      if (ss == 1) {
-        src.select(own);
-        texel = src.sample({x + 0.5, y + 0.5}, channels);
-      } else {
-        int32_t cand[9];
-        int nc = 0;
-        cand[nc++] = owner[i];
-        for (int k = 0; k < 8; ++k) {
-          int nx = x + kDx[k], ny = y + kDy[k];
-          if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-          int32_t o = owner[size_t(ny) * size_t(w) + size_t(nx)];
-          if (o < 0 || jobs[size_t(o)].chart != own.chart || jobs[size_t(o)].k == kFlat) continue;
-          if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
+  // Rows in chunks on every core: each texel is written by its own row's thread only, and
+  // each thread has its own Source (its current face), so the atlas is the same bytes.
+  parallel_chunks(size_t(h), 16, [&](size_t row_begin, size_t row_end) {
+    Source local = src;  // this thread's current face
+    for (int y = int(row_begin); y < int(row_end); ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t i = size_t(y) * size_t(w) + size_t(x);
+        if (owner[i] < 0) continue;
+        const Job& own = jobs[size_t(owner[i])];
+        result.texel_chart[i] = int32_t(own.chart);
+        filled[i] = 1;
+        if (own.k == kFlat) {
+          const Chart& chart = charts.charts[own.chart];
+          encode(chart.color, &img.rgba[i * 4]);
+          put_channels(i, chart.orm, chart.emissive, {0, 0, 1}, chart.sheen);
+          continue;
         }
-        double sum[4] = {0, 0, 0, 0};
-        double orm_sum[3] = {0, 0, 0}, em_sum[3] = {0, 0, 0}, sh_sum[3] = {0, 0, 0};
-        DVec3 n_sum{0, 0, 0};
-        for (int sy = 0; sy < ss; ++sy)
-          for (int sx = 0; sx < ss; ++sx) {
-            const P2 p{x + (sx + 0.5) / ss, y + (sy + 0.5) / ss};
-            int32_t best = cand[0];
-            double best_d = std::numeric_limits<double>::infinity();
-            for (int a = 0; a < nc; ++a) {  // the owner first: it wins ties
-              src.select(jobs[size_t(cand[a])]);
-              double bary[3];
-              double d = nearest_barycentric(src.corners(), p, bary);
-              if (d < best_d) {
-                best_d = d;
-                best = cand[a];
-              }
-            }
-            src.select(jobs[size_t(best)]);
-            const Source::Texel t = src.sample(p, channels);
-            sum[0] += t.color.x;
-            sum[1] += t.color.y;
-            sum[2] += t.color.z;
-            sum[3] += t.color.w;
-            orm_sum[0] += t.orm.x, orm_sum[1] += t.orm.y, orm_sum[2] += t.orm.z;
-            em_sum[0] += t.emissive.x, em_sum[1] += t.emissive.y, em_sum[2] += t.emissive.z;
-            sh_sum[0] += t.sheen.x, sh_sum[1] += t.sheen.y, sh_sum[2] += t.sheen.z;
-            n_sum = add(n_sum, t.normal);
+        Source::Texel texel;
+        if (ss == 1) {
+          local.select(own);
+          texel = local.sample({x + 0.5, y + 0.5}, channels);
+        } else {
+          int32_t cand[9];
+          int nc = 0;
+          cand[nc++] = owner[i];
+          for (int k = 0; k < 8; ++k) {
+            int nx = x + kDx[k], ny = y + kDy[k];
+            if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+            int32_t o = owner[size_t(ny) * size_t(w) + size_t(nx)];
+            if (o < 0 || jobs[size_t(o)].chart != own.chart || jobs[size_t(o)].k == kFlat) continue;
+            if (std::find(cand, cand + nc, o) == cand + nc) cand[nc++] = o;
           }
-        const double inv = 1.0 / (ss * ss);
-        texel.color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
-                       float(sum[3] * inv)};
-        texel.orm = {float(orm_sum[0] * inv), float(orm_sum[1] * inv), float(orm_sum[2] * inv)};
-        texel.emissive = {float(em_sum[0] * inv), float(em_sum[1] * inv), float(em_sum[2] * inv)};
-        texel.sheen = {float(sh_sum[0] * inv), float(sh_sum[1] * inv), float(sh_sum[2] * inv)};
-        texel.normal = length(n_sum) > 0 ? normalize(n_sum) : DVec3{0, 0, 1};
+          double sum[4] = {0, 0, 0, 0};
+          double orm_sum[3] = {0, 0, 0}, em_sum[3] = {0, 0, 0}, sh_sum[3] = {0, 0, 0};
+          DVec3 n_sum{0, 0, 0};
+          for (int sy = 0; sy < ss; ++sy)
+            for (int sx = 0; sx < ss; ++sx) {
+              const P2 p{x + (sx + 0.5) / ss, y + (sy + 0.5) / ss};
+              int32_t best = cand[0];
+              double best_d = std::numeric_limits<double>::infinity();
+              for (int a = 0; a < nc; ++a) {  // the owner first: it wins ties
+                local.select(jobs[size_t(cand[a])]);
+                double bary[3];
+                double d = nearest_barycentric(local.corners(), p, bary);
+                if (d < best_d) {
+                  best_d = d;
+                  best = cand[a];
+                }
+              }
+              local.select(jobs[size_t(best)]);
+              const Source::Texel t = local.sample(p, channels);
+              sum[0] += t.color.x;
+              sum[1] += t.color.y;
+              sum[2] += t.color.z;
+              sum[3] += t.color.w;
+              orm_sum[0] += t.orm.x, orm_sum[1] += t.orm.y, orm_sum[2] += t.orm.z;
+              em_sum[0] += t.emissive.x, em_sum[1] += t.emissive.y, em_sum[2] += t.emissive.z;
+              sh_sum[0] += t.sheen.x, sh_sum[1] += t.sheen.y, sh_sum[2] += t.sheen.z;
+              n_sum = add(n_sum, t.normal);
+            }
+          const double inv = 1.0 / (ss * ss);
+          texel.color = {float(sum[0] * inv), float(sum[1] * inv), float(sum[2] * inv),
+                         float(sum[3] * inv)};
+          texel.orm = {float(orm_sum[0] * inv), float(orm_sum[1] * inv), float(orm_sum[2] * inv)};
+          texel.emissive = {float(em_sum[0] * inv), float(em_sum[1] * inv), float(em_sum[2] * inv)};
+          texel.sheen = {float(sh_sum[0] * inv), float(sh_sum[1] * inv), float(sh_sum[2] * inv)};
+          texel.normal = length(n_sum) > 0 ? normalize(n_sum) : DVec3{0, 0, 1};
+        }
+        encode(texel.color, &img.rgba[i * 4]);
+        put_channels(i, texel.orm, texel.emissive, texel.normal, texel.sheen);
       }
-      encode(texel.color, &img.rgba[i * 4]);
-      put_channels(i, texel.orm, texel.emissive, texel.normal, texel.sheen);
-    }
+  });
   owner.clear();
   owner.shrink_to_fit();
 

@@ -10,6 +10,7 @@
 
 #include "atlas/material_sample.h"
 #include "image/color.h"
+#include "scene/parallel.h"
 
 namespace meshmux {
 
@@ -286,8 +287,8 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
   out.height = source.height;
   out.rgba.assign(size_t(out.width) * size_t(out.height) * 4, 255);
   const float es = emissive_scale > 0 && std::isfinite(emissive_scale) ? emissive_scale : 1.0f;
-  std::vector<Vec2> uvs(size_t(source.tex_coord) + 1, Vec2{0, 0});
-  auto value = [&](int32_t material, Vec2 uv, uint8_t* px) {
+  // `uvs`: the caller's scratch (one per thread), the uv set read at source.tex_coord.
+  auto value = [&](int32_t material, Vec2 uv, uint8_t* px, std::vector<Vec2>& uvs) {
     uvs[source.tex_coord] = uv;
     auto byte = [](double v) { return uint8_t(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); };
     switch (channel) {
@@ -323,13 +324,19 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
     px[3] = 255;
   };
   const size_t w = size_t(out.width);
-  for (int y = 0; y < in.height; ++y)
-    for (int x = 0; x < in.width; ++x)
-      value(source.material, {float((x + 0.5) / in.width), float((y + 0.5) / in.height)},
-            &out.rgba[(size_t(y) * w + size_t(x)) * 4]);
+  // Rows on every core (each texel written once, by its row's thread: the same bytes).
+  const size_t uv_sets = size_t(source.tex_coord) + 1;
+  parallel_chunks(size_t(in.height), 16, [&](size_t row_begin, size_t row_end) {
+    std::vector<Vec2> uvs(uv_sets, Vec2{0, 0});
+    for (int y = int(row_begin); y < int(row_end); ++y)
+      for (int x = 0; x < in.width; ++x)
+        value(source.material, {float((x + 0.5) / in.width), float((y + 0.5) / in.height)},
+              &out.rgba[(size_t(y) * w + size_t(x)) * 4], uvs);
+  });
   // Plain colours: their material's factors (no texture samples, so the uv is irrelevant).
+  std::vector<Vec2> flat_uvs(uv_sets, Vec2{0, 0});
   auto flat_value = [&](size_t c, uint8_t* px) {
-    value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px);
+    value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px, flat_uvs);
     if (channel == AtlasChannel::kNormal) px[0] = 128, px[1] = 128, px[2] = 255;
   };
   if (source.height > in.height && !source.flat_colors.empty()) {

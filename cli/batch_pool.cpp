@@ -174,13 +174,15 @@ PoolResult run_pool(const std::vector<BatchItem>& todo_in, const BatchOptions& o
   fs::create_directories(o.state_dir + "/logs", ec);
   fs::create_directories(o.state_dir + "/records", ec);
 
-  // Several conversions share the cores: llvmpipe (the renderer) gets its share of threads
+  // Several conversions share the cores: llvmpipe (the renderer) and the atlas baking get
+  // their share of threads
   // (in a Slurm task, of the task's cores, not the node's). The images do not depend on it.
   const long cores = o.cores > 0 ? o.cores : std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
   const int jobs = std::max(1, o.jobs);
   std::vector<std::pair<std::string, std::string>> env;
-  if (!std::getenv("LP_NUM_THREADS"))
-    env.emplace_back("LP_NUM_THREADS", std::to_string(std::max(1L, cores / jobs)));
+  const std::string share = std::to_string(std::max(1L, cores / jobs));
+  if (!std::getenv("LP_NUM_THREADS")) env.emplace_back("LP_NUM_THREADS", share);
+  if (!std::getenv("MESHMUX_THREADS")) env.emplace_back("MESHMUX_THREADS", share);  // baking
 
   install_stop_handlers();
 

@@ -1,0 +1,20 @@
+// Independent work on both cores (and more): a range split into chunks that threads take in
+// turn. The caller's function writes only its own part of the output, so the result is the
+// same whatever the thread count and the order chunks ran in (deterministic output).
+#pragma once
+
+#include <cstddef>
+#include <functional>
+
+namespace meshmux {
+
+// Threads for such work: MESHMUX_THREADS when set (meshmux batch gives each conversion its
+// share of the cores), else the machine's cores; at least 1, at most 64.
+int worker_threads();
+
+// Calls f(begin, end) for consecutive chunks of `chunk` items covering [0, n), on up to
+// worker_threads() threads (the caller's own among them). An exception thrown by f stops the
+// remaining chunks and is rethrown here (the first one). O(n / chunk) scheduling.
+void parallel_chunks(size_t n, size_t chunk, const std::function<void(size_t, size_t)>& f);
+
+}  // namespace meshmux
