@@ -15,6 +15,7 @@
 
 #include "atlas/source_atlas.h"
 #include "scene/dvec3.h"
+#include "scene/parallel.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -236,13 +237,32 @@ FlatCharts flatten_charts(const Scene& scene, const std::vector<MeshView>& views
   fc.charts.face_chart.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m)
     fc.charts.face_chart[m].assign(views[m].faces.size(), 0);
-  for (const Chart& c : seg.charts) {
-    if (!c.textured) {  // a palette block: every corner at its centre, no parameterization
-      fc.charts.charts.push_back(c);
-      fc.uvs.emplace_back();
-      continue;
+  // Charts flatten independently, on every core (scene/parallel.h); each chart's pieces are
+  // kept apart and joined in chart order, so the result is the same whatever the threads.
+  struct Pieces {
+    std::vector<Chart> charts;
+    std::vector<ChartUv> uvs;
+    size_t split = 0;
+  };
+  std::vector<Pieces> per_chart(seg.charts.size());
+  parallel_chunks(seg.charts.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const Chart& c = seg.charts[i];
+      Pieces& out = per_chart[i];
+      if (!c.textured) {  // a palette block: every corner at its centre, no parameterization
+        out.charts.push_back(c);
+        out.uvs.emplace_back();
+        continue;
+      }
+      flatten_chart(scene, views[c.mesh], c, o, out.charts, out.uvs, &out.split);
     }
-    flatten_chart(scene, views[c.mesh], c, o, fc.charts.charts, fc.uvs, split);
+  });
+  for (Pieces& p : per_chart) {
+    for (size_t k = 0; k < p.charts.size(); ++k) {
+      fc.charts.charts.push_back(std::move(p.charts[k]));
+      fc.uvs.push_back(std::move(p.uvs[k]));
+    }
+    *split += p.split;
   }
   for (uint32_t ci = 0; ci < fc.charts.charts.size(); ++ci)
     for (uint32_t f : fc.charts.charts[ci].faces)
