@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "exporters/gltf.h"
+#include "scene/sanitizers.h"
 #include "test_util.h"
 
 namespace meshmux {
