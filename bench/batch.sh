@@ -33,16 +33,10 @@ timed() {
 }
 [ -x /usr/bin/time ] || { echo "batch: GNU time is not installed (apt install time)" >&2; exit 77; }
 
-# 1. The loop a user scripts today: one convert after the other.
-loop_script() {
-  local i=0
-  for f in "${inputs[@]}"; do
-    i=$((i + 1))
-    "$mm" convert "$f" -o "$work/loop/$i" -q 2>/dev/null || true
-  done
-}
-export -f loop_script 2>/dev/null || true
-timed bash -c "$(declare -f loop_script); mm='$mm'; work='$work'; inputs=($(printf '%q ' "${inputs[@]}")); loop_script"
+# 1. The loop a user scripts today: one convert after the other, over the list's paths.
+each_input='i=0; grep -v "^#" "$0" | grep -v "^$" | while IFS= read -r f; do i=$((i + 1)); '
+timed bash -c "$each_input"'"$1" convert "$f" -o "$2/loop/$i" -q 2>/dev/null || true; done' \
+  "$list" "$mm" "$work"
 loop=$wall loop_cpu=$cpu
 
 # 2. meshmux batch, one worker per core (the default), then one worker (the pool's own cost).
@@ -54,14 +48,8 @@ pool1=$wall pool1_cpu=$cpu
 # 3. For scale: gltfpack -cc, one after the other, on the inputs it reads (.glb, .gltf).
 gp="-"
 if command -v gltfpack >/dev/null; then
-  gp_script() {
-    local i=0
-    for f in "${inputs[@]}"; do
-      i=$((i + 1))
-      case "${f,,}" in *.glb | *.gltf) gltfpack -cc -i "$f" -o "$work/gltfpack-$i.glb" >/dev/null 2>&1 || true ;; esac
-    done
-  }
-  timed bash -c "$(declare -f gp_script); work='$work'; inputs=($(printf '%q ' "${inputs[@]}")); gp_script"
+  timed bash -c "$each_input"'case "${f,,}" in *.glb | *.gltf) gltfpack -cc -i "$f" -o "$1/gltfpack-$i.glb" >/dev/null 2>&1 || true ;; esac; done' \
+    "$list" "$work"
   gp=$wall
 fi
 

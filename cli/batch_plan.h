@@ -36,7 +36,7 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
                                                    const std::string& skip);
 
 // Output names for `inputs` (in order): the file name without its extension, restricted to
-// letters, digits, '.', '-' and '_'. Where names clash (case-insensitively), the folders
+// ASCII letters, digits, '-' and '_' (no '.': see clean_name). Where names clash (case-insensitively), the folders
 // above are prefixed ("Fox-glb_Fox", "Fox-meshopt-glb_Fox") until they differ, then the
 // extension ("model-gltf", "model-glb"), then "-2", "-3" in list order. The same list always
 // gives the same names.
