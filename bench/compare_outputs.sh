@@ -4,7 +4,10 @@
 # byte-identical, with their sizes. For a stream package that differs it also says whether the
 # bytes after the JSON table (base .glb, base faces, chunks) are the same, i.e. only the table
 # changed. Extra arguments go to the new binary's conversions only (e.g. --jpeg-quality 90, to
-# take a deliberate default change out of the comparison).
+# take a deliberate default change out of the comparison). From report.json it also prints
+# the stream order each binary chose (same or not), the area under its rate-distortion curve
+# (old → new, with the relative difference) and the multiplexer's render seconds (issue 6/8:
+# "the order the multiplexer picks on each textured shared model, before and after").
 # usage: bench/compare_outputs.sh OLD_MESHMUX NEW_MESHMUX [convert options...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -17,7 +20,7 @@ data_after_table() {  # bytes of a package after its 12-byte header and JSON tab
   j=$(od -An -t u4 -j 8 -N 4 "$1" | tr -d ' ')
   tail -c +$((12 + j + 1)) "$1"
 }
-printf '| model | model.glb | model.mmxp | base.glb (old → new bytes) |\n|---|---|---|---|\n'
+printf '| model | model.glb | model.mmxp | base.glb (old → new bytes) | order | rd area old → new | render s old → new |\n|---|---|---|---|---|---:|---:|\n'
 for dir in "$here"/../shared/models/*/; do
   name=$(basename "$dir")
   file=$(ls "$dir" | grep -i -E '\.(glb|gltf|dae)$' | head -n 1 || true)
@@ -35,5 +38,18 @@ for dir in "$here"/../shared/models/*/; do
     else cell="differs ($(stat -c %s "$a") → $(stat -c %s "$b") B)"; fi
     row="$row | $cell"
   done
+  row="$row | $(python3 - "$work/old/$name/report.json" "$work/new/$name/report.json" <<'PY'
+import json, sys
+try:
+    a, b = (json.load(open(f)) for f in sys.argv[1:3])
+except (OSError, ValueError):
+    print("— | — | —")
+    sys.exit()
+same = "same" if a["order"] == b["order"] else "differs: %s → %s" % (a["order"], b["order"])
+x, y = a["areas"]["rd"], b["areas"]["rd"]
+rel = (y - x) / x * 100 if x else 0.0
+print("%s | %.6g → %.6g (%+.2f%%) | %.2f → %.2f" % (same, x, y, rel, a["seconds"]["render"], b["seconds"]["render"]))
+PY
+)"
   echo "$row |"
 done

@@ -14,6 +14,7 @@
 #include "image/decode.h"
 #include "multiplex/distortion.h"
 #include "multiplex/mesh_stream.h"
+#include "scene/parallel.h"
 #include "simplify/lod.h"
 
 namespace meshmux {
@@ -54,6 +55,19 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
     total += chunk_bytes(v0, b.vertex_end, f0, b.face_end);
   }
   return total;
+}
+
+// The metric of images[v * sets + k] against reference[v], for every view v and set k but
+// `skip` (-1: none), on every core: while it runs, llvmpipe's threads have nothing to draw.
+std::vector<double> distortions(const std::vector<RenderImage>& reference,
+                                const std::vector<RenderImage>& images, size_t sets, int skip) {
+  std::vector<double> out(images.size(), 0.0);
+  parallel_chunks(images.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k)
+      if (int(k % sets) != skip)
+        out[k] = measure_distortion(reference[k / sets], images[k]).ciede2000;
+  });
+  return out;
 }
 
 }  // namespace
@@ -209,10 +223,40 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   int n = int(r.texture_bytes.size());
   auto render_start = Clock::now();
   const double most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
+  // Where every cell will be evaluated anyway (a grid of one row or column, whose descent
+  // walks it all, or the per-view table below: a small grid), all are rendered up front, each
+  // mesh layer once for every view and texture level: one depth pass per view, the passes
+  // pipelined (Renderer::render with sets and cameras). The full mesh goes first, its last
+  // level giving the references. The descent then reads the stored metrics, exactly what
+  // rendering cell by cell gives. Otherwise cells are rendered as the descent asks for them.
+  const bool full_grid = m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells;
+  const size_t V = cameras.size();
+  std::vector<std::vector<double>> measured(size_t(m) * size_t(n));  // per cell: per view
   std::vector<RenderImage> reference;
-  for (const Camera& c : cameras) {
-    reference.push_back(gl.render(geometry_of(m - 1), texture_of(n - 1), c));
-    report_fraction(progress, double(++r.renders) / most_renders);
+  if (full_grid) {
+    std::vector<TextureSet> sets;
+    for (int j = 0; j < n; ++j) sets.push_back(texture_of(j));
+    for (int i = m - 1; i >= 0; --i) {
+      std::vector<RenderImage> images = gl.render(geometry_of(i), sets, cameras);
+      if (i == m - 1) {
+        for (size_t v = 0; v < V; ++v)
+          reference.push_back(std::move(images[v * size_t(n) + size_t(n - 1)]));
+        r.renders += V;
+      }
+      const std::vector<double> metric =
+          distortions(reference, images, size_t(n), i == m - 1 ? n - 1 : -1);
+      for (int j = 0; j < n; ++j) {
+        if (i == m - 1 && j == n - 1) continue;  // the reference itself: distortion 0
+        std::vector<double>& per_view = measured[size_t(i) * size_t(n) + size_t(j)];
+        for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
+        r.renders += V;
+      }
+      report_fraction(progress, double(r.renders) / most_renders);
+    }
+  } else {
+    reference = gl.render(geometry_of(m - 1), {texture_of(n - 1)}, cameras);
+    r.renders += V;
+    report_fraction(progress, double(r.renders) / most_renders);
   }
   // Nothing shown yet: blank frames against the references.
   for (const RenderImage& ref : reference) {
@@ -235,14 +279,16 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     std::vector<double>& per_view = r.view_table.cells[size_t(i) * size_t(n) + size_t(j)];
     per_view.assign(cameras.size(), 0.0);
     if (i == m - 1 && j == n - 1) return 0.0;
-    double sum = 0;
-    for (size_t v = 0; v < cameras.size(); ++v) {
-      RenderImage img = gl.render(geometry_of(i), texture_of(j), cameras[v]);
-      report_fraction(progress, double(++r.renders) / most_renders);
-      per_view[v] = measure_distortion(reference[v], img).ciede2000;
-      sum += per_view[v];
+    std::vector<double>& stored = measured[size_t(i) * size_t(n) + size_t(j)];
+    if (stored.empty()) {
+      const std::vector<RenderImage> images = gl.render(geometry_of(i), {texture_of(j)}, cameras);
+      stored = distortions(reference, images, 1, -1);
+      r.renders += V;
+      report_fraction(progress, double(r.renders) / most_renders);
     }
-    return sum / double(cameras.size());
+    double sum = 0;
+    for (size_t v = 0; v < V; ++v) sum += per_view[v] = stored[v];
+    return sum / double(V);
   };
   RdCache cache(grid);
   r.rd = steepest_descent(cache);

@@ -6,10 +6,12 @@
 // bit-for-bit deterministic). When the surfaceless platform is missing, the default EGL display
 // is tried with EGL_KHR_surfaceless_context (again no pbuffer).
 //
-// Drawing: one program; one draw call per (instance, primitive) with the instance's
-// model-view-projection matrix (computed in double on the CPU, so large world coordinates keep
-// their bits) and world-space normal matrix as uniforms. No culling; two-sided lighting flips the
-// normal of back faces (gl_FrontFacing; instances with mirroring transforms get glFrontFace(CW)
+// Drawing: one program, and a depth-only one for the pre-pass (RenderOptions::depth_prepass:
+// textured draws shade only the nearest surface, and several texture sets share that depth);
+// one draw call per (instance, primitive) with the instance's model-view-projection matrix
+// (computed in double on the CPU, so large world coordinates keep their bits) and world-space
+// normal matrix as uniforms. No culling; two-sided lighting flips the normal of back faces
+// (gl_FrontFacing; instances with mirroring transforms get glFrontFace(CW)
 // so "front" still means counter-clockwise in mesh space). Shading:
 //   base = texture(uv0) * base_color_factor  (factor alone when untextured)
 //   rgb  = base.rgb * (ambient + diffuse * max(dot(N, L), 0)),  alpha = 1.
@@ -185,6 +187,8 @@ struct Renderer::Impl {
   EGLContext context = EGL_NO_CONTEXT;
   GLuint fbo = 0, color_rb = 0, depth_rb = 0;
   GLuint program = 0;
+  GLuint depth_program = 0;  // the depth pre-pass: same vertex shader, empty fragment shader
+  GLint d_mvp = -1;
   GLint u_mvp = -1, u_normal = -1, u_texture = -1, u_texture_plain = -1, u_texture_size = -1,
         u_textured = -1, u_factor = -1, u_light = -1, u_ambient = -1, u_diffuse = -1;
   GLint u_model_view = -1, u_normal_view = -1, u_physical = -1, u_normal_map = -1, u_orm_map = -1,
@@ -205,6 +209,8 @@ struct Renderer::Impl {
   };
   std::vector<Texture> textures;
 
+  std::vector<GLuint> fbos, color_rbs;  // colour targets of render(g, sets, …): [0] = fbo
+  void ensure_targets(size_t count);
   void make_current() {
     if (eglGetCurrentContext() != context)
       eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context);
@@ -310,26 +316,33 @@ Status Renderer::Impl::init_gl() {
     return fail(std::string("framebuffer incomplete (") + buf + ")");
   }
 
-  auto vs = compile(GL_VERTEX_SHADER, kRenderVertexShader);
-  if (!vs) return vs.status();
-  auto fs = compile(GL_FRAGMENT_SHADER, kRenderFragmentShader);
-  if (!fs) {
+  // Links the vertex shader with a fragment shader into `out`.
+  auto link = [&](const char* fragment, GLuint& out) -> Status {
+    auto vs = compile(GL_VERTEX_SHADER, kRenderVertexShader);
+    if (!vs) return vs.status();
+    auto fs = compile(GL_FRAGMENT_SHADER, fragment);
+    if (!fs) {
+      glDeleteShader(*vs);
+      return fs.status();
+    }
+    out = glCreateProgram();
+    glAttachShader(out, *vs);
+    glAttachShader(out, *fs);
+    glLinkProgram(out);
     glDeleteShader(*vs);
-    return fs.status();
-  }
-  program = glCreateProgram();
-  glAttachShader(program, *vs);
-  glAttachShader(program, *fs);
-  glLinkProgram(program);
-  glDeleteShader(*vs);
-  glDeleteShader(*fs);
-  GLint linked = 0;
-  glGetProgramiv(program, GL_LINK_STATUS, &linked);
-  if (!linked) {
-    char log[2048] = {0};
-    glGetProgramInfoLog(program, sizeof log, nullptr, log);
-    return fail(std::string("program link failed: ") + log);
-  }
+    glDeleteShader(*fs);
+    GLint linked = 0;
+    glGetProgramiv(out, GL_LINK_STATUS, &linked);
+    if (!linked) {
+      char log[2048] = {0};
+      glGetProgramInfoLog(out, sizeof log, nullptr, log);
+      return fail(std::string("program link failed: ") + log);
+    }
+    return Status::ok();
+  };
+  if (Status s = link(kRenderFragmentShader, program); !s) return s;
+  if (Status s = link(kRenderDepthFragmentShader, depth_program); !s) return s;
+  d_mvp = glGetUniformLocation(depth_program, "u_mvp");
   u_mvp = glGetUniformLocation(program, "u_mvp");
   u_normal = glGetUniformLocation(program, "u_normal");
   u_texture = glGetUniformLocation(program, "u_texture");
@@ -466,10 +479,15 @@ Renderer::~Renderer() {
     for (size_t g = 0; g < m.geometries.size(); ++g) remove_geometry(int(g));
     for (size_t t = 0; t < m.textures.size(); ++t) remove_texture(int(t));
     if (m.program) glDeleteProgram(m.program);
+    if (m.depth_program) glDeleteProgram(m.depth_program);
     if (m.sampler_aniso) glDeleteSamplers(1, &m.sampler_aniso);
     if (m.sampler_plain) glDeleteSamplers(1, &m.sampler_plain);
     if (m.sampler_table) glDeleteSamplers(1, &m.sampler_table);
     if (m.dfg_texture) glDeleteTextures(1, &m.dfg_texture);
+    for (size_t k = 1; k < m.fbos.size(); ++k) {
+      glDeleteFramebuffers(1, &m.fbos[k]);
+      glDeleteRenderbuffers(1, &m.color_rbs[k]);
+    }
     if (m.fbo) glDeleteFramebuffers(1, &m.fbo);
     if (m.color_rb) glDeleteRenderbuffers(1, &m.color_rb);
     if (m.depth_rb) glDeleteRenderbuffers(1, &m.depth_rb);
@@ -643,24 +661,91 @@ RenderImage Renderer::render(int g, int t, const Camera& camera) {
 }
 
 RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
+  std::vector<RenderImage> images =
+      render(g, std::vector<TextureSet>{t}, std::vector<Camera>{camera});
+  return std::move(images.front());
+}
+
+namespace {
+bool empty_set(const TextureSet& t) {
+  return t.base_color < 0 && t.normal < 0 && t.orm < 0 && t.emissive < 0 && t.sheen < 0;
+}
+}  // namespace
+
+// Colour targets 0..count-1 (target 0 is the one init_gl made), all on the one depth buffer.
+void Renderer::Impl::ensure_targets(size_t count) {
+  if (fbos.empty()) fbos.push_back(fbo), color_rbs.push_back(color_rb);
+  while (fbos.size() < count) {
+    GLuint rb = 0, fb = 0;
+    glGenRenderbuffers(1, &rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, rb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, options.width, options.height);
+    glGenFramebuffers(1, &fb);
+    glBindFramebuffer(GL_FRAMEBUFFER, fb);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, rb);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_rb);
+    fbos.push_back(fb), color_rbs.push_back(rb);
+  }
+}
+
+std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& sets,
+                                          const std::vector<Camera>& cameras) {
   Impl& m = *impl_;
   const RenderOptions& o = m.options;
   const bool physical = o.shading == Shading::kPhysical;
+  const size_t count = sets.size() * cameras.size();
+  std::vector<RenderImage> images(count);
+  if (count == 0) return images;
   m.make_current();
+  m.ensure_targets(count);
   const int w = o.width, h = o.height;
-  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   glViewport(0, 0, w, h);
   glDepthMask(GL_TRUE);
+  glDepthFunc(GL_LESS);
   glClearColor(0, 0, 0, 0);
   glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
   auto live = [&](int k) { return k >= 0 && size_t(k) < m.textures.size() && m.textures[k].id; };
   bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
-  // An explicit set overrides the materials' own textures.
-  const bool explicit_set =
-      t.base_color >= 0 || t.normal >= 0 || t.orm >= 0 || t.emissive >= 0 || t.sheen >= 0;
-  if (geometry_ok) {
+  // The pre-pass pays where shading costs more than drawing the geometry twice: several texture
+  // sets share it, or maps beyond the base colour make every fragment dear (a base colour alone,
+  // say an atlas palette on a dense mesh, shades cheaper than a second pass draws). The choice
+  // depends on the call's sets and the scene only: the multiplexer's calls all alike.
+  bool textured = false, dear = false;
+  auto look = [&](const TextureSet& t) {
+    textured = textured || !empty_set(t);
+    dear = dear || t.normal >= 0 || t.orm >= 0 || t.emissive >= 0 || t.sheen >= 0;
+  };
+  for (const TextureSet& t : sets) look(t);
+  if (geometry_ok && !textured)
+    for (const auto& prims : m.geometries[g].meshes)
+      for (const GpuPrimitive& p : prims) look(p.textures);
+  const bool prepass = o.depth_prepass && geometry_ok && textured && (sets.size() > 1 || dear);
+  // Readback: glReadPixels (bottom row first) of target k, flipped so row 0 is the top. Each
+  // target is read once two more passes are drawn: the rasterizer has finished it or soon will,
+  // and llvmpipe holds at most three passes' bins at a time (each holds its triangles).
+  size_t read = 0;
+  auto read_back = [&](size_t k) {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, m.fbos[k]);
+    RenderImage& img = images[k];
+    img.width = w;
+    img.height = h;
+    img.rgba.resize(size_t(w) * h * 4);
+    std::vector<uint8_t> raw(img.rgba.size());
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
+    const size_t row = size_t(w) * 4;
+    for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
+      std::memcpy(&img.rgba[size_t(y) * row], &raw[size_t(h - 1 - y) * row], row);
+    img.coverage.resize(size_t(w) * h);
+    for (size_t i = 0; i < img.coverage.size(); ++i) img.coverage[i] = img.rgba[i * 4 + 3] > 0;
+  };
+  constexpr size_t kInFlight = 2;
+  // Per camera: its targets from `base`. Cameras in turn share the depth buffer: llvmpipe
+  // rasterizes passes in the order they were drawn.
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const Camera& camera = cameras[c];
+    const size_t base = c * sets.size();
+    // The camera's view, projection and light.
     DVec3 axes[3];
     Mat4 view = look_at(camera, axes);
     Mat4 view_proj =
@@ -676,112 +761,139 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
       l_view = normalize(DVec3{dot(axes[0], l), dot(axes[1], l), dot(axes[2], l)});
     }
 
-    glUseProgram(m.program);
-    glUniform1i(m.u_physical, physical ? 1 : 0);
-    if (physical)
-      glUniform3f(m.u_light, float(l_view.x), float(l_view.y), float(l_view.z));
-    else
-      glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
-    glUniform1f(m.u_ambient, o.ambient);
-    glUniform1f(m.u_diffuse, o.diffuse);
-    glUniform1f(m.u_environment, o.environment);
-    glUniform1f(m.u_light_intensity, o.light_intensity);
-    glUniform1i(m.u_texture, 0);
-    glUniform1i(m.u_texture_plain, 1);
-    glUniform1i(m.u_normal_map, 2);
-    glUniform1i(m.u_orm_map, 3);
-    glUniform1i(m.u_emissive_map, 4);
-    glUniform1i(m.u_dfg, 5);
-    glUniform1i(m.u_sheen_map, 6);
-    // Binds a texture set (once per change) and says which maps are there.
-    TextureSet bound{-2, -2, -2, -2, -2};
-    auto bind_unit = [&](GLenum unit, int k) {
-      glActiveTexture(unit);
-      glBindTexture(GL_TEXTURE_2D, live(k) ? m.textures[size_t(k)].id : 0);
-    };
-    auto bind = [&](const TextureSet& set) {
-      if (set.base_color != bound.base_color) {
-        const int k = set.base_color;
-        glUniform1i(m.u_textured, live(k) ? 1 : 0);
-        glUniform2f(m.u_texture_size, live(k) ? float(m.textures[size_t(k)].width) : 1.0f,
-                    live(k) ? float(m.textures[size_t(k)].height) : 1.0f);
-        bind_unit(GL_TEXTURE0, k);
-        bind_unit(GL_TEXTURE1, k);
-      }
-      // A further map: its unit, and the flag saying the shader has it (physical shading).
-      auto bind_map = [&](int want, int have, GLint flag, GLenum unit) {
-        if (want == have) return;
-        glUniform1i(flag, physical && live(want) ? 1 : 0);
-        bind_unit(unit, want);
-      };
-      bind_map(set.normal, bound.normal, m.u_has_normal_map, GL_TEXTURE2);
-      bind_map(set.orm, bound.orm, m.u_has_orm_map, GL_TEXTURE3);
-      bind_map(set.emissive, bound.emissive, m.u_has_emissive_map, GL_TEXTURE4);
-      bind_map(set.sheen, bound.sheen, m.u_has_sheen_map, GL_TEXTURE6);
-      glActiveTexture(GL_TEXTURE5);
-      glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
-      glActiveTexture(GL_TEXTURE0);
-      bound = set;
-    };
-    const GpuGeometry& geo = m.geometries[g];
-    for (const GpuInstance& inst : geo.instances) {
-      const auto& prims = geo.meshes[inst.mesh];
-      if (prims.empty()) continue;
+    auto mvp_of = [&](const GpuInstance& inst, float out[16]) {
       Mat4 mvp = view_proj * inst.world;
-      Mat4 model_view = view * inst.world;
-      float mvp_f[16], mv_f[16];
-      for (int i = 0; i < 16; ++i) mvp_f[i] = float(mvp.m[i]), mv_f[i] = float(model_view.m[i]);
-      // Normal matrices: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
-      // so mirrored transforms keep outward normals; the shader renormalizes.
-      auto normal_matrix = [](const Mat4& a, float nm[9]) {
-        const double sign = a.det3() < 0 ? -1 : 1;
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) {
-            int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
-            double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
-            nm[c * 3 + r] = float(sign * cof);  // column-major mat3
-          }
+      for (int i = 0; i < 16; ++i) out[i] = float(mvp.m[i]);
+    };
+    // Target 0 with the depth buffer; with the pre-pass, depth alone is drawn into them first and
+    // every set's shading pass then keeps the fragments of equal depth (no depth writes).
+    glBindFramebuffer(GL_FRAMEBUFFER, m.fbos[base]);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    if (prepass) {
+      const GpuGeometry& geo = m.geometries[g];
+      glUseProgram(m.depth_program);
+      glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+      for (const GpuInstance& inst : geo.instances) {
+        float mvp_f[16];
+        mvp_of(inst, mvp_f);
+        glUniformMatrix4fv(m.d_mvp, 1, GL_FALSE, mvp_f);
+        for (const GpuPrimitive& p : geo.meshes[inst.mesh]) {
+          glBindVertexArray(p.vao);
+          glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+        }
+      }
+      glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+      glDepthMask(GL_FALSE);
+      glDepthFunc(GL_EQUAL);
+    }
+    // One shading pass per set, each into its own target: switching targets hands the finished
+    // pass to llvmpipe's rasterizer threads while the next one is set up.
+    for (size_t k = 0; k < sets.size(); ++k) {
+      const TextureSet& t = sets[k];
+      const bool explicit_set = !empty_set(t);  // an explicit set overrides the materials' own
+      glBindFramebuffer(GL_FRAMEBUFFER, m.fbos[base + k]);
+      while (base + k > read + kInFlight) read_back(read++);
+      if (k > 0) glClear(prepass ? GL_COLOR_BUFFER_BIT : GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+      if (!geometry_ok) continue;
+      const GpuGeometry& geo = m.geometries[g];
+      glUseProgram(m.program);
+      glUniform1i(m.u_physical, physical ? 1 : 0);
+      if (physical)
+        glUniform3f(m.u_light, float(l_view.x), float(l_view.y), float(l_view.z));
+      else
+        glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
+      glUniform1f(m.u_ambient, o.ambient);
+      glUniform1f(m.u_diffuse, o.diffuse);
+      glUniform1f(m.u_environment, o.environment);
+      glUniform1f(m.u_light_intensity, o.light_intensity);
+      glUniform1i(m.u_texture, 0);
+      glUniform1i(m.u_texture_plain, 1);
+      glUniform1i(m.u_normal_map, 2);
+      glUniform1i(m.u_orm_map, 3);
+      glUniform1i(m.u_emissive_map, 4);
+      glUniform1i(m.u_dfg, 5);
+      glUniform1i(m.u_sheen_map, 6);
+      // Binds a texture set (once per change) and says which maps are there.
+      TextureSet bound{-2, -2, -2, -2, -2};
+      auto bind_unit = [&](GLenum unit, int k) {
+        glActiveTexture(unit);
+        glBindTexture(GL_TEXTURE_2D, live(k) ? m.textures[size_t(k)].id : 0);
       };
-      float nm[9], nv[9];
-      normal_matrix(inst.world, nm);
-      normal_matrix(model_view, nv);
-      glUniformMatrix4fv(m.u_mvp, 1, GL_FALSE, mvp_f);
-      glUniformMatrix4fv(m.u_model_view, 1, GL_FALSE, mv_f);
-      glUniformMatrix3fv(m.u_normal, 1, GL_FALSE, nm);
-      glUniformMatrix3fv(m.u_normal_view, 1, GL_FALSE, nv);
-      // Mirroring transforms reverse the screen-space winding of front faces.
-      glFrontFace(inst.world.det3() < 0 ? GL_CW : GL_CCW);
-      for (const GpuPrimitive& p : prims) {
-        glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
-        glUniform1f(m.u_metallic, p.metallic);
-        glUniform1f(m.u_roughness, p.roughness);
-        glUniform1f(m.u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
-        glUniform1f(m.u_normal_scale, p.normal_scale);
-        glUniform3f(m.u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
-        glUniform3f(m.u_sheen, p.sheen.x, p.sheen.y, p.sheen.z);
-        glUniform1f(m.u_sheen_roughness, p.sheen_roughness);
-        bind(explicit_set ? t : p.textures);
-        glBindVertexArray(p.vao);
-        glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+      auto bind = [&](const TextureSet& set) {
+        if (set.base_color != bound.base_color) {
+          const int k = set.base_color;
+          glUniform1i(m.u_textured, live(k) ? 1 : 0);
+          glUniform2f(m.u_texture_size, live(k) ? float(m.textures[size_t(k)].width) : 1.0f,
+                      live(k) ? float(m.textures[size_t(k)].height) : 1.0f);
+          bind_unit(GL_TEXTURE0, k);
+          bind_unit(GL_TEXTURE1, k);
+        }
+        // A further map: its unit, and the flag saying the shader has it (physical shading).
+        auto bind_map = [&](int want, int have, GLint flag, GLenum unit) {
+          if (want == have) return;
+          glUniform1i(flag, physical && live(want) ? 1 : 0);
+          bind_unit(unit, want);
+        };
+        bind_map(set.normal, bound.normal, m.u_has_normal_map, GL_TEXTURE2);
+        bind_map(set.orm, bound.orm, m.u_has_orm_map, GL_TEXTURE3);
+        bind_map(set.emissive, bound.emissive, m.u_has_emissive_map, GL_TEXTURE4);
+        bind_map(set.sheen, bound.sheen, m.u_has_sheen_map, GL_TEXTURE6);
+        glActiveTexture(GL_TEXTURE5);
+        glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
+        glActiveTexture(GL_TEXTURE0);
+        bound = set;
+      };
+      for (const GpuInstance& inst : geo.instances) {
+        const auto& prims = geo.meshes[inst.mesh];
+        if (prims.empty()) continue;
+        Mat4 model_view = view * inst.world;
+        float mvp_f[16], mv_f[16];
+        mvp_of(inst, mvp_f);
+        for (int i = 0; i < 16; ++i) mv_f[i] = float(model_view.m[i]);
+        // Normal matrices: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
+        // so mirrored transforms keep outward normals; the shader renormalizes.
+        auto normal_matrix = [](const Mat4& a, float nm[9]) {
+          const double sign = a.det3() < 0 ? -1 : 1;
+          for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) {
+              int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+              double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
+              nm[c * 3 + r] = float(sign * cof);  // column-major mat3
+            }
+        };
+        float nm[9], nv[9];
+        normal_matrix(inst.world, nm);
+        normal_matrix(model_view, nv);
+        glUniformMatrix4fv(m.u_mvp, 1, GL_FALSE, mvp_f);
+        glUniformMatrix4fv(m.u_model_view, 1, GL_FALSE, mv_f);
+        glUniformMatrix3fv(m.u_normal, 1, GL_FALSE, nm);
+        glUniformMatrix3fv(m.u_normal_view, 1, GL_FALSE, nv);
+        // Mirroring transforms reverse the screen-space winding of front faces.
+        glFrontFace(inst.world.det3() < 0 ? GL_CW : GL_CCW);
+        for (const GpuPrimitive& p : prims) {
+          glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
+          glUniform1f(m.u_metallic, p.metallic);
+          glUniform1f(m.u_roughness, p.roughness);
+          glUniform1f(m.u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
+          glUniform1f(m.u_normal_scale, p.normal_scale);
+          glUniform3f(m.u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
+          glUniform3f(m.u_sheen, p.sheen.x, p.sheen.y, p.sheen.z);
+          glUniform1f(m.u_sheen_roughness, p.sheen_roughness);
+          bind(explicit_set ? t : p.textures);
+          glBindVertexArray(p.vao);
+          glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+        }
       }
     }
     glBindVertexArray(0);
     glFrontFace(GL_CCW);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
   }
-  glFinish();
 
-  RenderImage img;
-  img.width = w;
-  img.height = h;
-  img.rgba.resize(size_t(w) * h * 4);
-  std::vector<uint8_t> raw(img.rgba.size());
-  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
-  const size_t row = size_t(w) * 4;
-  for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
-    std::memcpy(&img.rgba[size_t(y) * row], &raw[size_t(h - 1 - y) * row], row);
-  img.coverage.resize(size_t(w) * h);
-  for (size_t i = 0; i < img.coverage.size(); ++i) img.coverage[i] = img.rgba[i * 4 + 3] > 0;
-  return img;
+  while (read < count) read_back(read++);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbos[0]);
+  return images;
 }
 
 }  // namespace meshmux

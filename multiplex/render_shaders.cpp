@@ -36,6 +36,7 @@ out vec3 v_normal;       // world space (Lambert)
 out vec3 v_view_normal;  // view space (physical)
 out vec3 v_view_position;
 out vec2 v_uv;
+invariant gl_Position;  // the depth pre-pass (kRenderDepthFragmentShader) must match bit for bit
 void main() {
   gl_Position = u_mvp * vec4(a_position, 1.0);
   v_normal = u_normal * a_normal;
@@ -43,6 +44,11 @@ void main() {
   v_view_position = (u_model_view * vec4(a_position, 1.0)).xyz;
   v_uv = a_uv;
 }
+)";
+
+// The depth pre-pass: the same vertex shader, no colour (render.h RenderOptions::depth_prepass).
+const char* const kRenderDepthFragmentShader = R"(#version 450 core
+void main() {}
 )";
 
 const char* const kRenderFragmentShader = R"(#version 450 core

@@ -7,5 +7,6 @@ namespace meshmux {
 
 extern const char* const kRenderVertexShader;
 extern const char* const kRenderFragmentShader;
+extern const char* const kRenderDepthFragmentShader;
 
 }  // namespace meshmux

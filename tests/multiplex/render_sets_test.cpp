@@ -1,0 +1,152 @@
+// Renderer::render with several texture sets and cameras (what the multiplexer draws each mesh
+// layer with) and the depth pre-pass it uses on textured draws. Skips when EGL is unavailable.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "multiplex/render.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+// A lat-long sphere of radius r around `centre` with uvs: closed, so every pixel it covers has
+// a back face behind its front face (overdraw the pre-pass must resolve exactly).
+Primitive sphere(Vec3 centre, float r, int rings = 24, int segments = 48) {
+  Primitive p;
+  const float pi = 3.14159265f;
+  for (int i = 0; i <= rings; ++i)
+    for (int j = 0; j <= segments; ++j) {
+      const float th = pi * float(i) / float(rings), ph = 2 * pi * float(j) / float(segments);
+      const Vec3 n{std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)};
+      p.positions.push_back({centre.x + r * n.x, centre.y + r * n.y, centre.z + r * n.z});
+      p.normals.push_back(n);
+      if (p.uvs.empty()) p.uvs.emplace_back();
+      p.uvs[0].push_back({float(j) / float(segments), float(i) / float(rings)});
+    }
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      const uint32_t a = uint32_t(i * (segments + 1) + j), b = a + uint32_t(segments + 1);
+      p.indices.insert(p.indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+  return p;
+}
+
+// A texture of `size`² texels: a checkerboard of `cell`-texel cells in two colours.
+Image checker(int size, int cell, std::array<uint8_t, 3> a, std::array<uint8_t, 3> b) {
+  Image im;
+  im.width = im.height = size;
+  im.rgba.resize(size_t(size) * size * 4);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const auto& c = ((x / cell + y / cell) & 1) ? a : b;
+      uint8_t* px = &im.rgba[(size_t(y) * size + x) * 4];
+      px[0] = c[0], px[1] = c[1], px[2] = c[2], px[3] = 255;
+    }
+  return im;
+}
+
+Camera looking_from(Vec3 eye) {
+  Camera c;
+  c.eye = eye;
+  c.fov_y_degrees = 50;
+  return c;
+}
+
+// Two spheres, the far one drawn after the near one and overlapping it on screen, plus a
+// second instance: the shading pass meets occluded fragments both before and after the
+// visible ones.
+Scene overlapping_spheres() {
+  Scene s;
+  s.meshes.push_back({"near", {sphere({0, 0, 0.6f}, 0.5f)}});
+  s.meshes.push_back({"far", {sphere({0.3f, 0.2f, -0.6f}, 0.8f)}});
+  s.instances.push_back({0, Mat4{}, "near"});
+  s.instances.push_back({1, Mat4{}, "far"});
+  Mat4 moved;
+  moved.at(0, 3) = -0.9;
+  s.instances.push_back({0, moved, "near, moved"});
+  return s;
+}
+
+bool same_pixels(const RenderImage& a, const RenderImage& b) {
+  return a.width == b.width && a.height == b.height && a.rgba == b.rgba && a.coverage == b.coverage;
+}
+
+size_t covered(const RenderImage& im) {
+  size_t n = 0;
+  for (uint8_t c : im.coverage) n += c;
+  return n;
+}
+
+// Why: the multiplexer measures every texture level of a mesh layer from every view in one
+// call and takes those images for what single renders would give; any difference would change
+// the distortion it orders the stream by.
+TEST(RenderSets, EveryImageEqualsItsOwnRender) {
+  MAKE_RENDERER(r, physical_shading());
+  const int g = r->add_geometry(overlapping_spheres());
+  std::vector<TextureSet> sets;
+  for (int size : {16, 64, 256}) {
+    TextureSet t;
+    t.base_color = r->add_texture(checker(size, size / 8, {200, 40, 30}, {30, 60, 220}), true);
+    t.orm = r->add_texture(checker(size, size / 4, {255, 90, 0}, {255, 200, 255}), false);
+    sets.push_back(t);
+  }
+  const std::vector<Camera> cameras = {looking_from({0, 0, 3.5f}), looking_from({2.5f, 1, 2}),
+                                       looking_from({-1, -2, -3})};
+  const std::vector<RenderImage> images = r->render(g, sets, cameras);
+  ASSERT_EQ(images.size(), sets.size() * cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c)
+    for (size_t k = 0; k < sets.size(); ++k) {
+      const RenderImage single = r->render(g, sets[k], cameras[c]);
+      EXPECT_GT(covered(single), 2000u) << "camera " << c;
+      EXPECT_TRUE(same_pixels(images[c * sets.size() + k], single))
+          << "camera " << c << " set " << k;
+    }
+  // The levels differ, so the comparison above compared different pictures.
+  EXPECT_FALSE(same_pixels(images[0], images[2]));
+}
+
+// Why: with the pre-pass (drawn for textured draws with more than a base colour map) each pixel
+// is shaded once, from the surface the depth pass found
+// nearest; without it, from the last fragment that passed the depth test. Where no faces are
+// coplanar these are the same surface, so the images must be the same to the bit (the vertex
+// shader's gl_Position is invariant between the two programs).
+TEST(RenderSets, DepthPrepassShowsTheSameNearestSurfaces) {
+  RenderOptions with = physical_shading(), without = physical_shading();
+  without.depth_prepass = false;
+  MAKE_RENDERER(a, with);
+  MAKE_RENDERER(b, without);
+  const Scene scene = overlapping_spheres();
+  const int ga = a->add_geometry(scene), gb = b->add_geometry(scene);
+  // With an occlusion-roughness-metallic map beside the base colour, so the pre-pass is drawn.
+  const Image tex = checker(128, 8, {250, 250, 240}, {10, 90, 20});
+  const Image orm = checker(64, 4, {255, 60, 255}, {255, 220, 0});
+  TextureSet ta, tb;
+  ta.base_color = a->add_texture(tex, true);
+  tb.base_color = b->add_texture(tex, true);
+  ta.orm = a->add_texture(orm, false);
+  tb.orm = b->add_texture(orm, false);
+  for (Vec3 eye : {Vec3{0, 0, 3.5f}, Vec3{2.5f, 1, 2}, Vec3{0.2f, 0.1f, -3}}) {
+    const RenderImage x = a->render(ga, ta, looking_from(eye)),
+                      y = b->render(gb, tb, looking_from(eye));
+    EXPECT_GT(covered(x), 2000u);
+    EXPECT_TRUE(same_pixels(x, y)) << "eye " << eye.x << " " << eye.y << " " << eye.z;
+  }
+}
+
+// Why: an empty list is a caller's edge case, and geometry that does not exist draws nothing
+// (as render(g, set, camera) does) rather than failing.
+TEST(RenderSets, EmptyListsAndMissingGeometry) {
+  MAKE_RENDERER(r, physical_shading());
+  const int g = r->add_geometry(overlapping_spheres());
+  EXPECT_TRUE(r->render(g, std::vector<TextureSet>{}, {looking_from({0, 0, 3})}).empty());
+  EXPECT_TRUE(r->render(g, std::vector<TextureSet>{TextureSet{}}, {}).empty());
+  const std::vector<RenderImage> none =
+      r->render(g + 7, std::vector<TextureSet>(2), {looking_from({0, 0, 3})});
+  ASSERT_EQ(none.size(), 2u);
+  for (const RenderImage& im : none) EXPECT_EQ(covered(im), 0u);
+}
+
+}  // namespace
+}  // namespace meshmux
