@@ -36,10 +36,10 @@ struct RenderOptions {
   Vec3 light_direction{0.4f, 0.8f, 0.45f};  // towards the light, world space (normalized inside)
   bool light_follows_camera = true;         // light direction given in camera space instead
   float anisotropy = 16;                    // max anisotropic filtering
-  // Draw depth alone first, then shade with an equal depth test, so each pixel runs the
-  // shader once however deep the overdraw (llvmpipe skips blocks the depth test empties): on
-  // textured draws with maps beyond the base colour, or several texture sets at once (see
-  // render with sets). Where coplanar faces overlap, the last drawn shows instead of the first.
+  // With several texture sets in one call (render with sets), draw depth alone first, then
+  // shade each set with an equal depth test: one geometry-only pass shared by the sets, and
+  // each pixel shaded once however deep the overdraw. Where coplanar faces overlap, the last
+  // drawn shows instead of the first.
   bool depth_prepass = true;
   // Physical: a uniform environment of this radiance (linear, white; three.js: a constant
   // environment map, intensity 1) and a white directional light of this intensity from
@@ -99,11 +99,10 @@ class Renderer {
   // primitive's material); an empty set (all -1): each primitive's own textures, as above.
   RenderImage render(int g, const TextureSet& t, const Camera& camera);
   // Draws geometry `g` with every set from every camera: images camera-major (camera c, set k
-  // at c * sets.size() + k), each what render(g, set, camera) gives; with two or more sets the
-  // depth pre-pass is always used, so where coplanar faces overlap a pixel may show the other
-  // face. Cheaper than separate calls: the pre-pass is drawn once per camera for all sets, and
-  // each pass is rasterized (llvmpipe's threads) while the next is set up (this thread). Holds
-  // one RGBA8 target per image (256 KB at 256²), kept for later calls.
+  // at c * sets.size() + k), each what render(g, set, camera) gives, except that with two or
+  // more sets the depth pre-pass is used (where coplanar faces overlap a pixel may show the
+  // other face). Cheaper than separate calls: the geometry-only pass is drawn once per camera
+  // for all sets.
   std::vector<RenderImage> render(int g, const std::vector<TextureSet>& sets,
                                   const std::vector<Camera>& cameras);
 
