@@ -18,14 +18,17 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <mutex>
 #include <unordered_map>
 
 #include "clean/flatten.h"
 #include "scene/dvec3.h"
+#include "scene/parallel.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -274,6 +277,44 @@ struct DearestFirst {  // paper 000's E_max: only the error is read
   bool operator()(const Candidate& a, const Candidate& b) const { return b.error < a.error; }
 };
 
+// An open-addressing table of (64-bit key, value) entries for welding: several entries may
+// share a key (the caller tells them apart), find() returns the first whose value `same`
+// accepts. Sized once for `capacity` insertions (load ≤ 1/2); a flat array, where a hash map of
+// vectors spent most of make_unit's time allocating buckets.
+class KeyTable {
+ public:
+  explicit KeyTable(size_t capacity) {
+    size_t n = 16;
+    while (n < 2 * capacity) n *= 2;
+    keys_.assign(n, 0);
+    values_.assign(n, kEmpty);
+    mask_ = n - 1;
+  }
+  template <class Same>
+  uint32_t find(uint64_t key, const Same& same) const {
+    for (size_t i = slot(key); values_[i] != kEmpty; i = (i + 1) & mask_)
+      if (keys_[i] == key && same(values_[i])) return values_[i];
+    return kEmpty;
+  }
+  void insert(uint64_t key, uint32_t value) {
+    size_t i = slot(key);
+    while (values_[i] != kEmpty) i = (i + 1) & mask_;
+    keys_[i] = key, values_[i] = value;
+  }
+  static constexpr uint32_t kEmpty = UINT32_MAX;
+
+ private:
+  size_t slot(uint64_t key) const {
+    key ^= key >> 33;
+    key *= 0xFF51AFD7ED558CCDull;
+    key ^= key >> 33;
+    return size_t(key) & mask_;
+  }
+  std::vector<uint64_t> keys_;
+  std::vector<uint32_t> values_;
+  size_t mask_ = 0;
+};
+
 class Simplifier {
  public:
   Simplifier(Unit& unit, const std::vector<Mat4>& transforms, const SimplifyOptions& opt,
@@ -387,15 +428,25 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   attr_q_.assign(nw, Quadric{});
   attr_gd_.assign(nw * size_t(k) * 4, 0.0);
   // Boundary edges (position level) for the constraint planes: count faces per undirected edge.
-  std::unordered_map<uint64_t, uint32_t> edge_faces;
-  edge_faces.reserve(nf * 3);
   auto key = [](uint32_t a, uint32_t b) {
     return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
   };
+  KeyTable edge_index(nf * 3);               // edge key → index into edge_count
+  std::vector<uint32_t> edge_count;          // faces per edge
+  auto any = [](uint32_t) { return true; };  // one entry per key
   for (size_t f = 0; f < nf; ++f)
-    for (int e = 0; e < 3; ++e)
-      ++edge_faces[key(u_.wedge_pos[u_.corners[3 * f + e]],
-                       u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]])];
+    for (int e = 0; e < 3; ++e) {
+      const uint64_t k =
+          key(u_.wedge_pos[u_.corners[3 * f + e]], u_.wedge_pos[u_.corners[3 * f + (e + 1) % 3]]);
+      uint32_t i = edge_index.find(k, any);
+      if (i == KeyTable::kEmpty) {
+        i = uint32_t(edge_count.size());
+        edge_index.insert(k, i);
+        edge_count.push_back(0);
+      }
+      ++edge_count[i];
+    }
+  auto edge_faces = [&](uint64_t k) { return edge_count[edge_index.find(k, any)]; };
 
   // Pulled back to mesh space, a placed face's plane is still the face's own plane: for
   // x = A v + t, the distance of x to the placed plane is n̂ᵀ(v − p₀) / |A⁻ᵀ n̂| and the placed
@@ -411,7 +462,7 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   // for similarities the mesh-space plane scaled by Σ s⁴ (weight Σ s² l²), else pulled back.
   auto boundary = [&](const uint32_t p[3], const DVec3 P[3], const DVec3& un) {
     for (int e = 0; e < 3; ++e) {
-      if (edge_faces[key(p[e], p[(e + 1) % 3])] != 1) continue;
+      if (edge_faces(key(p[e], p[(e + 1) % 3])) != 1) continue;
       auto plane = [&](const DVec3 Q[3], const DVec3& n) {
         DVec3 dv = sub(Q[(e + 1) % 3], Q[e]);
         double l2 = dot(dv, dv);
@@ -881,8 +932,10 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     normals = normals && !p.normals.empty();
   }
   u.channels = int((normals ? 3 : 0) + 2 * uv_sets + (colors ? 4 : 0));
-  std::unordered_map<uint64_t, std::vector<uint32_t>> pos_of;  // hash → candidate positions
-  std::unordered_map<uint64_t, std::vector<uint32_t>> group_of;
+  size_t wedges = 0;
+  for (const Primitive& p : mesh.primitives) wedges += p.vertex_count();
+  KeyTable pos_of(wedges);    // position hash → positions
+  KeyTable group_of(wedges);  // class hash → classes
   std::vector<uint32_t> group_first_wedge;
   for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
     const Primitive& p = mesh.primitives[pi];
@@ -890,14 +943,13 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       Vec3 x = p.positions[v];
       uint64_t h = position_hash(x);
-      auto& bucket = pos_of[h];
-      uint32_t pid = UINT32_MAX;
-      for (uint32_t c : bucket)
-        if (u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z) pid = c;
-      if (pid == UINT32_MAX) {
+      uint32_t pid = pos_of.find(h, [&](uint32_t c) {
+        return u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z;
+      });
+      if (pid == KeyTable::kEmpty) {
         pid = uint32_t(u.pos.size());
         u.pos.push_back(to_dvec3(x));
-        bucket.push_back(pid);
+        pos_of.insert(h, pid);
       }
       uint32_t w = uint32_t(u.wedge_pos.size());
       u.wedge_pos.push_back(pid);
@@ -927,20 +979,18 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
         std::memcpy(&b, &val, 8);
         g = (g ^ b) * 0x100000001B3ull;
       }
-      auto& gb = group_of[g];
-      uint32_t gid = UINT32_MAX;
-      for (uint32_t cand : gb) {
+      uint32_t gid = group_of.find(g, [&](uint32_t cand) {
         uint32_t w0 = group_first_wedge[cand];
-        if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) continue;
+        if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) return false;
         bool same = true;
         for (size_t c = skip; c < k && same; ++c)
           same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
-        if (same) gid = cand;
-      }
-      if (gid == UINT32_MAX) {
+        return same;
+      });
+      if (gid == KeyTable::kEmpty) {
         gid = uint32_t(group_first_wedge.size());
         group_first_wedge.push_back(w);
-        gb.push_back(gid);
+        group_of.insert(g, gid);
       }
       u.wedge_group.push_back(gid);
     }
@@ -1037,23 +1087,40 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   ps.meshes.resize(scene.meshes.size());
   ps.instance_orders.resize(scene.meshes.size());
   // Progress: collapses over all submeshes' vertices (an upper bound of the positions).
-  uint64_t total_vertices = 0, done_before = 0;
+  uint64_t total_vertices = 0;
   for (const Mesh& mesh : scene.meshes)
     for (const Primitive& p : mesh.primitives) total_vertices += p.positions.size();
-  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
-    std::vector<Mat4> transforms;
-    for (const Instance& inst : scene.instances)
-      if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
-    if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
-    Unit unit = make_unit(scene.meshes[m], options);
-    Simplifier s(unit, transforms, options, r);
-    s.run([&](uint64_t collapses) {
-      report_fraction(progress, double(done_before + collapses) /
-                                    double(std::max<uint64_t>(1, total_vertices)));
-    });
-    for (const Primitive& p : scene.meshes[m].primitives) done_before += p.positions.size();
-    s.record(scene.meshes[m], m, ps.meshes[m]);
-    ps.instance_orders[m] = instance_order(scene, m, box);
+  // Submeshes are independent: each is simplified on its own thread (its own report, summed in
+  // mesh order below), so the record is the same whatever the thread count.
+  std::vector<SimplifyReport> reports(scene.meshes.size());
+  std::vector<std::atomic<uint64_t>> collapsed(scene.meshes.size());
+  std::mutex progress_mutex;
+  parallel_chunks(scene.meshes.size(), 1, [&](size_t begin, size_t end) {
+    for (uint32_t m = uint32_t(begin); m < end; ++m) {
+      std::vector<Mat4> transforms;
+      for (const Instance& inst : scene.instances)
+        if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
+      if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
+      Unit unit = make_unit(scene.meshes[m], options);
+      Simplifier s(unit, transforms, options, reports[m]);
+      s.run([&](uint64_t collapses) {
+        collapsed[m] = collapses;
+        if (!progress) return;
+        uint64_t done = 0;
+        for (const auto& c : collapsed) done += c;
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        report_fraction(progress, double(done) / double(std::max<uint64_t>(1, total_vertices)));
+      });
+      s.record(scene.meshes[m], m, ps.meshes[m]);
+      ps.instance_orders[m] = instance_order(scene, m, box);
+    }
+  });
+  for (const SimplifyReport& x : reports) {
+    r.collapses += x.collapses;
+    r.refused_flip += x.refused_flip;
+    r.refused_link += x.refused_link;
+    r.refused_wedge += x.refused_wedge;
+    r.refused_vanish += x.refused_vanish;
   }
   // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,
   // ship whole: the base level is the full mesh.
