@@ -146,10 +146,13 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
   // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
   // decoded here to render what the client decodes). ---
-  // Per level: its maps decoded, base colour first, each with the channel it stands for.
+  // Per level: its maps, base colour first, each with the channel it stands for; decoded one at
+  // a time when uploaded below, so the decoded texels are held once (by the renderer).
   struct LevelMap {
     std::string channel;
-    Image image;
+    std::string name;
+    const std::vector<uint8_t>* encoded = nullptr;
+    std::string mime_type;
   };
   std::vector<std::vector<LevelMap>> textures;
   if (!levels.levels.empty()) {
@@ -157,13 +160,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       std::vector<LevelMap> maps;
       auto add = [&](const std::string& channel, const std::vector<uint8_t>& bytes,
                      const std::string& mime) -> Status {
-        LevelMap map{channel, {}};
-        map.image.name = "level " + std::to_string(l.width) + " " + channel;
-        map.image.encoded = bytes;
-        map.image.mime_type = mime;
-        Status s = decode_image(map.image);  // what the client decodes, JPEG losses included
-        if (!s) return s.with_prefix("multiplex");
-        maps.push_back(std::move(map));
+        maps.push_back({channel, "level " + std::to_string(l.width) + " " + channel, &bytes, mime});
         return Status::ok();
       };
       if (r.texture_channels.empty()) {
@@ -196,24 +193,24 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
     return geometry[size_t(i)];
   };
+  // Every level's maps decoded (what the client decodes, JPEG losses included) and uploaded,
+  // one map at a time.
   std::vector<TextureSet> texture(textures.size());
-  std::vector<char> uploaded(textures.size(), 0);
-  auto texture_of = [&](int j) {
-    if (textures.empty()) return TextureSet{};
-    if (!uploaded[size_t(j)]) {
-      uploaded[size_t(j)] = 1;
-      TextureSet& set = texture[size_t(j)];
-      for (const LevelMap& map : textures[size_t(j)]) {
-        if (map.channel == "base_color") set.base_color = gl.add_texture(map.image, true);
-        if (map.channel == "normal") set.normal = gl.add_texture(map.image, false);
-        if (map.channel == "occlusion_roughness_metallic")
-          set.orm = gl.add_texture(map.image, false);
-        if (map.channel == "emissive") set.emissive = gl.add_texture(map.image, true);
-        if (map.channel == "sheen_color") set.sheen = gl.add_texture(map.image, true);
-      }
+  for (size_t j = 0; j < textures.size(); ++j)
+    for (const LevelMap& map : textures[j]) {
+      Image image;
+      image.name = map.name;
+      image.encoded = *map.encoded;
+      image.mime_type = map.mime_type;
+      if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
+      TextureSet& set = texture[j];
+      if (map.channel == "base_color") set.base_color = gl.add_texture(image, true);
+      if (map.channel == "normal") set.normal = gl.add_texture(image, false);
+      if (map.channel == "occlusion_roughness_metallic") set.orm = gl.add_texture(image, false);
+      if (map.channel == "emissive") set.emissive = gl.add_texture(image, true);
+      if (map.channel == "sheen_color") set.sheen = gl.add_texture(image, true);
     }
-    return texture[size_t(j)];
-  };
+  auto texture_of = [&](int j) { return textures.empty() ? TextureSet{} : texture[size_t(j)]; };
   ViewingSphere sphere = viewing_sphere(o.view_layers);
   Bounds box = scene_bounds(materialize(ps, full));
   float aspect = float(o.render.width) / float(std::max(1, o.render.height));
