@@ -6,7 +6,10 @@
 
 #include <cstdarg>
 #include <cstdio>
+#include <exception>
 #include <optional>
+#include <system_error>
+#include <thread>
 
 #include "clean/flatten.h"
 #include "exporters/package.h"
@@ -348,17 +351,50 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   auto levels = texture_step(scene, o, o.stream, progress);
   if (!levels.ok()) return levels.status();
   out.texture_levels = levels->levels.size();
-  // 5. model.glb, full quality.
+  // 5. model.glb, full quality; with a stream to make, encoded on a thread of its own while the
+  // simplifier (6, no warnings of its own) runs: they only read the scene. Its warnings join
+  // the sink afterwards, in the order a sequential run gives.
   report_step(progress, "encoding model.glb");
-  auto model = export_glb_bytes(scene, o.gltf, warnings);
+  Warnings model_warnings;
+  Result<std::vector<uint8_t>> model = std::vector<uint8_t>{};
+  std::exception_ptr model_error;  // an exception on the thread (out of memory), rethrown here
+  auto encode_model = [&] {
+    try {
+      model = export_glb_bytes(scene, o.gltf, &model_warnings);
+    } catch (...) {
+      model_error = std::current_exception();
+    }
+  };
+  std::optional<std::thread> model_thread;
+  struct Join {  // joined however this scope is left
+    std::optional<std::thread>& thread;
+    ~Join() {
+      if (thread && thread->joinable()) thread->join();
+    }
+  } join_model{model_thread};
+  if (o.stream) {
+    try {
+      model_thread.emplace(encode_model);
+    } catch (const std::system_error&) {  // no thread to be had: encode it here
+      encode_model();
+    }
+  } else {
+    encode_model();
+  }
+  ProgressiveScene ps;
+  SimplifyReport sr;
+  if (o.stream) {
+    // 6. Simplify: the instance-aware progressive record and its base.
+    report_step(progress, "simplifying (instance-aware progressive record)");
+    ps = build_progressive(scene, o.simplify, &sr, progress);
+  }
+  if (model_thread) model_thread->join();
+  if (model_error) std::rethrow_exception(model_error);
+  for (const std::string& w : model_warnings.items()) warn(warnings, w);
   if (!model.ok()) return model.status();
   out.model_glb = model.take();
   out.output = compute_stats(scene);
   if (!o.stream) return out;
-  // 6. Simplify: the instance-aware progressive record and its base.
-  report_step(progress, "simplifying (instance-aware progressive record)");
-  SimplifyReport sr;
-  ProgressiveScene ps = build_progressive(scene, o.simplify, &sr, progress);
   LodSelection base = select_base(ps);
   out.base_triangles = selection_triangles(ps, base);
   report_step(progress,
