@@ -141,6 +141,38 @@ TEST(ConvertSharedModel, SameBytesWithOneThreadOrMany) {
   }
 }
 
+// The folder conversion on one thread and on several: submeshes simplified on every core,
+// model.glb encoded beside the simplifier, and the multiplexer's renders (each mesh layer drawn
+// once for all views and texture levels, distortions on every core). Nothing the user gets may
+// depend on the thread count. 2CylinderEngine: 29 submeshes, 13 mesh layers; DamagedHelmet: a
+// 5 x 3 grid with normal, occlusion-roughness-metallic and emissive maps (the depth pre-pass).
+TEST(ConvertSharedModel, SameFolderWithOneThreadOrMany) {
+  if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
+  for (const char* model :
+       {"2CylinderEngine-glb/2CylinderEngine.glb", "DamagedHelmet-glb/DamagedHelmet.glb"}) {
+    const std::string in = testing::shared_model(model);
+    TempDir dir;
+    for (const char* threads : {"1", "3"}) {
+      auto r = testing::run_program(
+          "/usr/bin/env", {std::string("MESHMUX_THREADS=") + threads, MESHMUX_BINARY, "convert", in,
+                           "-o", dir.path() + "/t" + threads, "-q"});
+      ASSERT_EQ(r.exit_code, 0) << model << ": " << r.err;
+    }
+    for (const char* f : {"model.glb", "base.glb", "model.mmxp"}) {
+      const auto a = testing::read_file(dir.path() + "/t1/" + f);
+      EXPECT_GT(a.size(), 1000u) << model << " " << f;
+      EXPECT_TRUE(a == testing::read_file(dir.path() + "/t3/" + f))
+          << model << ": " << f << " differs between 1 and 3 threads";
+    }
+    // The report, but for its timings.
+    json a = json::parse(testing::read_file(dir.path() + "/t1/report.json"));
+    json b = json::parse(testing::read_file(dir.path() + "/t3/report.json"));
+    a.erase("seconds"), b.erase("seconds");
+    EXPECT_EQ(a, b) << model;
+    EXPECT_GT(a["renders"].get<int>(), 100) << model;
+  }
+}
+
 TEST(ConvertInstancing, SimpleInstancingKeeps125Instances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
