@@ -6,8 +6,9 @@
 # changed. Extra arguments go to the new binary's conversions only (e.g. --jpeg-quality 90, to
 # take a deliberate default change out of the comparison). From report.json it also prints
 # the stream order each binary chose (same or not), the area under its rate-distortion curve
-# (old → new, with the relative difference) and the multiplexer's render seconds (issue 6/8:
-# "the order the multiplexer picks on each textured shared model, before and after").
+# (old → new, with the relative difference), the multiplexer's render seconds and the whole
+# conversion's wall seconds (issue 6/8: "the order the multiplexer picks on each textured
+# shared model, before and after"). Run it alone: the seconds are this machine's.
 # usage: bench/compare_outputs.sh OLD_MESHMUX NEW_MESHMUX [convert options...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,13 +21,16 @@ data_after_table() {  # bytes of a package after its 12-byte header and JSON tab
   j=$(od -An -t u4 -j 8 -N 4 "$1" | tr -d ' ')
   tail -c +$((12 + j + 1)) "$1"
 }
-printf '| model | model.glb | model.mmxp | base.glb (old → new bytes) | order | rd area old → new | render s old → new |\n|---|---|---|---|---|---:|---:|\n'
+printf '| model | model.glb | model.mmxp | base.glb (old → new bytes) | order | rd area old → new | render s old → new | convert s old → new |\n|---|---|---|---|---|---:|---:|---:|\n'
 for dir in "$here"/../shared/models/*/; do
   name=$(basename "$dir")
   file=$(ls "$dir" | grep -i -E '\.(glb|gltf|dae)$' | head -n 1 || true)
   [ -n "$file" ] || continue
+  t0=$(date +%s.%N)
   "$old" convert "$dir$file" -o "$work/old/$name" -q 2>/dev/null || true
+  t1=$(date +%s.%N)
   "$new" convert "$dir$file" -o "$work/new/$name" -q "$@" 2>/dev/null || true
+  t2=$(date +%s.%N)
   row="| $name"
   for f in model.glb model.mmxp base.glb; do
     a="$work/old/$name/$f" b="$work/new/$name/$f"
@@ -51,5 +55,6 @@ rel = (y - x) / x * 100 if x else 0.0
 print("%s | %.6g → %.6g (%+.2f%%) | %.2f → %.2f" % (same, x, y, rel, a["seconds"]["render"], b["seconds"]["render"]))
 PY
 )"
+  row="$row | $(python3 -c "import sys; a, b, c = map(float, sys.argv[1:]); print(f'{b - a:.2f} → {c - b:.2f}')" "$t0" "$t1" "$t2")"
   echo "$row |"
 done

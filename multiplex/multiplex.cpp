@@ -193,6 +193,9 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
     return geometry[size_t(i)];
   };
+  // Render time counts the texture levels' decoding and upload (it used to be spread over the
+  // layers' time and the first renders).
+  auto render_start = Clock::now();
   // Every level's maps decoded (what the client decodes, JPEG losses included) and uploaded,
   // one map at a time.
   std::vector<TextureSet> texture(textures.size());
@@ -218,7 +221,6 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, o.views));
   r.views = cameras.size();
   int n = int(r.texture_bytes.size());
-  auto render_start = Clock::now();
   const double most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
   // Where every cell will be evaluated anyway (a grid of one row or column, whose descent
   // walks it all, or the per-view table below: a small grid), all are rendered up front, each
