@@ -8,8 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <map>
+#include <optional>
 #include <sstream>
+#include <system_error>
+#include <thread>
 
 #include "image/decode.h"
 #include "multiplex/distortion.h"
@@ -55,6 +59,55 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
     total += chunk_bytes(v0, b.vertex_end, f0, b.face_end);
   }
   return total;
+}
+
+// Encodes the mesh layers once (multiplex/mesh_stream.h): layer 0 is the base (its encoded
+// vertices and faces stand for the base's bytes); each further layer's parts are what the
+// package's mesh chunk holds. Fills r's mesh_streams, layer_parts, layer_chunks, mesh_bytes,
+// layer_triangles, layer_levels and stream_digests, and nothing else of r.
+Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>& layers,
+                     const LodSelection& base, MultiplexResult& r) {
+  const int m = int(layers.size());
+  std::vector<MeshStreamEncoder> encoders;
+  encoders.reserve(ps.meshes.size());
+  for (size_t i = 0; i < ps.meshes.size(); ++i) {
+    encoders.emplace_back(ps.meshes[i], package_quantization(ps.meshes[i]), uint32_t(i),
+                          base.level[i]);
+    if (!encoders.back().status()) return encoders.back().status().with_prefix("multiplex");
+    const ProgressiveMesh& pm = ps.meshes[i];
+    MeshStreamBase head;
+    head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
+    head.base_vertices = pm.levels[base.level[i]].vertex_end;
+    head.base_faces = pm.levels[base.level[i]].face_end;
+    head.bounds = package_bounds(pm);
+    head.normals = encoders.back().normals();
+    head.quantization = package_quantization(pm);
+    head.base_order = encoders.back().stream_order();
+    head.base_primitive_faces = encoders.back().base_faces();
+    r.mesh_streams.push_back(std::move(head));
+  }
+  r.layer_parts.resize(size_t(m));
+  r.layer_chunks.resize(size_t(m));
+  for (int k = 0; k < m; ++k) {
+    uint64_t bytes = 0;
+    if (k == 0) {
+      bytes = layer_bytes(ps, nullptr, layers[0]);
+    } else {
+      for (size_t i = 0; i < ps.meshes.size(); ++i) {
+        if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
+        auto part = encoders[i].next(layers[size_t(k)].level[i]);
+        if (!part.ok()) return part.status().with_prefix("multiplex");
+        r.layer_parts[size_t(k)].push_back(part.take());
+      }
+      r.layer_chunks[size_t(k)] = mesh_chunk_payload(r.layer_parts[size_t(k)]);
+      bytes = r.layer_chunks[size_t(k)].size();
+    }
+    r.mesh_bytes.push_back(bytes);
+    r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
+    r.layer_levels.push_back(layers[size_t(k)].level);
+  }
+  for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
+  return Status::ok();
 }
 
 // The metric of images[v * sets + k] against reference[v], for every view v and set k but
@@ -103,47 +156,32 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     }
     layers.push_back(s);
   }
-  // Layer 0 is the base (its encoded vertices and faces stand for the base's bytes); each
-  // further layer is encoded here, once: its parts are what the package's mesh chunk holds.
-  std::vector<MeshStreamEncoder> encoders;
-  encoders.reserve(ps.meshes.size());
-  for (size_t i = 0; i < ps.meshes.size(); ++i) {
-    encoders.emplace_back(ps.meshes[i], package_quantization(ps.meshes[i]), uint32_t(i),
-                          base.level[i]);
-    if (!encoders.back().status()) return encoders.back().status().with_prefix("multiplex");
-    const ProgressiveMesh& pm = ps.meshes[i];
-    MeshStreamBase head;
-    head.vertices = uint32_t(pm.vertex_count()), head.faces = uint32_t(pm.face_count());
-    head.base_vertices = pm.levels[base.level[i]].vertex_end;
-    head.base_faces = pm.levels[base.level[i]].face_end;
-    head.bounds = package_bounds(pm);
-    head.normals = encoders.back().normals();
-    head.quantization = package_quantization(pm);
-    head.base_order = encoders.back().stream_order();
-    head.base_primitive_faces = encoders.back().base_faces();
-    r.mesh_streams.push_back(std::move(head));
-  }
-  r.layer_parts.resize(size_t(m));
-  r.layer_chunks.resize(size_t(m));
-  for (int k = 0; k < m; ++k) {
-    uint64_t bytes = 0;
-    if (k == 0) {
-      bytes = layer_bytes(ps, nullptr, layers[0]);
-    } else {
-      for (size_t i = 0; i < ps.meshes.size(); ++i) {
-        if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
-        auto part = encoders[i].next(layers[size_t(k)].level[i]);
-        if (!part.ok()) return part.status().with_prefix("multiplex");
-        r.layer_parts[size_t(k)].push_back(part.take());
-      }
-      r.layer_chunks[size_t(k)] = mesh_chunk_payload(r.layer_parts[size_t(k)]);
-      bytes = r.layer_chunks[size_t(k)].size();
+  // The layers' stream bytes are encoded on a thread of their own while the renders below run
+  // (they need only the selections); the descent waits for them.
+  Status encoded;
+  std::exception_ptr encode_error;  // an exception on the thread (out of memory), rethrown here
+  auto encode = [&] {
+    try {
+      const auto t = Clock::now();
+      encoded = encode_layers(ps, layers, base, r);
+      r.seconds_layers = since(t);
+    } catch (...) {
+      encode_error = std::current_exception();
     }
-    r.mesh_bytes.push_back(bytes);
-    r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
-    r.layer_levels.push_back(layers[size_t(k)].level);
+  };
+  std::optional<std::thread> encoder;
+  struct Join {  // joined however this function is left
+    std::optional<std::thread>& thread;
+    void operator()() {
+      if (thread && thread->joinable()) thread->join();
+    }
+    ~Join() { (*this)(); }
+  } join_encoder{encoder};
+  try {
+    encoder.emplace(encode);
+  } catch (const std::system_error&) {  // no thread to be had: encode here
+    encode();
   }
-  for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
   // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
   // decoded here to render what the client decodes). ---
   // Per level: its maps, base colour first, each with the channel it stands for; decoded one at
@@ -181,7 +219,6 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   } else {
     r.texture_bytes.push_back(0);
   }
-  r.seconds_layers = since(start);
 
   // --- Renders. ---
   auto renderer = Renderer::create(o.render);
@@ -271,6 +308,9 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   r.view_table.mesh_layers = m;
   r.view_table.texture_layers = n;
   r.view_table.cells.assign(size_t(m) * size_t(n), {});
+  join_encoder();
+  if (encode_error) std::rethrow_exception(encode_error);
+  if (!encoded) return encoded;
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;
   grid.texture_bytes = r.texture_bytes;
