@@ -329,56 +329,60 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
   for (int ring = 0; (rings < 0 || ring < rings) && !frontier.empty(); ++ring) {
     for (std::vector<uint8_t>& v : new_rgba) v.assign(frontier.size() * 4, 0);
     new_chart.assign(frontier.size(), -1);
-    for (size_t f = 0; f < frontier.size(); ++f) {
-      const size_t i = frontier[f];
-      const int x = int(i % size_t(w)), y = int(i / size_t(w));
-      int32_t ids[8];
-      size_t js[8];
-      int count = 0;
-      for (int k = 0; k < 8; ++k) {
-        int nx = x + kDx[k], ny = y + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-        size_t j = size_t(ny) * size_t(w) + size_t(nx);
-        if (!filled[j]) continue;
-        ids[count] = chart[j];
-        js[count] = j;
-        ++count;
-      }
-      int32_t who = -1;
-      if (per_chart) {
-        int best = 0;
-        for (int a = 0; a < count; ++a) {
-          int votes = 0;
-          for (int b = 0; b < count; ++b) votes += ids[b] == ids[a];
-          if (votes > best || (votes == best && ids[a] < who)) {
-            best = votes;
-            who = ids[a];
+    // Each texel of the ring reads only texels filled before the ring and writes its own slot:
+    // on every core, the same bytes.
+    parallel_chunks(frontier.size(), 4096, [&](size_t ring_begin, size_t ring_end) {
+      for (size_t f = ring_begin; f < ring_end; ++f) {
+        const size_t i = frontier[f];
+        const int x = int(i % size_t(w)), y = int(i / size_t(w));
+        int32_t ids[8];
+        size_t js[8];
+        int count = 0;
+        for (int k = 0; k < 8; ++k) {
+          int nx = x + kDx[k], ny = y + kDy[k];
+          if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+          size_t j = size_t(ny) * size_t(w) + size_t(nx);
+          if (!filled[j]) continue;
+          ids[count] = chart[j];
+          js[count] = j;
+          ++count;
+        }
+        int32_t who = -1;
+        if (per_chart) {
+          int best = 0;
+          for (int a = 0; a < count; ++a) {
+            int votes = 0;
+            for (int b = 0; b < count; ++b) votes += ids[b] == ids[a];
+            if (votes > best || (votes == best && ids[a] < who)) {
+              best = votes;
+              who = ids[a];
+            }
           }
         }
-      }
-      for (size_t l = 0; l < layers.size(); ++l) {
-        const std::vector<uint8_t>& rgba = *layers[l].rgba;
-        double sum[4] = {0, 0, 0, 0};
-        int used = 0;
-        for (int a = 0; a < count; ++a) {
-          if (per_chart && ids[a] != who) continue;
-          const uint8_t* q = &rgba[js[a] * 4];
-          Linear4 c = layers[l].srgb
-                          ? decode(q)
-                          : Linear4{{q[0] / 255.0f, q[1] / 255.0f, q[2] / 255.0f, q[3] / 255.0f}};
-          for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
-          ++used;
+        for (size_t l = 0; l < layers.size(); ++l) {
+          const std::vector<uint8_t>& rgba = *layers[l].rgba;
+          double sum[4] = {0, 0, 0, 0};
+          int used = 0;
+          for (int a = 0; a < count; ++a) {
+            if (per_chart && ids[a] != who) continue;
+            const uint8_t* q = &rgba[js[a] * 4];
+            Linear4 c = layers[l].srgb
+                            ? decode(q)
+                            : Linear4{{q[0] / 255.0f, q[1] / 255.0f, q[2] / 255.0f, q[3] / 255.0f}};
+            for (int k = 0; k < 4; ++k) sum[k] += c.v[k];
+            ++used;
+          }
+          if (used == 0) continue;
+          const Vec4 mean{float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
+                          float(sum[3] / used)};
+          if (layers[l].srgb)
+            encode(mean, &new_rgba[l][f * 4]);
+          else
+            encode_data(mean, &new_rgba[l][f * 4]);
         }
-        if (used == 0) continue;
-        const Vec4 mean{float(sum[0] / used), float(sum[1] / used), float(sum[2] / used),
-                        float(sum[3] / used)};
-        if (layers[l].srgb)
-          encode(mean, &new_rgba[l][f * 4]);
-        else
-          encode_data(mean, &new_rgba[l][f * 4]);
+        new_chart[f] = who;
       }
-      new_chart[f] = who;
-    }
+    });
     for (size_t f = 0; f < frontier.size(); ++f) {
       for (size_t l = 0; l < layers.size(); ++l)
         std::copy_n(&new_rgba[l][f * 4], 4, &(*layers[l].rgba)[frontier[f] * 4]);
