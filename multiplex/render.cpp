@@ -7,7 +7,8 @@
 // is tried with EGL_KHR_surfaceless_context (again no pbuffer).
 //
 // Drawing: one program, and a depth-only one for the pre-pass (RenderOptions::depth_prepass:
-// textured draws shade only the nearest surface, and several texture sets share that depth);
+// when a call draws several texture sets, they share one depth pass and shade only the nearest
+// surface);
 // one draw call per (instance, primitive) with the instance's model-view-projection matrix
 // (computed in double on the CPU, so large world coordinates keep their bits) and world-space
 // normal matrix as uniforms. No culling; two-sided lighting flips the normal of back faces
