@@ -118,6 +118,13 @@ TEST(ConvertInstancing, CylinderEngineDaeKeeps29MeshesAnd67Instances) {
               uintmax_t(cr.degenerate_removed), uintmax_t(cr.duplicates_removed));
 }
 
+// `meshmux convert IN -o OUT -q` with MESHMUX_THREADS=threads.
+testing::CommandResult convert_on_threads(const std::string& in, const std::string& out,
+                                          const char* threads) {
+  return testing::run_program("/usr/bin/env", {std::string("MESHMUX_THREADS=") + threads,
+                                               MESHMUX_BINARY, "convert", in, "-o", out, "-q"});
+}
+
 // Charts are flattened and the atlas baked on every core (scene/parallel.h); the bytes may
 // not depend on how many. DamagedHelmet: five channels from 2048² sources (the source atlas
 // path, the largest bake of the shared set); SheenChair: 521 charts parameterized and baked.
@@ -130,9 +137,7 @@ TEST(ConvertSharedModel, SameBytesWithOneThreadOrMany) {
     std::vector<std::vector<uint8_t>> outputs;
     for (const char* threads : {"1", "3"}) {
       const std::string out = dir.file(std::string("t") + threads + ".glb");
-      auto r =
-          testing::run_program("/usr/bin/env", {std::string("MESHMUX_THREADS=") + threads,
-                                                MESHMUX_BINARY, "convert", in, "-o", out, "-q"});
+      auto r = convert_on_threads(in, out, threads);
       ASSERT_EQ(r.exit_code, 0) << model << ": " << r.err;
       outputs.push_back(testing::read_file(out));
     }
@@ -153,9 +158,7 @@ TEST(ConvertSharedModel, SameFolderWithOneThreadOrMany) {
     const std::string in = testing::shared_model(model);
     TempDir dir;
     for (const char* threads : {"1", "3"}) {
-      auto r = testing::run_program(
-          "/usr/bin/env", {std::string("MESHMUX_THREADS=") + threads, MESHMUX_BINARY, "convert", in,
-                           "-o", dir.path() + "/t" + threads, "-q"});
+      auto r = convert_on_threads(in, dir.path() + "/t" + threads, threads);
       ASSERT_EQ(r.exit_code, 0) << model << ": " << r.err;
     }
     for (const char* f : {"model.glb", "base.glb", "model.mmxp"}) {
