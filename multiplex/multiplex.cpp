@@ -8,12 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <exception>
 #include <map>
-#include <optional>
 #include <sstream>
-#include <system_error>
-#include <thread>
 
 #include "image/decode.h"
 #include "multiplex/distortion.h"
@@ -159,29 +155,11 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // The layers' stream bytes are encoded on a thread of their own while the renders below run
   // (they need only the selections); the descent waits for them.
   Status encoded;
-  std::exception_ptr encode_error;  // an exception on the thread (out of memory), rethrown here
-  auto encode = [&] {
-    try {
-      const auto t = Clock::now();
-      encoded = encode_layers(ps, layers, base, r);
-      r.seconds_layers = since(t);
-    } catch (...) {
-      encode_error = std::current_exception();
-    }
-  };
-  std::optional<std::thread> encoder;
-  struct Join {  // joined however this function is left
-    std::optional<std::thread>& thread;
-    void operator()() {
-      if (thread && thread->joinable()) thread->join();
-    }
-    ~Join() { (*this)(); }
-  } join_encoder{encoder};
-  try {
-    encoder.emplace(encode);
-  } catch (const std::system_error&) {  // no thread to be had: encode here
-    encode();
-  }
+  Background encoder([&] {
+    const auto t = Clock::now();
+    encoded = encode_layers(ps, layers, base, r);
+    r.seconds_layers = since(t);
+  });
   // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
   // decoded here to render what the client decodes). ---
   // Per level: its maps, base colour first, each with the channel it stands for; decoded one at
@@ -308,8 +286,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   r.view_table.mesh_layers = m;
   r.view_table.texture_layers = n;
   r.view_table.cells.assign(size_t(m) * size_t(n), {});
-  join_encoder();
-  if (encode_error) std::rethrow_exception(encode_error);
+  encoder.wait();
   if (!encoded) return encoded;
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;

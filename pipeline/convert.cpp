@@ -6,14 +6,12 @@
 
 #include <cstdarg>
 #include <cstdio>
-#include <exception>
 #include <optional>
-#include <system_error>
-#include <thread>
 
 #include "clean/flatten.h"
 #include "exporters/package.h"
 #include "multiplex/stream_plan.h"
+#include "scene/parallel.h"
 #include "simplify/lod.h"
 
 namespace meshmux {
@@ -357,30 +355,12 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   report_step(progress, "encoding model.glb");
   Warnings model_warnings;
   Result<std::vector<uint8_t>> model = std::vector<uint8_t>{};
-  std::exception_ptr model_error;  // an exception on the thread (out of memory), rethrown here
-  auto encode_model = [&] {
-    try {
-      model = export_glb_bytes(scene, o.gltf, &model_warnings);
-    } catch (...) {
-      model_error = std::current_exception();
-    }
-  };
-  std::optional<std::thread> model_thread;
-  struct Join {  // joined however this scope is left
-    std::optional<std::thread>& thread;
-    ~Join() {
-      if (thread && thread->joinable()) thread->join();
-    }
-  } join_model{model_thread};
-  if (o.stream) {
-    try {
-      model_thread.emplace(encode_model);
-    } catch (const std::system_error&) {  // no thread to be had: encode it here
-      encode_model();
-    }
-  } else {
+  auto encode_model = [&] { model = export_glb_bytes(scene, o.gltf, &model_warnings); };
+  std::optional<Background> model_task;
+  if (o.stream)
+    model_task.emplace(encode_model);
+  else
     encode_model();
-  }
   ProgressiveScene ps;
   SimplifyReport sr;
   if (o.stream) {
@@ -388,8 +368,7 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
     report_step(progress, "simplifying (instance-aware progressive record)");
     ps = build_progressive(scene, o.simplify, &sr, progress);
   }
-  if (model_thread) model_thread->join();
-  if (model_error) std::rethrow_exception(model_error);
+  if (model_task) model_task->wait();
   for (const std::string& w : model_warnings.items()) warn(warnings, w);
   if (!model.ok()) return model.status();
   out.model_glb = model.take();

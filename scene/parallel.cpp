@@ -53,4 +53,33 @@ void parallel_chunks(size_t n, size_t chunk, const std::function<void(size_t, si
   if (error) std::rethrow_exception(error);
 }
 
+Background::Background(std::function<void()> f) : f_(std::move(f)) {
+  try {
+    thread_ = std::thread([this] { run(); });
+  } catch (const std::system_error&) {  // no thread to be had: here, now
+    run();
+  }
+}
+
+Background::~Background() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void Background::run() {
+  try {
+    f_();
+  } catch (...) {
+    error_ = std::current_exception();
+  }
+}
+
+void Background::wait() {
+  if (thread_.joinable()) thread_.join();
+  if (error_) {
+    std::exception_ptr e = error_;
+    error_ = nullptr;
+    std::rethrow_exception(e);
+  }
+}
+
 }  // namespace meshmux
