@@ -171,28 +171,28 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
   std::error_code ec;
   std::vector<std::string> inputs;
   if (fs::is_directory(list, ec)) {
+    // Each top-level entry is one upload: a folder (its model file is found inside), a .zip,
+    // or a lone model file. Other files (notes, licences) are not inputs.
     const fs::path skip_path = skip.empty() ? fs::path() : fs::weakly_canonical(skip, ec);
-    fs::recursive_directory_iterator it(list, fs::directory_options::skip_permission_denied, ec);
+    fs::directory_iterator it(list, fs::directory_options::skip_permission_denied, ec);
     if (ec)
       return Status::error("batch: " + list + ": cannot read the folder: " + ec.message(),
                            ErrorKind::kInput);
-    for (; it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    for (; it != fs::directory_iterator(); it.increment(ec)) {
       if (ec)
-        return Status::error("batch: " + list + ": cannot walk the folder: " + ec.message(),
+        return Status::error("batch: " + list + ": cannot list the folder: " + ec.message(),
                              ErrorKind::kInput);
       const fs::path& p = it->path();
       const std::string leaf = p.filename().string();
       std::error_code e2;
-      if (!leaf.empty() && leaf[0] == '.') {
-        if (it->is_directory(e2)) it.disable_recursion_pending();
-        continue;
-      }
+      if (leaf.empty() || leaf[0] == '.' || leaf == "__MACOSX") continue;
       if (it->is_directory(e2)) {
-        if (!skip_path.empty() && fs::weakly_canonical(p, e2) == skip_path)
-          it.disable_recursion_pending();
-        continue;
+        if (it->is_symlink(e2)) continue;  // links to folders are not followed
+        if (!skip_path.empty() && fs::weakly_canonical(p, e2) == skip_path) continue;
+        inputs.push_back(absolute_path(p.string()));
+      } else if (it->is_regular_file(e2) && (is_model_file(p) || lower(p.extension().string()) == ".zip")) {
+        inputs.push_back(absolute_path(p.string()));
       }
-      if (it->is_regular_file(e2) && is_model_file(p)) inputs.push_back(absolute_path(p.string()));
     }
     std::sort(inputs.begin(), inputs.end());
     return inputs;
@@ -222,9 +222,12 @@ std::vector<std::string> batch_names(const std::vector<std::string>& inputs) {
   std::vector<std::string> stems(n), exts(n), names(n);
   for (size_t i = 0; i < n; ++i) {
     fs::path p(inputs[i]);
-    stems[i] = clean_name(p.stem().string());
-    exts[i] = clean_name(
-        lower(p.extension().string()).substr(std::min<size_t>(1, p.extension().string().size())));
+    std::error_code ec;
+    const bool folder = fs::is_directory(p, ec);  // a folder upload: its whole name
+    stems[i] = clean_name(folder ? p.filename().string() : p.stem().string());
+    exts[i] = folder ? "folder"
+                     : clean_name(lower(p.extension().string())
+                                      .substr(std::min<size_t>(1, p.extension().string().size())));
     for (fs::path d = p.parent_path(); d.has_filename(); d = d.parent_path())
       parents[i].push_back(clean_name(d.filename().string()));
   }
@@ -275,9 +278,46 @@ std::vector<std::string> batch_names(const std::vector<std::string>& inputs) {
   return names;
 }
 
+// A folder upload's fingerprint: every regular file below it (hidden entries skipped), by
+// relative path in sorted order; -1 when it cannot be listed.
+int64_t hash_folder(const std::string& root, Fnv* h) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, ec);
+  if (ec) return -1;
+  for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    const std::string leaf = it->path().filename().string();
+    std::error_code e2;
+    if (!leaf.empty() && leaf[0] == '.') {
+      if (it->is_directory(e2)) it.disable_recursion_pending();
+      continue;
+    }
+    if (it->is_regular_file(e2) && !it->is_symlink(e2)) files.push_back(it->path().string());
+    if (files.size() > 200000) break;  // the conversion refuses such a folder anyway
+  }
+  std::sort(files.begin(), files.end());
+  int64_t total = 0;
+  for (const std::string& f : files) {
+    h->add(fs::path(f).lexically_relative(root).string());
+    const int64_t n = hash_file(f, h);
+    if (n > 0) total += n;
+  }
+  return total;
+}
+
 void fingerprint_input(BatchItem* item) {
   Fnv h;
   h.add("meshmux-batch-input-1");
+  std::error_code ec;
+  if (fs::is_directory(item->input, ec)) {
+    h.add("folder");
+    const int64_t n = hash_folder(item->input, &h);
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h.h));
+    item->hash = n < 0 ? "" : hex;
+    item->bytes_in = n < 0 ? 0 : uint64_t(n);
+    return;
+  }
   const int64_t main = hash_file(item->input, &h);
   if (main < 0) {
     item->hash = "";

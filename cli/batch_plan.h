@@ -27,15 +27,18 @@ struct BatchItem {
   uint64_t bytes_in = 0;  // the input and its referenced files (buffers, images), as served
 };
 
-// Reads LIST: a folder is walked (recursively, links to folders not followed, hidden entries
-// and `skip` skipped) for .gltf, .glb and .dae files (any letter case), in path order; a file
-// lists one input per line (relative paths from the current folder; blank lines and lines
-// starting with '#' ignored; a path listed twice counts once). Errors (kInput) name LIST.
+// Reads LIST. A folder: each of its top-level entries is one upload (importers/upload.h) —
+// a sub-folder (links to folders not followed, hidden entries, __MACOSX and `skip` skipped),
+// a .zip, or a lone .gltf/.glb/.dae (any letter case) — in path order. A file lists one input
+// per line, each a folder, a .zip or a model file (relative paths from the current folder;
+// blank lines and lines starting with '#' ignored; a path listed twice counts once). Errors
+// (kInput) name LIST.
 // An input that does not exist stays in the list: its conversion fails and says so.
 Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
                                                    const std::string& skip);
 
-// Output names for `inputs` (in order): the file name without its extension, restricted to
+// Output names for `inputs` (in order): the file name without its extension (a folder's whole
+// name), restricted to
 // ASCII letters, digits, '-' and '_' (no '.': see clean_name). Where names clash (case-insensitively), the folders
 // above are prefixed ("Fox-glb_Fox", "Fox-meshopt-glb_Fox") until they differ, then the
 // extension ("model-gltf", "model-glb"), then "-2", "-3" in list order. The same list always
@@ -43,7 +46,8 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
 std::vector<std::string> batch_names(const std::vector<std::string>& inputs);
 
 // The input's fingerprint and size: the file and, for .gltf, its external buffers and images,
-// for .dae the images its <init_from> elements name. O(bytes). A missing file hashes as such.
+// for .dae the images its <init_from> elements name; for a folder upload, every file in it.
+// O(bytes). A missing file hashes as such.
 void fingerprint_input(BatchItem* item);
 
 // What a finished conversion left.

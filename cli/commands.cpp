@@ -25,6 +25,7 @@
 #include "exporters/gltf.h"
 #include "exporters/viewer_page.h"
 #include "importers/import.h"
+#include "importers/upload.h"
 #include "pipeline/convert.h"
 #include "scene/file_io.h"
 #include "scene/sample.h"
@@ -92,8 +93,12 @@ const char* kUsage =
     "  --crease DEGREES    crease angle for generated normals (default 60)\n"
     "  -q, --quiet         no progress or warnings on stderr\n"
     "\n"
-    "input safety (convert, info, simplify):\n"
-    "  --allow-outside     read buffers and images outside the model's folder (trusted local\n"
+    "uploads (convert, info, simplify): IN is a folder, a .zip or one model file\n"
+    "  --main PATH         the model file inside a folder or .zip upload (default: the one\n"
+    "                      .gltf/.glb/.dae nearest its root; several there is an error)\n"
+    "  --root DIR          for a lone model file: the folder its reads may reach (default:\n"
+    "                      the file's own folder)\n"
+    "  --allow-outside     read buffers and images outside the upload (trusted local\n"
     "                      files only; by default they are refused, as are links out of it)\n"
     "  --max-texels N      decoded texels of all images together\n"
     "  --max-instances N   mesh instances the node graph may expand to\n"
@@ -102,7 +107,11 @@ const char* kUsage =
     "                      (defaults from the input's size: at least 67 M texels, 1 M\n"
     "                      instances, 67 M values and 2 GB, more for larger inputs)\n"
     "\n"
-    "inputs: .gltf (external or embedded buffers and images), .glb, .dae (COLLADA 1.4/1.5)\n"
+    "inputs: .gltf (external or embedded buffers and images), .glb, .dae (COLLADA 1.4/1.5),\n"
+    "  as one file, a folder or a .zip; every read stays inside the upload (an archive's\n"
+    "  members with '..', absolute paths, links or devices are refused, and it may unpack to\n"
+    "  at most max(512 MiB, 64x its size)); a texture not where its path says is found by\n"
+    "  its file name elsewhere in the upload when exactly one file has that name\n"
     "\n"
     "exit codes:\n"
     "  0  success\n"
@@ -289,6 +298,8 @@ class Args {
     if (a == "-q" || a == "--quiet") return quiet = true, 1;
     if (a == "-h" || a == "--help") return help = true, 1;
     if (a == "--allow-outside") return import.allow_outside = true, 1;
+    if (a == "--main") return value(&upload.main) ? 1 : -1;
+    if (a == "--root") return value(&upload.root) ? 1 : -1;
     // The limit flags: positive whole numbers (--max-memory in MB).
     const std::pair<const char*, uint64_t*> limits[] = {{"--max-texels", &import.max_texels},
                                                         {"--max-instances", &import.max_instances},
@@ -319,6 +330,7 @@ class Args {
   std::string in, out, error;
   bool quiet = false, help = false;
   ImportOptions import;        // --allow-outside and the resource limits
+  UploadOptions upload;        // --main and --root
   uint64_t max_memory_mb = 0;  // --max-memory; 0: from the input's size
 
  private:
@@ -326,6 +338,28 @@ class Args {
   const std::vector<std::string>& args_;
   size_t i_ = size_t(-1);
 };
+
+// Opens the input as an upload (importers/upload.h): a folder or a .zip, whose model file is
+// found inside (an archive unpacked beside `out`, as "<OUT>.meshmux-upload-<pid>", removed when
+// the Upload goes; or in TMPDIR when there is no output), or a lone model file. Sets
+// `p.import.root` to the upload's folder, which bounds every read.
+Result<Upload> open_input(Args& p, const std::string& out) {
+  std::string scratch;
+  const std::string suffix = ".meshmux-upload-" + std::to_string(getpid());
+  if (!out.empty()) {
+    std::string o = out;
+    while (o.size() > 1 && o.back() == '/') o.pop_back();
+    scratch = o + suffix;
+  } else {
+    const char* tmp = std::getenv("TMPDIR");
+    scratch = std::string(tmp && *tmp ? tmp : "/tmp") + "/meshmux" + suffix;
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(scratch, ec);  // our own pid's leftover (a reused pid)
+  auto up = open_upload(p.in, p.upload, scratch);
+  if (up.ok()) p.import.root = up->root();
+  return up;
+}
 
 // Writes a conversion's outputs: OUT.glb alone, or the folder's files, each atomically; the
 // progress lines name them.
@@ -363,7 +397,7 @@ Status write_outputs(const std::string& out, bool folder, const ConvertOutputs& 
 // Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
 // images it references (data: URIs are inside the file already). COLLADA textures are not
 // followed (the file size alone is reported).
-uint64_t asset_bytes(const std::string& file, bool allow_outside) {
+uint64_t asset_bytes(const std::string& file, const ImportOptions& import) {
   std::error_code ec;
   uint64_t total = std::filesystem::file_size(file, ec);
   if (ec) return 0;
@@ -373,7 +407,7 @@ uint64_t asset_bytes(const std::string& file, bool allow_outside) {
   auto doc = nlohmann::json::parse(text->begin(), text->end(), nullptr, false);
   if (!doc.is_object()) return total;
   std::filesystem::path dir = std::filesystem::path(file).parent_path();
-  auto scope = input_scope(file, allow_outside);
+  auto scope = input_scope(file, import.allow_outside, import.root);
   if (!scope.ok()) return total;
   for (const char* key : {"buffers", "images"}) {
     if (!doc.contains(key) || !doc[key].is_array()) continue;
@@ -397,12 +431,12 @@ uint64_t asset_bytes(const std::string& file, bool allow_outside) {
 // allocation past it fails, and the top level reports it with the option that raises it.
 // Not under sanitizers (their shadow memory is private mappings of terabytes).
 uint64_t g_memory_limit_mb = 0;
-void apply_memory_limit(const std::string& in, bool allow_outside, uint64_t max_memory_mb) {
+void apply_memory_limit(const std::string& in, const ImportOptions& import, uint64_t max_memory_mb) {
 #if MESHMUX_SANITIZED
-  (void)in, (void)allow_outside, (void)max_memory_mb;
+  (void)in, (void)import, (void)max_memory_mb;
 #else
   uint64_t mb = max_memory_mb;
-  if (mb == 0) mb = std::max<uint64_t>(2048, 64 * asset_bytes(in, allow_outside) / 1000000);
+  if (mb == 0) mb = std::max<uint64_t>(2048, 64 * asset_bytes(in, import) / 1000000);
   rlimit rl{};
   if (getrlimit(RLIMIT_DATA, &rl) != 0) return;
   rlim_t want = rlim_t(mb) << 20;
@@ -454,11 +488,13 @@ int cmd_convert(const std::vector<std::string>& args) {
   o.stream = !ends_with(p.out, ".glb");
   if (Status s = refuse_overwriting_input(p.in, p.out, o.stream); !s) return fail(s);
   clean_stale_temporaries(p.out);
-  apply_memory_limit(p.in, p.import.allow_outside, p.max_memory_mb);
+  auto upload = open_input(p, p.out);
+  if (!upload.ok()) return fail(upload.status());
+  apply_memory_limit(upload->model(), p.import, p.max_memory_mb);
   Warnings warnings;
   CliProgress progress(p.quiet, &warnings);
-  progress.step("importing " + p.in);
-  auto scene = import_scene(p.in, p.import, &warnings);
+  progress.step("importing " + upload->display());
+  auto scene = import_scene(upload->model(), p.import, &warnings);
   if (!scene.ok()) return progress.flush(), fail(scene.status());
   auto r = convert(*scene, o, &warnings, &progress);
   progress.flush();
@@ -485,18 +521,20 @@ int cmd_info(const std::vector<std::string>& args) {
     std::fputs(kUsage, stdout);
     return kExitOk;
   }
-  const std::string file = p.in;
-  if (file.empty()) return usage_error("info: no file given");
-  apply_memory_limit(file, p.import.allow_outside, p.max_memory_mb);
+  if (p.in.empty()) return usage_error("info: no file given");
+  auto upload = open_input(p, "");
+  if (!upload.ok()) return fail(upload.status());
+  const std::string file = upload->model();
+  apply_memory_limit(file, p.import, p.max_memory_mb);
   Warnings warnings;
   auto scene = import_scene(file, p.import, &warnings);
   if (!scene.ok()) return fail(scene.status());
   SceneStats s = compute_stats(*scene);
-  uint64_t bytes = asset_bytes(file, p.import.allow_outside);
+  uint64_t bytes = asset_bytes(file, p.import);
   Bounds b = scene_bounds(*scene);
   if (json) {
     nlohmann::ordered_json j;
-    j["file"] = file;
+    j["file"] = upload->display();
     j["meshes"] = s.meshes;
     j["primitives"] = s.primitives;
     j["instances"] = s.instances;
@@ -516,7 +554,7 @@ int cmd_info(const std::vector<std::string>& args) {
   } else {
     for (const auto& w : warnings.items())
       std::fprintf(stderr, "meshmux: warning: %s\n", w.c_str());
-    std::printf("file              %s\n", file.c_str());
+    std::printf("file              %s\n", upload->display().c_str());
     std::printf("bytes             %llu (%s)\n", static_cast<unsigned long long>(bytes),
                 human_bytes(bytes).c_str());
     std::printf("meshes            %zu (%zu primitives)\n", s.meshes, s.primitives);
@@ -581,11 +619,13 @@ int cmd_simplify(const std::vector<std::string>& args) {
     return usage_error("simplify: give exactly one of --ratio, --triangles, --error");
   if (Status s = refuse_overwriting_input(in, out, false); !s) return fail(s);
   clean_stale_temporaries(out);
-  apply_memory_limit(in, p.import.allow_outside, p.max_memory_mb);
+  auto upload = open_input(p, out);
+  if (!upload.ok()) return fail(upload.status());
+  apply_memory_limit(upload->model(), p.import, p.max_memory_mb);
   Warnings warnings;
   CliProgress progress(quiet, &warnings);
-  progress.step("importing " + in);
-  auto scene = import_scene(in, p.import, &warnings);
+  progress.step("importing " + upload->display());
+  auto scene = import_scene(upload->model(), p.import, &warnings);
   progress.flush();
   if (!scene.ok()) return fail(scene.status());
   Scene cleaned = clean(*scene, CleanOptions{});

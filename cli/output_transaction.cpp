@@ -79,6 +79,7 @@ void clean_stale_temporaries(const std::string& out) {
     const std::string n = e.path().filename().string();
     long pid = pid_after(n, name + ".meshmux-tmp-");
     if (pid < 0) pid = pid_after(n, name + ".tmp-");
+    if (pid < 0) pid = pid_after(n, name + ".meshmux-upload-");  // an unpacked .zip upload
     if (pid < 0 || process_running(pid)) continue;
     std::error_code rm;
     fs::remove_all(e.path(), rm);

@@ -9,8 +9,9 @@
 //   names convert writes); anything else is refused, so `-o ~` never deletes a home folder;
 // - an output that would overwrite the input (the same file, or a folder containing it) is
 //   refused;
-// - temporaries are named "<OUT>.meshmux-tmp-<pid>" (folders) and "<file>.tmp-<pid>" (single
-//   files); those of processes no longer running are removed when the next run starts.
+// - temporaries are named "<OUT>.meshmux-tmp-<pid>" (folders), "<file>.tmp-<pid>" (single
+//   files) and "<OUT>.meshmux-upload-<pid>" (a .zip upload unpacked, see importers/upload.h);
+//   those of processes no longer running are removed when the next run starts.
 #pragma once
 
 #include <string>

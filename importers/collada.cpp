@@ -52,6 +52,7 @@
 #include "image/color.h"
 #include "image/decode.h"
 #include "importers/collada_bindings.h"
+#include "importers/upload.h"
 #include "scene/file_io.h"
 #include "scene/sanitizers.h"
 
@@ -535,6 +536,8 @@ class TextureLoader {
   // Index of the image, loaded on first use; -1 (with a warning) when missing or undecodable.
   int32_t load(const TextureRequest& t, const std::string& where) {
     std::string key = resolve(t.path);
+    for (std::string& note : notes_) warn(warnings_, std::move(note));
+    notes_.clear();
     auto it = loaded_.find(key);
     if (it == loaded_.end()) it = loaded_.emplace(key, read(t, key)).first;
     if (it->second.first < 0) warn(warnings_, where + ": " + it->second.second);
@@ -589,6 +592,18 @@ class TextureLoader {
       if (inside.ok()) return *inside;
       if (outside.empty()) outside = inside.status().message();
     }
+    // Not where it says: the one file of that name anywhere in the upload (model databases
+    // name a bare file that lives in materials/textures/; authors' folders get renamed).
+    const std::string leaf = fs::path(q).filename().string();
+    std::vector<std::string> found = find_by_file_name(scope_.root, leaf);
+    if (found.size() == 1) {
+      auto inside = resolve_in_scope(scope_, found.front());
+      if (inside.ok()) {
+        notes_.push_back("collada: " + file_ + ": texture '" + raw + "' is not where it says; using " +
+                         *inside + " (the only file of that name in the upload)");
+        return *inside;
+      }
+    }
     if (!outside.empty() && refusal_.empty()) refusal_ = outside;
     return full.size() > 1 ? full[1] : (full.empty() ? p : full[0]);
   }
@@ -597,6 +612,7 @@ class TextureLoader {
   fs::path dir_;
   InputScope scope_;
   mutable std::string refusal_;  // set by the const resolve()
+  mutable std::vector<std::string> notes_;  // warnings of resolve(), passed on by load()
   Scene& scene_;
   const ImportOptions& options_;
   uint64_t texels_left_ = options_.max_texels;  // declared after options_: initialized from it
@@ -643,7 +659,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                                        m.roughness_factor >= 1)
         m.roughness_factor =
             clamp01(float(std::pow(2.0 / (double(it->second.shininess) + 2.0), 0.25)));
-    auto scope = input_scope(path, options.allow_outside);
+    auto scope = input_scope(path, options.allow_outside, options.root);
     if (!scope.ok())
       return Status::error(stage + ": " + scope.status().message(), ErrorKind::kInput);
     TextureLoader loader(path, *scope, scene, limits, warnings);

@@ -10,12 +10,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstring>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
 #include "draco/compression/decode.h"
 #include "image/decode.h"
+#include "importers/upload.h"
 #include "scene/file_io.h"
 #include "scene/json_depth.h"
 
@@ -988,14 +991,34 @@ struct FsScope {
   uint64_t max_bytes = 0;
   uint64_t bytes_read = 0;
   std::string refusal;
+  std::map<std::string, std::string> relocated;  // missing path → the one file of its name
+  std::vector<std::string> notes;                // warnings: where relocated files were found
 };
+
+// A referenced file that does not exist where the URI says is looked for by its file name
+// in the upload: exactly one match is used (with a warning naming where), none or several
+// leave the path as it was (and the read fails as before).
+std::string relocate(FsScope* fs, const std::string& path) {
+  struct stat st;
+  if (stat(path.c_str(), &st) == 0 || errno != ENOENT) return path;
+  if (auto it = fs->relocated.find(path); it != fs->relocated.end()) return it->second;
+  std::vector<std::string> found = find_by_file_name(fs->scope.root, base_name(path));
+  std::string use = path;
+  if (found.size() == 1) {
+    use = found.front();
+    fs->notes.push_back(base_name(path) + " is not at " + path + "; using " + use +
+                        " (the only file of that name in the upload)");
+  }
+  fs->relocated.emplace(path, use);
+  return use;
+}
 
 bool fs_file_exists(const std::string& path, void* user) {
   auto* fs = static_cast<FsScope*>(user);
-  auto resolved = resolve_in_scope(fs->scope, path);
+  auto resolved = resolve_in_scope(fs->scope, relocate(fs, path));
   if (!resolved.ok()) {
     if (fs->refusal.empty() &&
-        resolved.status().message().find("outside the model's folder") != std::string::npos)
+        resolved.status().message().find("outside the upload's folder") != std::string::npos)
       fs->refusal = resolved.status().message();
     return false;
   }
@@ -1014,7 +1037,7 @@ std::string fs_expand(const std::string& path, void*) { return path; }
 bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::string& path,
              void* user) {
   auto* fs = static_cast<FsScope*>(user);
-  auto resolved = resolve_in_scope(fs->scope, path);
+  auto resolved = resolve_in_scope(fs->scope, relocate(fs, path));
   if (!resolved.ok()) {
     if (err) *err += resolved.status().message();
     if (fs->refusal.empty()) fs->refusal = resolved.status().message();
@@ -1067,7 +1090,7 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
                                std::to_string(kMaxJsonDepth) + " levels; refused",
                            ErrorKind::kInput);
   }
-  auto scope = input_scope(path, options.allow_outside);
+  auto scope = input_scope(path, options.allow_outside, options.root);
   if (!scope.ok()) return Status::error("gltf: " + scope.status().message(), ErrorKind::kInput);
   FsScope fs_scope;
   fs_scope.scope = *scope;
@@ -1127,6 +1150,7 @@ Result<Scene> import_gltf(const std::string& path, const ImportOptions& options,
   }
   // tinygltf reports missing external images as warnings; the image pass turns those into
   // per-image warnings, so its raw text is not repeated here.
+  for (const std::string& note : fs_scope.notes) warn(warnings, "gltf: " + file + ": " + note);
   // The limits, from the bytes the model's files hold.
   const ImportOptions limits = resolved_limits(options, data.size() + fs_scope.bytes_read);
   Importer importer(model, file, limits, warnings);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <string>
 
 namespace meshmux {
 
@@ -14,8 +15,10 @@ struct ImportOptions {
   uint64_t max_image_pixels = uint64_t(1)
                               << 28;            // refuse to decode larger images (hostile headers)
   uint64_t max_file_bytes = uint64_t(4) << 30;  // refuse larger input files
-  bool allow_outside = false;  // read buffers and images outside the model's folder (trusted
+  bool allow_outside = false;  // read buffers and images outside the upload's root (trusted
                                // local use only: --allow-outside)
+  std::string root;            // the upload's folder, bounding every read (importers/upload.h);
+                               // "" = the model file's folder
   uint64_t max_texels = 0;     // decoded texels over all images (--max-texels); 0: from size
   uint64_t max_instances = 0;  // mesh instances after expanding the node graph
                                // (--max-instances); 0: from size

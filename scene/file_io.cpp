@@ -70,10 +70,11 @@ Result<std::vector<uint8_t>> read_whole_file(const std::string& path, uint64_t m
   return bytes;
 }
 
-Result<InputScope> input_scope(const std::string& model_path, bool allow_outside) {
-  std::string dir = ".";
+Result<InputScope> input_scope(const std::string& model_path, bool allow_outside,
+                               const std::string& root) {
+  std::string dir = root.empty() ? "." : root;
   size_t slash = model_path.find_last_of('/');
-  if (slash != std::string::npos) dir = slash == 0 ? "/" : model_path.substr(0, slash);
+  if (root.empty() && slash != std::string::npos) dir = slash == 0 ? "/" : model_path.substr(0, slash);
   char* real = realpath(dir.c_str(), nullptr);
   if (!real)
     return Status::error(model_path + ": cannot resolve its folder: " + std::strerror(errno),
@@ -99,8 +100,9 @@ Result<std::string> resolve_in_scope(const InputScope& scope, const std::string&
       root == "/" || (resolved.size() > root.size() &&
                       resolved.compare(0, root.size(), root) == 0 && resolved[root.size()] == '/');
   if (!inside && !scope.allow_outside)
-    return Status::error(path + ": outside the model's folder " + root +
-                             " (after resolving '..' and links); refused (--allow-outside "
+    return Status::error(path + ": outside the upload's folder " + root +
+                             " (after resolving '..' and links); refused (upload the whole "
+                             "folder or a .zip, or widen it with --root DIR; --allow-outside "
                              "reads it for trusted local files)",
                          ErrorKind::kInput);
   return resolved;

@@ -18,18 +18,20 @@ namespace meshmux {
 Result<std::vector<uint8_t>> read_whole_file(const std::string& path,
                                              uint64_t max_bytes = uint64_t(4) << 30);
 
-// The folder a model's referenced files (buffers, images) may be read from.
+// The folder a model's referenced files (buffers, images) may be read from: the upload's.
 struct InputScope {
-  std::string root;            // the model file's folder, resolved (no links, no "..")
+  std::string root;            // the upload's folder, resolved (no links, no "..")
   bool allow_outside = false;  // trusted local use: any readable regular file
 };
 
-// The scope of a model file: its folder, resolved. Errors (kInput) name the file.
-Result<InputScope> input_scope(const std::string& model_path, bool allow_outside);
+// The scope of a model file: `root` (an upload's folder, see importers/upload.h) when given,
+// else the file's folder; resolved. Errors (kInput) name the file.
+Result<InputScope> input_scope(const std::string& model_path, bool allow_outside,
+                               const std::string& root = "");
 
 // `path` (absolute, or relative to the working directory) with links and ".." resolved,
 // when it lies inside `scope.root` (or anywhere, with allow_outside). Errors (kInput):
-// "<path>: no such file", "<path>: outside the model's folder <root> ...; refused".
+// "<path>: no such file", "<path>: outside the upload's folder <root> ...; refused".
 // Read the result with read_whole_file, which refuses anything but a regular file.
 Result<std::string> resolve_in_scope(const InputScope& scope, const std::string& path);
 

@@ -11,7 +11,7 @@ debs=(
   libdraco-dev libmeshoptimizer-dev gltfpack
   libopenmesh-dev libeigen3-dev
   libopenimageio-dev openimageio-tools libturbojpeg0-dev libpng-dev esbuild
-  libassimp-dev libpugixml-dev zlib1g-dev
+  libassimp-dev libpugixml-dev zlib1g-dev libzip-dev
   libgtest-dev libgmock-dev libcpp-httplib-dev
   clang
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri

@@ -178,21 +178,24 @@ TEST(Batch, ConversionOverItsMemoryLimitFailsAlone) {
 }
 
 // Uploads with one file name in different folders (everyone's "scene.gltf") get distinct
-// output folders named after their folders, the same on every run.
+// output folders named after their folders, the same on every run. Listed one by one (a
+// list file), files of one name but three formats in one folder are told apart by extension.
 TEST(Batch, SameFileNamesInDifferentFoldersGetDistinctOutputs) {
   TempDir dir;
+  std::string list;
   for (const char* sub : {"alice", "bob"}) {
     fs::create_directories(dir.file(sub));
-    ASSERT_EQ(
-        run_meshmux({"sample", "-o", dir.file(std::string(sub) + "/scene.glb"), "-q"}).exit_code,
-        0);
+    const std::string file = dir.file(std::string(sub) + "/scene.glb");
+    ASSERT_EQ(run_meshmux({"sample", "-o", file, "-q"}).exit_code, 0);
+    list += file + "\n";
   }
-  // One name, three formats, one folder: the extension tells them apart (not the folders).
   fs::create_directories(dir.file("carol"));
   ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("carol/x.glb"), "-q"}).exit_code, 0);
   write_text(dir.file("carol/x.gltf"), "{}");
   write_text(dir.file("carol/x.DAE"), "<COLLADA/>");
-  auto r = run_meshmux({"batch", dir.path(), "-o", dir.file("out"), "-q"});
+  list += dir.file("carol/x.glb") + "\n" + dir.file("carol/x.gltf") + "\n" + dir.file("carol/x.DAE") + "\n";
+  write_text(dir.file("list.txt"), list);
+  auto r = run_meshmux({"batch", dir.file("list.txt"), "-o", dir.file("out"), "-q"});
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_TRUE(fs::is_regular_file(dir.file("out/alice_scene/model.glb")));
   EXPECT_TRUE(fs::is_regular_file(dir.file("out/bob_scene/model.glb")));
@@ -200,10 +203,33 @@ TEST(Batch, SameFileNamesInDifferentFoldersGetDistinctOutputs) {
   const auto doc = read_json(dir.file("out/batch.json"));
   EXPECT_EQ(entry(doc, "x-gltf")["status"], "failed");
   EXPECT_EQ(entry(doc, "x-dae")["status"], "failed");
-  // The output folder inside the walked folder is not taken for input on the next run.
-  auto again = run_meshmux({"batch", dir.path(), "-o", dir.file("out")});
+}
+
+// A walked folder's top-level sub-folders are the uploads, named after themselves; a
+// sub-folder holding three model files side by side is one upload that fails with the line
+// naming --main. The output folder inside the walked folder is not taken for input on the
+// next run.
+TEST(Batch, WalkedFolderTakesSubFoldersAsUploads) {
+  TempDir dir;
+  for (const char* sub : {"alice", "bob"}) {
+    fs::create_directories(dir.file(sub));
+    ASSERT_EQ(
+        run_meshmux({"sample", "-o", dir.file(std::string(sub) + "/scene.glb"), "-q"}).exit_code,
+        0);
+  }
+  fs::create_directories(dir.file("carol"));
+  ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("carol/x.glb"), "-q"}).exit_code, 0);
+  write_text(dir.file("carol/x.gltf"), "{}");
+  auto r = run_meshmux({"batch", dir.path(), "-o", dir.file("out"), "-q", "--no-report"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(dir.file("out/alice/model.glb")));
+  EXPECT_TRUE(fs::is_regular_file(dir.file("out/bob/model.glb")));
+  const auto doc = read_json(dir.file("out/batch.json"));
+  EXPECT_EQ(entry(doc, "carol")["status"], "failed");
+  EXPECT_NE(entry(doc, "carol")["error"].get<std::string>().find("--main"), std::string::npos);
+  auto again = run_meshmux({"batch", dir.path(), "-o", dir.file("out"), "--no-report"});
   EXPECT_EQ(again.exit_code, 2) << again.err;
-  EXPECT_NE(again.err.find("5 inputs: 0 to convert"), std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("3 inputs: 0 to convert"), std::string::npos) << again.err;
 }
 
 // OUTROOT must be new, empty or an earlier batch's: the summary never lands among a user's

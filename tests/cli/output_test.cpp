@@ -135,7 +135,7 @@ TEST(OutputTransaction, InfoCountsOnlyFilesInsideTheFolder) {
                       R"({"asset":{"version":"2.0"},"images":[{"uri":"../big.bin"}]})");
   auto up = run_meshmux({"info", dir.file("m/m.gltf")});
   EXPECT_EQ(up.exit_code, 2);
-  EXPECT_NE(up.err.find("outside the model's folder"), std::string::npos) << up.err;
+  EXPECT_NE(up.err.find("outside the upload's folder"), std::string::npos) << up.err;
 }
 
 }  // namespace

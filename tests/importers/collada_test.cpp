@@ -490,7 +490,7 @@ TEST(ColladaImport, TextureOutsideTheFolderIsRefused) {
     testing::write_text(dir.file("model/m.dae"), textured_document(path));
     auto s = import_collada(dir.file("model/m.dae"), ImportOptions{}, nullptr);
     ASSERT_FALSE(s.ok()) << path;
-    EXPECT_NE(s.status().message().find("outside the model's folder"), std::string::npos)
+    EXPECT_NE(s.status().message().find("outside the upload's folder"), std::string::npos)
         << s.status().message();
     ImportOptions trusted;
     trusted.allow_outside = true;

@@ -70,7 +70,7 @@ TEST(HostileGltf, BufferOutsideTheFolderIsRefused) {
   for (const std::string uri : {"../secret.bin", "..%2Fsecret.bin"}) {
     testing::write_text(dir.file("model/m.gltf"), triangle_doc(uri).dump());
     std::string e = error_of(dir.file("model/m.gltf"));
-    EXPECT_NE(e.find("outside the model's folder"), std::string::npos) << uri << ": " << e;
+    EXPECT_NE(e.find("outside the upload's folder"), std::string::npos) << uri << ": " << e;
     EXPECT_NE(e.find("--allow-outside"), std::string::npos) << e;
   }
   // Trusted local use may read it.
@@ -87,7 +87,7 @@ TEST(HostileGltf, SymlinkOutOfTheFolderIsRefused) {
   testing::write_file(dir.file("secret.bin"), triangle_bytes());
   ASSERT_EQ(symlink(dir.file("secret.bin").c_str(), dir.file("model/data.bin").c_str()), 0);
   testing::write_text(dir.file("model/m.gltf"), triangle_doc("data.bin").dump());
-  EXPECT_NE(error_of(dir.file("model/m.gltf")).find("outside the model's folder"),
+  EXPECT_NE(error_of(dir.file("model/m.gltf")).find("outside the upload's folder"),
             std::string::npos);
   // The same bytes as a real file inside: read.
   unlink(dir.file("model/data.bin").c_str());
@@ -106,7 +106,7 @@ TEST(HostileGltf, ImageOutsideTheFolderIsRefused) {
   doc["textures"] = {{{"source", 0}}};
   doc["materials"] = {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}};
   testing::write_text(dir.file("model/m.gltf"), doc.dump());
-  EXPECT_NE(error_of(dir.file("model/m.gltf")).find("outside the model's folder"),
+  EXPECT_NE(error_of(dir.file("model/m.gltf")).find("outside the upload's folder"),
             std::string::npos);
 }
 
