@@ -581,15 +581,22 @@ double tangent_deviation(const std::vector<MeshView>& views, const FlatCharts& f
 // Step 5a: one material per group of source materials that agree on how alpha and back faces
 // show (alpha mode with its cutoff, double-sidedness, unlit): every group samples the one atlas,
 // so a model costs one draw call per group present (usually one).
+// Glass (a transmission factor above 0) is a group of its own, one per set of glass
+// parameters: light passing through is how the surface shows, so it is never folded into
+// alpha, where a fully transmissive surface would vanish.
 struct GroupKey {
   int alpha_mode = 0;
   float cutoff = 0.5f;
   bool double_sided = false, unlit = false;
   bool flat = false;  // Primitive::flat: shown flat-shaded, exported without normals
-  bool operator<(const GroupKey& o) const {
-    return std::tie(alpha_mode, cutoff, double_sided, unlit, flat) <
-           std::tie(o.alpha_mode, o.cutoff, o.double_sided, o.unlit, o.flat);
+  float transmission = 0, ior = 1.5f, thickness = 0, attenuation_distance = 0;
+  Vec3 attenuation_color{1, 1, 1};
+  auto tied() const {
+    return std::tie(transmission, alpha_mode, cutoff, double_sided, unlit, flat, ior, thickness,
+                    attenuation_distance, attenuation_color.x, attenuation_color.y,
+                    attenuation_color.z);
   }
+  bool operator<(const GroupKey& o) const { return tied() < o.tied(); }
   bool operator==(const GroupKey& o) const { return !(*this < o) && !(o < *this); }
 };
 GroupKey group_key(const Scene& scene, const Primitive& p) {
@@ -602,6 +609,13 @@ GroupKey group_key(const Scene& scene, const Primitive& p) {
   k.cutoff = m.alpha_mode == AlphaMode::kMask ? m.alpha_cutoff : 0.5f;
   k.double_sided = m.double_sided;
   k.unlit = m.unlit;
+  if (m.transmissive() && !m.unlit) {
+    k.transmission = m.transmission_factor;
+    k.ior = m.ior;
+    k.thickness = m.thickness_factor;
+    k.attenuation_distance = m.attenuation_distance;
+    k.attenuation_color = m.attenuation_color;
+  }
   return k;
 }
 
@@ -675,6 +689,11 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   mat.alpha_cutoff = key.cutoff;
   mat.double_sided = key.double_sided;
   mat.unlit = key.unlit;
+  mat.transmission_factor = key.transmission;
+  mat.ior = key.ior;
+  mat.thickness_factor = key.thickness;
+  mat.attenuation_distance = key.attenuation_distance;
+  mat.attenuation_color = key.attenuation_color;
   return mat;
 }
 

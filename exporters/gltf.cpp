@@ -49,6 +49,9 @@ const char* const kTextureTransform = "KHR_texture_transform";
 const char* const kUnlit = "KHR_materials_unlit";
 const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
 const char* const kSheen = "KHR_materials_sheen";
+const char* const kTransmission = "KHR_materials_transmission";
+const char* const kIor = "KHR_materials_ior";
+const char* const kVolume = "KHR_materials_volume";
 
 // The JSON number that prints as the shortest decimal reading back to exactly `f`.
 json num(float f) {
@@ -137,7 +140,7 @@ class Exporter {
     std::set<int32_t> referenced;
     for (const Material& m : scene_.materials)
       for (const TextureRef* t : {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion,
-                                  &m.emissive, &m.sheen_color})
+                                  &m.emissive, &m.sheen_color, &m.transmission})
         if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
     image_map_.assign(scene_.images.size(), -1);
     for (int32_t i : referenced) {
@@ -248,6 +251,41 @@ class Exporter {
     return r;
   }
 
+  // Glass: KHR_materials_transmission (factor, and the texture whose R channel scales it),
+  // KHR_materials_ior where it is not glTF's default 1.5, KHR_materials_volume where the
+  // surface has a thickness (the same texture's G channel scales it).
+  template <class Tex>
+  void write_glass(const Material& m, const std::string& where, Tex& tex, json& j) {
+    json t = json::object();
+    t["transmissionFactor"] = num(bounded(m.transmission_factor, 0, 1, 0, where + ": transmissionFactor"));
+    if (json info = tex(m.transmission, "transmissionTexture"); !info.is_null())
+      t["transmissionTexture"] = std::move(info);
+    j["extensions"][kTransmission] = std::move(t);
+    used_.insert(kTransmission);
+    const float ior = bounded(m.ior, 1, 10, 1.5f, where + ": ior");
+    if (ior != 1.5f) {
+      j["extensions"][kIor] = {{"ior", num(ior)}};
+      used_.insert(kIor);
+    }
+    const float thickness = std::isfinite(m.thickness_factor) ? std::max(0.0f, m.thickness_factor) : 0;
+    if (thickness > 0) {
+      json v = json::object();
+      v["thicknessFactor"] = num(thickness);
+      if (m.transmission.present())
+        if (json info = tex(m.transmission, "thicknessTexture"); !info.is_null())
+          v["thicknessTexture"] = std::move(info);
+      if (m.attenuation_distance > 0 && std::isfinite(m.attenuation_distance))
+        v["attenuationDistance"] = num(m.attenuation_distance);
+      const Vec3 c = m.attenuation_color;
+      if (!(c == Vec3{1, 1, 1}))
+        v["attenuationColor"] = {num(bounded(c.x, 0, 1, 1, where + ": attenuationColor")),
+                                 num(bounded(c.y, 0, 1, 1, where + ": attenuationColor")),
+                                 num(bounded(c.z, 0, 1, 1, where + ": attenuationColor"))};
+      j["extensions"][kVolume] = std::move(v);
+      used_.insert(kVolume);
+    }
+  }
+
   void write_materials() {
     material_uv_sets_.assign(scene_.materials.size(), 0);
     for (size_t i = 0; i < scene_.materials.size(); ++i) {
@@ -315,6 +353,7 @@ class Exporter {
         j["extensions"][kSheen] = std::move(sheen);
         used_.insert(kSheen);
       }
+      if (m.transmissive() && !m.unlit) write_glass(m, where, tex, j);
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";
         float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;

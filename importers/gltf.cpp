@@ -30,12 +30,7 @@ namespace {
 // metal-roughness core of the material (factors and maps) is kept, the effect is not.
 const std::map<std::string, std::string> kAppearanceExtensions = {
     {"KHR_materials_clearcoat", "clearcoat dropped (no second specular layer)"},
-    {"KHR_materials_transmission",
-     "transmission approximated as alpha blending (alpha × (1 − transmissionFactor); the "
-     "transmission texture, refraction and roughness blur dropped)"},
-    {"KHR_materials_volume", "volume dropped (no thickness or attenuation)"},
     {"KHR_materials_specular", "specular dropped (the default dielectric F0 of 0.04 is used)"},
-    {"KHR_materials_ior", "ior dropped (the default 1.5 is used)"},
     {"KHR_materials_iridescence", "iridescence dropped"},
     {"KHR_materials_anisotropy", "anisotropy dropped (isotropic highlights)"},
     {"KHR_materials_dispersion", "dispersion dropped"},
@@ -47,7 +42,8 @@ const std::set<std::string> kSupportedRequired = {
     "KHR_draco_mesh_compression",      "KHR_mesh_quantization",
     "KHR_texture_transform",           "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",         "KHR_materials_unlit",
-    "KHR_materials_emissive_strength",
+    "KHR_materials_emissive_strength", "KHR_materials_transmission",
+    "KHR_materials_volume",            "KHR_materials_ior",
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -609,8 +605,8 @@ class Importer {
   // Material extensions folded into the metal-roughness core (issue 2/8, deliver 4):
   // - KHR_materials_emissive_strength multiplies the emissive factor (exact; the exporter
   //   writes the extension back when a component exceeds 1);
-  // - KHR_materials_transmission becomes alpha blending with alpha × (1 − transmissionFactor):
-  //   what a viewer without transmission shows closest to seeing through the surface.
+  // - KHR_materials_sheen, _transmission, _ior and _volume are carried (their factors; the
+  //   sheen colour and the transmission/thickness texture as textures).
   // Number fields that are missing or not finite keep their glTF defaults.
   static void approximate_extensions(const tinygltf::Material& src, Material* mat) {
     auto number = [](const tinygltf::Value& v, const char* key, double fallback) {
@@ -640,12 +636,28 @@ class Importer {
       mat->sheen_roughness_factor =
           float(std::clamp(number(v, "sheenRoughnessFactor", 0.0), 0.0, 1.0));
     }
-    if (auto it = src.extensions.find("KHR_materials_transmission");
-        it != src.extensions.end() && !mat->unlit) {
-      const double t = std::clamp(number(it->second, "transmissionFactor", 0.0), 0.0, 1.0);
-      if (t > 0) {
-        mat->base_color_factor.w *= float(1 - t);
-        mat->alpha_mode = AlphaMode::kBlend;
+    // Glass is carried as glass: transmission, ior and volume (thickness, attenuation).
+    if (auto it = src.extensions.find("KHR_materials_transmission"); it != src.extensions.end())
+      mat->transmission_factor =
+          float(std::clamp(number(it->second, "transmissionFactor", 0.0), 0.0, 1.0));
+    if (auto it = src.extensions.find("KHR_materials_ior"); it != src.extensions.end()) {
+      const double ior = number(it->second, "ior", 1.5);
+      mat->ior = float(ior >= 1 && ior <= 10 ? ior : 1.5);
+    }
+    if (auto it = src.extensions.find("KHR_materials_volume"); it != src.extensions.end()) {
+      const tinygltf::Value& v = it->second;
+      mat->thickness_factor = float(std::max(0.0, number(v, "thicknessFactor", 0.0)));
+      const double d = number(v, "attenuationDistance", 0.0);
+      mat->attenuation_distance = float(d > 0 ? d : 0.0);
+      if (v.IsObject() && v.Has("attenuationColor") && v.Get("attenuationColor").IsArray() &&
+          v.Get("attenuationColor").ArrayLen() == 3) {
+        float c[3];
+        for (int k = 0; k < 3; ++k) {
+          const tinygltf::Value& e = v.Get("attenuationColor").Get(k);
+          const double x = e.IsNumber() ? e.GetNumberAsDouble() : 1.0;
+          c[k] = float(std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : 1.0);
+        }
+        mat->attenuation_color = {c[0], c[1], c[2]};
       }
     }
   }
@@ -699,6 +711,11 @@ class Importer {
       }
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
+      for (auto [ext, key] : {std::pair{"KHR_materials_transmission", "transmissionTexture"},
+                              std::pair{"KHR_materials_volume", "thicknessTexture"}})
+        if (auto it = src.extensions.find(ext);
+            it != src.extensions.end() && it->second.IsObject() && it->second.Has(key))
+          ++dropped_glass_maps_[key];
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
@@ -706,6 +723,9 @@ class Importer {
     for (const auto& [name, count] : effects_)
       warn(warnings_, "gltf: " + file_ + ": " + name + " on " + std::to_string(count) +
                           " material(s): " + kAppearanceExtensions.at(name));
+    for (const auto& [key, count] : dropped_glass_maps_)
+      warn(warnings_, "gltf: " + file_ + ": " + key + " on " + std::to_string(count) +
+                          " material(s) dropped (its factor is kept)");
     if (std::find(m_.extensionsUsed.begin(), m_.extensionsUsed.end(), "KHR_materials_variants") !=
         m_.extensionsUsed.end())
       warn(warnings_, "gltf: " + file_ +
@@ -971,6 +991,7 @@ class Importer {
 
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
+  std::map<std::string, size_t> dropped_glass_maps_;  // glass texture slot → materials
   Reader r_;
   std::string file_;
   const ImportOptions& opts_;

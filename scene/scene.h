@@ -61,6 +61,16 @@ struct Material {
   Vec3 sheen_color_factor{0, 0, 0};    // KHR_materials_sheen: linear RGB (0: no sheen layer)
   TextureRef sheen_color;              // sRGB, RGB multiplied by the factor
   float sheen_roughness_factor = 0;    // [0,1]; its texture is not carried (factor only)
+  // Glass (KHR_materials_transmission, _ior, _volume): carried, never approximated by alpha.
+  float transmission_factor = 0;    // [0,1]: share of light passing through (0: none)
+  TextureRef transmission;          // linear; R = transmission, G = volume thickness (glTF's
+                                    // transmissionTexture and thicknessTexture may share it)
+  float ior = 1.5f;                 // index of refraction (KHR_materials_ior), ≥ 1
+  float thickness_factor = 0;       // volume thickness, mesh units (0: thin-walled)
+  float attenuation_distance = 0;   // distance light travels before it is attenuated to
+                                    // attenuation_color; 0 = infinite (no attenuation)
+  Vec3 attenuation_color{1, 1, 1};  // linear RGB
+  bool transmissive() const { return transmission_factor > 0; }
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
   bool double_sided = false;  // render back faces

@@ -739,6 +739,43 @@ namespace {
 
 // KHR_materials_sheen (SheenChair's velvet): a velvet part and a wooden one. The sheen colour
 // differs between them, so it is baked as its own channel; its roughness stays a factor.
+// Glass beside an opaque part: the glass keeps its own material with its transmission, ior
+// and volume (never alpha: a fully transmissive surface would vanish), sampling the same atlas.
+TEST(Atlas, GlassIsAMaterialOfItsOwn) {
+  Material opaque;
+  opaque.name = "body";
+  opaque.base_color_factor = {0.8f, 0.1f, 0.1f, 1};
+  Material glass;
+  glass.name = "glass";
+  glass.base_color_factor = {0.9f, 0.9f, 1, 1};
+  glass.transmission_factor = 1;
+  glass.ior = 1.45f;
+  glass.thickness_factor = 0.02f;
+  glass.attenuation_distance = 0.5f;
+  glass.attenuation_color = {0.8f, 0.9f, 1};
+  Scene s = two_material_quads(opaque, glass);
+  auto out = build_atlas(s, AtlasOptions{}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->materials.size(), 2u);
+  const Material& a = out->materials[0];
+  const Material& b = out->materials[1];
+  EXPECT_FALSE(a.transmissive());
+  EXPECT_FLOAT_EQ(b.transmission_factor, 1.0f);
+  EXPECT_FLOAT_EQ(b.ior, 1.45f);
+  EXPECT_FLOAT_EQ(b.thickness_factor, 0.02f);
+  EXPECT_FLOAT_EQ(b.attenuation_distance, 0.5f);
+  EXPECT_EQ(b.attenuation_color, (Vec3{0.8f, 0.9f, 1}));
+  EXPECT_EQ(b.alpha_mode, AlphaMode::kOpaque);
+  EXPECT_EQ(a.base_color.image, 0);
+  EXPECT_EQ(b.base_color.image, 0);
+  // Two glass parts that differ only in ior are two materials.
+  Material other = glass;
+  other.ior = 1.9f;
+  auto two = build_atlas(two_material_quads(glass, other), AtlasOptions{}, nullptr, nullptr);
+  ASSERT_TRUE(two.ok());
+  EXPECT_EQ(two->materials.size(), 2u);
+}
+
 TEST(AtlasChannels, SheenColourIsBakedWhereItDiffers) {
   Material velvet, wood;
   velvet.base_color_factor = {0.8f, 0.2f, 0.1f, 1};

@@ -429,6 +429,38 @@ TEST(GltfExport, SheenRoundTrips) {
   EXPECT_TRUE(back->images[size_t(back->materials[0].sheen_color.image)].decoded());
 }
 
+// Glass round-trips as glass: KHR_materials_transmission, _ior (not at its default) and
+// _volume are written, validator-clean, and read back the same.
+TEST(GltfExport, GlassRoundTrips) {
+  Scene scene = textured_cube_scene();
+  Material& m = scene.materials[0];
+  m.transmission_factor = 0.9f;
+  m.ior = 1.33f;
+  m.thickness_factor = 0.25f;
+  m.attenuation_distance = 3;
+  m.attenuation_color = {1, 0.5f, 0.25f};
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& ext = glb.doc["materials"][0]["extensions"];
+  EXPECT_FLOAT_EQ(ext["KHR_materials_transmission"]["transmissionFactor"].get<float>(), 0.9f);
+  EXPECT_FLOAT_EQ(ext["KHR_materials_ior"]["ior"].get<float>(), 1.33f);
+  EXPECT_FLOAT_EQ(ext["KHR_materials_volume"]["thicknessFactor"].get<float>(), 0.25f);
+  for (const char* e : {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"})
+    EXPECT_TRUE(has(glb.doc["extensionsUsed"], e)) << e;
+  expect_valid(bytes, "glass.glb");
+  TempDir dir;
+  testing::write_file(dir.file("glass.glb"), bytes);
+  auto back = import_scene(dir.file("glass.glb"), {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  const Material& b = back->materials[0];
+  EXPECT_FLOAT_EQ(b.transmission_factor, 0.9f);
+  EXPECT_FLOAT_EQ(b.ior, 1.33f);
+  EXPECT_FLOAT_EQ(b.thickness_factor, 0.25f);
+  EXPECT_FLOAT_EQ(b.attenuation_distance, 3);
+  EXPECT_EQ(b.attenuation_color, (Vec3{1, 0.5f, 0.25f}));
+  EXPECT_EQ(b.alpha_mode, AlphaMode::kOpaque);
+}
+
 // An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is
 // written back as a factor in [0, 1] and the strength, so it stays valid and as bright.
 TEST(GltfExport, EmissiveBeyondOneWritesEmissiveStrength) {

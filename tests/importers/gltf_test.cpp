@@ -534,17 +534,24 @@ TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
   EXPECT_EQ(s->materials[2].sheen_color_factor, (Vec3{0, 0, 0}));
 }
 
-// Issue 2/8 (deliver 4): transmission is approximated as alpha blending (glass seen through,
-// not opaque), emissive_strength is folded into the emissive factor, and the warning says what
-// was approximated.
-TEST(GltfImport, TransmissionBecomesBlendAndEmissiveStrengthIsFolded) {
+// Glass stays glass: transmission, ior and volume are read as they are, and the base colour's
+// alpha is left alone (the old alpha × (1 − transmission) made a fully transmissive lamp shade
+// invisible). Emissive strength is folded into the emissive factor. A transmission texture the
+// output cannot carry is named in one warning.
+TEST(GltfImport, TransmissionStaysGlassAndEmissiveStrengthIsFolded) {
   TempDir dir;
   testing::write_text(dir.file("glass.gltf"), R"({
     "asset": {"version": "2.0"},
-    "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_emissive_strength"],
+    "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_emissive_strength",
+                       "KHR_materials_ior", "KHR_materials_volume"],
+    "extensionsRequired": ["KHR_materials_transmission"],
     "materials": [
       {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 0.8]},
-       "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.75}}},
+       "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1,
+                                                     "transmissionTexture": {"index": 0}},
+                      "KHR_materials_ior": {"ior": 1.33},
+                      "KHR_materials_volume": {"thicknessFactor": 0.1, "attenuationDistance": 2,
+                                               "attenuationColor": [1, 0.5, 0.25]}}},
       {"emissiveFactor": [1, 0.5, 0],
        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}},
       {"extensions": {"KHR_materials_transmission": {}}}],
@@ -553,19 +560,25 @@ TEST(GltfImport, TransmissionBecomesBlendAndEmissiveStrengthIsFolded) {
   auto s = import_gltf(dir.file("glass.gltf"), {}, &w);
   ASSERT_TRUE(s.ok()) << s.status().message();
   ASSERT_EQ(s->materials.size(), 3u);
-  EXPECT_EQ(s->materials[0].alpha_mode, AlphaMode::kBlend);
-  EXPECT_FLOAT_EQ(s->materials[0].base_color_factor.w, 0.8f * 0.25f);
-  EXPECT_FLOAT_EQ(s->materials[0].base_color_factor.x, 0.2f);
+  const Material& glass = s->materials[0];
+  EXPECT_EQ(glass.alpha_mode, AlphaMode::kOpaque);
+  EXPECT_FLOAT_EQ(glass.base_color_factor.w, 0.8f);
+  EXPECT_FLOAT_EQ(glass.transmission_factor, 1.0f);
+  EXPECT_FLOAT_EQ(glass.ior, 1.33f);
+  EXPECT_FLOAT_EQ(glass.thickness_factor, 0.1f);
+  EXPECT_FLOAT_EQ(glass.attenuation_distance, 2.0f);
+  EXPECT_EQ(glass.attenuation_color, (Vec3{1, 0.5f, 0.25f}));
   EXPECT_FLOAT_EQ(s->materials[1].emissive_factor.x, 4.0f);
   EXPECT_FLOAT_EQ(s->materials[1].emissive_factor.y, 2.0f);
-  // transmissionFactor defaults to 0: nothing to see through, stays opaque.
+  // transmissionFactor defaults to 0: nothing to see through.
+  EXPECT_FALSE(s->materials[2].transmissive());
   EXPECT_EQ(s->materials[2].alpha_mode, AlphaMode::kOpaque);
-  int approximated = 0;
-  for (const std::string& m : w.items())
-    approximated += m.find(
-                        "KHR_materials_transmission on 2 material(s): transmission "
-                        "approximated as alpha blending") != std::string::npos;
-  EXPECT_EQ(approximated, 1);
+  int said = 0;
+  for (const std::string& m : w.items()) {
+    said += m.find("transmissionTexture on 1 material(s) dropped") != std::string::npos;
+    EXPECT_EQ(m.find("approximated"), std::string::npos) << m;
+  }
+  EXPECT_EQ(said, 1);
 }
 
 // Issue 2/8: a primitive without NORMAL is flat-shaded by definition (glTF 3.7.2.1): the

@@ -147,7 +147,10 @@ function configureMap(texture, channel, anisotropy) {
 function makeStandardMaterial(source, maps) {
   // A sheen layer (KHR_materials_sheen, which GLTFLoader gives as MeshPhysicalMaterial.sheen).
   const sheen = source.isMeshPhysicalMaterial && source.sheen > 0;
-  const m = new (sheen ? THREE.MeshPhysicalMaterial : THREE.MeshStandardMaterial)({
+  // Glass (KHR_materials_transmission, _ior, _volume: MeshPhysicalMaterial.transmission, ior,
+  // thickness, attenuation), kept as glass: never faded out through opacity.
+  const glass = source.isMeshPhysicalMaterial && source.transmission > 0;
+  const m = new (sheen || glass ? THREE.MeshPhysicalMaterial : THREE.MeshStandardMaterial)({
     name: `meshmux(${source.name || 'material'})`,
     side: THREE.DoubleSide,
     color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
@@ -164,6 +167,15 @@ function makeStandardMaterial(source, maps) {
     m.sheen = source.sheen;
     m.sheenColor = source.sheenColor.clone();
     m.sheenRoughness = source.sheenRoughness;
+  }
+  if (glass) {
+    m.transmission = source.transmission;
+    m.transmissionMap = source.transmissionMap;
+    m.ior = source.ior;
+    m.thickness = source.thickness;
+    m.thicknessMap = source.thicknessMap;
+    m.attenuationDistance = source.attenuationDistance;
+    m.attenuationColor = source.attenuationColor.clone();
   }
   const scale = source.normalScale ? Math.abs(source.normalScale.x) : 1;
   m.normalScale = new THREE.Vector2(scale, -scale);
