@@ -287,8 +287,9 @@ class Converter {
   std::map<unsigned, int32_t> material_by_ai_;
 };
 
-// Runs Assimp in this process.
-Result<Parsed> parse(const std::string& path, const std::string& stage) {
+// Runs Assimp in this process, on the file at `path`, or on `memory` when it is not empty (a
+// repaired copy of the document).
+Result<Parsed> parse(const std::string& path, const std::string& stage, const std::string& memory) {
   try {
     Assimp::Importer importer;
     importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, false);
@@ -296,7 +297,10 @@ Result<Parsed> parse(const std::string& path, const std::string& stage) {
     importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_USE_COLLADA_NAMES, true);
     // Triangulate + sort by primitive type only: nothing that merges meshes, pre-transforms
     // vertices or flattens the node graph, so instancing survives.
-    const aiScene* ai = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType);
+    const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType;
+    const aiScene* ai = memory.empty()
+                            ? importer.ReadFile(path, flags)
+                            : importer.ReadFileFromMemory(memory.data(), memory.size(), flags, "dae");
     if (!ai) {
       std::string reason = one_line(importer.GetErrorString());
       if (reason == "std::bad_alloc") reason = "Assimp ran out of memory on it";
@@ -425,16 +429,16 @@ std::string last_line(FILE* f) {
 // Runs parse() in a forked child: Assimp gets 1 GiB + 32 bytes per input byte of address
 // space, and 60 s + 10 s per MB of input. A crash, a kill or a timeout becomes an error.
 Result<Parsed> parse_isolated(const std::string& path, uint64_t file_bytes,
-                              const std::string& stage) {
+                              const std::string& stage, const std::string& memory) {
   std::unique_ptr<FILE, int (*)(FILE*)> err(tmpfile(), fclose);
   int fds[2];
-  if (!err || pipe(fds) != 0) return parse(path, stage);
+  if (!err || pipe(fds) != 0) return parse(path, stage, memory);
   uint64_t limit = current_address_space() + (uint64_t(1) << 30) + 32 * file_bytes;
   pid_t pid = fork();
   if (pid < 0) {
     close(fds[0]);
     close(fds[1]);
-    return parse(path, stage);  // no process to spare: run unprotected
+    return parse(path, stage, memory);  // no process to spare: run unprotected
   }
   if (pid == 0) {  // the child: parse, write the answer, leave without running destructors
     close(fds[0]);
@@ -443,7 +447,7 @@ Result<Parsed> parse_isolated(const std::string& path, uint64_t file_bytes,
     if (kLimitAddressSpace) setrlimit(RLIMIT_AS, &rl);
     int code = 2;
     try {
-      Result<Parsed> r = parse(path, stage);
+      Result<Parsed> r = parse(path, stage, memory);
       Writer w;
       w.out = r ? "K" : "E" + r.status().message();
       if (r) transfer(w, r.value());
@@ -630,6 +634,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
     // it knows the folder textures are relative to.
     uint64_t file_bytes = 0;
     std::map<std::string, ColladaMaterialInfo> info;  // what Assimp loses, by material
+    std::string repaired;  // the document with its file-less <image>s named, or "" (as it is)
     {
       auto bytes = read_whole_file(path, options.max_file_bytes);
       if (!bytes)
@@ -638,8 +643,13 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
       if (bytes->empty()) return Status::error(stage + ": file is empty", ErrorKind::kInput);
       file_bytes = bytes->size();
       info = collada_material_info(*bytes);
+      std::vector<std::string> ids;
+      repaired = repair_collada_images(*bytes, &ids);
+      for (const std::string& id : ids)
+        warn(warnings, stage + ": image '" + id +
+                           "' names no file (no <init_from> or <data>); its texture is dropped");
     }
-    Result<Parsed> parsed = parse_isolated(path, file_bytes, stage);
+    Result<Parsed> parsed = parse_isolated(path, file_bytes, stage, repaired);
     if (!parsed) return parsed.status();
     for (std::string& w : parsed->warnings) warn(warnings, std::move(w));
     Scene scene = std::move(parsed->scene);

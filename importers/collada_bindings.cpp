@@ -90,4 +90,32 @@ std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vect
   return out;
 }
 
+std::string repair_collada_images(const std::vector<uint8_t>& xml, std::vector<std::string>* ids) {
+  pugi::xml_document doc;
+  if (!doc.load_buffer(xml.data(), xml.size(), pugi::parse_default & ~pugi::parse_doctype))
+    return "";
+  std::vector<pugi::xml_node> images;
+  collect(doc, "image", images);
+  bool changed = false;
+  for (pugi::xml_node& image : images) {
+    // COLLADA 1.4 puts <init_from> right under <image>; 1.5 under <init_from><ref>.
+    std::vector<pugi::xml_node> refs, data;
+    collect(image, "init_from", refs);
+    collect(image, "data", data);
+    bool named = !data.empty();
+    for (const pugi::xml_node& r : refs) named |= r.text().as_string()[0] != '\0' || r.child("ref");
+    if (named) continue;
+    std::string id = image.attribute("id").value();
+    if (id.empty()) id = "unnamed image";
+    for (pugi::xml_node& r : refs) image.remove_child(r);
+    image.append_child("init_from").text().set(id.c_str());
+    if (ids) ids->push_back(id);
+    changed = true;
+  }
+  if (!changed) return "";
+  std::ostringstream out;
+  doc.save(out, "", pugi::format_raw);
+  return out.str();
+}
+
 }  // namespace meshmux

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -22,5 +23,13 @@ struct ColladaMaterialInfo {
 // document that does not parse gives an empty map (Assimp reports the parse error).
 // O(document size).
 std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vector<uint8_t>& xml);
+
+// The <image> elements Assimp 5.2 rejects the whole document for ("Invalid texture, no data or
+// file reference given"): no <init_from> with text and no <data> (an exporter commented the
+// file out, or wrote only an id). Each gets <init_from>ID</init_from> naming its own id, so the
+// document loads and that texture alone is reported missing (the material keeps its colour).
+// Returns the repaired document, or "" when nothing needed repair; `ids` gets the images'
+// ids. O(document size).
+std::string repair_collada_images(const std::vector<uint8_t>& xml, std::vector<std::string>* ids);
 
 }  // namespace meshmux

@@ -371,6 +371,28 @@ TEST(ColladaImport, MissingTextureWarnsAndKeepsTheColour) {
       << (w.empty() ? "no warnings" : w.items()[0]);
 }
 
+// An <image> whose file reference an exporter commented out: Assimp rejected the whole
+// document ("Invalid texture, no data or file reference given"), failing two simulator
+// models. Only that texture is dropped, with a warning naming the image.
+TEST(ColladaImport, ImageWithoutFileDropsOnlyItsTexture) {
+  TempDir dir;
+  std::string text = textured_document("gone.png");
+  const std::string from = "<init_from>gone.png</init_from>";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "<!--" + from + "-->");
+  Warnings w;
+  auto scene = import_text(dir, "nofile.dae", text, &w);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* tex = find_material(*scene, "tex");
+  const Material* red = find_material(*scene, "red");
+  ASSERT_TRUE(tex && red);
+  EXPECT_FALSE(tex->base_color.present());
+  EXPECT_EQ(red->base_color_factor, (Vec4{1, 0, 0, 1}));
+  EXPECT_EQ(scene->meshes.size(), 1u);
+  EXPECT_TRUE(any_contains(w, "collada: nofile.dae: image 'tex-img'", "names no file"))
+      << (w.empty() ? "no warnings" : w.items()[0]);
+}
+
 TEST(ColladaImport, UndecodableTextureWarnsAndKeepsTheColour) {
   TempDir dir;
   testing::write_text(dir.file("junk.png"), "this is not a PNG at all");
