@@ -591,10 +591,16 @@ struct GroupKey {
   bool flat = false;  // Primitive::flat: shown flat-shaded, exported without normals
   float transmission = 0, ior = 1.5f, thickness = 0, attenuation_distance = 0;
   Vec3 attenuation_color{1, 1, 1};
+  // The reflection's layers (clearcoat, specular, iridescence) likewise: factors per group.
+  float clearcoat = 0, clearcoat_roughness = 0, specular = 1;
+  Vec3 specular_color{1, 1, 1};
+  float iridescence = 0, iridescence_ior = 1.3f, iridescence_thickness = 400;
   auto tied() const {
     return std::tie(transmission, alpha_mode, cutoff, double_sided, unlit, flat, ior, thickness,
                     attenuation_distance, attenuation_color.x, attenuation_color.y,
-                    attenuation_color.z);
+                    attenuation_color.z, clearcoat, clearcoat_roughness, specular,
+                    specular_color.x, specular_color.y, specular_color.z, iridescence,
+                    iridescence_ior, iridescence_thickness);
   }
   bool operator<(const GroupKey& o) const { return tied() < o.tied(); }
   bool operator==(const GroupKey& o) const { return !(*this < o) && !(o < *this); }
@@ -615,6 +621,19 @@ GroupKey group_key(const Scene& scene, const Primitive& p) {
     k.thickness = m.thickness_factor;
     k.attenuation_distance = m.attenuation_distance;
     k.attenuation_color = m.attenuation_color;
+  }
+  if (!m.unlit) {
+    if (m.clearcoat_factor > 0) {
+      k.clearcoat = m.clearcoat_factor;
+      k.clearcoat_roughness = m.clearcoat_roughness_factor;
+    }
+    k.specular = m.specular_factor;
+    k.specular_color = m.specular_color_factor;
+    if (m.iridescence_factor > 0) {
+      k.iridescence = m.iridescence_factor;
+      k.iridescence_ior = m.iridescence_ior;
+      k.iridescence_thickness = m.iridescence_thickness;
+    }
   }
   return k;
 }
@@ -694,6 +713,13 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   mat.thickness_factor = key.thickness;
   mat.attenuation_distance = key.attenuation_distance;
   mat.attenuation_color = key.attenuation_color;
+  mat.clearcoat_factor = key.clearcoat;
+  mat.clearcoat_roughness_factor = key.clearcoat_roughness;
+  mat.specular_factor = key.specular;
+  mat.specular_color_factor = key.specular_color;
+  mat.iridescence_factor = key.iridescence;
+  mat.iridescence_ior = key.iridescence_ior;
+  mat.iridescence_thickness = key.iridescence_thickness;
   return mat;
 }
 

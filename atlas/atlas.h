@@ -18,9 +18,10 @@
 // (atlas/tangent_frame.h). Scenes with no texture, no vertex colour and at most one material
 // are returned unchanged (they already have one material and need no texture).
 // Materials are grouped by how surfaces show beyond their texels (alpha mode and cutoff,
-// double-sidedness, unlit, and glass: KHR_materials_transmission with its ior and volume),
-// one output material per group, all sampling the one atlas; glass keeps its transmission
-// (never folded into alpha, where a fully transmissive surface would vanish).
+// double-sidedness, unlit, glass: KHR_materials_transmission with its ior and volume, and the
+// reflection's layers: clearcoat, specular, iridescence factors), one output material per
+// group, all sampling the one atlas; glass keeps its transmission (never folded into alpha,
+// where a fully transmissive surface would vanish).
 #pragma once
 
 #include <cstdint>

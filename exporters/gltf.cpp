@@ -52,6 +52,9 @@ const char* const kSheen = "KHR_materials_sheen";
 const char* const kTransmission = "KHR_materials_transmission";
 const char* const kIor = "KHR_materials_ior";
 const char* const kVolume = "KHR_materials_volume";
+const char* const kClearcoat = "KHR_materials_clearcoat";
+const char* const kSpecular = "KHR_materials_specular";
+const char* const kIridescence = "KHR_materials_iridescence";
 
 // The JSON number that prints as the shortest decimal reading back to exactly `f`.
 json num(float f) {
@@ -286,6 +289,41 @@ class Exporter {
     }
   }
 
+  // The reflection's layers, where they differ from glTF's defaults: clearcoat, specular
+  // (strength and F0 colour), iridescence (thin film).
+  void write_layers(const Material& m, const std::string& where, json& j) {
+    if (m.clearcoat_factor > 0) {
+      json c = json::object();
+      c["clearcoatFactor"] = num(bounded(m.clearcoat_factor, 0, 1, 0, where + ": clearcoatFactor"));
+      const float r = bounded(m.clearcoat_roughness_factor, 0, 1, 0, where + ": clearcoatRoughness");
+      if (r != 0) c["clearcoatRoughnessFactor"] = num(r);
+      j["extensions"][kClearcoat] = std::move(c);
+      used_.insert(kClearcoat);
+    }
+    const Vec3 sc = m.specular_color_factor;
+    if (m.specular_factor != 1 || !(sc == Vec3{1, 1, 1})) {
+      json sp = json::object();
+      const float f = bounded(m.specular_factor, 0, 1, 1, where + ": specularFactor");
+      if (f != 1) sp["specularFactor"] = num(f);
+      if (!(sc == Vec3{1, 1, 1}))
+        sp["specularColorFactor"] = {num(bounded(sc.x, 0, 100, 1, where + ": specularColorFactor")),
+                                     num(bounded(sc.y, 0, 100, 1, where + ": specularColorFactor")),
+                                     num(bounded(sc.z, 0, 100, 1, where + ": specularColorFactor"))};
+      j["extensions"][kSpecular] = std::move(sp);
+      used_.insert(kSpecular);
+    }
+    if (m.iridescence_factor > 0) {
+      json ir = json::object();
+      ir["iridescenceFactor"] = num(bounded(m.iridescence_factor, 0, 1, 0, where + ": iridescenceFactor"));
+      const float ior = bounded(m.iridescence_ior, 1, 10, 1.3f, where + ": iridescenceIor");
+      if (ior != 1.3f) ir["iridescenceIor"] = num(ior);
+      const float t = bounded(m.iridescence_thickness, 0, 1e5f, 400, where + ": iridescenceThickness");
+      if (t != 400) ir["iridescenceThicknessMaximum"] = num(t);
+      j["extensions"][kIridescence] = std::move(ir);
+      used_.insert(kIridescence);
+    }
+  }
+
   void write_materials() {
     material_uv_sets_.assign(scene_.materials.size(), 0);
     for (size_t i = 0; i < scene_.materials.size(); ++i) {
@@ -354,6 +392,7 @@ class Exporter {
         used_.insert(kSheen);
       }
       if (m.transmissive() && !m.unlit) write_glass(m, where, tex, j);
+      if (!m.unlit) write_layers(m, where, j);
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";
         float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;

@@ -29,9 +29,6 @@ namespace {
 // Material extensions that change appearance, with what the output shows instead: the
 // metal-roughness core of the material (factors and maps) is kept, the effect is not.
 const std::map<std::string, std::string> kAppearanceExtensions = {
-    {"KHR_materials_clearcoat", "clearcoat dropped (no second specular layer)"},
-    {"KHR_materials_specular", "specular dropped (the default dielectric F0 of 0.04 is used)"},
-    {"KHR_materials_iridescence", "iridescence dropped"},
     {"KHR_materials_anisotropy", "anisotropy dropped (isotropic highlights)"},
     {"KHR_materials_dispersion", "dispersion dropped"},
     {"KHR_materials_diffuse_transmission", "diffuse transmission dropped"},
@@ -44,6 +41,8 @@ const std::set<std::string> kSupportedRequired = {
     "EXT_mesh_gpu_instancing",         "KHR_materials_unlit",
     "KHR_materials_emissive_strength", "KHR_materials_transmission",
     "KHR_materials_volume",            "KHR_materials_ior",
+    "KHR_materials_clearcoat",         "KHR_materials_specular",
+    "KHR_materials_iridescence",       "KHR_materials_sheen",
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -605,8 +604,8 @@ class Importer {
   // Material extensions folded into the metal-roughness core (issue 2/8, deliver 4):
   // - KHR_materials_emissive_strength multiplies the emissive factor (exact; the exporter
   //   writes the extension back when a component exceeds 1);
-  // - KHR_materials_sheen, _transmission, _ior and _volume are carried (their factors; the
-  //   sheen colour and the transmission/thickness texture as textures).
+  // - KHR_materials_sheen, _transmission, _ior, _volume, _clearcoat, _specular and
+  //   _iridescence are carried: their factors, and the sheen colour texture.
   // Number fields that are missing or not finite keep their glTF defaults.
   static void approximate_extensions(const tinygltf::Material& src, Material* mat) {
     auto number = [](const tinygltf::Value& v, const char* key, double fallback) {
@@ -635,6 +634,34 @@ class Importer {
       }
       mat->sheen_roughness_factor =
           float(std::clamp(number(v, "sheenRoughnessFactor", 0.0), 0.0, 1.0));
+    }
+    // Clearcoat, specular and iridescence: their factors.
+    if (auto it = src.extensions.find("KHR_materials_clearcoat"); it != src.extensions.end()) {
+      mat->clearcoat_factor = float(std::clamp(number(it->second, "clearcoatFactor", 0.0), 0.0, 1.0));
+      mat->clearcoat_roughness_factor =
+          float(std::clamp(number(it->second, "clearcoatRoughnessFactor", 0.0), 0.0, 1.0));
+    }
+    if (auto it = src.extensions.find("KHR_materials_specular"); it != src.extensions.end()) {
+      const tinygltf::Value& v = it->second;
+      mat->specular_factor = float(std::clamp(number(v, "specularFactor", 1.0), 0.0, 1.0));
+      if (v.IsObject() && v.Has("specularColorFactor") && v.Get("specularColorFactor").IsArray() &&
+          v.Get("specularColorFactor").ArrayLen() == 3) {
+        float c[3];
+        for (int k = 0; k < 3; ++k) {
+          const tinygltf::Value& e = v.Get("specularColorFactor").Get(k);
+          const double x = e.IsNumber() ? e.GetNumberAsDouble() : 1.0;
+          c[k] = float(std::isfinite(x) ? std::clamp(x, 0.0, 100.0) : 1.0);
+        }
+        mat->specular_color_factor = {c[0], c[1], c[2]};
+      }
+    }
+    if (auto it = src.extensions.find("KHR_materials_iridescence"); it != src.extensions.end()) {
+      const tinygltf::Value& v = it->second;
+      mat->iridescence_factor = float(std::clamp(number(v, "iridescenceFactor", 0.0), 0.0, 1.0));
+      const double ior = number(v, "iridescenceIor", 1.3);
+      mat->iridescence_ior = float(ior >= 1 && ior <= 10 ? ior : 1.3);
+      mat->iridescence_thickness =
+          float(std::clamp(number(v, "iridescenceThicknessMaximum", 400.0), 0.0, 1e5));
     }
     // Glass is carried as glass: transmission, ior and volume (thickness, attenuation).
     if (auto it = src.extensions.find("KHR_materials_transmission"); it != src.extensions.end())
@@ -711,11 +738,19 @@ class Importer {
       }
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
-      for (auto [ext, key] : {std::pair{"KHR_materials_transmission", "transmissionTexture"},
-                              std::pair{"KHR_materials_volume", "thicknessTexture"}})
+      for (auto [ext, key] :
+           {std::pair{"KHR_materials_transmission", "transmissionTexture"},
+            std::pair{"KHR_materials_volume", "thicknessTexture"},
+            std::pair{"KHR_materials_clearcoat", "clearcoatTexture"},
+            std::pair{"KHR_materials_clearcoat", "clearcoatRoughnessTexture"},
+            std::pair{"KHR_materials_clearcoat", "clearcoatNormalTexture"},
+            std::pair{"KHR_materials_specular", "specularTexture"},
+            std::pair{"KHR_materials_specular", "specularColorTexture"},
+            std::pair{"KHR_materials_iridescence", "iridescenceTexture"},
+            std::pair{"KHR_materials_iridescence", "iridescenceThicknessTexture"}})
         if (auto it = src.extensions.find(ext);
             it != src.extensions.end() && it->second.IsObject() && it->second.Has(key))
-          ++dropped_glass_maps_[key];
+          ++dropped_layer_maps_[key];
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
@@ -723,7 +758,7 @@ class Importer {
     for (const auto& [name, count] : effects_)
       warn(warnings_, "gltf: " + file_ + ": " + name + " on " + std::to_string(count) +
                           " material(s): " + kAppearanceExtensions.at(name));
-    for (const auto& [key, count] : dropped_glass_maps_)
+    for (const auto& [key, count] : dropped_layer_maps_)
       warn(warnings_, "gltf: " + file_ + ": " + key + " on " + std::to_string(count) +
                           " material(s) dropped (its factor is kept)");
     if (std::find(m_.extensionsUsed.begin(), m_.extensionsUsed.end(), "KHR_materials_variants") !=
@@ -991,7 +1026,7 @@ class Importer {
 
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
-  std::map<std::string, size_t> dropped_glass_maps_;  // glass texture slot → materials
+  std::map<std::string, size_t> dropped_layer_maps_;  // layer texture slot → materials
   Reader r_;
   std::string file_;
   const ImportOptions& opts_;

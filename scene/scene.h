@@ -71,6 +71,16 @@ struct Material {
                                     // attenuation_color; 0 = infinite (no attenuation)
   Vec3 attenuation_color{1, 1, 1};  // linear RGB
   bool transmissive() const { return transmission_factor > 0; }
+  // Layers of the surface's reflection (MeshPhysicalMaterial in three.js), carried as factors;
+  // their textures are not carried (one warning names them).
+  float clearcoat_factor = 0;            // KHR_materials_clearcoat: a second specular layer [0,1]
+  float clearcoat_roughness_factor = 0;  // its roughness [0,1]
+  float specular_factor = 1;             // KHR_materials_specular: strength of the reflection [0,1]
+  Vec3 specular_color_factor{1, 1, 1};   // its F0 colour, linear (may exceed 1)
+  float iridescence_factor = 0;          // KHR_materials_iridescence: thin-film layer [0,1]
+  float iridescence_ior = 1.3f;          // the film's index of refraction
+  float iridescence_thickness = 400;     // the film's thickness, nanometres (glTF's maximum,
+                                         // what applies without the thickness texture)
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
   bool double_sided = false;  // render back faces

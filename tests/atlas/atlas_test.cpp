@@ -776,6 +776,26 @@ TEST(Atlas, GlassIsAMaterialOfItsOwn) {
   EXPECT_EQ(two->materials.size(), 2u);
 }
 
+// A clear-coated part beside a plain one (car paint and tyre): the coat is a material of its
+// own with its factors; the plain part has none.
+TEST(Atlas, ClearcoatIsAMaterialOfItsOwn) {
+  Material plain;
+  plain.name = "tyre";
+  Material coated;
+  coated.name = "paint";
+  coated.clearcoat_factor = 1;
+  coated.clearcoat_roughness_factor = 0.05f;
+  coated.specular_color_factor = {0.9f, 0.9f, 1};
+  auto out = build_atlas(two_material_quads(plain, coated), AtlasOptions{}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->materials.size(), 2u);
+  EXPECT_EQ(out->materials[0].clearcoat_factor, 0);
+  EXPECT_EQ(out->materials[0].specular_color_factor, (Vec3{1, 1, 1}));
+  EXPECT_FLOAT_EQ(out->materials[1].clearcoat_factor, 1);
+  EXPECT_FLOAT_EQ(out->materials[1].clearcoat_roughness_factor, 0.05f);
+  EXPECT_EQ(out->materials[1].specular_color_factor, (Vec3{0.9f, 0.9f, 1}));
+}
+
 TEST(AtlasChannels, SheenColourIsBakedWhereItDiffers) {
   Material velvet, wood;
   velvet.base_color_factor = {0.8f, 0.2f, 0.1f, 1};

@@ -461,6 +461,37 @@ TEST(GltfExport, GlassRoundTrips) {
   EXPECT_EQ(b.alpha_mode, AlphaMode::kOpaque);
 }
 
+// The reflection's layers round-trip: clearcoat, specular and iridescence factors are written
+// as their extensions (validator-clean) and read back the same.
+TEST(GltfExport, ReflectionLayersRoundTrip) {
+  Scene scene = textured_cube_scene();
+  Material& m = scene.materials[0];
+  m.clearcoat_factor = 1;
+  m.clearcoat_roughness_factor = 0.1f;
+  m.specular_factor = 0.5f;
+  m.specular_color_factor = {1, 0.25f, 0.5f};
+  m.iridescence_factor = 0.8f;
+  m.iridescence_ior = 1.8f;
+  m.iridescence_thickness = 700;
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  for (const char* e : {"KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_iridescence"})
+    EXPECT_TRUE(has(glb.doc["extensionsUsed"], e)) << e;
+  expect_valid(bytes, "layers.glb");
+  TempDir dir;
+  testing::write_file(dir.file("layers.glb"), bytes);
+  auto back = import_scene(dir.file("layers.glb"), {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  const Material& b = back->materials[0];
+  EXPECT_FLOAT_EQ(b.clearcoat_factor, 1);
+  EXPECT_FLOAT_EQ(b.clearcoat_roughness_factor, 0.1f);
+  EXPECT_FLOAT_EQ(b.specular_factor, 0.5f);
+  EXPECT_EQ(b.specular_color_factor, (Vec3{1, 0.25f, 0.5f}));
+  EXPECT_FLOAT_EQ(b.iridescence_factor, 0.8f);
+  EXPECT_FLOAT_EQ(b.iridescence_ior, 1.8f);
+  EXPECT_FLOAT_EQ(b.iridescence_thickness, 700);
+}
+
 // An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is
 // written back as a factor in [0, 1] and the strength, so it stays valid and as bright.
 TEST(GltfExport, EmissiveBeyondOneWritesEmissiveStrength) {

@@ -506,32 +506,41 @@ TEST(GltfImport, BasisuTexturesAreOneClearError) {
   EXPECT_EQ(s.status().kind(), ErrorKind::kInput);
 }
 
-// Issue 2/8: material effects that do not survive conversion (sheen cloth turned near-black)
-// are said, once per extension with the number of materials, not silently dropped.
+// Material effects that do not survive conversion are said, once per extension with the
+// number of materials, not silently dropped (anisotropy); those that are carried (sheen,
+// clearcoat, even where the file lists it as required) are read, with one warning per
+// texture slot the output cannot carry.
 TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
   TempDir dir;
   testing::write_text(dir.file("effects.gltf"), R"({
     "asset": {"version": "2.0"},
-    "extensionsUsed": ["KHR_materials_sheen", "KHR_materials_clearcoat"],
+    "extensionsUsed": ["KHR_materials_sheen", "KHR_materials_clearcoat", "KHR_materials_anisotropy"],
+    "extensionsRequired": ["KHR_materials_clearcoat"],
     "materials": [
-      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 0, 0]}}},
-      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [0, 1, 0]}}},
-      {"extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1}}}],
+      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 0, 0]},
+                      "KHR_materials_anisotropy": {"anisotropyStrength": 0.5}}},
+      {"extensions": {"KHR_materials_sheen": {"sheenColorFactor": [0, 1, 0]},
+                      "KHR_materials_anisotropy": {"anisotropyStrength": 0.5}}},
+      {"extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.2,
+                                                  "clearcoatNormalTexture": {"index": 0}}}}],
     "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0})");
   Warnings w;
   auto s = import_gltf(dir.file("effects.gltf"), {}, &w);
   ASSERT_TRUE(s.ok()) << s.status().message();
-  int sheen = 0, clearcoat = 0;
+  int sheen = 0, anisotropy = 0, coat_normal = 0;
   for (const std::string& m : w.items()) {
     sheen += m.find("KHR_materials_sheen") != std::string::npos;
-    clearcoat += m.find("KHR_materials_clearcoat on 1 material(s)") != std::string::npos;
+    anisotropy += m.find("KHR_materials_anisotropy on 2 material(s)") != std::string::npos;
+    coat_normal += m.find("clearcoatNormalTexture on 1 material(s) dropped") != std::string::npos;
   }
-  EXPECT_EQ(sheen, 0) << "sheen is carried (issue 5/8), nothing to warn about";
-  EXPECT_EQ(clearcoat, 1);
-  // The sheen itself.
+  EXPECT_EQ(sheen, 0) << "sheen is carried, nothing to warn about";
+  EXPECT_EQ(anisotropy, 1);
+  EXPECT_EQ(coat_normal, 1);
   EXPECT_EQ(s->materials[0].sheen_color_factor, (Vec3{1, 0, 0}));
   EXPECT_EQ(s->materials[1].sheen_color_factor, (Vec3{0, 1, 0}));
   EXPECT_EQ(s->materials[2].sheen_color_factor, (Vec3{0, 0, 0}));
+  EXPECT_FLOAT_EQ(s->materials[2].clearcoat_factor, 1);
+  EXPECT_FLOAT_EQ(s->materials[2].clearcoat_roughness_factor, 0.2f);
 }
 
 // Glass stays glass: transmission, ior and volume are read as they are, and the base colour's

@@ -150,7 +150,9 @@ function makeStandardMaterial(source, maps) {
   // Glass (KHR_materials_transmission, _ior, _volume: MeshPhysicalMaterial.transmission, ior,
   // thickness, attenuation), kept as glass: never faded out through opacity.
   const glass = source.isMeshPhysicalMaterial && source.transmission > 0;
-  const m = new (sheen || glass ? THREE.MeshPhysicalMaterial : THREE.MeshStandardMaterial)({
+  // The reflection's layers: clearcoat, specular (KHR_materials_specular), iridescence.
+  const layers = source.isMeshPhysicalMaterial;
+  const m = new (sheen || glass || layers ? THREE.MeshPhysicalMaterial : THREE.MeshStandardMaterial)({
     name: `meshmux(${source.name || 'material'})`,
     side: THREE.DoubleSide,
     color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
@@ -167,6 +169,15 @@ function makeStandardMaterial(source, maps) {
     m.sheen = source.sheen;
     m.sheenColor = source.sheenColor.clone();
     m.sheenRoughness = source.sheenRoughness;
+  }
+  if (layers) {
+    m.clearcoat = source.clearcoat;
+    m.clearcoatRoughness = source.clearcoatRoughness;
+    m.specularIntensity = source.specularIntensity;
+    m.specularColor = source.specularColor.clone();
+    m.iridescence = source.iridescence;
+    m.iridescenceIOR = source.iridescenceIOR;
+    m.iridescenceThicknessRange = [...source.iridescenceThicknessRange];
   }
   if (glass) {
     m.transmission = source.transmission;
