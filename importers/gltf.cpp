@@ -449,6 +449,9 @@ class Importer {
     if (!m_.animations.empty())
       warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.animations.size()) +
                           " animation(s) dropped");
+    if (morphed_)
+      warn(warnings_, "gltf: " + file_ + ": morph targets applied at their default weights "
+                                         "(the shape shown without animation)");
     return std::move(scene_);
   }
 
@@ -894,6 +897,57 @@ class Importer {
     return Status::ok();
   }
 
+  // The weights a mesh's morph targets show at rest (glTF 2.0 §3.7.2.2): the first node using
+  // the mesh that gives weights, else the mesh's own; missing entries are 0. Nodes that give
+  // different weights for one mesh share its first node's shape (said in one warning).
+  std::vector<double> morph_weights(size_t mesh) {
+    std::vector<double> w = m_.meshes[mesh].weights;
+    bool from_node = false;
+    for (const tinygltf::Node& n : m_.nodes) {
+      if (n.mesh != int(mesh) || n.weights.empty()) continue;
+      if (!from_node) {
+        w = n.weights;
+        from_node = true;
+      } else if (n.weights != w && differing_weights_.insert(mesh).second) {
+        warn(warnings_, "gltf: " + file_ + ": mesh " + std::to_string(mesh) +
+                            ": nodes give it different morph weights; all show the first's");
+      }
+    }
+    return w;
+  }
+
+  // Adds each morph target's POSITION and NORMAL displacements times its weight (what a viewer
+  // shows without animation). A target's accessor must have the primitive's vertex count.
+  Status apply_morph_targets(const tinygltf::Primitive& p, const std::vector<double>& weights,
+                             const std::string& where, Primitive* out) {
+    const size_t n = out->positions.size();
+    bool moved = false;
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      const double w = t < weights.size() && std::isfinite(weights[t]) ? weights[t] : 0.0;
+      if (w == 0) continue;
+      for (const char* attr : {"POSITION", "NORMAL"}) {
+        auto it = p.targets[t].find(attr);
+        if (it == p.targets[t].end() || (attr[0] == 'N' && out->normals.empty())) continue;
+        std::vector<float> d;
+        const std::string what = where + ": morph target " + std::to_string(t) + " " + attr;
+        if (Status s = r_.floats(it->second, 3, 0, what, &d); !s) return s;
+        if (d.size() != 3 * n)
+          return r_.err(where, "morph target " + std::to_string(t) + " " + attr + " has " +
+                                   std::to_string(d.size() / 3) + " elements for " +
+                                   std::to_string(n) + " vertices");
+        std::vector<Vec3>& v = attr[0] == 'P' ? out->positions : out->normals;
+        for (size_t i = 0; i < n; ++i)
+          v[i] = v[i] + Vec3{float(w * d[3 * i]), float(w * d[3 * i + 1]), float(w * d[3 * i + 2])};
+      }
+      moved = true;
+    }
+    if (moved) {
+      for (Vec3& nv : out->normals) nv = normalize(nv);
+      morphed_ = true;
+    }
+    return Status::ok();
+  }
+
   Status meshes() {
     mesh_map_.assign(m_.meshes.size(), -1);
     for (size_t mi = 0; mi < m_.meshes.size(); ++mi) {
@@ -907,6 +961,7 @@ class Importer {
         Status s = primitive(src.primitives[pi], where, &prim, &skip);
         if (!s) return s;
         if (skip) continue;
+        if (!(s = apply_morph_targets(src.primitives[pi], morph_weights(mi), where, &prim))) return s;
         if (prim.indices.empty()) {
           warn(warnings_, "gltf: " + file_ + ": " + where + ": no triangles; skipped");
           continue;
@@ -1026,6 +1081,8 @@ class Importer {
 
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
+  std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
+  bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::map<std::string, size_t> dropped_layer_maps_;  // layer texture slot → materials
   Reader r_;
   std::string file_;

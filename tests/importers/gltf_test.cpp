@@ -543,6 +543,37 @@ TEST(GltfImport, MaterialExtensionsWarnOncePerExtension) {
   EXPECT_FLOAT_EQ(s->materials[2].clearcoat_roughness_factor, 0.2f);
 }
 
+// Morph targets show at their default weights, as a viewer shows the file without animation
+// (a model at weight 0.5 came out at its base shape: 14-18 dB). The node's weights win over
+// the mesh's.
+TEST(GltfImport, MorphTargetsAtTheirDefaultWeights) {
+  TempDir dir;
+  const float data[18] = {0, 0, 0, 1, 0, 0, 0, 1, 0,   // the base triangle
+                          0, 0, 2, 0, 0, 2, 0, 0, 2};  // target 0: +2 along z
+  testing::write_file(dir.file("m.bin"), std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(data),
+                                                              reinterpret_cast<const uint8_t*>(data) + sizeof data));
+  const std::string doc = R"({"asset":{"version":"2.0"},
+    "buffers":[{"uri":"m.bin","byteLength":72}],
+    "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                 {"bufferView":1,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,2],"max":[0,0,2]}],
+    "meshes":[{"weights":[0.25],"primitives":[{"attributes":{"POSITION":0},"targets":[{"POSITION":1}]}]}],
+    "nodes":[{"mesh":0 NODE_WEIGHTS}],"scenes":[{"nodes":[0]}],"scene":0})";
+  for (const auto& [node_weights, z] : {std::pair{"", 0.5f}, std::pair{", \"weights\": [1]", 2.0f}}) {
+    std::string text = doc;
+    text.replace(text.find("NODE_WEIGHTS"), 12, node_weights);
+    testing::write_text(dir.file("m.gltf"), text);
+    Warnings w;
+    auto s = import_gltf(dir.file("m.gltf"), {}, &w);
+    ASSERT_TRUE(s.ok()) << s.status().message();
+    ASSERT_EQ(s->meshes.size(), 1u);
+    for (const Vec3& p : s->meshes[0].primitives[0].positions) EXPECT_FLOAT_EQ(p.z, z) << node_weights;
+    EXPECT_TRUE(std::any_of(w.items().begin(), w.items().end(), [](const std::string& m) {
+      return m.find("morph targets applied at their default weights") != std::string::npos;
+    }));
+  }
+}
+
 // Glass stays glass: transmission, ior and volume are read as they are, and the base colour's
 // alpha is left alone (the old alpha × (1 − transmission) made a fully transmissive lamp shade
 // invisible). Emissive strength is folded into the emissive factor. A transmission texture the
