@@ -676,9 +676,9 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
         mat.roughness_factor += float(area * 1.0);
       }
     }
-  if (area_total > 0) {
-    mat.metallic_factor = float(mat.metallic_factor / area_total);
-    mat.roughness_factor = float(mat.roughness_factor / area_total);
+  if (area_total > 0) {  // a mean of equal values may round past them: kept within [0, 1]
+    mat.metallic_factor = std::clamp(float(mat.metallic_factor / area_total), 0.0f, 1.0f);
+    mat.roughness_factor = std::clamp(float(mat.roughness_factor / area_total), 0.0f, 1.0f);
   } else {
     mat.metallic_factor = need.orm.z, mat.roughness_factor = need.orm.y;
   }

@@ -18,6 +18,7 @@
 
 #include "draco/compression/decode.h"
 #include "image/decode.h"
+#include "importers/skinning.h"
 #include "importers/upload.h"
 #include "scene/file_io.h"
 #include "scene/json_depth.h"
@@ -198,7 +199,10 @@ class Reader {
     int csize = component_size(a.componentType);
     int ccount = component_count(a.type);
     if (csize == 0 || ccount == 0) return err(w, "invalid componentType or type");
-    if (ccount > comps + 1 || ccount > 4) return err(w, "unexpected type for this attribute");
+    // Vectors of up to 4 (one component more than asked is dropped); MAT4 only when asked for
+    // whole (a skin's inverse bind matrices).
+    if (ccount > comps + 1 || (ccount > 4 && ccount != comps))
+      return err(w, "unexpected type for this attribute");
     if (a.count > kMaxAccessorCount)
       return err(w, "count " + std::to_string(a.count) + " too large");
     size_t elem = size_t(csize) * size_t(ccount);
@@ -415,7 +419,7 @@ bool drop_draco_index_accessors(std::vector<uint8_t>& data, bool binary) {
 Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
                               const std::vector<std::pair<std::string, int>>& attributes,
                               const std::vector<std::pair<std::string, bool>>& normalized,
-                              Primitive* out, std::string* error);
+                              Primitive* out, SkinInfluences* skin, std::string* error);
 
 // Rewrites a GLB using EXT_meshopt_compression into plain glTF (gltf_meshopt.cpp).
 Result<bool> decode_meshopt_glb(std::vector<uint8_t>& data, const std::string& file,
@@ -443,9 +447,6 @@ class Importer {
     if (!s) return s;
     s = nodes();
     if (!s) return s;
-    if (!m_.skins.empty())
-      warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.skins.size()) +
-                          " skin(s) dropped; meshes are kept in their bind pose");
     if (!m_.animations.empty())
       warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.animations.size()) +
                           " animation(s) dropped");
@@ -772,7 +773,7 @@ class Importer {
   }
 
   Status primitive(const tinygltf::Primitive& p, const std::string& where, Primitive* out,
-                   bool* skip) {
+                   SkinInfluences* skin, bool* skip) {
     *skip = false;
     int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
@@ -785,7 +786,7 @@ class Importer {
       return r_.err(where, "material " + std::to_string(p.material) + " does not exist");
     out->material = p.material;
     auto draco = p.extensions.find("KHR_draco_mesh_compression");
-    if (draco != p.extensions.end()) return draco_primitive(p, draco->second, where, out);
+    if (draco != p.extensions.end()) return draco_primitive(p, draco->second, where, out, skin);
 
     auto pos = p.attributes.find("POSITION");
     if (pos == p.attributes.end()) return r_.err(where, "has no POSITION attribute");
@@ -836,6 +837,36 @@ class Importer {
         return r_.err(where, "index " + std::to_string(i) + " out of range (" + std::to_string(n) +
                                  " vertices)");
     to_triangles(mode, idx, &out->indices);
+    return influences(p, n, where, skin);
+  }
+
+  // JOINTS_n / WEIGHTS_n (n = 0, 1), read for posing a skin (importers/skinning.h).
+  Status influences(const tinygltf::Primitive& p, size_t n, const std::string& where,
+                    SkinInfluences* skin) {
+    std::vector<std::vector<float>> joints, weights;
+    for (int set = 0; set < 2; ++set) {
+      auto j = p.attributes.find("JOINTS_" + std::to_string(set));
+      auto w = p.attributes.find("WEIGHTS_" + std::to_string(set));
+      if (j == p.attributes.end() || w == p.attributes.end()) break;
+      std::vector<float> jf, wf;
+      if (Status s = r_.floats(j->second, 4, 0, where + ": JOINTS", &jf); !s) return s;
+      if (Status s = r_.floats(w->second, 4, 0, where + ": WEIGHTS", &wf); !s) return s;
+      if (jf.size() != 4 * n || wf.size() != 4 * n)
+        return r_.err(where, "JOINTS/WEIGHTS do not have one element per vertex");
+      joints.push_back(std::move(jf));
+      weights.push_back(std::move(wf));
+    }
+    skin->sets = int(joints.size());
+    const size_t per = 4 * joints.size();
+    skin->joints.assign(n * per, 0);
+    skin->weights.assign(n * per, 0);
+    for (size_t set = 0; set < joints.size(); ++set)
+      for (size_t i = 0; i < n; ++i)
+        for (size_t c = 0; c < 4; ++c) {
+          const float jv = joints[set][4 * i + c];
+          skin->joints[i * per + 4 * set + c] = jv >= 0 && jv < 65536 ? uint32_t(jv) : 65535u;
+          skin->weights[i * per + 4 * set + c] = weights[set][4 * i + c];
+        }
     return Status::ok();
   }
 
@@ -868,7 +899,7 @@ class Importer {
   }
 
   Status draco_primitive(const tinygltf::Primitive& p, const tinygltf::Value& ext,
-                         const std::string& where, Primitive* out) {
+                         const std::string& where, Primitive* out, SkinInfluences* skin) {
     if (!ext.IsObject() || !ext.Has("bufferView") || !ext.Has("attributes"))
       return r_.err(where, "KHR_draco_mesh_compression lacks bufferView or attributes");
     int view = ext.Get("bufferView").GetNumberAsInt();
@@ -892,7 +923,7 @@ class Importer {
     }
     std::vector<uint8_t> bytes(data, data + len);
     std::string e;
-    s = decode_draco_primitive(bytes, attrs, norm, out, &e);
+    s = decode_draco_primitive(bytes, attrs, norm, out, skin, &e);
     if (!s) return r_.err(where, "KHR_draco_mesh_compression: " + s.message());
     return Status::ok();
   }
@@ -954,11 +985,13 @@ class Importer {
       const tinygltf::Mesh& src = m_.meshes[mi];
       Mesh mesh;
       mesh.name = src.name;
+      std::vector<SkinInfluences> skins;  // per primitive kept
       for (size_t pi = 0; pi < src.primitives.size(); ++pi) {
         std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
         Primitive prim;
+        SkinInfluences skin;
         bool skip;
-        Status s = primitive(src.primitives[pi], where, &prim, &skip);
+        Status s = primitive(src.primitives[pi], where, &prim, &skin, &skip);
         if (!s) return s;
         if (skip) continue;
         if (!(s = apply_morph_targets(src.primitives[pi], morph_weights(mi), where, &prim))) return s;
@@ -968,10 +1001,12 @@ class Importer {
         }
         mark_flat(&prim);
         mesh.primitives.push_back(std::move(prim));
+        skins.push_back(std::move(skin));
       }
       if (mesh.primitives.empty()) continue;
       mesh_map_[mi] = int32_t(scene_.meshes.size());
       scene_.meshes.push_back(std::move(mesh));
+      influences_.push_back(std::move(skins));
     }
     return Status::ok();
   }
@@ -1041,7 +1076,10 @@ class Importer {
                       "mesh " + std::to_string(node.mesh) + " does not exist");
       int32_t mesh = mesh_map_[size_t(node.mesh)];
       if (mesh >= 0) {
-        if (node.extensions.count("EXT_mesh_gpu_instancing")) {
+        if (node.skin >= 0 && size_t(node.skin) < m_.skins.size() && has_influences(mesh)) {
+          skinned_.push_back({index, scene_.instances.size()});
+          scene_.instances.push_back({uint32_t(mesh), Mat4::identity(), node.name});
+        } else if (node.extensions.count("EXT_mesh_gpu_instancing")) {
           Status s = instancing(node, index, world, uint32_t(mesh));
           if (!s) return s;
         } else {
@@ -1076,13 +1114,83 @@ class Importer {
       Status s = visit(root, Mat4::identity(), on_path, 0);
       if (!s) return s;
     }
+    return pose_skins();
+  }
+
+  bool has_influences(int32_t mesh) const {
+    for (const SkinInfluences& s : influences_[size_t(mesh)])
+      if (!s.empty()) return true;
+    return false;
+  }
+
+  // A node's world matrix through its parents (the joints of a skin may lie anywhere in the
+  // node graph). Cycles were refused by visit(); the depth bound guards the rest.
+  Mat4 node_world(int index, const std::vector<int>& parent) const {
+    Mat4 world = node_local(m_.nodes[size_t(index)]);
+    for (int p = parent[size_t(index)], depth = 0; p >= 0 && depth < 1024;
+         p = parent[size_t(p)], ++depth)
+      world = node_local(m_.nodes[size_t(p)]) * world;
+    return world;
+  }
+
+  // Each skinned node's instance gets its own copy of the mesh, posed by its skin at rest.
+  Status pose_skins() {
+    if (skinned_.empty()) return Status::ok();
+    std::vector<int> parent(m_.nodes.size(), -1);
+    for (size_t i = 0; i < m_.nodes.size(); ++i)
+      for (int c : m_.nodes[i].children)
+        if (c >= 0 && size_t(c) < parent.size()) parent[size_t(c)] = int(i);
+    for (const auto& [node, instance] : skinned_) {
+      const tinygltf::Skin& skin = m_.skins[size_t(m_.nodes[size_t(node)].skin)];
+      const std::string where = "skin " + std::to_string(m_.nodes[size_t(node)].skin);
+      std::vector<float> ibm;
+      if (skin.inverseBindMatrices >= 0)
+        if (Status s = r_.floats(skin.inverseBindMatrices, 16, 0, where + ": inverseBindMatrices", &ibm); !s)
+          return s;
+      std::vector<Mat4> joints;
+      for (size_t j = 0; j < skin.joints.size(); ++j) {
+        const int jn = skin.joints[j];
+        if (jn < 0 || size_t(jn) >= m_.nodes.size())
+          return r_.err(where, "joint node " + std::to_string(jn) + " does not exist");
+        Mat4 bind;
+        if (ibm.size() >= 16 * (j + 1))
+          for (size_t k = 0; k < 16; ++k) bind.m[k] = ibm[16 * j + k];
+        joints.push_back(node_world(jn, parent) * bind);
+      }
+      const uint32_t source = scene_.instances[instance].mesh;
+      Mesh posed = scene_.meshes[source];
+      for (size_t pi = 0; pi < posed.primitives.size(); ++pi)
+        posed.primitives[pi] = pose_skinned(posed.primitives[pi], influences_[source][pi], joints);
+      scene_.instances[instance].mesh = uint32_t(scene_.meshes.size());
+      scene_.meshes.push_back(std::move(posed));
+      influences_.emplace_back();
+    }
+    warn(warnings_, "gltf: " + file_ + ": " + std::to_string(skinned_.size()) +
+                        " skinned mesh node(s) posed as the joints stand at rest");
+    drop_unplaced_meshes();
     return Status::ok();
+  }
+
+  // Meshes no instance places any more (a skinned mesh whose every node got a posed copy).
+  void drop_unplaced_meshes() {
+    std::vector<int32_t> remap(scene_.meshes.size(), -1);
+    for (const Instance& inst : scene_.instances) remap[inst.mesh] = 0;
+    std::vector<Mesh> kept;
+    for (size_t m = 0; m < scene_.meshes.size(); ++m)
+      if (remap[m] == 0) {
+        remap[m] = int32_t(kept.size());
+        kept.push_back(std::move(scene_.meshes[m]));
+      }
+    for (Instance& inst : scene_.instances) inst.mesh = uint32_t(remap[inst.mesh]);
+    scene_.meshes = std::move(kept);
   }
 
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
   bool morphed_ = false;                   // some primitive shows morph targets at rest
+  std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
+  std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)
   std::map<std::string, size_t> dropped_layer_maps_;  // layer texture slot → materials
   Reader r_;
   std::string file_;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "draco/compression/decode.h"
+#include "importers/skinning.h"
 #include "scene/scene.h"
 
 namespace meshmux {
@@ -13,7 +14,7 @@ namespace meshmux {
 Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
                               const std::vector<std::pair<std::string, int>>& attributes,
                               const std::vector<std::pair<std::string, bool>>& normalized,
-                              Primitive* out, std::string*) {
+                              Primitive* out, SkinInfluences* skin, std::string*) {
   draco::DecoderBuffer buffer;
   buffer.Init(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   draco::Decoder decoder;
@@ -56,6 +57,20 @@ Status decode_draco_primitive(const std::vector<uint8_t>& bytes,
       if (out->uvs.size() <= set) out->uvs.resize(set + 1);
       out->uvs[set].resize(n);
       for (size_t i = 0; i < n; ++i) get(i), out->uvs[set][i] = {v[0], v[1]};
+    } else if ((name == "JOINTS_0" || name == "WEIGHTS_0") && skin) {
+      std::vector<float> values(4 * n);
+      for (size_t i = 0; i < n; ++i) {
+        get(i);
+        for (int c = 0; c < 4; ++c) values[4 * i + size_t(c)] = c < comps ? v[c] : 0.0f;
+      }
+      if (name == "WEIGHTS_0") {
+        skin->weights = std::move(values);
+      } else {
+        skin->joints.resize(4 * n);
+        for (size_t i = 0; i < 4 * n; ++i)
+          skin->joints[i] = values[i] >= 0 && values[i] < 65536 ? uint32_t(values[i]) : 65535u;
+      }
+      skin->sets = !skin->joints.empty() && !skin->weights.empty() ? 1 : 0;
     } else if (name == "COLOR_0") {
       out->colors.resize(n);
       for (size_t i = 0; i < n; ++i)

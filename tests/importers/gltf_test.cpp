@@ -574,6 +574,49 @@ TEST(GltfImport, MorphTargetsAtTheirDefaultWeights) {
   }
 }
 
+// A skinned mesh shows as its joints stand at rest, not in its bind pose (skinned characters
+// came out elsewhere and in another pose: IoU 0.06-0.24), and the skinned node's own transform
+// does not apply (glTF 2.0 §3.7.3). Weights are normalised as three.js's loader does.
+TEST(GltfImport, SkinIsPosedAsItsJointsStand) {
+  TempDir dir;
+  struct {
+    float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    uint8_t joints[12] = {0, 1, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0};
+    float weights[12] = {2, 0, 0, 0, 0.5f, 0.5f, 0, 0, 1, 0, 0, 0};  // vertex 0 sums to 2
+    float ibm[32] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
+                     1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  } data;
+  static_assert(sizeof data == 36 + 12 + 48 + 128);
+  testing::write_file(dir.file("s.bin"), std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(&data),
+                                                              reinterpret_cast<const uint8_t*>(&data) + sizeof data));
+  testing::write_text(dir.file("s.gltf"), R"({"asset":{"version":"2.0"},
+    "buffers":[{"uri":"s.bin","byteLength":224}],
+    "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":12},
+                   {"buffer":0,"byteOffset":48,"byteLength":48},{"buffer":0,"byteOffset":96,"byteLength":128}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                 {"bufferView":1,"componentType":5121,"count":3,"type":"VEC4"},
+                 {"bufferView":2,"componentType":5126,"count":3,"type":"VEC4"},
+                 {"bufferView":3,"componentType":5126,"count":2,"type":"MAT4"}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0,"JOINTS_0":1,"WEIGHTS_0":2}}]}],
+    "skins":[{"joints":[1,2],"inverseBindMatrices":3}],
+    "nodes":[{"mesh":0,"skin":0,"translation":[100,100,100]},
+             {"translation":[1,0,0]},{"translation":[0,2,0]}],
+    "scenes":[{"nodes":[0,1,2]}],"scene":0})");
+  Warnings w;
+  auto s = import_gltf(dir.file("s.gltf"), {}, &w);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->meshes.size(), 1u) << "the unposed mesh is not kept beside the posed one";
+  ASSERT_EQ(s->instances.size(), 1u);
+  EXPECT_TRUE(s->instances[0].world.is_identity());
+  const std::vector<Vec3>& p = s->meshes[s->instances[0].mesh].primitives[0].positions;
+  EXPECT_EQ(p[0], (Vec3{1, 0, 0}));        // joint 0 alone (weights 2, 0 normalised)
+  EXPECT_EQ(p[1], (Vec3{1.5f, 1, 0}));     // half of each: (2,0,0)/2 + (1,2,0)/2
+  EXPECT_EQ(p[2], (Vec3{0, 3, 0}));        // joint 1 alone
+  EXPECT_TRUE(std::any_of(w.items().begin(), w.items().end(), [](const std::string& m) {
+    return m.find("1 skinned mesh node(s) posed as the joints stand at rest") != std::string::npos;
+  }));
+}
+
 // Glass stays glass: transmission, ior and volume are read as they are, and the base colour's
 // alpha is left alone (the old alpha × (1 − transmission) made a fully transmissive lamp shade
 // invisible). Emissive strength is folded into the emissive factor. A transmission texture the
