@@ -104,6 +104,10 @@ Wrap to_wrap(aiTextureMapMode m) {
 }
 
 // A material's diffuse texture, to be loaded by the caller's process.
+// The Blinn-Phong exponent a <phong>/<blinn> effect with none (or 0) shows with in three.js
+// (MeshPhongMaterial's default, which its ColladaLoader keeps for a 0).
+constexpr float kDefaultShininess = 30;
+
 struct TextureRequest {
   int32_t material = -1;
   std::string path;  // as Assimp gives it
@@ -231,8 +235,13 @@ class Converter {
   // - opacity < 1 → BLEND; double_sided from AI_MATKEY_TWOSIDED (read from <extra>);
   // - metallic 0 (the common profile describes dielectrics); roughness from the Blinn-Phong
   //   exponent n through the Beckmann match α = sqrt(2 / (n + 2)) and glTF's α = roughness²,
-  //   i.e. roughness = (2 / (n + 2))^¼; lambert and constant shading (no highlight) → 1;
-  // - emissive factor = <emission> colour.
+  //   i.e. roughness = (2 / (n + 2))^¼, where an exponent of 0 or none is read as 30, as
+  //   three.js's ColladaLoader reads it (its MeshPhongMaterial default); lambert and constant
+  //   shading (no highlight) → 1. The <specular> colour is not carried: the dielectric F0 of
+  //   0.04 stands in for it, as in three.js's PBR reading of a Phong material;
+  // - emissive factor = <emission> colour; an <emission> texture is not carried and leaves
+  //   the emissive colour black (three.js's ColladaLoader shows it so too: emissiveMap times
+  //   its black emissive colour), never Assimp's white stand-in for it.
   Material convert_material(const aiMaterial& am, int32_t id) {
     Material mat;
     aiString name;
@@ -260,12 +269,16 @@ class Converter {
     float shininess = 0;
     bool has_highlight = am.Get(AI_MATKEY_SHADING_MODEL, shading) != AI_SUCCESS ||
                          shading == aiShadingMode_Phong || shading == aiShadingMode_Blinn;
-    if (has_highlight && am.Get(AI_MATKEY_SHININESS, shininess) == AI_SUCCESS &&
-        std::isfinite(shininess) && shininess >= 0)
+    if (has_highlight) {
+      if (am.Get(AI_MATKEY_SHININESS, shininess) != AI_SUCCESS || !std::isfinite(shininess) ||
+          shininess <= 0)
+        shininess = kDefaultShininess;
       mat.roughness_factor = clamp01(float(std::pow(2.0 / (double(shininess) + 2.0), 0.25)));
+    }
 
     aiColor3D emissive(0, 0, 0);
-    if (am.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS)
+    if (am.GetTextureCount(aiTextureType_EMISSIVE) == 0 &&
+        am.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS)
       mat.emissive_factor = {display_to_linear(emissive.r), display_to_linear(emissive.g),
                              display_to_linear(emissive.b)};
 
@@ -661,14 +674,14 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                                std::to_string(limits.max_instances) +
                                " (the limit from the input's size; --max-instances raises it)",
                            ErrorKind::kInput);
-    // Assimp 5.2 reports every <shininess> as 0 (roughness 1): the document's own exponent
-    // gives the roughness as convert_material maps it.
+    // Assimp 5.2 reports every <shininess> as 0: the document's own exponent of a <phong> or
+    // <blinn> effect gives the roughness as convert_material maps it (0 read as 30).
     for (Material& m : scene.materials)
-      if (auto it = info.find(m.name); it != info.end() && it->second.shininess >= 0 &&
-                                       std::isfinite(it->second.shininess) &&
-                                       m.roughness_factor >= 1)
-        m.roughness_factor =
-            clamp01(float(std::pow(2.0 / (double(it->second.shininess) + 2.0), 0.25)));
+      if (auto it = info.find(m.name);
+          it != info.end() && it->second.shininess >= 0 && std::isfinite(it->second.shininess)) {
+        const double n = it->second.shininess > 0 ? it->second.shininess : kDefaultShininess;
+        m.roughness_factor = clamp01(float(std::pow(2.0 / (n + 2.0), 0.25)));
+      }
     auto scope = input_scope(path, options.allow_outside, options.root);
     if (!scope.ok())
       return Status::error(stage + ": " + scope.status().message(), ErrorKind::kInput);

@@ -498,6 +498,27 @@ TEST(ColladaImport, PhongShininessGivesTheRoughness) {
   EXPECT_EQ(m->metallic_factor, 0.0f);
 }
 
+// A Phong effect read as three.js's ColladaLoader reads it (the judge of appearance): an
+// exponent of 0, or none, is its default 30 (roughness (2/32)^¼ = 0.5, not 1: a cup came out
+// matte, lit 26 dB); an <emission> texture (not carried) leaves the emissive colour black
+// rather than Assimp's white stand-in (a lamp post came out glowing white, lit 9.5 dB).
+TEST(ColladaImport, PhongReadAsThreeJsReadsIt) {
+  TempDir dir;
+  std::string lib = material_library({{"cup", "0.5 0.5 0.5 1", ""}});
+  for (size_t at; (at = lib.find("<lambert>")) != std::string::npos;) lib.replace(at, 9, "<phong>");
+  for (size_t at; (at = lib.find("</lambert>")) != std::string::npos;)
+    lib.replace(at, 10,
+                "<emission><texture texture=\"glow\" texcoord=\"UV\"/></emission>"
+                "<shininess><float>0</float></shininess></phong>");
+  std::string g = geometry("t", kTriangle, block("triangles", "cup", 1, "0 1 2", "t"));
+  auto scene = import_text(dir, "cup.dae", document(g, node("n", "t", "", {"cup"}), lib), nullptr);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* m = find_material(*scene, "cup");
+  ASSERT_TRUE(m);
+  EXPECT_NEAR(m->roughness_factor, std::pow(2.0 / 32.0, 0.25), 1e-4);
+  EXPECT_EQ(m->emissive_factor, (Vec3{0, 0, 0}));
+}
+
 // Issue 3/8: <init_from> naming an existing file outside the model's folder (absolute,
 // "../", "file://") was opened and its bytes kept. Refused with one clear error, unless the
 // folder holds a file of that name (authors' absolute paths are common: the bare name beside
