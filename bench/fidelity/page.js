@@ -1,12 +1,13 @@
 // The fidelity harness's page (bench/fidelity.mjs drives it in headless chromium): loads a
-// model with three.js's own loaders (GLTFLoader with DRACOLoader and the meshopt decoder, or
-// ColladaLoader), renders it with its materials under RoomEnvironment (lit) or with base colour
-// × alpha only (unlit) or as its shading normals with normal maps applied (for the normal-map
-// angular error), from cameras the driver gives, and measures how much of the surface is
-// shaded against its winding. meshmux's own renderer is not involved: this is the judge.
+// model with three.js's own loaders (GLTFLoader with DRACOLoader, KTX2Loader and the meshopt
+// decoder, or ColladaLoader), renders it with its materials under RoomEnvironment (lit) or with
+// base colour × alpha only (unlit) or as its shading normals with normal maps applied (for the
+// normal-map angular error), from cameras the driver gives, and measures how much of the surface
+// is shaded against its winding. meshmux's own renderer is not involved: this is the judge.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
+import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';
 import { ColladaLoader } from 'three/addons/loaders/ColladaLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
@@ -28,6 +29,22 @@ const pmrem = new THREE.PMREMGenerator(renderer);
 const environment = pmrem.fromScene(new RoomEnvironment(), 0.04).texture;
 
 const draco = new DRACOLoader().setDecoderPath('/three/examples/jsm/libs/draco/');
+// KTX2/BasisU textures (KHR_texture_basisu), which corpus originals use: without it the loader
+// fails on them and the original cannot be judged.
+const ktx2 = new KTX2Loader().setTranscoderPath('/three/examples/jsm/libs/basis/').detectSupport(renderer);
+// KTX2 images referenced through a texture's core `source` rather than KHR_texture_basisu (the
+// corpus's AnisotropyBarnLamp-ktx2: the validator warns) are read as KTX2 too: GLTFLoader would
+// hand them to the browser's image decoder, which fails, and the original could not be judged.
+class KTX2Source {
+  constructor(parser) { this.parser = parser; this.name = 'fidelity_ktx2_source'; }
+  loadTexture(index) {
+    const json = this.parser.json, texture = json.textures[index];
+    const image = json.images[texture.source];
+    if (texture.extensions?.KHR_texture_basisu || !image) return null;
+    if (!(image.mimeType === 'image/ktx2' || /\.ktx2$/i.test(image.uri || ''))) return null;
+    return this.parser.loadTextureImage(index, texture.source, ktx2);
+  }
+}
 const models = [];
 
 // COLLADA semantics, made explicit for three's ColladaLoader: every <instance_node url="#N">
@@ -35,8 +52,7 @@ const models = [];
 // that one Object3D wherever it is instanced; an Object3D has one parent, so a node both in the
 // scene and instanced (TeapotInstanceNodes-dae: the teapot drawn twice) showed once. Nested
 // instances are expanded level by level (at most 16 levels; cycles are refused by meshmux).
-function inlineInstanceNodes(text) {
-  const doc = new DOMParser().parseFromString(text, 'application/xml');
+function inlineInstanceNodes(doc) {
   const byId = new Map();
   for (const n of doc.getElementsByTagName('node')) if (n.getAttribute('id')) byId.set(n.getAttribute('id'), n);
   let copies = 0;
@@ -54,6 +70,19 @@ function inlineInstanceNodes(text) {
       ref.replaceWith(copy);
     }
   }
+}
+// An <image> without <init_from> (gazebo's gear and u_joint parts: the exporter's line is
+// commented out) names no file; ColladaLoader throws on it and the original could not be
+// judged. Removed, the loader warns that the image is missing and draws without the texture.
+function dropEmptyImages(doc) {
+  for (const image of [...doc.getElementsByTagName('image')])
+    if (!image.getElementsByTagName('init_from').length) image.remove();
+}
+// The COLLADA text ColladaLoader is given: the document with the two fixes above.
+function prepareCollada(text) {
+  const doc = new DOMParser().parseFromString(text, 'application/xml');
+  inlineInstanceNodes(doc);
+  dropEmptyImages(doc);
   return new XMLSerializer().serializeToString(doc);
 }
 
@@ -69,11 +98,12 @@ async function load(url) {
   let root;
   if (/\.dae$/i.test(url)) {
     manager.itemStart(url);  // the document itself, so the manager goes idle once, after it
-    const text = inlineInstanceNodes(await (await fetch(url)).text());
+    const text = prepareCollada(await (await fetch(url)).text());
     root = new ColladaLoader(manager).parse(text, url.slice(0, url.lastIndexOf('/') + 1)).scene;
     manager.itemEnd(url);
   } else {
-    const loader = new GLTFLoader(manager).setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder);
+    const loader = new GLTFLoader(manager).setDRACOLoader(draco).setKTX2Loader(ktx2).setMeshoptDecoder(MeshoptDecoder)
+      .register((parser) => new KTX2Source(parser));
     const gltf = await loader.loadAsync(url);
     root = gltf.scene || gltf.scenes[0];
   }
@@ -146,6 +176,19 @@ function normalsAgainstWinding(root) {
     }
   }
   return { against, total, share: total > 0 ? against / total : 0 };
+}
+
+// Draw calls three.js issues for the model as loaded: one per mesh, line or point object (an
+// InstancedMesh draws all its instances at once), or one per geometry group when it has an
+// array of materials, as WebGLRenderer.projectObject does.
+function drawCalls(root) {
+  let n = 0;
+  root.traverse((o) => {
+    if (!(o.isMesh || o.isLine || o.isPoints)) return;
+    if (Array.isArray(o.material)) n += o.geometry.groups.filter((g) => o.material[g.materialIndex]).length;
+    else n += 1;
+  });
+  return n;
 }
 
 // The harness renders every model with MeshStandardMaterial (issue 2/8): a loader's Phong or
@@ -242,7 +285,26 @@ window.fidelity = {
     });
     const c = box.getCenter(new THREE.Vector3()), r = 0.5 * box.getSize(new THREE.Vector3()).length();
     return { handle: models.length - 1, center: c.toArray(), radius: r, min: box.min.toArray(), max: box.max.toArray(),
-      normals: normalsAgainstWinding(root), materials: [...materials.values()], lightsRemoved: root.userData.lightsRemoved };
+      normals: normalsAgainstWinding(root), materials: [...materials.values()], lightsRemoved: root.userData.lightsRemoved,
+      drawCalls: drawCalls(root) };
+  },
+  // Frees model `handle`'s GPU and CPU memory (its geometries, materials and textures, shared by
+  // its four twins): a sweep loads hundreds of models into one page.
+  release(handle) {
+    const m = models[handle];
+    if (!m) return;
+    models[handle] = null;
+    const textures = new Set();
+    for (const root of [m.lit, m.flat, m.normals, m.perturbed])
+      root.traverse((o) => {
+        if (o.geometry) o.geometry.dispose();
+        for (const mat of [o.material].flat().filter(Boolean)) {
+          for (const v of Object.values(mat)) if (v && v.isTexture) textures.add(v);
+          mat.dispose();
+        }
+        if (o.isInstancedMesh) o.dispose();
+      });
+    for (const t of textures) t.dispose();
   },
   // Renders model `handle` lit (its materials, RoomEnvironment), unlit, its view-space
   // geometric shading normals ('normals', MeshNormalMaterial, 8-bit), or its view-space shading
