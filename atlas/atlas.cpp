@@ -3,6 +3,8 @@
 // charts, parameterize, pack and bake.
 #include "atlas/atlas.h"
 
+#include "atlas/tiled.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -846,8 +848,11 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
 
 }  // namespace
 
-Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
-                          Warnings* warnings) {
+namespace {
+
+// The atlas of a scene with no tiled material (see build_atlas).
+Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+                               Warnings* warnings) {
   auto start = std::chrono::steady_clock::now();
   AtlasReport rep;
   if (!needs_atlas(scene)) {
@@ -950,6 +955,36 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
+  return out;
+}
+
+}  // namespace
+
+Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+                          Warnings* warnings) {
+  const std::vector<char> tiled =
+      o.tiled_periods > 0 ? find_tiled_materials(scene, o.tiled_periods) : std::vector<char>();
+  if (std::find(tiled.begin(), tiled.end(), 1) == tiled.end())
+    return build_atlas_core(scene, o, report, warnings);
+  // Tiled materials stay as they came, beside the atlas of the rest (atlas/tiled.h).
+  TiledSplit split = split_tiled(scene, tiled);
+  AtlasReport rep;
+  Scene out;
+  out.source = scene.source;
+  out.normalization_scale = scene.normalization_scale;
+  const bool rest = std::any_of(split.rest.meshes.begin(), split.rest.meshes.end(), [](const Mesh& m) {
+    return std::any_of(m.primitives.begin(), m.primitives.end(),
+                       [](const Primitive& p) { return !p.indices.empty(); });
+  });
+  if (rest) {
+    auto atlased = build_atlas_core(split.rest, o, &rep, warnings);
+    if (!atlased.ok()) return atlased.status();
+    out = atlased.take();
+  }
+  append_scene(out, split.kept);
+  rep.built = true;
+  rep.tiled_materials = split.kept_materials;
+  if (report) *report = std::move(rep);
   return out;
 }
 

@@ -17,6 +17,8 @@
 // factors. Normal maps are re-expressed in the tangent frame viewers derive from the atlas uvs
 // (atlas/tangent_frame.h). Scenes with no texture, no vertex colour and at most one material
 // are returned unchanged (they already have one material and need no texture).
+// Tiled textures (a REPEAT sampler over more than `tiled_periods` periods) are not baked: their
+// materials stay as they came, after the atlas's (atlas/tiled.h).
 // Materials are grouped by how surfaces show beyond their texels (alpha mode and cutoff,
 // double-sidedness, unlit, glass: KHR_materials_transmission with its ior and volume, and the
 // reflection's layers: clearcoat, specular, iridescence factors), one output material per
@@ -47,11 +49,15 @@ struct AtlasOptions {
                                      // colour (T: 256 texels per vertex, at least 128²)
   bool reuse_source_texture = true;  // keep the source's one texture as the atlas when every
                                      // face samples it inside [0, 1] (atlas/source_atlas.h)
+  double tiled_periods = 2;          // a base colour texture repeated over more periods than
+                                     // this on a piece keeps its material (atlas/tiled.h);
+                                     // 0: every texture is baked
 };
 
 struct AtlasReport {
   bool built = false;           // false: the scene was returned unchanged
   bool reused_source = false;   // the source's one texture is the atlas (no charts, no baking)
+  size_t tiled_materials = 0;   // materials kept as they came beside the atlas (tiled textures)
   size_t charts = 0;            // textured charts after splitting invalid ones
   size_t flat_colors = 0;       // distinct flat-colour blocks
   size_t split = 0;             // charts split because they could not be flattened

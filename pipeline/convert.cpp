@@ -70,6 +70,10 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                        ar.charts, ar.flat_colors, ar.size, ar.height, double(ar.size) * ar.height,
                        ar.reference_texels, 100 * ar.utilization, ar.mean_stretch_l2,
                        ar.max_stretch_l2, ar.tangent_deviation_deg, ar.seconds));
+  if (ar.tiled_materials > 0)
+    report_step(progress, format("atlas: %zu tiled material(s) kept with their own textures and "
+                                 "samplers (repeated over more than %.0f periods)",
+                                 ar.tiled_materials, o.atlas_options.tiled_periods));
   Scene out = atlased.take();
   if (should_flatten(out)) {
     out = flatten(out);
