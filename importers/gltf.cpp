@@ -14,6 +14,7 @@
 #include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "draco/compression/decode.h"
@@ -44,6 +45,25 @@ const std::set<std::string> kSupportedRequired = {
     "KHR_materials_volume",            "KHR_materials_ior",
     "KHR_materials_clearcoat",         "KHR_materials_specular",
     "KHR_materials_iridescence",       "KHR_materials_sheen",
+};
+
+// The layers' textures (not carried): which channel of each a constant stands in for (-1:
+// none; the clearcoat's normal map and the specular colour's map are dropped).
+struct LayerMap {
+  const char* extension;
+  const char* key;
+  int channel;
+};
+constexpr LayerMap kLayerMaps[] = {
+    {"KHR_materials_transmission", "transmissionTexture", 0},
+    {"KHR_materials_volume", "thicknessTexture", 1},
+    {"KHR_materials_clearcoat", "clearcoatTexture", 0},
+    {"KHR_materials_clearcoat", "clearcoatRoughnessTexture", 1},
+    {"KHR_materials_clearcoat", "clearcoatNormalTexture", -1},
+    {"KHR_materials_specular", "specularTexture", 3},
+    {"KHR_materials_specular", "specularColorTexture", -1},
+    {"KHR_materials_iridescence", "iridescenceTexture", 0},
+    {"KHR_materials_iridescence", "iridescenceThicknessTexture", 1},
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -500,6 +520,12 @@ class Importer {
           it->second.Get("sheenColorTexture").Has("index") &&
           it->second.Get("sheenColorTexture").Get("index").IsInt())
         mark_texture(it->second.Get("sheenColorTexture").Get("index").GetNumberAsInt());
+      for (const LayerMap& lm : kLayerMaps)  // decoded for their means (fold_layer_map)
+        if (auto it = m.extensions.find(lm.extension);
+            lm.channel >= 0 && it != m.extensions.end() && it->second.IsObject() &&
+            it->second.Has(lm.key) && it->second.Get(lm.key).IsObject() &&
+            it->second.Get(lm.key).Has("index") && it->second.Get(lm.key).Get("index").IsInt())
+          mark_texture(it->second.Get(lm.key).Get("index").GetNumberAsInt());
     }
     return used;
   }
@@ -693,6 +719,41 @@ class Importer {
     }
   }
 
+  // The mean of one channel (0 R … 3 A) of the decoded image a textureInfo names, in [0, 1];
+  // nothing when it names no decoded image.
+  std::optional<double> mean_channel(const tinygltf::Value& info, int channel) const {
+    if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsInt()) return std::nullopt;
+    const int index = info.Get("index").GetNumberAsInt();
+    if (index < 0 || size_t(index) >= m_.textures.size()) return std::nullopt;
+    const int source = texture_source(m_.textures[size_t(index)]);
+    if (source < 0) return std::nullopt;
+    const Image& im = scene_.images[size_t(image_map_[size_t(source)])];
+    if (!im.decoded()) return std::nullopt;
+    double sum = 0;
+    const size_t n = size_t(im.width) * size_t(im.height);
+    for (size_t i = 0; i < n; ++i) sum += im.rgba[4 * i + size_t(channel)];
+    return n ? sum / (255.0 * double(n)) : 0.0;
+  }
+
+  // A layer's texture the output cannot carry, folded into its factor as a constant: the
+  // factor times the texture's mean (for the thin film's thickness, the mean between its
+  // minimum and maximum).
+  void fold_layer_map(const tinygltf::Value& info, const LayerMap& lm, Material* mat) const {
+    std::optional<double> mean = mean_channel(info, lm.channel);
+    if (!mean) return;
+    const float k = float(*mean);
+    const std::string key = lm.key;
+    if (key == "transmissionTexture") mat->transmission_factor *= k;
+    if (key == "thicknessTexture") mat->thickness_factor *= k;
+    if (key == "clearcoatTexture") mat->clearcoat_factor *= k;
+    if (key == "clearcoatRoughnessTexture") mat->clearcoat_roughness_factor *= k;
+    if (key == "specularTexture") mat->specular_factor *= k;
+    if (key == "iridescenceTexture") mat->iridescence_factor *= k;
+    if (key == "iridescenceThicknessTexture")
+      mat->iridescence_thickness =
+          iridescence_minimum_ + k * (mat->iridescence_thickness - iridescence_minimum_);
+  }
+
   void materials() {
     for (size_t i = 0; i < m_.materials.size(); ++i) {
       const tinygltf::Material& src = m_.materials[i];
@@ -728,6 +789,12 @@ class Importer {
       mat.double_sided = src.doubleSided;
       mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
       approximate_extensions(src, &mat);
+      iridescence_minimum_ = 100;
+      if (auto it = src.extensions.find("KHR_materials_iridescence");
+          it != src.extensions.end() && it->second.IsObject() &&
+          it->second.Has("iridescenceThicknessMinimum") &&
+          it->second.Get("iridescenceThicknessMinimum").IsNumber())
+        iridescence_minimum_ = float(it->second.Get("iridescenceThicknessMinimum").GetNumberAsDouble());
       if (auto it = src.extensions.find("KHR_materials_sheen");
           it != src.extensions.end() && it->second.IsObject() &&
           it->second.Has("sheenColorTexture") && it->second.Get("sheenColorTexture").IsObject()) {
@@ -742,19 +809,12 @@ class Importer {
       }
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
-      for (auto [ext, key] :
-           {std::pair{"KHR_materials_transmission", "transmissionTexture"},
-            std::pair{"KHR_materials_volume", "thicknessTexture"},
-            std::pair{"KHR_materials_clearcoat", "clearcoatTexture"},
-            std::pair{"KHR_materials_clearcoat", "clearcoatRoughnessTexture"},
-            std::pair{"KHR_materials_clearcoat", "clearcoatNormalTexture"},
-            std::pair{"KHR_materials_specular", "specularTexture"},
-            std::pair{"KHR_materials_specular", "specularColorTexture"},
-            std::pair{"KHR_materials_iridescence", "iridescenceTexture"},
-            std::pair{"KHR_materials_iridescence", "iridescenceThicknessTexture"}})
-        if (auto it = src.extensions.find(ext);
-            it != src.extensions.end() && it->second.IsObject() && it->second.Has(key))
-          ++dropped_layer_maps_[key];
+      for (const LayerMap& lm : kLayerMaps)
+        if (auto it = src.extensions.find(lm.extension);
+            it != src.extensions.end() && it->second.IsObject() && it->second.Has(lm.key)) {
+          ++dropped_layer_maps_[lm.key];
+          if (lm.channel >= 0) fold_layer_map(it->second.Get(lm.key), lm, &mat);
+        }
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
@@ -764,7 +824,8 @@ class Importer {
                           " material(s): " + kAppearanceExtensions.at(name));
     for (const auto& [key, count] : dropped_layer_maps_)
       warn(warnings_, "gltf: " + file_ + ": " + key + " on " + std::to_string(count) +
-                          " material(s) dropped (its factor is kept)");
+                          " material(s) not carried (its mean over the image scales the "
+                          "factor)");
     if (std::find(m_.extensionsUsed.begin(), m_.extensionsUsed.end(), "KHR_materials_variants") !=
         m_.extensionsUsed.end())
       warn(warnings_, "gltf: " + file_ +
@@ -1188,6 +1249,7 @@ class Importer {
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
+  float iridescence_minimum_ = 100;        // the material being read: its film's thinnest, nm
   bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)
