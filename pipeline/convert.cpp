@@ -102,11 +102,16 @@ std::string unstreamable_record(const ProgressiveScene& ps, size_t base_meshes) 
   return "";
 }
 
-// The scene's one texture (the atlas's base colour), or null.
+// The scene's one streamed texture (the atlas's base colour), or null. The texture levels need
+// power-of-two sides, as the atlas has: a scene whose first material kept a source texture of
+// other sides (a tiled texture, atlas/tiled.h, in a scene with nothing else) streams no texture
+// levels, and its texture ships as it came.
 Image* stream_texture(Scene& scene) {
   if (scene.materials.empty() || !scene.materials[0].base_color.present()) return nullptr;
   size_t i = size_t(scene.materials[0].base_color.image);
-  return i < scene.images.size() && scene.images[i].decoded() ? &scene.images[i] : nullptr;
+  if (i >= scene.images.size() || !scene.images[i].decoded()) return nullptr;
+  auto pow2 = [](int v) { return v > 0 && (v & (v - 1)) == 0; };
+  return pow2(scene.images[i].width) && pow2(scene.images[i].height) ? &scene.images[i] : nullptr;
 }
 
 // The atlas's further channels (issue 5/8), in the order the texture levels carry them: the

@@ -205,3 +205,39 @@ TEST(Convert, BaseGlbIsTheStreamsFirstPicture) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// A floor whose only material repeats a 6×5 texture 20 times: the atlas keeps it as it came
+// (atlas/tiled.h), so the scene's first texture is not a power of two. The texture levels need
+// one; the stream then carries the mesh only (a simulator's tiled wall was refused: "256x211 is
+// not a power of two in both dimensions").
+TEST(Convert, TiledTextureOfAnySizeStreamsWithoutTextureLevels) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene s;
+  Mesh mesh;
+  Primitive p = testing::uv_sphere(8, 12);
+  for (Vec2& t : p.uvs[0]) t = {t.x * 20, t.y * 20};
+  p.material = 0;
+  mesh.primitives.push_back(p);
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), "floor"});
+  Material tiles;
+  tiles.base_color.image = 0;
+  s.materials.push_back(tiles);
+  Image im;
+  im.width = 6, im.height = 5;
+  im.rgba.assign(6 * 5 * 4, 200);
+  s.images.push_back(im);
+  Warnings warnings;
+  auto out = convert(s, ConvertOptions{}, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_FALSE(out->package.empty());
+  EXPECT_EQ(out->texture_levels, 0u);
+  EXPECT_EQ(out->output.draw_calls, 1u);
+}
+
+}  // namespace
+}  // namespace meshmux
