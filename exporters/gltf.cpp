@@ -254,6 +254,12 @@ class Exporter {
     return r;
   }
 
+  // A linear RGB factor as a JSON array, each component within [0, hi] (1 where NaN).
+  json colour(Vec3 c, float hi, const std::string& what) {
+    return {num(bounded(c.x, 0, hi, 1, what)), num(bounded(c.y, 0, hi, 1, what)),
+            num(bounded(c.z, 0, hi, 1, what))};
+  }
+
   // Glass: KHR_materials_transmission (factor, and the texture whose R channel scales it),
   // KHR_materials_ior where it is not glTF's default 1.5, KHR_materials_volume where the
   // surface has a thickness (the same texture's G channel scales it).
@@ -279,11 +285,8 @@ class Exporter {
           v["thicknessTexture"] = std::move(info);
       if (m.attenuation_distance > 0 && std::isfinite(m.attenuation_distance))
         v["attenuationDistance"] = num(m.attenuation_distance);
-      const Vec3 c = m.attenuation_color;
-      if (!(c == Vec3{1, 1, 1}))
-        v["attenuationColor"] = {num(bounded(c.x, 0, 1, 1, where + ": attenuationColor")),
-                                 num(bounded(c.y, 0, 1, 1, where + ": attenuationColor")),
-                                 num(bounded(c.z, 0, 1, 1, where + ": attenuationColor"))};
+      if (!(m.attenuation_color == Vec3{1, 1, 1}))
+        v["attenuationColor"] = colour(m.attenuation_color, 1, where + ": attenuationColor");
       j["extensions"][kVolume] = std::move(v);
       used_.insert(kVolume);
     }
@@ -306,9 +309,7 @@ class Exporter {
       const float f = bounded(m.specular_factor, 0, 1, 1, where + ": specularFactor");
       if (f != 1) sp["specularFactor"] = num(f);
       if (!(sc == Vec3{1, 1, 1}))
-        sp["specularColorFactor"] = {num(bounded(sc.x, 0, 100, 1, where + ": specularColorFactor")),
-                                     num(bounded(sc.y, 0, 100, 1, where + ": specularColorFactor")),
-                                     num(bounded(sc.z, 0, 100, 1, where + ": specularColorFactor"))};
+        sp["specularColorFactor"] = colour(sc, 100, where + ": specularColorFactor");
       j["extensions"][kSpecular] = std::move(sp);
       used_.insert(kSpecular);
     }

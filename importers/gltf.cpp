@@ -575,6 +575,9 @@ class Importer {
                                    std::to_string(opts_.max_texels) +
                                    " texels in all (the limit from the input's size; "
                                    "--max-texels raises it)");
+        if (!s && s.message().find("KTX2") != std::string::npos)  // as KHR_texture_basisu is
+          return r_.err(label, "a KTX2 / Basis Universal texture, which meshmux cannot decode "
+                               "(re-export the textures as PNG, JPEG or WebP)");
         if (!s) {
           warn(warnings_, "gltf: " + file_ + ": " + label + ": " + s.message() +
                               "; textures using it are dropped");

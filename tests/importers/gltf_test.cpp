@@ -59,6 +59,15 @@ std::string write_gltf(const TempDir& dir, const std::string& name, json doc, co
 }
 
 // One triangle: positions at offset 0 (36 bytes), indices at 36 (6 bytes).
+// A 1x1 red PNG, inlined as a data URI (one made by the exporter's encoder would pull in
+// another module).
+const std::vector<uint8_t> kRedPixelPng = {
+    0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48,
+    0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
+    0x00, 0x90, 0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08,
+    0xD7, 0x63, 0xF8, 0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D,
+    0xB0, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
+
 json triangle_doc(const Blob& blob, size_t pos_at, size_t idx_at) {
   return {{"bufferViews",
            {{{"buffer", 0}, {"byteOffset", pos_at}, {"byteLength", 36}},
@@ -287,13 +296,7 @@ TEST(GltfImport, LayerTextureMeanScalesItsFactor) {
   size_t p, i;
   Blob b = triangle_blob(&p, &i);
   json doc = triangle_doc(b, p, i);
-  const std::vector<uint8_t> red = {
-      0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48,
-      0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
-      0x00, 0x90, 0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08,
-      0xD7, 0x63, 0xF8, 0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D,
-      0xB0, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
-  doc["images"] = {{{"uri", "data:image/png;base64," + base64(red)}}};
+  doc["images"] = {{{"uri", "data:image/png;base64," + base64(kRedPixelPng)}}};
   doc["textures"] = {{{"source", 0}}};
   doc["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_volume"};
   doc["materials"] = {{{"extensions",
@@ -314,15 +317,7 @@ TEST(GltfImport, ReadsTextureTransform) {
   size_t p, i;
   Blob b = triangle_blob(&p, &i);
   json doc = triangle_doc(b, p, i);
-  // A 1x1 PNG made by the exporter's encoder would pull in another module; a data-URI PNG
-  // of 1x1 red is small enough to inline.
-  const std::vector<uint8_t> png = {
-      0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A, 0x00, 0x00, 0x00, 0x0D, 0x49, 0x48,
-      0x44, 0x52, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00,
-      0x00, 0x90, 0x77, 0x53, 0xDE, 0x00, 0x00, 0x00, 0x0C, 0x49, 0x44, 0x41, 0x54, 0x08,
-      0xD7, 0x63, 0xF8, 0xCF, 0xC0, 0x00, 0x00, 0x03, 0x01, 0x01, 0x00, 0x18, 0xDD, 0x8D,
-      0xB0, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4E, 0x44, 0xAE, 0x42, 0x60, 0x82};
-  doc["images"] = {{{"uri", "data:image/png;base64," + base64(png)}}};
+  doc["images"] = {{{"uri", "data:image/png;base64," + base64(kRedPixelPng)}}};
   doc["textures"] = {{{"source", 0}}};
   json transform = {{"offset", {0.5, 0.25}}, {"scale", {2, 3}}, {"rotation", 0.5}};
   json info = {{"index", 0}, {"extensions", {{"KHR_texture_transform", transform}}}};
@@ -533,6 +528,26 @@ TEST(GltfImport, BasisuTexturesAreOneClearError) {
   EXPECT_NE(m.find("PNG, JPEG or WebP"), std::string::npos) << m;
   EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   EXPECT_EQ(s.status().kind(), ErrorKind::kInput);
+}
+
+// The same textures named through a texture's core source (no KHR_texture_basisu: a lamp in
+// the corpus does so) were dropped and the model converted white: refused as the extension is.
+TEST(GltfImport, KtxTexturesThroughCoreSourceAreOneClearError) {
+  TempDir dir;
+  testing::write_text(dir.file("t.ktx2"), std::string("\xabKTX 20\xbb\r\n\x1a\n", 12) + std::string(64, '\0'));
+  testing::write_text(dir.file("ktx.gltf"), R"({
+    "asset": {"version": "2.0"},
+    "images": [{"uri": "t.ktx2", "mimeType": "image/ktx2"}],
+    "textures": [{"source": 0}],
+    "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+    "meshes": [], "nodes": [], "scenes": [{"nodes": []}], "scene": 0})");
+  auto s = import_gltf(dir.file("ktx.gltf"), {}, nullptr);
+  ASSERT_FALSE(s.ok());
+  const std::string& m = s.status().message();
+  EXPECT_NE(m.find("ktx.gltf"), std::string::npos) << m;
+  EXPECT_NE(m.find("t.ktx2"), std::string::npos) << m;
+  EXPECT_NE(m.find("PNG, JPEG or WebP"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
 }
 
 // Material effects that do not survive conversion are said, once per extension with the

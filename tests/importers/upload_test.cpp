@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <zip.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -27,10 +28,15 @@ using testing::write_zip;
 using testing::zip_folder;
 using testing::ZipMember;
 
-Result<Scene> import_upload(const Upload& up) {
+Result<Scene> import_upload(const Upload& up, Warnings* warnings = nullptr) {
   ImportOptions o;
   o.root = up.root();
-  return import_scene(up.model(), o, nullptr);
+  return import_scene(up.model(), o, warnings);
+}
+
+bool any_says(const Warnings& w, const std::string& text) {
+  return std::any_of(w.items().begin(), w.items().end(),
+                     [&](const std::string& s) { return s.find(text) != std::string::npos; });
 }
 
 // The class of failure that refused 3 of 16 real models: a .dae in meshes/ reading
@@ -237,21 +243,17 @@ TEST(Upload, MissingTextureIsFoundByItsNameWhenUnique) {
   testing::write_file(dir.file("up/materials/textures/wood.png"), kPng);
   auto up = open_upload(dir.file("up"), {}, dir.file("scratch"));
   ASSERT_TRUE(up.ok()) << up.status().message();
-  ImportOptions o;
-  o.root = up->root();
   Warnings w;
-  auto scene = import_scene(up->model(), o, &w);
+  auto scene = import_upload(*up, &w);
   ASSERT_TRUE(scene.ok()) << scene.status().message();
   EXPECT_EQ(scene->images.size(), 1u);
-  bool said = false;
-  for (const std::string& s : w.items())
-    said |= s.find("materials/textures/wood.png (the only file of that name") != std::string::npos;
-  EXPECT_TRUE(said) << (w.empty() ? "no warnings" : w.items()[0]);
+  EXPECT_TRUE(any_says(w, "materials/textures/wood.png (the only file of that name"))
+      << (w.empty() ? "no warnings" : w.items()[0]);
 
   fs::create_directories(dir.file("up/other"));
   testing::write_file(dir.file("up/other/wood.png"), kPng);
   Warnings w2;
-  auto two = import_scene(up->model(), o, &w2);
+  auto two = import_upload(*up, &w2);
   ASSERT_TRUE(two.ok()) << two.status().message();
   EXPECT_TRUE(two->images.empty());
 }
@@ -273,15 +275,11 @@ TEST(Upload, GltfBufferFoundByNameWhenUnique) {
     "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0})");
   auto up = open_upload(dir.file("up"), {}, dir.file("scratch"));
   ASSERT_TRUE(up.ok()) << up.status().message();
-  ImportOptions o;
-  o.root = up->root();
   Warnings w;
-  auto scene = import_scene(up->model(), o, &w);
+  auto scene = import_upload(*up, &w);
   ASSERT_TRUE(scene.ok()) << scene.status().message();
   ASSERT_EQ(scene->meshes.size(), 1u);
-  bool said = false;
-  for (const std::string& s : w.items()) said |= s.find("data/tri.bin (the only file") != std::string::npos;
-  EXPECT_TRUE(said) << (w.empty() ? "no warnings" : w.items()[0]);
+  EXPECT_TRUE(any_says(w, "data/tri.bin (the only file")) << (w.empty() ? "no warnings" : w.items()[0]);
 }
 
 }  // namespace
