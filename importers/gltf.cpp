@@ -465,6 +465,7 @@ class Importer {
     materials();
     s = meshes();
     if (!s) return s;
+    fold_layer_maps();
     s = nodes();
     if (!s) return s;
     if (!m_.animations.empty())
@@ -722,39 +723,75 @@ class Importer {
     }
   }
 
-  // The mean of one channel (0 R … 3 A) of the decoded image a textureInfo names, in [0, 1];
-  // nothing when it names no decoded image.
-  std::optional<double> mean_channel(const tinygltf::Value& info, int channel) const {
+  // A layer texture waiting for its material's primitives (fold_layer_maps).
+  struct PendingFold {
+    size_t material;
+    LayerMap map;
+    int32_t image;       // scene image
+    uint32_t tex_coord;  // uv set
+    float iridescence_minimum;
+  };
+
+  // The scene image a textureInfo names and its uv set; nothing when it names no decoded image.
+  std::optional<std::pair<int32_t, uint32_t>> info_image(const tinygltf::Value& info) const {
     if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsInt()) return std::nullopt;
     const int index = info.Get("index").GetNumberAsInt();
     if (index < 0 || size_t(index) >= m_.textures.size()) return std::nullopt;
     const int source = texture_source(m_.textures[size_t(index)]);
     if (source < 0) return std::nullopt;
-    const Image& im = scene_.images[size_t(image_map_[size_t(source)])];
-    if (!im.decoded()) return std::nullopt;
-    double sum = 0;
+    const int32_t image = image_map_[size_t(source)];
+    if (!scene_.images[size_t(image)].decoded()) return std::nullopt;
+    const int coord = info.Has("texCoord") && info.Get("texCoord").IsInt()
+                          ? info.Get("texCoord").GetNumberAsInt() : 0;
+    return std::pair{image, uint32_t(std::max(coord, 0))};
+  }
+
+  // The mean of one channel (0 R … 3 A) of `image` as the material's surface shows it: sampled
+  // (nearest texel, repeating) at each triangle's centre, weighted by the triangle's area; the
+  // whole image's mean when no triangle uses the material. In [0, 1].
+  double surface_mean(const PendingFold& f) const {
+    const Image& im = scene_.images[size_t(f.image)];
+    const int channel = f.map.channel;
+    double sum = 0, area = 0;
+    for (const Mesh& mesh : scene_.meshes)
+      for (const Primitive& p : mesh.primitives) {
+        if (p.material != int32_t(f.material) || f.tex_coord >= p.uvs.size()) continue;
+        const std::vector<Vec2>& uv = p.uvs[f.tex_coord];
+        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+          const uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
+          const double w = length(cross(p.positions[b] - p.positions[a], p.positions[c] - p.positions[a]));
+          const double u = (uv[a].x + uv[b].x + uv[c].x) / 3, v = (uv[a].y + uv[b].y + uv[c].y) / 3;
+          if (!(w > 0) || !std::isfinite(u) || !std::isfinite(v)) continue;
+          const int x = std::clamp(int((u - std::floor(u)) * im.width), 0, im.width - 1);
+          const int y = std::clamp(int((v - std::floor(v)) * im.height), 0, im.height - 1);
+          sum += w * im.rgba[(size_t(y) * size_t(im.width) + size_t(x)) * 4 + size_t(channel)];
+          area += w;
+        }
+      }
+    if (area > 0) return sum / (255.0 * area);
     const size_t n = size_t(im.width) * size_t(im.height);
     for (size_t i = 0; i < n; ++i) sum += im.rgba[4 * i + size_t(channel)];
     return n ? sum / (255.0 * double(n)) : 0.0;
   }
 
   // A layer's texture the output cannot carry, folded into its factor as a constant: the
-  // factor times the texture's mean (for the thin film's thickness, the mean between its
-  // minimum and maximum).
-  void fold_layer_map(const tinygltf::Value& info, const LayerMap& lm, Material* mat) const {
-    std::optional<double> mean = mean_channel(info, lm.channel);
-    if (!mean) return;
-    const float k = float(*mean);
-    const std::string key = lm.key;
-    if (key == "transmissionTexture") mat->transmission_factor *= k;
-    if (key == "thicknessTexture") mat->thickness_factor *= k;
-    if (key == "clearcoatTexture") mat->clearcoat_factor *= k;
-    if (key == "clearcoatRoughnessTexture") mat->clearcoat_roughness_factor *= k;
-    if (key == "specularTexture") mat->specular_factor *= k;
-    if (key == "iridescenceTexture") mat->iridescence_factor *= k;
-    if (key == "iridescenceThicknessTexture")
-      mat->iridescence_thickness =
-          iridescence_minimum_ + k * (mat->iridescence_thickness - iridescence_minimum_);
+  // factor times the texture's mean over the surface (for the thin film's thickness, the mean
+  // between its minimum and maximum). Runs once the primitives are read.
+  void fold_layer_maps() {
+    for (const PendingFold& f : pending_folds_) {
+      Material* mat = &scene_.materials[f.material];
+      const float k = float(surface_mean(f));
+      const std::string key = f.map.key;
+      if (key == "transmissionTexture") mat->transmission_factor *= k;
+      if (key == "thicknessTexture") mat->thickness_factor *= k;
+      if (key == "clearcoatTexture") mat->clearcoat_factor *= k;
+      if (key == "clearcoatRoughnessTexture") mat->clearcoat_roughness_factor *= k;
+      if (key == "specularTexture") mat->specular_factor *= k;
+      if (key == "iridescenceTexture") mat->iridescence_factor *= k;
+      if (key == "iridescenceThicknessTexture")
+        mat->iridescence_thickness =
+            f.iridescence_minimum + k * (mat->iridescence_thickness - f.iridescence_minimum);
+    }
   }
 
   void materials() {
@@ -816,7 +853,10 @@ class Importer {
         if (auto it = src.extensions.find(lm.extension);
             it != src.extensions.end() && it->second.IsObject() && it->second.Has(lm.key)) {
           ++dropped_layer_maps_[lm.key];
-          if (lm.channel >= 0) fold_layer_map(it->second.Get(lm.key), lm, &mat);
+          if (lm.channel < 0) continue;
+          if (auto img = info_image(it->second.Get(lm.key)))
+            pending_folds_.push_back({scene_.materials.size(), lm, img->first, img->second,
+                                      iridescence_minimum_});
         }
       scene_.materials.push_back(std::move(mat));
     }
@@ -1253,6 +1293,7 @@ class Importer {
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
   float iridescence_minimum_ = 100;        // the material being read: its film's thinnest, nm
+  std::vector<PendingFold> pending_folds_;  // layer textures to fold once primitives are read
   bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)

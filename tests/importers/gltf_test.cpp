@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "test_util.h"
+#include "upload_fixtures.h"
 
 namespace meshmux {
 namespace {
@@ -309,6 +310,31 @@ TEST(GltfImport, LayerTextureMeanScalesItsFactor) {
   ASSERT_TRUE(s.ok()) << s.status().message();
   EXPECT_FLOAT_EQ(s->materials[0].transmission_factor, 0.8f);
   EXPECT_FLOAT_EQ(s->materials[0].thickness_factor, 0.0f);
+}
+
+// The mean is the surface's, not the image's: a lamp whose transmission map is white on the
+// shade and black elsewhere in the image kept half its transmission by the image mean (lit
+// 29.1 → 18.2 dB). Here the 2×1 map is red then blue (R 255, 0) and every uv lies on the red
+// texel: the transmission stays whole (the image mean would halve it).
+TEST(GltfImport, LayerTextureMeanIsTheSurfaces) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  const size_t uv_at = b.add<float>({0.1f, 0.5f, 0.2f, 0.5f, 0.1f, 0.6f});
+  json doc = triangle_doc(b, p, i);
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", uv_at}, {"byteLength", 24}});
+  doc["accessors"].push_back({{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC2"}});
+  doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 2;
+  doc["images"] = {{{"uri", "data:image/png;base64," + base64(testing::kPng)}}};
+  doc["textures"] = {{{"source", 0}}};
+  doc["extensionsUsed"] = {"KHR_materials_transmission"};
+  doc["materials"] = {{{"extensions",
+                        {{"KHR_materials_transmission",
+                          {{"transmissionFactor", 1}, {"transmissionTexture", {{"index", 0}}}}}}}}};
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  auto s = import_gltf(write_gltf(dir, "lamp.gltf", doc, b), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  EXPECT_FLOAT_EQ(s->materials[0].transmission_factor, 1.0f);
 }
 
 // KHR_texture_transform must be carried to the material so the atlas can honour it.
