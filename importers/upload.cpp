@@ -353,12 +353,6 @@ void Upload::remove_scratch() {
   scratch_.clear();
 }
 
-bool is_upload_container(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) return true;
-  return fs::is_regular_file(path, ec) && ends_with_ci(path, ".zip");
-}
-
 Result<Upload> open_upload(const std::string& path, const UploadOptions& o,
                            const std::string& scratch) {
   const std::string what = base_name(path.size() > 1 && path.back() == '/'

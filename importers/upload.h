@@ -68,10 +68,6 @@ class Upload {
 Result<Upload> open_upload(const std::string& path, const UploadOptions& options,
                            const std::string& scratch);
 
-// Whether `path` names something open_upload treats as a folder or an archive (not a lone
-// model file): a directory, or a regular file ending in .zip (any case).
-bool is_upload_container(const std::string& path);
-
 // The files below `root` whose name is `name` (compared without letter case), at most
 // `max_entries` entries looked at, hidden folders skipped, links not followed; sorted. Used to
 // find a texture an author's path no longer reaches (an absolute path from their machine, a
