@@ -552,7 +552,11 @@ class TextureLoader {
  private:
   // Index of the image, loaded on first use; -1 (with a warning) when missing or undecodable.
   int32_t load(const TextureRequest& t, const std::string& where) {
-    std::string key = resolve(t.path);
+    // Resolved once per path: a missing file's search of the upload is not repeated for every
+    // material naming it.
+    auto known = resolved_.find(t.path);
+    if (known == resolved_.end()) known = resolved_.emplace(t.path, resolve(t.path)).first;
+    const std::string& key = known->second;
     for (std::string& note : notes_) warn(warnings_, std::move(note));
     notes_.clear();
     auto it = loaded_.find(key);
@@ -635,6 +639,7 @@ class TextureLoader {
   uint64_t texels_left_ = options_.max_texels;  // declared after options_: initialized from it
   Warnings* warnings_;
   std::map<std::string, std::pair<int32_t, std::string>> loaded_;  // by resolved path
+  std::map<std::string, std::string> resolved_;  // texture path as written → resolved path
 };
 
 }  // namespace

@@ -49,21 +49,27 @@ const std::set<std::string> kSupportedRequired = {
 
 // The layers' textures (not carried): which channel of each a constant stands in for (-1:
 // none; the clearcoat's normal map and the specular colour's map are dropped).
+// `factor`: the Material field the constant scales (null: none). The thin film's thickness
+// (`film`) is scaled between its minimum and its maximum.
 struct LayerMap {
   const char* extension;
   const char* key;
   int channel;
+  float Material::*factor;
+  bool film = false;
 };
-constexpr LayerMap kLayerMaps[] = {
-    {"KHR_materials_transmission", "transmissionTexture", 0},
-    {"KHR_materials_volume", "thicknessTexture", 1},
-    {"KHR_materials_clearcoat", "clearcoatTexture", 0},
-    {"KHR_materials_clearcoat", "clearcoatRoughnessTexture", 1},
-    {"KHR_materials_clearcoat", "clearcoatNormalTexture", -1},
-    {"KHR_materials_specular", "specularTexture", 3},
-    {"KHR_materials_specular", "specularColorTexture", -1},
-    {"KHR_materials_iridescence", "iridescenceTexture", 0},
-    {"KHR_materials_iridescence", "iridescenceThicknessTexture", 1},
+const LayerMap kLayerMaps[] = {
+    {"KHR_materials_transmission", "transmissionTexture", 0, &Material::transmission_factor},
+    {"KHR_materials_volume", "thicknessTexture", 1, &Material::thickness_factor},
+    {"KHR_materials_clearcoat", "clearcoatTexture", 0, &Material::clearcoat_factor},
+    {"KHR_materials_clearcoat", "clearcoatRoughnessTexture", 1,
+     &Material::clearcoat_roughness_factor},
+    {"KHR_materials_clearcoat", "clearcoatNormalTexture", -1, nullptr},
+    {"KHR_materials_specular", "specularTexture", 3, &Material::specular_factor},
+    {"KHR_materials_specular", "specularColorTexture", -1, nullptr},
+    {"KHR_materials_iridescence", "iridescenceTexture", 0, &Material::iridescence_factor},
+    {"KHR_materials_iridescence", "iridescenceThicknessTexture", 1,
+     &Material::iridescence_thickness, true},
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -781,16 +787,8 @@ class Importer {
     for (const PendingFold& f : pending_folds_) {
       Material* mat = &scene_.materials[f.material];
       const float k = float(surface_mean(f));
-      const std::string key = f.map.key;
-      if (key == "transmissionTexture") mat->transmission_factor *= k;
-      if (key == "thicknessTexture") mat->thickness_factor *= k;
-      if (key == "clearcoatTexture") mat->clearcoat_factor *= k;
-      if (key == "clearcoatRoughnessTexture") mat->clearcoat_roughness_factor *= k;
-      if (key == "specularTexture") mat->specular_factor *= k;
-      if (key == "iridescenceTexture") mat->iridescence_factor *= k;
-      if (key == "iridescenceThicknessTexture")
-        mat->iridescence_thickness =
-            f.iridescence_minimum + k * (mat->iridescence_thickness - f.iridescence_minimum);
+      float& v = mat->*f.map.factor;
+      v = f.map.film ? f.iridescence_minimum + k * (v - f.iridescence_minimum) : v * k;
     }
   }
 
@@ -853,7 +851,7 @@ class Importer {
         if (auto it = src.extensions.find(lm.extension);
             it != src.extensions.end() && it->second.IsObject() && it->second.Has(lm.key)) {
           ++dropped_layer_maps_[lm.key];
-          if (lm.channel < 0) continue;
+          if (lm.channel < 0 || !lm.factor) continue;
           if (auto img = info_image(it->second.Get(lm.key)))
             pending_folds_.push_back({scene_.materials.size(), lm, img->first, img->second,
                                       iridescence_minimum_});
