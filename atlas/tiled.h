@@ -3,7 +3,8 @@
 // baked into an atlas at its native density: each period would be a copy, so the bake either
 // grows without bound or, capped, blurs the tiles into blotches. Paper 000 §4.2 notes that
 // wrapping would duplicate the texture many times. Such a material is kept as it came — its
-// textures, samplers and the primitives' own uvs — beside the atlas, one material each.
+// textures, samplers and the primitives' own uvs — beside the atlas, one material each
+// (atlas/kept.h).
 //
 // A material is tiled when its base colour texture is decoded, its sampler repeats (REPEAT or
 // MIRRORED_REPEAT) along an axis, and some connected piece of a primitive using it spans more
@@ -20,19 +21,5 @@ namespace meshmux {
 
 // Per material of `scene`: whether it is tiled (see above).
 std::vector<char> find_tiled_materials(const Scene& scene, double periods = 2.0);
-
-// `scene` split in two: `rest` is the scene without the primitives of tiled materials (their
-// materials replaced by the default, so nothing counts their textures); `kept` holds those
-// primitives, one mesh per primitive (one material each, as the stream needs), placed by the
-// same instances, with only the materials and images they use.
-struct TiledSplit {
-  Scene rest;
-  Scene kept;
-  size_t kept_materials = 0;  // tiled materials in use
-};
-TiledSplit split_tiled(const Scene& scene, const std::vector<char>& tiled);
-
-// Appends `extra`'s images, materials, meshes and instances to `out`, indices shifted.
-void append_scene(Scene& out, const Scene& extra);
 
 }  // namespace meshmux

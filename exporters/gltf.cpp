@@ -55,6 +55,7 @@ const char* const kVolume = "KHR_materials_volume";
 const char* const kClearcoat = "KHR_materials_clearcoat";
 const char* const kSpecular = "KHR_materials_specular";
 const char* const kIridescence = "KHR_materials_iridescence";
+const char* const kAnisotropy = "KHR_materials_anisotropy";
 
 // The JSON number that prints as the shortest decimal reading back to exactly `f`.
 json num(float f) {
@@ -142,8 +143,7 @@ class Exporter {
   void prepare_images() {
     std::set<int32_t> referenced;
     for (const Material& m : scene_.materials)
-      for (const TextureRef* t : {&m.base_color, &m.metallic_roughness, &m.normal, &m.occlusion,
-                                  &m.emissive, &m.sheen_color, &m.transmission})
+      for (const TextureRef* t : texture_refs(m))
         if (t->present() && size_t(t->image) < scene_.images.size()) referenced.insert(t->image);
     image_map_.assign(scene_.images.size(), -1);
     for (int32_t i : referenced) {
@@ -280,9 +280,8 @@ class Exporter {
     if (thickness > 0) {
       json v = json::object();
       v["thicknessFactor"] = num(thickness);
-      if (m.transmission.present())
-        if (json info = tex(m.transmission, "thicknessTexture"); !info.is_null())
-          v["thicknessTexture"] = std::move(info);
+      if (json info = tex(m.layer(LayerSlot::kThickness), "thicknessTexture"); !info.is_null())
+        v["thicknessTexture"] = std::move(info);
       if (m.attenuation_distance > 0 && std::isfinite(m.attenuation_distance))
         v["attenuationDistance"] = num(m.attenuation_distance);
       if (!(m.attenuation_color == Vec3{1, 1, 1}))
@@ -293,23 +292,40 @@ class Exporter {
   }
 
   // The reflection's layers, where they differ from glTF's defaults: clearcoat, specular
-  // (strength and F0 colour), iridescence (thin film).
-  void write_layers(const Material& m, const std::string& where, json& j) {
+  // (strength and F0 colour), iridescence (thin film), anisotropy; each with its textures
+  // (LayerSlot, under kLayerSlots' keys).
+  template <class Tex>
+  void write_layers(const Material& m, const std::string& where, Tex& tex, json& j) {
+    // The layer textures of `extension` into `e` (the clearcoat's normal map with its scale).
+    auto layer_textures = [&](const char* extension, json& e) {
+      for (size_t k = 0; k < size_t(LayerSlot::kCount); ++k) {
+        if (std::string(kLayerSlots[k].extension) != extension) continue;
+        json info = tex(m.layers[k], kLayerSlots[k].key);
+        if (info.is_null()) continue;
+        if (LayerSlot(k) == LayerSlot::kClearcoatNormal && std::isfinite(m.layers[k].scale) &&
+            m.layers[k].scale != 1)
+          info["scale"] = num(m.layers[k].scale);
+        e[kLayerSlots[k].key] = std::move(info);
+      }
+    };
     if (m.clearcoat_factor > 0) {
       json c = json::object();
       c["clearcoatFactor"] = num(bounded(m.clearcoat_factor, 0, 1, 0, where + ": clearcoatFactor"));
       const float r = bounded(m.clearcoat_roughness_factor, 0, 1, 0, where + ": clearcoatRoughness");
       if (r != 0) c["clearcoatRoughnessFactor"] = num(r);
+      layer_textures(kClearcoat, c);
       j["extensions"][kClearcoat] = std::move(c);
       used_.insert(kClearcoat);
     }
     const Vec3 sc = m.specular_color_factor;
-    if (m.specular_factor != 1 || !(sc == Vec3{1, 1, 1})) {
+    if (m.specular_factor != 1 || !(sc == Vec3{1, 1, 1}) ||
+        m.layer(LayerSlot::kSpecular).present() || m.layer(LayerSlot::kSpecularColor).present()) {
       json sp = json::object();
       const float f = bounded(m.specular_factor, 0, 1, 1, where + ": specularFactor");
       if (f != 1) sp["specularFactor"] = num(f);
       if (!(sc == Vec3{1, 1, 1}))
         sp["specularColorFactor"] = colour(sc, 100, where + ": specularColorFactor");
+      layer_textures(kSpecular, sp);
       j["extensions"][kSpecular] = std::move(sp);
       used_.insert(kSpecular);
     }
@@ -320,8 +336,27 @@ class Exporter {
       if (ior != 1.3f) ir["iridescenceIor"] = num(ior);
       const float t = bounded(m.iridescence_thickness, 0, 1e5f, 400, where + ": iridescenceThickness");
       if (t != 400) ir["iridescenceThicknessMaximum"] = num(t);
+      const float lo = bounded(m.iridescence_thickness_minimum, 0, 1e5f, 100,
+                               where + ": iridescenceThicknessMinimum");
+      if (lo != 100) ir["iridescenceThicknessMinimum"] = num(lo);
+      layer_textures(kIridescence, ir);
       j["extensions"][kIridescence] = std::move(ir);
       used_.insert(kIridescence);
+    }
+    // Anisotropy needs a tangent space (glTF: TANGENT, or one derived along a normal map);
+    // meshmux writes no TANGENT, so without a normal map it is left out (said once).
+    const bool anisotropic = m.anisotropy_strength > 0 || m.layer(LayerSlot::kAnisotropy).present();
+    if (anisotropic && !m.normal.present())
+      note(where + ": KHR_materials_anisotropy left out: no normal map to give it a tangent space");
+    if (anisotropic && m.normal.present()) {
+      json an = json::object();
+      const float f = bounded(m.anisotropy_strength, 0, 1, 0, where + ": anisotropyStrength");
+      if (f != 0) an["anisotropyStrength"] = num(f);
+      if (std::isfinite(m.anisotropy_rotation) && m.anisotropy_rotation != 0)
+        an["anisotropyRotation"] = num(m.anisotropy_rotation);
+      layer_textures(kAnisotropy, an);
+      j["extensions"][kAnisotropy] = std::move(an);
+      used_.insert(kAnisotropy);
     }
   }
 
@@ -387,13 +422,15 @@ class Exporter {
                                      num(bounded(sc.z, 0, 1, 0, where + ": sheenColorFactor"))};
         if (json t = tex(m.sheen_color, "sheenColorTexture"); !t.is_null())
           sheen["sheenColorTexture"] = std::move(t);
+        if (json t = tex(m.layer(LayerSlot::kSheenRoughness), "sheenRoughnessTexture"); !t.is_null())
+          sheen["sheenRoughnessTexture"] = std::move(t);
         const float r = bounded(m.sheen_roughness_factor, 0, 1, 0, where + ": sheenRoughness");
         if (r != 0) sheen["sheenRoughnessFactor"] = num(r);
         j["extensions"][kSheen] = std::move(sheen);
         used_.insert(kSheen);
       }
       if (m.transmissive() && !m.unlit) write_glass(m, where, tex, j);
-      if (!m.unlit) write_layers(m, where, j);
+      if (!m.unlit) write_layers(m, where, tex, j);
       if (m.alpha_mode == AlphaMode::kMask) {
         j["alphaMode"] = "MASK";
         float cutoff = std::isfinite(m.alpha_cutoff) ? m.alpha_cutoff : 0.5f;

@@ -31,7 +31,6 @@ namespace {
 // Material extensions that change appearance, with what the output shows instead: the
 // metal-roughness core of the material (factors and maps) is kept, the effect is not.
 const std::map<std::string, std::string> kAppearanceExtensions = {
-    {"KHR_materials_anisotropy", "anisotropy dropped (isotropic highlights)"},
     {"KHR_materials_dispersion", "dispersion dropped"},
     {"KHR_materials_diffuse_transmission", "diffuse transmission dropped"},
 };
@@ -45,31 +44,7 @@ const std::set<std::string> kSupportedRequired = {
     "KHR_materials_volume",            "KHR_materials_ior",
     "KHR_materials_clearcoat",         "KHR_materials_specular",
     "KHR_materials_iridescence",       "KHR_materials_sheen",
-};
-
-// The layers' textures (not carried): which channel of each a constant stands in for (-1:
-// none; the clearcoat's normal map and the specular colour's map are dropped).
-// `factor`: the Material field the constant scales (null: none). The thin film's thickness
-// (`film`) is scaled between its minimum and its maximum.
-struct LayerMap {
-  const char* extension;
-  const char* key;
-  int channel;
-  float Material::*factor;
-  bool film = false;
-};
-const LayerMap kLayerMaps[] = {
-    {"KHR_materials_transmission", "transmissionTexture", 0, &Material::transmission_factor},
-    {"KHR_materials_volume", "thicknessTexture", 1, &Material::thickness_factor},
-    {"KHR_materials_clearcoat", "clearcoatTexture", 0, &Material::clearcoat_factor},
-    {"KHR_materials_clearcoat", "clearcoatRoughnessTexture", 1,
-     &Material::clearcoat_roughness_factor},
-    {"KHR_materials_clearcoat", "clearcoatNormalTexture", -1, nullptr},
-    {"KHR_materials_specular", "specularTexture", 3, &Material::specular_factor},
-    {"KHR_materials_specular", "specularColorTexture", -1, nullptr},
-    {"KHR_materials_iridescence", "iridescenceTexture", 0, &Material::iridescence_factor},
-    {"KHR_materials_iridescence", "iridescenceThicknessTexture", 1,
-     &Material::iridescence_thickness, true},
+    "KHR_materials_anisotropy",
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -471,7 +446,6 @@ class Importer {
     materials();
     s = meshes();
     if (!s) return s;
-    fold_layer_maps();
     s = nodes();
     if (!s) return s;
     if (!m_.animations.empty())
@@ -527,12 +501,18 @@ class Importer {
           it->second.Get("sheenColorTexture").Has("index") &&
           it->second.Get("sheenColorTexture").Get("index").IsInt())
         mark_texture(it->second.Get("sheenColorTexture").Get("index").GetNumberAsInt());
-      for (const LayerMap& lm : kLayerMaps)  // decoded for their means (fold_layer_map)
-        if (auto it = m.extensions.find(lm.extension);
-            lm.channel >= 0 && it != m.extensions.end() && it->second.IsObject() &&
-            it->second.Has(lm.key) && it->second.Get(lm.key).IsObject() &&
-            it->second.Get(lm.key).Has("index") && it->second.Get(lm.key).Get("index").IsInt())
-          mark_texture(it->second.Get(lm.key).Get("index").GetNumberAsInt());
+      for (const LayerSlotName& slot : kLayerSlots)
+        if (auto it = m.extensions.find(slot.extension);
+            it != m.extensions.end() && it->second.IsObject() && it->second.Has(slot.key) &&
+            it->second.Get(slot.key).IsObject() && it->second.Get(slot.key).Has("index") &&
+            it->second.Get(slot.key).Get("index").IsInt())
+          mark_texture(it->second.Get(slot.key).Get("index").GetNumberAsInt());
+      if (auto it = m.extensions.find("KHR_materials_transmission");
+          it != m.extensions.end() && it->second.IsObject() &&
+          it->second.Has("transmissionTexture") && it->second.Get("transmissionTexture").IsObject() &&
+          it->second.Get("transmissionTexture").Has("index") &&
+          it->second.Get("transmissionTexture").Get("index").IsInt())
+        mark_texture(it->second.Get("transmissionTexture").Get("index").GetNumberAsInt());
     }
     return used;
   }
@@ -644,8 +624,8 @@ class Importer {
   // Material extensions folded into the metal-roughness core (issue 2/8, deliver 4):
   // - KHR_materials_emissive_strength multiplies the emissive factor (exact; the exporter
   //   writes the extension back when a component exceeds 1);
-  // - KHR_materials_sheen, _transmission, _ior, _volume, _clearcoat, _specular and
-  //   _iridescence are carried: their factors, and the sheen colour texture.
+  // - KHR_materials_sheen, _transmission, _ior, _volume, _clearcoat, _specular, _iridescence
+  //   and _anisotropy are carried: their factors here, their textures in layer_textures.
   // Number fields that are missing or not finite keep their glTF defaults.
   static void approximate_extensions(const tinygltf::Material& src, Material* mat) {
     auto number = [](const tinygltf::Value& v, const char* key, double fallback) {
@@ -702,6 +682,13 @@ class Importer {
       mat->iridescence_ior = float(ior >= 1 && ior <= 10 ? ior : 1.3);
       mat->iridescence_thickness =
           float(std::clamp(number(v, "iridescenceThicknessMaximum", 400.0), 0.0, 1e5));
+      mat->iridescence_thickness_minimum =
+          float(std::clamp(number(v, "iridescenceThicknessMinimum", 100.0), 0.0, 1e5));
+    }
+    if (auto it = src.extensions.find("KHR_materials_anisotropy"); it != src.extensions.end()) {
+      mat->anisotropy_strength =
+          float(std::clamp(number(it->second, "anisotropyStrength", 0.0), 0.0, 1.0));
+      mat->anisotropy_rotation = float(number(it->second, "anisotropyRotation", 0.0));
     }
     // Glass is carried as glass: transmission, ior and volume (thickness, attenuation).
     if (auto it = src.extensions.find("KHR_materials_transmission"); it != src.extensions.end())
@@ -729,67 +716,37 @@ class Importer {
     }
   }
 
-  // A layer texture waiting for its material's primitives (fold_layer_maps).
-  struct PendingFold {
-    size_t material;
-    LayerMap map;
-    int32_t image;       // scene image
-    uint32_t tex_coord;  // uv set
-    float iridescence_minimum;
-  };
-
-  // The scene image a textureInfo names and its uv set; nothing when it names no decoded image.
-  std::optional<std::pair<int32_t, uint32_t>> info_image(const tinygltf::Value& info) const {
-    if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsInt()) return std::nullopt;
-    const int index = info.Get("index").GetNumberAsInt();
-    if (index < 0 || size_t(index) >= m_.textures.size()) return std::nullopt;
-    const int source = texture_source(m_.textures[size_t(index)]);
-    if (source < 0) return std::nullopt;
-    const int32_t image = image_map_[size_t(source)];
-    if (!scene_.images[size_t(image)].decoded()) return std::nullopt;
-    const int coord = info.Has("texCoord") && info.Get("texCoord").IsInt()
-                          ? info.Get("texCoord").GetNumberAsInt() : 0;
-    return std::pair{image, uint32_t(std::max(coord, 0))};
-  }
-
-  // The mean of one channel (0 R … 3 A) of `image` as the material's surface shows it: sampled
-  // (nearest texel, repeating) at each triangle's centre, weighted by the triangle's area; the
-  // whole image's mean when no triangle uses the material. In [0, 1].
-  double surface_mean(const PendingFold& f) const {
-    const Image& im = scene_.images[size_t(f.image)];
-    const int channel = f.map.channel;
-    double sum = 0, area = 0;
-    for (const Mesh& mesh : scene_.meshes)
-      for (const Primitive& p : mesh.primitives) {
-        if (p.material != int32_t(f.material) || f.tex_coord >= p.uvs.size()) continue;
-        const std::vector<Vec2>& uv = p.uvs[f.tex_coord];
-        for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-          const uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
-          const double w = length(cross(p.positions[b] - p.positions[a], p.positions[c] - p.positions[a]));
-          const double u = (uv[a].x + uv[b].x + uv[c].x) / 3, v = (uv[a].y + uv[b].y + uv[c].y) / 3;
-          if (!(w > 0) || !std::isfinite(u) || !std::isfinite(v)) continue;
-          const int x = std::clamp(int((u - std::floor(u)) * im.width), 0, im.width - 1);
-          const int y = std::clamp(int((v - std::floor(v)) * im.height), 0, im.height - 1);
-          sum += w * im.rgba[(size_t(y) * size_t(im.width) + size_t(x)) * 4 + size_t(channel)];
-          area += w;
-        }
-      }
-    if (area > 0) return sum / (255.0 * area);
-    const size_t n = size_t(im.width) * size_t(im.height);
-    for (size_t i = 0; i < n; ++i) sum += im.rgba[4 * i + size_t(channel)];
-    return n ? sum / (255.0 * double(n)) : 0.0;
-  }
-
-  // A layer's texture the output cannot carry, folded into its factor as a constant: the
-  // factor times the texture's mean over the surface (for the thin film's thickness, the mean
-  // between its minimum and maximum). Runs once the primitives are read.
-  void fold_layer_maps() {
-    for (const PendingFold& f : pending_folds_) {
-      Material* mat = &scene_.materials[f.material];
-      const float k = float(surface_mean(f));
-      float& v = mat->*f.map.factor;
-      v = f.map.film ? f.iridescence_minimum + k * (v - f.iridescence_minimum) : v * k;
+  // A textureInfo given as a JSON value (inside an extension): the texture, its uv set, its
+  // KHR_texture_transform and its scale (normal maps) or strength.
+  TextureRef texture_info(const tinygltf::Value& info, const std::string& where) {
+    if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsInt()) return {};
+    const int coord =
+        info.Has("texCoord") && info.Get("texCoord").IsInt() ? info.Get("texCoord").GetNumberAsInt() : 0;
+    tinygltf::ExtensionMap ext;
+    if (info.Has("extensions") && info.Get("extensions").IsObject())
+      for (const std::string& key : info.Get("extensions").Keys())
+        ext[key] = info.Get("extensions").Get(key);
+    TextureRef ref = texture(info.Get("index").GetNumberAsInt(), coord, ext, where);
+    if (info.Has("scale") && info.Get("scale").IsNumber()) {
+      const double k = info.Get("scale").GetNumberAsDouble();
+      if (std::isfinite(k)) ref.scale = float(k);
     }
+    return ref;
+  }
+
+  // The layers' textures (kLayerSlots) and the transmission texture: carried as they came.
+  void layer_textures(const tinygltf::Material& src, const std::string& where, Material* mat) {
+    auto info = [&](const char* extension, const char* key) -> const tinygltf::Value* {
+      auto it = src.extensions.find(extension);
+      if (it == src.extensions.end() || !it->second.IsObject() || !it->second.Has(key))
+        return nullptr;
+      return &it->second.Get(key);
+    };
+    for (size_t k = 0; k < size_t(LayerSlot::kCount); ++k)
+      if (const tinygltf::Value* v = info(kLayerSlots[k].extension, kLayerSlots[k].key))
+        mat->layers[k] = texture_info(*v, where + " " + kLayerSlots[k].key);
+    if (const tinygltf::Value* v = info("KHR_materials_transmission", "transmissionTexture"))
+      mat->transmission = texture_info(*v, where + " transmissionTexture");
   }
 
   void materials() {
@@ -827,12 +784,6 @@ class Importer {
       mat.double_sided = src.doubleSided;
       mat.unlit = src.extensions.count("KHR_materials_unlit") > 0;
       approximate_extensions(src, &mat);
-      iridescence_minimum_ = 100;
-      if (auto it = src.extensions.find("KHR_materials_iridescence");
-          it != src.extensions.end() && it->second.IsObject() &&
-          it->second.Has("iridescenceThicknessMinimum") &&
-          it->second.Get("iridescenceThicknessMinimum").IsNumber())
-        iridescence_minimum_ = float(it->second.Get("iridescenceThicknessMinimum").GetNumberAsDouble());
       if (auto it = src.extensions.find("KHR_materials_sheen");
           it != src.extensions.end() && it->second.IsObject() &&
           it->second.Has("sheenColorTexture") && it->second.Get("sheenColorTexture").IsObject()) {
@@ -847,15 +798,7 @@ class Importer {
       }
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
-      for (const LayerMap& lm : kLayerMaps)
-        if (auto it = src.extensions.find(lm.extension);
-            it != src.extensions.end() && it->second.IsObject() && it->second.Has(lm.key)) {
-          ++dropped_layer_maps_[lm.key];
-          if (lm.channel < 0 || !lm.factor) continue;
-          if (auto img = info_image(it->second.Get(lm.key)))
-            pending_folds_.push_back({scene_.materials.size(), lm, img->first, img->second,
-                                      iridescence_minimum_});
-        }
+      layer_textures(src, where, &mat);
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
@@ -863,10 +806,6 @@ class Importer {
     for (const auto& [name, count] : effects_)
       warn(warnings_, "gltf: " + file_ + ": " + name + " on " + std::to_string(count) +
                           " material(s): " + kAppearanceExtensions.at(name));
-    for (const auto& [key, count] : dropped_layer_maps_)
-      warn(warnings_, "gltf: " + file_ + ": " + key + " on " + std::to_string(count) +
-                          " material(s) not carried (its mean over the image scales the "
-                          "factor)");
     if (std::find(m_.extensionsUsed.begin(), m_.extensionsUsed.end(), "KHR_materials_variants") !=
         m_.extensionsUsed.end())
       warn(warnings_, "gltf: " + file_ +
@@ -1290,12 +1229,9 @@ class Importer {
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
-  float iridescence_minimum_ = 100;        // the material being read: its film's thinnest, nm
-  std::vector<PendingFold> pending_folds_;  // layer textures to fold once primitives are read
   bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)
-  std::map<std::string, size_t> dropped_layer_maps_;  // layer texture slot → materials
   Reader r_;
   std::string file_;
   const ImportOptions& opts_;

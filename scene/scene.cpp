@@ -4,6 +4,19 @@
 
 namespace meshmux {
 
+std::vector<TextureRef*> texture_refs(Material& m) {
+  std::vector<TextureRef*> refs = {&m.base_color, &m.metallic_roughness, &m.normal,
+                                   &m.occlusion,  &m.emissive,           &m.sheen_color,
+                                   &m.transmission};
+  for (TextureRef& t : m.layers) refs.push_back(&t);
+  return refs;
+}
+
+std::vector<const TextureRef*> texture_refs(const Material& m) {
+  std::vector<TextureRef*> refs = texture_refs(const_cast<Material&>(m));
+  return {refs.begin(), refs.end()};
+}
+
 std::vector<size_t> instance_counts(const Scene& scene) {
   std::vector<size_t> counts(scene.meshes.size(), 0);
   for (const Instance& inst : scene.instances)

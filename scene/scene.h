@@ -45,6 +45,39 @@ struct TextureRef {
 
 enum class AlphaMode { kOpaque, kMask, kBlend };
 
+// The textures of a material's reflection layers, carried as they came (glTF's extension and
+// key of each in kLayerSlots). The atlas keeps a material that has any beside it, with its own
+// textures (atlas/kept.h): no atlas channel carries them.
+enum class LayerSlot : uint8_t {
+  kClearcoat,             // R scales clearcoat_factor
+  kClearcoatRoughness,    // G scales clearcoat_roughness_factor
+  kClearcoatNormal,       // the clearcoat's tangent-space normal map (TextureRef::scale)
+  kSpecular,              // A scales specular_factor
+  kSpecularColor,         // sRGB RGB scales specular_color_factor
+  kIridescence,           // R scales iridescence_factor
+  kIridescenceThickness,  // G: the film's thickness between its minimum and maximum
+  kSheenRoughness,        // A scales sheen_roughness_factor
+  kAnisotropy,            // RG direction, B strength (KHR_materials_anisotropy)
+  kThickness,             // G scales thickness_factor (KHR_materials_volume)
+  kCount
+};
+struct LayerSlotName {
+  const char* extension;  // e.g. "KHR_materials_clearcoat"
+  const char* key;        // e.g. "clearcoatTexture"
+};
+inline constexpr LayerSlotName kLayerSlots[size_t(LayerSlot::kCount)] = {
+    {"KHR_materials_clearcoat", "clearcoatTexture"},
+    {"KHR_materials_clearcoat", "clearcoatRoughnessTexture"},
+    {"KHR_materials_clearcoat", "clearcoatNormalTexture"},
+    {"KHR_materials_specular", "specularTexture"},
+    {"KHR_materials_specular", "specularColorTexture"},
+    {"KHR_materials_iridescence", "iridescenceTexture"},
+    {"KHR_materials_iridescence", "iridescenceThicknessTexture"},
+    {"KHR_materials_sheen", "sheenRoughnessTexture"},
+    {"KHR_materials_anisotropy", "anisotropyTexture"},
+    {"KHR_materials_volume", "thicknessTexture"},
+};
+
 // glTF metallic-roughness material. COLLADA's common profile maps onto it (diffuse → base
 // colour, transparency → alpha).
 struct Material {
@@ -60,19 +93,19 @@ struct Material {
   Vec3 emissive_factor{0, 0, 0};       // linear RGB; may exceed 1 (KHR_materials_emissive_strength)
   Vec3 sheen_color_factor{0, 0, 0};    // KHR_materials_sheen: linear RGB (0: no sheen layer)
   TextureRef sheen_color;              // sRGB, RGB multiplied by the factor
-  float sheen_roughness_factor = 0;    // [0,1]; its texture is not carried (factor only)
+  float sheen_roughness_factor = 0;    // [0,1] (its texture: layers[kSheenRoughness])
   // Glass (KHR_materials_transmission, _ior, _volume): carried, never approximated by alpha.
   float transmission_factor = 0;    // [0,1]: share of light passing through (0: none)
-  TextureRef transmission;          // linear; R = transmission, G = volume thickness (glTF's
-                                    // transmissionTexture and thicknessTexture may share it)
+  TextureRef transmission;          // linear; R scales transmission_factor (the volume's
+                                    // thickness texture: layers[kThickness])
   float ior = 1.5f;                 // index of refraction (KHR_materials_ior), ≥ 1
   float thickness_factor = 0;       // volume thickness, mesh units (0: thin-walled)
   float attenuation_distance = 0;   // distance light travels before it is attenuated to
                                     // attenuation_color; 0 = infinite (no attenuation)
   Vec3 attenuation_color{1, 1, 1};  // linear RGB
   bool transmissive() const { return transmission_factor > 0; }
-  // Layers of the surface's reflection (MeshPhysicalMaterial in three.js), carried as factors;
-  // their textures are not carried (one warning names them).
+  // Layers of the surface's reflection (MeshPhysicalMaterial in three.js): factors, and their
+  // textures in `layers`.
   float clearcoat_factor = 0;            // KHR_materials_clearcoat: a second specular layer [0,1]
   float clearcoat_roughness_factor = 0;  // its roughness [0,1]
   float specular_factor = 1;             // KHR_materials_specular: strength of the reflection [0,1]
@@ -81,11 +114,27 @@ struct Material {
   float iridescence_ior = 1.3f;          // the film's index of refraction
   float iridescence_thickness = 400;     // the film's thickness, nanometres (glTF's maximum,
                                          // what applies without the thickness texture)
+  float iridescence_thickness_minimum = 100;  // nanometres, where the thickness texture is 0
+  float anisotropy_strength = 0;         // KHR_materials_anisotropy: [0,1] (0: isotropic)
+  float anisotropy_rotation = 0;         // radians, counter-clockwise from the tangent
+  TextureRef layers[size_t(LayerSlot::kCount)];  // the layers' textures, by LayerSlot
+  const TextureRef& layer(LayerSlot s) const { return layers[size_t(s)]; }
+  TextureRef& layer(LayerSlot s) { return layers[size_t(s)]; }
+  bool any_layer_texture() const {
+    for (const TextureRef& t : layers)
+      if (t.present()) return true;
+    return false;
+  }
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // used when alpha_mode is kMask
   bool double_sided = false;  // render back faces
   bool unlit = false;         // KHR_materials_unlit
 };
+
+// Every texture reference of a material (base colour, the physically based channels, sheen
+// colour, transmission, the layers), for code that visits or remaps image indices.
+std::vector<const TextureRef*> texture_refs(const Material& m);
+std::vector<TextureRef*> texture_refs(Material& m);
 
 // An image: the bytes as they came (so unchanged images are passed through, not re-encoded)
 // and, when decoding succeeded, RGBA8 pixels.

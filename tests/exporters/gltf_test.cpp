@@ -492,6 +492,67 @@ TEST(GltfExport, ReflectionLayersRoundTrip) {
   EXPECT_FLOAT_EQ(b.iridescence_thickness, 700);
 }
 
+// The layers' textures and anisotropy round-trip (materials kept beside the atlas carry them,
+// atlas/kept.h): each slot is written under its extension's key with its uv set and the
+// clearcoat normal map's scale, validator-clean, and read back into the same slot.
+TEST(GltfExport, LayerTexturesAndAnisotropyRoundTrip) {
+  Scene scene = textured_cube_scene();
+  Material& m = scene.materials[0];
+  m.clearcoat_factor = 1;
+  m.specular_factor = 0.5f;
+  m.iridescence_factor = 1;
+  m.iridescence_thickness_minimum = 200;
+  m.anisotropy_strength = 0.7f;
+  m.anisotropy_rotation = 0.25f;
+  m.thickness_factor = 0.1f;
+  m.transmission_factor = 1;
+  m.sheen_color_factor = {1, 1, 1};
+  for (size_t k = 0; k < size_t(LayerSlot::kCount); ++k) {
+    m.layers[k] = m.base_color;
+    m.layers[k].scale = 1;
+  }
+  m.layer(LayerSlot::kClearcoatNormal).scale = 0.5f;
+  m.transmission = m.base_color;
+  m.normal = m.base_color;  // anisotropy's tangent space (no TANGENT is written)
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  const json& ext = glb.doc["materials"][0]["extensions"];
+  for (const LayerSlotName& slot : kLayerSlots)
+    EXPECT_TRUE(ext[slot.extension].contains(slot.key)) << slot.extension << " " << slot.key;
+  EXPECT_FLOAT_EQ(ext["KHR_materials_clearcoat"]["clearcoatNormalTexture"]["scale"].get<float>(), 0.5f);
+  EXPECT_FLOAT_EQ(ext["KHR_materials_anisotropy"]["anisotropyStrength"].get<float>(), 0.7f);
+  EXPECT_TRUE(has(glb.doc["extensionsUsed"], "KHR_materials_anisotropy"));
+  expect_valid(bytes, "layer_textures.glb");
+  TempDir dir;
+  testing::write_file(dir.file("layer_textures.glb"), bytes);
+  auto back = import_scene(dir.file("layer_textures.glb"), {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  const Material& b = back->materials[0];
+  for (size_t k = 0; k < size_t(LayerSlot::kCount); ++k)
+    EXPECT_TRUE(b.layers[k].present()) << kLayerSlots[k].key;
+  EXPECT_FLOAT_EQ(b.layer(LayerSlot::kClearcoatNormal).scale, 0.5f);
+  EXPECT_TRUE(b.transmission.present());
+  EXPECT_FLOAT_EQ(b.anisotropy_strength, 0.7f);
+  EXPECT_FLOAT_EQ(b.anisotropy_rotation, 0.25f);
+  EXPECT_FLOAT_EQ(b.iridescence_thickness_minimum, 200);
+}
+
+// Anisotropy without a normal map would need TANGENT, which meshmux does not write: the
+// extension is left out, said once, and the file stays valid.
+TEST(GltfExport, AnisotropyWithoutNormalMapIsLeftOut) {
+  Scene scene = textured_cube_scene();
+  scene.materials[0].anisotropy_strength = 0.5f;
+  Warnings warnings;
+  auto bytes = export_ok(scene, {}, &warnings);
+  Glb glb = parse_glb(bytes);
+  EXPECT_FALSE(glb.doc["materials"][0].contains("extensions") &&
+               glb.doc["materials"][0]["extensions"].contains("KHR_materials_anisotropy"));
+  int said = 0;
+  for (const std::string& w : warnings.items()) said += w.find("anisotropy left out") != std::string::npos;
+  EXPECT_EQ(said, 1);
+  expect_valid(bytes, "anisotropy_no_normal.glb");
+}
+
 // An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is
 // written back as a factor in [0, 1] and the strength, so it stays valid and as bright.
 TEST(GltfExport, EmissiveBeyondOneWritesEmissiveStrength) {

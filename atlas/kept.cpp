@@ -1,0 +1,122 @@
+// Materials kept beside the atlas (see kept.h).
+#include "atlas/kept.h"
+
+#include <algorithm>
+
+#include "atlas/tiled.h"
+
+namespace meshmux {
+
+namespace {
+
+// GL's filters that sample one mip level only: minification without mipmaps shows the
+// texture's own texel grid (aliasing and all), and NEAREST magnification its blocks.
+bool grid_filter(const Sampler& s) {
+  constexpr int kNearest = 9728, kLinear = 9729;
+  return s.min_filter == kNearest || s.min_filter == kLinear || s.mag_filter == kNearest;
+}
+
+}  // namespace
+
+std::vector<KeptReason> find_kept_materials(const Scene& scene, double periods) {
+  std::vector<KeptReason> kept(scene.materials.size(), KeptReason::kNone);
+  const std::vector<char> tiled =
+      periods > 0 ? find_tiled_materials(scene, periods) : std::vector<char>();
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material& m = scene.materials[i];
+    if (i < tiled.size() && tiled[i]) {
+      kept[i] = KeptReason::kTiled;
+      continue;
+    }
+    if (m.any_layer_texture() || m.transmission.present() || m.anisotropy_strength > 0) {
+      kept[i] = KeptReason::kLayers;
+      continue;
+    }
+    for (const TextureRef* t : texture_refs(m))
+      if (t->present() && size_t(t->image) < scene.images.size() &&
+          scene.images[size_t(t->image)].decoded() && grid_filter(t->sampler))
+        kept[i] = KeptReason::kTexelGrid;
+  }
+  return kept;
+}
+
+KeptSplit split_kept(const Scene& scene, const std::vector<KeptReason>& kept) {
+  KeptSplit out;
+  out.rest = scene;
+  out.kept.source = scene.source;
+  out.kept.normalization_scale = scene.normalization_scale;
+  auto is_kept = [&](const Primitive& p) {
+    return p.material >= 0 && size_t(p.material) < kept.size() &&
+           kept[size_t(p.material)] != KeptReason::kNone;
+  };
+  std::vector<int32_t> material_map(scene.materials.size(), -1), image_map(scene.images.size(), -1);
+  // Per source mesh, the kept meshes its instances also place.
+  std::vector<std::vector<uint32_t>> kept_parts(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    std::vector<Primitive>& rest_prims = out.rest.meshes[m].primitives;
+    rest_prims.erase(std::remove_if(rest_prims.begin(), rest_prims.end(), is_kept),
+                     rest_prims.end());
+    for (const Primitive& p : scene.meshes[m].primitives) {
+      if (!is_kept(p) || p.indices.empty()) continue;
+      int32_t& mat = material_map[size_t(p.material)];
+      if (mat < 0) {
+        Material copy = scene.materials[size_t(p.material)];
+        for (TextureRef* ref : texture_refs(copy)) {
+          if (!ref->present() || size_t(ref->image) >= scene.images.size()) {
+            ref->image = -1;
+            continue;
+          }
+          int32_t& img = image_map[size_t(ref->image)];
+          if (img < 0) {
+            img = int32_t(out.kept.images.size());
+            out.kept.images.push_back(scene.images[size_t(ref->image)]);
+          }
+          ref->image = img;
+        }
+        mat = int32_t(out.kept.materials.size());
+        out.kept.materials.push_back(std::move(copy));
+      }
+      Mesh part;
+      part.name = scene.meshes[m].name + " (kept)";
+      part.primitives.push_back(p);
+      part.primitives.back().material = mat;
+      kept_parts[m].push_back(uint32_t(out.kept.meshes.size()));
+      out.kept.meshes.push_back(std::move(part));
+    }
+  }
+  for (const Instance& inst : scene.instances)
+    if (inst.mesh < kept_parts.size())
+      for (uint32_t part : kept_parts[inst.mesh]) {
+        Instance copy = inst;
+        copy.mesh = part;
+        out.kept.instances.push_back(std::move(copy));
+      }
+  for (size_t i = 0; i < kept.size(); ++i)
+    if (kept[i] != KeptReason::kNone)
+      out.rest.materials[i] = Material{};  // unused now: its textures not counted
+  out.kept_materials = out.kept.materials.size();
+  return out;
+}
+
+void append_scene(Scene& out, const Scene& extra) {
+  const int32_t image_base = int32_t(out.images.size());
+  const int32_t material_base = int32_t(out.materials.size());
+  const uint32_t mesh_base = uint32_t(out.meshes.size());
+  out.images.insert(out.images.end(), extra.images.begin(), extra.images.end());
+  for (Material m : extra.materials) {
+    for (TextureRef* ref : texture_refs(m))
+      if (ref->present()) ref->image += image_base;
+    out.materials.push_back(std::move(m));
+  }
+  for (Mesh mesh : extra.meshes) {
+    for (Primitive& p : mesh.primitives)
+      if (p.material >= 0) p.material += material_base;
+    out.meshes.push_back(std::move(mesh));
+  }
+  for (Instance inst : extra.instances) {
+    inst.mesh += mesh_base;
+    out.instances.push_back(std::move(inst));
+  }
+}
+
+}  // namespace meshmux
