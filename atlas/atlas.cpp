@@ -3,7 +3,7 @@
 // charts, parameterize, pack and bake.
 #include "atlas/atlas.h"
 
-#include "atlas/tiled.h"
+#include "atlas/kept.h"
 
 #include <algorithm>
 #include <chrono>
@@ -132,22 +132,31 @@ void flatten_chart(const Scene& scene, const MeshView& mv, const Chart& chart,
   }
 }
 
-// Σ over a chart's faces of their area in the source texture, in texels.
+// Σ over a chart's faces of their area in the source textures, in texels: per face the densest
+// texture its material samples (base colour, normal, occlusion, metallic-roughness, emissive),
+// so a chart whose detail lives in a normal map keeps that map's density.
 double source_texels(const Scene& scene, const MeshView& mv, const Chart& chart) {
   double sum = 0;
   for (uint32_t f : chart.faces) {
     const FaceRef& r = mv.faces[f];
     const Primitive& p = mv.mesh.primitives[r.primitive];
     if (p.material < 0) continue;
-    const TextureRef& t = scene.materials[size_t(p.material)].base_color;
-    if (!t.present() || t.tex_coord >= p.uvs.size()) continue;
-    const Image& img = scene.images[size_t(t.image)];
-    if (!img.decoded()) continue;
-    Vec2 a = p.uvs[t.tex_coord][mv.corner(f, 0)], b = p.uvs[t.tex_coord][mv.corner(f, 1)],
-         c = p.uvs[t.tex_coord][mv.corner(f, 2)];
-    double area = 0.5 * std::abs(double(b.x - a.x) * (c.y - a.y) - double(c.x - a.x) * (b.y - a.y));
-    area *= std::abs(double(t.transform.scale[0]) * t.transform.scale[1]);
-    sum += area * img.width * img.height;
+    const Material& m = scene.materials[size_t(p.material)];
+    double densest = 0;
+    for (const TextureRef* t :
+         {&m.base_color, &m.normal, &m.occlusion, &m.metallic_roughness, &m.emissive}) {
+      if (!t->present() || t->tex_coord >= p.uvs.size() || size_t(t->image) >= scene.images.size())
+        continue;
+      const Image& img = scene.images[size_t(t->image)];
+      if (!img.decoded()) continue;
+      const std::vector<Vec2>& uv = p.uvs[t->tex_coord];
+      Vec2 a = uv[mv.corner(f, 0)], b = uv[mv.corner(f, 1)], c = uv[mv.corner(f, 2)];
+      double area =
+          0.5 * std::abs(double(b.x - a.x) * (c.y - a.y) - double(c.x - a.x) * (b.y - a.y));
+      area *= std::abs(double(t->transform.scale[0]) * t->transform.scale[1]);
+      densest = std::max(densest, area * img.width * img.height);
+    }
+    sum += densest;
   }
   return sum;
 }
@@ -286,6 +295,31 @@ double referenced_pixels(const Scene& scene) {
   return total;
 }
 
+// The source texels one atlas channel stands for: per channel kind (base colour, normal,
+// occlusion and metallic-roughness, emissive), the pixels of the distinct images of that kind
+// the materials reference; the largest kind's.
+double channel_pixels(const Scene& scene) {
+  double most = 0;
+  auto kind = [&](auto ref_of) {
+    double total = 0;
+    std::vector<char> seen(scene.images.size(), 0);
+    for (const Material& mat : scene.materials)
+      for (const TextureRef* t : ref_of(mat))
+        if (t->present() && size_t(t->image) < seen.size() && !seen[size_t(t->image)]) {
+          seen[size_t(t->image)] = 1;
+          const Image& img = scene.images[size_t(t->image)];
+          if (img.decoded()) total += double(img.width) * img.height;
+        }
+    most = std::max(most, total);
+  };
+  using Refs = std::vector<const TextureRef*>;
+  kind([](const Material& m) { return Refs{&m.base_color}; });
+  kind([](const Material& m) { return Refs{&m.normal}; });
+  kind([](const Material& m) { return Refs{&m.occlusion, &m.metallic_roughness}; });
+  kind([](const Material& m) { return Refs{&m.emissive}; });
+  return most;
+}
+
 // T for a scene whose only texture is vertex colour: the colours live at the vertices, so the
 // atlas gets a few texels per vertex (enough for bilinear filtering to reproduce the linear
 // blend across each face), at least 128² and at most vertex_color_target².
@@ -297,6 +331,9 @@ double vertex_color_texels(const Scene& scene, const AtlasOptions& o) {
   return std::clamp(kVertexColorTexelsPerVertex * vertices, 128.0 * 128.0, side * side);
 }
 
+// The charts' own texels stay within this × the distinct source texels of a channel (size_charts).
+constexpr double kReuseBound = 1.1;
+
 // Step 2, formula 2 sizing: A''_c = cbrt((L²_c/ΣL²)(A_c/ΣA)(A'_c/ΣA')) · T. A_c is the chart's
 // area in the world (mean over the mesh's instances); A'_c its footprint in the source texture.
 // The pack items: one per textured chart, one block per distinct flat colour.
@@ -305,9 +342,11 @@ struct Items {
   std::vector<PackRect> rects;     // per item (textured ones sized by pack_charts)
   std::vector<double> item_scale;  // per item: texels per chart-uv unit (0: a flat block)
   std::vector<size_t> item_chart;  // the chart whose uv rect the item holds (flat: first)
+  std::vector<char> item_native;   // per item: sized from its own source texels (density)
+  double reuse_scale = 1;          // density × this: the bytes bound where sources are reused
   double target_texels = 0;        // T
-  double reference_texels = 0;     // the atlas's texel budget: the source texels referenced (the
-                                   // images the materials sample), T for vertex colours
+  double reference_texels = 0;     // the base-colour texels the materials reference, T for
+                                   // vertex colours (reported)
   bool any_textured = false;
   size_t flat_colors = 0;
 };
@@ -334,15 +373,23 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
     sum_l2 += l2[i], sum_a += a3[i], sum_src += src[i];
   }
   double max_t = double(o.max_size) * o.max_size;
-  // "The total original texture area referenced by all triangles": Σ A'_c counts texels that
-  // several charts reuse (mirrored halves, repeated decals) once per use, so it is also capped
-  // by the pixels of the images the materials reference.
-  double pixels = referenced_pixels(scene);
+  // T: "the total original texture area referenced by all triangles" (Σ A'_c), at most the
+  // largest atlas; formula 2 shares it among charts that sample no source texels of their own.
   Items it;
-  double T = sum_src > 0 ? std::min({sum_src, pixels > 0 ? pixels : sum_src, max_t})
-                         : vertex_color_texels(scene, o);
+  double T = sum_src > 0 ? std::min(sum_src, max_t) : vertex_color_texels(scene, o);
   it.target_texels = T;
+  double pixels = referenced_pixels(scene);
   it.reference_texels = sum_src > 0 && pixels > 0 ? pixels : T;
+  // The bytes bound (issue 1/5: the atlas's encoded bytes ≤ 1.1× those of the sources it
+  // replaces). Σ A'_c counts the texels several charts reuse (mirrored halves, one decal on six
+  // faces) once per use, and each use is a copy in the atlas that costs its bytes again, while
+  // empty and dilated texels cost almost nothing: so the charts' own texels, not the atlas's,
+  // stay within kReuseBound × the distinct source texels of a channel; charts keep their
+  // native density wherever the sources are not reused that much.
+  const double distinct = channel_pixels(scene);
+  it.reuse_scale = sum_src > distinct * kReuseBound && distinct > 0
+                       ? kReuseBound * distinct / sum_src
+                       : 1.0;
   it.any_textured = sum_a > 0;
   std::map<std::array<uint32_t, 10>, size_t> flat_slot;
   it.chart_item.resize(charts.size());
@@ -360,6 +407,7 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
         it.rects.push_back({side, side});
         it.item_scale.push_back(0);
         it.item_chart.push_back(i);
+        it.item_native.push_back(0);
       }
       it.chart_item[i] = slot->second;
       continue;
@@ -371,11 +419,14 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
     if (!(share > 0))
       share = std::sqrt((l2[i] / sum_l2) * (a3[i] / sum_a));  // untextured piece, textured scene
     if (!std::isfinite(share) || !(share > 0)) share = 1e-6;  // degenerate input: a token size
-    double texels = share * T;
+    // A chart that samples source texels keeps their density (`density` of them; the packing
+    // may grow it further); bytes, not texels, bound the atlas. Formula 2 sizes the rest.
+    double texels = src[i] > 0 ? src[i] * std::max(o.density, 1e-6) * it.reuse_scale : share * T;
     double uv_area = std::max(1e-30, uvs[i].area_3d);
     double scale = std::sqrt(texels / uv_area);
     it.item_scale.push_back(std::isfinite(scale) && scale > 0 ? scale : 1.0);
     it.item_chart.push_back(i);
+    it.item_native.push_back(src[i] > 0);
     it.chart_item[i] = it.rects.size();
     it.rects.push_back({});
   }
@@ -385,14 +436,14 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
 
 // Step 3, packing (paper 000 §4.4: "within a power of two of the target size"). The atlas is
 // W × W or W × W/2 (powers of two: every mip level of either keeps aligned cells apart); one
-// factor f scales every textured chart (keeping formula 2's proportions) and is searched as
-// large as still packs. The first size tried is the smallest whose area reaches T; if that
-// costs more than a quarter of the linear resolution (f < 0.75), the next size up (twice the
-// area) is tried. Issue 4/8: the atlas never holds more texels than the source texels it
-// references, so no size above that budget is taken while one within it packs (the charts
-// then shrink). Around each chart: the baker's dilation rings plus one texel for its
-// conservative rasterization (texel centres within half a texel of a triangle). Then each
-// chart grows to fill the cell it owns (pack_cells), for free resolution.
+// factor f scales every textured chart (keeping their proportions) and is searched as large as
+// still packs. The size is the smallest that packs every chart at f = 1 (each textured chart
+// at its source's density), up to max_size, where f < 1 may be all that fits; where charts are
+// sized from source texels f stays ≤ 1 (texels past a source's density only cost bytes; the
+// free space stays empty, which JPEG codes for almost nothing). Around each chart: the
+// baker's dilation rings plus one texel for its conservative rasterization (texel centres
+// within half a texel of a triangle). Then each chart not sized from source texels grows to
+// fill the cell it owns (pack_cells).
 struct Packing {
   PackResult packed;
   int flat_block = 4;        // side of each flat colour's block, texels
@@ -457,21 +508,21 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
   double shrink = 1;
   size_t pick = 0;
   const int min_side = std::max(o.min_size, 1);
+  const bool native = std::find(it.item_native.begin(), it.item_native.end(), 1) != it.item_native.end();
   if (!it.any_textured) {
     // A palette of flat colours: the smallest size that holds the blocks.
     while (pick + 1 < sizes.size() && !fits(1, sizes[pick])) ++pick;
   } else {
-    const double budget = std::max(it.reference_texels, 1.0);
+    // The smallest size that holds every chart at its size (f ≥ 1: sources at their native
+    // density), up to the largest; there the charts shrink to what fits.
+    double need = 0;
+    rects_for(1);
+    for (const PackRect& r : rects) need += double(r.w) * r.h;
     while (pick + 1 < sizes.size() &&
-           (sizes[pick].area() < it.target_texels || sizes[pick].h < min_side))
+           (sizes[pick].area() < need || sizes[pick].h < min_side || !fits(1, sizes[pick])))
       ++pick;
-    while (pick > 0 && sizes[pick].area() > budget && sizes[pick - 1].h >= min_side) --pick;
     shrink = best_factor(sizes[pick]);
-    while (shrink < 0.75 && pick + 1 < sizes.size() && sizes[pick + 1].area() <= budget) {
-      const double next = best_factor(sizes[pick + 1]);
-      ++pick;
-      shrink = next;
-    }
+    if (native) shrink = std::min(shrink, 1.0);
     // Many small charts (500 separate textured triangles) may not fit even at the smallest
     // scale, each needing a texel and its gutters: the atlas grows until they do.
     while (!(shrink > 0) && pick + 1 < sizes.size()) shrink = best_factor(sizes[++pick]);
@@ -499,7 +550,7 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
       double fx = u.size.x * s > 0 ? cw / std::max(u.size.x * s, 1e-9) : 1e30;
       double fy = u.size.y * s > 0 ? ch / std::max(u.size.y * s, 1e-9) : 1e30;
       double& g = pk.grow[k];
-      g = std::max(1.0, std::min(fx, fy) * 0.999);
+      g = it.item_native[k] ? 1.0 : std::max(1.0, std::min(fx, fy) * 0.999);
       if (!std::isfinite(g) || g > 1e6) g = 1.0;
       rects[k].w = std::min(pk.packed.cells[k].w, int(std::ceil(u.size.x * s * g)) + 2 * gutter);
       rects[k].h = std::min(pk.packed.cells[k].h, int(std::ceil(u.size.y * s * g)) + 2 * gutter);
@@ -897,7 +948,9 @@ Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasR
               const Vec2 cell =
                   face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
               const Vec2 t = uv[mv.corner(f, k)];
-              return Vec2{t.x - cell.x, t.y - cell.y};
+              // The image's part of the atlas (the top rows when a half was appended below).
+              return Vec2{(t.x - cell.x) * float(src.part_width) / float(src.width),
+                          (t.y - cell.y) * float(src.part_height) / float(src.height)};
             });
       ChannelImages channels;
       const float es = need.bake.emissive_scale;
@@ -931,6 +984,14 @@ Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasR
   rep.height = packing->packed.height;
   rep.reference_texels = items.reference_texels;
   rep.utilization = packing->utilization;
+  rep.reuse_scale = items.reuse_scale;
+  rep.min_density = 0;
+  for (size_t k = 0; k < items.rects.size(); ++k)
+    if (items.item_native[k]) {
+      const double d =
+          o.density * items.reuse_scale * std::pow(packing->shrink * packing->grow[k], 2.0);
+      rep.min_density = rep.min_density > 0 ? std::min(rep.min_density, d) : d;
+    }
   // 4. Bake every chart into its cell.
   AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
   BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake, need.bake);
@@ -962,12 +1023,33 @@ Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasR
 
 Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
                           Warnings* warnings) {
-  const std::vector<char> tiled =
-      o.tiled_periods > 0 ? find_tiled_materials(scene, o.tiled_periods) : std::vector<char>();
-  if (std::find(tiled.begin(), tiled.end(), 1) == tiled.end())
-    return build_atlas_core(scene, o, report, warnings);
-  // Tiled materials stay as they came, beside the atlas of the rest (atlas/tiled.h).
-  TiledSplit split = split_tiled(scene, tiled);
+  std::vector<KeptReason> kept = find_kept_materials(scene, o.tiled_periods);
+  if (!o.keep_unbakeable)
+    for (KeptReason& k : kept)
+      if (k != KeptReason::kTiled) k = KeptReason::kNone;
+  // The source images the atlas replaces: those of the baked materials in use.
+  std::vector<char> used(scene.materials.size(), 0);
+  for (const Mesh& m : scene.meshes)
+    for (const Primitive& p : m.primitives)
+      if (p.material >= 0 && size_t(p.material) < used.size() && !p.indices.empty())
+        used[size_t(p.material)] = 1;
+  std::vector<char> baked(scene.images.size(), 0);
+  for (size_t i = 0; i < scene.materials.size(); ++i)
+    if (used[i] && kept[i] == KeptReason::kNone)
+      for (const TextureRef* t : texture_refs(scene.materials[i]))
+        if (t->present() && size_t(t->image) < baked.size()) baked[size_t(t->image)] = 1;
+  auto baked_images = [&](AtlasReport& r, size_t atlas_images) {
+    for (size_t i = 0; i < baked.size(); ++i)
+      if (baked[i]) r.baked_images.push_back(int32_t(i));
+    r.atlas_images = r.reused_source || !r.built ? 0 : atlas_images;
+  };
+  if (std::all_of(kept.begin(), kept.end(), [](KeptReason k) { return k == KeptReason::kNone; })) {
+    auto out = build_atlas_core(scene, o, report, warnings);
+    if (out.ok() && report) baked_images(*report, out->images.size());
+    return out;
+  }
+  // Kept materials stay as they came, beside the atlas of the rest (atlas/kept.h).
+  KeptSplit split = split_kept(scene, kept);
   AtlasReport rep;
   Scene out;
   out.source = scene.source;
@@ -981,9 +1063,17 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     if (!atlased.ok()) return atlased.status();
     out = atlased.take();
   }
+  const size_t atlas_images = rest ? out.images.size() : 0;
   append_scene(out, split.kept);
+  if (rest) baked_images(rep, atlas_images);
   rep.built = true;
-  rep.tiled_materials = split.kept_materials;
+  rep.kept_materials = split.kept_materials;
+  for (size_t i = 0; i < kept.size(); ++i)
+    if (used[i]) {
+      rep.tiled_materials += kept[i] == KeptReason::kTiled;
+      rep.layer_materials += kept[i] == KeptReason::kLayers;
+      rep.texel_grid_materials += kept[i] == KeptReason::kTexelGrid;
+    }
   if (report) *report = std::move(rep);
   return out;
 }

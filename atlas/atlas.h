@@ -1,7 +1,8 @@
 // One material, one texture (paper 000 §4.2–4.4): charts are segmented and parameterized,
-// sized by formula 2 within a target T = min(Σ source texture area the faces reference,
-// max_size²), packed into W × W or W × W/2 texels (no more than the source texels referenced)
-// so no chart crosses a power-of-two boundary, and baked from the source
+// each sized to keep the density of the source texels it samples (charts without source texels
+// by formula 2 within T = min(Σ source texture area the faces reference, max_size²)), packed
+// into the smallest W × W or W × W/2 texels that holds them (up to max_size) so no chart crosses
+// a power-of-two boundary, and baked from the source
 // materials; every mesh becomes one primitive with one uv set into the atlas and the single
 // material. Instancing is untouched (a shared mesh's charts are baked once). When every face
 // already samples one image inside [0, 1] (atlas/source_atlas.h), that image is the atlas and
@@ -17,8 +18,9 @@
 // factors. Normal maps are re-expressed in the tangent frame viewers derive from the atlas uvs
 // (atlas/tangent_frame.h). Scenes with no texture, no vertex colour and at most one material
 // are returned unchanged (they already have one material and need no texture).
-// Tiled textures (a REPEAT sampler over more than `tiled_periods` periods) are not baked: their
-// materials stay as they came, after the atlas's (atlas/tiled.h).
+// Materials the atlas cannot stand in for are not baked: tiled textures (a REPEAT sampler over
+// more than `tiled_periods` periods), layer textures, anisotropy, samplers showing the texel
+// grid; they stay as they came, after the atlas's (atlas/kept.h).
 // Materials are grouped by how surfaces show beyond their texels (alpha mode and cutoff,
 // double-sidedness, unlit, glass: KHR_materials_transmission with its ior and volume, and the
 // reflection's layers: clearcoat, specular, iridescence factors), one output material per
@@ -42,6 +44,9 @@ struct AtlasOptions {
   ParameterizeOptions parameterize;  // flattening
   BakeOptions bake;                  // resampling and gutters
   int max_size = 4096;               // largest atlas side
+  double density = 1;                // atlas texels per source texel each textured chart gets
+                                     // (its native density; area ratio), before the packing
+                                     // grows it to fill its cell; max_size may shrink it
   int min_size = 64;                 // smallest atlas side
   int flat_block = 4;                // least side of one flat-colour block, texels (gutters
                                      // around it); at least 1/64 of the atlas width
@@ -52,26 +57,52 @@ struct AtlasOptions {
   double tiled_periods = 2;          // a base colour texture repeated over more periods than
                                      // this on a piece keeps its material (atlas/tiled.h);
                                      // 0: every texture is baked
+  bool keep_unbakeable = true;       // keep materials with layer textures, anisotropy or
+                                     // texel-grid samplers beside the atlas (atlas/kept.h)
+};
+
+// One rebuild for the bytes bound (atlas/atlas_bytes.h).
+struct AtlasBytesRound {
+  double atlas_bytes = 0;   // the atlas's images encoded, before this rebuild
+  double bound = 0;         // what they might cost
+  double source_bytes = 0;  // the baked source images' encoded bytes
+  double next_density = 1;  // the density the rebuild used
 };
 
 struct AtlasReport {
   bool built = false;           // false: the scene was returned unchanged
   bool reused_source = false;   // the source's one texture is the atlas (no charts, no baking)
-  size_t tiled_materials = 0;   // materials kept as they came beside the atlas (tiled textures)
+  size_t kept_materials = 0;    // materials kept as they came beside the atlas (atlas/kept.h):
+  size_t tiled_materials = 0;   //   for a tiled texture,
+  size_t layer_materials = 0;   //   for layer or transmission textures or anisotropy,
+  size_t texel_grid_materials = 0;  // for a sampler without mipmaps or NEAREST magnification
   size_t charts = 0;            // textured charts after splitting invalid ones
   size_t flat_colors = 0;       // distinct flat-colour blocks
   size_t split = 0;             // charts split because they could not be flattened
   int size = 0;                 // atlas width, texels
   int height = 0;               // atlas height, texels (size or size / 2)
-  double reference_texels = 0;  // the source texels the materials reference (the atlas's
-                                // budget; T for vertex colours)
+  double reference_texels = 0;  // the base-colour texels the materials reference (T for
+                                // vertex colours), for comparison
   double utilization = 0;       // packed texels / atlas texels
+  double reuse_scale = 1;       // the density the bytes bound leaves where charts reuse the
+                                // same source texels (1: none reused past 1.1×)
+  double min_density = 0;       // the least, over charts sampling source texels, of atlas
+                                // texels per source texel (≥ 1 unless max_size stopped it;
+                                // 0: no such chart, or the source's texture was kept)
   double target_texels = 0;     // T of formula 2
   double mean_stretch_l2 = 0;   // area-weighted over textured charts
   double max_stretch_l2 = 0;
   double tangent_deviation_deg = 0;  // mean angle between dp/du and ∇u over the textured
                                      // charts (MikkTSpace's frame against the baked one)
   double seconds = 0;
+  // For the bytes bound (atlas/atlas_bytes.h): the source images the atlas replaces (indices
+  // into the input scene's images: those of the baked materials in use), and how many images
+  // the atlas made (the output's first atlas_images; 0 when no charts were baked).
+  std::vector<int32_t> baked_images;
+  size_t atlas_images = 0;
+  double atlas_bytes = 0;   // build_atlas_within_bytes: the atlas images encoded
+  double source_bytes = 0;  // build_atlas_within_bytes: the baked images' encoded bytes
+  std::vector<AtlasBytesRound> bytes_rounds;  // build_atlas_within_bytes: its rebuilds
   // The layout, for tests and tools: per atlas texel (size × height, row-major) its chart
   // (gutters included; -1 none), and
   // per chart its exclusive power-of-two cell (flat charts of one colour share one).

@@ -10,13 +10,13 @@
 
 #include "atlas/material_sample.h"
 #include "image/color.h"
+#include "image/resize.h"
 #include "scene/parallel.h"
 
 namespace meshmux {
 
 namespace {
 
-bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
 constexpr float kUvSlack = 1e-3f;  // uv units a coordinate may lie outside its unit cell
 constexpr double kMargin = 8;      // texels kept clear between textured faces and a block
@@ -126,6 +126,18 @@ bool any_channel_texture(const Material& m) {
          m.emissive.present() || m.sheen_color.present();
 }
 
+// Rows [rows, height) of a `width`-wide RGBA image: copies of row rows − 1 (what a clamped
+// sampler shows past the image's edge, so filtering and mip levels across the boundary see no
+// other colour). `rgba` is resized to height rows.
+void extend_last_row(std::vector<uint8_t>& rgba, size_t width, size_t rows, size_t height) {
+  rgba.resize(width * height * 4);
+  if (rows == 0) return;
+  const size_t row = width * 4;
+  for (size_t y = rows; y < height; ++y)
+    std::copy(rgba.begin() + std::ptrdiff_t((rows - 1) * row), rgba.begin() + std::ptrdiff_t(rows * row),
+              rgba.begin() + std::ptrdiff_t(y * row));
+}
+
 }  // namespace
 
 std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
@@ -178,10 +190,10 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   if (!found || found->image < 0 || size_t(found->image) >= scene.images.size())
     return std::nullopt;
   const Image& image = scene.images[size_t(found->image)];
-  if (!image.decoded() || !power_of_two(image.width) || !power_of_two(image.height) ||
-      image.width > max_size || image.height > max_size)
-    return std::nullopt;
-  const int w = image.width, h = image.height;
+  if (!image.decoded()) return std::nullopt;
+  // Sides that are not powers of two are rounded up (the image resampled): texture levels halve.
+  const int w = next_power_of_two(image.width), h = next_power_of_two(image.height);
+  if (w > max_size || h > max_size) return std::nullopt;
   // Pass 2: each textured face inside one unit cell (moved to [0, 1]² where the sampler
   // repeats); with plain colours to place, the texels the faces come near are marked.
   std::vector<uint8_t> used(flat.empty() ? 0 : size_t(w) * size_t(h), 0);
@@ -213,8 +225,8 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
         mark_triangle(x, y, kMargin, w, h, used);
       }
     }
-  found->width = w;
-  found->height = h;
+  found->width = found->part_width = w;
+  found->height = found->part_height = h;
   if (flat.empty()) return found;
   // Pass 3: blocks for the plain colours, the largest side that fits them all; else below the
   // image, in a second image height.
@@ -227,9 +239,11 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   if (cells.size() < flat.size()) {
     if (2 * h > max_size) return std::nullopt;
     found->height = 2 * h;
-    block = std::min({kMaxBlock, w, h});
+    block = std::max(1, std::min({kMaxBlock, w, h / 2}));  // the upper rows stay the image's edge
     cells.clear();
-    for (int y = h; y + block <= 2 * h && cells.size() < flat.size(); y += block)
+    // From the bottom up: the rows next to the image's part repeat its last row (a clamped
+    // edge, see source_atlas_image), the blocks as far from it as they can be.
+    for (int y = 2 * h - block; y >= h && cells.size() < flat.size(); y -= block)
       for (int x = 0; x + block <= w && cells.size() < flat.size(); x += block)
         cells.push_back({x, y});
     if (cells.size() < flat.size()) return std::nullopt;
@@ -252,7 +266,10 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
   out.name = "atlas";
   out.width = source.width;
   out.height = source.height;
-  out.rgba = in.rgba;
+  if (in.width == source.part_width && in.height == source.part_height)
+    out.rgba = in.rgba;
+  else
+    out.rgba = resize_cubic(in, source.part_width, source.part_height, true).rgba;
   const Vec4 f = source.factor;
   if (!(f.x == 1 && f.y == 1 && f.z == 1 && f.w == 1))
     for (size_t i = 0; i + 3 < out.rgba.size(); i += 4) {
@@ -262,13 +279,8 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
       out.rgba[i + 3] = uint8_t(std::lround(std::clamp(out.rgba[i + 3] * f.w, 0.0f, 255.0f)));
     }
   const size_t w = size_t(out.width);
-  if (source.height > in.height) {  // the appended half: the first plain colour
-    out.rgba.resize(w * size_t(out.height) * 4);
-    uint8_t px[4];
-    put(px, source.flat_colors[0]);
-    for (size_t i = w * size_t(in.height); i < w * size_t(out.height); ++i)
-      std::copy(px, px + 4, &out.rgba[i * 4]);
-  }
+  if (source.height > source.part_height)  // the appended half: the part's last row repeated
+    extend_last_row(out.rgba, w, size_t(source.part_height), size_t(out.height));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     put(px, source.flat_colors[c]);
@@ -281,7 +293,6 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
 
 Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasChannel channel,
                            float emissive_scale) {
-  const Image& in = scene.images[size_t(source.image)];
   Image out;
   out.width = source.width;
   out.height = source.height;
@@ -326,11 +337,12 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
   const size_t w = size_t(out.width);
   // Rows on every core (each texel written once, by its row's thread: the same bytes).
   const size_t uv_sets = size_t(source.tex_coord) + 1;
-  parallel_chunks(size_t(in.height), 16, [&](size_t row_begin, size_t row_end) {
+  const int pw = source.part_width, ph = source.part_height;
+  parallel_chunks(size_t(ph), 16, [&](size_t row_begin, size_t row_end) {
     std::vector<Vec2> uvs(uv_sets, Vec2{0, 0});
     for (int y = int(row_begin); y < int(row_end); ++y)
-      for (int x = 0; x < in.width; ++x)
-        value(source.material, {float((x + 0.5) / in.width), float((y + 0.5) / in.height)},
+      for (int x = 0; x < pw; ++x)
+        value(source.material, {float((x + 0.5) / pw), float((y + 0.5) / ph)},
               &out.rgba[(size_t(y) * w + size_t(x)) * 4], uvs);
   });
   // Plain colours: their material's factors (no texture samples, so the uv is irrelevant).
@@ -339,12 +351,7 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
     value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px, flat_uvs);
     if (channel == AtlasChannel::kNormal) px[0] = 128, px[1] = 128, px[2] = 255;
   };
-  if (source.height > in.height && !source.flat_colors.empty()) {
-    uint8_t px[4];
-    flat_value(0, px);
-    for (size_t i = w * size_t(in.height); i < w * size_t(out.height); ++i)
-      std::copy(px, px + 4, &out.rgba[i * 4]);
-  }
+  if (source.height > ph) extend_last_row(out.rgba, w, size_t(ph), size_t(out.height));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     flat_value(c, px);

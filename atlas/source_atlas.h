@@ -22,8 +22,10 @@ struct SourceAtlas {
   int32_t image = -1;         // index into Scene::images: the image every textured face samples
   uint32_t tex_coord = 0;     // the uv set it is sampled through (the same on every primitive)
   Vec4 factor{1, 1, 1, 1};    // the base-colour factor the textured materials share (linear)
-  int width = 0, height = 0;  // the atlas: the image's size, or twice its height when the
+  int width = 0, height = 0;  // the atlas: the image's part, or twice its height when the
                               // plain colours found no room in it
+  int part_width = 0, part_height = 0;  // the image's part of the atlas: its sides rounded up to
+                                        // powers of two (resampled when they differ)
   // Plain colours: faces whose material has no base-colour texture (and no vertex colours)
   // show their factor; each distinct one gets an aligned square block of texels no textured
   // face comes near (`block` texels, clean down to mip level log2(block)).
@@ -48,7 +50,8 @@ enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive, kShee
 // - each textured face's uvs lie in one unit cell [kx, kx + 1] × [ky, ky + 1] (within 1e-3),
 //   and a cell other than [0, 1]² only on axes whose sampler repeats; the face is then moved to
 //   [0, 1]² (face_uv_cell), where a clamped sampler shows the same texels;
-// - the image is decoded, both sides are powers of two and at most `max_size`;
+// - the image is decoded and its sides, rounded up to powers of two, are at most `max_size`
+//   (texture levels halve: other sides are resampled up, image/resize.h, never losing density);
 // - the plain colours find aligned free blocks (4 to 64 texels, 8 texels clear of every
 //   textured face) in the image or in a second image height appended below it (≤ max_size).
 // - the textured faces' materials agree on their normal, occlusion, metallic-roughness and
@@ -67,13 +70,16 @@ Vec2 face_uv_cell(Vec2 a, Vec2 b, Vec2 c);
 int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t material);
 
 // The atlas image: the source pixels × the factor (sRGB-decoded, multiplied in linear light,
-// re-encoded; alpha × factor.w; unchanged when the factor is 1), the appended half (if any)
-// filled with the first plain colour, and each plain colour's block. Named "atlas".
+// re-encoded; alpha × factor.w; unchanged when the factor is 1), resampled to the part's sides;
+// the appended half (if any) repeats the part's last row (as a clamped edge shows, so nothing
+// bleeds across the boundary), and each plain colour's block, placed from the bottom up, far
+// from it. Named "atlas".
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
 
 // A further channel as an image of the atlas's size: each texel of the source's part takes the
 // textured material's value at its centre (condition/material_sample: factors folded in), the
-// appended half and each plain colour's block take their material's factors. Normal: the
+// appended half repeats the part's last row, each plain colour's block takes its material's
+// factors. Normal: the
 // source's map (normalized, scale folded; the uvs and so the tangent frame are the source's),
 // flat (0, 0, 1) in the blocks. Occlusion-roughness-metallic: linear bytes. Emissive: sRGB
 // bytes of the radiance / emissive_scale. Alpha 255.

@@ -26,6 +26,11 @@ Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality);
 
 namespace meshmux {
 
+// The bytes an image takes as the texture levels' top level encodes it (texture_levels.h): PNG
+// when `alpha` is true and any texel is not opaque, else JPEG at `quality`. A measure for
+// budgets (the atlas's bytes bound): not counted by images_encoded. 0 when not decoded.
+size_t encoded_size(const Image& image, int quality, bool alpha);
+
 // Images encoded (PNG or JPEG) by this process so far: a counter for tests that check each
 // texture level is encoded once per conversion. Thread-safe.
 uint64_t images_encoded();

@@ -4,11 +4,13 @@
 // "Package" (the stream).
 #include "pipeline/convert.h"
 
+#include <algorithm>
 #include <cstdarg>
 #include <cstdio>
 #include <optional>
 
 #include "clean/flatten.h"
+#include "atlas/atlas_bytes.h"
 #include "exporters/package.h"
 #include "multiplex/stream_plan.h"
 #include "scene/parallel.h"
@@ -47,7 +49,13 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
   if (!o.atlas) return scene;
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
   AtlasReport ar;
-  auto atlased = build_atlas(scene, o.atlas_options, &ar, warnings);
+  auto atlased = build_atlas_within_bytes(scene, o.atlas_options, o.textures.jpeg_quality, &ar,
+                                          warnings);
+  for (const AtlasBytesRound& r : ar.bytes_rounds)
+    report_step(progress, format("atlas: %.0f kB encoded, over %.0f kB for %.0f kB of sources; "
+                                 "charts at %.0f%% of their density",
+                                 r.atlas_bytes / 1e3, r.bound / 1e3, r.source_bytes / 1e3,
+                                 100 * r.next_density));
   if (!atlased.ok()) {
     // Valid input never fails here: a model whose charts cannot share one atlas keeps its
     // own materials (as --no-atlas), said once.
@@ -65,15 +73,20 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
   else
     report_step(progress,
                 format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "
-                       "%.0f referenced), %.0f%% used, L2 stretch mean %.3f max %.3f, "
-                       "tangent frames within %.2f° of MikkTSpace's, %.2f s",
+                       "%.0f referenced), %.0f%% used, charts at ≥ %.0f%% of their sources' "
+                       "density, %.0f kB encoded for %.0f kB of sources, L2 stretch mean %.3f "
+                       "max %.3f, tangent frames within %.2f° of MikkTSpace's, %.2f s",
                        ar.charts, ar.flat_colors, ar.size, ar.height, double(ar.size) * ar.height,
-                       ar.reference_texels, 100 * ar.utilization, ar.mean_stretch_l2,
+                       ar.reference_texels, 100 * ar.utilization, 100 * ar.min_density,
+                       ar.atlas_bytes / 1e3, ar.source_bytes / 1e3, ar.mean_stretch_l2,
                        ar.max_stretch_l2, ar.tangent_deviation_deg, ar.seconds));
-  if (ar.tiled_materials > 0)
-    report_step(progress, format("atlas: %zu tiled material(s) kept with their own textures and "
-                                 "samplers (repeated over more than %.0f periods)",
-                                 ar.tiled_materials, o.atlas_options.tiled_periods));
+  if (ar.kept_materials > 0)
+    report_step(progress,
+                format("atlas: %zu material(s) kept with their own textures and samplers: %zu "
+                       "tiled (repeated over more than %.0f periods), %zu with layer textures or "
+                       "anisotropy, %zu sampled without mipmaps or NEAREST",
+                       ar.kept_materials, ar.tiled_materials, o.atlas_options.tiled_periods,
+                       ar.layer_materials, ar.texel_grid_materials));
   Scene out = atlased.take();
   if (should_flatten(out)) {
     out = flatten(out);
@@ -109,7 +122,7 @@ std::string unstreamable_record(const ProgressiveScene& ps, size_t base_meshes) 
 Image* stream_texture(Scene& scene) {
   if (scene.materials.empty() || !scene.materials[0].base_color.present()) return nullptr;
   size_t i = size_t(scene.materials[0].base_color.image);
-  if (i >= scene.images.size() || !scene.images[i].decoded()) return nullptr;
+  if (i >= scene.images.size()) return nullptr;
   auto pow2 = [](int v) { return v > 0 && (v & (v - 1)) == 0; };
   return pow2(scene.images[i].width) && pow2(scene.images[i].height) ? &scene.images[i] : nullptr;
 }
@@ -127,7 +140,7 @@ std::vector<SceneChannel> scene_channels(const Scene& scene) {
   const Material& m = scene.materials[0];
   auto add = [&](const TextureRef& t, const char* name, TexelFilter f) {
     if (t.present() && size_t(t.image) < scene.images.size() &&
-        scene.images[size_t(t.image)].decoded())
+        scene.images[size_t(t.image)].width > 0)
       out.push_back({name, t.image, f});
   };
   add(m.normal, "normal", TexelFilter::kNormal);
@@ -152,12 +165,16 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
     channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
   auto levels = make_texture_levels(*texture, to, channels);
   if (!levels.ok()) return levels.status();
+  // From here on the levels stand for the atlas's images: their pixels are released (a 4096²
+  // atlas's four channels are 256 MB, which every later copy of the scene would repeat).
   texture->encoded = levels->levels.back().encoded;
   texture->mime_type = levels->levels.back().mime_type;
+  std::vector<uint8_t>().swap(texture->rgba);
   for (size_t c = 0; c < sc.size(); ++c) {
     Image& img = scene.images[size_t(sc[c].image)];
     img.encoded = levels->levels.back().other_maps[c].encoded;
     img.mime_type = levels->levels.back().other_maps[c].mime_type;
+    std::vector<uint8_t>().swap(img.rgba);
   }
   std::string dropped;
   for (const DroppedTextureLevel& d : levels->dropped)

@@ -230,14 +230,68 @@ TEST(SourceAtlas, FullTextureGrowsDownwardForPlainColours) {
   EXPECT_FALSE(find_source_atlas(s, 64).has_value());
 }
 
-// Larger than the atlas may be, or not a power of two: baked (and downsized) by the charts path.
-TEST(SourceAtlas, OversizeOrNonPowerOfTwoImageIsBaked) {
+// The full texture with a half below it: the textured faces keep sampling the image's texels
+// (their v scaled into the top half: the quad's corners land on v = 0 and 0.5, not 1, which
+// showed the lower half of a label sheet and lost a third of its coverage), the appended rows
+// repeat the image's last row (no plain colour bleeds into the image's edge through filtering
+// or mip levels), and the plain colour's block sits at the bottom.
+TEST(SourceAtlas, AppendedHalfKeepsTheImagesUvsAndEdge) {
+  Scene s = half_used_scene();
+  s.meshes[0].primitives[0].uvs = {{{0, 1}, {1, 1}, {1, 0}, {0, 0}}};
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_TRUE(rep.reused_source);
+  const Image& atlas = out->images[0];
+  ASSERT_EQ(atlas.height, 128);
+  const Primitive& p = out->meshes[0].primitives[0];
+  float hi_v = 0;
+  for (size_t i = 0; i < p.indices.size(); ++i)
+    if (p.positions[p.indices[i]].x < 2) hi_v = std::max(hi_v, p.uvs[0][p.indices[i]].y);
+  EXPECT_FLOAT_EQ(hi_v, 0.5f);
+  const size_t row = 64 * 4;
+  for (size_t y = 64; y < 72; ++y)
+    EXPECT_TRUE(std::equal(atlas.rgba.begin() + std::ptrdiff_t(63 * row),
+                           atlas.rgba.begin() + std::ptrdiff_t(64 * row),
+                           atlas.rgba.begin() + std::ptrdiff_t(y * row)))
+        << "row " << y;
+  auto source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  EXPECT_EQ(source->flat_y[0], 128 - source->block);
+}
+
+// Larger than the atlas may be: baked (and downsized) by the charts path.
+TEST(SourceAtlas, OversizeImageIsBaked) {
   Scene s = quad_scene(0);
   EXPECT_FALSE(find_source_atlas(s, 2).has_value());
-  s.images[0].width = 3;
-  s.images[0].height = 2;
-  s.images[0].rgba.resize(3 * 2 * 4);
-  EXPECT_FALSE(find_source_atlas(s, 4096).has_value());
+}
+
+// Sides that are not powers of two (a 211² logo) are resampled up to the next powers of two
+// (texture levels halve): the source's uvs stay, every texel keeps at least its density (the
+// charts path held it to a quarter: 26.0 dB unlit), and a flat image stays flat.
+TEST(SourceAtlas, NonPowerOfTwoImageIsResampledUp) {
+  Scene s = quad_scene(0);
+  Image& img = s.images[0];
+  img.width = 3;
+  img.height = 5;
+  img.rgba.clear();
+  for (int i = 0; i < 15; ++i) img.rgba.insert(img.rgba.end(), {200, 40, 90, 255});
+  auto source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  EXPECT_EQ(source->width, 4);
+  EXPECT_EQ(source->height, 8);
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  EXPECT_TRUE(rep.reused_source);
+  const Image& atlas = out->images[0];
+  ASSERT_EQ(atlas.width, 4);
+  ASSERT_EQ(atlas.height, 8);
+  for (size_t i = 0; i < atlas.rgba.size(); i += 4) {
+    EXPECT_NEAR(atlas.rgba[i], 200, 1);
+    EXPECT_NEAR(atlas.rgba[i + 1], 40, 1);
+  }
+  EXPECT_EQ(out->meshes[0].primitives[0].uvs, s.meshes[0].primitives[0].uvs);
 }
 
 }  // namespace
