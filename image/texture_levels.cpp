@@ -3,6 +3,7 @@
 #include "image/texture_levels.h"
 
 #include <algorithm>
+#include <deque>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -92,30 +93,36 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
   // The mip chain, full size first (each step a 2×2 box filter), down to the base; every
   // level_halvings-th is a level. Each chain entry holds the base colour and every channel.
   const size_t step = size_t(o.level_halvings);
-  using Maps = std::vector<Image>;
+  // A level's images (base colour, then the channels); the top level's are the caller's, not
+  // copied (a 4096² atlas's four channels are 256 MB), the others owned by `owned`.
+  using Maps = std::vector<const Image*>;
+  std::deque<std::vector<Image>> owned;
   auto halve = [&](const Maps& m) {
-    Maps out{downsample_half(m[0])};
+    std::vector<Image>& out = owned.emplace_back();
+    out.push_back(downsample_half(*m[0]));
     for (size_t c = 0; c < channels.size(); ++c)
-      out.push_back(downsample_half(m[c + 1], channels[c].filter));
-    return out;
+      out.push_back(downsample_half(*m[c + 1], channels[c].filter));
+    Maps refs;
+    for (const Image& i : out) refs.push_back(&i);
+    return refs;
   };
-  std::vector<Maps> chain(1, Maps{texture});
-  for (const ChannelTexture& c : channels) chain[0].push_back(*c.image);
-  while (std::max(chain.back()[0].width, chain.back()[0].height) > 1 &&
-         (std::max(chain.back()[0].width, chain.back()[0].height) > o.base_size ||
+  std::vector<Maps> chain(1, Maps{&texture});
+  for (const ChannelTexture& c : channels) chain[0].push_back(c.image);
+  while (std::max(chain.back()[0]->width, chain.back()[0]->height) > 1 &&
+         (std::max(chain.back()[0]->width, chain.back()[0]->height) > o.base_size ||
           (chain.size() - 1) % step != 0))
     chain.push_back(halve(chain.back()));
   // One level's files: the base colour (PNG with alpha), the channels (JPEG).
   auto encode_level = [&](const Maps& m, int quality, TextureLevel* level) -> Status {
-    level->width = m[0].width;
-    level->height = m[0].height;
-    auto bytes = alpha ? encode_png(m[0]) : encode_jpeg(m[0], quality);
+    level->width = m[0]->width;
+    level->height = m[0]->height;
+    auto bytes = alpha ? encode_png(*m[0]) : encode_jpeg(*m[0], quality);
     if (!bytes.ok()) return bytes.status().with_prefix(who);
     level->mime_type = alpha ? "image/png" : "image/jpeg";
     level->encoded = bytes.take();
     level->other_maps.clear();
     for (size_t c = 0; c < channels.size(); ++c) {
-      auto more = encode_jpeg(m[c + 1], quality);
+      auto more = encode_jpeg(*m[c + 1], quality);
       if (!more.ok()) return more.status().with_prefix(who + ": " + channels[c].channel);
       level->other_maps.push_back({channels[c].channel, "image/jpeg", more.take()});
     }
@@ -158,7 +165,7 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
   // smaller first picture) until the pyramid fits or it is a single texel.
   Maps smallest = chain.back();
   while (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top &&
-         std::max(smallest[0].width, smallest[0].height) > kMinPreviewSide) {
+         std::max(smallest[0]->width, smallest[0]->height) > kMinPreviewSide) {
     TextureLevel& first = levels.levels.front();
     char why[160];
     std::snprintf(why, sizeof why,

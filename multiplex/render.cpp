@@ -50,8 +50,10 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 
+#include "image/texture_levels.h"
 #include "multiplex/dfg_lut.h"
 #include "multiplex/render_shaders.h"
 #include "scene/dvec3.h"
@@ -65,6 +67,9 @@
 
 namespace meshmux {
 namespace {
+
+// Texels per view pixel beyond which a texture's finer mip levels are not uploaded (add_texture).
+constexpr int kUploadPerPixel = 4;
 
 // ---- EGL helpers -------------------------------------------------------------------------
 
@@ -617,6 +622,16 @@ int Renderer::add_texture(const Image& image, bool color) {
   GLint max_size = 0;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
   if (image.width > max_size || image.height > max_size) return -1;
+  // Mip levels finer than kUploadPerPixel texels per view pixel are never sampled at these
+  // image sizes (even 16× anisotropic filtering picks a coarser level unless a surface is
+  // almost edge-on), so they are not uploaded: a 4096² atlas's four channels would otherwise
+  // hold 350 MB of driver memory for renders of 256² pixels.
+  const int most = kUploadPerPixel * std::max(m.options.width, m.options.height);
+  std::optional<Image> reduced;
+  while ((reduced ? *reduced : image).width > most || (reduced ? *reduced : image).height > most)
+    reduced = downsample_half(reduced ? *reduced : image,
+                              color ? TexelFilter::kSrgb : TexelFilter::kData);
+  const Image& up = reduced ? *reduced : image;
   GLuint tex = 0;
   glGenTextures(1, &tex);
   glBindTexture(GL_TEXTURE_2D, tex);
@@ -624,8 +639,8 @@ int Renderer::add_texture(const Image& image, bool color) {
   // Physical shading decodes colour textures (mip levels then average in linear light, as
   // WebGL's SRGB8_ALPHA8 textures do); Lambert shading uses every texel as stored.
   const bool decode = color && m.options.shading == Shading::kPhysical;
-  glTexImage2D(GL_TEXTURE_2D, 0, decode ? GL_SRGB8_ALPHA8 : GL_RGBA8, image.width, image.height, 0,
-               GL_RGBA, GL_UNSIGNED_BYTE, image.rgba.data());
+  glTexImage2D(GL_TEXTURE_2D, 0, decode ? GL_SRGB8_ALPHA8 : GL_RGBA8, up.width, up.height, 0,
+               GL_RGBA, GL_UNSIGNED_BYTE, up.rgba.data());
   glGenerateMipmap(GL_TEXTURE_2D);
   // Filtering and wrapping come from the sampler objects made in init_gl().
   glBindTexture(GL_TEXTURE_2D, 0);
