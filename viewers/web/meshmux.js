@@ -177,7 +177,8 @@ function makeStandardMaterial(source, maps) {
     m.specularColor = source.specularColor.clone();
     m.iridescence = source.iridescence;
     m.iridescenceIOR = source.iridescenceIOR;
-    m.iridescenceThicknessRange = [...source.iridescenceThicknessRange];
+    m.iridescenceThicknessMinimum = source.iridescenceThicknessMinimum;
+    m.iridescenceThicknessMaximum = source.iridescenceThicknessMaximum;
   }
   if (glass) {
     m.transmission = source.transmission;
@@ -420,8 +421,23 @@ export class MeshmuxStream extends EventTarget {
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     const baseFaces = new Set(), facesDone = new Set();
     const physical = table.view.physical;
+    // The base materials that show the stream's texture levels: those sampling the image the
+    // base's first material samples (meshmux streams that material's texture, the atlas, and
+    // every atlas material shares it). Materials kept beside the atlas (tiled textures, layer
+    // textures, samplers without mipmaps) keep their own textures, as GLTFLoader gives them.
+    const json = gltf.parser.json;
+    const imageOf = (i) => {
+      const t = json.materials?.[i]?.pbrMetallicRoughness?.baseColorTexture;
+      return t ? json.textures?.[t.index]?.source : undefined;
+    };
+    const streamImage = imageOf(0);
+    const streamed = (material) => {
+      const a = gltf.parser.associations.get(material);
+      return !a || a.materials === undefined || imageOf(a.materials) === streamImage;
+    };
     for (const o of objects) {
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
+      if (!materialFor.has(source) && !streamed(source)) materialFor.set(source, source);
       if (!materialFor.has(source)) {
         if (source.map && !this._map.value && !this._maps.base_color) {
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
@@ -436,7 +452,7 @@ export class MeshmuxStream extends EventTarget {
           materialFor.set(source, makeMaterial(source, this._map, table.view));
         }
       }
-      [o.material].flat().forEach((x) => oldMaterials.add(x));
+      [o.material].flat().forEach((x) => { if (x !== materialFor.get(source)) oldMaterials.add(x); });
       o.material = materialFor.get(source);
 
       const m = o.userData.meshmux_mesh;
@@ -480,6 +496,8 @@ export class MeshmuxStream extends EventTarget {
     for (const g of oldGeometries) g.dispose();
     for (const material of oldMaterials) {
       const kept = new Set([this._map.value, ...Object.values(this._maps)]);
+      for (const m of materialFor.values())  // materials kept as they came: their textures live
+        for (const value of Object.values(m)) if (value && value.isTexture) kept.add(value);
       for (const value of Object.values(material)) if (value && value.isTexture && !kept.has(value)) value.dispose();
       material.dispose();
     }
