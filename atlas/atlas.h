@@ -45,8 +45,8 @@ struct AtlasOptions {
   BakeOptions bake;                  // resampling and gutters
   int max_size = 4096;               // largest atlas side
   double density = 1;                // atlas texels per source texel each textured chart gets
-                                     // (its native density; area ratio), before the packing
-                                     // grows it to fill its cell; max_size may shrink it
+                                     // (its native density; area ratio; max_size and the
+                                     // bytes bound, atlas/atlas_bytes.h, may shrink it)
   int min_size = 64;                 // smallest atlas side
   int flat_block = 4;                // least side of one flat-colour block, texels (gutters
                                      // around it); at least 1/64 of the atlas width

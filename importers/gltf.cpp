@@ -734,6 +734,25 @@ class Importer {
     return ref;
   }
 
+  // Anisotropy's direction lives in a tangent space, which glTF takes from TANGENT or, without
+  // it, derives along the normal texture's uvs; meshmux writes no TANGENT, so a material with
+  // anisotropy and no normal map gets a flat one (1 × 1, (0, 0, 1): the shading normal is
+  // unchanged) on the anisotropy texture's uv set, and its output stays valid and anisotropic.
+  void flat_normal_map(Material* mat) {
+    if (flat_normal_ < 0) {
+      Image flat;
+      flat.name = "flat normal (anisotropy's tangent space)";
+      flat.width = flat.height = 1;
+      flat.rgba = {128, 128, 255, 255};
+      flat_normal_ = int32_t(scene_.images.size());
+      scene_.images.push_back(std::move(flat));
+    }
+    mat->normal.image = flat_normal_;
+    mat->normal.tex_coord = mat->layer(LayerSlot::kAnisotropy).present()
+                                ? mat->layer(LayerSlot::kAnisotropy).tex_coord
+                                : 0;
+  }
+
   // The layers' textures (kLayerSlots) and the transmission texture: carried as they came.
   void layer_textures(const tinygltf::Material& src, const std::string& where, Material* mat) {
     auto info = [&](const char* extension, const char* key) -> const tinygltf::Value* {
@@ -799,6 +818,7 @@ class Importer {
       for (const auto& [name, value] : src.extensions)
         if (kAppearanceExtensions.count(name)) ++effects_[name];
       layer_textures(src, where, &mat);
+      if (mat.anisotropy_strength > 0 && !mat.normal.present()) flat_normal_map(&mat);
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
@@ -1229,6 +1249,7 @@ class Importer {
   const tinygltf::Model& m_;
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
+  int32_t flat_normal_ = -1;               // the flat normal map anisotropy needs (if made)
   bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)

@@ -344,6 +344,29 @@ TEST(GltfImport, LayerTexturesAreCarried) {
     EXPECT_EQ(text.find("not carried"), std::string::npos) << text;
 }
 
+// Anisotropy without a normal map: glTF takes its tangent space from TANGENT (not written by
+// meshmux) or along a normal texture's uvs, so a flat 1 × 1 normal map stands in (the lit
+// AnisotropyStrengthTest fell to 24.3 dB when the extension was left out instead).
+TEST(GltfImport, AnisotropyWithoutNormalMapGetsAFlatOne) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  json doc = triangle_doc(b, p, i);
+  doc["extensionsUsed"] = {"KHR_materials_anisotropy"};
+  doc["materials"] = {{{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.5}}}}}},
+                      {{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.2}}}}}}};
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  auto s = import_gltf(write_gltf(dir, "aniso.gltf", doc, b), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->materials.size(), 2u);
+  const TextureRef& n = s->materials[0].normal;
+  ASSERT_TRUE(n.present());
+  EXPECT_EQ(s->materials[1].normal.image, n.image) << "one flat map for all";
+  const Image& flat = s->images[size_t(n.image)];
+  EXPECT_EQ(flat.width, 1);
+  EXPECT_EQ(flat.rgba, (std::vector<uint8_t>{128, 128, 255, 255}));
+}
+
 // KHR_texture_transform must be carried to the material so the atlas can honour it.
 TEST(GltfImport, ReadsTextureTransform) {
   TempDir dir;
