@@ -4,10 +4,14 @@
 #include <algorithm>
 
 #include "atlas/tiled.h"
+#include "image/encode.h"
 
 namespace meshmux {
 
 namespace {
+
+// A kept image is re-encoded as JPEG where that costs at most this share of its bytes.
+constexpr double kKeptJpegShare = 0.9;
 
 // GL's filters that sample one mip level only: minification without mipmaps shows the
 // texture's own texel grid (aliasing and all), and NEAREST magnification its blocks.
@@ -17,6 +21,28 @@ bool grid_filter(const Sampler& s) {
 }
 
 }  // namespace
+
+size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality) {
+  std::vector<char> kept(scene.images.size(), 0);
+  const size_t first = scene.materials.size() - std::min(kept_materials, scene.materials.size());
+  for (size_t m = first; m < scene.materials.size(); ++m)
+    for (const TextureRef* t : texture_refs(scene.materials[m]))
+      if (t->present() && size_t(t->image) < kept.size()) kept[size_t(t->image)] = 1;
+  size_t saved = 0;
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    Image& img = scene.images[i];
+    if (!kept[i] || !img.decoded() || img.encoded.empty()) continue;
+    bool opaque = true;
+    for (size_t k = 3; k < img.rgba.size() && opaque; k += 4) opaque = img.rgba[k] == 255;
+    if (!opaque) continue;
+    auto jpeg = encode_jpeg(img, quality);
+    if (!jpeg.ok() || double(jpeg->size()) > kKeptJpegShare * double(img.encoded.size())) continue;
+    saved += img.encoded.size() - jpeg->size();
+    img.encoded = jpeg.take();
+    img.mime_type = "image/jpeg";
+  }
+  return saved;
+}
 
 std::vector<KeptReason> find_kept_materials(const Scene& scene, double periods) {
   std::vector<KeptReason> kept(scene.materials.size(), KeptReason::kNone);

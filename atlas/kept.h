@@ -42,6 +42,14 @@ struct KeptSplit {
 };
 KeptSplit split_kept(const Scene& scene, const std::vector<KeptReason>& kept);
 
+// The kept materials' images as the texture levels code the atlas: each image the last
+// `kept_materials` materials of `scene` sample (those append_scene put after the atlas's),
+// decoded and opaque, is re-encoded as JPEG at `quality` where that is at most 90% of the
+// bytes it came with (lossless PNG sources of photographs and data maps: the corpus's kept
+// textures doubled model.glb's bytes when shipped as they came). Images with alpha, or whose
+// JPEG would save little, keep their bytes. Returns the bytes saved.
+size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality);
+
 // Appends `extra`'s images, materials, meshes and instances to `out`, indices shifted.
 void append_scene(Scene& out, const Scene& extra);
 

@@ -11,6 +11,7 @@
 
 #include "clean/flatten.h"
 #include "atlas/atlas_bytes.h"
+#include "atlas/kept.h"
 #include "exporters/package.h"
 #include "multiplex/stream_plan.h"
 #include "scene/parallel.h"
@@ -88,6 +89,11 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                        ar.kept_materials, ar.tiled_materials, o.atlas_options.tiled_periods,
                        ar.layer_materials, ar.texel_grid_materials));
   Scene out = atlased.take();
+  if (ar.kept_materials > 0)
+    if (size_t saved = encode_kept_images(out, ar.kept_materials, o.textures.jpeg_quality))
+      report_step(progress, format("atlas: the kept materials' opaque images re-encoded as JPEG, "
+                                   "%.0f kB smaller",
+                                   double(saved) / 1e3));
   if (should_flatten(out)) {
     out = flatten(out);
     report_step(progress, "flattened (fewer than 1.75 instances per submesh): one mesh");

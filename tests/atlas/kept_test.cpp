@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "atlas/atlas.h"
+#include "image/encode.h"
 
 namespace meshmux {
 namespace {
@@ -113,6 +116,48 @@ TEST(Kept, KeepUnbakeableOffBakesEverything) {
   ASSERT_TRUE(baked.ok());
   EXPECT_EQ(baked->materials.size(), 1u);
   EXPECT_EQ(rep.kept_materials, 0u);
+}
+
+// The kept materials' images are coded as the atlas's are: a photograph that came as a PNG is
+// re-encoded as JPEG (far smaller), an image with alpha keeps its PNG bytes, and the atlas's
+// own images are left to the texture levels.
+TEST(Kept, KeptOpaqueImagesAreReencodedAsJpeg) {
+  Scene s = two_quads();
+  s.materials[0].base_color.sampler.min_filter = 9729;  // kept: texel grid
+  Image big = gradient(256);  // a photograph's texture: smooth shading and grain
+  big.name = "kept.png";
+  uint32_t seed = 99;
+  for (size_t i = 0; i < big.rgba.size(); ++i)
+    if (i % 4 != 3) {
+      seed = seed * 1664525u + 1013904223u;
+      const double x = double(i / 4 % 256), y = double(i / 4 / 256);
+      big.rgba[i] = uint8_t(120 + 80 * std::sin(x * 0.05 + double(i % 4)) * std::cos(y * 0.03) +
+                            double(seed >> 29));
+    }
+  auto png = encode_png(big);
+  ASSERT_TRUE(png.ok());
+  big.encoded = png.take();
+  big.mime_type = "image/png";
+  const size_t png_bytes = big.encoded.size();
+  s.images[0] = big;
+  AtlasReport rep;
+  auto out = build_atlas(s, {}, &rep, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(rep.kept_materials, 1u);
+  const int32_t kept_image = out->materials.back().base_color.image;
+  Scene scene = *out;
+  const size_t saved = encode_kept_images(scene, rep.kept_materials, 85);
+  const Image& coded = scene.images[size_t(kept_image)];
+  EXPECT_EQ(coded.mime_type, "image/jpeg");
+  EXPECT_LT(coded.encoded.size(), png_bytes / 2);
+  EXPECT_EQ(saved, png_bytes - coded.encoded.size());
+  EXPECT_EQ(scene.images[0].encoded, out->images[0].encoded) << "the atlas's image is untouched";
+  // With alpha: kept as it came.
+  Scene with_alpha = *out;
+  Image& a = with_alpha.images[size_t(kept_image)];
+  a.rgba[3] = 10;
+  EXPECT_EQ(encode_kept_images(with_alpha, rep.kept_materials, 85), 0u);
+  EXPECT_EQ(a.mime_type, "image/png");
 }
 
 }  // namespace
