@@ -272,6 +272,7 @@ export class MeshmuxStream extends EventTarget {
     this.meshes = [];    // StreamMesh per package mesh
     this._whole = [];    // a whole base: its objects, drawn as they are
     this.materials = [];
+    this._streamedMaterials = [];  // those of this.materials the texture levels refine
     this.notes = [];     // non-fatal findings about the package
     this._reader = new RangeReader(this.url);
     this._map = { value: null };  // the texture uniform shared by the materials (Lambert)
@@ -435,9 +436,21 @@ export class MeshmuxStream extends EventTarget {
       const a = gltf.parser.associations.get(material);
       return !a || a.materials === undefined || imageOf(a.materials) === streamImage;
     };
+    // A streamed mesh carries one uv set (the refinements code TEXCOORD_0 only): a kept
+    // material's maps on another set (an occlusion map on TEXCOORD_1) would read coordinates
+    // the stream never sends, so the streamed copy goes without them.
+    const ownUvSetOnly = (material) => {
+      if (table.base.whole) return material;
+      const other = Object.keys(material).filter((k) => material[k] && material[k].isTexture && material[k].channel > 0);
+      if (!other.length) return material;
+      const copy = material.clone();
+      for (const k of other) copy[k] = null;
+      this.notes.push(`material "${material.name}": ${other.join(', ')} left out while streaming (they sample a second uv set)`);
+      return copy;
+    };
     for (const o of objects) {
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
-      if (!materialFor.has(source) && !streamed(source)) materialFor.set(source, source);
+      if (!materialFor.has(source) && !streamed(source)) materialFor.set(source, ownUvSetOnly(source));
       if (!materialFor.has(source)) {
         if (source.map && !this._map.value && !this._maps.base_color) {
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
@@ -502,6 +515,8 @@ export class MeshmuxStream extends EventTarget {
       material.dispose();
     }
     this.materials = [...materialFor.values()];
+    // The materials the texture levels refine (kept ones keep their own textures).
+    this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
     this.object.add(root);
     this.object.updateMatrixWorld(true);
   }
@@ -712,7 +727,7 @@ export class MeshmuxStream extends EventTarget {
       this._ownTextures.add(texture);
       const old = this._maps[channel];
       this._maps[channel] = texture;
-      for (const m of this.materials) {
+      for (const m of this._streamedMaterials) {
         let changed = false;
         for (const slot of CHANNEL_SLOTS[channel]) { changed ||= !m[slot]; m[slot] = texture; }
         if (changed) m.needsUpdate = true;  // a map it did not have: another shader
@@ -747,5 +762,6 @@ export class MeshmuxStream extends EventTarget {
     this._maps = {};
     this.meshes = [];
     this.materials = [];
+    this._streamedMaterials = [];
   }
 }
