@@ -846,6 +846,7 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
+  out.lines = scene.lines;
   // The groups present (primitives with faces), in key order (opaque first), and each
   // primitive's group, computed once.
   std::vector<GroupKey> groups;
@@ -1065,6 +1066,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   }
   const size_t atlas_images = rest ? out.images.size() : 0;
   append_scene(out, split.kept);
+  out.lines = scene.lines;
   if (rest) baked_images(rep, atlas_images);
   rep.built = true;
   rep.kept_materials = split.kept_materials;

@@ -234,6 +234,7 @@ Scene clean(const Scene& in, const CleanOptions& o, CleanReport* report) {
   Scene out;
   out.materials = in.materials;
   out.images = in.images;
+  out.lines = in.lines;
   out.source = in.source;
   std::vector<int32_t> mesh_map(in.meshes.size(), -1);
   for (size_t m = 0; m < in.meshes.size(); ++m) {

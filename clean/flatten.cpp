@@ -14,6 +14,7 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
   Scene out;
   out.materials = in.materials;
   out.images = in.images;
+  out.lines = in.lines;
   out.source = in.source;
   out.normalization_scale = in.normalization_scale;
   std::vector<Primitive> parts;

@@ -105,6 +105,7 @@ class Exporter {
     write_materials();
     write_meshes();
     write_nodes();
+    write_lines();
     return assemble();
   }
 
@@ -807,6 +808,53 @@ class Exporter {
       nodes_.push_back(std::move(node));
       roots_.push_back(int(nodes_.size() - 1));
     }
+  }
+
+  // Points and lines (Scene::lines): one plain primitive each (mode POINTS or LINES), in world
+  // space under one node, with a material of their colour (glTF viewers draw them unlit).
+  void write_lines() {
+    json primitives = json::array();
+    for (size_t l = 0; l < scene_.lines.size(); ++l) {
+      const LineSet& set = scene_.lines[l];
+      const size_t n = set.positions.size();
+      bool ok = n > 0 && !set.indices.empty();
+      for (uint32_t i : set.indices) ok = ok && i < n;
+      for (const Vec3& v : set.positions) ok = ok && std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+      if (!ok) {
+        note("points/lines " + std::to_string(l) + " '" + set.name + "': invalid; left out");
+        continue;
+      }
+      Bounds b;
+      for (Vec3 v : set.positions) b.add(v);
+      json attrs = json::object();
+      attrs["POSITION"] = add_accessor(add_view(set.positions.data(), n * sizeof(Vec3), kArrayBuffer),
+                                       kFloat, "VEC3", n, {num(b.min.x), num(b.min.y), num(b.min.z)},
+                                       {num(b.max.x), num(b.max.y), num(b.max.z)});
+      if (set.colors.size() == n) {
+        std::vector<Vec4> c = set.colors;
+        for (Vec4& v : c)
+          for (float* f : {&v.x, &v.y, &v.z, &v.w}) *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
+        attrs["COLOR_0"] = add_float_accessor(c, "VEC4", kArrayBuffer);
+      }
+      int indices = add_accessor(add_view(set.indices.data(), set.indices.size() * 4, kElementArrayBuffer),
+                                 kUnsignedInt, "SCALAR", set.indices.size());
+      json material = json::object();
+      float c[4] = {set.color.x, set.color.y, set.color.z, set.color.w};
+      for (float& v : c) v = std::isnan(v) ? 1.0f : std::clamp(v, 0.0f, 1.0f);
+      material["pbrMetallicRoughness"] = {{"baseColorFactor", {num(c[0]), num(c[1]), num(c[2]), num(c[3])}},
+                                          {"metallicFactor", 0}};
+      if (c[3] < 1) material["alphaMode"] = "BLEND";
+      material["name"] = set.points ? "points" : "lines";
+      materials_.push_back(std::move(material));
+      primitives.push_back({{"attributes", std::move(attrs)},
+                            {"indices", indices},
+                            {"mode", set.points ? 0 : 1},
+                            {"material", int(materials_.size() - 1)}});
+    }
+    if (primitives.empty()) return;
+    meshes_.push_back({{"name", "points and lines"}, {"primitives", std::move(primitives)}});
+    nodes_.push_back({{"name", "points and lines"}, {"mesh", int(meshes_.size() - 1)}});
+    roots_.push_back(int(nodes_.size() - 1));
   }
 
   // ---- container ----

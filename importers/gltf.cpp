@@ -839,7 +839,6 @@ class Importer {
     int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
         mode != TINYGLTF_MODE_TRIANGLE_FAN) {
-      warn(warnings_, "gltf: " + file_ + ": " + where + ": points/lines primitive skipped");
       *skip = true;
       return Status::ok();
     }
@@ -1040,8 +1039,52 @@ class Importer {
     return Status::ok();
   }
 
+  // A POINTS, LINES, LINE_STRIP or LINE_LOOP primitive as a LineSet in its mesh's space (its
+  // nodes place it, visit). Draco-coded ones are skipped with a warning.
+  Status line_primitive(const tinygltf::Primitive& p, const std::string& where, LineSet* out) {
+    if (p.extensions.count("KHR_draco_mesh_compression")) {
+      warn(warnings_, "gltf: " + file_ + ": " + where + ": Draco-coded points/lines skipped");
+      return Status::ok();
+    }
+    auto pos = p.attributes.find("POSITION");
+    if (pos == p.attributes.end()) return r_.err(where, "has no POSITION attribute");
+    std::vector<float> f;
+    if (Status s = r_.floats(pos->second, 3, 0, where, &f); !s) return s;
+    const size_t n = f.size() / 3;
+    for (size_t i = 0; i < n; ++i) out->positions.push_back({f[3 * i], f[3 * i + 1], f[3 * i + 2]});
+    if (auto c = p.attributes.find("COLOR_0"); c != p.attributes.end()) {
+      if (Status s = r_.floats(c->second, 4, 1, where + ": COLOR_0", &f); !s) return s;
+      if (f.size() / 4 == n)
+        for (size_t i = 0; i < n; ++i) out->colors.push_back({f[4 * i], f[4 * i + 1], f[4 * i + 2], f[4 * i + 3]});
+    }
+    std::vector<uint32_t> idx;
+    if (p.indices >= 0) {
+      if (Status s = r_.indices(p.indices, where + ": indices", &idx); !s) return s;
+    } else {
+      for (size_t i = 0; i < n; ++i) idx.push_back(uint32_t(i));
+    }
+    for (uint32_t i : idx)
+      if (i >= n)
+        return r_.err(where, "index " + std::to_string(i) + " out of range (" + std::to_string(n) +
+                                 " vertices)");
+    out->points = p.mode == TINYGLTF_MODE_POINTS;
+    if (p.mode == TINYGLTF_MODE_POINTS || p.mode == TINYGLTF_MODE_LINE) {
+      out->indices.assign(idx.begin(), idx.end() - std::ptrdiff_t(p.mode == TINYGLTF_MODE_LINE ? idx.size() % 2 : 0));
+    } else {  // LINE_STRIP, LINE_LOOP
+      for (size_t i = 0; i + 1 < idx.size(); ++i) out->indices.insert(out->indices.end(), {idx[i], idx[i + 1]});
+      if (p.mode == TINYGLTF_MODE_LINE_LOOP && idx.size() > 2)
+        out->indices.insert(out->indices.end(), {idx.back(), idx.front()});
+    }
+    if (p.material >= 0 && size_t(p.material) < m_.materials.size()) {
+      const auto& c = m_.materials[size_t(p.material)].pbrMetallicRoughness.baseColorFactor;
+      if (c.size() == 4) out->color = {float(c[0]), float(c[1]), float(c[2]), float(c[3])};
+    }
+    return Status::ok();
+  }
+
   Status meshes() {
     mesh_map_.assign(m_.meshes.size(), -1);
+    mesh_lines_.assign(m_.meshes.size(), {});
     for (size_t mi = 0; mi < m_.meshes.size(); ++mi) {
       const tinygltf::Mesh& src = m_.meshes[mi];
       Mesh mesh;
@@ -1049,6 +1092,15 @@ class Importer {
       std::vector<SkinInfluences> skins;  // per primitive kept
       for (size_t pi = 0; pi < src.primitives.size(); ++pi) {
         std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+        if (const int mode = src.primitives[pi].mode;
+            mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE ||
+            mode == TINYGLTF_MODE_LINE_LOOP || mode == TINYGLTF_MODE_LINE_STRIP) {
+          LineSet set;
+          set.name = where;
+          if (Status s = line_primitive(src.primitives[pi], where, &set); !s) return s;
+          if (!set.indices.empty()) mesh_lines_[mi].push_back(std::move(set));
+          continue;
+        }
         Primitive prim;
         SkinInfluences skin;
         bool skip;
@@ -1135,6 +1187,11 @@ class Importer {
       if (size_t(node.mesh) >= m_.meshes.size())
         return r_.err("node " + std::to_string(index),
                       "mesh " + std::to_string(node.mesh) + " does not exist");
+      for (const LineSet& set : mesh_lines_[size_t(node.mesh)]) {  // placed in the world
+        LineSet placed = set;
+        for (Vec3& v : placed.positions) v = world.transform_point(v);
+        scene_.lines.push_back(std::move(placed));
+      }
       int32_t mesh = mesh_map_[size_t(node.mesh)];
       if (mesh >= 0) {
         if (node.skin >= 0 && size_t(node.skin) < m_.skins.size() && has_influences(mesh)) {
@@ -1250,6 +1307,7 @@ class Importer {
   std::map<std::string, size_t> effects_;  // appearance extension → materials using it
   std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
   int32_t flat_normal_ = -1;               // the flat normal map anisotropy needs (if made)
+  std::vector<std::vector<LineSet>> mesh_lines_;  // per glTF mesh: its points and lines
   bool morphed_ = false;                   // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)

@@ -71,7 +71,7 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     report_step(progress, format("atlas: the source's one texture kept as it is, %dx%d, + %zu "
                                  "plain colours in unused texels (no resampling)",
                                  ar.size, ar.height, ar.flat_colors));
-  else
+  else if (ar.size > 0)
     report_step(progress,
                 format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "
                        "%.0f referenced), %.0f%% used, charts at ≥ %.0f%% of their sources' "

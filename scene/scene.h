@@ -171,6 +171,21 @@ struct Mesh {
   std::vector<Primitive> primitives;
 };
 
+// Points and line segments (glTF's POINTS, LINES, LINE_STRIP and LINE_LOOP; COLLADA's <lines>
+// stay skipped, as the simulators whose models carry them draw them), carried beside the
+// triangles and drawn as glTF viewers draw them (one pixel
+// wide, in their material's colour, unlit): placed in the world at import (their nodes'
+// transforms applied), never cleaned, simplified, baked or refined; model.glb and the base
+// carry them whole.
+struct LineSet {
+  std::string name;               // for messages
+  std::vector<Vec3> positions;    // world space
+  std::vector<Vec4> colors;       // COLOR_0, linear RGBA; empty = none
+  std::vector<uint32_t> indices;  // 2 per segment, or 1 per point
+  bool points = false;            // points, not segments
+  Vec4 color{1, 1, 1, 1};         // the material's base colour factor, linear RGBA
+};
+
 // One placement of a mesh in the world. Hierarchies are flattened into these.
 struct Instance {
   uint32_t mesh = 0;  // index into Scene::meshes
@@ -183,6 +198,7 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<Image> images;
   std::vector<Instance> instances;
+  std::vector<LineSet> lines;  // points and lines, in world space (every stage hands them on)
   std::string source;  // file the scene came from, for messages ("" for generated scenes)
   // Set by clean(): multiply world positions by this to give the scene a bounding-box
   // diagonal of 1, the unit in which later stages measure geometric error. 1 until then.

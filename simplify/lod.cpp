@@ -205,6 +205,7 @@ Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep
   Scene out;
   out.materials = ps.scene.materials;
   out.images = ps.scene.images;
+  out.lines = ps.scene.lines;
   out.source = ps.scene.source;
   out.normalization_scale = ps.scene.normalization_scale;
   std::vector<int32_t> mesh_map(ps.meshes.size(), -1);

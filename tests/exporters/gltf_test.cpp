@@ -553,6 +553,38 @@ TEST(GltfExport, AnisotropyWithoutNormalMapIsLeftOut) {
   expect_valid(bytes, "anisotropy_no_normal.glb");
 }
 
+// Points and lines are written as plain POINTS / LINES primitives under one node, in a
+// material of their colour, validator-clean, and read back as they were.
+TEST(GltfExport, PointsAndLinesRoundTrip) {
+  Scene scene = textured_cube_scene();
+  LineSet lines;
+  lines.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}};
+  lines.indices = {0, 1, 1, 2};
+  lines.color = {0, 0, 1, 1};
+  scene.lines.push_back(lines);
+  LineSet points = lines;
+  points.points = true;
+  points.indices = {0, 2};
+  scene.lines.push_back(points);
+  auto bytes = export_ok(scene);
+  Glb glb = parse_glb(bytes);
+  std::vector<int> modes;
+  for (const json& m : glb.doc["meshes"])
+    for (const json& p : m["primitives"]) modes.push_back(p.value("mode", 4));
+  EXPECT_EQ(std::count(modes.begin(), modes.end(), 1), 1);
+  EXPECT_EQ(std::count(modes.begin(), modes.end(), 0), 1);
+  expect_valid(bytes, "lines.glb");
+  TempDir dir;
+  testing::write_file(dir.file("lines.glb"), bytes);
+  auto back = import_scene(dir.file("lines.glb"), {}, nullptr);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->lines.size(), 2u);
+  EXPECT_EQ(back->lines[0].indices, lines.indices);
+  EXPECT_EQ(back->lines[0].positions, lines.positions);
+  EXPECT_EQ(back->lines[0].color, lines.color);
+  EXPECT_TRUE(back->lines[1].points);
+}
+
 // An emissive factor beyond 1 (KHR_materials_emissive_strength folded in on import) is
 // written back as a factor in [0, 1] and the strength, so it stays valid and as bright.
 TEST(GltfExport, EmissiveBeyondOneWritesEmissiveStrength) {
