@@ -495,24 +495,17 @@ class Importer {
       mark_texture(m.normalTexture.index);
       mark_texture(m.occlusionTexture.index);
       mark_texture(m.emissiveTexture.index);
-      if (auto it = m.extensions.find("KHR_materials_sheen");
-          it != m.extensions.end() && it->second.IsObject() &&
-          it->second.Has("sheenColorTexture") && it->second.Get("sheenColorTexture").IsObject() &&
-          it->second.Get("sheenColorTexture").Has("index") &&
-          it->second.Get("sheenColorTexture").Get("index").IsInt())
-        mark_texture(it->second.Get("sheenColorTexture").Get("index").GetNumberAsInt());
-      for (const LayerSlotName& slot : kLayerSlots)
-        if (auto it = m.extensions.find(slot.extension);
-            it != m.extensions.end() && it->second.IsObject() && it->second.Has(slot.key) &&
-            it->second.Get(slot.key).IsObject() && it->second.Get(slot.key).Has("index") &&
-            it->second.Get(slot.key).Get("index").IsInt())
-          mark_texture(it->second.Get(slot.key).Get("index").GetNumberAsInt());
-      if (auto it = m.extensions.find("KHR_materials_transmission");
-          it != m.extensions.end() && it->second.IsObject() &&
-          it->second.Has("transmissionTexture") && it->second.Get("transmissionTexture").IsObject() &&
-          it->second.Get("transmissionTexture").Has("index") &&
-          it->second.Get("transmissionTexture").Get("index").IsInt())
-        mark_texture(it->second.Get("transmissionTexture").Get("index").GetNumberAsInt());
+      // A textureInfo inside an extension: extension → key → index.
+      auto mark_in = [&](const char* extension, const char* key) {
+        auto it = m.extensions.find(extension);
+        if (it == m.extensions.end() || !it->second.IsObject() || !it->second.Has(key)) return;
+        const tinygltf::Value& info = it->second.Get(key);
+        if (info.IsObject() && info.Has("index") && info.Get("index").IsInt())
+          mark_texture(info.Get("index").GetNumberAsInt());
+      };
+      mark_in("KHR_materials_sheen", "sheenColorTexture");
+      mark_in("KHR_materials_transmission", "transmissionTexture");
+      for (const LayerSlotName& slot : kLayerSlots) mark_in(slot.extension, slot.key);
     }
     return used;
   }
