@@ -17,7 +17,7 @@
 
 #include "atlas/source_atlas.h"
 #include "scene/dvec3.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -248,7 +248,7 @@ FlatCharts flatten_charts(const Scene& scene, const std::vector<MeshView>& views
   fc.charts.face_chart.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m)
     fc.charts.face_chart[m].assign(views[m].faces.size(), 0);
-  // Charts flatten independently, on every core (scene/parallel.h); each chart's pieces are
+  // Charts flatten independently, on every core (core/parallel.h); each chart's pieces are
   // kept apart and joined in chart order, so the result is the same whatever the threads.
   struct Pieces {
     std::vector<Chart> charts;

@@ -29,7 +29,7 @@
 #include "atlas/material_sample.h"
 #include "atlas/tangent_frame.h"
 #include "scene/dvec3.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 
 namespace meshmux {
 namespace {

@@ -11,7 +11,7 @@
 #include "atlas/material_sample.h"
 #include "image/color.h"
 #include "image/resize.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 
 namespace meshmux {
 

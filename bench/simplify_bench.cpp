@@ -50,7 +50,7 @@
 #include "clean/flatten.h"
 #include "exporters/gltf.h"
 #include "importers/import.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 #include "scene/scene.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"

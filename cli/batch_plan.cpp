@@ -11,7 +11,7 @@
 #include <set>
 #include <sstream>
 
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 

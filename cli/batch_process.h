@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "scene/status.h"
+#include "core/status.h"
 
 namespace meshmux {
 

@@ -17,7 +17,7 @@
 
 #include "cli/batch_process.h"
 #include "cli/batch_summary.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 
@@ -284,7 +284,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                        "--chdir=" + options.state_dir, summary_sh});
   auto summary_id = sbatch(summary_args);
   if (!summary_id.ok()) {
-    run_command({"scancel", *array_id}, 60);
+    (void)run_command({"scancel", *array_id}, 60);
     std::fprintf(stderr, "meshmux: %s (job array %s cancelled)\n",
                  summary_id.status().message().c_str(), array_id->c_str());
     return kUnavailable;

@@ -10,7 +10,7 @@
 #include <set>
 
 #include "cli/text.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 #ifndef MESHMUX_VERSION
 #define MESHMUX_VERSION "0.0.0"

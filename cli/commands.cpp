@@ -27,9 +27,9 @@
 #include "importers/import.h"
 #include "importers/upload.h"
 #include "pipeline/convert.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 #include "scene/sample.h"
-#include "scene/sanitizers.h"
+#include "core/sanitizers.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 

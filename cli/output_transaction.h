@@ -16,7 +16,7 @@
 
 #include <string>
 
-#include "scene/status.h"
+#include "core/status.h"
 
 namespace meshmux {
 

@@ -15,7 +15,7 @@
 #include "importers/import.h"
 #include "multiplex/render.h"
 #include "multiplex/viewpoints.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 

@@ -26,7 +26,7 @@
 #include "exporters/draco_encode.h"
 #include "exporters/gltf_meshopt.h"
 #include "image/encode.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 

@@ -23,7 +23,7 @@
 
 #include "scene/math.h"
 #include "scene/quantize.h"
-#include "scene/status.h"
+#include "core/status.h"
 
 namespace meshmux {
 

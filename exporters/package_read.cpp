@@ -18,7 +18,7 @@
 
 #include "exporters/package.h"
 #include "multiplex/vsplit.h"  // inflate_bytes, part_size_plausible
-#include "scene/json_depth.h"
+#include "core/json_depth.h"
 
 namespace meshmux {
 

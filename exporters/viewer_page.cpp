@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-#include "scene/file_io.h"
+#include "core/file_io.h"
 #include "viewer/pack.h"
 #include "viewer_assets_hash.h"
 

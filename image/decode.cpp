@@ -13,7 +13,7 @@
 #include <memory>
 
 #include "image/oiio_loader.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 

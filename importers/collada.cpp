@@ -53,8 +53,8 @@
 #include "image/decode.h"
 #include "importers/collada_bindings.h"
 #include "importers/upload.h"
-#include "scene/file_io.h"
-#include "scene/sanitizers.h"
+#include "core/file_io.h"
+#include "core/sanitizers.h"
 
 namespace meshmux {
 namespace {

@@ -21,8 +21,8 @@
 #include "image/decode.h"
 #include "importers/skinning.h"
 #include "importers/upload.h"
-#include "scene/file_io.h"
-#include "scene/json_depth.h"
+#include "core/file_io.h"
+#include "core/json_depth.h"
 
 namespace meshmux {
 

@@ -5,7 +5,7 @@
 
 #include "importers/collada.h"
 #include "importers/gltf.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 

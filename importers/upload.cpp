@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <set>
 
-#include "scene/file_io.h"
+#include "core/file_io.h"
 
 namespace meshmux {
 namespace fs = std::filesystem;

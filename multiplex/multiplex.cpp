@@ -14,7 +14,7 @@
 #include "image/decode.h"
 #include "multiplex/distortion.h"
 #include "multiplex/mesh_stream.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 #include "simplify/lod.h"
 
 namespace meshmux {

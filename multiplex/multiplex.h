@@ -14,7 +14,7 @@
 #include "multiplex/render.h"
 #include "multiplex/schedule.h"
 #include "multiplex/viewpoints.h"
-#include "scene/progress.h"
+#include "core/progress.h"
 #include "scene/progressive.h"
 #include "scene/texture_levels.h"
 

@@ -66,7 +66,7 @@
 #include <vector>
 
 #include "multiplex/range_coder.h"
-#include "scene/status.h"
+#include "core/status.h"
 
 namespace meshmux {
 

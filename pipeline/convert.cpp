@@ -14,7 +14,7 @@
 #include "atlas/kept.h"
 #include "exporters/package.h"
 #include "multiplex/stream_plan.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 #include "simplify/lod.h"
 
 namespace meshmux {

@@ -24,9 +24,9 @@
 #include "exporters/gltf.h"
 #include "image/texture_levels.h"
 #include "multiplex/multiplex.h"
-#include "scene/progress.h"
+#include "core/progress.h"
 #include "scene/scene.h"
-#include "scene/status.h"
+#include "core/status.h"
 #include "simplify/simplify.h"
 
 namespace meshmux {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "scene/math.h"
-#include "scene/status.h"
+#include "core/status.h"
 
 namespace meshmux {
 

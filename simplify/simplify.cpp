@@ -28,7 +28,7 @@
 
 #include "clean/flatten.h"
 #include "scene/dvec3.h"
-#include "scene/parallel.h"
+#include "core/parallel.h"
 #include "scene/position_key.h"
 
 namespace meshmux {

@@ -28,7 +28,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "scene/progress.h"
+#include "core/progress.h"
 #include "scene/progressive.h"
 #include "scene/scene.h"
 

@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "exporters/gltf.h"
-#include "scene/sanitizers.h"
+#include "core/sanitizers.h"
 #include "test_util.h"
 
 namespace meshmux {

@@ -126,7 +126,7 @@ testing::CommandResult convert_on_threads(const std::string& in, const std::stri
                                                MESHMUX_BINARY, "convert", in, "-o", out, "-q"});
 }
 
-// Charts are flattened and the atlas baked on every core (scene/parallel.h); the bytes may
+// Charts are flattened and the atlas baked on every core (core/parallel.h); the bytes may
 // not depend on how many. DamagedHelmet: five channels from 2048² sources (the source atlas
 // path, the largest bake of the shared set); SheenChair: 521 charts parameterized and baked.
 TEST(ConvertSharedModel, SameBytesWithOneThreadOrMany) {

@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "scene/sanitizers.h"
+#include "core/sanitizers.h"
 #include "test_util.h"
 
 namespace meshmux {

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "scene/file_io.h"
+#include "core/file_io.h"
 #include "test_util.h"
 
 namespace meshmux {

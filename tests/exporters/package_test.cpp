@@ -19,7 +19,7 @@
 #include "image/texture_levels.h"
 #include "importers/import.h"
 #include "multiplex/vsplit.h"
-#include "scene/file_io.h"
+#include "core/file_io.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 #include "test_util.h"

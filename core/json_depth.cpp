@@ -1,5 +1,5 @@
 // JSON nesting depth without parsing (see json_depth.h).
-#include "scene/json_depth.h"
+#include "core/json_depth.h"
 
 #include <algorithm>
 

@@ -1,5 +1,5 @@
 // Chunked parallel loops (see parallel.h).
-#include "scene/parallel.h"
+#include "core/parallel.h"
 
 #include <algorithm>
 #include <atomic>

@@ -1,6 +1,6 @@
-// scene/parallel.h: chunked loops and background tasks, the pieces every stage's use of the
+// core/parallel.h: chunked loops and background tasks, the pieces every stage's use of the
 // cores rests on (outputs may not depend on the thread count).
-#include "scene/parallel.h"
+#include "core/parallel.h"
 
 #include <gtest/gtest.h>
 
