@@ -3,7 +3,7 @@
 // tinygltf's symbols, and a writer that resolves into the wrong copy is a hazard we need not take.
 #include "exporters/gltf.h"
 
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 
 // GCC 12 reports a false -Wmaybe-uninitialized inside Eigen's 3x3 JacobiSVD.
 #pragma GCC diagnostic push
@@ -466,7 +466,7 @@ class Exporter {
     const std::vector<Vec3>& normals = p.flat ? none : p.normals;
     c.normals.reserve(normals.size());
     for (Vec3 v : normals) {
-      // unit_normal is what the stream's vertex splits quantize too (scene/quantize.h).
+      // unit_normal is what the stream's vertex splits quantize too (stream/quantize.h).
       double l = std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
       if (!(l > 1e-20) || !std::isfinite(l)) ++fixed;
       c.normals.push_back(unit_normal(v));

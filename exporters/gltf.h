@@ -16,7 +16,7 @@
 // - export_glb writes through write_file_atomic: no partial file on failure.
 // - With `meshopt` (the stream package's base), meshes are written instead with
 //   EXT_meshopt_compression over KHR_mesh_quantization attributes (exporters/gltf_meshopt.h),
-//   vertex order and face order kept exactly, values as scene/quantize.h gives them; positions
+//   vertex order and face order kept exactly, values as stream/quantize.h gives them; positions
 //   are integers on each mesh's grid and every node that draws the mesh (plain, instanced,
 //   sheared child) has its transform multiplied on the right by translate(origin)·scale(step).
 #pragma once
@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 #include "scene/scene.h"
 
 namespace meshmux {

@@ -2,7 +2,7 @@
 // glTF exporter (exporters/gltf.h, option `meshopt`). Vertex order and face order are kept
 // exactly (the stream package's client takes the vertices and faces of its base as the stream
 // encoder laid them out, in vertex-cache order); the index codec (version 1) may rotate a
-// triangle's corners, which keeps its winding. Values use scene/quantize.h so
+// triangle's corners, which keeps its winding. Values use stream/quantize.h so
 // they agree bit for bit with the stream encoder:
 // - POSITION: unsigned short (not normalized) VEC3 on the mesh's grid, stride 8 (4th short 0);
 //   the dequantization translate(origin)·scale(step) belongs in the transforms of the nodes.
@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "scene/math.h"
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 #include "core/status.h"
 
 namespace meshmux {

@@ -1,6 +1,6 @@
 // The multiplexer, paper 004 §3: layers with their stream bytes, renders from the viewing
 // sphere, distortion against the full-quality render, steepest descent and the baselines.
-// Mesh-layer bytes are the stream's compact vertex splits (multiplex/mesh_stream.h).
+// Mesh-layer bytes are the stream's compact vertex splits (stream/mesh_stream.h).
 #include "multiplex/multiplex.h"
 
 #include <algorithm>
@@ -13,7 +13,7 @@
 
 #include "image/decode.h"
 #include "multiplex/distortion.h"
-#include "multiplex/mesh_stream.h"
+#include "stream/mesh_stream.h"
 #include "core/parallel.h"
 #include "simplify/lod.h"
 
@@ -57,7 +57,7 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
   return total;
 }
 
-// Encodes the mesh layers once (multiplex/mesh_stream.h): layer 0 is the base (its encoded
+// Encodes the mesh layers once (stream/mesh_stream.h): layer 0 is the base (its encoded
 // vertices and faces stand for the base's bytes); each further layer's parts are what the
 // package's mesh chunk holds. Fills r's mesh_streams, layer_parts, layer_chunks, mesh_bytes,
 // layer_triangles, layer_levels and stream_digests, and nothing else of r.
@@ -180,10 +180,10 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
         return Status::ok();
       };
       if (r.texture_channels.empty()) {
-        r.texture_channels.push_back("base_color");
+        r.texture_channels.push_back(kBaseColorChannel);
         for (const TextureMap& tm : l.other_maps) r.texture_channels.push_back(tm.channel);
       }
-      if (Status s = add("base_color", l.encoded, l.mime_type); !s) return s;
+      if (Status s = add(kBaseColorChannel, l.encoded, l.mime_type); !s) return s;
       for (const TextureMap& tm : l.other_maps)
         if (Status s = add(tm.channel, tm.encoded, tm.mime_type); !s) return s;
       // A level's cost is all its maps: the channels move together.
@@ -222,11 +222,13 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       image.mime_type = map.mime_type;
       if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
       TextureSet& set = texture[j];
-      if (map.channel == "base_color") set.base_color = gl.add_texture(image, true);
-      if (map.channel == "normal") set.normal = gl.add_texture(image, false);
-      if (map.channel == "occlusion_roughness_metallic") set.orm = gl.add_texture(image, false);
-      if (map.channel == "emissive") set.emissive = gl.add_texture(image, true);
-      if (map.channel == "sheen_color") set.sheen = gl.add_texture(image, true);
+      if (std::optional<Channel> c = parse_channel(map.channel)) switch (*c) {
+        case Channel::kBaseColor: set.base_color = gl.add_texture(image, true); break;
+        case Channel::kNormal: set.normal = gl.add_texture(image, false); break;
+        case Channel::kOcclusionRoughnessMetallic: set.orm = gl.add_texture(image, false); break;
+        case Channel::kEmissive: set.emissive = gl.add_texture(image, true); break;
+        case Channel::kSheenColor: set.sheen = gl.add_texture(image, true); break;
+      }
     }
   auto texture_of = [&](int j) { return textures.empty() ? TextureSet{} : texture[size_t(j)]; };
   ViewingSphere sphere = viewing_sphere(o.view_layers);

@@ -10,13 +10,14 @@
 #include <string>
 #include <vector>
 
-#include "multiplex/mesh_stream.h"
+#include "stream/mesh_stream.h"
 #include "multiplex/render.h"
 #include "multiplex/schedule.h"
 #include "multiplex/viewpoints.h"
 #include "core/progress.h"
 #include "scene/progressive.h"
 #include "scene/texture_levels.h"
+#include "stream/format.h"
 
 namespace meshmux {
 
@@ -27,16 +28,6 @@ struct MultiplexOptions {
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
   int max_mesh_layers = 12;          // and at most this many
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
-};
-
-// The distortion of the grid's cells seen from each view of the viewing sphere (paper 004 §3),
-// for a client that re-plans the order for its own camera (issue 7/8).
-struct ViewTable {
-  std::vector<Vec3> directions;                    // unit, from the model's centre to each view
-  std::vector<std::array<uint32_t, 3>> triangles;  // the viewing mesh over them
-  int mesh_layers = 0, texture_layers = 0;         // the grid, m × n
-  // Per cell i * texture_layers + j: the metric from each view (empty: not measured).
-  std::vector<std::vector<double>> cells;
 };
 
 struct MultiplexResult {

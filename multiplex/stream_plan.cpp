@@ -80,4 +80,19 @@ Result<StreamPlan> stream_plan(const MultiplexResult& r) {
   return plan;
 }
 
+PackageView package_view(const MultiplexOptions& options) {
+  const ViewOptions& v = options.views;
+  const RenderOptions& r = options.render;
+  PackageView p;
+  p.fov_y_degrees = v.fov_y_degrees, p.fill = v.fill, p.clip_margin = v.clip_margin;
+  p.direction[0] = v.direction.x, p.direction[1] = v.direction.y, p.direction[2] = v.direction.z;
+  p.ambient = r.ambient, p.diffuse = r.diffuse;
+  p.light_direction[0] = r.light_direction.x, p.light_direction[1] = r.light_direction.y;
+  p.light_direction[2] = r.light_direction.z;
+  p.light_follows_camera = r.light_follows_camera;
+  p.physical = r.shading == Shading::kPhysical;
+  p.environment = r.environment, p.light_intensity = r.light_intensity;
+  return p;
+}
+
 }  // namespace meshmux

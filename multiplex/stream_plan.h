@@ -8,24 +8,9 @@
 #include <vector>
 
 #include "multiplex/multiplex.h"
+#include "stream/format.h"
 
 namespace meshmux {
-
-// One step of the multiplexed order.
-struct StreamStep {
-  enum Kind { kMesh, kTexture } kind = kMesh;
-  size_t mesh_layer = 0;     // kMesh: the mesh layer that arrives (MultiplexResult::layer_parts)
-  size_t texture_level = 0;  // kTexture: the texture level (index into TextureLevels::levels)
-  double distortion = 0;     // expected distortion once this step is applied
-};
-
-// A further order of the same steps (a baseline): a permutation of step indices keeping the
-// mesh steps' relative order, with the distortion after each step.
-struct StreamOrder {
-  std::string name;
-  std::vector<uint32_t> steps;
-  std::vector<double> distortion;
-};
 
 struct StreamPlan {
   std::vector<StreamStep> steps;    // the descent's moves, in order
@@ -36,5 +21,8 @@ struct StreamPlan {
 // Fails (kInternal) when a path is not a monotone walk of unit moves from (0, 0) to the far
 // corner, or when the baselines do not visit the same moves as the descent. O(m + n).
 Result<StreamPlan> stream_plan(const MultiplexResult& r);
+
+// The table's "view": the framing and shading `options` measured the distortion with.
+PackageView package_view(const MultiplexOptions& options);
 
 }  // namespace meshmux

@@ -12,7 +12,8 @@
 #include "clean/flatten.h"
 #include "atlas/atlas_bytes.h"
 #include "atlas/kept.h"
-#include "exporters/package.h"
+#include "stream/package.h"
+#include "stream/package_base.h"
 #include "multiplex/stream_plan.h"
 #include "core/parallel.h"
 #include "simplify/lod.h"
@@ -149,10 +150,10 @@ std::vector<SceneChannel> scene_channels(const Scene& scene) {
         scene.images[size_t(t.image)].width > 0)
       out.push_back({name, t.image, f});
   };
-  add(m.normal, "normal", TexelFilter::kNormal);
-  add(m.metallic_roughness, "occlusion_roughness_metallic", TexelFilter::kData);
-  add(m.emissive, "emissive", TexelFilter::kSrgb);
-  add(m.sheen_color, "sheen_color", TexelFilter::kSrgb);
+  add(m.normal, channel_name(Channel::kNormal), TexelFilter::kNormal);
+  add(m.metallic_roughness, channel_name(Channel::kOcclusionRoughnessMetallic), TexelFilter::kData);
+  add(m.emissive, channel_name(Channel::kEmissive), TexelFilter::kSrgb);
+  add(m.sheen_color, channel_name(Channel::kSheenColor), TexelFilter::kSrgb);
   return out;
 }
 
@@ -239,35 +240,8 @@ Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps
   return std::optional<MultiplexResult>(mx.take());
 }
 
-// Puts a primitive's vertices in the order `order` (new vertex i = old vertex order[i]), its
-// faces following them.
-Status permute_vertices(Primitive& p, const std::vector<uint32_t>& order) {
-  const size_t n = p.positions.size();
-  if (order.size() != n)
-    return Status::error("package: base order of " + std::to_string(order.size()) +
-                             " vertices for a primitive of " + std::to_string(n),
-                         ErrorKind::kInternal);
-  std::vector<uint32_t> inverse(n, UINT32_MAX);
-  for (uint32_t i = 0; i < n; ++i) {
-    if (order[i] >= n || inverse[order[i]] != UINT32_MAX)
-      return Status::error("package: base order is not a permutation", ErrorKind::kInternal);
-    inverse[order[i]] = i;
-  }
-  auto apply = [&](auto& values) {
-    if (values.size() != n) return;
-    auto old = values;
-    for (size_t i = 0; i < n; ++i) values[i] = old[order[i]];
-  };
-  apply(p.positions);
-  apply(p.normals);
-  apply(p.colors);
-  for (auto& set : p.uvs) apply(set);
-  for (uint32_t& i : p.indices) i = inverse[i];
-  return Status::ok();
-}
-
 // The stream package's base when refinements follow: meshoptimizer's order-keeping codecs over
-// attributes quantized exactly as the stream codes them (scene/quantize.h), so vertex i is the
+// attributes quantized exactly as the stream codes them (stream/quantize.h), so vertex i is the
 // stream's vertex i and its integers are the ones the vertex splits are predicted from.
 Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps, const MultiplexResult& mx,
                                               const TextureLevels& levels, const ConvertOptions& o,
@@ -279,30 +253,7 @@ Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps, const 
   for (const MeshStreamBase& m : mx.mesh_streams)
     plain.position_quantization.push_back(m.quantization);
   Scene base_scene = level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true);
-  // A mesh whose stream carries normals (the client appends to the base's) keeps them in every
-  // base primitive, flat-shaded or not; a mesh whose sources are all flat has none in either,
-  // so viewers shade the base and the stream flat, as they shade model.glb.
-  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m)
-    for (Primitive& p : base_scene.meshes[m].primitives) p.flat = !mx.mesh_streams[m].normals;
-  // Its vertices in the stream's base order (every primitive holds the whole prefix), and its
-  // primitives' faces exactly as the stream's client takes them (MeshStreamBase).
-  for (size_t m = 0; m < base_scene.meshes.size() && m < mx.mesh_streams.size(); ++m) {
-    const MeshStreamBase& stream = mx.mesh_streams[m];
-    std::vector<Primitive>& prims = base_scene.meshes[m].primitives;
-    if (prims.size() != stream.base_primitive_faces.size())
-      return Status::error("package: mesh " + std::to_string(m) + ": " +
-                               std::to_string(prims.size()) + " base primitives, the stream has " +
-                               std::to_string(stream.base_primitive_faces.size()),
-                           ErrorKind::kInternal);
-    for (size_t k = 0; k < prims.size(); ++k) {
-      if (Status s = permute_vertices(prims[k], stream.base_order); !s) return s;
-      if (prims[k].indices.size() != stream.base_primitive_faces[k].size())
-        return Status::error("package: mesh " + std::to_string(m) + " primitive " +
-                                 std::to_string(k) + ": base faces differ from the stream's",
-                             ErrorKind::kInternal);
-      prims[k].indices = stream.base_primitive_faces[k];
-    }
-  }
+  if (Status st = order_base_scene(base_scene, mx.mesh_streams); !st) return st;
   return export_glb_bytes(base_scene, plain, warnings);
 }
 
@@ -335,8 +286,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   in.steps = plan->steps;
   in.base_distortion = plan->base_distortion;
   in.orders = plan->orders;
-  in.view = o.multiplex.views;
-  in.shading = o.multiplex.render;
+  in.view = package_view(o.multiplex);
   in.view_table = &mx.view_table;
   return write_package(in);
 }

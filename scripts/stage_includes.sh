@@ -4,7 +4,7 @@
 # usage: scripts/stage_includes.sh   (run by ctest as Layout.StagesIncludeOnlyEarlierStages)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-stages=(core scene image importers clean atlas simplify multiplex exporters pipeline cli)
+stages=(core scene image importers clean atlas simplify stream multiplex exporters pipeline serve batch cli)
 rank() { local i; for i in "${!stages[@]}"; do [ "${stages[$i]}" = "$1" ] && echo "$i" && return; done; echo -1; }
 bad=0
 printf '| folder | includes (stage folders) | later stages included |\n|---|---|---|\n'

@@ -9,7 +9,7 @@
 
 #include "atlas/tiled.h"
 #include "clean/clean.h"
-#include "exporters/package.h"
+#include "stream/package.h"
 #include "importers/import.h"
 #include "test_util.h"
 
@@ -674,8 +674,8 @@ TEST(ConvertFolder, WritesRateDistortionReport) {
 }  // namespace
 }  // namespace meshmux
 
-#include "exporters/package.h"
-#include "scene/quantize.h"
+#include "stream/package.h"
+#include "stream/quantize.h"
 
 namespace meshmux {
 namespace {

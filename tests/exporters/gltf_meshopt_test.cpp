@@ -15,7 +15,7 @@
 
 #include "exporters/gltf.h"
 #include "importers/gltf.h"
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -163,7 +163,7 @@ TEST(GltfMeshopt, RoundTripKeepsVertexOrderAndFaces) {
   EXPECT_EQ(testing::sorted_faces(got.indices), testing::sorted_faces(src.indices));
 }
 
-// The values are scene/quantize.h's, bit for bit (the stream encoder codes the same integers):
+// The values are stream/quantize.h's, bit for bit (the stream encoder codes the same integers):
 // the POSITION accessor's bounds are the integer bounds on the grid.
 TEST(GltfMeshopt, PositionBoundsAreTheGridIntegers) {
   const Primitive src = sphere();

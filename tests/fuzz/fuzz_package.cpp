@@ -1,10 +1,10 @@
-// libFuzzer target: the stream package reader (exporters/package_read) on arbitrary bytes,
+// libFuzzer target: the stream package reader (stream/package_read) on arbitrary bytes,
 // and, when the table reads, every mesh-part decoder it leads to (the codecs
 // that run on bytes a server sends).
 #include <cstdint>
 #include <vector>
 
-#include "exporters/package.h"
+#include "stream/package.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);

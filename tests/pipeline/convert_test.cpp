@@ -7,9 +7,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "exporters/package.h"
+#include "stream/package.h"
 #include "image/encode.h"
-#include "multiplex/mesh_stream.h"
+#include "stream/mesh_stream.h"
 #include "scene/sample.h"
 #include "test_util.h"
 

@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 12).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 13; the format: stream/format.h).
 //
 // A package is one file: a 12-byte header ("MMXP", version, table length), a deflated JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -11,7 +11,7 @@
 //
 // Per package mesh the client keeps ONE BufferGeometry with the capacity of the full mesh: a
 // vertex buffer that is only appended to and an index buffer of every face received so far.
-// Each part is a range-coded stream of compact vertex splits (multiplex/vsplit.h), decoded and
+// Each part is a range-coded stream of compact vertex splits (stream/vsplit.h), decoded and
 // applied against the corner lists the client keeps per vertex. Everything is drawn as
 // meshmux's offscreen renderer drew it to measure the distortion: with the package's view.shading
 // "physical", three.js's MeshStandardMaterial (base colour, normal, occlusion-roughness-metallic
@@ -403,7 +403,7 @@ export class MeshmuxStream extends EventTarget {
     let gltf, draco = null;
     try {
       const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
-      if (table.base.whole) {  // Draco-coded (exporters/package.h): its decoder, loaded only then
+      if (table.base.whole) {  // Draco-coded (stream/format.h): its decoder, loaded only then
         draco = await (dracoLoader || this._dracoLoader());
         loader.setDRACOLoader(draco);
       }

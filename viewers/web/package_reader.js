@@ -1,9 +1,9 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 12; layout in
-// exporters/package.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 13; layout in
+// stream/format.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
 export const PACKAGE_VERSION = 13;
-// The JSON table and the base .glb inflate to at most these (exporters/package.h).
+// The JSON table and the base .glb inflate to at most these (stream/format.h).
 export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
@@ -12,7 +12,7 @@ const VERTEX_BYTES = 48;
 // arrays of a client's vertices can hold.
 const TYPED_ARRAY_ELEMENTS = 2 ** 30 / VERTEX_BYTES;
 // A part's coded bytes stand for at most this many splits and faces per byte, plus a constant, and
-// hold at least the range coder's 5 (multiplex/vsplit.h part_size_plausible).
+// hold at least the range coder's 5 (stream/vsplit.h part_size_plausible).
 export const PART_ELEMENTS_PER_BYTE = 256, PART_ELEMENTS_CONSTANT = 4096, PART_MIN_BYTES = 5;
 
 // ---- The package table -----------------------------------------------------------------------

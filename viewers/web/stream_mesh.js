@@ -1,20 +1,20 @@
 // stream_mesh.js — the mesh side of a meshmux stream on the client: one growing geometry per
-// package mesh and the compact vertex-split decoder (multiplex/vsplit.h, operation for
+// package mesh and the compact vertex-split decoder (stream/vsplit.h, operation for
 // operation: ring order, twins, fans, the uv predictor's double arithmetic). Used by meshmux.js.
 
 import * as THREE from 'three';
 
 import { PART_ELEMENTS_PER_BYTE, PART_ELEMENTS_CONSTANT, PART_MIN_BYTES } from './package_reader.js';
 
-// ---- Decoding: compact vertex splits (multiplex/vsplit.h, operation for operation) -----------
+// ---- Decoding: compact vertex splits (stream/vsplit.h, operation for operation) -----------
 
 const RING_LIMIT = 64;   // ring entries a new face's third vertex is coded against
 const TWIN_LIMIT = 4;    // twin candidates a new vertex's position is matched against
 const FAN_LIMIT = 32;    // corners a parent may have for a fan-coded split
 const FAN_N1 = new Int32Array(FAN_LIMIT), FAN_N2 = new Int32Array(FAN_LIMIT), FAN_MOVED = new Uint8Array(FAN_LIMIT);
-const UV_MAX = 4095;     // uv bits (scene/quantize.h)
+const UV_MAX = 4095;     // uv bits (stream/quantize.h)
 
-// ---- The adaptive binary range decoder (multiplex/range_coder.h, operation for operation) ---
+// ---- The adaptive binary range decoder (stream/range_coder.h, operation for operation) ---
 // Module-level state: one part is decoded at a time. Every quantity is an integer below 2^32;
 // the range and code live in a Uint32Array (RC[0], RC[1]) so that updating them never boxes a
 // number past 2^31.
@@ -294,7 +294,7 @@ export class StreamMesh {
         for (let k = 0; k < 2; k++) {
           const t = k === 0 ? uv.getX(i) : uv.getY(i);
           T[2 * i + k] = t;
-          // unorm16 → 12 bits exactly (scene/quantize.h unorm16_to_uv12), or a float quantized.
+          // unorm16 → 12 bits exactly (stream/quantize.h unorm16_to_uv12), or a float quantized.
           qt[2 * i + k] = uvNormalized ? Math.floor((Math.round(t * 65535) * UV_MAX + 32767) / 65535)
             : (t >= 0 ? (t >= 1 ? UV_MAX : Math.round(t * UV_MAX)) : 0);
         }
@@ -331,7 +331,7 @@ export class StreamMesh {
   }
 
   // Applies one part (its coded bytes d[begin, end)): `splits` vertex splits and `faces` new
-  // faces (multiplex/vsplit.h). Everything read is checked; an Error names the split and the
+  // faces (stream/vsplit.h). Everything read is checked; an Error names the split and the
   // problem. The hot loop keeps its cursors in locals and calls only small module-level
   // functions (no closures).
   applySplits(d, begin, end, splits, faces) {

@@ -199,7 +199,7 @@ try {
       const t0 = performance.now();
       for (const c of chunks) await applyMeshChunk(meshes, c, bytes.subarray(c.offset, c.offset + c.size));
       best = Math.min(best, (performance.now() - t0) / 1000);
-      if (run === 4) {  // the state every mesh ends in, as multiplex/vsplit.h state_digest
+      if (run === 4) {  // the state every mesh ends in, as stream/vsplit.h state_digest
         digests = meshes.map((m) => {
           let h = 2166136261;
           const byte = (b) => { h = Math.imul(h ^ (b & 0xff), 16777619) >>> 0; };

@@ -1,6 +1,6 @@
-// The adaptive binary range coder (multiplex/range_coder.h): what the stream's mesh refinements
+// The adaptive binary range coder (stream/range_coder.h): what the stream's mesh refinements
 // are coded with, so every symbol kind must round-trip exactly and damage must be seen.
-#include "multiplex/range_coder.h"
+#include "stream/range_coder.h"
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // The mesh stream's encoding (paper 002's shared vertex buffer made streamable; the byte layout
-// is specified in exporters/package.h). The multiplexer costs each mesh layer with these
+// is specified in stream/format.h). The multiplexer costs each mesh layer with these
 // encoders and hands the encoded parts on; the package writer lays those bytes out as they are,
 // so every part is encoded exactly once per conversion.
 #pragma once
@@ -7,30 +7,27 @@
 #include <cstdint>
 #include <vector>
 
-#include "multiplex/vsplit.h"
+#include "stream/format.h"
+#include "stream/vsplit.h"
 #include "scene/progressive.h"
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 #include "scene/scene.h"
 
 namespace meshmux {
 
-// Vertices or faces per mesh the stream format allows; the package table carries it to the
-// reader and the web client ("limits").
-constexpr uint64_t kMaxStreamElements = uint64_t(1) << 28;
-
 // One part of a mesh chunk: the vertices [vertex_begin, vertex_end) and faces
 // [face_begin, face_end) of one mesh, coded as `bytes` bytes of compact vertex splits
-// (multiplex/vsplit.h).
+// (stream/vsplit.h).
 struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
   uint64_t bytes = 0;
 };
-// A part with its coded bytes (multiplex/vsplit.h): a chunk's payload is its parts' bytes one
+// A part with its coded bytes (stream/vsplit.h): a chunk's payload is its parts' bytes one
 // after the other (mesh_chunk_payload).
 struct EncodedMeshPart {
   PackagePart part;
   std::vector<uint8_t> data;
-  uint32_t twins = 0;  // splits whose position came from a twin (multiplex/vsplit.h), for tests
+  uint32_t twins = 0;  // splits whose position came from a twin (stream/vsplit.h), for tests
   uint64_t bytes() const { return data.size(); }
 };
 
@@ -54,7 +51,7 @@ struct MeshStreamBase {
 };
 
 // Encodes one progressive mesh's stream from a base level on, part by part, as compact vertex
-// splits (multiplex/vsplit.h), simulating what the client holds (its corner lists, and each base
+// splits (stream/vsplit.h), simulating what the client holds (its corner lists, and each base
 // face's corner rotation as meshopt's index codec decodes it) so that masks and ring positions
 // address the client's state exactly. Within a part the splits are reordered (parents before
 // children, then by parent) so parents cost small deltas, and the base's vertices are numbered
@@ -104,7 +101,7 @@ uint64_t mesh_parts_encoded();
 
 // Whether `pm`'s stream carries normals: false when every source primitive is flat.
 bool stream_carries_normals(const ProgressiveMesh& pm);
-// Vertex v of `pm` quantized as the stream codes it (scene/quantize.h): position on the grid,
+// Vertex v of `pm` quantized as the stream codes it (stream/quantize.h): position on the grid,
 // unit normal ·127 (+Z when absent or zero), first uv set on kUvBits bits.
 QuantizedVertex quantize_vertex(const ProgressiveMesh& pm, const PositionQuantization& q,
                                 uint32_t v);

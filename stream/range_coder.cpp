@@ -1,7 +1,7 @@
-// Adaptive binary range coder (multiplex/range_coder.h): arithmetic coding as a range coder
+// Adaptive binary range coder (stream/range_coder.h): arithmetic coding as a range coder
 // (G. N. N. Martin, "Range encoding", 1979) with carry propagation through a cached byte, and
 // binary contexts whose probability moves by a fixed shift, as LZMA's coder does both.
-#include "multiplex/range_coder.h"
+#include "stream/range_coder.h"
 
 namespace meshmux {
 

@@ -1,7 +1,7 @@
-// Compact vertex splits (multiplex/vsplit.h, encoder in multiplex/mesh_stream.cpp): what the
+// Compact vertex splits (stream/vsplit.h, encoder in stream/mesh_stream.cpp): what the
 // decoder rebuilds from the bytes is exactly the state the encoder simulated, and that state
 // draws the progressive mesh's levels; the coding is compact; damaged parts fail cleanly.
-#include "multiplex/vsplit.h"
+#include "stream/vsplit.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 
 #include "clean/clean.h"
 #include "importers/import.h"
-#include "multiplex/mesh_stream.h"
+#include "stream/mesh_stream.h"
 #include "simplify/simplify.h"
 #include "test_util.h"
 

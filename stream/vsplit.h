@@ -16,8 +16,8 @@
 // and non-manifold fans code the same way, and the client's adjacency is a list of corners per
 // vertex, not a half-edge structure.
 //
-// One part (a mesh's splits from vertex a to b and faces from c to e, package.h) is one stream
-// of the adaptive binary range coder (multiplex/range_coder.h); a package's mesh chunk is its
+// One part (a mesh's splits from vertex a to b and faces from c to e, stream/format.h) is one stream
+// of the adaptive binary range coder (stream/range_coder.h); a package's mesh chunk is its
 // parts one after the other. The contexts (VsplitContexts) belong to the mesh: they start fresh
 // with its base and carry over from part to part, as parts of one mesh are only ever applied in
 // stream order. In decoding
@@ -57,7 +57,7 @@
 // A split on the state: append vertex v (the next index); move the masked (or walked) corners of p
 // to v (each pushed to the head of v's list in the order met); append the new faces (corners pushed
 // to their vertices' lists, slot 0 first); set v's attributes; add v as p's position's newest
-// twin. Extra faces are appended last. Attributes are integers (scene/quantize.h): positions
+// twin. Extra faces are appended last. Attributes are integers (stream/quantize.h): positions
 // kPositionBits, normals int8, uv kUvBits.
 #pragma once
 
@@ -65,12 +65,12 @@
 #include <unordered_map>
 #include <vector>
 
-#include "multiplex/range_coder.h"
+#include "stream/range_coder.h"
 #include "core/status.h"
 
 namespace meshmux {
 
-// A vertex's quantized attributes (scene/quantize.h).
+// A vertex's quantized attributes (stream/quantize.h).
 struct QuantizedVertex {
   uint16_t p[3] = {0, 0, 0};  // position on the mesh's grid
   int8_t n[3] = {0, 0, 127};  // normal ·127
@@ -170,7 +170,7 @@ class VsplitMesh {
   uint32_t new_stamp();
 };
 
-// The order a new vertex's position axes are coded in (multiplex/vsplit.h "P"): the two axes
+// The order a new vertex's position axes are coded in (stream/vsplit.h "P"): the two axes
 // other than a in increasing order, then a, the axis of the normal's largest magnitude (the
 // lowest on ties); returns false (order 0, 1, 2, no plane prediction) for a zero normal.
 bool plane_axes(const int64_t normal[3], int order[3]);
@@ -200,9 +200,5 @@ uint32_t state_digest(const VsplitMesh& mesh);
 
 inline uint32_t zigzag(int32_t v) { return (uint32_t(v) << 1) ^ uint32_t(v >> 31); }
 inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
-// zlib-compresses (level 9) / inflates at most `limit` bytes (an error past it): the package's
-// table and base.
-std::vector<uint8_t> deflate_bytes(const std::vector<uint8_t>& in);
-Result<std::vector<uint8_t>> inflate_bytes(const uint8_t* data, size_t size, uint64_t limit);
 
 }  // namespace meshmux

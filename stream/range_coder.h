@@ -1,5 +1,5 @@
 // An adaptive binary range coder: the entropy coder of the stream's mesh refinements
-// (multiplex/vsplit.h). Each binary decision is coded with a probability that adapts to what
+// (stream/vsplit.h). Each binary decision is coded with a probability that adapts to what
 // its context has seen (11-bit probabilities, moved 1/16 of the way per decision: the
 // carry-propagating "range coder" of Martin 1979 as LZMA uses it); integers are coded as their
 // bit length through a binary tree of such contexts, up to three bits below the leading one

@@ -1,6 +1,6 @@
-// Attribute quantization (scene/quantize.h): one integer value per vertex attribute, shared by
+// Attribute quantization (stream/quantize.h): one integer value per vertex attribute, shared by
 // the base .glb and the stream's vertex splits.
-#include "scene/quantize.h"
+#include "stream/quantize.h"
 
 #include <algorithm>
 #include <cmath>

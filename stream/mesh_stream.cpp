@@ -1,4 +1,4 @@
-// Mesh stream encoding (multiplex/mesh_stream.h): compact vertex splits (multiplex/vsplit.h,
+// Mesh stream encoding (stream/mesh_stream.h): compact vertex splits (stream/vsplit.h,
 // DESIGN.md "Package"; paper 002 for the vertex order and parents). The encoder simulates the
 // client's state (its corner lists, the base faces as meshopt's index codec rotates them) and
 // codes each split against it: the parent as a delta within a part whose splits are reordered
@@ -7,8 +7,8 @@
 // ring position, and the new vertex's quantized attributes as residuals from its ring's mean
 // (the barycentric predictor of valence-driven coding), or, for a seam or hard-edge copy,
 // the twin it coincides with. Everything goes through the adaptive range coder
-// (multiplex/range_coder.h), each field with contexts of its own.
-#include "multiplex/mesh_stream.h"
+// (stream/range_coder.h), each field with contexts of its own.
+#include "stream/mesh_stream.h"
 
 #include <meshoptimizer.h>
 

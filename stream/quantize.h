@@ -1,5 +1,5 @@
 // Attribute quantization shared by the stream package's base .glb (EXT_meshopt_compression with
-// KHR_mesh_quantization) and its vertex-split refinements (multiplex/mesh_stream), so that a
+// KHR_mesh_quantization) and its vertex-split refinements (stream/mesh_stream), so that a
 // vertex has one integer value wherever it is coded (DESIGN.md "Package").
 //
 // - Positions: unsigned integers of kPositionBits bits on a uniform grid (one step for all three

@@ -1,6 +1,6 @@
 // The stream package: round trip through the real pipeline (clean → build_progressive → texture
 // levels → base .glb → package), determinism, and robustness against corrupted packages.
-#include "exporters/package.h"
+#include "stream/package.h"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +18,9 @@
 #include "exporters/gltf.h"
 #include "image/texture_levels.h"
 #include "importers/import.h"
-#include "multiplex/vsplit.h"
+#include "multiplex/stream_plan.h"
+#include "stream/deflate.h"
+#include "stream/vsplit.h"
 #include "core/file_io.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
@@ -106,6 +108,8 @@ const Fixture& fixture() {
     f->input.mesh_layers = &f->layers;
     f->input.mesh_chunks = &f->chunks;
     f->input.textures = &f->textures;
+    // The view a conversion measures with by default: the table carries it, the reader checks it.
+    f->input.view = package_view(MultiplexOptions{});
     f->input.base_texture_level = 0;
     size_t b = base.level[0], full = pm.levels.size() - 1;
     auto mesh_step = [&](size_t level, double d) {

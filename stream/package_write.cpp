@@ -1,4 +1,4 @@
-// The stream package writer (exporters/package.h, DESIGN.md "Package"). It lays out bytes that
+// The stream package writer (stream/package.h; the format: stream/format.h). It lays out bytes that
 // were encoded upstream (the multiplexer's mesh parts, the texture levels); it only deflates
 // (zlib, level 9) the JSON table and, when that makes it smaller, the base .glb: on small
 // models those were a third of the package (format 11). Offsets in the table count from its
@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "exporters/package.h"
-#include "multiplex/vsplit.h"  // deflate_bytes
+#include "stream/package.h"
+#include "stream/deflate.h"
 
 namespace meshmux {
 
@@ -159,22 +159,20 @@ double short_float(float f) {
 }
 
 OrderedJson view_json(const PackageInput& in) {
-  const ViewOptions& v = in.view;
-  const RenderOptions& r = in.shading;
-  return {{"fov_y_degrees", short_float(v.fov_y_degrees)},
-          {"fill", short_float(v.fill)},
-          {"direction",
-           {short_float(v.direction.x), short_float(v.direction.y), short_float(v.direction.z)}},
-          {"clip_margin", short_float(v.clip_margin)},
-          {"ambient", short_float(r.ambient)},
-          {"diffuse", short_float(r.diffuse)},
+  const PackageView& v = in.view;
+  auto f = [](double x) { return short_float(float(x)); };
+  return {{"fov_y_degrees", f(v.fov_y_degrees)},
+          {"fill", f(v.fill)},
+          {"direction", {f(v.direction[0]), f(v.direction[1]), f(v.direction[2])}},
+          {"clip_margin", f(v.clip_margin)},
+          {"ambient", f(v.ambient)},
+          {"diffuse", f(v.diffuse)},
           {"light_direction",
-           {short_float(r.light_direction.x), short_float(r.light_direction.y),
-            short_float(r.light_direction.z)}},
-          {"light_follows_camera", r.light_follows_camera},
-          {"shading", r.shading == Shading::kPhysical ? "physical" : "lambert"},
-          {"environment", short_float(r.environment)},
-          {"light_intensity", short_float(r.light_intensity)}};
+           {f(v.light_direction[0]), f(v.light_direction[1]), f(v.light_direction[2])}},
+          {"light_follows_camera", v.light_follows_camera},
+          {"shading", v.physical ? "physical" : "lambert"},
+          {"environment", f(v.environment)},
+          {"light_intensity", f(v.light_intensity)}};
 }
 
 // The JSON table. Offsets count from the end of the table (the data start), so the table does

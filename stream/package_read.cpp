@@ -1,4 +1,4 @@
-// The stream package reader and part decoder (exporters/package.h). Untrusted input: the
+// The stream package reader and part decoder (stream/package.h). Untrusted input: the
 // header, the JSON (nesting depth checked before parsing, parsed without exceptions) and every
 // field's type and range are checked before anything is exposed: ranges inside the file and
 // after the header, base and chunks in order without overlap, parts inside their mesh,
@@ -6,7 +6,7 @@
 // their byte sizes (the codecs cannot shrink data below a fixed ratio), orders permutations
 // keeping the mesh chunks' order, so that decoding never allocates far beyond the file's size.
 // decode_part repeats the checks it relies on (the Package may not come from these bytes) and
-// the vertex-split decoder (multiplex/vsplit.h) checks everything it decodes.
+// the vertex-split decoder (stream/vsplit.h) checks everything it decodes.
 #include <meshoptimizer.h>
 
 #include <algorithm>
@@ -16,8 +16,9 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "exporters/package.h"
-#include "multiplex/vsplit.h"  // inflate_bytes, part_size_plausible
+#include "stream/package.h"
+#include "stream/deflate.h"
+#include "stream/vsplit.h"  // part_size_plausible
 #include "core/json_depth.h"
 
 namespace meshmux {
@@ -86,7 +87,7 @@ Status get_number(const Json& obj, const char* key, double& out, const std::stri
   return get_finite(*it, out, where + ": \"" + key + "\"");
 }
 
-// The table's "view": how the distortion was measured (see package.h).
+// The table's "view": how the distortion was measured (see format.h).
 Status read_view(const Json& j, PackageView& v) {
   auto it = j.find("view");
   if (it == j.end() || !it->is_object()) return fail("\"view\" missing or not an object");
@@ -166,7 +167,7 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
     return fail(where + ": face range [" + std::to_string(p.face_begin) + ", " +
                 std::to_string(p.face_end) + ") outside the mesh's " + std::to_string(m.faces) +
                 " faces");
-  // A part's coded bytes can stand for only so many splits and faces (multiplex/vsplit.h).
+  // A part's coded bytes can stand for only so many splits and faces (stream/vsplit.h).
   uint64_t nv = p.vertex_end - p.vertex_begin, nf = p.face_end - p.face_begin;
   if (!part_size_plausible(p.bytes, nv, nf))
     return fail(where + ": " + std::to_string(p.bytes) + " bytes cannot hold " +

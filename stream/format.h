@@ -1,0 +1,156 @@
+// The stream package format, in one place: the spec in prose, the version, the limits, the
+// channel names and the step types every stage that makes or reads a package shares. Papers:
+// H. Hoppe, "Octaviewer: spherically parameterized progressive meshes" (the shared vertex
+// buffer of the mesh chunks); S. Yang, M. Shen, C.-C. J. Kuo, "Progressive coding of 3D
+// textured graphic model via joint mesh-texture optimization" (the order).
+//
+// A package is one file holding a small header, a JSON chunk table, a base .glb any glTF viewer
+// can open, then the chunks in multiplexed order. Any prefix that ends on a chunk boundary is
+// displayable; a client fetches it with one HTTP range request or chunk by chunk.
+//
+// Layout (little-endian):
+//   0   4  magic "MMXP"
+//   4   4  uint32 version (kPackageVersion)
+//   8   4  uint32 table length J (bytes)
+//   12  J  the JSON table (UTF-8), zlib-deflated (browsers: DecompressionStream("deflate"))
+//   12+J   the data: the base .glb (deflated when "deflated"), then each chunk, in table order
+// JSON table:
+//   {"version": 13,                                         // kPackageVersion
+//    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
+//             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
+//             "ambient": a, "diffuse": d,                    // near/far at distance ∓
+//             margin·radius, "light_direction": [x, y, z],                  // shading (light in
+//             view space "light_follows_camera": true,                  // when it follows the
+//             "shading": "lambert" | "physical", "environment": e,      // physical: uniform
+//             "light_intensity": i},                                    // environment radiance e,
+//                                                                       // light intensity i
+//             camera)
+//    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
+//    "base": {"offset": O, "size": S, "deflated": z,          // byte range of the base as
+//             "glb_size": G, "distortion": d0,                // stored; the .glb's own size
+//             "whole": true},                                 // optional, see below
+//    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
+//                "base_vertices": v0, "base_faces": f0,      // what the base holds
+//                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
+//                                                            // (floats, shortest decimals)
+//                "quantization": {"origin": [x,y,z], "step": s}}],  // the position grid
+//    "texture": {"width": W, "height": H} | null,           // full texture size
+//    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
+//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n coded
+//                                                  // bytes (summing to the chunk's size),
+//                                                  // from where m stands (its base, then the
+//                                                  // parts before in file order): vertex a, face c
+//               {"kind": "texture", "offset": o, "size": s, "distortion": d,
+//                "width": w, "height": h,                  // every map's size
+//                "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...]}],
+//                   // the payload is the maps' files in this order; base_color comes first,
+//                   // then any other of the channels below (physically based maps)
+//    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
+//               {"name": "mesh-first", ...}, ...]}                  // see below
+// Offsets count from the data start (12 + J).
+//
+// The mesh stream (Hoppe's shared vertex buffer, made streamable). A client holds per mesh
+// a vertex buffer that is only appended to and an index buffer of every face received so far.
+// A base that is the whole model ("whole": every mesh ships whole, no mesh chunk follows: the
+// stream is texture levels only) keeps no vertex order, so it is coded as model.glb is (Draco,
+// KHR_draco_mesh_compression, its meshes tagged with extras {"meshmux_mesh": m}); a client
+// draws its objects as they are. Otherwise the base's mesh m has exactly v0 vertices in stream
+// order (the base .glb's mesh with extras
+// {"meshmux_mesh": m}, EXT_meshopt_compression + KHR_mesh_quantization: positions as integers
+// on the grid, q = round((x - origin) / step), the nodes' transforms dequantizing; normals as
+// normalized bytes; uv as normalized shorts, see stream/quantize.h); its f0 faces are the
+// concatenation of that mesh's primitives' indices in primitive order, as decoded (meshopt's
+// index codec may rotate a face's corners; the client keeps them so). A mesh chunk's payload
+// is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits
+// taking the mesh from vertex a to b and face c to e (stream/vsplit.h; the splits' order is the
+// stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A texture
+// chunk is the complete JPEG or PNG files of that level's maps, one per channel.
+//
+// Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
+// order is a permutation of the chunks that keeps the mesh chunks' relative order (texture
+// chunks are whole images), with the expected distortion after each of its steps, so a client
+// can replay a baseline from the same file.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene/math.h"
+
+namespace meshmux {
+
+// 13: a part is one adaptive range-coded stream (stream/range_coder.h; 12: ten byte streams,
+// the chunk's parts deflated together); flat-shaded meshes carry no normals since 12. The web
+// client (viewers/web/package_reader.js, PACKAGE_VERSION) reads exactly this version.
+constexpr uint32_t kPackageVersion = 13;
+constexpr size_t kPackageHeaderBytes = 12;             // magic, version, table length
+constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
+constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
+constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
+constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
+// Vertices or faces per mesh the stream format allows; the package table carries it to the
+// reader and the web client ("limits").
+constexpr uint64_t kMaxStreamElements = uint64_t(1) << 28;
+
+// The material channels a texture step's maps may stand for (glTF metal-roughness, plus the
+// sheen colour), with their names in the table ("maps": [{"channel": ...}]). Base colour is
+// always a texture step's first map.
+enum class Channel { kBaseColor, kNormal, kOcclusionRoughnessMetallic, kEmissive, kSheenColor };
+constexpr std::array<const char*, 5> kChannelNames = {
+    "base_color", "normal", "occlusion_roughness_metallic", "emissive", "sheen_color"};
+inline const char* channel_name(Channel c) { return kChannelNames[size_t(c)]; }
+// The channel a table name stands for; none for a name the format does not know.
+inline std::optional<Channel> parse_channel(const std::string& name) {
+  for (size_t i = 0; i < kChannelNames.size(); ++i)
+    if (name == kChannelNames[i]) return Channel(i);
+  return std::nullopt;
+}
+inline bool is_texture_channel(const std::string& name) { return parse_channel(name).has_value(); }
+inline const char* const kBaseColorChannel = kChannelNames[0];
+
+// One step of the multiplexed order: a chunk of the package.
+struct StreamStep {
+  enum Kind { kMesh, kTexture } kind = kMesh;
+  size_t mesh_layer = 0;     // kMesh: the mesh layer that arrives (its parts, in layer order)
+  size_t texture_level = 0;  // kTexture: the texture level (index into TextureLevels::levels)
+  double distortion = 0;     // expected distortion once this step is applied
+};
+
+// A further order of the same steps (a baseline): a permutation of step indices keeping the
+// mesh steps' relative order, with the distortion after each step.
+struct StreamOrder {
+  std::string name;
+  std::vector<uint32_t> steps;
+  std::vector<double> distortion;
+};
+
+// The view and shading the distortion was measured with (the table's "view"), so a client
+// frames and shades as the multiplexer did. Written as the shortest decimals of floats.
+struct PackageView {
+  double fov_y_degrees = 0, fill = 0, clip_margin = 0;
+  double direction[3] = {0, 0, 0};
+  double ambient = 0, diffuse = 0;
+  double light_direction[3] = {0, 0, 0};
+  bool light_follows_camera = true;
+  bool physical = false;       // "shading": "physical" (else "lambert", also when absent)
+  double environment = 0;      // physical: uniform environment radiance
+  double light_intensity = 0;  // physical: the directional light's intensity
+};
+
+// The distortion of the grid's cells (mesh layers received × texture levels received) seen
+// from each view of the viewing sphere, for a client that re-plans the order for its own
+// camera (Yang, Shen and Kuo §3: interpolated over the viewing mesh's triangle around the
+// camera direction). The table's "view_table".
+struct ViewTable {
+  std::vector<Vec3> directions;                    // unit, from the model's centre to each view
+  std::vector<std::array<uint32_t, 3>> triangles;  // the viewing mesh over them
+  int mesh_layers = 0, texture_layers = 0;         // the grid, m × n
+  // Per cell i * texture_layers + j: the metric from each view (empty: not measured).
+  std::vector<std::vector<double>> cells;
+};
+
+}  // namespace meshmux
