@@ -1,23 +1,17 @@
-// meshmux batch: flags, the input list, resume, then the local pool or Slurm (see
-// batch_command.h).
-#include "cli/batch_command.h"
-
-#include <fcntl.h>
-#include <sys/file.h>
+// meshmux batch LIST -o OUTROOT: the flags into a BatchRequest, then the batch library
+// (batch/batch.h), or, inside a Slurm job array, one task's share or the summary
+// (batch/slurm.h; --slurm-task and --slurm-summary are how the job scripts call back in).
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
-#include <cstring>
-#include <filesystem>
+#include <string>
+#include <vector>
 
-#include "cli/batch_plan.h"
-#include "cli/batch_pool.h"
-#include "cli/batch_process.h"
-#include "cli/batch_slurm.h"
-#include "cli/batch_summary.h"
-#include "cli/output_transaction.h"
+#include "batch/batch.h"
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "core/exit_codes.h"
 
 #ifndef MESHMUX_VERSION
 #define MESHMUX_VERSION "0.0.0"
@@ -25,13 +19,9 @@
 
 namespace meshmux {
 
-namespace fs = std::filesystem;
-
 namespace {
 
-constexpr int kOk = 0, kUsage = 1, kSomeFailed = 2, kOutput = 3, kInterrupted = 130;
-
-const char* kBatchUsage =
+const char* const kBatchUsage =
     "usage: meshmux batch LIST -o OUTROOT [options] [convert options]\n"
     "\n"
     "Converts every input of LIST into OUTROOT/<name>/, as `meshmux convert IN -o\n"
@@ -68,241 +58,53 @@ const char* kBatchUsage =
     "  --cpus-per-task C  cores per task, conversions at once in it (default 1)\n"
     "  --wait             wait for the summary, show progress, exit as a local batch does\n"
     "\n"
-    "convert options, given to every conversion: --position-bits N --normal-bits N\n"
-    "  --uv-bits N --jpeg-quality N --crease DEGREES --no-draco --no-atlas --no-report\n"
-    "  --allow-outside --max-texels N --max-instances N --max-elements N (meshmux --help)\n"
-    "\n"
     "exit codes: 0 every input converted (--slurm without --wait: submitted); 1 usage error;\n"
     "  2 some inputs failed (listed in the summary); 3 OUTROOT could not be written;\n"
     "  5 Slurm is not available or refused the job; 130 interrupted (the summary lists what\n"
     "  was done; run again to finish)\n";
 
-int usage(const std::string& message) {
-  std::fprintf(stderr, "meshmux: batch: %s\n(see meshmux batch --help)\n", message.c_str());
-  return kUsage;
-}
-
-bool whole_number(const std::string& text, long lo, long hi, long* out) {
-  char* end = nullptr;
-  errno = 0;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) return false;
-  *out = v;
-  return true;
-}
-
-// OUTROOT may be new, empty, or a batch output (it has .meshmux-batch): nothing else, so the
-// summary never lands in a folder of the user's own files.
-Status check_outroot(const std::string& outroot) {
-  std::error_code ec;
-  if (!fs::exists(outroot, ec)) {
-    fs::create_directories(outroot, ec);
-    if (ec)
-      return Status::error("batch: " + outroot + ": cannot create the folder: " + ec.message(),
-                           ErrorKind::kOutput);
-    return Status::ok();
-  }
-  if (!fs::is_directory(outroot, ec))
-    return Status::error("batch: " + outroot + ": exists and is not a folder", ErrorKind::kOutput);
-  if (fs::is_directory(outroot + "/.meshmux-batch", ec)) return Status::ok();
-  if (!fs::is_empty(outroot, ec))
-    return Status::error("batch: " + outroot +
-                             ": a folder with other files in it (not a meshmux batch output); "
-                             "give a new or empty folder",
-                         ErrorKind::kOutput);
-  return Status::ok();
-}
-
-uint64_t physical_memory_mb() {
-  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
-  if (pages <= 0 || size <= 0) return 0;
-  return uint64_t(pages) * uint64_t(size) >> 20;
+void print_batch_usage() {
+  std::fputs(kBatchUsage, stdout);
+  std::printf("\nconvert options, given to every conversion (meshmux --help):\n  %s\n",
+              convert_flags_text().c_str());
 }
 
 }  // namespace
 
 int cmd_batch(const std::vector<std::string>& args) {
-  std::string list, outroot, plan_path, array_job;
-  BatchOptions o;
-  SlurmOptions slurm;
-  bool use_slurm = false, slurm_task = false, slurm_summary = false, jobs_given = false;
-  o.jobs = int(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
-  // convert's options that take a value, and those that do not: passed to every conversion.
-  const char* kValueFlags[] = {"--position-bits", "--normal-bits", "--uv-bits",
-                               "--jpeg-quality",  "--crease",      "--max-texels",
-                               "--max-instances", "--max-elements"};
-  const char* kPlainFlags[] = {"--no-draco", "--no-atlas", "--no-report", "--allow-outside"};
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](std::string* v) {
-      if (i + 1 >= args.size()) return false;
-      *v = args[++i];
-      return true;
-    };
-    std::string v;
-    long n = 0;
-    if (a == "-h" || a == "--help") {
-      std::fputs(kBatchUsage, stdout);
-      return kOk;
-    } else if (a == "-o" || a == "--output") {
-      if (!value(&outroot)) return usage(a + " needs a value");
-    } else if (a == "-q" || a == "--quiet") {
-      o.quiet = true;
-    } else if (a == "--jobs" || a == "-j") {
-      if (!value(&v) || !whole_number(v, 1, 1024, &n))
-        return usage("--jobs expects a whole number from 1 to 1024");
-      o.jobs = int(n), jobs_given = true;
-    } else if (a == "--timeout") {
-      if (!value(&v) || !whole_number(v, 1, 7 * 86400, &n))
-        return usage("--timeout expects seconds, a whole number from 1 to 604800");
-      o.timeout_seconds = double(n);
-    } else if (a == "--max-memory") {
-      if (!value(&v) || !whole_number(v, 64, 1L << 30, &n))
-        return usage("--max-memory expects megabytes, a whole number of at least 64");
-      o.max_memory_mb = uint64_t(n);
-    } else if (a == "--retry-failed") {
-      o.retry_failed = true;
-    } else if (a == "--slurm") {
-      use_slurm = true;
-    } else if (a == "--partition") {
-      if (!value(&slurm.partition) || slurm.partition.empty())
-        return usage("--partition needs a name");
-    } else if (a == "--tasks") {
-      if (!value(&v) || !whole_number(v, 1, 100000, &n))
-        return usage("--tasks expects a whole number from 1 to 100000");
-      slurm.tasks = int(n);
-    } else if (a == "--throttle") {
-      if (!value(&v) || !whole_number(v, 1, 100000, &n))
-        return usage("--throttle expects a whole number from 1 to 100000");
-      slurm.throttle = int(n);
-    } else if (a == "--cpus-per-task") {
-      if (!value(&v) || !whole_number(v, 1, 1024, &n))
-        return usage("--cpus-per-task expects a whole number from 1 to 1024");
-      slurm.cpus_per_task = int(n);
-    } else if (a == "--wait") {
-      slurm.wait = true;
-    } else if (a == "--slurm-task") {  // inside the job array (batch_slurm.h)
-      if (!value(&plan_path)) return usage("--slurm-task needs the plan");
-      slurm_task = true;
-    } else if (a == "--slurm-summary") {
-      if (!value(&plan_path)) return usage("--slurm-summary needs the plan");
-      slurm_summary = true;
-    } else if (a == "--array-job") {
-      if (!value(&array_job)) return usage("--array-job needs a job id");
-    } else if (std::find(std::begin(kPlainFlags), std::end(kPlainFlags), a) !=
-               std::end(kPlainFlags)) {
-      o.convert_args.push_back(a);
-    } else if (std::find(std::begin(kValueFlags), std::end(kValueFlags), a) !=
-               std::end(kValueFlags)) {
-      if (!value(&v)) return usage(a + " needs a value");
-      o.convert_args.insert(o.convert_args.end(), {a, v});
-    } else if (!a.empty() && a[0] == '-') {
-      return usage("unknown option " + a);
-    } else if (list.empty()) {
-      list = a;
-    } else {
-      return usage("more than one LIST given ('" + list + "' and '" + a + "')");
-    }
-  }
-  if (slurm_task) return run_slurm_task(plan_path);
-  if (slurm_summary) return run_slurm_summary(plan_path, array_job);
-  if (list.empty()) return usage("no LIST given (a text file of input paths, or a folder)");
-  if (outroot.empty()) return usage("no output given (-o OUTROOT)");
-  if (use_slurm && jobs_given)
-    return usage("--jobs is for the local pool; on Slurm use --cpus-per-task");
-  if (!use_slurm && (slurm.wait || !slurm.partition.empty() || slurm.tasks))
-    return usage("--wait, --partition and --tasks need --slurm");
-
-  install_stop_handlers();
-  const auto t0 = std::chrono::steady_clock::now();
-  outroot = fs::absolute(outroot).lexically_normal().string();
-  while (outroot.size() > 1 && outroot.back() == '/') outroot.pop_back();
-  if (Status s = check_outroot(outroot); !s)
-    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
-  o.outroot = outroot;
-  o.state_dir = outroot + "/.meshmux-batch";
-  o.exe = self_executable();
-  std::error_code ec;
-  fs::create_directories(o.state_dir + "/records", ec);
-  fs::create_directories(o.state_dir + "/logs", ec);
-  if (ec)
-    return std::fprintf(stderr, "meshmux: batch: %s: cannot write: %s\n", o.state_dir.c_str(),
-                        ec.message().c_str()),
-           kOutput;
-  // One batch at a time per OUTROOT (the lock goes with the process, even on kill -9).
-  const int lock = open((o.state_dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (lock < 0 || flock(lock, LOCK_EX | LOCK_NB) != 0)
-    return std::fprintf(stderr, "meshmux: batch: %s: another meshmux batch is running on it\n",
-                        outroot.c_str()),
-           kOutput;
-  // The fingerprint has the options that decide the outputs: a default memory limit (which
-  // depends on --jobs and the machine) only decides whether a conversion fits, and a failure
-  // over the limit is retried anyway.
-  o.fingerprint = options_fingerprint(o.convert_args, o.max_memory_mb, MESHMUX_VERSION);
-  if (o.max_memory_mb == 0 && !use_slurm)
-    o.max_memory_mb = std::max<uint64_t>(2048, physical_memory_mb() / uint64_t(o.jobs));
-  if (Status s = check_no_running_slurm_batch(o.state_dir); !s)
-    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
-
-  auto inputs = read_batch_inputs(list, outroot);
-  if (!inputs.ok())
-    return std::fprintf(stderr, "meshmux: %s\n", inputs.status().message().c_str()), 2;
-  if (inputs->empty())
-    return std::fprintf(stderr, "meshmux: batch: %s: no inputs (.gltf, .glb, .dae) in it\n",
-                        list.c_str()),
-           2;
-  const std::vector<std::string> names = batch_names(*inputs);
-  std::vector<BatchItem> items(inputs->size());
-  std::vector<BatchItem> todo;
-  std::vector<std::string> reused;
-  for (size_t i = 0; i < items.size(); ++i) {
-    if (stop_requested())
-      return std::fprintf(stderr, "meshmux: batch: interrupted before any conversion\n"),
-             kInterrupted;
-    items[i].input = (*inputs)[i];
-    items[i].name = names[i];
-    fingerprint_input(&items[i]);
-    // Temporaries of a killed earlier run, beside this input's output and record.
-    clean_stale_temporaries(outroot + "/" + items[i].name);
-    clean_stale_temporaries(record_path(o.state_dir, items[i].name));
-    auto rec = read_record(o.state_dir, items[i].name);
-    if (rec && record_is_final(*rec, items[i], o.fingerprint, outroot, o.retry_failed))
-      reused.push_back(items[i].name);
-    else
-      todo.push_back(items[i]);
-  }
-  clean_stale_temporaries(outroot + "/batch.json");
-  clean_stale_temporaries(outroot + "/index.html");
-  clean_stale_temporaries(o.state_dir + "/plan.json");
-  if (!o.quiet)
-    std::fprintf(stderr,
-                 "meshmux: batch: %zu inputs: %zu to convert, %zu done by an earlier run%s\n",
-                 items.size(), todo.size(), reused.size(),
-                 use_slurm ? "" : (", " + std::to_string(o.jobs) + " at once").c_str());
-
-  if (use_slurm) return submit_slurm_batch(items, todo, reused, o, slurm);
-
-  PoolResult r = run_pool(todo, o, reused.size(), items.size());
-  BatchSummaryInfo info;
-  info.mode = "local";
-  info.convert_args = o.convert_args;
-  info.fingerprint = o.fingerprint;
-  info.skipped = reused;
-  info.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!r.usage_error.empty())
-    info.missing_default = "not converted: the batch stopped on a usage error: " + r.usage_error;
-  auto counts = write_batch_summary(outroot, o.state_dir, items, info);
-  if (!counts.ok())
-    return std::fprintf(stderr, "meshmux: %s\n", counts.status().message().c_str()), kOutput;
-  if (!r.usage_error.empty()) return usage("the conversions refused the options: " + r.usage_error);
-  if (!o.quiet)
-    std::fprintf(stderr,
-                 "meshmux: batch: %zu inputs: %zu converted (%zu with warnings, %zu from an "
-                 "earlier run), %zu failed, %zu not converted in %.1f s; wrote %s/index.html\n",
-                 counts->inputs, counts->ok, counts->with_warnings, counts->reused, counts->failed,
-                 counts->not_converted, info.seconds, outroot.c_str());
-  if (r.interrupted) return kInterrupted;
-  return counts->failed + counts->not_converted ? kSomeFailed : kOk;
+  auto p = parse_args(kBatch, args);
+  if (!p.ok()) return usage_error(kBatch, p.status().message());
+  if (p->help) return print_batch_usage(), kExitOk;
+  // Inside a Slurm job: one task's share of the plan, or the summary after the array.
+  if (p->has("--slurm-task")) return run_slurm_task(p->text("--slurm-task"));
+  if (p->has("--slurm-summary"))
+    return run_slurm_summary(p->text("--slurm-summary"), p->text("--array-job"));
+  BatchRequest r;
+  r.version = MESHMUX_VERSION;
+  if (p->positional.empty())
+    return usage_error(kBatch, "no LIST given (a text file of input paths, or a folder)");
+  r.list = p->positional[0];
+  r.outroot = p->text("--output");
+  if (r.outroot.empty()) return usage_error(kBatch, "no output given (-o OUTROOT)");
+  r.use_slurm = p->has("--slurm");
+  if (r.use_slurm && p->has("--jobs"))
+    return usage_error(kBatch, "--jobs is for the local pool; on Slurm use --cpus-per-task");
+  BatchOptions& o = r.options;
+  o.jobs = int(p->whole("--jobs", std::max(1L, sysconf(_SC_NPROCESSORS_ONLN))));
+  o.timeout_seconds = double(p->whole("--timeout", 1800));
+  o.max_memory_mb = uint64_t(p->whole("--max-memory", 0));
+  o.retry_failed = p->has("--retry-failed");
+  o.quiet = p->has("--quiet");
+  o.convert_args = p->convert_args();
+  SlurmOptions& s = r.slurm;
+  s.partition = p->text("--partition");
+  s.tasks = int(p->whole("--tasks", 0));
+  s.throttle = int(p->whole("--throttle", s.throttle));
+  s.cpus_per_task = int(p->whole("--cpus-per-task", s.cpus_per_task));
+  s.wait = p->has("--wait");
+  if (!r.use_slurm && (s.wait || !s.partition.empty() || s.tasks))
+    return usage_error(kBatch, "--wait, --partition and --tasks need --slurm");
+  return run_batch(r);
 }
 
 }  // namespace meshmux

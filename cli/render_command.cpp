@@ -1,8 +1,11 @@
-// meshmux render (see render_command.h). Output: PNG (RGBA, background transparent) or Netpbm
+// meshmux render IN -o OUT.png: IN drawn offscreen as the web viewer draws it (exit 5 without
+// offscreen OpenGL). Output: PNG (RGBA, background transparent) or Netpbm
 // PAM (P7, TUPLTYPE RGB_ALPHA: a header a few lines long and the raw top-to-bottom RGBA rows,
 // trivial for test harnesses to read), chosen by the extension. Written through a temporary
 // name and renamed when complete.
-#include "cli/render_command.h"
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "core/exit_codes.h"
 
 #include <cmath>
 #include <cstdio>
@@ -38,24 +41,7 @@ const char* kRenderUsage =
     "  --near N --far F    clip planes (default: from the model's bounds)\n"
     "  -q, --quiet         no messages on stderr\n";
 
-int usage_error(const std::string& message) {
-  std::fprintf(stderr, "meshmux: render: %s\n(see meshmux render --help)\n", message.c_str());
-  return 1;
-}
-
-int fail(const Status& s) {
-  std::fprintf(stderr, "meshmux: render: %s\n", s.message().c_str());
-  switch (s.kind()) {
-    case ErrorKind::kInput:
-      return 2;
-    case ErrorKind::kOutput:
-      return 3;
-    case ErrorKind::kUnavailable:
-      return 5;  // no offscreen OpenGL here
-    default:
-      return 4;
-  }
-}
+int fail(const Status& s) { return print_error(s.with_prefix("render")); }
 
 bool parse_number(const std::string& text, double* out) {
   if (text.empty()) return false;
@@ -100,62 +86,32 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }  // namespace
 
 int cmd_render(const std::vector<std::string>& args) {
-  std::string in, out;
+  auto p = parse_args(kRender, args);
+  if (!p.ok()) return usage_error(kRender, p.status().message());
+  if (p->help) return std::fputs(kRenderUsage, stdout), kExitOk;
+  const std::string in = p->positional.empty() ? "" : p->positional[0];
+  const std::string out = p->text("--output");
+  const bool quiet = p->has("--quiet");
+  const std::string shading_name = p->text("--shading", "physical");
+  if (shading_name != "physical" && shading_name != "lambert")
+    return usage_error(kRender, "--shading expects physical or lambert");
+  const Shading shading = shading_name == "physical" ? Shading::kPhysical : Shading::kLambert;
   int width = 512, height = 512;
-  bool quiet = false, have_eye = false, have_target = false, have_up = false;
-  bool have_near = false, have_far = false;
+  if (p->has("--size") && !parse_size(p->text("--size"), &width, &height))
+    return usage_error(kRender, "--size expects WxH between 1 and 8192, e.g. 512x512");
   Vec3 eye, target, up{0, 1, 0};
-  double fov = 45, near_plane = 0, far_plane = 0;
-  Shading shading = Shading::kPhysical;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](std::string* v) {
-      if (i + 1 >= args.size()) return false;
-      *v = args[++i];
-      return true;
-    };
-    std::string v;
-    if (a == "-h" || a == "--help") {
-      std::fputs(kRenderUsage, stdout);
-      return 0;
-    } else if (a == "-q" || a == "--quiet") {
-      quiet = true;
-    } else if (a == "--shading") {
-      if (!value(&v) || (v != "physical" && v != "lambert"))
-        return usage_error("--shading expects physical or lambert");
-      shading = v == "physical" ? Shading::kPhysical : Shading::kLambert;
-    } else if (a == "-o" || a == "--output") {
-      if (!value(&out)) return usage_error(a + " needs a file name");
-    } else if (a == "--size") {
-      if (!value(&v) || !parse_size(v, &width, &height))
-        return usage_error("--size expects WxH between 1 and 8192, e.g. 512x512");
-    } else if (a == "--eye" || a == "--target" || a == "--up") {
-      Vec3 p;
-      if (!value(&v) || !parse_vec3(v, &p)) return usage_error(a + " expects X,Y,Z numbers");
-      if (a == "--eye") eye = p, have_eye = true;
-      if (a == "--target") target = p, have_target = true;
-      if (a == "--up") up = p, have_up = true;
-    } else if (a == "--fov") {
-      if (!value(&v) || !parse_number(v, &fov) || fov <= 0 || fov >= 180)
-        return usage_error("--fov expects degrees between 0 and 180");
-    } else if (a == "--near" || a == "--far") {
-      double d = 0;
-      if (!value(&v) || !parse_number(v, &d) || d <= 0)
-        return usage_error(a + " expects a positive number");
-      if (a == "--near") near_plane = d, have_near = true;
-      if (a == "--far") far_plane = d, have_far = true;
-    } else if (!a.empty() && a[0] == '-') {
-      return usage_error("unknown option " + a);
-    } else if (!in.empty()) {
-      return usage_error("more than one input given ('" + in + "' and '" + a + "')");
-    } else {
-      in = a;
-    }
-  }
-  if (in.empty()) return usage_error("no input given (meshmux render IN -o OUT.png)");
-  if (out.empty()) return usage_error("no output given (-o OUT.png or OUT.pam)");
+  const bool have_eye = p->has("--eye"), have_target = p->has("--target");
+  for (auto [flag, point] : {std::pair<const char*, Vec3*>{"--eye", &eye},
+                             {"--target", &target}, {"--up", &up}})
+    if (p->has(flag) && !parse_vec3(p->text(flag), point))
+      return usage_error(kRender, std::string(flag) + " expects X,Y,Z numbers");
+  const double fov = p->number("--fov", 45);
+  const bool have_near = p->has("--near"), have_far = p->has("--far");
+  const double near_plane = p->number("--near", 0), far_plane = p->number("--far", 0);
+  if (in.empty()) return usage_error(kRender, "no input given (meshmux render IN -o OUT.png)");
+  if (out.empty()) return usage_error(kRender, "no output given (-o OUT.png or OUT.pam)");
   if (!ends_with(out, ".png") && !ends_with(out, ".pam"))
-    return usage_error(out + ": the output must end in .png or .pam");
+    return usage_error(kRender, out + ": the output must end in .png or .pam");
 
   Warnings warnings;
   auto scene = import_scene(in, ImportOptions{}, &warnings);
@@ -173,7 +129,7 @@ int cmd_render(const std::vector<std::string>& args) {
   Camera cam = camera_for(normalize(vo.direction), bounds, aspect, vo);
   if (have_eye) cam.eye = eye;
   if (have_target) cam.target = target;
-  if (have_up) cam.up = up;
+  if (p->has("--up")) cam.up = up;
   cam.fov_y_degrees = float(fov);
   if (have_eye || have_target) {  // planes around the model as seen from the given eye
     double r = 0.5 * double(bounds.diagonal()), d = double(length(bounds.center() - cam.eye));
@@ -184,7 +140,7 @@ int cmd_render(const std::vector<std::string>& args) {
   }
   if (have_near) cam.near_plane = float(near_plane);
   if (have_far) cam.far_plane = float(far_plane);
-  if (!(cam.far_plane > cam.near_plane)) return usage_error("--far must exceed --near");
+  if (!(cam.far_plane > cam.near_plane)) return usage_error(kRender, "--far must exceed --near");
 
   RenderOptions ro = physical_shading();
   ro.shading = shading;
@@ -220,7 +176,7 @@ int cmd_render(const std::vector<std::string>& args) {
                  out.c_str(), img.width, img.height, covered, cam.eye.x, cam.eye.y, cam.eye.z,
                  cam.target.x, cam.target.y, cam.target.z, double(cam.fov_y_degrees),
                  double(cam.near_plane), double(cam.far_plane));
-  return 0;
+  return kExitOk;
 }
 
 }  // namespace meshmux

@@ -1,7 +1,7 @@
-// `meshmux serve DIR`: a small static HTTP server for a converted output folder, so the
+// meshmux serve as a library: a small static HTTP server for a converted output folder, so the
 // browser viewer can stream it (GET, HEAD, single Range requests, CORS preflight).
 //
-// Connections: httplib accepts, then hands every socket to the ConnectionGate (serve_gate.h),
+// Connections: httplib accepts, then hands every socket to the ConnectionGate (serve/gate.h),
 // which waits on one epoll thread for a complete request header (≤ 16 KiB, within 10 s, at
 // most 256 connections per client address) before a worker serves it with httplib's request
 // processing; kept-alive connections return to the gate between requests. Idle and slow
@@ -18,7 +18,27 @@
 // the request's parsed ranges before httplib's post-processing sees them and writes the 206 or
 // 416 response itself. A request with several ranges gets the whole file (200), which RFC 9110
 // allows.
-#include "cli/serve.h"
+// `meshmux serve DIR`: a small static HTTP server for a converted output folder, so the
+// browser viewer can stream it (GET, HEAD, single Range requests, CORS preflight).
+//
+// Connections: httplib accepts, then hands every socket to the ConnectionGate (serve/gate.h),
+// which waits on one epoll thread for a complete request header (≤ 16 KiB, within 10 s, at
+// most 256 connections per client address) before a worker serves it with httplib's request
+// processing; kept-alive connections return to the gate between requests. Idle and slow
+// clients therefore never hold a worker.
+//
+// Every request goes through one pre-routing handler. Paths are decoded once (by httplib) and
+// refused with 403 when they could leave DIR: "..", backslash, NUL, an absolute path, a '%'
+// escape still left after the one decoding (double encoding), or a canonical file outside the
+// canonical DIR (symbolic links included).
+//
+// Ranges are answered here, not by httplib: cpp-httplib 0.11 neither clamps a range that runs
+// past the end of the content (its Content-Range then names bytes that do not exist) nor
+// answers a range that starts past the end with a correct 416. The handler therefore clears
+// the request's parsed ranges before httplib's post-processing sees them and writes the 206 or
+// 416 response itself. A request with several ranges gets the whole file (200), which RFC 9110
+// allows.
+#include "serve/server.h"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -45,63 +65,14 @@
 #include <thread>
 #include <vector>
 
-#include "cli/serve_gate.h"
-#include "cli/text.h"
+#include "core/text.h"
+#include "serve/gate.h"
+#include "serve/http.h"
 
 namespace meshmux {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr int kExitOk = 0;
-constexpr int kExitUsage = 1;
-constexpr int kExitOutput = 3;
-
-const char* kServeUsage =
-    "usage: meshmux serve DIR [--port P] [--host H] [--cors] [-q]\n"
-    "  serves the files under DIR over HTTP (GET, HEAD, Range requests) for the viewer;\n"
-    "  files and folders whose names start with '.' are never served\n"
-    "  --port P   TCP port, 0 picks a free one (default 8080)\n"
-    "  --host H   address to listen on (default 127.0.0.1, loopback only; any other address\n"
-    "             is reachable by other machines: a warning says so)\n"
-    "  --cors     allow pages from any origin to fetch the files\n"
-    "             (Access-Control-Allow-Origin: *; off by default)\n"
-    "  -q         do not log requests on stderr\n";
-
-int usage_error(const std::string& message) {
-  std::fprintf(stderr, "meshmux: serve: %s\n(see meshmux --help)\n", message.c_str());
-  return kExitUsage;
-}
-
-// File name extension → Content-Type.
-std::string content_type_for(const fs::path& file) {
-  std::string ext = file.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return char(std::tolower(c)); });
-  struct Entry {
-    const char* ext;
-    const char* type;
-  };
-  static const Entry kTypes[] = {
-      {".glb", "model/gltf-binary"},
-      {".gltf", "model/gltf+json"},
-      {".json", "application/json"},
-      {".svg", "image/svg+xml"},
-      {".html", "text/html; charset=utf-8"},
-      {".htm", "text/html; charset=utf-8"},
-      {".js", "text/javascript"},
-      {".mjs", "text/javascript"},
-      {".css", "text/css"},
-      {".png", "image/png"},
-      {".jpg", "image/jpeg"},
-      {".jpeg", "image/jpeg"},
-      {".mmxp", "application/octet-stream"},
-      {".wasm", "application/wasm"},
-  };
-  for (const Entry& e : kTypes)
-    if (ext == e.ext) return e.type;
-  return "application/octet-stream";
-}
 
 bool is_hex(char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; }
 
@@ -248,7 +219,7 @@ class Site {
     if (open->fd < 0 || ::fstat(open->fd, &st) != 0 || !S_ISREG(st.st_mode))
       return set_text(res, 403, "403 forbidden");
     uint64_t size = uint64_t(st.st_size);
-    const std::string type = content_type_for(file);
+    const std::string type = content_type_for(file.string());
 
     // A whole-file request that accepts brotli or gzip gets the file's precompressed sibling
     // (FILE.br, FILE.gz: convert writes them for the viewer) with Content-Encoding; ranges
@@ -258,8 +229,8 @@ class Site {
     if (has_br || has_gz) res.set_header("Vary", "Accept-Encoding");
     if (ranges.empty()) {
       const std::string accept = req.get_header_value("Accept-Encoding");
-      const char* pick = has_br && accepts(accept, "br")     ? "br"
-                         : has_gz && accepts(accept, "gzip") ? "gzip"
+      const char* pick = has_br && accepts_encoding(accept, "br")     ? "br"
+                         : has_gz && accepts_encoding(accept, "gzip") ? "gzip"
                                                              : nullptr;
       if (pick) {
         const fs::path sibling = file.string() + (pick[0] == 'b' ? ".br" : ".gz");
@@ -275,9 +246,8 @@ class Site {
     // Validators (RFC 9110 §8.8): the ETag names the bytes sent (size, modification time and
     // encoding), Last-Modified the file's time; a request holding either gets 304 and no body
     // when nothing changed, so a repeat visit costs headers only.
-    const std::string etag = "\"" + hex(size) + "-" + hex(uint64_t(st.st_mtim.tv_sec)) + "." +
-                             hex(uint64_t(st.st_mtim.tv_nsec)) +
-                             (encoding.empty() ? "" : "-" + encoding) + "\"";
+    const std::string etag =
+        entity_tag(size, int64_t(st.st_mtim.tv_sec), int64_t(st.st_mtim.tv_nsec), encoding);
     res.set_header("ETag", etag);
     res.set_header("Last-Modified", http_date(st.st_mtim.tv_sec));
     // A versioned folder (convert writes three.js under viewer/three-r<release>/) never changes
@@ -286,19 +256,19 @@ class Site {
       res.headers.erase("Cache-Control");  // the server's default, no-cache
       res.set_header("Cache-Control", "public, max-age=31536000, immutable");
     }
-    if (not_modified(req, etag, st.st_mtim.tv_sec)) {
+    if (not_modified(header(req, "If-None-Match"), header(req, "If-Modified-Since"), etag,
+                     st.st_mtim.tv_sec)) {
       res.status = 304;
       return;
     }
 
     // Only a single range is answered with 206; several ranges, or an If-Range naming another
     // version (its ETag, or a date other than Last-Modified), get the whole file.
-    const std::string if_range = req.get_header_value("If-Range");
     const bool range_valid =
-        !req.has_header("If-Range") || if_range == etag || if_range == http_date(st.st_mtim.tv_sec);
+        range_is_current(header(req, "If-Range"), etag, http_date(st.st_mtim.tv_sec));
     if (ranges.size() == 1 && range_valid) {
       uint64_t first = 0, last = 0;
-      if (!satisfiable(ranges[0], size, &first, &last)) {
+      if (!satisfiable({int64_t(ranges[0].first), int64_t(ranges[0].second)}, size, &first, &last)) {
         res.status = 416;
         res.set_header("Content-Range", "bytes */" + std::to_string(size));
         return;
@@ -313,117 +283,15 @@ class Site {
     set_file_body(res, open, 0, size, type);
   }
 
-  // Whether a request path lies in a folder named NAME-rDIGITS (a release-versioned folder).
-  static bool versioned_path(const std::string& path) {
-    for (size_t at = 0; (at = path.find("-r", at)) != std::string::npos; at += 2) {
-      size_t end = at + 2;
-      while (end < path.size() && std::isdigit(static_cast<unsigned char>(path[end]))) ++end;
-      if (end > at + 2 && end < path.size() && path[end] == '/') return true;
-    }
-    return false;
+  // A request header's value, or nullptr when it is absent (the pointer lives with `req`).
+  static const std::string* header(const httplib::Request& req, const char* name) {
+    auto it = req.headers.find(name);
+    return it == req.headers.end() ? nullptr : &it->second;
   }
 
   static bool regular_sibling(const fs::path& file, const char* suffix) {
     struct stat st;
     return ::stat((file.string() + suffix).c_str(), &st) == 0 && S_ISREG(st.st_mode);
-  }
-
-  // Whether an Accept-Encoding value lists `coding` without q=0.
-  static bool accepts(const std::string& header, const std::string& coding) {
-    size_t at = 0;
-    while (at < header.size()) {
-      size_t end = header.find(',', at);
-      if (end == std::string::npos) end = header.size();
-      std::string item = header.substr(at, end - at);
-      at = end + 1;
-      const size_t semi = item.find(';');
-      std::string name = item.substr(0, semi),
-                  params = semi == std::string::npos ? "" : item.substr(semi);
-      name.erase(0, name.find_first_not_of(" \t"));
-      name.erase(name.find_last_not_of(" \t") + 1);
-      if (name != coding) continue;
-      params.erase(std::remove(params.begin(), params.end(), ' '), params.end());
-      const size_t q = params.find("q=");
-      return q == std::string::npos || std::strtod(params.c_str() + q + 2, nullptr) > 0;
-    }
-    return false;
-  }
-
-  static std::string hex(uint64_t v) {
-    char buf[24];
-    std::snprintf(buf, sizeof buf, "%llx", static_cast<unsigned long long>(v));
-    return buf;
-  }
-
-  // An IMF-fixdate ("Sun, 06 Nov 1994 08:49:37 GMT"), in English whatever the locale.
-  static std::string http_date(time_t t) {
-    static const char* const days[] = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
-    static const char* const months[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
-                                         "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
-    struct tm g;
-    gmtime_r(&t, &g);
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%s, %02d %s %04d %02d:%02d:%02d GMT", days[g.tm_wday],
-                  g.tm_mday, months[g.tm_mon], g.tm_year + 1900, g.tm_hour, g.tm_min, g.tm_sec);
-    return buf;
-  }
-
-  // The time an IMF-fixdate names, or -1.
-  static time_t parse_http_date(const std::string& s) {
-    static const char* const months[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
-                                         "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
-    char wday[4], mon[4];
-    struct tm g {};
-    if (std::sscanf(s.c_str(), "%3[A-Za-z], %d %3s %d %d:%d:%d GMT", wday, &g.tm_mday, mon,
-                    &g.tm_year, &g.tm_hour, &g.tm_min, &g.tm_sec) != 7)
-      return -1;
-    g.tm_mon = -1;
-    for (int i = 0; i < 12; ++i)
-      if (std::strcmp(mon, months[i]) == 0) g.tm_mon = i;
-    if (g.tm_mon < 0) return -1;
-    g.tm_year -= 1900;
-    return timegm(&g);
-  }
-
-  // RFC 9110 §13.1: If-None-Match (a list of entity tags, or *) decides when present; else
-  // If-Modified-Since, to the second.
-  static bool not_modified(const httplib::Request& req, const std::string& etag, time_t mtime) {
-    if (req.has_header("If-None-Match")) {
-      const std::string list = req.get_header_value("If-None-Match");
-      if (list.find('*') != std::string::npos) return true;
-      // Weak comparison: W/"x" matches "x".
-      for (size_t at = list.find('"'); at != std::string::npos; at = list.find('"', at)) {
-        const size_t end = list.find('"', at + 1);
-        if (end == std::string::npos) break;
-        if (list.compare(at, end - at + 1, etag) == 0) return true;
-        at = end + 1;
-      }
-      return false;
-    }
-    if (req.has_header("If-Modified-Since")) {
-      const time_t since = parse_http_date(req.get_header_value("If-Modified-Since"));
-      return since >= 0 && mtime <= since;
-    }
-    return false;
-  }
-
-  // One parsed range (first, last; -1 for a missing end) against the file size: the bytes to
-  // send, clamped to the file, or false when none of them exists.
-  static bool satisfiable(const std::pair<ssize_t, ssize_t>& r, uint64_t size, uint64_t* first,
-                          uint64_t* last) {
-    if (size == 0) return false;
-    if (r.first < 0) {  // suffix: the last r.second bytes
-      if (r.second <= 0) return false;
-      uint64_t n = std::min<uint64_t>(uint64_t(r.second), size);
-      *first = size - n;
-      *last = size - 1;
-      return true;
-    }
-    if (uint64_t(r.first) >= size) return false;
-    if (r.second >= 0 && r.second < r.first) return false;
-    *first = uint64_t(r.first);
-    *last = r.second < 0 ? size - 1 : std::min<uint64_t>(uint64_t(r.second), size - 1);
-    return true;
   }
 
   void serve_listing(const httplib::Request& req, httplib::Response& res,
@@ -455,16 +323,6 @@ class Site {
   std::string root_str_, prefix_;
   bool quiet_;
 };
-
-bool parse_port(const std::string& text, int* port) {
-  if (text.empty() || text.size() > 5) return false;
-  for (char c : text)
-    if (c < '0' || c > '9') return false;
-  long v = std::strtol(text.c_str(), nullptr, 10);
-  if (v < 0 || v > 65535) return false;
-  *port = int(v);
-  return true;
-}
 
 std::string url_host(const std::string& host) {
   return host.find(':') != std::string::npos ? "[" + host + "]" : host;
@@ -543,7 +401,7 @@ class GateStream : public httplib::Stream {
 };
 
 // httplib's server with its connection handling replaced: accepted sockets go to the
-// ConnectionGate (serve_gate.h), which calls serve_one() on a worker once a complete header
+// ConnectionGate (serve/gate.h), which calls serve_one() on a worker once a complete header
 // has arrived; httplib still parses requests and writes responses.
 class GatedServer : public httplib::Server {
  public:
@@ -571,43 +429,8 @@ class GatedServer : public httplib::Server {
 
 }  // namespace
 
-int cmd_serve(const std::vector<std::string>& args) {
-  std::string dir, host = "127.0.0.1";
-  int port = 8080;
-  bool quiet = false, cors = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kServeUsage, stdout);
-      return kExitOk;
-    } else if (a == "-q" || a == "--quiet") {
-      quiet = true;
-    } else if (a == "--cors") {
-      cors = true;
-    } else if (a == "--port" || a == "--host") {
-      if (i + 1 >= args.size()) return usage_error(a + " needs a value");
-      const std::string& v = args[++i];
-      if (a == "--host") {
-        if (v.empty()) return usage_error("--host needs a non-empty address");
-        host = v;
-      } else if (!parse_port(v, &port)) {
-        return usage_error("--port expects a whole number from 0 to 65535, got '" + v + "'");
-      }
-    } else if (!a.empty() && a[0] == '-') {
-      return usage_error("unknown option " + a);
-    } else if (!dir.empty()) {
-      return usage_error("more than one folder given ('" + dir + "' and '" + a + "')");
-    } else {
-      dir = a;
-    }
-  }
-  if (dir.empty()) return usage_error("no folder given (meshmux serve DIR)");
-  std::error_code ec;
-  if (!fs::exists(dir, ec)) return usage_error(dir + ": no such folder");
-  if (!fs::is_directory(dir, ec)) return usage_error(dir + ": not a folder");
-  fs::path root = fs::canonical(dir, ec);
-  if (ec) return usage_error(dir + ": " + ec.message());
-
+Status serve_folder(const ServeOptions& o) {
+  const fs::path root = o.root;
   // SIGINT and SIGTERM are taken by one waiting thread (blocked everywhere else, including
   // httplib's worker threads, which inherit this mask), which stops the server. They stay
   // blocked afterwards: the process is about to exit.
@@ -618,12 +441,12 @@ int cmd_serve(const std::vector<std::string>& args) {
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 
-  Site site(root, quiet);
+  Site site(root, o.quiet);
   GatedServer svr;
   ConnectionGate gate(GateOptions{}, [&svr](int fd) { return svr.serve_one(fd); });
   svr.set_gate(&gate);
   httplib::Headers defaults = {{"Cache-Control", "no-cache"}};
-  if (cors) {
+  if (o.cors) {
     defaults.emplace("Access-Control-Allow-Origin", "*");
     defaults.emplace("Access-Control-Expose-Headers",
                      "Content-Range, Content-Length, Accept-Ranges");
@@ -645,6 +468,8 @@ int cmd_serve(const std::vector<std::string>& args) {
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
 
+  const std::string& host = o.host;
+  int port = o.port;
   std::string address = url_host(host) + ":" + std::to_string(port);
   errno = 0;
   if (port == 0) {
@@ -659,9 +484,9 @@ int cmd_serve(const std::vector<std::string>& args) {
   if (port >= 0) svr.raise_backlog();
   if (port < 0) {
     int err = errno;
-    std::fprintf(stderr, "meshmux: serve: cannot listen on %s%s%s\n", address.c_str(),
-                 err ? ": " : "", err ? std::strerror(err) : "");
-    return kExitOutput;
+    return Status::error("serve: cannot listen on " + address +
+                             (err ? std::string(": ") + std::strerror(err) : std::string()),
+                         ErrorKind::kOutput);
   }
 
   if (host != "127.0.0.1" && host != "::1" && host != "localhost")
@@ -690,12 +515,12 @@ int cmd_serve(const std::vector<std::string>& args) {
   if (!got_signal) pthread_kill(waiter.native_handle(), SIGTERM);
   waiter.join();
   if (got_signal) {
-    if (!quiet) std::fprintf(stderr, "meshmux: serve: stopped\n");
-    return kExitOk;
+    if (!o.quiet) std::fprintf(stderr, "meshmux: serve: stopped\n");
+    return Status::ok();
   }
-  std::fprintf(stderr, "meshmux: serve: the server on %s:%d stopped unexpectedly%s\n",
-               url_host(host).c_str(), port, ok ? "" : " (listen failed)");
-  return kExitOutput;
+  return Status::error("serve: the server on " + url_host(host) + ":" + std::to_string(port) +
+                           " stopped unexpectedly" + (ok ? "" : " (listen failed)"),
+                       ErrorKind::kOutput);
 }
 
 }  // namespace meshmux

@@ -1,6 +1,6 @@
 // The end of a batch: OUTROOT/batch.json and OUTROOT/index.html, listing every input of the
 // batch (in list order) with its status, error line, time, bytes in and out and a link to its
-// viewer, from the records the conversions left (batch_plan.h). An input without a record is
+// viewer, from the records the conversions left (batch/plan.h). An input without a record is
 // listed as not converted, with the reason the caller knows (interrupted, a Slurm task that
 // ended early), so nothing is lost from the summary.
 #pragma once
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/batch_plan.h"
+#include "batch/plan.h"
 
 namespace meshmux {
 

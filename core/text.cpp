@@ -1,5 +1,5 @@
 // Text helpers (see text.h).
-#include "cli/text.h"
+#include "core/text.h"
 
 #include <cctype>
 #include <cstdio>

@@ -1,5 +1,5 @@
-// meshmux batch on Slurm: plan, job array, dependent summary job (see batch_slurm.h).
-#include "cli/batch_slurm.h"
+// meshmux batch on Slurm: plan, job array, dependent summary job (see batch/slurm.h).
+#include "batch/slurm.h"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -15,8 +15,9 @@
 #include <sstream>
 #include <thread>
 
-#include "cli/batch_process.h"
-#include "cli/batch_summary.h"
+#include "batch/process.h"
+#include "batch/summary.h"
+#include "core/exit_codes.h"
 #include "core/file_io.h"
 
 namespace meshmux {
@@ -24,8 +25,6 @@ namespace meshmux {
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr int kOk = 0, kSomeFailed = 2, kOutput = 3, kUnavailable = 5;
 
 std::string plan_file(const std::string& state_dir) { return state_dir + "/plan.json"; }
 
@@ -233,25 +232,25 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
     info.skipped = reused;
     auto counts = write_batch_summary(options.outroot, options.state_dir, all, info);
     if (!counts.ok())
-      return std::fprintf(stderr, "meshmux: %s\n", counts.status().message().c_str()), kOutput;
+      return print_error(counts.status(), kExitOutput);
     if (!options.quiet)
       std::fprintf(stderr,
                    "meshmux: batch: every input was converted by an earlier run; "
                    "wrote %s/index.html\n",
                    options.outroot.c_str());
-    return counts->failed + counts->not_converted ? kSomeFailed : kOk;
+    return counts->failed + counts->not_converted ? kExitSomeFailed : kExitOk;
   }
   plan.tasks = slurm.tasks > 0 ? slurm.tasks : int(std::min<size_t>(plan.todo.size(), 1000));
   plan.tasks = int(std::min<size_t>(size_t(plan.tasks), plan.todo.size()));
   if (Status s = write_plan(plan); !s)
-    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
+    return print_error(s, kExitOutput);
 
   const std::string exe = sh_quote(options.exe), pf = sh_quote(plan_file(options.state_dir));
   const std::string task_sh = slurm_dir + "/task.sh", summary_sh = slurm_dir + "/summary.sh";
   if (Status s = write_script(task_sh, "# meshmux batch: one task of the job array\nexec " + exe +
                                            " batch --slurm-task " + pf + "\n");
       !s)
-    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
+    return print_error(s, kExitOutput);
 
   std::vector<std::string> common;
   if (!slurm.partition.empty()) common.push_back("--partition=" + slurm.partition);
@@ -268,7 +267,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
   array_args.push_back(task_sh);
   auto array_id = sbatch(array_args);
   if (!array_id.ok())
-    return std::fprintf(stderr, "meshmux: %s\n", array_id.status().message().c_str()), kUnavailable;
+    return print_error(array_id.status(), kExitUnavailable);
 
   if (Status s = write_script(summary_sh,
                               "# meshmux batch: the summary, after the job array\n"
@@ -276,7 +275,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                                   exe + " batch --slurm-summary " + pf + " --array-job " +
                                   *array_id + "\n");
       !s)
-    return std::fprintf(stderr, "meshmux: %s\n", s.message().c_str()), kOutput;
+    return print_error(s, kExitOutput);
   std::vector<std::string> summary_args = common;
   summary_args.insert(summary_args.end(),
                       {"--job-name=meshmux-batch-summary", "--dependency=afterany:" + *array_id,
@@ -287,7 +286,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
     (void)run_command({"scancel", *array_id}, 60);
     std::fprintf(stderr, "meshmux: %s (job array %s cancelled)\n",
                  summary_id.status().message().c_str(), array_id->c_str());
-    return kUnavailable;
+    return kExitUnavailable;
   }
   {
     nlohmann::ordered_json jobs = {{"array_job", *array_id}, {"summary_job", *summary_id}};
@@ -302,7 +301,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                  array_id->c_str(), plan.tasks, std::max(1, slurm.throttle), plan.todo.size(),
                  reused.size(), summary_id->c_str(), options.outroot.c_str(), array_id->c_str(),
                  summary_id->c_str(), slurm_dir.c_str());
-  if (!slurm.wait) return kOk;
+  if (!slurm.wait) return kExitOk;
 
   // Waits for the summary job; progress from the records written since submission.
   size_t shown = size_t(-1);
@@ -333,7 +332,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                  "see %s/summary.log\n",
                  summary_id->c_str(), state.empty() ? "(state unknown)" : state.c_str(),
                  options.outroot.c_str(), slurm_dir.c_str());
-    return kUnavailable;
+    return kExitUnavailable;
   }
   const auto& c = doc["counts"];
   if (!options.quiet)
@@ -342,12 +341,12 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                  "%d not converted; wrote %s/index.html\n",
                  c.value("inputs", 0), c.value("ok", 0), c.value("reused", 0), c.value("failed", 0),
                  c.value("not_converted", 0), options.outroot.c_str());
-  return c.value("failed", 0) + c.value("not_converted", 0) ? kSomeFailed : kOk;
+  return c.value("failed", 0) + c.value("not_converted", 0) ? kExitSomeFailed : kExitOk;
 }
 
 int run_slurm_task(const std::string& plan_path) {
   auto plan = read_plan(plan_path);
-  if (!plan.ok()) return std::fprintf(stderr, "meshmux: %s\n", plan.status().message().c_str()), 2;
+  if (!plan.ok()) return print_error(plan.status(), kExitInput);
   const char* id_text = std::getenv("SLURM_ARRAY_TASK_ID");
   if (!id_text)
     return std::fprintf(stderr,
@@ -366,12 +365,12 @@ int run_slurm_task(const std::string& plan_path) {
                plan->tasks, share.size(), o.jobs);
   PoolResult r = run_pool(share, o, 0, share.size());
   if (!r.usage_error.empty()) std::fprintf(stderr, "meshmux: batch: %s\n", r.usage_error.c_str());
-  return r.failed || r.interrupted || !r.usage_error.empty() ? kSomeFailed : kOk;
+  return r.failed || r.interrupted || !r.usage_error.empty() ? kExitSomeFailed : kExitOk;
 }
 
 int run_slurm_summary(const std::string& plan_path, const std::string& array_job) {
   auto plan = read_plan(plan_path);
-  if (!plan.ok()) return std::fprintf(stderr, "meshmux: %s\n", plan.status().message().c_str()), 2;
+  if (!plan.ok()) return print_error(plan.status(), kExitInput);
   const auto states = array_states(array_job);
   BatchSummaryInfo info;
   info.mode = "slurm";
@@ -411,7 +410,7 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   auto counts =
       write_batch_summary(plan->options.outroot, plan->options.state_dir, plan->items, info);
   if (!counts.ok())
-    return std::fprintf(stderr, "meshmux: %s\n", counts.status().message().c_str()), kOutput;
+    return print_error(counts.status(), kExitOutput);
   std::fprintf(stderr,
                "meshmux: batch: %zu inputs: %zu converted (%zu from an earlier run), %zu failed, "
                "%zu not converted\n",
@@ -419,7 +418,7 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   for (const auto& [task, st] : states)
     std::fprintf(stderr, "meshmux: batch: task %s_%d %s exit %s\n", array_job.c_str(), task,
                  st.state.c_str(), st.exit.c_str());
-  return counts->failed + counts->not_converted ? kSomeFailed : kOk;
+  return counts->failed + counts->not_converted ? kExitSomeFailed : kExitOk;
 }
 
 }  // namespace meshmux

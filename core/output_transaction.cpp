@@ -1,5 +1,5 @@
 // Output as a transaction (see output_transaction.h).
-#include "cli/output_transaction.h"
+#include "core/output_transaction.h"
 
 #include <fcntl.h>
 #include <signal.h>

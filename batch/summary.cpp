@@ -1,5 +1,5 @@
-// batch.json and index.html of meshmux batch (see batch_summary.h).
-#include "cli/batch_summary.h"
+// batch.json and index.html of meshmux batch (see batch/summary.h).
+#include "batch/summary.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "cli/text.h"
+#include "core/text.h"
 #include "core/file_io.h"
 
 #ifndef MESHMUX_VERSION

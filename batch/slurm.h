@@ -1,7 +1,7 @@
 // `meshmux batch --slurm`: the batch as one Slurm job array. The submitting run writes the
 // plan (OUTROOT/.meshmux-batch/plan.json: every input, the ones left to convert, the options
 // and limits), submits `sbatch --array=0-(T-1)%K` whose task i converts the inputs i, i+T,
-// i+2T... of that list with the local pool (batch_pool.h: the same per-file limits), then a
+// i+2T... of that list with the local pool (batch/pool.h: the same per-file limits), then a
 // job that depends on the whole array (afterany) and writes batch.json and index.html, listing
 // an input whose task ended before converting it with that task's Slurm state. OUTROOT, the
 // inputs and the meshmux executable must be at the same paths on every node (shared storage).
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/batch_pool.h"
+#include "batch/pool.h"
 
 namespace meshmux {
 

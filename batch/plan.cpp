@@ -1,5 +1,5 @@
-// The inputs, names, fingerprints and records of meshmux batch (see batch_plan.h).
-#include "cli/batch_plan.h"
+// The inputs, names, fingerprints and records of meshmux batch (see batch/plan.h).
+#include "batch/plan.h"
 
 #include <algorithm>
 #include <cctype>

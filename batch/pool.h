@@ -1,7 +1,7 @@
 // The local pool of `meshmux batch`: each input converts in its own `meshmux convert` process
 // (at most `jobs` at once), under a wall-time limit (the process group is killed) and a memory
 // limit (convert's --max-memory: RLIMIT_DATA), so one bad upload cannot take the batch down.
-// Each finished conversion leaves a record (batch_plan.h) at once, so a batch killed at any
+// Each finished conversion leaves a record (batch/plan.h) at once, so a batch killed at any
 // point resumes where it stopped. Used by a local batch and by each task of a Slurm array.
 #pragma once
 
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/batch_plan.h"
+#include "batch/plan.h"
 
 namespace meshmux {
 

@@ -1,5 +1,5 @@
-// Child processes for meshmux batch (see batch_process.h).
-#include "cli/batch_process.h"
+// Child processes for meshmux batch (see batch/process.h).
+#include "batch/process.h"
 
 #include <fcntl.h>
 #include <signal.h>

@@ -1,6 +1,6 @@
-// The connection gate (see serve_gate.h): one epoll thread waits for complete request headers
+// The connection gate (see serve/gate.h): one epoll thread waits for complete request headers
 // (peeked, not consumed: the worker's HTTP parser reads them), a small pool serves them.
-#include "cli/serve_gate.h"
+#include "serve/gate.h"
 
 #include <arpa/inet.h>
 #include <fcntl.h>

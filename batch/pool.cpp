@@ -1,7 +1,7 @@
-// The local process pool of meshmux batch (see batch_pool.h). The source system of paper 000
+// The local process pool of meshmux batch (see batch/pool.h). The source system of paper 000
 // ran its converter behind a task queue, one worker process per upload; this is that worker
 // model on one machine, with per-upload limits and a record per finished upload.
-#include "cli/batch_pool.h"
+#include "batch/pool.h"
 
 #include <signal.h>
 #include <sys/wait.h>
@@ -16,9 +16,9 @@
 #include <sstream>
 #include <thread>
 
-#include "cli/batch_process.h"
-#include "cli/output_transaction.h"
-#include "cli/text.h"
+#include "batch/process.h"
+#include "core/output_transaction.h"
+#include "core/text.h"
 
 namespace meshmux {
 

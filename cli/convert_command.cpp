@@ -1,0 +1,64 @@
+// meshmux convert IN -o OUT: the upload opened, the pipeline run (pipeline/convert.h), the
+// outputs written as one transaction (pipeline/outputs.h).
+#include <string>
+#include <vector>
+
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "core/exit_codes.h"
+#include "core/output_transaction.h"
+#include "core/stderr_progress.h"
+#include "pipeline/convert.h"
+#include "pipeline/inputs.h"
+#include "pipeline/outputs.h"
+
+namespace meshmux {
+
+namespace {
+
+// convert's own flags into the pipeline's options.
+ConvertOptions convert_options(const ParsedArgs& p) {
+  ConvertOptions o;
+  o.gltf.position_bits = int(p.whole("--position-bits", o.gltf.position_bits));
+  o.gltf.normal_bits = int(p.whole("--normal-bits", o.gltf.normal_bits));
+  o.gltf.uv_bits = int(p.whole("--uv-bits", o.gltf.uv_bits));
+  o.textures.jpeg_quality = int(p.whole("--jpeg-quality", o.textures.jpeg_quality));
+  if (p.has("--crease")) o.clean.crease_angle_degrees = float(p.whole("--crease", 60));
+  if (p.has("--no-draco")) o.gltf.draco = false;
+  if (p.has("--no-atlas")) o.atlas = false;
+  if (p.has("--no-report")) o.report = false;
+  return o;
+}
+
+}  // namespace
+
+int cmd_convert(const std::vector<std::string>& args) {
+  auto p = parse_args(kConvert, args);
+  if (!p.ok()) return usage_error(kConvert, p.status().message());
+  if (p->help) return std::fputs(meshmux_usage(), stdout), kExitOk;
+  if (p->positional.empty()) return usage_error(kConvert, "no input file given");
+  const std::string in = p->positional[0], out = p->text("--output");
+  if (out.empty()) return usage_error(kConvert, "no output given (-o OUT.glb or -o FOLDER)");
+  ConvertOptions o = convert_options(*p);
+  UploadFlags u = upload_flags(*p);
+  o.stream = !has_extension(out, ".glb");
+  if (Status s = refuse_overwriting_input(in, out, o.stream); !s) return print_error(s);
+  clean_stale_temporaries(out);
+  auto upload = open_input(in, u.upload, out, &u.import);
+  if (!upload.ok()) return print_error(upload.status());
+  apply_memory_limit(upload->model(), u.import, u.max_memory_mb);
+  Warnings warnings;
+  StderrProgress progress(p->has("--quiet"), &warnings);
+  progress.step("importing " + upload->display());
+  auto scene = import_scene(upload->model(), u.import, &warnings);
+  if (!scene.ok()) return progress.flush(), print_error(scene.status());
+  auto r = convert(*scene, o, &warnings, &progress);
+  progress.flush();
+  if (!r.ok()) return print_error(r.status());
+  if (Status s = write_outputs(out, o.stream, *r, progress); !s) return print_error(s);
+  progress.step("wrote " + out + " (" + std::to_string(r->output.scene_triangles) +
+                " triangles, " + std::to_string(r->output.draw_calls) + " draw calls)");
+  return kExitOk;
+}
+
+}  // namespace meshmux
