@@ -1,9 +1,8 @@
-// The atlas stage: paper 000 §4.2 (charts), §4.3 (parameterization and formula 2 sizing),
-// §4.4 (power-of-two-safe packing and baking). This file orchestrates; the steps live in
+// The atlas stage: Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of
+// 3D models for interactive metaverses" §4.2 (charts), §4.3 (parameterization and formula 2
+// sizing), §4.4 (power-of-two-safe packing and baking). This file orchestrates; the steps live in
 // charts, parameterize, pack and bake.
 #include "atlas/atlas.h"
-
-#include "atlas/kept.h"
 
 #include <algorithm>
 #include <chrono>
@@ -15,9 +14,10 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "atlas/kept.h"
 #include "atlas/source_atlas.h"
-#include "scene/dvec3.h"
 #include "core/parallel.h"
+#include "scene/dvec3.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -178,7 +178,7 @@ void name_channels(ChannelImages& c) {
   c.sheen.name = "atlas sheen";
 }
 
-// Which channels besides base colour the output needs as textures (issue 5/8): a channel some
+// Which channels besides base colour the output needs as textures: a channel some
 // material in use samples a texture for, or whose factors differ between the materials in use
 // (a metal part and a plastic one). Otherwise the factor they share is the output's.
 double primitive_area(const Primitive& p) {
@@ -380,16 +380,15 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
   it.target_texels = T;
   double pixels = referenced_pixels(scene);
   it.reference_texels = sum_src > 0 && pixels > 0 ? pixels : T;
-  // The bytes bound (issue 1/5: the atlas's encoded bytes ≤ 1.1× those of the sources it
+  // The bytes bound (the atlas's encoded bytes ≤ 1.1× those of the sources it
   // replaces). Σ A'_c counts the texels several charts reuse (mirrored halves, one decal on six
   // faces) once per use, and each use is a copy in the atlas that costs its bytes again, while
   // empty and dilated texels cost almost nothing: so the charts' own texels, not the atlas's,
   // stay within kReuseBound × the distinct source texels of a channel; charts keep their
   // native density wherever the sources are not reused that much.
   const double distinct = channel_pixels(scene);
-  it.reuse_scale = sum_src > distinct * kReuseBound && distinct > 0
-                       ? kReuseBound * distinct / sum_src
-                       : 1.0;
+  it.reuse_scale =
+      sum_src > distinct * kReuseBound && distinct > 0 ? kReuseBound * distinct / sum_src : 1.0;
   it.any_textured = sum_a > 0;
   std::map<std::array<uint32_t, 10>, size_t> flat_slot;
   it.chart_item.resize(charts.size());
@@ -434,7 +433,7 @@ Items size_charts(const Scene& scene, const std::vector<MeshView>& views, const 
   return it;
 }
 
-// Step 3, packing (paper 000 §4.4: "within a power of two of the target size"). The atlas is
+// Step 3, packing (Terrace et al. §4.4: "within a power of two of the target size"). The atlas is
 // W × W or W × W/2 (powers of two: every mip level of either keeps aligned cells apart); one
 // factor f scales every textured chart (keeping their proportions) and is searched as large as
 // still packs. The size is the smallest that packs every chart at f = 1 (each textured chart
@@ -508,7 +507,8 @@ Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const At
   double shrink = 1;
   size_t pick = 0;
   const int min_side = std::max(o.min_size, 1);
-  const bool native = std::find(it.item_native.begin(), it.item_native.end(), 1) != it.item_native.end();
+  const bool native =
+      std::find(it.item_native.begin(), it.item_native.end(), 1) != it.item_native.end();
   if (!it.any_textured) {
     // A palette of flat colours: the smallest size that holds the blocks.
     while (pick + 1 < sizes.size() && !fits(1, sizes[pick])) ++pick;
@@ -651,9 +651,9 @@ struct GroupKey {
   auto tied() const {
     return std::tie(transmission, alpha_mode, cutoff, double_sided, unlit, flat, ior, thickness,
                     attenuation_distance, attenuation_color.x, attenuation_color.y,
-                    attenuation_color.z, clearcoat, clearcoat_roughness, specular,
-                    specular_color.x, specular_color.y, specular_color.z, iridescence,
-                    iridescence_ior, iridescence_thickness);
+                    attenuation_color.z, clearcoat, clearcoat_roughness, specular, specular_color.x,
+                    specular_color.y, specular_color.z, iridescence, iridescence_ior,
+                    iridescence_thickness);
   }
   bool operator<(const GroupKey& o) const { return tied() < o.tied(); }
   bool operator==(const GroupKey& o) const { return !(*this < o) && !(o < *this); }
@@ -970,7 +970,7 @@ Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasR
       if (report) *report = std::move(rep);
       return out;
     }
-  // 1. Charts (paper 000 §4.2), flattened (§4.3).
+  // 1. Charts (Terrace et al. §4.2), flattened (§4.3).
   FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
   // 2. Sizes by formula 2.
   Items items = size_charts(scene, views, fc, o);
@@ -1055,10 +1055,11 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
-  const bool rest = std::any_of(split.rest.meshes.begin(), split.rest.meshes.end(), [](const Mesh& m) {
-    return std::any_of(m.primitives.begin(), m.primitives.end(),
-                       [](const Primitive& p) { return !p.indices.empty(); });
-  });
+  const bool rest =
+      std::any_of(split.rest.meshes.begin(), split.rest.meshes.end(), [](const Mesh& m) {
+        return std::any_of(m.primitives.begin(), m.primitives.end(),
+                           [](const Primitive& p) { return !p.indices.empty(); });
+      });
   if (rest) {
     auto atlased = build_atlas_core(split.rest, o, &rep, warnings);
     if (!atlased.ok()) return atlased.status();

@@ -1,16 +1,17 @@
-// One material, one texture (paper 000 §4.2–4.4): charts are segmented and parameterized,
-// each sized to keep the density of the source texels it samples (charts without source texels
-// by formula 2 within T = min(Σ source texture area the faces reference, max_size²)), packed
-// into the smallest W × W or W × W/2 texels that holds them (up to max_size) so no chart crosses
-// a power-of-two boundary, and baked from the source
-// materials; every mesh becomes one primitive with one uv set into the atlas and the single
-// material. Instancing is untouched (a shared mesh's charts are baked once). When every face
-// already samples one image inside [0, 1] (atlas/source_atlas.h), that image is the atlas and
-// the source uvs are kept: no charts, no resampling.
+// One material, one texture (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised
+// conversion of 3D models for interactive metaverses" §4.2–4.4): charts are segmented and
+// parameterized, each sized to keep the density of the source texels it samples (charts without
+// source texels by formula 2 within T = min(Σ source texture area the faces reference, max_size²)),
+// packed into the smallest W × W or W × W/2 texels that holds them (up to max_size) so no chart
+// crosses a power-of-two boundary, and baked from the source materials; every mesh becomes one
+// primitive with one uv set into the atlas and the single material. Instancing is untouched (a
+// shared mesh's charts are baked once). When every face already samples one image inside [0, 1]
+// (atlas/source_atlas.h), that image is the atlas and the source uvs are kept: no charts, no
+// resampling.
 //
 // The single material: base colour = the atlas (factors and vertex colours folded in), alpha
 // mode BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE;
-// double-sided if any source is. The physically based channels (issue 5/8) go through the same
+// double-sided if any source is. The physically based channels go through the same
 // charts: when a material in use samples a normal, occlusion, metallic-roughness or emissive
 // texture, or the materials' factors for a channel differ, that channel is baked into an image
 // of the atlas's size (Scene::images after the base colour: normal, occlusion-roughness-metallic
@@ -70,27 +71,27 @@ struct AtlasBytesRound {
 };
 
 struct AtlasReport {
-  bool built = false;           // false: the scene was returned unchanged
-  bool reused_source = false;   // the source's one texture is the atlas (no charts, no baking)
-  size_t kept_materials = 0;    // materials kept as they came beside the atlas (atlas/kept.h):
-  size_t tiled_materials = 0;   //   for a tiled texture,
-  size_t layer_materials = 0;   //   for layer or transmission textures or anisotropy,
+  bool built = false;               // false: the scene was returned unchanged
+  bool reused_source = false;       // the source's one texture is the atlas (no charts, no baking)
+  size_t kept_materials = 0;        // materials kept as they came beside the atlas (atlas/kept.h):
+  size_t tiled_materials = 0;       //   for a tiled texture,
+  size_t layer_materials = 0;       //   for layer or transmission textures or anisotropy,
   size_t texel_grid_materials = 0;  // for a sampler without mipmaps or NEAREST magnification
-  size_t charts = 0;            // textured charts after splitting invalid ones
-  size_t flat_colors = 0;       // distinct flat-colour blocks
-  size_t split = 0;             // charts split because they could not be flattened
-  int size = 0;                 // atlas width, texels
-  int height = 0;               // atlas height, texels (size or size / 2)
-  double reference_texels = 0;  // the base-colour texels the materials reference (T for
-                                // vertex colours), for comparison
-  double utilization = 0;       // packed texels / atlas texels
-  double reuse_scale = 1;       // the density the bytes bound leaves where charts reuse the
-                                // same source texels (1: none reused past 1.1×)
-  double min_density = 0;       // the least, over charts sampling source texels, of atlas
-                                // texels per source texel (≥ 1 unless max_size stopped it;
-                                // 0: no such chart, or the source's texture was kept)
-  double target_texels = 0;     // T of formula 2
-  double mean_stretch_l2 = 0;   // area-weighted over textured charts
+  size_t charts = 0;                // textured charts after splitting invalid ones
+  size_t flat_colors = 0;           // distinct flat-colour blocks
+  size_t split = 0;                 // charts split because they could not be flattened
+  int size = 0;                     // atlas width, texels
+  int height = 0;                   // atlas height, texels (size or size / 2)
+  double reference_texels = 0;      // the base-colour texels the materials reference (T for
+                                    // vertex colours), for comparison
+  double utilization = 0;           // packed texels / atlas texels
+  double reuse_scale = 1;           // the density the bytes bound leaves where charts reuse the
+                                    // same source texels (1: none reused past 1.1×)
+  double min_density = 0;           // the least, over charts sampling source texels, of atlas
+                                    // texels per source texel (≥ 1 unless max_size stopped it;
+                                    // 0: no such chart, or the source's texture was kept)
+  double target_texels = 0;         // T of formula 2
+  double mean_stretch_l2 = 0;       // area-weighted over textured charts
   double max_stretch_l2 = 0;
   double tangent_deviation_deg = 0;  // mean angle between dp/du and ∇u over the textured
                                      // charts (MikkTSpace's frame against the baked one)
@@ -111,7 +112,7 @@ struct AtlasReport {
   std::vector<PackRect> cell_size;
 };
 
-// `scene` must be clean (condition/clean). Errors only for internal failures.
+// `scene` must be clean (clean/clean.h). Errors only for internal failures.
 Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& options, AtlasReport* report,
                           Warnings* warnings);
 

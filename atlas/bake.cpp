@@ -1,14 +1,15 @@
 // Atlas baking (see bake.h).
 //
-// Reference implemented: paper 000 §4.4 (the atlas is filled by resampling the source
-// textures at each chart's place, with gutters so that filtering and mip levels stay clean).
-// Details as decided in DESIGN.md (Atlas):
+// Reference implemented: Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of
+// 3D models for interactive metaverses" §4.4 (the atlas is filled by resampling the source textures
+// at each chart's place, with gutters so that filtering and mip levels stay clean).
+// Details as decided in docs/ARCHITECTURE.md "Atlas":
 // - each chart face is rasterized in atlas texel space (texel (i, j) covers [i, i+1) × [j, j+1),
 //   centre (i + ½, j + ½)); a texel belongs to the face when its centre is inside the triangle,
 //   or, conservatively, within half a texel of it, so thin triangles still get texels. A texel
 //   claimed by several faces keeps the nearest one (centre inside beats centre outside; the
 //   first face in chart order wins ties);
-// - the colour of a texel is condition/material_sample's base colour at the surface point whose
+// - the colour of a texel is atlas/material_sample.h's base colour at the surface point whose
 //   barycentrics are those of the point of the triangle nearest to the sample (all uv sets and
 //   COLOR_0 interpolated), averaged over supersample² samples in linear light. Two passes: the
 //   first decides which face owns each texel (centre distance), the second samples colours; with
@@ -28,8 +29,8 @@
 
 #include "atlas/material_sample.h"
 #include "atlas/tangent_frame.h"
-#include "scene/dvec3.h"
 #include "core/parallel.h"
+#include "scene/dvec3.h"
 
 namespace meshmux {
 namespace {

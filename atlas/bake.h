@@ -1,13 +1,14 @@
-// Atlas baking (paper 000 §4.4): each chart's faces are rasterized at their place in the
+// Atlas baking (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D
+// models for interactive metaverses" §4.4): each chart's faces are rasterized at their place in the
 // atlas and every covered texel takes the base colour the original material shows at the
-// corresponding surface point (condition/material_sample: factor × vertex colour × texture,
-// bilinear, wrap and KHR_texture_transform honoured). Flat-colour charts fill their block with
-// their colour. Gutters are then filled by dilation (each empty texel next to filled ones takes
-// their average, ring by ring, `gutter` rings), so bilinear filtering and every mip level stay
-// clean at chart borders. Texels no chart reaches take the colour and alpha of the nearest
-// charts by dilation to convergence (opaque when no source uses alpha). The further channels
-// (BakeChannels) are sampled at the same surface points from the same source material
-// (condition/material_sample) and dilated alike (data channels averaged as stored).
+// corresponding surface point (atlas/material_sample.h: factor × vertex colour × texture, bilinear,
+// wrap and KHR_texture_transform honoured). Flat-colour charts fill their block with their colour.
+// Gutters are then filled by dilation (each empty texel next to filled ones takes their average,
+// ring by ring, `gutter` rings), so bilinear filtering and every mip level stay clean at chart
+// borders. Texels no chart reaches take the colour and alpha of the nearest charts by dilation to
+// convergence (opaque when no source uses alpha). The further channels (BakeChannels) are sampled
+// at the same surface points from the same source material (atlas/material_sample.h) and dilated
+// alike (data channels averaged as stored).
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,7 @@
 // Chart segmentation for the texture atlas.
-// - Paper 000 §4.2: every face starts as its own chart; adjacent charts merge greedily,
-//   cheapest first (priority queue); no merging of back-to-back twins; textured only with
+// - Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models for
+//   interactive metaverses" §4.2: every face starts as its own chart; adjacent charts merge
+//   greedily, cheapest first (priority queue); no merging of back-to-back twins; textured only with
 //   textured, flat colour only with the same colour; stop by formula 1,
 //   log(1 + E_current) / log(1 + E_max) ≥ stop_ratio.
 // - Garland, Willmott and Heckbert 2001 ("Hierarchical face clustering on polygonal surfaces")
@@ -8,7 +9,7 @@
 //   the merged chart (area-weighted mean squared distance to its least-squares plane, from
 //   per-chart moments merged in O(1)) plus a compactness term (perimeter² / (4π area) − 1).
 //
-// Product decisions beyond the papers (DESIGN.md "Atlas"):
+// Product decisions beyond the papers (docs/ARCHITECTURE.md "Atlas"):
 // - Planarity is divided by the mesh's bounding-box diagonal², so the costs and the stop rule
 //   do not depend on the model's units or size.
 // - Normal guard: a merge is refused when some face of the merged chart would face away from
@@ -598,7 +599,7 @@ ChartSet segment_charts(const Scene& scene, const ChartOptions& options) {
   out.face_chart.resize(scene.meshes.size());
   for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
     // A mesh whose every primitive is one flat colour needs no segmentation: its faces go to
-    // palette blocks by colour whatever their charts (issue 6/8: a CAD assembly in 7 colours
+    // palette blocks by colour whatever their charts (a CAD assembly in 7 colours
     // took seconds to chart). One chart per colour, ordered by first face, as segmentation
     // orders its charts.
     const Mesh& mesh = scene.meshes[m];

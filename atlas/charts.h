@@ -1,9 +1,10 @@
-// Chart segmentation for the texture atlas (paper 000 §4.2, after Garland, Willmott and
-// Heckbert 2001, "Hierarchical face clustering on polygonal surfaces"): every face starts as
-// its own chart; adjacent charts merge greedily, cheapest first, by a cost that adds the
-// planarity error of the merged chart (the fit plane's mean squared distance, area-weighted)
-// and its compactness (perimeter² / (4π area) − 1), so charts stay disc-like and flat enough to
-// flatten with little stretch. Merging stops at paper 000 formula 1,
+// Chart segmentation for the texture atlas (Terrace, Cheslack-Postava, Levis and Freedman,
+// "Unsupervised conversion of 3D models for interactive metaverses" §4.2, after Garland, Willmott
+// and Heckbert 2001, "Hierarchical face clustering on polygonal surfaces"): every face starts as
+// its own chart; adjacent charts merge greedily, cheapest first, by a cost that adds the planarity
+// error of the merged chart (the fit plane's mean squared distance, area-weighted) and its
+// compactness (perimeter² / (4π area) − 1), so charts stay disc-like and flat enough to flatten
+// with little stretch. Merging stops at Terrace et al. formula 1,
 // log(1 + E_current) / log(1 + E_max) ≥ 0.9, E_current the merge being made and E_max the
 // dearest merge still queued.
 //
@@ -43,7 +44,7 @@ struct Chart {
 };
 
 struct ChartOptions {
-  float stop_ratio = 0.9f;          // paper 000 formula 1 threshold
+  float stop_ratio = 0.9f;          // Terrace et al. formula 1 threshold
   float compactness_weight = 1.0f;  // weight of the compactness term against planarity
   uint32_t max_faces = 1u << 20;    // never grow a chart beyond this many faces
 };

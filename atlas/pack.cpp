@@ -1,10 +1,11 @@
 // Chart packing with no chart crossing a power-of-two boundary (see pack.h).
 //
-// Reference implemented: paper 000 §4.4 ("Packing Charts into Atlas"): charts are inserted in
-// decreasing order of size into a tree whose nodes are regions of the atlas; the tree is
-// traversed recursively (here: depth first, first fit, with an explicit stack) until a free
-// region holds the chart without it crossing a power-of-two boundary, and the chosen region is
-// split (guillotine cuts) into the placement and the remaining free space.
+// Reference implemented: Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of
+// 3D models for interactive metaverses" §4.4 ("Packing Charts into Atlas"): charts are inserted in
+// decreasing order of size into a tree whose nodes are regions of the atlas; the tree is traversed
+// recursively (here: depth first, first fit, with an explicit stack) until a free region holds the
+// chart without it crossing a power-of-two boundary, and the chosen region is split (guillotine
+// cuts) into the placement and the remaining free space.
 //
 // The boundary rule: a rectangle of largest side m, s = the power of two ≥ m, must lie inside one
 // cell of the aligned grid of spacing s (aligned cells nest, so it then lies inside one cell of

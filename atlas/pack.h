@@ -1,9 +1,10 @@
-// Chart packing (paper 000 §4.4): rectangles placed in decreasing size order into a square
-// power-of-two atlas such that no rectangle crosses a power-of-two boundary of the atlas (at
-// any level: a rectangle inside the atlas of size S, placed at (x, y) with size (w, h), lies
-// within one cell of the grid of spacing s for every power of two s ≥ its own rounded-up size),
-// so every mip level keeps charts apart. A tree of free regions is split as rectangles are
-// placed. Deterministic.
+// Chart packing (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D
+// models for interactive metaverses" §4.4): rectangles placed in decreasing size order into a
+// square power-of-two atlas such that no rectangle crosses a power-of-two boundary of the atlas (at
+// any level: a rectangle inside the atlas of size S, placed at (x, y) with size (w, h), lies within
+// one cell of the grid of spacing s for every power of two s ≥ its own rounded-up size), so every
+// mip level keeps charts apart. A tree of free regions is split as rectangles are placed.
+// Deterministic.
 #pragma once
 
 #include <cstdint>

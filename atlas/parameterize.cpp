@@ -1,5 +1,7 @@
 // Chart parameterization.
-// - Paper 000 §4.3: charts are parameterized by a texture-stretch optimization (after [7]);
+// - Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models for
+//   interactive metaverses" §4.3: charts are parameterized by a texture-stretch optimization
+//   (after Sander et al., below);
 //   single-colour charts map to one point.
 // - Lévy, Petitjean, Ray and Maillot 2002, "Least squares conformal maps" §3: the start. Per
 //   triangle, in its own orthonormal frame, the conformality residual ∇v − rot90(∇u) weighted

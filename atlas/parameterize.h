@@ -1,8 +1,9 @@
-// Chart parameterization (paper 000 §4.3, after Sander, Snyder, Gortler and Hoppe 2001,
-// "Texture mapping progressive meshes"): a conformal start by least-squares conformal maps
-// (Lévy et al. 2002; Eigen's sparse solver), then L2-stretch minimization by per-vertex line
-// search, with no triangle allowed to flip. The result is scaled so its uv area equals the
-// chart's 3D surface area (uv units = the mesh's length units), so sizes compare across charts.
+// Chart parameterization (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion
+// of 3D models for interactive metaverses" §4.3, after Sander, Snyder, Gortler and Hoppe 2001,
+// "Texture mapping progressive meshes"): a conformal start by least-squares conformal maps (Lévy
+// et al. 2002; Eigen's sparse solver), then L2-stretch minimization by per-vertex line search, with
+// no triangle allowed to flip. The result is scaled so its uv area equals the chart's 3D surface
+// area (uv units = the mesh's length units), so sizes compare across charts.
 // A flat-colour chart needs no parameterization: every corner maps to (0, 0), size (0, 0).
 // Charts that are not discs (several boundary loops, or closed) are still mapped: LSCM with two
 // pinned vertices handles them, possibly with overlap; `valid` reports whether any face flipped

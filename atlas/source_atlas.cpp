@@ -1,22 +1,22 @@
-// The source's own texture as the atlas (see source_atlas.h). Paper 000 §4.4 resamples source
-// textures into charts; this is the case where the source is already one chart set in one
-// image, so the resampling step is the identity and is skipped. Plain colours get aligned
-// blocks (paper 000 §4.4's power-of-two rule: an aligned 2^k block stays one colour down to
-// mip level k) where no textured face samples.
+// The source's own texture as the atlas (see source_atlas.h). Terrace, Cheslack-Postava, Levis and
+// Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.4 resamples source
+// textures into charts; this is the case where the source is already one chart set in one image, so
+// the resampling step is the identity and is skipped. Plain colours get aligned blocks (Terrace
+// et al. §4.4's power-of-two rule: an aligned 2^k block stays one colour down to mip level k) where
+// no textured face samples.
 #include "atlas/source_atlas.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "atlas/material_sample.h"
+#include "core/parallel.h"
 #include "image/color.h"
 #include "image/resize.h"
-#include "core/parallel.h"
 
 namespace meshmux {
 
 namespace {
-
 
 constexpr float kUvSlack = 1e-3f;  // uv units a coordinate may lie outside its unit cell
 constexpr double kMargin = 8;      // texels kept clear between textured faces and a block
@@ -134,8 +134,8 @@ void extend_last_row(std::vector<uint8_t>& rgba, size_t width, size_t rows, size
   if (rows == 0) return;
   const size_t row = width * 4;
   for (size_t y = rows; y < height; ++y)
-    std::copy(rgba.begin() + std::ptrdiff_t((rows - 1) * row), rgba.begin() + std::ptrdiff_t(rows * row),
-              rgba.begin() + std::ptrdiff_t(y * row));
+    std::copy(rgba.begin() + std::ptrdiff_t((rows - 1) * row),
+              rgba.begin() + std::ptrdiff_t(rows * row), rgba.begin() + std::ptrdiff_t(y * row));
 }
 
 }  // namespace

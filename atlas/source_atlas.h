@@ -1,13 +1,14 @@
-// The source's own texture as the atlas. Paper 000 §4.4 builds one atlas by resampling every
-// source texture into new charts; when every textured face of a scene already samples ONE image
-// through one uv set, face by face inside one unit cell of uv space (the common single-texture
-// model: a scan, a game or Sketchfab asset, a COLLADA vehicle whose glass and trim are plain
-// colours), that image already is an atlas. Resampling it through new charts only blurs it
-// (bilinear resampling is a low-pass filter: −18 dB unlit PSNR on DamagedHelmet against the
-// original in the fidelity harness) and inflates it (2048² became 4096²); it also changes what
-// the original's own mip levels show at its chart borders. So the atlas stage keeps the image
-// and the source uvs, with the base-colour factor folded into the pixels, and gives each plain
-// colour a block of texels the source does not use.
+// The source's own texture as the atlas. Terrace, Cheslack-Postava, Levis and Freedman,
+// "Unsupervised conversion of 3D models for interactive metaverses" §4.4 builds one atlas by
+// resampling every source texture into new charts; when every textured face of a scene already
+// samples ONE image through one uv set, face by face inside one unit cell of uv space (the common
+// single-texture model: a scan, a game or Sketchfab asset, a COLLADA vehicle whose glass and trim
+// are plain colours), that image already is an atlas. Resampling it through new charts only blurs
+// it (bilinear resampling is a low-pass filter: −18 dB unlit PSNR on DamagedHelmet against the
+// original in the fidelity harness) and inflates it (2048² became 4096²); it also changes what the
+// original's own mip levels show at its chart borders. So the atlas stage keeps the image and the
+// source uvs, with the base-colour factor folded into the pixels, and gives each plain colour a
+// block of texels the source does not use.
 #pragma once
 
 #include <cstdint>
@@ -39,7 +40,7 @@ struct SourceAtlas {
                                        // the default material)
 };
 
-// The further material channels an atlas image may carry (issue 5/8).
+// The further material channels an atlas image may carry.
 enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive, kSheen };
 
 // The kept image, when:
@@ -77,7 +78,7 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
 
 // A further channel as an image of the atlas's size: each texel of the source's part takes the
-// textured material's value at its centre (condition/material_sample: factors folded in), the
+// textured material's value at its centre (atlas/material_sample.h: factors folded in), the
 // appended half repeats the part's last row, each plain colour's block takes its material's
 // factors. Normal: the
 // source's map (normalized, scale folded; the uvs and so the tangent frame are the source's),

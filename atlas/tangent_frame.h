@@ -1,4 +1,4 @@
-// Tangent frames for baking normal maps into the atlas (issue 5/8). glTF viewers without a
+// Tangent frames for baking normal maps into the atlas. glTF viewers without a
 // TANGENT attribute build the frame from the uv derivatives; three.js does so per pixel
 // (normalmap_pars_fragment.glsl getTangentFrame: T and B are the surface gradients of u and v
 // projected on the shading normal's plane, both scaled by one factor so the longer is unit;

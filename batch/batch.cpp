@@ -57,8 +57,7 @@ int run_batch(const BatchRequest& r) {
   const auto t0 = std::chrono::steady_clock::now();
   std::string outroot = fs::absolute(r.outroot).lexically_normal().string();
   while (outroot.size() > 1 && outroot.back() == '/') outroot.pop_back();
-  if (Status s = check_outroot(outroot); !s)
-    return print_error(s, kExitOutput);
+  if (Status s = check_outroot(outroot); !s) return print_error(s, kExitOutput);
   o.outroot = outroot;
   o.state_dir = outroot + "/.meshmux-batch";
   o.exe = self_executable();
@@ -71,20 +70,18 @@ int run_batch(const BatchRequest& r) {
   // One batch at a time per OUTROOT (the lock goes with the process, even on kill -9).
   const int lock = open((o.state_dir + "/lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (lock < 0 || flock(lock, LOCK_EX | LOCK_NB) != 0)
-    return print_error(Status::error("batch: " + outroot + ": another meshmux batch is running on it",
-                                     ErrorKind::kOutput));
+    return print_error(Status::error(
+        "batch: " + outroot + ": another meshmux batch is running on it", ErrorKind::kOutput));
   // The fingerprint has the options that decide the outputs: a default memory limit (which
   // depends on --jobs and the machine) only decides whether a conversion fits, and a failure
   // over the limit is retried anyway.
   o.fingerprint = options_fingerprint(o.convert_args, o.max_memory_mb, r.version);
   if (o.max_memory_mb == 0 && !r.use_slurm)
     o.max_memory_mb = std::max<uint64_t>(2048, physical_memory_mb() / uint64_t(o.jobs));
-  if (Status s = check_no_running_slurm_batch(o.state_dir); !s)
-    return print_error(s, kExitOutput);
+  if (Status s = check_no_running_slurm_batch(o.state_dir); !s) return print_error(s, kExitOutput);
 
   auto inputs = read_batch_inputs(r.list, outroot);
-  if (!inputs.ok())
-    return print_error(inputs.status(), kExitInput);
+  if (!inputs.ok()) return print_error(inputs.status(), kExitInput);
   if (inputs->empty())
     return print_error(Status::error("batch: " + r.list + ": no inputs (.gltf, .glb, .dae) in it",
                                      ErrorKind::kInput));
@@ -94,8 +91,9 @@ int run_batch(const BatchRequest& r) {
   std::vector<std::string> reused;
   for (size_t i = 0; i < items.size(); ++i) {
     if (stop_requested())
-      return print_error(Status::error("batch: interrupted before any conversion", ErrorKind::kInput),
-                         kExitInterrupted);
+      return print_error(
+          Status::error("batch: interrupted before any conversion", ErrorKind::kInput),
+          kExitInterrupted);
     items[i].input = (*inputs)[i];
     items[i].name = names[i];
     fingerprint_input(&items[i]);
@@ -129,11 +127,12 @@ int run_batch(const BatchRequest& r) {
   if (!pool.usage_error.empty())
     info.missing_default = "not converted: the batch stopped on a usage error: " + pool.usage_error;
   auto counts = write_batch_summary(outroot, o.state_dir, items, info);
-  if (!counts.ok())
-    return print_error(counts.status(), kExitOutput);
+  if (!counts.ok()) return print_error(counts.status(), kExitOutput);
   if (!pool.usage_error.empty()) {
-    std::fprintf(stderr, "meshmux: batch: the conversions refused the options: %s\n(see meshmux batch --help)\n",
-                 pool.usage_error.c_str());
+    std::fprintf(
+        stderr,
+        "meshmux: batch: the conversions refused the options: %s\n(see meshmux batch --help)\n",
+        pool.usage_error.c_str());
     return kExitUsage;
   }
   if (!o.quiet)

@@ -13,10 +13,10 @@
 namespace meshmux {
 
 struct BatchRequest {
-  std::string list;     // a text file of upload paths, or a folder whose entries are uploads
-  std::string outroot;  // new, empty or an earlier batch's output
-  BatchOptions options;  // jobs, limits, convert_args, quiet (outroot, state_dir, exe and the
-                         // fingerprint are filled in by run_batch)
+  std::string list;        // a text file of upload paths, or a folder whose entries are uploads
+  std::string outroot;     // new, empty or an earlier batch's output
+  BatchOptions options;    // jobs, limits, convert_args, quiet (outroot, state_dir, exe and the
+                           // fingerprint are filled in by run_batch)
   bool use_slurm = false;  // submit to Slurm instead of the local pool
   SlurmOptions slurm;      // with use_slurm
   std::string version;     // meshmux's version, part of the options' fingerprint

@@ -190,7 +190,8 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
         if (it->is_symlink(e2)) continue;  // links to folders are not followed
         if (!skip_path.empty() && fs::weakly_canonical(p, e2) == skip_path) continue;
         inputs.push_back(absolute_path(p.string()));
-      } else if (it->is_regular_file(e2) && (is_model_file(p) || lower(p.extension().string()) == ".zip")) {
+      } else if (it->is_regular_file(e2) &&
+                 (is_model_file(p) || lower(p.extension().string()) == ".zip")) {
         inputs.push_back(absolute_path(p.string()));
       }
     }

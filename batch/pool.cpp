@@ -1,6 +1,7 @@
-// The local process pool of meshmux batch (see batch/pool.h). The source system of paper 000
-// ran its converter behind a task queue, one worker process per upload; this is that worker
-// model on one machine, with per-upload limits and a record per finished upload.
+// The local process pool of meshmux batch (see batch/pool.h). The source system of Terrace,
+// Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models for interactive
+// metaverses" ran its converter behind a task queue, one worker process per upload; this is that
+// worker model on one machine, with per-upload limits and a record per finished upload.
 #include "batch/pool.h"
 
 #include <signal.h>

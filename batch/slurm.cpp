@@ -204,6 +204,53 @@ Status check_no_running_slurm_batch(const std::string& state_dir) {
                        ErrorKind::kOutput);
 }
 
+// --wait: waits for the summary job `summary_id`, printing how many of the `todo` conversions
+// have left a record since submission, then reports batch.json's counts as a local batch does.
+// kExitUnavailable when the summary job ended without writing batch.json.
+static int wait_for_summary(const std::string& summary_id, size_t todo,
+                            const BatchOptions& options) {
+  size_t shown = size_t(-1);
+  const auto since = fs::file_time_type::clock::now() - std::chrono::seconds(1);
+  std::string state;
+  std::error_code ec;
+  const std::string slurm_dir = options.state_dir + "/slurm";
+  for (int misses = 0;;) {
+    state = job_state(summary_id);
+    if (terminal(state)) break;
+    if (state.empty() && ++misses > 30) break;  // gone from the controller: read the summary
+    if (!state.empty()) misses = 0;
+    size_t done = 0;
+    for (const auto& e : fs::directory_iterator(options.state_dir + "/records", ec))
+      if (e.path().extension() == ".json" && e.last_write_time(ec) >= since) ++done;
+    if (done != shown && !options.quiet) {
+      std::fprintf(stderr, "meshmux: batch: %zu/%zu converted or failed (summary job %s)\n", done,
+                   todo, state.c_str());
+      shown = done;
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  auto text = read_whole_file(options.outroot + "/batch.json");
+  auto doc = text.ok() ? nlohmann::json::parse(text->begin(), text->end(), nullptr, false)
+                       : nlohmann::json();
+  if (!doc.is_object() || !doc.contains("slurm") || !doc["slurm"].is_object() ||
+      doc["slurm"].value("summary_job", "") != summary_id) {
+    std::fprintf(stderr,
+                 "meshmux: batch: the summary job %s ended %s without writing %s/batch.json; "
+                 "see %s/summary.log\n",
+                 summary_id.c_str(), state.empty() ? "(state unknown)" : state.c_str(),
+                 options.outroot.c_str(), slurm_dir.c_str());
+    return kExitUnavailable;
+  }
+  const auto& c = doc["counts"];
+  if (!options.quiet)
+    std::fprintf(stderr,
+                 "meshmux: batch: %d inputs: %d converted (%d from an earlier run), %d failed, "
+                 "%d not converted; wrote %s/index.html\n",
+                 c.value("inputs", 0), c.value("ok", 0), c.value("reused", 0), c.value("failed", 0),
+                 c.value("not_converted", 0), options.outroot.c_str());
+  return c.value("failed", 0) + c.value("not_converted", 0) ? kExitSomeFailed : kExitOk;
+}
+
 int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<BatchItem>& todo,
                        const std::vector<std::string>& reused, const BatchOptions& options,
                        const SlurmOptions& slurm) {
@@ -231,8 +278,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
     info.fingerprint = options.fingerprint;
     info.skipped = reused;
     auto counts = write_batch_summary(options.outroot, options.state_dir, all, info);
-    if (!counts.ok())
-      return print_error(counts.status(), kExitOutput);
+    if (!counts.ok()) return print_error(counts.status(), kExitOutput);
     if (!options.quiet)
       std::fprintf(stderr,
                    "meshmux: batch: every input was converted by an earlier run; "
@@ -242,8 +288,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
   }
   plan.tasks = slurm.tasks > 0 ? slurm.tasks : int(std::min<size_t>(plan.todo.size(), 1000));
   plan.tasks = int(std::min<size_t>(size_t(plan.tasks), plan.todo.size()));
-  if (Status s = write_plan(plan); !s)
-    return print_error(s, kExitOutput);
+  if (Status s = write_plan(plan); !s) return print_error(s, kExitOutput);
 
   const std::string exe = sh_quote(options.exe), pf = sh_quote(plan_file(options.state_dir));
   const std::string task_sh = slurm_dir + "/task.sh", summary_sh = slurm_dir + "/summary.sh";
@@ -266,8 +311,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                          std::to_string(options.max_memory_mb * plan.options.jobs + 256));
   array_args.push_back(task_sh);
   auto array_id = sbatch(array_args);
-  if (!array_id.ok())
-    return print_error(array_id.status(), kExitUnavailable);
+  if (!array_id.ok()) return print_error(array_id.status(), kExitUnavailable);
 
   if (Status s = write_script(summary_sh,
                               "# meshmux batch: the summary, after the job array\n"
@@ -303,45 +347,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
                  summary_id->c_str(), slurm_dir.c_str());
   if (!slurm.wait) return kExitOk;
 
-  // Waits for the summary job; progress from the records written since submission.
-  size_t shown = size_t(-1);
-  const auto since = fs::file_time_type::clock::now() - std::chrono::seconds(1);
-  std::string state;
-  for (int misses = 0;;) {
-    state = job_state(*summary_id);
-    if (terminal(state)) break;
-    if (state.empty() && ++misses > 30) break;  // gone from the controller: read the summary
-    if (!state.empty()) misses = 0;
-    size_t done = 0;
-    for (const auto& e : fs::directory_iterator(options.state_dir + "/records", ec))
-      if (e.path().extension() == ".json" && e.last_write_time(ec) >= since) ++done;
-    if (done != shown && !options.quiet) {
-      std::fprintf(stderr, "meshmux: batch: %zu/%zu converted or failed (summary job %s)\n", done,
-                   plan.todo.size(), state.c_str());
-      shown = done;
-    }
-    std::this_thread::sleep_for(std::chrono::seconds(1));
-  }
-  auto text = read_whole_file(options.outroot + "/batch.json");
-  auto doc = text.ok() ? nlohmann::json::parse(text->begin(), text->end(), nullptr, false)
-                       : nlohmann::json();
-  if (!doc.is_object() || !doc.contains("slurm") || !doc["slurm"].is_object() ||
-      doc["slurm"].value("summary_job", "") != *summary_id) {
-    std::fprintf(stderr,
-                 "meshmux: batch: the summary job %s ended %s without writing %s/batch.json; "
-                 "see %s/summary.log\n",
-                 summary_id->c_str(), state.empty() ? "(state unknown)" : state.c_str(),
-                 options.outroot.c_str(), slurm_dir.c_str());
-    return kExitUnavailable;
-  }
-  const auto& c = doc["counts"];
-  if (!options.quiet)
-    std::fprintf(stderr,
-                 "meshmux: batch: %d inputs: %d converted (%d from an earlier run), %d failed, "
-                 "%d not converted; wrote %s/index.html\n",
-                 c.value("inputs", 0), c.value("ok", 0), c.value("reused", 0), c.value("failed", 0),
-                 c.value("not_converted", 0), options.outroot.c_str());
-  return c.value("failed", 0) + c.value("not_converted", 0) ? kExitSomeFailed : kExitOk;
+  return wait_for_summary(*summary_id, plan.todo.size(), options);
 }
 
 int run_slurm_task(const std::string& plan_path) {
@@ -409,8 +415,7 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   info.slurm_json = s.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   auto counts =
       write_batch_summary(plan->options.outroot, plan->options.state_dir, plan->items, info);
-  if (!counts.ok())
-    return print_error(counts.status(), kExitOutput);
+  if (!counts.ok()) return print_error(counts.status(), kExitOutput);
   std::fprintf(stderr,
                "meshmux: batch: %zu inputs: %zu converted (%zu from an earlier run), %zu failed, "
                "%zu not converted\n",

@@ -9,8 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "core/text.h"
 #include "core/file_io.h"
+#include "core/text.h"
 
 #ifndef MESHMUX_VERSION
 #define MESHMUX_VERSION "0.0.0"

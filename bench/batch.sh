@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 8/8's throughput figure: `meshmux batch` on the local pool against a sequential shell
+# The batch throughput figure: `meshmux batch` on the local pool against a sequential shell
 # loop of `meshmux convert` over the same list, back to back in one run, ratio printed; a
 # sequential `gltfpack -cc` loop over the list's .glb/.gltf inputs beside them for scale.
 # The list: every shared model plus the 20 broken copies of tests/cli/batch_shared_test.mjs

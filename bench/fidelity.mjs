@@ -1,23 +1,23 @@
-// Fidelity harness (DESIGN.md "Fidelity"): appearance of meshmux's output judged against the
-// ORIGINAL input by a renderer we did not write. For each model it runs `meshmux convert IN -o
+// Fidelity harness (docs/ARCHITECTURE.md "Fidelity"): appearance of meshmux's output judged against
+// the ORIGINAL input by a renderer we did not write. For each model it runs `meshmux convert IN -o
 // DIR --no-report`, then three.js (npm's, the version the viewer embeds) in Debian's headless
 // chromium loads the original (GLTFLoader with DRACOLoader and the meshopt decoder; ColladaLoader
-// for .dae), model.glb and base.glb, and renders each from the default camera and 4 more views,
-// lit (its MeshStandardMaterials under RoomEnvironment through PMREM) and unlit (base colour ×
-// alpha only). It reports PSNR over the pixels either image covers (all views' pixels pooled),
-// the share of surface area whose shading normal faces against its triangle's winding, and the
-// normal-map angular error: the mean angle between the shading normals three.js lights with
-// (normal maps applied) of the original and of model.glb, over the pixels both cover.
+// for .dae), model.glb and base.glb, and renders each from the default camera and 4 more views, lit
+// (its MeshStandardMaterials under RoomEnvironment through PMREM) and unlit (base colour × alpha
+// only). It reports PSNR over the pixels either image covers (all views' pixels pooled), the share
+// of surface area whose shading normal faces against its triangle's winding, and the normal-map
+// angular error: the mean angle between the shading normals three.js lights with (normal maps
+// applied) of the original and of model.glb, over the pixels both cover.
 //
 // usage: node bench/fidelity.mjs --meshmux BIN [--models DIR] [--work DIR] [--only NAME[,NAME]]
 //          [--json FILE] [--size 256] [--chromium /usr/bin/chromium] [--check] [--dump]
 //          [--require NAME[,NAME]] [--convert-args "--no-atlas ..."]
 //   (--dump also writes views-normals.png: the shading normals of original and model.glb, and
 //    views-normal-maps.png: the same with normal maps applied, and their angle, 8 levels per °)
-// --check: exit 1 unless every model meets the DESIGN.md targets the table prints as "met".
+// --check: exit 1 unless every model meets the targets (below) the table prints as "met".
 // Exit 77 when chromium or the models are missing (said on stderr).
 //
-// Corpus mode (the sweep, bench/sweep.sh; DESIGN.md "Targets", appearance and uploads):
+// Corpus mode (the sweep, bench/sweep.sh; docs/ARCHITECTURE.md "Targets", appearance and uploads):
 //        node bench/fidelity.mjs --corpus DIR [--work DIR] [--jobs 2] [--legacy-input]
 //          [--timeout 900] [--md FILE] [--tsv FILE] [--json FILE] [--only ...] [--require ...]
 // reads DIR/models.tsv and converts each model as an upload, `meshmux convert DIR/FOLDER --main
@@ -65,8 +65,8 @@ const jobs = Math.max(0, Number(opt('--jobs', '2')));
 const convertTimeout = Number(opt('--timeout', '900'));  // seconds per conversion; then killed
 // A page call that takes longer is a harness error (a hung loader must not stall the sweep).
 const pageTimeout = Number(opt('--page-timeout', '300'));
-// DESIGN.md "Targets": appearance ≥ 30 dB, unlit and lit (issue 5/8: lit too on every model,
-// with physically based maps or without); normals against winding ≤ 0.5% of the area.
+// docs/ARCHITECTURE.md "Targets": appearance ≥ 30 dB, unlit and lit (lit too on every model, with
+// physically based maps or without); normals against winding ≤ 0.5% of the area.
 const kMinUnlit = 30, kMinLit = 30, kMaxAgainst = 0.005;
 // The same table's corpus targets: unlit ≥ 30 dB, lit ≥ 28 dB (goal 30), IoU ≥ 0.99, normals
 // against winding ≤ the input's + 0.1% (of the area).
@@ -334,8 +334,8 @@ async function judge(originalUrl, out, { withBase, withNormalError }) {
   return result;
 }
 
-// The shared models (../shared/models): each converted without its report, judged with
-// base.glb and the normal-map error, against issue 5/8's thresholds; prints the table.
+// The shared models (../shared/models): each converted without its report, judged with base.glb and
+// the normal-map error, against the thresholds above; prints the table.
 async function sharedMode() {
   const rows = [];
   for (const m of models) {

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The fidelity table (DESIGN.md "Fidelity", issue 2/8): builds meshmux, then judges model.glb
+# The fidelity table (docs/ARCHITECTURE.md "Fidelity"): builds meshmux, then judges model.glb
 # and base.glb of every shared model against the original input, rendered by three.js in
 # Debian's headless chromium (bench/fidelity.mjs). Prints the table; --dump also writes the
 # views (build/fidelity/MODEL/views-*.png). Extra arguments go to bench/fidelity.mjs

@@ -2,7 +2,7 @@
 """Writes a generated instanced forest as a .glb: one tree mesh (a trunk cylinder and three
 stacked cones of foliage, with normals and a uv set, about `--tree-triangles` triangles) placed by
 `--side`² nodes on a grid with varied rotation, scale and jitter, and a ground grid with one node.
-Issue 6/8 times the conversion on it ("a generated instanced forest"): the case instance-aware
+bench/speed.sh times the conversion on it ("a generated instanced forest"): the case instance-aware
 simplification is for. Deterministic.
 
 usage: bench/generated_forest.py OUT.glb [--side 30] [--tree-triangles 2000]

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes a generated test mesh as a .glb: a sphere displaced by a few octaves of smooth bumps,
-with normals and a uv set, `--triangles` triangles (default 1,000,000), no texture. Issue 4/8
-and 6/8 measure the stream and the conversion on it ("a generated 1M-triangle mesh").
+with normals and a uv set, `--triangles` triangles (default 1,000,000), no texture.
+bench/stream_bytes.sh and bench/speed.sh measure the stream and the conversion on it ("a generated
+1M-triangle mesh").
 
 usage: bench/generated_mesh.py OUT.glb [--triangles N]
 """

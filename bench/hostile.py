@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Hostile uploads against `meshmux convert` (issue 3/8): generates each case of the issue in a
+"""Hostile uploads against `meshmux convert`: generates each hostile case below in a
 temporary folder, converts it with the default limits, and prints per case the exit code, the
 peak RSS (GNU time) and the last line meshmux printed. The targets: every case exits with one
 clear line (or converts, where the input is valid), with peak RSS <= 1 GB.

@@ -1,8 +1,9 @@
 // Multiplexer benchmark: the whole conversion (pipeline/convert: clean → atlas → texture levels →
-// progressive record → paper 004's multiplexing → package), on a generated
-// textured scene of ~112,000 triangles (the DESIGN.md "100k-triangle model" figure: target
-// ≤ 60 s on 2 cores) and on every textured shared model given on the command line. Prints the
-// four areas under the rendered distortion-vs-bytes curves and the gain over the best baseline.
+// progressive record → the multiplexing of Yang, Shen and Kuo, "Progressive coding of 3D textured
+// graphic model via joint mesh-texture optimization" → package), on a generated textured scene of
+// ~112,000 triangles (a 100k-triangle model: target ≤ 60 s on 2 cores) and on every textured shared
+// model given on the command line. Prints the four areas under the rendered distortion-vs-bytes
+// curves and the gain over the best baseline.
 // usage: meshmux_bench_multiplex [MODEL ...]
 #include <chrono>
 #include <cstdio>

@@ -2,8 +2,8 @@
 # Builds meshmux_bench_simplify and runs it: every model in ../shared/models and a generated
 # scene with one submesh instanced 400 times, simplified to 20% of the scene triangles by
 # meshmux, gltfpack -si 0.2 (Debian's binary) and meshopt_simplify side by side. Prints
-# markdown tables (time, triangles, .glb bytes, Hausdorff distance) and the DESIGN.md targets
-# as ratios. Progress goes to stderr.
+# markdown tables (time, triangles, .glb bytes, Hausdorff distance) and the targets of
+# docs/ARCHITECTURE.md "Targets" as ratios. Progress goes to stderr.
 # usage: bench/simplify.sh [BUILD_DIR] [-- BENCH_ARGS...]   e.g. bench/simplify.sh build -- --only Bunny
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)

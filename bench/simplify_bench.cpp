@@ -1,6 +1,7 @@
 // meshmux_bench_simplify: simplification to 20% of the scene triangles, side by side with the
-// peers, on every model of ../shared/models and on a generated scene with one submesh
-// instanced hundreds of times. Prints markdown tables and a summary of DESIGN.md's targets.
+// peers, on every model of ../shared/models and on a generated scene with one submesh instanced
+// hundreds of times. Prints markdown tables and a summary of the targets (docs/ARCHITECTURE.md
+// "Targets").
 //
 // Per model, in one run:
 // - meshmux: import_scene → clean → build_progressive → select_triangles(0.2 × scene tris) →
@@ -48,9 +49,9 @@
 #include "bench/instanced_scene.h"
 #include "clean/clean.h"
 #include "clean/flatten.h"
+#include "core/file_io.h"
 #include "exporters/gltf.h"
 #include "importers/import.h"
-#include "core/file_io.h"
 #include "scene/scene.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Issue 6/8's table: meshmux against gltfpack (Debian's binary), back to back on the same inputs
-# in one run, ratios printed. Inputs: every shared model over 50,000 scene triangles, the
+# The conversion-speed table: meshmux against gltfpack (Debian's binary), back to back on the same
+# inputs in one run, ratios printed. Inputs: every shared model over 50,000 scene triangles, the
 # generated 1M-triangle mesh (bench/generated_mesh.py) and a generated instanced forest
 # (bench/generated_forest.py), or the files named. Per input:
 #   folder conversion (`convert IN -o DIR`: model.glb, base.glb, the stream) vs `gltfpack -cc`

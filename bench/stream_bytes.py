@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Where the stream's bytes go, beside the plain download (issue 4/8's acceptance table).
+"""Where the stream's bytes go, beside the plain download.
 
 For each folder OUT written by `meshmux convert IN -o OUT` (model.glb + model.mmxp), prints:
 package and model.glb bytes and their ratio; the mesh part of the stream (the base's geometry +
@@ -65,7 +65,7 @@ def geometry_bytes(data):
     return out
 
 
-# glTF material slots and the atlas channel each fills (DESIGN.md "Atlas").
+# glTF material slots and the atlas channel each fills (docs/ARCHITECTURE.md "Atlas").
 SLOT_CHANNELS = (("baseColorTexture", "base_color"), ("normalTexture", "normal"),
                  ("occlusionTexture", "occlusion_roughness_metallic"),
                  ("metallicRoughnessTexture", "occlusion_roughness_metallic"),
@@ -147,8 +147,8 @@ for out in sys.argv[1:]:
     mesh_bytes = geometry_bytes(base_glb)
     base_mesh = len(zlib.compress(mesh_bytes, 9)) if base.get("deflated") else len(mesh_bytes)
     base_indices = sum(m.get("base_indices", {}).get("size", 0) for m in table["meshes"])
-    # The same base mesh and quantization through Draco: base.glb's geometry buffers (issue 4/8,
-    # deliver 2: the package's base mesh costs at most 1.2x that). JSON on neither side.
+    # The same base mesh and quantization through Draco: base.glb's geometry buffers (the target:
+    # the package's base mesh costs at most 1.2x that). JSON on neither side.
     base_draco = None
     if os.path.exists(os.path.join(out, "base.glb")):
         _, _, base_draco = glb_parts(open(os.path.join(out, "base.glb"), "rb").read())
@@ -190,7 +190,7 @@ for name, r in rows:
           f"{r['base']} | {r['base_draco'] if r['base_draco'] is not None else '–'} | "
           f"{ratio(r['base'], r['base_draco']) if r['base_draco'] else '–'} |")
 
-# Issue 5/8: what the maps beyond base colour cost, in model.glb and in the stream.
+# What the maps beyond base colour cost, in model.glb and in the stream.
 channels = ["base_color", "normal", "occlusion_roughness_metallic", "emissive"]
 textured = [(n, r) for n, r in rows if r and r["stream_channels"]]
 if textured:

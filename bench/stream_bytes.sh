@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Issue 4/8's table: converts every shared model (or the ones named; with none, also a generated
-# 1M-triangle mesh) into build/stream_bytes/
-# and prints where the stream's bytes go beside model.glb (bench/stream_bytes.py).
+# The stream-bytes table: converts every shared model (or the ones named; with none, also a
+# generated 1M-triangle mesh) into build/stream_bytes/ and prints where the stream's bytes go
+# beside model.glb (bench/stream_bytes.py).
 # usage: bench/stream_bytes.sh [BUILD_DIR] [MODEL ...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)

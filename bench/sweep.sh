@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# The corpus sweep (DESIGN.md "Targets": appearance and uploads on ../shared/corpus): builds
-# meshmux, then converts every corpus model as an upload (its folder, --main its main file) and
-# judges model.glb against the original with three.js (bench/fidelity.mjs --corpus): unlit ≥ 30
-# dB, lit ≥ 28 dB, coverage IoU ≥ 0.99, normals against winding ≤ the input's + 0.1%. Writes
-# BUILD/sweep/sweep.md (summary line, table, misses by cause), sweep.tsv and sweep.json, prints
-# the markdown and the total time. Two conversions (one thread each) run ahead of the judge:
+# The corpus sweep (docs/ARCHITECTURE.md "Targets": appearance and uploads on ../shared/corpus):
+# builds meshmux, then converts every corpus model as an upload (its folder, --main its main
+# file) and judges model.glb against the original with three.js (bench/fidelity.mjs --corpus):
+# unlit ≥ 30 dB, lit ≥ 28 dB, coverage IoU ≥ 0.99, normals against winding ≤ the input's + 0.1%.
+# Writes BUILD/sweep/sweep.md (summary line, table, misses by cause), sweep.tsv and sweep.json,
+# prints the markdown and the total time. Two conversions (one thread each) run ahead of the judge:
 # about 106 models in well under an hour on 2 cores. Extra arguments go to bench/fidelity.mjs
 # (e.g. --only Duck-glb,gazebo-bowl-dae, --require ..., --jobs 0, --legacy-input, --dump);
 # --no-build uses BUILD_DIR/meshmux as it is. Exit 77 when ../shared/corpus is absent.

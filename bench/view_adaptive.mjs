@@ -1,8 +1,8 @@
-// Issue 7/8's view-adaptive acceptance: for each converted folder's package with a per-view
-// table, and each sampled view v of its viewing sphere, the area under distortion-vs-bytes seen
-// from v (the table's measures from v) with the order the client plans for a camera at v
-// (viewers/web/view_plan.js) against the stored (global) order's. Prints a table and whether
-// every view's adapted area is at most the global one.
+// The view-adaptive check: for each converted folder's package with a per-view table, and each
+// sampled view v of its viewing sphere, the area under distortion-vs-bytes seen from v (the table's
+// measures from v) with the order the client plans for a camera at v (viewers/web/view_plan.js)
+// against the stored (global) order's. Prints a table and whether every view's adapted area is at
+// most the global one.
 //
 // usage: node bench/view_adaptive.mjs OUT [OUT ...]   (folders written by meshmux convert)
 import fs from 'node:fs';

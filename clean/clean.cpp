@@ -1,7 +1,8 @@
-// Clean and normalize: paper 000 §4.1 ("Cleaning and Normalizing"): unreferenced data,
-// duplicate and degenerate triangles removed, missing normals generated, vertex data scaled
-// to a uniform size for error normalization (kept as a factor here so output keeps the
-// author's units; DESIGN.md "Clean & normalize").
+// Clean and normalize: Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion
+// of 3D models for interactive metaverses" §4.1 ("Cleaning and Normalizing"): unreferenced data,
+// duplicate and degenerate triangles removed, missing normals generated, vertex data scaled to a
+// uniform size for error normalization (kept as a factor here so output keeps the author's
+// units; docs/ARCHITECTURE.md "Clean").
 #include "clean/clean.h"
 
 #include <algorithm>

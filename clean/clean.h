@@ -1,4 +1,5 @@
-// Clean and normalize (paper 000 §4.1): the first conditioning stage.
+// Clean and normalize (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion
+// of 3D models for interactive metaverses" §4.1): the first conditioning stage.
 //
 // Per primitive, in mesh space (instancing is untouched, so every instance stays clean):
 // 1. vertices whose attributes all agree bit for bit are welded into one;

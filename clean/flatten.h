@@ -1,8 +1,9 @@
-// Flattening: every instance expanded into world space as one mesh (paper 001 §4: below 1.75
-// instances per submesh, flatten-then-simplify beats instance-aware simplification; also the
-// peers' baseline in bench/simplify). One mesh per (material, vertex layout), each one
-// primitive with one identity instance; mirroring transforms get their winding flipped back so front faces stay
-// front. Materials, images and the normalization scale carry over. O(scene vertices).
+// Flattening: every instance expanded into world space as one mesh (Azim, Cheslack-Postava and
+// Levis, "Instance-aware simplification of 3D polygonal meshes" §4: below 1.75 instances per
+// submesh, flatten-then-simplify beats instance-aware simplification; also the peers' baseline in
+// bench/simplify). One mesh per (material, vertex layout), each one primitive with one identity
+// instance; mirroring transforms get their winding flipped back so front faces stay front.
+// Materials, images and the normalization scale carry over. O(scene vertices).
 #pragma once
 
 #include "scene/scene.h"
@@ -11,10 +12,10 @@ namespace meshmux {
 
 Scene flatten(const Scene& scene);
 
-// Instances per used submesh (paper 001's IPS): instances / meshes with at least one instance.
+// Instances per used submesh (Azim et al.'s IPS): instances / meshes with at least one instance.
 double instances_per_submesh(const Scene& scene);
 
-// Paper 001 §4's threshold: below this many instances per submesh, flatten.
+// Azim et al. §4's threshold: below this many instances per submesh, flatten.
 constexpr double kFlattenBelowIps = 1.75;
 
 // The one flattening decision (the pipeline after the atlas, the simplifier's fallback): more

@@ -1,12 +1,12 @@
 #include "cli/args.h"
 
+#include <strings.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-
-#include <strings.h>
 
 #include "core/exit_codes.h"
 
@@ -23,8 +23,8 @@ Flag switch_flag(const char* name, unsigned commands, bool to_convert = false) {
 Flag text_flag(const char* name, unsigned commands, const char* alias = nullptr) {
   return {name, alias, commands, FlagValue::kText};
 }
-Flag whole_flag(const char* name, unsigned commands, double lo, double hi,
-                bool to_convert = false, const char* alias = nullptr) {
+Flag whole_flag(const char* name, unsigned commands, double lo, double hi, bool to_convert = false,
+                const char* alias = nullptr) {
   return {name, alias, commands, FlagValue::kWhole, lo, hi, false, false, to_convert};
 }
 Flag number_flag(const char* name, unsigned commands, double lo, double hi, bool open_lo,
@@ -137,13 +137,20 @@ Status usage(const std::string& message) { return Status::error(message, ErrorKi
 
 const char* command_name(Command c) {
   switch (c) {
-    case kConvert: return "convert";
-    case kBatch: return "batch";
-    case kServe: return "serve";
-    case kRender: return "render";
-    case kSimplify: return "simplify";
-    case kInfo: return "info";
-    case kSample: return "sample";
+    case kConvert:
+      return "convert";
+    case kBatch:
+      return "batch";
+    case kServe:
+      return "serve";
+    case kRender:
+      return "render";
+    case kSimplify:
+      return "simplify";
+    case kInfo:
+      return "info";
+    case kSample:
+      return "sample";
   }
   return "meshmux";
 }

@@ -50,9 +50,9 @@ struct Flag {
 const std::vector<Flag>& flag_table();
 
 struct ParsedArgs {
-  std::vector<std::string> positional;                      // in order
-  std::vector<std::pair<const Flag*, std::string>> given;   // every flag, in order, its value
-  bool help = false;                                        // -h or --help
+  std::vector<std::string> positional;                     // in order
+  std::vector<std::pair<const Flag*, std::string>> given;  // every flag, in order, its value
+  bool help = false;                                       // -h or --help
 
   bool has(const char* name) const;
   // The last value given for the flag, or `fallback`.

@@ -6,7 +6,6 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "core/exit_codes.h"
-#include "core/output_transaction.h"
 #include "core/stderr_progress.h"
 #include "pipeline/convert.h"
 #include "pipeline/inputs.h"
@@ -42,11 +41,8 @@ int cmd_convert(const std::vector<std::string>& args) {
   ConvertOptions o = convert_options(*p);
   UploadFlags u = upload_flags(*p);
   o.stream = !has_extension(out, ".glb");
-  if (Status s = refuse_overwriting_input(in, out, o.stream); !s) return print_error(s);
-  clean_stale_temporaries(out);
-  auto upload = open_input(in, u.upload, out, &u.import);
+  auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);
   if (!upload.ok()) return print_error(upload.status());
-  apply_memory_limit(upload->model(), u.import, u.max_memory_mb);
   Warnings warnings;
   StderrProgress progress(p->has("--quiet"), &warnings);
   progress.step("importing " + upload->display());
@@ -56,8 +52,8 @@ int cmd_convert(const std::vector<std::string>& args) {
   progress.flush();
   if (!r.ok()) return print_error(r.status());
   if (Status s = write_outputs(out, o.stream, *r, progress); !s) return print_error(s);
-  progress.step("wrote " + out + " (" + std::to_string(r->output.scene_triangles) +
-                " triangles, " + std::to_string(r->output.draw_calls) + " draw calls)");
+  progress.step("wrote " + out + " (" + std::to_string(r->output.scene_triangles) + " triangles, " +
+                std::to_string(r->output.draw_calls) + " draw calls)");
   return kExitOk;
 }
 

@@ -3,22 +3,21 @@
 // PAM (P7, TUPLTYPE RGB_ALPHA: a header a few lines long and the raw top-to-bottom RGBA rows,
 // trivial for test harnesses to read), chosen by the extension. Written through a temporary
 // name and renamed when complete.
-#include "cli/args.h"
-#include "cli/commands.h"
-#include "core/exit_codes.h"
-
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
 #include "clean/clean.h"
+#include "cli/args.h"
+#include "cli/commands.h"
+#include "core/exit_codes.h"
+#include "core/file_io.h"
 #include "image/decode.h"
 #include "image/encode.h"
 #include "importers/import.h"
 #include "multiplex/render.h"
 #include "multiplex/viewpoints.h"
-#include "core/file_io.h"
 
 namespace meshmux {
 
@@ -101,8 +100,8 @@ int cmd_render(const std::vector<std::string>& args) {
     return usage_error(kRender, "--size expects WxH between 1 and 8192, e.g. 512x512");
   Vec3 eye, target, up{0, 1, 0};
   const bool have_eye = p->has("--eye"), have_target = p->has("--target");
-  for (auto [flag, point] : {std::pair<const char*, Vec3*>{"--eye", &eye},
-                             {"--target", &target}, {"--up", &up}})
+  for (auto [flag, point] :
+       {std::pair<const char*, Vec3*>{"--eye", &eye}, {"--target", &target}, {"--up", &up}})
     if (p->has(flag) && !parse_vec3(p->text(flag), point))
       return usage_error(kRender, std::string(flag) + " expects X,Y,Z numbers");
   const double fov = p->number("--fov", 45);

@@ -10,7 +10,6 @@
 #include "cli/commands.h"
 #include "core/exit_codes.h"
 #include "core/file_io.h"
-#include "core/output_transaction.h"
 #include "core/stderr_progress.h"
 #include "core/text.h"
 #include "exporters/gltf.h"
@@ -34,11 +33,8 @@ int cmd_simplify(const std::vector<std::string>& args) {
   const double ratio = p->number("--ratio", -1), error = p->number("--error", -1);
   const long long triangles = p->whole("--triangles", -1);
   UploadFlags u = upload_flags(*p);
-  if (Status s = refuse_overwriting_input(in, out, false); !s) return print_error(s);
-  clean_stale_temporaries(out);
-  auto upload = open_input(in, u.upload, out, &u.import);
+  auto upload = open_command_input(in, out, false, u.upload, &u.import, u.max_memory_mb);
   if (!upload.ok()) return print_error(upload.status());
-  apply_memory_limit(upload->model(), u.import, u.max_memory_mb);
   Warnings warnings;
   StderrProgress progress(p->has("--quiet"), &warnings);
   progress.step("importing " + upload->display());

@@ -74,7 +74,8 @@ Result<InputScope> input_scope(const std::string& model_path, bool allow_outside
                                const std::string& root) {
   std::string dir = root.empty() ? "." : root;
   size_t slash = model_path.find_last_of('/');
-  if (root.empty() && slash != std::string::npos) dir = slash == 0 ? "/" : model_path.substr(0, slash);
+  if (root.empty() && slash != std::string::npos)
+    dir = slash == 0 ? "/" : model_path.substr(0, slash);
   char* real = realpath(dir.c_str(), nullptr);
   if (!real)
     return Status::error(model_path + ": cannot resolve its folder: " + std::strerror(errno),

@@ -1,8 +1,8 @@
-// A conversion's outputs as one transaction (issue 3/8): everything is written into a fresh
-// temporary folder beside OUT, and only when every file is complete is it swapped into place
-// (atomically, with renameat2(RENAME_EXCHANGE)); the previous good output stays until then,
-// and on any failure (disk full, a killed run) it is what remains. Stale files of an earlier
-// conversion never survive beside new ones, because the whole folder is replaced.
+// A conversion's outputs as one transaction: everything is written into a fresh temporary folder
+// beside OUT, and only when every file is complete is it swapped into place (atomically, with
+// renameat2(RENAME_EXCHANGE)); the previous good output stays until then, and on any failure (disk
+// full, a killed run) it is what remains. Stale files of an earlier conversion never survive beside
+// new ones, because the whole folder is replaced.
 //
 // Safety rules:
 // - OUT may replace only a folder that is empty or holds nothing but meshmux outputs (the

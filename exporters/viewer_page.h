@@ -1,7 +1,7 @@
-// The web viewer written beside a converted model (DESIGN.md "Outputs"): index.html, the
-// three.js client (viewers/web) and the parts of three.js it imports, so that `meshmux serve
-// OUTDIR` (or any static web server) shows the stream at OUTDIR/index.html with no network
-// access beyond OUTDIR. The files are built into the program (see viewer_page.cpp).
+// The web viewer written beside a converted model (docs/ARCHITECTURE.md "What meshmux does"):
+// index.html, the three.js client (viewers/web) and the parts of three.js it imports, so that
+// `meshmux serve OUTDIR` (or any static web server) shows the stream at OUTDIR/index.html with no
+// network access beyond OUTDIR. The files are built into the program (see viewer_page.cpp).
 #pragma once
 
 #include <string>

@@ -1,7 +1,8 @@
 // Image decoding from memory, so glTF's embedded and data-URI images and files on disk take the
 // same path: JPEG through libjpeg-turbo's TurboJPEG API, PNG through libpng, everything else
-// through OpenImageIO (a module loaded on first use, image/oiio_loader.h). Paper 000 §4.3 bakes
-// from these pixels.
+// through OpenImageIO (a module loaded on first use, image/oiio_loader.h). The atlas bakes from
+// these pixels (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D
+// models for interactive metaverses" §4.3).
 #include "image/decode.h"
 
 #include <png.h>
@@ -12,8 +13,8 @@
 #include <cstring>
 #include <memory>
 
-#include "image/oiio_loader.h"
 #include "core/file_io.h"
+#include "image/oiio_loader.h"
 
 namespace meshmux {
 

@@ -1,12 +1,13 @@
-// Texture levels (DESIGN.md "Texture levels", paper 000 §4.4 for why power-of-two levels stay
-// clean when no chart crosses a power-of-two boundary).
+// Texture levels (docs/ARCHITECTURE.md "Texture levels"; Terrace, Cheslack-Postava, Levis and
+// Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.4 for why
+// power-of-two levels stay clean when no chart crosses a power-of-two boundary).
 #include "image/texture_levels.h"
 
 #include <algorithm>
-#include <deque>
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 
 #include "image/color.h"
 #include "image/encode.h"

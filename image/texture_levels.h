@@ -1,9 +1,10 @@
-// The texture pyramid of the conditioned texture (paper 000 §4.4: the atlas is packed so that
-// every power-of-two reduction stays clean; this makes the reductions). Levels go from
-// `base_size` (or the texture's size, when smaller) up to the full size, each half the next in
-// both dimensions, each downsampled from the level above with a 2x2 box filter in linear light
-// (sRGB decoded, averaged, re-encoded; alpha averaged as is), then encoded independently:
-// JPEG through libjpeg-turbo, or PNG when any texel is not opaque.
+// The texture pyramid of the conditioned texture (Terrace, Cheslack-Postava, Levis and Freedman,
+// "Unsupervised conversion of 3D models for interactive metaverses" §4.4: the atlas is packed so
+// that every power-of-two reduction stays clean; this makes the reductions). Levels go from
+// `base_size` (or the texture's size, when smaller) up to the full size, each half the next in both
+// dimensions, each downsampled from the level above with a 2x2 box filter in linear light (sRGB
+// decoded, averaged, re-encoded; alpha averaged as is), then encoded independently: JPEG through
+// libjpeg-turbo, or PNG when any texel is not opaque.
 // Complexity: O(pixels) for the filtering (4/3 of the full size in all), plus encoding.
 #pragma once
 
@@ -22,11 +23,11 @@ struct TextureLevelOptions {
   // Halvings of each side between consecutive levels (1..4): 1 ships every mip level (the
   // pyramid's pixels 4/3 of the top's), 2 every other one (each level 1/16 of the pixels of the
   // next: 1.07× the top's pixels), so the stream's textures cost little more than the top
-  // level alone (issue 4/8: ≤ 1.15×). The smallest level lands on a multiple of this below the
+  // level alone (≤ 1.15×). The smallest level lands on a multiple of this below the
   // top, at or under base_size.
   int level_halvings = 2;
   // Levels between the smallest and the top are dropped, most bytes first, while all levels
-  // together cost more than this times the top level (issue 4/8: pay only for levels that pay);
+  // together cost more than this times the top level (pay only for levels that pay);
   // with only the smallest left below the top, it halves until the pyramid fits.
   double max_pyramid_ratio = 1.15;
 };
@@ -38,7 +39,7 @@ enum class TexelFilter {
   kNormal,  // tangent-space normals (2 · texel − 1): averaged, then renormalized
 };
 
-// A further material channel carried at every level beside the base colour (issue 5/8): the
+// A further material channel carried at every level beside the base colour: the
 // same size as the base colour texture, opaque, JPEG-coded like it.
 struct ChannelTexture {
   std::string channel;  // "normal", "occlusion_roughness_metallic" or "emissive"

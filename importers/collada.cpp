@@ -1,6 +1,7 @@
-// COLLADA → Scene through Assimp. This is the first half of paper 000 §4.1 (cleaning and
+// COLLADA → Scene through Assimp. This is the first half of Terrace, Cheslack-Postava, Levis and
+// Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.1 (cleaning and
 // normalizing): polygons become triangles here; welding, degenerate removal and normals are
-// left to condition/clean.
+// left to clean/clean.h.
 //
 // Why Assimp (Debian libassimp-dev 5.2) rather than a hand-written pugixml reader:
 // - it keeps instancing: each <instance_geometry>/<instance_node> is an aiNode listing indices
@@ -49,12 +50,12 @@
 #include <new>
 #include <type_traits>
 
+#include "core/file_io.h"
+#include "core/sanitizers.h"
 #include "image/color.h"
 #include "image/decode.h"
 #include "importers/collada_bindings.h"
 #include "importers/upload.h"
-#include "core/file_io.h"
-#include "core/sanitizers.h"
 
 namespace meshmux {
 namespace {
@@ -311,9 +312,9 @@ Result<Parsed> parse(const std::string& path, const std::string& stage, const st
     // Triangulate + sort by primitive type only: nothing that merges meshes, pre-transforms
     // vertices or flattens the node graph, so instancing survives.
     const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType;
-    const aiScene* ai = memory.empty()
-                            ? importer.ReadFile(path, flags)
-                            : importer.ReadFileFromMemory(memory.data(), memory.size(), flags, "dae");
+    const aiScene* ai =
+        memory.empty() ? importer.ReadFile(path, flags)
+                       : importer.ReadFileFromMemory(memory.data(), memory.size(), flags, "dae");
     if (!ai) {
       std::string reason = one_line(importer.GetErrorString());
       if (reason == "std::bad_alloc") reason = "Assimp ran out of memory on it";
@@ -620,8 +621,9 @@ class TextureLoader {
     if (found.size() == 1) {
       auto inside = resolve_in_scope(scope_, found.front());
       if (inside.ok()) {
-        notes_.push_back("collada: " + file_ + ": texture '" + raw + "' is not where it says; using " +
-                         *inside + " (the only file of that name in the upload)");
+        notes_.push_back("collada: " + file_ + ": texture '" + raw +
+                         "' is not where it says; using " + *inside +
+                         " (the only file of that name in the upload)");
         return *inside;
       }
     }
@@ -632,7 +634,7 @@ class TextureLoader {
   std::string file_;
   fs::path dir_;
   InputScope scope_;
-  mutable std::string refusal_;  // set by the const resolve()
+  mutable std::string refusal_;             // set by the const resolve()
   mutable std::vector<std::string> notes_;  // warnings of resolve(), passed on by load()
   Scene& scene_;
   const ImportOptions& options_;

@@ -1,28 +1,30 @@
-// glTF 2.0 importer (tinygltf). Implements the import half of paper 000 §4.1's "clean and
-// normalize" input stage: every accessor layout glTF allows is read into plain float/uint32
-// arrays, the node hierarchy is flattened to world-transformed instances while shared meshes
-// stay shared (paper 001 needs the instances intact), and every offset is bounds-checked
-// before use because uploads are untrusted.
+// glTF 2.0 importer (tinygltf). Implements the import half of the "clean and normalize" input
+// stage of Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models
+// for interactive metaverses" §4.1: every accessor layout glTF allows is read into plain
+// float/uint32 arrays, the node hierarchy is flattened to world-transformed instances while
+// shared meshes stay shared (the instance-aware simplification of Azim, Cheslack-Postava and
+// Levis, "Instance-aware simplification of 3D polygonal meshes" needs the instances intact), and
+// every offset is bounds-checked before use because uploads are untrusted.
 #include "importers/gltf.h"
 
 #include <sys/stat.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
+#include "core/file_io.h"
+#include "core/json_depth.h"
 #include "draco/compression/decode.h"
 #include "image/decode.h"
 #include "importers/skinning.h"
 #include "importers/upload.h"
-#include "core/file_io.h"
-#include "core/json_depth.h"
 
 namespace meshmux {
 
@@ -37,13 +39,20 @@ const std::map<std::string, std::string> kAppearanceExtensions = {
 
 // Extensions whose presence in extensionsRequired we can honour.
 const std::set<std::string> kSupportedRequired = {
-    "KHR_draco_mesh_compression",      "KHR_mesh_quantization",
-    "KHR_texture_transform",           "EXT_texture_webp",
-    "EXT_mesh_gpu_instancing",         "KHR_materials_unlit",
-    "KHR_materials_emissive_strength", "KHR_materials_transmission",
-    "KHR_materials_volume",            "KHR_materials_ior",
-    "KHR_materials_clearcoat",         "KHR_materials_specular",
-    "KHR_materials_iridescence",       "KHR_materials_sheen",
+    "KHR_draco_mesh_compression",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "EXT_texture_webp",
+    "EXT_mesh_gpu_instancing",
+    "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_ior",
+    "KHR_materials_clearcoat",
+    "KHR_materials_specular",
+    "KHR_materials_iridescence",
+    "KHR_materials_sheen",
     "KHR_materials_anisotropy",
 };
 
@@ -452,8 +461,9 @@ class Importer {
       warn(warnings_, "gltf: " + file_ + ": " + std::to_string(m_.animations.size()) +
                           " animation(s) dropped");
     if (morphed_)
-      warn(warnings_, "gltf: " + file_ + ": morph targets applied at their default weights "
-                                         "(the shape shown without animation)");
+      warn(warnings_, "gltf: " + file_ +
+                          ": morph targets applied at their default weights "
+                          "(the shape shown without animation)");
     return std::move(scene_);
   }
 
@@ -556,8 +566,9 @@ class Importer {
                                    " texels in all (the limit from the input's size; "
                                    "--max-texels raises it)");
         if (!s && s.message().find("KTX2") != std::string::npos)  // as KHR_texture_basisu is
-          return r_.err(label, "a KTX2 / Basis Universal texture, which meshmux cannot decode "
-                               "(re-export the textures as PNG, JPEG or WebP)");
+          return r_.err(label,
+                        "a KTX2 / Basis Universal texture, which meshmux cannot decode "
+                        "(re-export the textures as PNG, JPEG or WebP)");
         if (!s) {
           warn(warnings_, "gltf: " + file_ + ": " + label + ": " + s.message() +
                               "; textures using it are dropped");
@@ -614,7 +625,7 @@ class Importer {
     return ref;
   }
 
-  // Material extensions folded into the metal-roughness core (issue 2/8, deliver 4):
+  // Material extensions folded into the metal-roughness core:
   // - KHR_materials_emissive_strength multiplies the emissive factor (exact; the exporter
   //   writes the extension back when a component exceeds 1);
   // - KHR_materials_sheen, _transmission, _ior, _volume, _clearcoat, _specular, _iridescence
@@ -650,7 +661,8 @@ class Importer {
     }
     // Clearcoat, specular and iridescence: their factors.
     if (auto it = src.extensions.find("KHR_materials_clearcoat"); it != src.extensions.end()) {
-      mat->clearcoat_factor = float(std::clamp(number(it->second, "clearcoatFactor", 0.0), 0.0, 1.0));
+      mat->clearcoat_factor =
+          float(std::clamp(number(it->second, "clearcoatFactor", 0.0), 0.0, 1.0));
       mat->clearcoat_roughness_factor =
           float(std::clamp(number(it->second, "clearcoatRoughnessFactor", 0.0), 0.0, 1.0));
     }
@@ -713,8 +725,9 @@ class Importer {
   // KHR_texture_transform and its scale (normal maps) or strength.
   TextureRef texture_info(const tinygltf::Value& info, const std::string& where) {
     if (!info.IsObject() || !info.Has("index") || !info.Get("index").IsInt()) return {};
-    const int coord =
-        info.Has("texCoord") && info.Get("texCoord").IsInt() ? info.Get("texCoord").GetNumberAsInt() : 0;
+    const int coord = info.Has("texCoord") && info.Get("texCoord").IsInt()
+                          ? info.Get("texCoord").GetNumberAsInt()
+                          : 0;
     tinygltf::ExtensionMap ext;
     if (info.Has("extensions") && info.Get("extensions").IsObject())
       for (const std::string& key : info.Get("extensions").Keys())
@@ -815,7 +828,7 @@ class Importer {
       scene_.materials.push_back(std::move(mat));
     }
     // One warning per material extension that changes appearance and is not carried over,
-    // saying what the output shows instead (issue 2/8: sheen cloth turned near-black silently).
+    // saying what the output shows instead (sheen cloth once turned near-black silently).
     for (const auto& [name, count] : effects_)
       warn(warnings_, "gltf: " + file_ + ": " + name + " on " + std::to_string(count) +
                           " material(s): " + kAppearanceExtensions.at(name));
@@ -1048,7 +1061,8 @@ class Importer {
     if (auto c = p.attributes.find("COLOR_0"); c != p.attributes.end()) {
       if (Status s = r_.floats(c->second, 4, 1, where + ": COLOR_0", &f); !s) return s;
       if (f.size() / 4 == n)
-        for (size_t i = 0; i < n; ++i) out->colors.push_back({f[4 * i], f[4 * i + 1], f[4 * i + 2], f[4 * i + 3]});
+        for (size_t i = 0; i < n; ++i)
+          out->colors.push_back({f[4 * i], f[4 * i + 1], f[4 * i + 2], f[4 * i + 3]});
     }
     std::vector<uint32_t> idx;
     if (p.indices >= 0) {
@@ -1062,9 +1076,12 @@ class Importer {
                                  " vertices)");
     out->points = p.mode == TINYGLTF_MODE_POINTS;
     if (p.mode == TINYGLTF_MODE_POINTS || p.mode == TINYGLTF_MODE_LINE) {
-      out->indices.assign(idx.begin(), idx.end() - std::ptrdiff_t(p.mode == TINYGLTF_MODE_LINE ? idx.size() % 2 : 0));
+      out->indices.assign(
+          idx.begin(),
+          idx.end() - std::ptrdiff_t(p.mode == TINYGLTF_MODE_LINE ? idx.size() % 2 : 0));
     } else {  // LINE_STRIP, LINE_LOOP
-      for (size_t i = 0; i + 1 < idx.size(); ++i) out->indices.insert(out->indices.end(), {idx[i], idx[i + 1]});
+      for (size_t i = 0; i + 1 < idx.size(); ++i)
+        out->indices.insert(out->indices.end(), {idx[i], idx[i + 1]});
       if (p.mode == TINYGLTF_MODE_LINE_LOOP && idx.size() > 2)
         out->indices.insert(out->indices.end(), {idx.back(), idx.front()});
     }
@@ -1100,7 +1117,8 @@ class Importer {
         Status s = primitive(src.primitives[pi], where, &prim, &skin, &skip);
         if (!s) return s;
         if (skip) continue;
-        if (!(s = apply_morph_targets(src.primitives[pi], morph_weights(mi), where, &prim))) return s;
+        if (!(s = apply_morph_targets(src.primitives[pi], morph_weights(mi), where, &prim)))
+          return s;
         if (prim.indices.empty()) {
           warn(warnings_, "gltf: " + file_ + ": " + where + ": no triangles; skipped");
           continue;
@@ -1256,7 +1274,9 @@ class Importer {
       const std::string where = "skin " + std::to_string(m_.nodes[size_t(node)].skin);
       std::vector<float> ibm;
       if (skin.inverseBindMatrices >= 0)
-        if (Status s = r_.floats(skin.inverseBindMatrices, 16, 0, where + ": inverseBindMatrices", &ibm); !s)
+        if (Status s =
+                r_.floats(skin.inverseBindMatrices, 16, 0, where + ": inverseBindMatrices", &ibm);
+            !s)
           return s;
       std::vector<Mat4> joints;
       for (size_t j = 0; j < skin.joints.size(); ++j) {
@@ -1297,11 +1317,11 @@ class Importer {
   }
 
   const tinygltf::Model& m_;
-  std::map<std::string, size_t> effects_;  // appearance extension → materials using it
-  std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
-  int32_t flat_normal_ = -1;               // the flat normal map anisotropy needs (if made)
+  std::map<std::string, size_t> effects_;         // appearance extension → materials using it
+  std::set<size_t> differing_weights_;            // meshes whose nodes disagree on morph weights
+  int32_t flat_normal_ = -1;                      // the flat normal map anisotropy needs (if made)
   std::vector<std::vector<LineSet>> mesh_lines_;  // per glTF mesh: its points and lines
-  bool morphed_ = false;                   // some primitive shows morph targets at rest
+  bool morphed_ = false;                          // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive
   std::vector<std::pair<int, size_t>> skinned_;  // skinned node → its instance (posed later)
   Reader r_;

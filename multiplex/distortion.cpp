@@ -1,6 +1,7 @@
-// Image distortion over the union of coverage masks (paper 004 §3: distortion is measured on
-// the rendered image against the full-quality render; the paper uses MSE, we also report
-// PSNR and mean CIEDE2000).
+// Image distortion over the union of coverage masks (Yang, Shen and Kuo, "Progressive coding of
+// 3D textured graphic model via joint mesh-texture optimization" §3: distortion is measured on
+// the rendered image against the full-quality render; the paper uses MSE, we also report PSNR
+// and mean CIEDE2000).
 #include "multiplex/distortion.h"
 
 #include <array>

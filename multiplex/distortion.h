@@ -1,4 +1,5 @@
-// Distortion of a render against the full-quality render (paper 004 §3): measured over the
+// Distortion of a render against the full-quality render (Yang, Shen and Kuo, "Progressive
+// coding of 3D textured graphic model via joint mesh-texture optimization" §3): measured over the
 // union of both coverage masks, so background is excluded but silhouette changes count (a pixel
 // covered in one image and not the other compares the covered colour with black background).
 #pragma once

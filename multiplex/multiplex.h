@@ -1,8 +1,9 @@
-// The multiplexer (paper 004 §3): builds the mesh layers (refinement batches of the
+// The multiplexer (Yang, Shen and Kuo, "Progressive coding of 3D textured graphic model via
+// joint mesh-texture optimization" §3): builds the mesh layers (refinement batches of the
 // progressive record, with the bytes meshoptimizer's order-preserving codecs give them) and the
 // texture layers (the atlas's mip levels, with their JPEG/PNG bytes), renders states (i, j)
 // from the views of a viewing sphere, measures their distortion against the full-quality
-// render, and orders the stream by steepest descent; the three baselines of paper 004 come
+// render, and orders the stream by steepest descent; the three baselines of Yang, Shen and Kuo come
 // from the same cached renders.
 #pragma once
 
@@ -10,14 +11,14 @@
 #include <string>
 #include <vector>
 
-#include "stream/mesh_stream.h"
+#include "core/progress.h"
 #include "multiplex/render.h"
 #include "multiplex/schedule.h"
 #include "multiplex/viewpoints.h"
-#include "core/progress.h"
 #include "scene/progressive.h"
 #include "scene/texture_levels.h"
 #include "stream/format.h"
+#include "stream/mesh_stream.h"
 
 namespace meshmux {
 
@@ -61,9 +62,9 @@ struct MultiplexResult {
   ViewTable view_table;                       // every cell evaluated, per view
 };
 
-// The stream as a viewer receives it, beside the plain download of model.glb (issue 4/8). Both
-// show nothing (empty_distortion) until their first picture; the download's first picture is
-// its last byte, and then it shows the full model (distortion 0).
+// The stream as a viewer receives it, beside the plain download of model.glb. Both show nothing
+// (empty_distortion) until their first picture; the download's first picture is its last byte, and
+// then it shows the full model (distortion 0).
 struct DownloadComparison {
   uint64_t model_glb_bytes = 0;
   // The package as received: (bytes received, distortion shown from then on), from (0, empty):

@@ -1,4 +1,5 @@
-// Offscreen rendering the way the web client draws (paper 004 §3: distortion is measured on
+// Offscreen rendering the way the web client draws (Yang, Shen and Kuo, "Progressive coding of
+// 3D textured graphic model via joint mesh-texture optimization" §3: distortion is measured on
 // rendered images): OpenGL 4.5 core through EGL's surfaceless platform (Mesa llvmpipe without a
 // GPU), perspective camera, base colour texture with mipmapped trilinear filtering and 16x
 // anisotropy, shading = base colour × (ambient + Lambert from a fixed light), or physically
@@ -25,7 +26,7 @@ struct Camera {
 
 enum class Shading {
   kLambert,   // base colour × (ambient + diffuse · Lambert), texels used as stored bytes
-  kPhysical,  // glTF metal-roughness as three.js's MeshStandardMaterial shades it (issue 5/8)
+  kPhysical,  // glTF metal-roughness as three.js's MeshStandardMaterial shades it
 };
 
 struct RenderOptions {
@@ -48,7 +49,7 @@ struct RenderOptions {
   float light_intensity = 1.6f;
 };
 
-// The options the stream is measured and shown with: physically based shading (issue 5/8).
+// The options the stream is measured and shown with: physically based shading.
 inline RenderOptions physical_shading() {
   RenderOptions o;
   o.shading = Shading::kPhysical;
@@ -74,7 +75,9 @@ struct RenderImage {
 class Renderer {
  public:
   // Creates the EGL display and an OpenGL 4.5 core context with an offscreen framebuffer.
-  // Errors (kInternal) say what is missing: no EGL, no surfaceless platform, no GL 4.5.
+  // Errors (kUnavailable: `meshmux render` exits 5) say what is missing: no EGL, no
+  // surfaceless platform, no GL 4.5; a size outside the GL's limits is kInput, other GL
+  // failures kInternal.
   static Result<std::unique_ptr<Renderer>> create(const RenderOptions& options = {});
   ~Renderer();
 

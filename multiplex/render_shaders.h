@@ -1,6 +1,6 @@
 // GLSL sources of the offscreen renderer (multiplex/render.h): one program with two shadings,
 // the legacy Lambert one and the physically based one the web client's MeshStandardMaterial
-// uses (issue 5/8). Kept apart from render.cpp so the GL plumbing and the shading read alone.
+// uses. Kept apart from render.cpp so the GL plumbing and the shading read alone.
 #pragma once
 
 namespace meshmux {

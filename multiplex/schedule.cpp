@@ -1,5 +1,6 @@
-// Rate-distortion multiplexing, paper 004 §3 ("steepest descent over the distortion surface")
-// and its three baselines.
+// Rate-distortion multiplexing, Yang, Shen and Kuo, "Progressive coding of 3D textured graphic
+// model via joint mesh-texture optimization" §3 ("steepest descent over the distortion
+// surface") and its three baselines.
 #include "multiplex/schedule.h"
 
 #include <cmath>

@@ -1,10 +1,11 @@
-// The multiplexing order (paper 004 §3): mesh layers M₀…M_{m−1} (refinement batches) and
+// The multiplexing order (Yang, Shen and Kuo, "Progressive coding of 3D textured graphic model
+// via joint mesh-texture optimization" §3): mesh layers M₀…M_{m−1} (refinement batches) and
 // texture layers T₀…T_{n−1} (texture levels) span a grid of states (i, j) whose rate is the
 // bytes of M₀..Mᵢ plus T₀..Tⱼ as the stream holds them and whose distortion is measured by
 // rendering. From (0, 0), the steepest descent repeatedly takes whichever of (i+1, j) and
 // (i, j+1) lowers the distortion most per added byte, until (m−1, n−1). Distortions are
 // evaluated lazily and cached, so only the cells the path visits and their neighbours are
-// rendered. The three baselines of paper 004: mesh first, texture first, constant ratio.
+// rendered. The three baselines of Yang, Shen and Kuo: mesh first, texture first, constant ratio.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,6 @@
-// The stream package's steps and orders from a multiplexing result (paper 004 §3–4): one step
-// per move of the steepest-descent path, and the three baselines (mesh-first, texture-first,
+// The stream package's steps and orders from a multiplexing result (Yang, Shen and Kuo,
+// "Progressive coding of 3D textured graphic model via joint mesh-texture optimization" §3–4): one
+// step per move of the steepest-descent path, and the three baselines (mesh-first, texture-first,
 // constant ratio) as permutations of those same steps, so one file can replay every order.
 #pragma once
 

@@ -1,4 +1,6 @@
-// Viewing sphere, camera placement and view interpolation (paper 004 §3, "layered sampling").
+// Viewing sphere, camera placement and view interpolation (Yang, Shen and Kuo, "Progressive
+// coding of 3D textured graphic model via joint mesh-texture optimization" §3, "layered
+// sampling").
 #include "multiplex/viewpoints.h"
 
 #include <algorithm>
@@ -146,10 +148,10 @@ std::pair<uint32_t, std::array<float, 3>> locate_view(const ViewingSphere& spher
   return {best, out};
 }
 
-// Paper 004 writes the blend as D' = Σ ||vp − vp_i|| · D_i / Σ ||vp − vp_i||; taken literally
-// that gives the *farthest* vertex the most weight and a vertex no weight at its own position.
-// We use the interpolation the paper intends (linear over the triangle, exact at the vertices):
-// the barycentric weights of locate_view.
+// Yang, Shen and Kuo write the blend as D' = Σ ||vp − vp_i|| · D_i / Σ ||vp − vp_i||; taken
+// literally that gives the *farthest* vertex the most weight and a vertex no weight at its own
+// position. We use the interpolation the paper intends (linear over the triangle, exact at the
+// vertices): the barycentric weights of locate_view.
 // Tables: one per sphere direction, all the same length. Returns an empty vector when `tables`
 // does not have one entry per direction or the three vertices' tables differ in length.
 std::vector<double> interpolate_table(const ViewingSphere& sphere,

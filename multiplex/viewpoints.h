@@ -1,9 +1,10 @@
-// Viewpoints on a viewing sphere (paper 004 §3): a tetrahedron whose triangles are subdivided
-// layer by layer, each new midpoint pushed out to the sphere; the camera sits on the sphere
-// looking at the model's centre, at a distance where the model's bounding sphere fills
-// `fill` of the viewport's smaller side. Also paper 004's interpolation: the rate-distortion
-// table of an arbitrary view is the barycentric blend of the tables at the three vertices of
-// the viewing-mesh triangle its direction passes through.
+// Viewpoints on a viewing sphere (Yang, Shen and Kuo, "Progressive coding of 3D textured graphic
+// model via joint mesh-texture optimization" §3): a tetrahedron whose triangles are subdivided
+// layer by layer, each new midpoint pushed out to the sphere; the camera sits on the sphere looking
+// at the model's centre, at a distance where the model's bounding sphere fills `fill` of the
+// viewport's smaller side. Also Yang, Shen and Kuo's interpolation: the rate-distortion table of an
+// arbitrary view is the barycentric blend of the tables at the three vertices of the viewing-mesh
+// triangle its direction passes through.
 #pragma once
 
 #include <array>
@@ -38,8 +39,8 @@ struct ViewOptions {
 // says for a viewport of aspect width/height.
 Camera camera_for(Vec3 d, const Bounds& bounds, float aspect, const ViewOptions& options = {});
 
-// Barycentric weights of direction `d` over the viewing-mesh triangle it passes through:
-// (triangle index, weights summing to 1). Paper 004's interpolation blends the three vertices'
+// Barycentric weights of direction `d` over the viewing-mesh triangle it passes through: (triangle
+// index, weights summing to 1). Yang, Shen and Kuo's interpolation blends the three vertices'
 // tables with these weights.
 std::pair<uint32_t, std::array<float, 3>> locate_view(const ViewingSphere& sphere, Vec3 d);
 

@@ -1,7 +1,10 @@
 // The conversion pipeline (pipeline/convert.h). convert() is the numbered stage list; each step
-// below is one stage call plus its progress line. Stages: paper 000 §4.1 (clean), §4.2–4.4
-// (atlas, texture levels), paper 001 + 000 §4.5 (simplify), paper 004 §3 (multiplex), DESIGN.md
-// "Package" (the stream).
+// below is one stage call plus its progress line. Stages: Terrace, Cheslack-Postava, Levis and
+// Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.1 (clean),
+// §4.2–4.4 (atlas, texture levels); Azim, Cheslack-Postava and Levis, "Instance-aware
+// simplification of 3D polygonal meshes" with Terrace et al. §4.5 (simplify); Yang, Shen and
+// Kuo, "Progressive coding of 3D textured graphic model via joint mesh-texture optimization" §3
+// (multiplex); docs/ARCHITECTURE.md "Package" (the stream).
 #include "pipeline/convert.h"
 
 #include <algorithm>
@@ -9,14 +12,14 @@
 #include <cstdio>
 #include <optional>
 
-#include "clean/flatten.h"
 #include "atlas/atlas_bytes.h"
 #include "atlas/kept.h"
+#include "clean/flatten.h"
+#include "core/parallel.h"
+#include "multiplex/stream_plan.h"
+#include "simplify/lod.h"
 #include "stream/package.h"
 #include "stream/package_base.h"
-#include "multiplex/stream_plan.h"
-#include "core/parallel.h"
-#include "simplify/lod.h"
 
 namespace meshmux {
 
@@ -32,7 +35,7 @@ std::string format(const char* fmt, ...) {
   return buf;
 }
 
-// 1. Clean (paper 000 §4.1).
+// 1. Clean (Terrace et al. §4.1).
 Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress) {
   CleanReport r;
   Scene out = clean(scene, o.clean, &r);
@@ -44,15 +47,15 @@ Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress
   return out;
 }
 
-// 2. Atlas: one material, one texture (paper 000 §4.2–4.4); then the one flattening decision
-// (paper 001: below 1.75 instances per submesh, one mesh is one draw call).
+// 2. Atlas: one material, one texture (Terrace et al. §4.2–4.4); then the one flattening
+// decision (Azim et al.: below 1.75 instances per submesh, one mesh is one draw call).
 Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
                          Progress* progress) {
   if (!o.atlas) return scene;
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
   AtlasReport ar;
-  auto atlased = build_atlas_within_bytes(scene, o.atlas_options, o.textures.jpeg_quality, &ar,
-                                          warnings);
+  auto atlased =
+      build_atlas_within_bytes(scene, o.atlas_options, o.textures.jpeg_quality, &ar, warnings);
   for (const AtlasBytesRound& r : ar.bytes_rounds)
     report_step(progress, format("atlas: %.0f kB encoded, over %.0f kB for %.0f kB of sources; "
                                  "charts at %.0f%% of their density",
@@ -134,7 +137,7 @@ Image* stream_texture(Scene& scene) {
   return pow2(scene.images[i].width) && pow2(scene.images[i].height) ? &scene.images[i] : nullptr;
 }
 
-// The atlas's further channels (issue 5/8), in the order the texture levels carry them: the
+// The atlas's further channels, in the order the texture levels carry them: the
 // image each stands for in `scene` and how its texels filter.
 struct SceneChannel {
   const char* channel;
@@ -219,7 +222,7 @@ Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const Tex
   return s;
 }
 
-// 8. Multiplex (paper 004 §3). No offscreen OpenGL: a warning, no report and no package.
+// 8. Multiplex (Yang, Shen and Kuo §3). No offscreen OpenGL: a warning, no report and no package.
 Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps,
                                                       const TextureLevels& levels,
                                                       const ConvertOptions& o, Warnings* warnings,
@@ -265,9 +268,9 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
                                           Warnings* warnings) {
   auto plan = stream_plan(mx);
   if (!plan.ok()) return plan.status();
-  // Every mesh ships whole (no refinement follows; small models, DESIGN.md "Simplify"): no
-  // vertex order needs keeping, so the base is coded as model.glb is, with Draco (about 0.6x
-  // the bytes of meshopt + deflate on Duck), its meshes tagged for the client.
+  // Every mesh ships whole (no refinement follows; small models, docs/ARCHITECTURE.md "Simplify"):
+  // no vertex order needs keeping, so the base is coded as model.glb is, with Draco (about 0.6x the
+  // bytes of meshopt + deflate on Duck), its meshes tagged for the client.
   bool whole = true;
   for (const std::vector<EncodedMeshPart>& parts : mx.layer_parts) whole = whole && parts.empty();
   GltfExportOptions tagged = o.gltf;

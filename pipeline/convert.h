@@ -1,6 +1,6 @@
-// The conversion pipeline (DESIGN.md "Data flow"): one function runs the stages in order on an
-// imported scene and returns the bytes of every output. The CLI, the tests and the benches all
-// call it; nothing else strings the stages together.
+// The conversion pipeline (docs/ARCHITECTURE.md "Data flow"): one function runs the stages in order
+// on an imported scene and returns the bytes of every output. The CLI, the tests and the benches
+// all call it; nothing else strings the stages together.
 //
 //   clean → atlas (→ flatten when few instances per submesh) → texture levels (encoded once)
 //   → model.glb → simplify (progressive record) → multiplex (renders, order, mesh parts
@@ -21,12 +21,12 @@
 
 #include "atlas/atlas.h"
 #include "clean/clean.h"
+#include "core/progress.h"
+#include "core/status.h"
 #include "exporters/gltf.h"
 #include "image/texture_levels.h"
 #include "multiplex/multiplex.h"
-#include "core/progress.h"
 #include "scene/scene.h"
-#include "core/status.h"
 #include "simplify/simplify.h"
 
 namespace meshmux {

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/file_io.h"
+#include "core/output_transaction.h"
 #include "core/sanitizers.h"
 
 namespace meshmux {
@@ -77,7 +78,8 @@ uint64_t asset_bytes(const std::string& file, const ImportOptions& import) {
 // from the input's size, max(2 GiB, 64 × its bytes with external buffers and images). An
 // allocation past it fails, and the top level reports it with the option that raises it.
 // Not under sanitizers (their shadow memory is private mappings of terabytes).
-void apply_memory_limit(const std::string& in, const ImportOptions& import, uint64_t max_memory_mb) {
+void apply_memory_limit(const std::string& in, const ImportOptions& import,
+                        uint64_t max_memory_mb) {
 #if MESHMUX_SANITIZED
   (void)in, (void)import, (void)max_memory_mb;
 #else
@@ -93,5 +95,15 @@ void apply_memory_limit(const std::string& in, const ImportOptions& import, uint
 }
 
 uint64_t memory_limit_mb() { return g_memory_limit_mb; }
+
+Result<Upload> open_command_input(const std::string& in, const std::string& out, bool folder_output,
+                                  const UploadOptions& options, ImportOptions* import,
+                                  uint64_t max_memory_mb) {
+  if (Status s = refuse_overwriting_input(in, out, folder_output); !s) return s;
+  clean_stale_temporaries(out);
+  auto upload = open_input(in, options, out, import);
+  if (upload.ok()) apply_memory_limit(upload->model(), *import, max_memory_mb);
+  return upload;
+}
 
 }  // namespace meshmux

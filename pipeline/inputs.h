@@ -18,6 +18,14 @@ namespace meshmux {
 Result<Upload> open_input(const std::string& in, const UploadOptions& options,
                           const std::string& out, ImportOptions* import);
 
+// The input of a command that writes `out` (a folder when `folder_output`, else one file): refuses
+// an output that is, holds or is held by the input (core/output_transaction.h), removes the
+// temporaries a killed earlier run left beside `out`, opens the upload (open_input) and caps the
+// process's memory for it (apply_memory_limit). Errors: those of the three.
+Result<Upload> open_command_input(const std::string& in, const std::string& out, bool folder_output,
+                                  const UploadOptions& options, ImportOptions* import,
+                                  uint64_t max_memory_mb);
+
 // Bytes of a model as served: the file itself plus, for a .gltf, the external buffers and
 // images it references inside the upload (COLLADA: the file alone). 0 when it is unreadable.
 uint64_t asset_bytes(const std::string& file, const ImportOptions& import);

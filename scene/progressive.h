@@ -1,6 +1,6 @@
-// The progressive mesh (paper 002: "levels of detail sharing a read-only vertex buffer") and
-// the progressive scene built from it. Plain data: written by condition/simplify, read by the
-// exporters, the multiplexer and the tests.
+// The progressive mesh (Hoppe, "Octaviewer: spherically parameterized progressive meshes": "levels
+// of detail sharing a read-only vertex buffer") and the progressive scene built from it. Plain
+// data: written by simplify/simplify, read by the exporters, the multiplexer and the tests.
 //
 // One ProgressiveMesh per simplified submesh (a Scene Mesh). Its vertices are stored in the
 // order they appear (base vertices first, then each refinement's vertices); each vertex has a
@@ -47,14 +47,15 @@ struct ProgressiveMesh {
   // Levels from the coarsest (levels[0], no collapse left to make) to the full mesh
   // (levels.back(), error 0). Errors never increase from one level to the next.
   std::vector<ProgressiveLevel> levels;
-  size_t base_level = 0;  // the level chosen by the stopping rule (paper 000 formula 1)
+  size_t base_level = 0;  // the level chosen by the stopping rule (Terrace et al. formula 1)
 
   size_t face_count() const { return indices.size() / 3; }
   size_t vertex_count() const { return positions.size(); }
 };
 
 // Instances of one submesh in the order they return during refinement, for instance thinning
-// (paper 001 §3.2): the level with m instances shows order[0..m), each scaled by sqrt(n/m)
+// (Azim, Cheslack-Postava and Levis, "Instance-aware simplification of 3D polygonal meshes"
+// §3.2): the level with m instances shows order[0..m), each scaled by sqrt(n/m)
 // about its own centre so the total surface area stays that of all n.
 struct InstanceOrder {
   uint32_t mesh = 0;            // the Scene mesh
@@ -68,7 +69,7 @@ struct ProgressiveScene {
   std::vector<ProgressiveMesh> meshes;         // one per Scene mesh, same index
   std::vector<InstanceOrder> instance_orders;  // one per Scene mesh, same index
   bool flattened = false;                      // true when instances per submesh < 1.75 led to
-                                               // flatten-then-simplify (paper 001 §4)
+                                               // flatten-then-simplify (Azim et al. §4)
 };
 
 }  // namespace meshmux

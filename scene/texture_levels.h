@@ -1,5 +1,6 @@
 // Texture levels: the power-of-two pyramid of one texture (the atlas), each level encoded on
-// its own so a client can show any level without the others (DESIGN.md "Texture levels").
+// its own so a client can show any level without the others (docs/ARCHITECTURE.md "Texture
+// levels").
 #pragma once
 
 #include <cstdint>
@@ -9,8 +10,8 @@
 namespace meshmux {
 
 // A further material channel's map at a level's resolution ("normal",
-// "occlusion_roughness_metallic", "emissive"): a texture step may carry several (issue 4/8,
-// deliver 6; issue 5/8 fills them).
+// "occlusion_roughness_metallic", "emissive"): a texture step may carry several, one per
+// physically based channel.
 struct TextureMap {
   std::string channel;           // the glTF channel it stands for
   std::string mime_type;         // "image/jpeg" or "image/png"

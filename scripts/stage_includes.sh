@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Prints which stage folders each stage folder includes (DESIGN.md "Layout": an earlier stage
-# never includes a later one) and fails (exit 1) on any include of a later stage.
+# Prints which stage folders each stage folder includes (docs/ARCHITECTURE.md "Layout": an earlier
+# stage never includes a later one) and fails (exit 1) on any include of a later stage.
 # usage: scripts/stage_includes.sh   (run by ctest as Layout.StagesIncludeOnlyEarlierStages)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)

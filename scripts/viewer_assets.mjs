@@ -1,15 +1,15 @@
 // Builds the web viewer's files as the program embeds them (exporters/viewer_page.cpp): every
 // JavaScript and CSS file minified by esbuild (Debian's `esbuild`), then each compressible file
 // beside its gzip (.gz, level 9) and brotli (.br, quality 11) forms, so that `meshmux serve` and
-// any static server can send them precompressed (issue 7/8: 2.4 MB of plain three.js modules
-// delayed the first picture by 10 s on a 1.5 Mbit/s link). Output: OUT/pack.bin (the files'
-// bytes one after the other) and OUT/pack.h (a table of {path, offset, size} over it), plus the
-// files themselves under OUT/files/ for inspection. Deterministic: same inputs, same bytes
-// (gzip's header carries no time or name).
+// any static server can send them precompressed (2.4 MB of plain three.js modules delayed the first
+// picture by 10 s on a 1.5 Mbit/s link). Output: OUT/pack.bin (the files' bytes one after the
+// other) and OUT/pack.h (a table of {path, offset, size} over it), plus the files themselves under
+// OUT/files/ for inspection. Deterministic: same inputs, same bytes (gzip's header carries no time
+// or name).
 //
 // three.js's files (PATH under viewer/three/) go under viewer/three-r<release>/ (0.187.0: r187),
 // and the page's import map and meshmux.js's default Draco path name that folder: a versioned
-// URL that caches may keep for good (issue 7/8; `meshmux serve` marks it immutable).
+// URL that caches may keep for good (`meshmux serve` marks it immutable).
 //
 // usage: node scripts/viewer_assets.mjs OUT ESBUILD --three-version V PATH=FILE ...
 //   PATH is the file's place under a converted folder ("viewer/three/three.core.js"), FILE its

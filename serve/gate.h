@@ -1,4 +1,4 @@
-// The connection gate in front of `meshmux serve`'s workers (issue 3/8). A connection waits
+// The connection gate in front of `meshmux serve`'s workers. A connection waits
 // here, on one epoll thread, until a complete request header has arrived; only then does a
 // worker thread serve it, and after each response a kept-alive connection comes back here to
 // wait for its next request. So idle and slow clients never hold a worker: before the gate, 8

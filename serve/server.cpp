@@ -231,7 +231,7 @@ class Site {
       const std::string accept = req.get_header_value("Accept-Encoding");
       const char* pick = has_br && accepts_encoding(accept, "br")     ? "br"
                          : has_gz && accepts_encoding(accept, "gzip") ? "gzip"
-                                                             : nullptr;
+                                                                      : nullptr;
       if (pick) {
         const fs::path sibling = file.string() + (pick[0] == 'b' ? ".br" : ".gz");
         auto encoded = std::make_shared<OpenFile>();
@@ -268,7 +268,8 @@ class Site {
         range_is_current(header(req, "If-Range"), etag, http_date(st.st_mtim.tv_sec));
     if (ranges.size() == 1 && range_valid) {
       uint64_t first = 0, last = 0;
-      if (!satisfiable({int64_t(ranges[0].first), int64_t(ranges[0].second)}, size, &first, &last)) {
+      if (!satisfiable({int64_t(ranges[0].first), int64_t(ranges[0].second)}, size, &first,
+                       &last)) {
         res.status = 416;
         res.set_header("Content-Range", "bytes */" + std::to_string(size));
         return;

@@ -1,8 +1,10 @@
-// Levels of detail from the progressive record. Extraction is paper 002's rule ("traverse
-// vertices fine-to-coarse, mapping vertex indices through the parent relations, then keep only
-// non-degenerate triangles"); scene selection shares one error threshold across submeshes (IAS
-// quadrics are in scene units, so errors compare) and falls back to paper 001 §3.2's instance
-// thinning with area-preserving scale-up.
+// Levels of detail from the progressive record. Extraction is the rule of Hoppe, "Octaviewer:
+// spherically parameterized progressive meshes" ("traverse vertices fine-to-coarse, mapping
+// vertex indices through the parent relations, then keep only non-degenerate triangles"); scene
+// selection shares one error threshold across submeshes (IAS quadrics are in scene units, so
+// errors compare) and falls back to the instance thinning with area-preserving scale-up of
+// Azim, Cheslack-Postava and Levis, "Instance-aware simplification of 3D polygonal meshes"
+// (IAS) §3.2.
 #include "simplify/lod.h"
 
 #include <algorithm>
@@ -152,8 +154,8 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
   s.instances = all_instances(ps);
   uint64_t total = selection_triangles(ps, s);
   if (total > max_triangles) {
-    // Even the coarsest levels are too many: thin instances (paper 001 §3.2). One keep-fraction
-    // for every submesh with more than one instance, the largest that fits.
+    // Even the coarsest levels are too many: thin instances (Azim et al. §3.2). One
+    // keep-fraction for every submesh with more than one instance, the largest that fits.
     std::vector<uint32_t> n = all_instances(ps);
     auto apply = [&](double f) {
       for (size_t m = 0; m < n.size(); ++m)

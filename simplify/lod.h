@@ -1,6 +1,7 @@
-// Levels of detail from a progressive record: extracting one submesh level (paper 002's
-// parent mapping), choosing per-submesh levels and instance counts for a scene-wide target,
-// and turning a choice into a plain Scene for export.
+// Levels of detail from a progressive record: extracting one submesh level (the parent mapping
+// of Hoppe, "Octaviewer: spherically parameterized progressive meshes"), choosing per-submesh
+// levels and instance counts for a scene-wide target, and turning a choice into a plain Scene
+// for export.
 #pragma once
 
 #include <cstdint>
@@ -42,7 +43,8 @@ LodSelection select_full(const ProgressiveScene& ps);
 LodSelection select_base(const ProgressiveScene& ps);
 // The finest selection with at most `max_triangles` scene triangles: one error threshold for
 // every submesh (so detail goes where the error is), then, if even the coarsest levels are too
-// many, instance thinning (paper 001 §3.2) on the submeshes with the most instances.
+// many, instance thinning (Azim, Cheslack-Postava and Levis, "Instance-aware simplification of
+// 3D polygonal meshes" §3.2) on the submeshes with the most instances.
 LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles);
 // Every submesh at the smallest level with error ≤ `error`, all instances.
 LodSelection select_error(const ProgressiveScene& ps, float error);

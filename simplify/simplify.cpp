@@ -1,11 +1,14 @@
 // Instance-aware progressive simplification.
-// - Paper 001 (IAS) §3.2: vertex quadrics summed over instance transforms (equation 5),
-//   boundary constraint planes weighted by edge length, no vanishing submeshes, the < 1.75
+// - Azim, Cheslack-Postava and Levis, "Instance-aware simplification of 3D polygonal meshes"
+//   (IAS) §3.2: vertex quadrics summed over instance transforms (equation 5), boundary
+//   constraint planes weighted by edge length, no vanishing submeshes, the < 1.75
 //   instances-per-submesh flatten fallback (§4).
-// - Paper 002: half-edge collapses only, so every level is a prefix of one vertex buffer with a
-//   parent per vertex; seam duplicates collapse together (no cracks).
-// - Paper 000 §4.5: the base level stops at log(1+E)/log(1+Emax) ≥ 0.9 (formula 1); small
-//   models ship whole.
+// - Hoppe, "Octaviewer: spherically parameterized progressive meshes": half-edge collapses
+//   only, so every level is a prefix of one vertex buffer with a parent per vertex; seam
+//   duplicates collapse together (no cracks).
+// - Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models for
+//   interactive metaverses" §4.5: the base level stops at log(1+E)/log(1+Emax) ≥ 0.9
+//   (formula 1); small models ship whole.
 // - Attribute terms after Hoppe 1999 ("New quadric metric for simplifying meshes with
 //   appearance attributes"): per face, each attribute channel is a linear function of position
 //   over the face; its squared deviation, area-weighted, is folded into the wedge's quadric.
@@ -27,8 +30,8 @@
 #include <unordered_map>
 
 #include "clean/flatten.h"
-#include "scene/dvec3.h"
 #include "core/parallel.h"
+#include "scene/dvec3.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -86,7 +89,7 @@ struct Quadric {
 };
 
 // The face P (mesh space) placed by M: world corners Q, unit normal, world area, and its
-// area-weighted plane quadric pulled back to mesh space (paper 001 equation 4: Tᵀ Q T).
+// area-weighted plane quadric pulled back to mesh space (Azim et al. equation 4: Tᵀ Q T).
 bool instance_plane(const DVec3 P[3], const Mat4& M, DVec3 Q[3], DVec3* un, double* area,
                     Quadric* pq) {
   for (int i = 0; i < 3; ++i)
@@ -189,7 +192,7 @@ struct Collapse {
   uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
   float error = 0;
   float queue_min = 0;  // the smallest candidate error of the pass (the greedy's E_current)
-  float queue_max = 0;  // the largest candidate error of the pass (paper 000's E_max)
+  float queue_max = 0;  // the largest candidate error of the pass (Terrace et al.'s E_max)
 };
 
 struct Candidate {
@@ -273,7 +276,7 @@ class IndexedHeap {
 struct CheapestFirst {  // the greedy's order: (error, u, v), a strict total order
   bool operator()(const Candidate& a, const Candidate& b) const { return a < b; }
 };
-struct DearestFirst {  // paper 000's E_max: only the error is read
+struct DearestFirst {  // Terrace et al.'s E_max: only the error is read
   bool operator()(const Candidate& a, const Candidate& b) const { return b.error < a.error; }
 };
 
@@ -325,7 +328,7 @@ class Simplifier {
 
   // True greedy: a min-heap of each live position's cheapest valid collapse (an indexed heap,
   // updated in place); after each collapse only the positions around it are re-costed. A
-  // parallel max-heap tracks the dearest candidate for paper 000's E_max.
+  // parallel max-heap tracks the dearest candidate for Terrace et al.'s E_max.
   // `on_progress` (may be empty) is called with the collapses so far, every few thousand.
   void run(const std::function<void(uint64_t)>& on_progress = {}) {
     size_t np = u_.pos.size();
@@ -451,7 +454,7 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   // Pulled back to mesh space, a placed face's plane is still the face's own plane: for
   // x = A v + t, the distance of x to the placed plane is n̂ᵀ(v − p₀) / |A⁻ᵀ n̂| and the placed
   // area is area₀ |det A| |A⁻ᵀ n̂|. So Σᵢ Tᵢᵀ Qᵢ Tᵢ = area₀ Σᵢ (|det Aᵢ| / |Aᵢ⁻ᵀ n̂|) · Q(n̂, p₀):
-  // one 3x3 product per instance and face instead of two 4x4 products (paper 001 eq. 5,
+  // one 3x3 product per instance and face instead of two 4x4 products (Azim et al. eq. 5,
   // evaluated exactly). Boundary constraint planes are not preserved by non-uniform scale, so
   // they take the general pull-back unless the transform is a similarity.
   std::vector<Placement> places = make_placements(transforms);
@@ -850,7 +853,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (size_t i = 0; i < m; ++i) prefix_max[i + 1] = std::max(prefix_max[i], collapses_[i].error);
   for (size_t r = 0; r <= m; ++r) pm.levels[r].error = prefix_max[m - r];
 
-  // Base level: paper 000 formula 1, log(1+E_current)/log(1+E_max) ≥ threshold. A true
+  // Base level: Terrace et al. formula 1, log(1+E_current)/log(1+E_max) ≥ threshold. A true
   // greedy's E_current is the cheapest collapse left and E_max the dearest; a pass of sorted
   // candidates has both at its two ends, so the rule is checked per pass and the base is the
   // state before the first pass where it holds. On errors normalized to a unit diagonal the
@@ -1017,7 +1020,7 @@ uint64_t splitmix(uint64_t x) {
 
 // Instance order for thinning: instances that stay inside the scene bounds when scaled up 2x
 // about their centre come first, then the rest; within each, a fixed pseudo-random order so
-// the kept ones spread over the scene (paper 001 §3.2's stochastic simplification).
+// the kept ones spread over the scene (Azim et al. §3.2's stochastic simplification).
 InstanceOrder instance_order(const Scene& scene, uint32_t mesh, const Bounds& scene_box) {
   InstanceOrder io;
   io.mesh = mesh;
@@ -1122,7 +1125,7 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
     r.refused_wedge += x.refused_wedge;
     r.refused_vanish += x.refused_vanish;
   }
-  // Paper 000 §4.5: small models, or ones whose refinements would be under 10% of the mesh,
+  // Terrace et al. §4.5: small models, or ones whose refinements would be under 10% of the mesh,
   // ship whole: the base level is the full mesh.
   uint64_t base_tris = 0, full_tris = 0;
   for (uint32_t m = 0; m < ps.meshes.size(); ++m) {

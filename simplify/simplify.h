@@ -1,5 +1,8 @@
-// Instance-aware simplification (paper 001) recorded as progressive meshes (paper 002), with
-// the base level chosen by paper 000's stopping rule (§4.5, formula 1).
+// Instance-aware simplification (Azim, Cheslack-Postava and Levis, "Instance-aware
+// simplification of 3D polygonal meshes") recorded as progressive meshes (Hoppe, "Octaviewer:
+// spherically parameterized progressive meshes"), with the base level chosen by the stopping
+// rule of Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models
+// for interactive metaverses" (§4.5, formula 1).
 //
 // What it does, per submesh (Scene Mesh), on the cleaned scene:
 // - quadric error edge collapse restricted to half-edge collapses (a collapse moves position u
@@ -17,7 +20,7 @@
 //   evaluated in normalized scene units (scene diagonal = 1), so errors compare across
 //   submeshes and the selection can hand triangles to where they are seen most;
 // - a scene with fewer than `flatten_below_ips` instances per submesh is flattened into one
-//   mesh (per material) and simplified as such (paper 001: IAS pays off above 1.75);
+//   mesh (per material) and simplified as such (Azim et al.: IAS pays off above 1.75);
 // - the whole collapse sequence is recorded: ProgressiveMesh levels from the coarsest reachable
 //   mesh to the full one, with monotone errors, and an InstanceOrder per submesh for thinning.
 // Complexity: O(T log T) per submesh (passes of sorted independent collapses), plus
@@ -45,7 +48,7 @@ struct SimplifyOptions {
   double flatten_below_ips = 1.75;     // flatten when instances per submesh are below this
                                        // (clean/flatten.h should_flatten)
   uint32_t min_submesh_triangles = 1;  // no collapse takes a submesh below this many triangles
-  float stop_ratio = 0.9f;             // paper 000 formula 1 threshold for the base level
+  float stop_ratio = 0.9f;             // Terrace et al. formula 1 threshold for the base level
   float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left
                                        // costs more than this (fraction of the diagonal)
   uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
@@ -75,7 +78,7 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
 
 namespace meshmux {
 
-// The instance-aware quadric of one mesh-space face (paper 001 equation 5 for one face):
+// The instance-aware quadric of one mesh-space face (Azim et al. equation 5 for one face):
 // Σᵢ Tᵢᵀ Q(Tᵢ·face) Tᵢ, where Q is the area-weighted plane quadric of the placed face. Returned
 // as a symmetric 4x4, row-major: vᵀ Q v (v = (x, y, z, 1)) is the summed squared distance of v's
 // images to the placed planes, weighted by their areas. Used by build_progressive; exposed for

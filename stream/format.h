@@ -87,11 +87,11 @@ namespace meshmux {
 // the chunk's parts deflated together); flat-shaded meshes carry no normals since 12. The web
 // client (viewers/web/package_reader.js, PACKAGE_VERSION) reads exactly this version.
 constexpr uint32_t kPackageVersion = 13;
-constexpr size_t kPackageHeaderBytes = 12;             // magic, version, table length
+constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
-constexpr uint64_t kMaxTextureSide = 65536;  // pixels, either side of a texture level
-constexpr int kMaxJsonDepth = 32;            // bracket nesting of the JSON table
+constexpr uint64_t kMaxTextureSide = 65536;              // pixels, either side of a texture level
+constexpr int kMaxJsonDepth = 32;                        // bracket nesting of the JSON table
 // Vertices or faces per mesh the stream format allows; the package table carries it to the
 // reader and the web client ("limits").
 constexpr uint64_t kMaxStreamElements = uint64_t(1) << 28;

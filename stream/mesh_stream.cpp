@@ -1,13 +1,13 @@
 // Mesh stream encoding (stream/mesh_stream.h): compact vertex splits (stream/vsplit.h,
-// DESIGN.md "Package"; paper 002 for the vertex order and parents). The encoder simulates the
-// client's state (its corner lists, the base faces as meshopt's index codec rotates them) and
-// codes each split against it: the parent as a delta within a part whose splits are reordered
-// parents-first then by parent (the batch ordering of compressed progressive meshes), the corners
-// the new vertex takes as a mask over the parent's corners, each new face's third vertex as a
-// ring position, and the new vertex's quantized attributes as residuals from its ring's mean
-// (the barycentric predictor of valence-driven coding), or, for a seam or hard-edge copy,
-// the twin it coincides with. Everything goes through the adaptive range coder
-// (stream/range_coder.h), each field with contexts of its own.
+// docs/ARCHITECTURE.md "Package"; Hoppe, "Octaviewer: spherically parameterized progressive meshes"
+// for the vertex order and parents). The encoder simulates the client's state (its corner lists,
+// the base faces as meshopt's index codec rotates them) and codes each split against it: the parent
+// as a delta within a part whose splits are reordered parents-first then by parent (the batch
+// ordering of compressed progressive meshes), the corners the new vertex takes as a mask over the
+// parent's corners, each new face's third vertex as a ring position, and the new vertex's quantized
+// attributes as residuals from its ring's mean (the barycentric predictor of valence-driven
+// coding), or, for a seam or hard-edge copy, the twin it coincides with. Everything goes through
+// the adaptive range coder (stream/range_coder.h), each field with contexts of its own.
 #include "stream/mesh_stream.h"
 
 #include <meshoptimizer.h>

@@ -1,17 +1,18 @@
-// The mesh stream's encoding (paper 002's shared vertex buffer made streamable; the byte layout
-// is specified in stream/format.h). The multiplexer costs each mesh layer with these
-// encoders and hands the encoded parts on; the package writer lays those bytes out as they are,
-// so every part is encoded exactly once per conversion.
+// The mesh stream's encoding (the shared vertex buffer of Hoppe, "Octaviewer: spherically
+// parameterized progressive meshes", made streamable; the byte layout is specified in
+// stream/format.h). The multiplexer costs each mesh layer with these encoders and hands the encoded
+// parts on; the package writer lays those bytes out as they are, so every part is encoded exactly
+// once per conversion.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
-#include "stream/format.h"
-#include "stream/vsplit.h"
 #include "scene/progressive.h"
-#include "stream/quantize.h"
 #include "scene/scene.h"
+#include "stream/format.h"
+#include "stream/quantize.h"
+#include "stream/vsplit.h"
 
 namespace meshmux {
 

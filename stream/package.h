@@ -37,7 +37,7 @@ struct PackageInput {
   // shades as the multiplexer did.
   PackageView view{};
   // The grid's distortion per view (MultiplexResult::view_table), written as the table's
-  // "view_table" when there is a choice to re-plan (mesh layers and texture levels; issue 7/8).
+  // "view_table" when there is a choice to re-plan (mesh layers and texture levels).
   const ViewTable* view_table = nullptr;
 };
 

@@ -16,10 +16,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "stream/package.h"
-#include "stream/deflate.h"
-#include "stream/vsplit.h"  // part_size_plausible
 #include "core/json_depth.h"
+#include "stream/deflate.h"
+#include "stream/package.h"
+#include "stream/vsplit.h"  // part_size_plausible
 
 namespace meshmux {
 
@@ -107,7 +107,7 @@ Status read_view(const Json& j, PackageView& v) {
   if (follows == e.end() || !follows->is_boolean())
     return fail("view: \"light_follows_camera\" missing or not a boolean");
   v.light_follows_camera = follows->get<bool>();
-  // Physically based shading (issue 5/8); packages without the fields were shaded Lambert.
+  // Physically based shading; packages without the fields were shaded Lambert.
   auto shading = e.find("shading");
   if (shading != e.end()) {
     if (!shading->is_string() ||

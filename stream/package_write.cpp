@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "stream/package.h"
 #include "stream/deflate.h"
+#include "stream/package.h"
 
 namespace meshmux {
 
@@ -243,8 +243,9 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     os.push_back({{"name", o.name}, {"chunks", o.steps}, {"distortion", o.distortion}});
   j["orders"] = std::move(os);
   // "view_table": the distortion of every cell (mesh layers received × texture levels received)
-  // from each view of the viewing sphere, so that a client re-plans the order for its camera
-  // (paper 004 §3: interpolated over the viewing mesh's triangle around the camera direction).
+  // from each view of the viewing sphere, so that a client re-plans the order for its camera (Yang,
+  // Shen and Kuo, "Progressive coding of 3D textured graphic model via joint mesh-texture
+  // optimization" §3: interpolated over the viewing mesh's triangle around the camera direction).
   // Cells row-major (i × texture_layers + j); null where not measured. The k-th mesh chunk of the
   // stored order is mesh layer k + 1, the k-th texture chunk texture level k + 1.
   const ViewTable* vt = in.view_table;

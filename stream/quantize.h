@@ -1,6 +1,6 @@
 // Attribute quantization shared by the stream package's base .glb (EXT_meshopt_compression with
 // KHR_mesh_quantization) and its vertex-split refinements (stream/mesh_stream), so that a
-// vertex has one integer value wherever it is coded (DESIGN.md "Package").
+// vertex has one integer value wherever it is coded (docs/ARCHITECTURE.md "Package").
 //
 // - Positions: unsigned integers of kPositionBits bits on a uniform grid (one step for all three
 //   axes, as gltfpack and Draco quantize, so normals stay valid under the dequantizing scale):

@@ -1,7 +1,8 @@
-// Compact vertex splits (stream/vsplit.h): the state both ends of the stream keep and the
-// decoder. DESIGN.md "Package"; paper 002 (vertex order, parents); the ring-relative connectivity
-// and barycentric prediction follow compressed progressive meshes (Pajarola & Rossignac 2000)
-// and valence-driven progressive coding (Alliez & Desbrun 2001), adapted to corner lists.
+// Compact vertex splits (stream/vsplit.h): the state both ends of the stream keep and the decoder.
+// docs/ARCHITECTURE.md "Package"; Hoppe, "Octaviewer: spherically parameterized progressive meshes"
+// (vertex order, parents); the ring-relative connectivity and barycentric prediction follow
+// compressed progressive meshes (Pajarola & Rossignac 2000) and valence-driven progressive coding
+// (Alliez & Desbrun 2001), adapted to corner lists.
 #include "stream/vsplit.h"
 
 #include <algorithm>

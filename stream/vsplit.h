@@ -1,10 +1,12 @@
-// Compact vertex splits: the stream package's mesh refinement coding (DESIGN.md "Package",
-// "Encoding"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
-// web client (viewers/web/meshmux.js, VsplitMesh) mirrors this file operation for operation.
+// Compact vertex splits: the stream package's mesh refinement coding (docs/ARCHITECTURE.md
+// "Package"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
+// web client (viewers/web/stream_mesh.js: StreamMesh, applyMeshChunk) mirrors this file
+// operation for operation.
 //
 // Ideas taken from the literature on progressive mesh compression:
-// - Hoppe's progressive meshes / paper 002: a refinement is a vertex split; the new vertex's
-//   parent is the vertex it split from, and the faces it brings are (new, parent, w).
+// - Hoppe's progressive meshes (and his "Octaviewer: spherically parameterized progressive
+//   meshes"): a refinement is a vertex split; the new vertex's parent is the vertex it split from,
+//   and the faces it brings are (new, parent, w).
 // - Compressed progressive meshes (Pajarola & Rossignac) and valence-driven progressive coding
 //   (Alliez & Desbrun): splits are sent in batches in an order both ends can derive, so a parent
 //   costs a small delta instead of an absolute index; the connectivity of a split is coded
@@ -16,8 +18,8 @@
 // and non-manifold fans code the same way, and the client's adjacency is a list of corners per
 // vertex, not a half-edge structure.
 //
-// One part (a mesh's splits from vertex a to b and faces from c to e, stream/format.h) is one stream
-// of the adaptive binary range coder (stream/range_coder.h); a package's mesh chunk is its
+// One part (a mesh's splits from vertex a to b and faces from c to e, stream/format.h) is one
+// stream of the adaptive binary range coder (stream/range_coder.h); a package's mesh chunk is its
 // parts one after the other. The contexts (VsplitContexts) belong to the mesh: they start fresh
 // with its base and carry over from part to part, as parts of one mesh are only ever applied in
 // stream order. In decoding
@@ -65,8 +67,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "stream/range_coder.h"
 #include "core/status.h"
+#include "stream/range_coder.h"
 
 namespace meshmux {
 

@@ -191,10 +191,10 @@ function drawCalls(root) {
   return n;
 }
 
-// The harness renders every model with MeshStandardMaterial (issue 2/8): a loader's Phong or
-// Lambert material (COLLADA's common profile) becomes the dielectric a PBR viewer shows for
-// it: metalness 0, roughness from the Blinn-Phong exponent n through the Beckmann match
-// α = sqrt(2 / (n + 2)), α = roughness² (Lambert: 1). Unlit materials stay unlit.
+// The harness renders every model with MeshStandardMaterial: a loader's Phong or Lambert material
+// (COLLADA's common profile) becomes the dielectric a PBR viewer shows for it: metalness 0,
+// roughness from the Blinn-Phong exponent n through the Beckmann match α = sqrt(2 / (n + 2)), α =
+// roughness² (Lambert: 1). Unlit materials stay unlit.
 function standard(m) {
   if (!m || m.isMeshStandardMaterial || m.isMeshBasicMaterial) return m;
   const s = new THREE.MeshStandardMaterial({

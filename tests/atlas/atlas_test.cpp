@@ -96,9 +96,9 @@ Fidelity measure(const Scene& before, const Scene& after, size_t n, uint32_t see
 
 class AtlasSharedModel : public ::testing::TestWithParam<const char*> {};
 
-// Acceptance: one material, one base-colour texture, one primitive per mesh; colour fidelity
-// mean ΔE00 < 2 and 99th percentile < 10 over 100,000 surface points; the atlas figures and
-// the texture levels' bytes are printed for the note.
+// The atlas's targets: one material, one base-colour texture, one primitive per mesh; colour
+// fidelity mean ΔE00 < 2 and 99th percentile < 10 over 100,000 surface points; the atlas figures
+// and the texture levels' bytes are printed for the note.
 TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);
@@ -114,7 +114,7 @@ TEST_P(AtlasSharedModel, OneMaterialOneTextureFaithfulColours) {
   ASSERT_TRUE(out.ok()) << out.status().message();
   ASSERT_TRUE(rep.built);
   EXPECT_EQ(out->materials.size(), 1u);
-  // The base colour, and one image per further channel the material samples (issue 5/8).
+  // The base colour, and one image per further channel the material samples.
   const Material& mat = out->materials[0];
   EXPECT_EQ(out->images.size(), 1u + mat.normal.present() + mat.metallic_roughness.present() +
                                     mat.emissive.present() + mat.sheen_color.present());
@@ -154,9 +154,8 @@ INSTANTIATE_TEST_SUITE_P(Shared, AtlasSharedModel,
                                            "BoxVertexColors-glb/BoxVertexColors.glb"),
                          [](const auto& info) { return testing::model_test_name(info.param); });
 
-// Issue 3/8: 500 separate textured triangles (each its own chart, each needing a texel and its
-// gutters) failed with "atlas: charts do not fit in 128²" and exit 4. The atlas grows until
-// they fit.
+// 500 separate textured triangles (each its own chart, each needing a texel and its gutters) once
+// failed with "atlas: charts do not fit in 128²" and exit 4. The atlas grows until they fit.
 TEST(Atlas, ManySmallChartsGrowTheAtlasInsteadOfFailing) {
   Scene s;
   Image img;
@@ -222,8 +221,9 @@ TEST(Atlas, SingleUntexturedMaterialPassesThrough) {
 namespace meshmux {
 namespace {
 
-// Paper 000 §4.4's point, checked texel by texel: no chart crosses a power-of-two boundary,
-// and at every mip level at which a chart still spans a texel in both directions, each
+// The point of Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D models
+// for interactive metaverses" §4.4, checked texel by texel: no chart crosses a power-of-two
+// boundary, and at every mip level at which a chart still spans a texel in both directions, each
 // level-k texel that gathers any of its texels gathers no texel of another chart.
 class AtlasMipLevels : public ::testing::TestWithParam<const char*> {};
 
@@ -372,8 +372,8 @@ Scene glass_scene() {
   return clean(s, {});
 }
 
-// Issue 2/8: a translucent colour keeps its RGB under its alpha. Grey glass (0.15, α 0.3) was
-// baked as (255, 255, 255, 77): every viewer then drew white glass.
+// A translucent colour keeps its RGB under its alpha. Grey glass (0.15, α 0.3) was once baked as
+// (255, 255, 255, 77): every viewer then drew white glass.
 TEST(Atlas, TranslucentColourKeepsItsRgbUnderAlpha) {
   Scene s = glass_scene();
   AtlasReport r;
@@ -405,10 +405,9 @@ TEST(Atlas, TranslucentColourKeepsItsRgbUnderAlpha) {
   EXPECT_NEAR(t[3], 77, 1);
 }
 
-// Issue 2/8: alpha and sidedness survive the atlas with the fewest draw calls: one material
-// per (alpha mode with its cutoff, double-sided) present, all sampling the one atlas. Merging
-// them (BLEND and double-sided for all) showed back faces of single-sided parts and blended
-// opaque ones.
+// Alpha and sidedness survive the atlas with the fewest draw calls: one material per (alpha mode
+// with its cutoff, double-sided) present, all sampling the one atlas. Merging them (BLEND and
+// double-sided for all) showed back faces of single-sided parts and blended opaque ones.
 TEST(Atlas, OneMaterialPerAlphaModeAndSidedness) {
   Scene s = glass_scene();
   Material mask = s.materials[0];
@@ -623,11 +622,11 @@ Scene two_textured_quads(int first, int second) {
   return s;
 }
 
-// Issue 1/5: charts keep their sources' texel density. The budget of issue 4/8 (no more atlas
-// texels than the sources reference) held charts to ~63% of it once packed, and decals blurred
-// (24.0 dB unlit). Here each quad spans at least its image's texels along both sides of the
-// atlas, whatever its area in the world (the small texture is on a quad as large as the
-// other's: formula 2 alone would give both the same texels).
+// Charts keep their sources' texel density. An earlier budget (no more atlas texels than the
+// sources reference) held charts to ~63% of it once packed, and decals blurred (24.0 dB unlit).
+// Here each quad spans at least its image's texels along both sides of the atlas, whatever its area
+// in the world (the small texture is on a quad as large as the other's: formula 2 alone would give
+// both the same texels).
 TEST(AtlasDensity, ChartsKeepTheirSourcesDensity) {
   Scene s = two_textured_quads(256, 128);
   AtlasReport rep;
@@ -693,8 +692,8 @@ TEST_P(AtlasBudgetShared, ChartsKeepTheirSourcesDensity) {
   }
 }
 // Normal maps are baked in the derivative frame three.js uses without TANGENT; viewers that
-// generate MikkTSpace tangents instead follow dp/du. On the atlas's flattened charts the two
-// stay within 2° on average, which is why no TANGENT is written (issue 5/8).
+// generate MikkTSpace tangents instead follow dp/du. On the atlas's flattened charts the two stay
+// within 2° on average, which is why no TANGENT is written.
 TEST_P(AtlasBudgetShared, TangentFramesStayCloseToMikkTSpace) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   auto in = import_scene(testing::shared_model(GetParam()), {}, nullptr);

@@ -204,9 +204,9 @@ TEST(Charts, FlatColoursMergeOnlyWhenIdentical) {
   }
 }
 
-// A mesh of flat colours only (a CAD assembly) is not segmented: its faces go to palette blocks
-// by colour, so it gets one chart per colour, even for pieces that do not touch (issue 6/8:
-// charting a 7-colour assembly took most of a conversion's atlas time).
+// A mesh of flat colours only (a CAD assembly) is not segmented: its faces go to palette blocks by
+// colour, so it gets one chart per colour, even for pieces that do not touch (charting a 7-colour
+// assembly once took most of a conversion's atlas time).
 TEST(Charts, FlatOnlyMeshIsOneChartPerColour) {
   Primitive far_red = grid(4, 1, 1, 1);
   for (Vec3& p : far_red.positions) p.x += 10;  // a second red piece, apart from the first

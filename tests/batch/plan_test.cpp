@@ -19,8 +19,8 @@ using testing::write_text;
 // above tell them apart, then the extension, then a counter; the same list gives the same names.
 TEST(BatchNames, ClashesArePrefixedByTheirFolders) {
   const std::vector<std::string> inputs = {"/m/Fox/glTF/Fox.gltf", "/m/Fox/glTF-Binary/Fox.glb",
-                                           "/m/Duck/duck.dae", "/m/a/model.gltf",
-                                           "/m/a/model.glb", "/m/b c/Weird name!.zip"};
+                                           "/m/Duck/duck.dae",     "/m/a/model.gltf",
+                                           "/m/a/model.glb",       "/m/b c/Weird name!.zip"};
   const std::vector<std::string> names = batch_names(inputs);
   ASSERT_EQ(names.size(), inputs.size());
   EXPECT_EQ(names[2], "duck");
@@ -29,8 +29,9 @@ TEST(BatchNames, ClashesArePrefixedByTheirFolders) {
   EXPECT_NE(names[3], names[4]);
   for (const std::string& n : names) {
     EXPECT_FALSE(n.empty());
-    EXPECT_EQ(n.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_"),
-              std::string::npos)
+    EXPECT_EQ(
+        n.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_"),
+        std::string::npos)
         << n;
   }
   EXPECT_EQ(batch_names(inputs), names);

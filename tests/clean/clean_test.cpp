@@ -159,7 +159,8 @@ TEST(Clean, KeepsInstancesAndDropsEmptiedMeshes) {
   EXPECT_EQ(r.meshes_dropped, 1u);
 }
 
-// The normalization scale maps the scene's bounding-box diagonal to 1 (paper 000 §4.1),
+// The normalization scale maps the scene's bounding-box diagonal to 1 (Terrace, Cheslack-Postava,
+// Levis and Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.1),
 // without touching positions.
 TEST(Clean, ComputesNormalizationScale) {
   Primitive p;

@@ -45,12 +45,12 @@ TEST(Args, SameFlagDifferentRangesPerCommand) {
 
 // batch hands convert's flags to every conversion, in the order given, and keeps its own.
 TEST(Args, BatchHandsConvertFlagsOn) {
-  auto p = parse_args(kBatch, {"list", "-o", "out", "-j", "3", "--no-draco", "--jpeg-quality",
-                               "70", "--allow-outside", "--retry-failed"});
+  auto p = parse_args(kBatch, {"list", "-o", "out", "-j", "3", "--no-draco", "--jpeg-quality", "70",
+                               "--allow-outside", "--retry-failed"});
   ASSERT_TRUE(p.ok()) << p.status().message();
   EXPECT_EQ(p->whole("--jobs", 1), 3);
-  EXPECT_EQ(p->convert_args(), (std::vector<std::string>{"--no-draco", "--jpeg-quality", "70",
-                                                          "--allow-outside"}));
+  EXPECT_EQ(p->convert_args(),
+            (std::vector<std::string>{"--no-draco", "--jpeg-quality", "70", "--allow-outside"}));
   EXPECT_NE(convert_flags_text().find("--jpeg-quality N"), std::string::npos);
   EXPECT_EQ(convert_flags_text().find("--jobs"), std::string::npos);
 }

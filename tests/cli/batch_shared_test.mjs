@@ -1,5 +1,5 @@
-// meshmux batch over every shared model plus 20 broken copies (issue 8/8), driven as a user
-// would: the meshmux binary, a list file, kill -9, reruns.
+// meshmux batch over every shared model plus 20 broken copies, driven as a user would: the meshmux
+// binary, a list file, kill -9, reruns.
 //
 //   node batch_shared_test.mjs --meshmux BIN --work DIR --mode local
 //     a batch killed with SIGKILL mid-run, then rerun: every good model converts, every bad
@@ -348,7 +348,7 @@ async function slurm() {
 }
 
 if (mode === 'list') {
-  // For bench/batch.sh: the acceptance's list (every shared model, then the 20 broken copies).
+  // For bench/batch.sh: the benchmark's list (every shared model, then the 20 broken copies).
   const list = path.join(work, 'list.txt');
   writeList(list, [...shared, ...broken.map((b) => b.file)]);
   console.log(list);

@@ -1,5 +1,5 @@
-// meshmux batch (issue 8/8) on inputs made here: the built-in sample, broken copies of it, a
-// slow generated mesh. The shared models and Slurm are tests/cli/batch_shared_test.mjs.
+// meshmux batch on inputs made here: the built-in sample, broken copies of it, a slow generated
+// mesh. The shared models and Slurm are tests/cli/batch_shared_test.mjs.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 

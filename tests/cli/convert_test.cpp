@@ -38,8 +38,8 @@ const char* kModels[] = {
 
 class ConvertSharedModel : public ::testing::TestWithParam<const char*> {};
 
-// The acceptance round trip of issue 1: convert (without the atlas, which replaces the
-// materials on purpose), validate, re-import, compare with the cleaned input.
+// The round trip: convert (without the atlas, which replaces the materials on purpose),
+// validate, re-import, compare with the cleaned input.
 TEST_P(ConvertSharedModel, ConvertsToValidGlbThatRoundTrips) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   std::string in = testing::shared_model(GetParam());
@@ -94,7 +94,7 @@ json info_json(const std::string& file) {
   return json::parse(r.out);
 }
 
-// The instancing counts named in the acceptance criteria, before and after conversion.
+// The known instancing counts, before and after conversion.
 TEST(ConvertInstancing, CylinderEngineDaeKeeps29MeshesAnd67Instances) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   std::string in = testing::shared_model("2CylinderEngine-dae/2CylinderEngine.dae");
@@ -403,8 +403,8 @@ TEST(BadInput, ImageThatFailsToDecodeWarnsAndConverts) {
   EXPECT_TRUE(std::filesystem::exists(dir.file("m.glb")));
 }
 
-// Issue 2/8: repeated warnings are grouped: one file gave 35 identical "<lines> skipped" lines.
-// Two of a kind are printed, then one line counting the rest.
+// Repeated warnings are grouped: one file once gave 35 identical "<lines> skipped" lines. Two of a
+// kind are printed, then one line counting the rest.
 TEST(Cli, RepeatedWarningsAreGrouped) {
   std::string geometries, nodes;
   for (int g = 0; g < 6; ++g) {
@@ -534,7 +534,8 @@ TEST(ConvertFolder, WritesBaseLevel) {
   }
 }
 
-// A model under 10,000 triangles ships whole: the base is the full mesh (paper 000 §4.5).
+// A model under 10,000 triangles ships whole: the base is the full mesh (Terrace, Cheslack-Postava,
+// Levis and Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.5).
 TEST(ConvertFolder, SmallModelBaseIsWhole) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   TempDir dir;
@@ -545,10 +546,10 @@ TEST(ConvertFolder, SmallModelBaseIsWhole) {
             info_json(dir.file("out/model.glb"))["scene_triangles"]);
 }
 
-// When every mesh ships whole, the package's base is the whole model and keeps no vertex order,
-// so it is Draco-coded like model.glb (meshopt + deflate cost the Duck 1.7x Draco's bytes and
-// the package 1.37x model.glb): validator-clean, no mesh chunk, the viewer's Draco decoder
-// beside it, and the package within issue 4/8's 1.3x of model.glb.
+// When every mesh ships whole, the package's base is the whole model and keeps no vertex order, so
+// it is Draco-coded like model.glb (meshopt + deflate cost the Duck 1.7x Draco's bytes and the
+// package 1.37x model.glb): validator-clean, no mesh chunk, the viewer's Draco decoder beside it,
+// and the package within 1.3x of model.glb.
 TEST(ConvertFolder, WholeModelPackageBaseIsDraco) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   std::string why;
@@ -587,11 +588,11 @@ TEST(ConvertFolder, WholeModelPackageBaseIsDraco) {
 namespace meshmux {
 namespace {
 
-// Issue 3/5 acceptance through the binary: textured and multi-material models leave with one
-// material and one base-colour texture, plus one material per tiled texture (a REPEAT texture
-// over many periods keeps its own, atlas/tiled.h: SheenChair's fabrics), one primitive per
-// mesh, validator-clean; models under 1.75 instances per submesh are one draw call per
-// material, instanced ones one per submesh.
+// Checked through the binary: textured and multi-material models leave with one material and one
+// base-colour texture, plus one material per tiled texture (a REPEAT texture over many periods
+// keeps its own, atlas/tiled.h: SheenChair's fabrics), one primitive per mesh, validator-clean;
+// models under 1.75 instances per submesh are one draw call per material, instanced ones one per
+// submesh.
 class ConvertAtlas : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(ConvertAtlas, OneMaterialOneTextureValid) {
@@ -606,10 +607,12 @@ TEST_P(ConvertAtlas, OneMaterialOneTextureValid) {
   const std::vector<char> tiled = find_tiled_materials(clean(*source, {}));
   const int kept = int(std::count(tiled.begin(), tiled.end(), 1));
   EXPECT_EQ(j["materials"], 1 + kept);
-  // The atlas's base colour, and its normal, occlusion-roughness-metallic and emissive maps
-  // when the sources have them (issue 5/8); and the tiled materials' own.
+  // The atlas's base colour, and its normal, occlusion-roughness-metallic and emissive maps when
+  // the sources have them; and the tiled materials' own.
   EXPECT_GE(j["textures"], 1);
-  if (kept == 0) EXPECT_LE(j["textures"], 4);
+  if (kept == 0) {
+    EXPECT_LE(j["textures"], 4);
+  }
   EXPECT_EQ(j["primitives"], j["meshes"]);
   json src = info_json(in);
   double ips = src["instances"].get<double>() / src["meshes"].get<double>();
@@ -743,7 +746,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
   }
   EXPECT_GT(mesh_chunks, 0u);
   EXPECT_GT(texture_chunks, 0u);
-  // The descent's order and the three baselines of paper 004, over the same chunks.
+  // The descent's order and the three baselines of Yang, Shen and Kuo, "Progressive coding of 3D
+  // textured graphic model via joint mesh-texture optimization", over the same chunks.
   ASSERT_EQ(pkg->orders.size(), 4u);
   EXPECT_EQ(pkg->orders[0].name, "rate-distortion");
   EXPECT_EQ(pkg->orders[1].name, "mesh-first");
@@ -758,8 +762,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
         "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",
         "viewer/" MESHMUX_THREE_FOLDER "/addons/controls/OrbitControls.js"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
-  // three.js as the build minified it (scripts/viewer_assets.mjs), beside its gzip and brotli
-  // forms for servers to send precompressed (issue 7/8).
+  // three.js as the build minified it (scripts/viewer_assets.mjs), beside its gzip and brotli forms
+  // for servers to send precompressed.
   const auto core =
       testing::read_file(dir.file("out/viewer/" MESHMUX_THREE_FOLDER "/three.core.js"));
   const auto source = testing::read_file(std::string(MESHMUX_SOURCE_DIR) +

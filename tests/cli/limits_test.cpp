@@ -1,5 +1,5 @@
-// Resource limits on the command line (issue 3/8): each limit ends a run with one line naming
-// the option that raises it, exit 2, and no output.
+// Resource limits on the command line: each limit ends a run with one line naming the option that
+// raises it, exit 2, and no output.
 #include <gtest/gtest.h>
 
 #include <filesystem>

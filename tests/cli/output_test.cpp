@@ -1,5 +1,5 @@
-// Output safety (issue 3/8): a conversion's outputs are one transaction. Each case is what
-// happened to a service's output folder before.
+// Output safety: a conversion's outputs are one transaction. Each case is what happened to a
+// service's output folder before.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
-// Progress a person can read (issue 6/8, deliver 5): one line per step with the elapsed time;
-// on a terminal, a live percentage for steps over a second, which logs and pipes never get.
+// Progress a person can read: one line per step with the elapsed time; on a terminal, a live
+// percentage for steps over a second, which logs and pipes never get.
 #include <gtest/gtest.h>
 
 #include "exporters/gltf.h"

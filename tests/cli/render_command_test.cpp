@@ -78,9 +78,9 @@ Image solid(uint8_t r, uint8_t g, uint8_t b) {
   return img;
 }
 
-// Issue 2/8: a multi-material original was drawn with its first texture on every part, so our
-// own comparisons of original and output were wrong. Two quads, a red-textured one on the left
-// and a blue-textured one on the right: each shows its own texture.
+// A multi-material original was once drawn with its first texture on every part, so our own
+// comparisons of original and output were wrong. Two quads, a red-textured one on the left and a
+// blue-textured one on the right: each shows its own texture.
 TEST(RenderCommand, EachPrimitiveShowsItsOwnTexture) {
   Scene s;
   Mesh mesh;

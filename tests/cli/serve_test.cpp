@@ -214,9 +214,9 @@ TEST_F(Serve, RangeReturnsExactlyTheRequestedBytes) {
   EXPECT_EQ(r->body, model_.substr(900));
 }
 
-// Issue 7/8: convert writes the viewer's files beside their brotli and gzip forms; a request
-// that accepts one gets it with Content-Encoding (the bytes as stored, not recompressed), ranges
-// always get the identity bytes, and caches are told the answer varies with Accept-Encoding.
+// convert writes the viewer's files beside their brotli and gzip forms; a request that accepts one
+// gets it with Content-Encoding (the bytes as stored, not recompressed), ranges always get the
+// identity bytes, and caches are told the answer varies with Accept-Encoding.
 TEST_F(Serve, PrecompressedSiblingIsSentWhenAccepted) {
   testing::write_text(site_ + "/viewer.js", "plain bytes");
   testing::write_text(site_ + "/viewer.js.br", "brotli bytes");
@@ -413,9 +413,9 @@ int connect_loopback(int port) {
   return fd;
 }
 
-// Issue 3/8: 8 slow-header connections (httplib's worker count on 2 cores) blocked every
-// other client. Under 200 idle connections and 50 that trickle a header byte every 0.5 s, an
-// ordinary request is still answered within a second, twice.
+// 8 slow-header connections (httplib's worker count on 2 cores) once blocked every other client.
+// Under 200 idle connections and 50 that trickle a header byte every 0.5 s, an ordinary request is
+// still answered within a second, twice.
 TEST_F(Serve, OrdinaryRequestAnsweredUnderSlowAndIdleConnections) {
   start({"-q"});
   std::vector<int> idle, slow;

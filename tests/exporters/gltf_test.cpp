@@ -192,10 +192,9 @@ TEST(GltfExport, UncompressedTexturedCubeIsValid) {
   expect_valid(bytes, "cube-plain.glb");
 }
 
-// Issue 2/8: a source without normals is shown flat-shaded by every glTF viewer (glTF 3.7.2.1);
-// the normals clean() generated for our own use must not be exported, or viewers shade it
-// smooth (the fox lost 6 dB lit). Both the Draco and the plain paths write no NORMAL; the
-// file stays valid.
+// A source without normals is shown flat-shaded by every glTF viewer (glTF 3.7.2.1); the normals
+// clean() generated for our own use must not be exported, or viewers shade it smooth (the fox lost
+// 6 dB lit). Both the Draco and the plain paths write no NORMAL; the file stays valid.
 TEST(GltfExport, FlatPrimitivesAreWrittenWithoutNormals) {
   Scene s = textured_cube_scene();
   for (Mesh& m : s.meshes)
@@ -394,8 +393,8 @@ TEST(GltfExport, MaterialFieldsSurvive) {
   expect_valid(bytes, "materials.glb");
 }
 
-// A sheen layer (issue 5/8) is written as KHR_materials_sheen and read back the same: colour
-// factor, colour texture, roughness factor; validator-clean.
+// A sheen layer is written as KHR_materials_sheen and read back the same: colour factor, colour
+// texture, roughness factor; validator-clean.
 TEST(GltfExport, SheenRoundTrips) {
   Scene scene = textured_cube_scene();
   Material& m = scene.materials[0];

@@ -26,9 +26,9 @@ Image grey_glass() {
   return img;
 }
 
-// Issue 2/8: PNG stores straight (unassociated) alpha, and so do our pixels. OpenImageIO's PNG
-// writer divided RGB by alpha (treating ours as premultiplied): grey glass (108, α 77) was
-// stored as (255, 255, 255, 77), white glass in every viewer.
+// PNG stores straight (unassociated) alpha, and so do our pixels. OpenImageIO's PNG writer once
+// divided RGB by alpha (treating ours as premultiplied): grey glass (108, α 77) was stored as
+// (255, 255, 255, 77), white glass in every viewer.
 TEST(ImageEncode, PngStoresStraightAlpha) {
   Image img = grey_glass();
   auto png = encode_png(img);

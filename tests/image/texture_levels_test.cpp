@@ -111,9 +111,9 @@ double pyramid_ratio(const TextureLevels& l) {
   return double(n) / double(l.levels.back().encoded.size());
 }
 
-// By default every other mip level ships (1024² → 1024², 256², 64², previews at a lower
-// quality) and the whole pyramid costs at most 1.15× the top level (issue 4/8); every mip level
-// at one quality costs more.
+// By default every other mip level ships (1024² → 1024², 256², 64², previews at a lower quality)
+// and the whole pyramid costs at most 1.15× the top level; every mip level at one quality costs
+// more.
 TEST(TextureLevels, DefaultPyramidCostsLittleMoreThanItsTop) {
   Image img = detailed(1024);
   auto def = make_texture_levels(img, {});
@@ -221,8 +221,8 @@ TEST(TextureLevels, DownsamplesInLinearLight) {
 namespace meshmux {
 namespace {
 
-// Issue 5/8: the atlas's channels move with the base colour, so every level carries each map
-// at the level's size (a client swaps them together), and the byte bound counts them all.
+// The atlas's channels move with the base colour, so every level carries each map at the level's
+// size (a client swaps them together), and the byte bound counts them all.
 TEST(TextureLevels, ChannelsRideEveryLevelAtItsSize) {
   Image base = ramp(256, 256), normal = ramp(256, 256), orm = ramp(256, 256);
   TextureLevelOptions o;

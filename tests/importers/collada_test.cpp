@@ -440,9 +440,9 @@ TEST(ColladaImport, TextureInASubfolderIsDecodedAndUvsFlipped) {
   EXPECT_TRUE(found);
 }
 
-// Issue 2/8: COLLADA colours are display values (sRGB-encoded), as three.js's ColladaLoader
-// and common viewers show them; glTF's factors are linear. A diffuse of 0.2227 shows as 57/255,
-// so its factor is srgb_decode(0.2227) ≈ 0.0406, not 0.2227 (which shows as 130/255).
+// COLLADA colours are display values (sRGB-encoded), as three.js's ColladaLoader and common viewers
+// show them; glTF's factors are linear. A diffuse of 0.2227 shows as 57/255, so its factor is
+// srgb_decode(0.2227) ≈ 0.0406, not 0.2227 (which shows as 130/255).
 TEST(ColladaImport, ColoursAreDisplayValuesDecodedFromSrgb) {
   TempDir dir;
   std::string lib = material_library({{"grey", "0.2227 0.5 1 1", ""}});
@@ -458,10 +458,10 @@ TEST(ColladaImport, ColoursAreDisplayValuesDecodedFromSrgb) {
   EXPECT_NEAR(m->base_color_factor.w, 1.0, 1e-6);
 }
 
-// Issue 2/8: a texture whose texcoord names a semantic ("CHANNEL1") that the instance binds to
-// uv set 0 (<bind_vertex_input semantic="CHANNEL1" input_semantic="TEXCOORD" input_set="0"/>)
-// reads uv set 0. Reading set 1 (the digit in the name), which does not exist, baked the atlas
-// one flat colour.
+// A texture whose texcoord names a semantic ("CHANNEL1") that the instance binds to uv set 0
+// (<bind_vertex_input semantic="CHANNEL1" input_semantic="TEXCOORD" input_set="0"/>) reads
+// uv set 0. Reading set 1 (the digit in the name), which does not exist, baked the atlas one flat
+// colour.
 TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
   const std::vector<uint8_t>& png = kRedBluePng;
   TempDir dir;
@@ -479,9 +479,9 @@ TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
   for (const Primitive& p : scene->meshes[0].primitives) EXPECT_EQ(p.uvs.size(), 1u);
 }
 
-// Issue 2/8: a <phong> effect's <shininess> sets the roughness (Blinn-Phong exponent n →
-// (2 / (n + 2))^¼, as three.js's loaders map it). Assimp 5.2 reported every shininess as 0, so
-// every COLLADA material came out fully rough and the engine looked flat against three.js.
+// A <phong> effect's <shininess> sets the roughness (Blinn-Phong exponent n → (2 / (n + 2))^¼, as
+// three.js's loaders map it). Assimp 5.2 reported every shininess as 0, so every COLLADA material
+// came out fully rough and the engine looked flat against three.js.
 TEST(ColladaImport, PhongShininessGivesTheRoughness) {
   TempDir dir;
   std::string lib = material_library({{"shiny", "0.5 0.5 0.5 1", ""}});
@@ -519,10 +519,10 @@ TEST(ColladaImport, PhongReadAsThreeJsReadsIt) {
   EXPECT_EQ(m->emissive_factor, (Vec3{0, 0, 0}));
 }
 
-// Issue 3/8: <init_from> naming an existing file outside the model's folder (absolute,
-// "../", "file://") was opened and its bytes kept. Refused with one clear error, unless the
-// folder holds a file of that name (authors' absolute paths are common: the bare name beside
-// the .dae is what they meant) or --allow-outside.
+// <init_from> naming an existing file outside the model's folder (absolute, "../", "file://") was
+// once opened and its bytes kept. Refused with one clear error, unless the folder holds a file of
+// that name (authors' absolute paths are common: the bare name beside the .dae is what they meant)
+// or --allow-outside.
 TEST(ColladaImport, TextureOutsideTheFolderIsRefused) {
   TempDir dir;
   ASSERT_EQ(mkdir(dir.file("model").c_str(), 0755), 0);

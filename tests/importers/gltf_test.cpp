@@ -525,7 +525,7 @@ TEST(GltfImport, TruncatedGlbIsAnError) {
   EXPECT_NE(s.status().message().find("truncated"), std::string::npos) << s.status().message();
 }
 
-// Real files: the instancing counts the acceptance criteria name.
+// Real files: their known instancing counts.
 TEST(GltfImport, SharedModelCylinderEngineKeepsInstancing) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   auto s =
@@ -559,8 +559,8 @@ TEST(GltfImport, SharedModelHelmetDecodesEmbeddedJpegs) {
   EXPECT_EQ(st.texture_pixels, 5u * 2048u * 2048u);
 }
 
-// Issue 2/8: EXT_texture_webp (required, WebP-only textures) was refused. The texture's WebP
-// source now decodes: the duck has its 512² texture and one textured material.
+// EXT_texture_webp (required, WebP-only textures) was once refused. The texture's WebP source now
+// decodes: the duck has its 512² texture and one textured material.
 TEST(GltfImport, SharedModelWebpTexturesDecode) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   auto s = import_gltf(testing::shared_model("Duck-webp-gltf/Duck.gltf"), {}, nullptr);
@@ -575,9 +575,9 @@ TEST(GltfImport, SharedModelWebpTexturesDecode) {
   EXPECT_EQ(img.width * img.height, 512 * 512);
 }
 
-// Issue 2/8: gltfpack output (EXT_meshopt_compression + KHR_mesh_quantization) was refused
-// ("Invalid byteLength"). Decoded, it is the same fox as the plain file: same triangles and,
-// to the quantization's precision, the same bounds.
+// gltfpack output (EXT_meshopt_compression + KHR_mesh_quantization) was once refused ("Invalid
+// byteLength"). Decoded, it is the same fox as the plain file: same triangles and, to the
+// quantization's precision, the same bounds.
 TEST(GltfImport, SharedModelMeshoptFoxMatchesThePlainFox) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   Warnings w;
@@ -790,8 +790,8 @@ TEST(GltfImport, TransmissionStaysGlassAndEmissiveStrengthIsFolded) {
   EXPECT_EQ(said, 1);
 }
 
-// Issue 2/8: a primitive without NORMAL is flat-shaded by definition (glTF 3.7.2.1): the
-// importer marks it so, and a primitive with normals is not marked.
+// A primitive without NORMAL is flat-shaded by definition (glTF 3.7.2.1): the importer marks it so,
+// and a primitive with normals is not marked.
 TEST(GltfImport, SharedModelWithoutNormalsIsMarkedFlat) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   auto fox = import_gltf(testing::shared_model("Fox-glb/Fox.glb"), {}, nullptr);

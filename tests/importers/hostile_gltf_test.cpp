@@ -1,6 +1,6 @@
-// Hostile glTF uploads (issue 3/8): each case is a file a stranger could send to a conversion
-// service, generated here; each must be refused with one clear error (or read safely), never
-// crash, never read outside the model's folder, never allocate gigabytes.
+// Hostile glTF uploads: each case is a file a stranger could send to a conversion service,
+// generated here; each must be refused with one clear error (or read safely), never crash, never
+// read outside the model's folder, never allocate gigabytes.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>

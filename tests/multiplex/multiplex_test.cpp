@@ -28,9 +28,10 @@ Result<MultiplexResult> run(const std::string& model, double* seconds) {
 
 class MultiplexSharedModel : public ::testing::TestWithParam<const char*> {};
 
-// Paper 004's claim on our data: the steepest-descent order's area under the rendered
-// distortion-vs-bytes curve is no larger than mesh-first, texture-first or constant-ratio;
-// and the lazy evaluation renders far fewer cells than the whole grid.
+// The claim of Yang, Shen and Kuo, "Progressive coding of 3D textured graphic model via joint
+// mesh-texture optimization", on our data: the steepest-descent order's area under the rendered
+// distortion-vs-bytes curve is no larger than mesh-first, texture-first or constant-ratio; and the
+// lazy evaluation renders far fewer cells than the whole grid.
 TEST_P(MultiplexSharedModel, DescentBeatsEveryBaseline) {
   if (!testing::have_shared_models()) GTEST_SKIP() << "../shared/models absent";
   double seconds = 0;

@@ -1,7 +1,7 @@
-// Physically based shading of the offscreen renderer (issue 5/8): the closed form at a pixel,
-// the normal map's orientation in the GL's derivative frame, emissive, occlusion. The web client
-// draws the same with three.js (its browser test compares the two); here the conventions that a
-// mistake would flip are pinned. Skips when EGL is unavailable.
+// Physically based shading of the offscreen renderer: the closed form at a pixel, the normal map's
+// orientation in the GL's derivative frame, emissive, occlusion. The web client draws the same with
+// three.js (its browser test compares the two); here the conventions that a mistake would flip are
+// pinned. Skips when EGL is unavailable.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -90,8 +90,9 @@ TEST(Schedule, LazyEvaluationTouchesFewCells) {
   std::printf("[ lazy ] evaluated %zu of %d cells\n", cache.evaluated(), 20 * 10);
 }
 
-// On a surface where one axis is plainly cheaper per byte, the descent's area is no larger
-// than any baseline's (the point of paper 004).
+// On a surface where one axis is plainly cheaper per byte, the descent's area is no larger than any
+// baseline's (the point of Yang, Shen and Kuo, "Progressive coding of 3D textured graphic model via
+// joint mesh-texture optimization").
 TEST(Schedule, DescentAreaIsNoWorseThanBaselines) {
   RdGrid g = synthetic(10, 6);
   RdCache cache(g);

@@ -40,10 +40,10 @@ const Converted& converted() {
   return c;
 }
 
-// Issue 1/8: the texture levels are encoded once (model.glb, base.glb and the package's base
-// embed levels that were encoded for the stream; no atlas encode, no re-encode of level 0), and
-// every mesh part is encoded once (the multiplexer's costing encode is what the package holds).
-// Counted at the encoders themselves, so a second encode anywhere in the pipeline shows.
+// The texture levels are encoded once (model.glb, base.glb and the package's base embed levels that
+// were encoded for the stream; no atlas encode, no re-encode of level 0), and every mesh part is
+// encoded once (the multiplexer's costing encode is what the package holds). Counted at the
+// encoders themselves, so a second encode anywhere in the pipeline shows.
 TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
@@ -64,7 +64,7 @@ TEST(Convert, EachMeshPartAndTextureLevelIsEncodedOnce) {
   EXPECT_EQ(parts, package_parts) << "mesh parts encoded vs parts in the package";
   ASSERT_GE(out->texture_levels, 2u);  // every other mip level: 512 and 128 high
   EXPECT_EQ(texture_chunks + 1, out->texture_levels) << "level 0 rides in the base";
-  // Each level carries the base colour and the atlas's further channels (issue 5/8).
+  // Each level carries the base colour and the atlas's further channels.
   size_t maps = 1;
   for (const PackageChunk& c : pkg->chunks)
     if (c.kind == StreamStep::kTexture) maps = c.maps.size();
@@ -128,9 +128,9 @@ TEST(Convert, LinesReachModelAndBase) {
   EXPECT_EQ(line_primitives(out->base_glb), 1u);
 }
 
-// Issue 4/8, deliver 5: report.json sets the package, as a viewer receives it (real byte
-// offsets, the stored order), against the plain download of model.glb: both start blank, the
-// download shows the model at its last byte. The figures come from the outputs themselves.
+// report.json sets the package, as a viewer receives it (real byte offsets, the stored order),
+// against the plain download of model.glb: both start blank, the download shows the model at its
+// last byte. The figures come from the outputs themselves.
 TEST(Convert, ReportComparesThePackageWithTheDownload) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
@@ -160,8 +160,8 @@ TEST(Convert, ReportComparesThePackageWithTheDownload) {
   EXPECT_NE(out->rd_svg.find("model.glb download"), std::string::npos);
 }
 
-// report.json says which texture levels the stream ships (every one the package holds, with
-// its bytes) and which were dropped and why (issue 4/8, deliver 4).
+// report.json says which texture levels the stream ships (every one the package holds, with its
+// bytes) and which were dropped and why.
 TEST(Convert, ReportListsTheTextureLevelsShipped) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
@@ -184,8 +184,7 @@ TEST(Convert, ReportListsTheTextureLevelsShipped) {
   EXPECT_EQ(k, shipped.size());
   for (const auto& d : report["texture_levels"]["dropped"])
     EXPECT_FALSE(d["why"].get<std::string>().empty());
-  // Issue 5/8: the channels the levels carry, as the package's texture steps list them, and
-  // how they move.
+  // The channels the levels carry, as the package's texture steps list them, and how they move.
   const auto& channels = report["texture_levels"]["channels"];
   ASSERT_FALSE(channels.empty());
   EXPECT_EQ(channels[0], "base_color");

@@ -100,9 +100,9 @@ TEST(MathInverse, InverseTimesMatrixIsIdentity) {
   EXPECT_TRUE((m.inverse() * m).is_identity(1e-12));
 }
 
-// Issue 2/8: normals of rotated instances pointed the wrong way once flattened (the adjugate,
-// ∝ the inverse, was applied instead of the inverse transpose: Rᵀ for a rotation R). A normal
-// must turn with its surface: rotating the plane x = 0 by 90° about z gives the plane y = 0.
+// Normals of rotated instances used to point the wrong way once flattened (the adjugate, ∝ the
+// inverse, was applied instead of the inverse transpose: Rᵀ for a rotation R). A normal must turn
+// with its surface: rotating the plane x = 0 by 90° about z gives the plane y = 0.
 TEST(MathTransformNormal, RotationTurnsNormalsWithTheSurface) {
   const double h = std::sqrt(0.5);
   Mat4 r = Mat4::rotation(0, 0, h, h);  // 90° about +z: x → y

@@ -112,8 +112,8 @@ TEST(Simplify, EveryLevelIsValidWithPromisedCounts) {
   }
 }
 
-// Paper 002's layout: level k's vertices are a prefix of level k+1's; parents come earlier;
-// errors never rise with detail.
+// The layout of Hoppe, "Octaviewer: spherically parameterized progressive meshes": level k's
+// vertices are a prefix of level k+1's; parents come earlier; errors never rise with detail.
 TEST(Simplify, LevelsArePrefixesWithEarlierParents) {
   Scene s = scene_of(uv_sphere(16, 24));
   ProgressiveScene ps = build_progressive(s, {});
@@ -179,8 +179,9 @@ TEST(Simplify, OpenBoundaryGetsNoNewBorderEdges) {
   }
 }
 
-// Paper 001 equation 5 with identity transforms is the plain quadric; with k identical
-// instances it is k times it; with a transform it measures distance in the placed space.
+// Azim, Cheslack-Postava and Levis, "Instance-aware simplification of 3D polygonal meshes",
+// equation 5: with identity transforms it is the plain quadric; with k identical instances it is k
+// times it; with a transform it measures distance in the placed space.
 TEST(Simplify, InstanceQuadricWithIdentityEqualsPlainQuadric) {
   Vec3 a{0, 0, 0}, b{2, 0, 0}, c{0, 2, 0};  // plane z = 0, area 2
   auto one = instance_face_quadric(a, b, c, {Mat4::identity()});
@@ -199,7 +200,7 @@ TEST(Simplify, InstanceQuadricWithIdentityEqualsPlainQuadric) {
   EXPECT_NEAR(e, 18.0 * 9.0, 1e-9);
 }
 
-// Paper 001 equation 4 for a general affine placement (non-uniform scale and shear): the
+// Azim et al. equation 4 for a general affine placement (non-uniform scale and shear): the
 // simplifier's factorized form must equal Tᵀ Q(T·face) T computed the long way.
 TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
   Vec3 a{0.1f, 0.2f, 0.3f}, b{1.5f, -0.4f, 0.2f}, c{0.3f, 1.1f, 0.9f};
@@ -285,7 +286,7 @@ TEST(Simplify, LevelLookupsByVerticesTrianglesAndError) {
   EXPECT_EQ(level_for_error(pm, 0.0f), pm.levels.size() - 1);
 }
 
-// Fewer than 1.75 instances per submesh: flatten and simplify as one mesh (paper 001 §4).
+// Fewer than 1.75 instances per submesh: flatten and simplify as one mesh (Azim et al. §4).
 TEST(Simplify, FewInstancesPerSubmeshTakeTheFlattenPath) {
   Scene s;
   Primitive tri;
@@ -356,7 +357,8 @@ TEST(Simplify, IsDeterministic) {
   for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
 }
 
-// Small models ship whole: the base level is the full mesh (paper 000 §4.5).
+// Small models ship whole: the base level is the full mesh (Terrace, Cheslack-Postava, Levis and
+// Freedman, "Unsupervised conversion of 3D models for interactive metaverses" §4.5).
 TEST(Simplify, SmallModelsShipWhole) {
   Scene s = scene_of(uv_sphere(12, 16));
   ProgressiveScene ps = build_progressive(s, {});

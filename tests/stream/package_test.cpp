@@ -327,8 +327,8 @@ TEST(Package, RoundTripDecodesEveryPart) {
   EXPECT_EQ(*again, *bytes);
 }
 
-// A texture step may carry several maps at one resolution (issue 4/8, deliver 6): each is
-// listed with its channel, type and bytes, base colour first, and reads back at its own range.
+// A texture step may carry several maps at one resolution: each is listed with its channel, type
+// and bytes, base colour first, and reads back at its own range.
 TEST(Package, TextureStepsCarrySeveralMaps) {
   const Fixture& f = fixture();
   TextureLevels levels = f.textures;

@@ -123,7 +123,7 @@ function makeMaterial(source, mapUniform, view) {
   });
 }
 
-// ---- Physically based shading (the package's view.shading "physical", issue 5/8) -----------
+// ---- Physically based shading (the package's view.shading "physical") ---------------------
 
 // The material channels a texture step carries, and the MeshStandardMaterial slots each fills.
 const CHANNEL_SLOTS = {

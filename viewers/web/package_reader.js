@@ -52,7 +52,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     direction: vec3(v.direction, 'view.direction'), clipMargin: num(v.clip_margin, 'view.clip_margin', 1e-3, 1e3),
     ambient: num(v.ambient, 'view.ambient', 0, 10), diffuse: num(v.diffuse, 'view.diffuse', 0, 10),
     lightDirection: vec3(v.light_direction, 'view.light_direction'), lightFollowsCamera: v.light_follows_camera !== false,
-    // Issue 5/8: "physical" = MeshStandardMaterial under a uniform environment and a light;
+    // "physical" = MeshStandardMaterial under a uniform environment and a light;
     // packages without the field were measured with the Lambert shading.
     physical: v.shading === 'physical',
   };

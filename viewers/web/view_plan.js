@@ -1,12 +1,13 @@
-// view_plan.js — the order re-planned for the viewer's own camera (issue 7/8; paper 004 §3).
+// view_plan.js — the order re-planned for the viewer's own camera (Yang, Shen and Kuo,
+// "Progressive coding of 3D textured graphic model via joint mesh-texture optimization" §3).
 //
 // The package's "view_table" holds the distortion of every cell (i mesh layers received, j
 // texture levels received) seen from each view of the viewing sphere, and the viewing mesh over
 // those views. For a camera direction, the surface is interpolated linearly over the viewing-mesh
-// triangle around it (barycentric weights of its three views: paper 004 §3 interpolates from the
-// triangle's vertices; its printed weights grow with the distance, which would favour the far
-// view, so we use the linear interpolation the text describes). On that surface the steepest
-// descent of paper 004 §2 plans the remaining moves; the plan is followed only where its area
+// triangle around it (barycentric weights of its three views: Yang, Shen and Kuo §3 interpolate
+// from the triangle's vertices; their printed weights grow with the distance, which would favour
+// the far view, so we use the linear interpolation the text describes). On that surface the
+// steepest descent of their §2 plans the remaining moves; the plan is followed only where its area
 // under distortion-vs-bytes is below the stored order's remainder on the same surface, so an
 // adapted order is never worse than the stored one for the view it was planned for.
 //

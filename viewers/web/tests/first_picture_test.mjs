@@ -1,7 +1,7 @@
-// Time to the first picture on a slow link, and what a repeat visit costs (issue 7/8): converts a
-// model, serves the output with `meshmux serve`, and in Debian's headless chromium (through
-// playwright-core), with the network throttled by the DevTools protocol
-// (Network.emulateNetworkConditions), measures from navigation start:
+// Time to the first picture on a slow link, and what a repeat visit costs: converts a model, serves
+// the output with `meshmux serve`, and in Debian's headless chromium (through playwright-core),
+// with the network throttled by the DevTools protocol (Network.emulateNetworkConditions), measures
+// from navigation start:
 //   - the stream viewer (index.html) until the model is on screen (state "base");
 //   - a plain three.js page (GLTFLoader + DRACOLoader, the same three.js files from the same
 //     server, written here as glb.html) until model.glb is on screen;

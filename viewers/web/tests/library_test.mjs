@@ -1,8 +1,8 @@
-// The library test (issue 7/8): `npm pack` of viewers/web, installed with three.js into an empty
-// folder (offline: the tarball and the repository's own three), a model converted beside it, and
-// the README's example page (between its example:begin/end markers, verbatim) served by
-// `meshmux serve` and opened in Debian's headless chromium: the stream must reach "complete"
-// with no console error or failed request.
+// The library test: `npm pack` of viewers/web, installed with three.js into an empty folder
+// (offline: the tarball and the repository's own three), a model converted beside it, and the
+// README's example page (between its example:begin/end markers, verbatim) served by `meshmux serve`
+// and opened in Debian's headless chromium: the stream must reach "complete" with no console error
+// or failed request.
 //
 // usage: node library_test.mjs --meshmux BIN --work DIR [--model FILE] [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).

@@ -1,5 +1,5 @@
-// The viewer page's details (issue 7/8, deliver 5), in Debian's headless chromium through
-// playwright-core, on the built-in sample converted and served by `meshmux serve`:
+// The viewer page's details, in Debian's headless chromium through playwright-core, on the built-in
+// sample converted and served by `meshmux serve`:
 //   - opened from disk (file://) it says how to serve it instead of "loading" forever;
 //   - ?order=bogus plays the package's own order and says why;
 //   - sizes are in decimal units, as the command line prints them; the stats are in words;

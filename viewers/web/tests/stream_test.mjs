@@ -1,6 +1,6 @@
-// Browser test of the stream viewer (issue 5/5): converts a model with `meshmux convert`, serves
-// the output with `meshmux serve`, and drives Debian's chromium (headless, through
-// playwright-core) against it:
+// Browser test of the stream viewer: converts a model with `meshmux convert`, serves the output
+// with `meshmux serve`, and drives Debian's chromium (headless, through playwright-core)
+// against it:
 //   1. with a budget of 10% of the package bytes the model is already visible (its covered
 //      pixels are at least half of the full-quality render's);
 //   2. the whole stream plays to "complete" with no console error, and the final frame matches

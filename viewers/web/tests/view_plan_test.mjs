@@ -1,6 +1,6 @@
 // view_plan.js on tables built here (no browser): the interpolation weights, the steepest
 // descent for a view, and the promise that an adapted order never does worse than the stored
-// one for the view it was planned for (issue 7/8).
+// one for the view it was planned for.
 import assert from 'node:assert/strict';
 import { layerChunks, pathArea, planRemaining, surface, viewWeights } from '../view_plan.js';
 
