@@ -11,11 +11,11 @@
 #include <map>
 #include <sstream>
 
+#include "core/parallel.h"
 #include "image/decode.h"
 #include "multiplex/distortion.h"
-#include "stream/mesh_stream.h"
-#include "core/parallel.h"
 #include "simplify/lod.h"
+#include "stream/mesh_stream.h"
 
 namespace meshmux {
 
@@ -119,14 +119,20 @@ std::vector<double> distortions(const std::vector<RenderImage>& reference,
   return out;
 }
 
-}  // namespace
+// One map of a texture level as the stream carries it: the channel it stands for, a name for
+// errors, and its encoded bytes, decoded when uploaded (one map at a time, so the decoded
+// texels are held once, by the renderer).
+struct LevelMap {
+  std::string channel;
+  std::string name;
+  const std::vector<uint8_t>* encoded = nullptr;
+  std::string mime_type;
+};
 
-Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
-                                  const MultiplexOptions& o, Progress* progress) {
-  auto start = Clock::now();
-  MultiplexResult r;
-  // --- Mesh layers: scene-wide selections from the base to the full detail. ---
-  LodSelection base = select_base(ps), full = select_full(ps);
+// Mesh layers: scene-wide selections from the base (layer 0) to the full detail (the last),
+// as many as the refinement's bytes call for within the options' bounds.
+std::vector<LodSelection> mesh_layers(const ProgressiveScene& ps, const LodSelection& base,
+                                      const LodSelection& full, const MultiplexOptions& o) {
   uint64_t base_tris = selection_triangles(ps, base), full_tris = selection_triangles(ps, full);
   uint64_t refine_bytes = layer_bytes(ps, &base, full);
   int m = 1;
@@ -152,104 +158,108 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
     }
     layers.push_back(s);
   }
-  // The layers' stream bytes are encoded on a thread of their own while the renders below run
-  // (they need only the selections); the descent waits for them.
-  Status encoded;
-  Background encoder([&] {
-    const auto t = Clock::now();
-    encoded = encode_layers(ps, layers, base, r);
-    r.seconds_layers = since(t);
-  });
-  // --- Texture layers: the atlas's mip levels as the stream carries them (encoded upstream,
-  // decoded here to render what the client decodes). ---
-  // Per level: its maps, base colour first, each with the channel it stands for; decoded one at
-  // a time when uploaded below, so the decoded texels are held once (by the renderer).
-  struct LevelMap {
-    std::string channel;
-    std::string name;
-    const std::vector<uint8_t>* encoded = nullptr;
-    std::string mime_type;
-  };
+  return layers;
+}
+
+// Texture layers: the atlas's mip levels as the stream carries them (encoded upstream, decoded
+// when uploaded to render what the client decodes). Per level: its maps, base colour first,
+// each with the channel it stands for. Fills r's texture_channels, texture_bytes (one level of
+// 0 bytes without textures), texture_levels_shipped and texture_levels_dropped.
+std::vector<std::vector<LevelMap>> texture_layers(const TextureLevels& levels, MultiplexResult& r) {
   std::vector<std::vector<LevelMap>> textures;
-  if (!levels.levels.empty()) {
-    for (const TextureLevel& l : levels.levels) {
-      std::vector<LevelMap> maps;
-      auto add = [&](const std::string& channel, const std::vector<uint8_t>& bytes,
-                     const std::string& mime) -> Status {
-        maps.push_back({channel, "level " + std::to_string(l.width) + " " + channel, &bytes, mime});
-        return Status::ok();
-      };
-      if (r.texture_channels.empty()) {
-        r.texture_channels.push_back(kBaseColorChannel);
-        for (const TextureMap& tm : l.other_maps) r.texture_channels.push_back(tm.channel);
-      }
-      if (Status s = add(kBaseColorChannel, l.encoded, l.mime_type); !s) return s;
-      for (const TextureMap& tm : l.other_maps)
-        if (Status s = add(tm.channel, tm.encoded, tm.mime_type); !s) return s;
-      // A level's cost is all its maps: the channels move together.
-      uint64_t bytes = l.encoded.size();
-      for (const TextureMap& tm : l.other_maps) bytes += tm.encoded.size();
-      r.texture_bytes.push_back(bytes);
-      r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
-      textures.push_back(std::move(maps));
-    }
-    r.texture_levels_dropped = levels.dropped;
-  } else {
+  if (levels.levels.empty()) {
     r.texture_bytes.push_back(0);
+    return textures;
+  }
+  for (const TextureLevel& l : levels.levels) {
+    std::vector<LevelMap> maps;
+    auto add = [&](const std::string& channel, const std::vector<uint8_t>& bytes,
+                   const std::string& mime) {
+      maps.push_back({channel, "level " + std::to_string(l.width) + " " + channel, &bytes, mime});
+    };
+    if (r.texture_channels.empty()) {
+      r.texture_channels.push_back(kBaseColorChannel);
+      for (const TextureMap& tm : l.other_maps) r.texture_channels.push_back(tm.channel);
+    }
+    add(kBaseColorChannel, l.encoded, l.mime_type);
+    for (const TextureMap& tm : l.other_maps) add(tm.channel, tm.encoded, tm.mime_type);
+    // A level's cost is all its maps: the channels move together.
+    uint64_t bytes = l.encoded.size();
+    for (const TextureMap& tm : l.other_maps) bytes += tm.encoded.size();
+    r.texture_bytes.push_back(bytes);
+    r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
+    textures.push_back(std::move(maps));
+  }
+  r.texture_levels_dropped = levels.dropped;
+  return textures;
+}
+
+// Renders and measures the grid's cells (mesh layer i, texture level j) from every camera of
+// the viewing sphere, against the references: the full mesh at the finest texture level. Each
+// mesh layer is uploaded when first drawn; every render is counted in r.renders and reported
+// to `progress`.
+struct CellRenders {
+  CellRenders(const ProgressiveScene& scene, const std::vector<LodSelection>& selections,
+              Renderer& renderer, MultiplexResult& result, Progress* report_to)
+      : ps(scene),
+        layers(selections),
+        gl(renderer),
+        r(result),
+        progress(report_to),
+        m(int(selections.size())),
+        n(int(result.texture_bytes.size())),
+        geometry(size_t(m), -1),
+        measured(size_t(m) * size_t(n)) {}
+
+  // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
+  // them, one map at a time.
+  Status upload_textures(const std::vector<std::vector<LevelMap>>& textures) {
+    texture.resize(textures.size());
+    for (size_t j = 0; j < textures.size(); ++j)
+      for (const LevelMap& map : textures[j]) {
+        Image image;
+        image.name = map.name;
+        image.encoded = *map.encoded;
+        image.mime_type = map.mime_type;
+        if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
+        TextureSet& set = texture[j];
+        if (std::optional<Channel> c = parse_channel(map.channel)) switch (*c) {
+            case Channel::kBaseColor:
+              set.base_color = gl.add_texture(image, true);
+              break;
+            case Channel::kNormal:
+              set.normal = gl.add_texture(image, false);
+              break;
+            case Channel::kOcclusionRoughnessMetallic:
+              set.orm = gl.add_texture(image, false);
+              break;
+            case Channel::kEmissive:
+              set.emissive = gl.add_texture(image, true);
+              break;
+            case Channel::kSheenColor:
+              set.sheen = gl.add_texture(image, true);
+              break;
+          }
+      }
+    return Status::ok();
   }
 
-  // --- Renders. ---
-  auto renderer = Renderer::create(o.render);
-  if (!renderer.ok()) return renderer.status();
-  Renderer& gl = **renderer;
-  std::vector<int> geometry(size_t(m), -1);
-  auto geometry_of = [&](int i) {
-    if (geometry[size_t(i)] < 0)
-      geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
-    return geometry[size_t(i)];
-  };
-  // Render time counts the texture levels' decoding and upload (it used to be spread over the
-  // layers' time and the first renders).
-  auto render_start = Clock::now();
-  // Every level's maps decoded (what the client decodes, JPEG losses included) and uploaded,
-  // one map at a time.
-  std::vector<TextureSet> texture(textures.size());
-  for (size_t j = 0; j < textures.size(); ++j)
-    for (const LevelMap& map : textures[j]) {
-      Image image;
-      image.name = map.name;
-      image.encoded = *map.encoded;
-      image.mime_type = map.mime_type;
-      if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
-      TextureSet& set = texture[j];
-      if (std::optional<Channel> c = parse_channel(map.channel)) switch (*c) {
-        case Channel::kBaseColor: set.base_color = gl.add_texture(image, true); break;
-        case Channel::kNormal: set.normal = gl.add_texture(image, false); break;
-        case Channel::kOcclusionRoughnessMetallic: set.orm = gl.add_texture(image, false); break;
-        case Channel::kEmissive: set.emissive = gl.add_texture(image, true); break;
-        case Channel::kSheenColor: set.sheen = gl.add_texture(image, true); break;
-      }
-    }
-  auto texture_of = [&](int j) { return textures.empty() ? TextureSet{} : texture[size_t(j)]; };
-  ViewingSphere sphere = viewing_sphere(o.view_layers);
-  Bounds box = scene_bounds(materialize(ps, full));
-  float aspect = float(o.render.width) / float(std::max(1, o.render.height));
-  std::vector<Camera> cameras;
-  for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, o.views));
-  r.views = cameras.size();
-  int n = int(r.texture_bytes.size());
-  const double most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
-  // Where every cell will be evaluated anyway (a grid of one row or column, whose descent
-  // walks it all, or the per-view table below: a small grid), all are rendered up front, each
-  // mesh layer once for every view and texture level: one depth pass per view, the passes
-  // pipelined (Renderer::render with sets and cameras). The full mesh goes first, its last
-  // level giving the references. The descent then reads the stored metrics, exactly what
-  // rendering cell by cell gives. Otherwise cells are rendered as the descent asks for them.
-  const bool full_grid = m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells;
-  const size_t V = cameras.size();
-  std::vector<std::vector<double>> measured(size_t(m) * size_t(n));  // per cell: per view
-  std::vector<RenderImage> reference;
-  if (full_grid) {
+  // One camera per direction of the viewing sphere, each framing the full detail.
+  void place_cameras(const ViewingSphere& sphere, const LodSelection& full,
+                     const MultiplexOptions& o) {
+    Bounds box = scene_bounds(materialize(ps, full));
+    float aspect = float(o.render.width) / float(std::max(1, o.render.height));
+    for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, o.views));
+    r.views = cameras.size();
+    most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
+  }
+
+  // Every cell from every view, each mesh layer once for every view and texture level: one
+  // depth pass per view, the passes pipelined (Renderer::render with sets and cameras). The
+  // full mesh goes first, its last level giving the references. The descent then reads the
+  // stored metrics, exactly what rendering cell by cell gives.
+  void render_grid() {
+    const size_t V = cameras.size();
     std::vector<TextureSet> sets;
     for (int j = 0; j < n; ++j) sets.push_back(texture_of(j));
     for (int i = m - 1; i >= 0; --i) {
@@ -267,33 +277,33 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
         for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
         r.renders += V;
       }
-      report_fraction(progress, double(r.renders) / most_renders);
+      report();
     }
-  } else {
+  }
+
+  // The references alone; the other cells are rendered as the descent asks for them.
+  void render_references() {
     reference = gl.render(geometry_of(m - 1), {texture_of(n - 1)}, cameras);
-    r.renders += V;
-    report_fraction(progress, double(r.renders) / most_renders);
+    r.renders += cameras.size();
+    report();
   }
-  // Nothing shown yet: blank frames against the references.
-  for (const RenderImage& ref : reference) {
-    RenderImage blank;
-    blank.width = ref.width;
-    blank.height = ref.height;
-    blank.rgba.assign(ref.rgba.size(), 0);
-    blank.coverage.assign(ref.coverage.size(), 0);
-    r.empty_distortion += measure_distortion(ref, blank).ciede2000 / double(reference.size());
+
+  // Nothing shown yet: blank frames against the references (r.empty_distortion).
+  void measure_blank_frames() {
+    for (const RenderImage& ref : reference) {
+      RenderImage blank;
+      blank.width = ref.width;
+      blank.height = ref.height;
+      blank.rgba.assign(ref.rgba.size(), 0);
+      blank.coverage.assign(ref.coverage.size(), 0);
+      r.empty_distortion += measure_distortion(ref, blank).ciede2000 / double(reference.size());
+    }
   }
-  r.view_table.directions = sphere.directions;
-  r.view_table.triangles = sphere.triangles;
-  r.view_table.mesh_layers = m;
-  r.view_table.texture_layers = n;
-  r.view_table.cells.assign(size_t(m) * size_t(n), {});
-  encoder.wait();
-  if (!encoded) return encoded;
-  RdGrid grid;
-  grid.mesh_bytes = r.mesh_bytes;
-  grid.texture_bytes = r.texture_bytes;
-  grid.distortion = [&](int i, int j) {
+
+  // The distortion of cell (i, j), the mean over the views, with the per-view values written to
+  // r's view table; rendered now unless measured up front or asked for before.
+  double distortion(int i, int j) {
+    const size_t V = cameras.size();
     std::vector<double>& per_view = r.view_table.cells[size_t(i) * size_t(n) + size_t(j)];
     per_view.assign(cameras.size(), 0.0);
     if (i == m - 1 && j == n - 1) return 0.0;
@@ -302,12 +312,47 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
       const std::vector<RenderImage> images = gl.render(geometry_of(i), {texture_of(j)}, cameras);
       stored = distortions(reference, images, 1, -1);
       r.renders += V;
-      report_fraction(progress, double(r.renders) / most_renders);
+      report();
     }
     double sum = 0;
     for (size_t v = 0; v < V; ++v) sum += per_view[v] = stored[v];
     return sum / double(V);
-  };
+  }
+
+  // Mesh layer i's geometry handle, uploaded on first use.
+  int geometry_of(int i) {
+    if (geometry[size_t(i)] < 0)
+      geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
+    return geometry[size_t(i)];
+  }
+  // Texture level j's maps (an empty set without textures).
+  TextureSet texture_of(int j) const { return texture.empty() ? TextureSet{} : texture[size_t(j)]; }
+  void report() { report_fraction(progress, double(r.renders) / most_renders); }
+
+  const ProgressiveScene& ps;
+  const std::vector<LodSelection>& layers;
+  Renderer& gl;
+  MultiplexResult& r;
+  Progress* progress;
+  const int m;                      // mesh layers
+  const int n;                      // texture levels (one without textures)
+  std::vector<TextureSet> texture;  // per texture level (none without textures)
+  std::vector<Camera> cameras;
+  double most_renders = 0;                    // renders if every cell is rendered
+  std::vector<int> geometry;                  // per mesh layer: its handle, -1 until drawn
+  std::vector<std::vector<double>> measured;  // per cell: per view
+  std::vector<RenderImage> reference;         // per view
+};
+
+// Descent and baselines: the steepest descent over the grid (the order the stream ships), the
+// fixed orders it is compared with, and where a choice exists on a small grid, every cell for
+// the per-view table. Fills r's rd, the baselines' paths and the cell counts.
+void descend(CellRenders& cells, MultiplexResult& r) {
+  const int m = cells.m, n = cells.n;
+  RdGrid grid;
+  grid.mesh_bytes = r.mesh_bytes;
+  grid.texture_bytes = r.texture_bytes;
+  grid.distortion = [&](int i, int j) { return cells.distortion(i, j); };
   RdCache cache(grid);
   r.rd = steepest_descent(cache);
   r.cells_descent = cache.evaluated();
@@ -315,12 +360,60 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   r.texture_first = texture_first(cache);
   r.constant_ratio = constant_ratio(cache);
   // Where a choice exists (mesh layers and texture levels), every cell: a client re-plans the
-  // order for its own camera from any cell (issue 7/8). Small grids are already complete here.
+  // order for its own camera from any cell. Small grids are already complete here.
   if (m > 1 && n > 1 && size_t(m) * size_t(n) <= kViewTableMaxCells)
     for (int i = 0; i < m; ++i)
       for (int j = 0; j < n; ++j) cache.at(i, j);
   r.cells_evaluated = cache.evaluated();
   r.cells_total = size_t(m) * size_t(n);
+}
+
+}  // namespace
+
+Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
+                                  const MultiplexOptions& o, Progress* progress) {
+  auto start = Clock::now();
+  MultiplexResult r;
+  const LodSelection base = select_base(ps), full = select_full(ps);
+  const std::vector<LodSelection> layers = mesh_layers(ps, base, full, o);
+  const int m = int(layers.size());
+  // The layers' stream bytes are encoded on a thread of their own while the renders below run
+  // (they need only the selections); the descent waits for them.
+  Status encoded;
+  Background encoder([&] {
+    const auto t = Clock::now();
+    encoded = encode_layers(ps, layers, base, r);
+    r.seconds_layers = since(t);
+  });
+  const std::vector<std::vector<LevelMap>> textures = texture_layers(levels, r);
+  const int n = int(r.texture_bytes.size());
+
+  // Renders: the texture levels uploaded, the cameras placed, then the references and, where
+  // every cell will be evaluated anyway (a grid of one row or column, whose descent walks it
+  // all, or a small grid, which descend completes for the per-view table), every cell up front.
+  auto renderer = Renderer::create(o.render);
+  if (!renderer.ok()) return renderer.status();
+  // Render time counts the texture levels' decoding and upload (it used to be spread over the
+  // layers' time and the first renders).
+  auto render_start = Clock::now();
+  CellRenders cells(ps, layers, **renderer, r, progress);
+  if (Status s = cells.upload_textures(textures); !s) return s;
+  ViewingSphere sphere = viewing_sphere(o.view_layers);
+  cells.place_cameras(sphere, full, o);
+  if (m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells)
+    cells.render_grid();
+  else
+    cells.render_references();
+  cells.measure_blank_frames();
+  r.view_table.directions = sphere.directions;
+  r.view_table.triangles = sphere.triangles;
+  r.view_table.mesh_layers = m;
+  r.view_table.texture_layers = n;
+  r.view_table.cells.assign(size_t(m) * size_t(n), {});
+
+  encoder.wait();
+  if (!encoded) return encoded;
+  descend(cells, r);
   r.seconds_render = since(render_start);
   r.seconds_total = since(start);
   return r;

@@ -186,6 +186,15 @@ struct GpuGeometry {
   std::vector<GpuInstance> instances;
 };
 
+// One camera of a render call: its view, projection × view, and the direction towards the
+// light in world space (Lambert) and in view space (physical shading).
+struct CameraFrame {
+  Mat4 view;
+  Mat4 view_proj;
+  DVec3 light;
+  DVec3 light_view;
+};
+
 }  // namespace
 
 struct Renderer::Impl {
@@ -222,6 +231,17 @@ struct Renderer::Impl {
   }
   Status init_egl();
   Status init_gl();
+
+  // The phases of render() with sets and cameras (defined beside it).
+  bool live(int k) const;
+  void draw_depth(const GpuGeometry& geo, const CameraFrame& frame);
+  void draw_shaded(const GpuGeometry& geo, const CameraFrame& frame, const TextureSet& t);
+  void use_shading_program(const CameraFrame& frame);
+  void set_instance(const CameraFrame& frame, const GpuInstance& inst);
+  void set_primitive(const GpuPrimitive& p, bool explicit_set);
+  void bind_set(const TextureSet& set, TextureSet& bound);
+  void bind_map(int want, int have, GLint flag, GLenum unit);
+  void bind_unit(GLenum unit, int k);
 };
 
 Status Renderer::Impl::init_egl() {
@@ -683,16 +703,192 @@ RenderImage Renderer::render(int g, const TextureSet& t, const Camera& camera) {
 }
 
 namespace {
+
 bool empty_set(const TextureSet& t) {
   return t.base_color < 0 && t.normal < 0 && t.orm < 0 && t.emissive < 0 && t.sheen < 0;
 }
+
+// The camera's view, projection and light.
+CameraFrame camera_frame(const Camera& camera, const RenderOptions& o, int w, int h) {
+  DVec3 axes[3];
+  Mat4 view = look_at(camera, axes);
+  Mat4 view_proj =
+      perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) * view;
+  DVec3 l = normalize(to_dvec3(o.light_direction));
+  DVec3 l_view = l;              // physical shading works in view space
+  if (o.light_follows_camera) {  // camera space → world: inverse (= transposed) view rotation
+    l = normalize(DVec3{axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
+                        axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
+                        axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
+  } else {
+    l_view = normalize(DVec3{dot(axes[0], l), dot(axes[1], l), dot(axes[2], l)});
+  }
+  return {view, view_proj, l, l_view};
+}
+
+// An instance's model-view-projection matrix, as floats.
+void mvp_of(const CameraFrame& frame, const GpuInstance& inst, float out[16]) {
+  Mat4 mvp = frame.view_proj * inst.world;
+  for (int i = 0; i < 16; ++i) out[i] = float(mvp.m[i]);
+}
+
+// Normal matrices: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected so
+// mirrored transforms keep outward normals; the shader renormalizes.
+void normal_matrix(const Mat4& a, float nm[9]) {
+  const double sign = a.det3() < 0 ? -1 : 1;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+      double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
+      nm[c * 3 + r] = float(sign * cof);  // column-major mat3
+    }
+}
+
+// Readback: glReadPixels (bottom row first), flipped so row 0 is the top.
+void read_back(int w, int h, RenderImage& img) {
+  img.width = w;
+  img.height = h;
+  img.rgba.resize(size_t(w) * h * 4);
+  std::vector<uint8_t> raw(img.rgba.size());
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
+  const size_t row = size_t(w) * 4;
+  for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
+    std::memcpy(&img.rgba[size_t(y) * row], &raw[size_t(h - 1 - y) * row], row);
+  img.coverage.resize(size_t(w) * h);
+  for (size_t i = 0; i < img.coverage.size(); ++i) img.coverage[i] = img.rgba[i * 4 + 3] > 0;
+}
+
 }  // namespace
+
+bool Renderer::Impl::live(int k) const {
+  return k >= 0 && size_t(k) < textures.size() && textures[k].id;
+}
+
+// The depth pre-pass: depth alone, after which every set's shading pass keeps the fragments of
+// equal depth (no depth writes).
+void Renderer::Impl::draw_depth(const GpuGeometry& geo, const CameraFrame& frame) {
+  glUseProgram(depth_program);
+  glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+  for (const GpuInstance& inst : geo.instances) {
+    float mvp_f[16];
+    mvp_of(frame, inst, mvp_f);
+    glUniformMatrix4fv(d_mvp, 1, GL_FALSE, mvp_f);
+    for (const GpuPrimitive& p : geo.meshes[inst.mesh]) {
+      glBindVertexArray(p.vao);
+      glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+    }
+  }
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDepthMask(GL_FALSE);
+  glDepthFunc(GL_EQUAL);
+}
+
+// One shading pass: every instance's primitives with the set `t`, or with each primitive's own
+// textures where `t` is empty.
+void Renderer::Impl::draw_shaded(const GpuGeometry& geo, const CameraFrame& frame,
+                                 const TextureSet& t) {
+  const bool explicit_set = !empty_set(t);  // an explicit set overrides the materials' own
+  use_shading_program(frame);
+  TextureSet bound{-2, -2, -2, -2, -2};  // the set bound so far (bind_set: once per change)
+  for (const GpuInstance& inst : geo.instances) {
+    const auto& prims = geo.meshes[inst.mesh];
+    if (prims.empty()) continue;
+    set_instance(frame, inst);
+    for (const GpuPrimitive& p : prims) {
+      set_primitive(p, explicit_set);
+      bind_set(explicit_set ? t : p.textures, bound);
+      glBindVertexArray(p.vao);
+      glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
+    }
+  }
+}
+
+// The shading program with the pass's uniforms: the light and the texture units.
+void Renderer::Impl::use_shading_program(const CameraFrame& frame) {
+  const bool physical = options.shading == Shading::kPhysical;
+  const DVec3& l = physical ? frame.light_view : frame.light;
+  glUseProgram(program);
+  glUniform1i(u_physical, physical ? 1 : 0);
+  glUniform3f(u_light, float(l.x), float(l.y), float(l.z));
+  glUniform1f(u_ambient, options.ambient);
+  glUniform1f(u_diffuse, options.diffuse);
+  glUniform1f(u_environment, options.environment);
+  glUniform1f(u_light_intensity, options.light_intensity);
+  glUniform1i(u_texture, 0);
+  glUniform1i(u_texture_plain, 1);
+  glUniform1i(u_normal_map, 2);
+  glUniform1i(u_orm_map, 3);
+  glUniform1i(u_emissive_map, 4);
+  glUniform1i(u_dfg, 5);
+  glUniform1i(u_sheen_map, 6);
+}
+
+// An instance's matrices and winding.
+void Renderer::Impl::set_instance(const CameraFrame& frame, const GpuInstance& inst) {
+  Mat4 model_view = frame.view * inst.world;
+  float mvp_f[16], mv_f[16];
+  mvp_of(frame, inst, mvp_f);
+  for (int i = 0; i < 16; ++i) mv_f[i] = float(model_view.m[i]);
+  float nm[9], nv[9];
+  normal_matrix(inst.world, nm);
+  normal_matrix(model_view, nv);
+  glUniformMatrix4fv(u_mvp, 1, GL_FALSE, mvp_f);
+  glUniformMatrix4fv(u_model_view, 1, GL_FALSE, mv_f);
+  glUniformMatrix3fv(u_normal, 1, GL_FALSE, nm);
+  glUniformMatrix3fv(u_normal_view, 1, GL_FALSE, nv);
+  // Mirroring transforms reverse the screen-space winding of front faces.
+  glFrontFace(inst.world.det3() < 0 ? GL_CW : GL_CCW);
+}
+
+// A primitive's material factors (an explicit set's occlusion at full strength).
+void Renderer::Impl::set_primitive(const GpuPrimitive& p, bool explicit_set) {
+  glUniform4f(u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
+  glUniform1f(u_metallic, p.metallic);
+  glUniform1f(u_roughness, p.roughness);
+  glUniform1f(u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
+  glUniform1f(u_normal_scale, p.normal_scale);
+  glUniform3f(u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
+  glUniform3f(u_sheen, p.sheen.x, p.sheen.y, p.sheen.z);
+  glUniform1f(u_sheen_roughness, p.sheen_roughness);
+}
+
+// Binds a texture set where it differs from `bound` (then `bound` is the set) and says which
+// maps are there.
+void Renderer::Impl::bind_set(const TextureSet& set, TextureSet& bound) {
+  if (set.base_color != bound.base_color) {
+    const int k = set.base_color;
+    glUniform1i(u_textured, live(k) ? 1 : 0);
+    glUniform2f(u_texture_size, live(k) ? float(textures[size_t(k)].width) : 1.0f,
+                live(k) ? float(textures[size_t(k)].height) : 1.0f);
+    bind_unit(GL_TEXTURE0, k);
+    bind_unit(GL_TEXTURE1, k);
+  }
+  bind_map(set.normal, bound.normal, u_has_normal_map, GL_TEXTURE2);
+  bind_map(set.orm, bound.orm, u_has_orm_map, GL_TEXTURE3);
+  bind_map(set.emissive, bound.emissive, u_has_emissive_map, GL_TEXTURE4);
+  bind_map(set.sheen, bound.sheen, u_has_sheen_map, GL_TEXTURE6);
+  glActiveTexture(GL_TEXTURE5);
+  glBindTexture(GL_TEXTURE_2D, dfg_texture);
+  glActiveTexture(GL_TEXTURE0);
+  bound = set;
+}
+
+// A further map: its unit, and the flag saying the shader has it (physical shading).
+void Renderer::Impl::bind_map(int want, int have, GLint flag, GLenum unit) {
+  if (want == have) return;
+  glUniform1i(flag, options.shading == Shading::kPhysical && live(want) ? 1 : 0);
+  bind_unit(unit, want);
+}
+
+void Renderer::Impl::bind_unit(GLenum unit, int k) {
+  glActiveTexture(unit);
+  glBindTexture(GL_TEXTURE_2D, live(k) ? textures[size_t(k)].id : 0);
+}
 
 std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& sets,
                                           const std::vector<Camera>& cameras) {
   Impl& m = *impl_;
   const RenderOptions& o = m.options;
-  const bool physical = o.shading == Shading::kPhysical;
   const size_t count = sets.size() * cameras.size();
   std::vector<RenderImage> images(count);
   if (count == 0) return images;
@@ -704,169 +900,23 @@ std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& 
   glClearColor(0, 0, 0, 0);
   glClearDepth(1.0);
 
-  auto live = [&](int k) { return k >= 0 && size_t(k) < m.textures.size() && m.textures[k].id; };
   bool geometry_ok = g >= 0 && size_t(g) < m.geometries.size() && m.geometries[g].live;
   // The pre-pass pays where several texture sets share it (one pass instead of a geometry pass
   // per set); for one set, drawing the geometry twice costs more than the overdraw it saves
   // (measured: a palette-textured 110k-triangle engine 12% and a 1.7M-triangle forest 60%
   // slower with it).
   const bool prepass = o.depth_prepass && geometry_ok && sets.size() > 1;
-  // Readback: glReadPixels (bottom row first), flipped so row 0 is the top.
-  auto read_back = [&](RenderImage& img) {
-    img.width = w;
-    img.height = h;
-    img.rgba.resize(size_t(w) * h * 4);
-    std::vector<uint8_t> raw(img.rgba.size());
-    glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, raw.data());
-    const size_t row = size_t(w) * 4;
-    for (int y = 0; y < h; ++y)  // GL's row 0 is the bottom
-      std::memcpy(&img.rgba[size_t(y) * row], &raw[size_t(h - 1 - y) * row], row);
-    img.coverage.resize(size_t(w) * h);
-    for (size_t i = 0; i < img.coverage.size(); ++i) img.coverage[i] = img.rgba[i * 4 + 3] > 0;
-  };
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   for (size_t c = 0; c < cameras.size(); ++c) {
-    const Camera& camera = cameras[c];
+    const CameraFrame frame = camera_frame(cameras[c], o, w, h);
     const size_t base = c * sets.size();
-    // The camera's view, projection and light.
-    DVec3 axes[3];
-    Mat4 view = look_at(camera, axes);
-    Mat4 view_proj =
-        perspective(camera.fov_y_degrees, double(w) / h, camera.near_plane, camera.far_plane) *
-        view;
-    DVec3 l = normalize(to_dvec3(o.light_direction));
-    DVec3 l_view = l;              // physical shading works in view space
-    if (o.light_follows_camera) {  // camera space → world: inverse (= transposed) view rotation
-      l = normalize(DVec3{axes[0].x * l.x + axes[1].x * l.y + axes[2].x * l.z,
-                          axes[0].y * l.x + axes[1].y * l.y + axes[2].y * l.z,
-                          axes[0].z * l.x + axes[1].z * l.y + axes[2].z * l.z});
-    } else {
-      l_view = normalize(DVec3{dot(axes[0], l), dot(axes[1], l), dot(axes[2], l)});
-    }
-
-    auto mvp_of = [&](const GpuInstance& inst, float out[16]) {
-      Mat4 mvp = view_proj * inst.world;
-      for (int i = 0; i < 16; ++i) out[i] = float(mvp.m[i]);
-    };
-    // With the pre-pass, depth alone is drawn first and every set's shading pass then keeps
-    // the fragments of equal depth (no depth writes).
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    if (prepass) {
-      const GpuGeometry& geo = m.geometries[g];
-      glUseProgram(m.depth_program);
-      glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-      for (const GpuInstance& inst : geo.instances) {
-        float mvp_f[16];
-        mvp_of(inst, mvp_f);
-        glUniformMatrix4fv(m.d_mvp, 1, GL_FALSE, mvp_f);
-        for (const GpuPrimitive& p : geo.meshes[inst.mesh]) {
-          glBindVertexArray(p.vao);
-          glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
-        }
-      }
-      glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-      glDepthMask(GL_FALSE);
-      glDepthFunc(GL_EQUAL);
-    }
+    if (prepass) m.draw_depth(m.geometries[g], frame);
     // One shading pass per set, each read back before the next clears the colour.
     for (size_t k = 0; k < sets.size(); ++k) {
-      const TextureSet& t = sets[k];
-      const bool explicit_set = !empty_set(t);  // an explicit set overrides the materials' own
       if (k > 0) glClear(prepass ? GL_COLOR_BUFFER_BIT : GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-      if (!geometry_ok) {
-        read_back(images[base + k]);
-        continue;
-      }
-      const GpuGeometry& geo = m.geometries[g];
-      glUseProgram(m.program);
-      glUniform1i(m.u_physical, physical ? 1 : 0);
-      if (physical)
-        glUniform3f(m.u_light, float(l_view.x), float(l_view.y), float(l_view.z));
-      else
-        glUniform3f(m.u_light, float(l.x), float(l.y), float(l.z));
-      glUniform1f(m.u_ambient, o.ambient);
-      glUniform1f(m.u_diffuse, o.diffuse);
-      glUniform1f(m.u_environment, o.environment);
-      glUniform1f(m.u_light_intensity, o.light_intensity);
-      glUniform1i(m.u_texture, 0);
-      glUniform1i(m.u_texture_plain, 1);
-      glUniform1i(m.u_normal_map, 2);
-      glUniform1i(m.u_orm_map, 3);
-      glUniform1i(m.u_emissive_map, 4);
-      glUniform1i(m.u_dfg, 5);
-      glUniform1i(m.u_sheen_map, 6);
-      // Binds a texture set (once per change) and says which maps are there.
-      TextureSet bound{-2, -2, -2, -2, -2};
-      auto bind_unit = [&](GLenum unit, int k) {
-        glActiveTexture(unit);
-        glBindTexture(GL_TEXTURE_2D, live(k) ? m.textures[size_t(k)].id : 0);
-      };
-      auto bind = [&](const TextureSet& set) {
-        if (set.base_color != bound.base_color) {
-          const int k = set.base_color;
-          glUniform1i(m.u_textured, live(k) ? 1 : 0);
-          glUniform2f(m.u_texture_size, live(k) ? float(m.textures[size_t(k)].width) : 1.0f,
-                      live(k) ? float(m.textures[size_t(k)].height) : 1.0f);
-          bind_unit(GL_TEXTURE0, k);
-          bind_unit(GL_TEXTURE1, k);
-        }
-        // A further map: its unit, and the flag saying the shader has it (physical shading).
-        auto bind_map = [&](int want, int have, GLint flag, GLenum unit) {
-          if (want == have) return;
-          glUniform1i(flag, physical && live(want) ? 1 : 0);
-          bind_unit(unit, want);
-        };
-        bind_map(set.normal, bound.normal, m.u_has_normal_map, GL_TEXTURE2);
-        bind_map(set.orm, bound.orm, m.u_has_orm_map, GL_TEXTURE3);
-        bind_map(set.emissive, bound.emissive, m.u_has_emissive_map, GL_TEXTURE4);
-        bind_map(set.sheen, bound.sheen, m.u_has_sheen_map, GL_TEXTURE6);
-        glActiveTexture(GL_TEXTURE5);
-        glBindTexture(GL_TEXTURE_2D, m.dfg_texture);
-        glActiveTexture(GL_TEXTURE0);
-        bound = set;
-      };
-      for (const GpuInstance& inst : geo.instances) {
-        const auto& prims = geo.meshes[inst.mesh];
-        if (prims.empty()) continue;
-        Mat4 model_view = view * inst.world;
-        float mvp_f[16], mv_f[16];
-        mvp_of(inst, mvp_f);
-        for (int i = 0; i < 16; ++i) mv_f[i] = float(model_view.m[i]);
-        // Normal matrices: cofactors of the 3x3 part (= det × inverse transpose), sign-corrected
-        // so mirrored transforms keep outward normals; the shader renormalizes.
-        auto normal_matrix = [](const Mat4& a, float nm[9]) {
-          const double sign = a.det3() < 0 ? -1 : 1;
-          for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) {
-              int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
-              double cof = a.at(r1, c1) * a.at(r2, c2) - a.at(r1, c2) * a.at(r2, c1);
-              nm[c * 3 + r] = float(sign * cof);  // column-major mat3
-            }
-        };
-        float nm[9], nv[9];
-        normal_matrix(inst.world, nm);
-        normal_matrix(model_view, nv);
-        glUniformMatrix4fv(m.u_mvp, 1, GL_FALSE, mvp_f);
-        glUniformMatrix4fv(m.u_model_view, 1, GL_FALSE, mv_f);
-        glUniformMatrix3fv(m.u_normal, 1, GL_FALSE, nm);
-        glUniformMatrix3fv(m.u_normal_view, 1, GL_FALSE, nv);
-        // Mirroring transforms reverse the screen-space winding of front faces.
-        glFrontFace(inst.world.det3() < 0 ? GL_CW : GL_CCW);
-        for (const GpuPrimitive& p : prims) {
-          glUniform4f(m.u_factor, p.factor.x, p.factor.y, p.factor.z, p.factor.w);
-          glUniform1f(m.u_metallic, p.metallic);
-          glUniform1f(m.u_roughness, p.roughness);
-          glUniform1f(m.u_occlusion_strength, explicit_set ? 1.0f : p.occlusion_strength);
-          glUniform1f(m.u_normal_scale, p.normal_scale);
-          glUniform3f(m.u_emissive, p.emissive.x, p.emissive.y, p.emissive.z);
-          glUniform3f(m.u_sheen, p.sheen.x, p.sheen.y, p.sheen.z);
-          glUniform1f(m.u_sheen_roughness, p.sheen_roughness);
-          bind(explicit_set ? t : p.textures);
-          glBindVertexArray(p.vao);
-          glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
-        }
-      }
-      read_back(images[base + k]);
+      if (geometry_ok) m.draw_shaded(m.geometries[g], frame, sets[k]);
+      read_back(w, h, images[base + k]);
     }
     glBindVertexArray(0);
     glFrontFace(GL_CCW);

@@ -146,6 +146,22 @@ export async function inflate(bytes, limit, format = 'deflate') {
 const mean = (sum, n) => Math.floor((2 * sum + n) / (2 * n));
 const PRED = new Int32Array(8);
 const NORMAL = new Float64Array(3);  // v's fan normal (exact integers below 2^53)
+// v's prediction set, gathered per split (addNeighbour): the sums of its vertices' quantized
+// positions [0, 3), normals [3, 6) and uvs [6, 8), their count [8], and the positions' extent,
+// lows [9, 12) and highs [12, 15). Doubles: every sum an exact integer (below 2^53).
+const NEAR = new Float64Array(15);
+const NEAR_EMPTY = Float64Array.of(0, 0, 0, 0, 0, 0, 0, 0, 0, 65535, 65535, 65535, 0, 0, 0);
+// Adds vertex w to the prediction set A (NEAR).
+function addNeighbour(A, qp, qn, qt, w) {
+  const x0 = qp[3 * w], x1 = qp[3 * w + 1], x2 = qp[3 * w + 2];
+  A[0] += x0; A[1] += x1; A[2] += x2;
+  A[3] += qn[3 * w]; A[4] += qn[3 * w + 1]; A[5] += qn[3 * w + 2];
+  A[6] += qt[2 * w]; A[7] += qt[2 * w + 1];
+  A[8]++;
+  if (x0 < A[9]) A[9] = x0; if (x0 > A[12]) A[12] = x0;
+  if (x1 < A[10]) A[10] = x1; if (x1 > A[13]) A[13] = x1;
+  if (x2 < A[11]) A[11] = x2; if (x2 > A[14]) A[14] = x2;
+}
 // 1 when face f's three corners differ.
 function faceSolid(I, f) {
   const a = I[f], b = I[f + 1], c = I[f + 2];
@@ -336,7 +352,7 @@ export class StreamMesh {
   // functions (no closures).
   applySplits(d, begin, end, splits, faces) {
     const I = this.indices, head = this.head, next = this.next, qp = this.qp, qn = this.qn, qt = this.qt;
-    const stamp = this.stamp, ring = this.ring, pred = PRED, X = this.contexts;
+    const stamp = this.stamp, ring = this.ring, pred = PRED, near = NEAR, X = this.contexts;
     const fail = (message) => new Error(`mesh ${this.index}: ${message}`);
     if (end - begin < PART_MIN_BYTES || splits + faces > PART_ELEMENTS_PER_BYTE * (end - begin) + PART_ELEMENTS_CONSTANT) {
       throw fail(`${end - begin} bytes cannot hold ${splits} splits and ${faces} faces`);
@@ -417,8 +433,8 @@ export class StreamMesh {
       // into the ring.
       const sA = ++stampValue, sB = ++stampValue;
       stamp[v] = stamp[p] = sA;
-      let ringSize = 0, n = 0, s0 = 0, s1 = 0, s2 = 0, n0 = 0, n1 = 0, n2 = 0, t0 = 0, t1 = 0, pNear = k > 0;
-      let lo0 = 65535, lo1 = 65535, lo2 = 65535, hi0 = 0, hi1 = 0, hi2 = 0;
+      let ringSize = 0, pNear = k > 0;
+      near.set(NEAR_EMPTY);
       for (let c = head[v]; c >= 0; c = next[c]) {
         const f = c - (c % 3), slot = c - f;
         for (let j = 1; j <= 2; j++) {
@@ -426,14 +442,7 @@ export class StreamMesh {
           if (stamp[w] === sA) { if (w === p) pNear = true; continue; }
           stamp[w] = sA;
           if (ringSize < RING_LIMIT) ring[ringSize++] = w;
-          const x0 = qp[3 * w], x1 = qp[3 * w + 1], x2 = qp[3 * w + 2];
-          s0 += x0; s1 += x1; s2 += x2;
-          if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
-          if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
-          if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
-          n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
-          t0 += qt[2 * w]; t1 += qt[2 * w + 1];
-          n++;
+          addNeighbour(near, qp, qn, qt, w);
         }
       }
       let pc = head[p], pSlot = 1;  // where the ring's walk of p's corners stands
@@ -467,38 +476,23 @@ export class StreamMesh {
         nf++;
         if (stamp[w] !== sA) {  // a neighbour of v not met among the moved corners
           stamp[w] = sA;
-          const x0 = qp[3 * w], x1 = qp[3 * w + 1], x2 = qp[3 * w + 2];
-          s0 += x0; s1 += x1; s2 += x2;
-          if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
-          if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
-          if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
-          n0 += qn[3 * w]; n1 += qn[3 * w + 1]; n2 += qn[3 * w + 2];
-          t0 += qt[2 * w]; t1 += qt[2 * w + 1];
-          n++;
+          addNeighbour(near, qp, qn, qt, w);
         }
       }
-      if (pNear) {
-        const x0 = qp[3 * p], x1 = qp[3 * p + 1], x2 = qp[3 * p + 2];
-        s0 += x0; s1 += x1; s2 += x2;
-        if (x0 < lo0) lo0 = x0; if (x0 > hi0) hi0 = x0;
-        if (x1 < lo1) lo1 = x1; if (x1 > hi1) hi1 = x1;
-        if (x2 < lo2) lo2 = x2; if (x2 > hi2) hi2 = x2;
-        n0 += qn[3 * p]; n1 += qn[3 * p + 1]; n2 += qn[3 * p + 2];
-        t0 += qt[2 * p]; t1 += qt[2 * p + 1];
-        n++;
-      }
+      if (pNear) addNeighbour(near, qp, qn, qt, p);
       // Attributes: the mean of v's neighbours (or p's values) plus the residuals; the position
       // residuals' contexts by the bit length of the neighbours' largest extent.
       let extentClass = 0;
+      const n = near[8];
       if (n === 0) {
         pred[0] = qp[3 * p]; pred[1] = qp[3 * p + 1]; pred[2] = qp[3 * p + 2];
         pred[3] = qn[3 * p]; pred[4] = qn[3 * p + 1]; pred[5] = qn[3 * p + 2];
         pred[6] = qt[2 * p]; pred[7] = qt[2 * p + 1];
       } else {
-        pred[0] = mean(s0, n); pred[1] = mean(s1, n); pred[2] = mean(s2, n);
-        pred[3] = mean(n0, n); pred[4] = mean(n1, n); pred[5] = mean(n2, n);
-        pred[6] = mean(t0, n); pred[7] = mean(t1, n);
-        const e = Math.max(hi0 - lo0, hi1 - lo1, hi2 - lo2), b = bitLength(e);
+        pred[0] = mean(near[0], n); pred[1] = mean(near[1], n); pred[2] = mean(near[2], n);
+        pred[3] = mean(near[3], n); pred[4] = mean(near[4], n); pred[5] = mean(near[5], n);
+        pred[6] = mean(near[6], n); pred[7] = mean(near[7], n);
+        const e = Math.max(near[12] - near[9], near[13] - near[10], near[14] - near[11]), b = bitLength(e);
         extentClass = b < EXTENT_CLASSES - 1 ? b : EXTENT_CLASSES - 1;
       }
       // Twins: the vertices split from parents at p's position, newest first.
