@@ -695,7 +695,7 @@ int main(int argc, char** argv) {
   }
 
   // --- targets ---
-  std::printf("\n## Targets (DESIGN.md), each as a ratio\n\n");
+  std::printf("\n## Targets (docs/ARCHITECTURE.md), each as a ratio\n\n");
   std::printf(
       "| target | model | measured | target | ratio | verdict |\n|---|---|---:|---:|---:|---|\n");
   for (const ModelResult& r : results)

@@ -1,4 +1,5 @@
-// The multiplexer, paper 004 §3: layers with their stream bytes, renders from the viewing
+// The multiplexer (Yang, Shen and Kuo, "Progressive coding of 3D textured graphic model via
+// joint mesh-texture optimization" §3): layers with their stream bytes, renders from the viewing
 // sphere, distortion against the full-quality render, steepest descent and the baselines.
 // Mesh-layer bytes are the stream's compact vertex splits (stream/mesh_stream.h).
 #include "multiplex/multiplex.h"

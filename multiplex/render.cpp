@@ -12,17 +12,21 @@
 // one draw call per (instance, primitive) with the instance's model-view-projection matrix
 // (computed in double on the CPU, so large world coordinates keep their bits) and world-space
 // normal matrix as uniforms. No culling; two-sided lighting flips the normal of back faces
-// (gl_FrontFacing; instances with mirroring transforms get glFrontFace(CW)
-// so "front" still means counter-clockwise in mesh space). Shading:
-//   base = texture(uv0) * base_color_factor  (factor alone when untextured)
-//   rgb  = base.rgb * (ambient + diffuse * max(dot(N, L), 0)),  alpha = 1.
-// Colour space: texels are sRGB-encoded bytes and are used as stored (no sRGB decode, no
-// framebuffer sRGB encode); factors multiply them directly. This is what a viewer without colour
-// management shows and is close to three.js's default output; it keeps mip averaging in the
-// stored byte space too. Alpha modes are ignored (everything is drawn opaque).
+// (gl_FrontFacing; instances with mirroring transforms get glFrontFace(CW) so "front" still
+// means counter-clockwise in mesh space). Two shadings (RenderOptions::shading; the shaders are
+// multiplex/render_shaders.cpp):
+//   Lambert:  rgb = base.rgb * (ambient + diffuse * max(dot(N, L), 0)), texels used as stored
+//             sRGB bytes (what packages before physically based shading were measured with);
+//   physical: glTF metal-roughness as three.js's MeshStandardMaterial shades it (normal,
+//             occlusion-roughness-metallic, emissive and sheen maps; a uniform environment and a
+//             directional light), in linear light with sRGB decode of colour textures and an
+//             sRGB-encoded output, as three.js's default renderer writes it.
+// base = texture(uv0) * base_color_factor (the factor alone when untextured). Alpha modes are
+// ignored (everything is drawn opaque).
 //
-// Texture: the one texture passed to render() is applied to every primitive (the pipeline bakes
-// one material / one texture per model before multiplexing). Rows are uploaded top row first, so
+// Textures: a render call draws every primitive with the texture set it is given (the
+// multiplexer's texture levels of the atlas), or, for geometry added with its textures, each
+// primitive with its own material's. Rows are uploaded top row first, so
 // GL's t = 0 is the image's top row, which is exactly glTF's v = 0: uvs are used unflipped.
 // Trilinear mipmapping + anisotropic filtering, clamp-to-edge. llvmpipe's anisotropic filter
 // (Mesa 22.3) also kicks in under magnification, where it blurs and jitters texels (a 2x2
