@@ -23,10 +23,11 @@
 #include <set>
 #include <utility>
 
+#include "core/file_io.h"
 #include "exporters/draco_encode.h"
+#include "exporters/gltf_constants.h"
 #include "exporters/gltf_meshopt.h"
 #include "image/encode.h"
-#include "core/file_io.h"
 
 namespace meshmux {
 
@@ -34,11 +35,7 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr int kUnsignedShort = 5123;
-constexpr int kUnsignedInt = 5125;
-constexpr int kFloat = 5126;
-constexpr int kArrayBuffer = 34962;
-constexpr int kElementArrayBuffer = 34963;
+using namespace gltf_enum;
 constexpr int kMaxTexCoord = 7;  // highest TEXCOORD_n we are willing to pad a primitive up to
 
 const char* const kDraco = "KHR_draco_mesh_compression";
@@ -267,7 +264,8 @@ class Exporter {
   template <class Tex>
   void write_glass(const Material& m, const std::string& where, Tex& tex, json& j) {
     json t = json::object();
-    t["transmissionFactor"] = num(bounded(m.transmission_factor, 0, 1, 0, where + ": transmissionFactor"));
+    t["transmissionFactor"] =
+        num(bounded(m.transmission_factor, 0, 1, 0, where + ": transmissionFactor"));
     if (json info = tex(m.transmission, "transmissionTexture"); !info.is_null())
       t["transmissionTexture"] = std::move(info);
     j["extensions"][kTransmission] = std::move(t);
@@ -277,7 +275,8 @@ class Exporter {
       j["extensions"][kIor] = {{"ior", num(ior)}};
       used_.insert(kIor);
     }
-    const float thickness = std::isfinite(m.thickness_factor) ? std::max(0.0f, m.thickness_factor) : 0;
+    const float thickness =
+        std::isfinite(m.thickness_factor) ? std::max(0.0f, m.thickness_factor) : 0;
     if (thickness > 0) {
       json v = json::object();
       v["thicknessFactor"] = num(thickness);
@@ -312,7 +311,8 @@ class Exporter {
     if (m.clearcoat_factor > 0) {
       json c = json::object();
       c["clearcoatFactor"] = num(bounded(m.clearcoat_factor, 0, 1, 0, where + ": clearcoatFactor"));
-      const float r = bounded(m.clearcoat_roughness_factor, 0, 1, 0, where + ": clearcoatRoughness");
+      const float r =
+          bounded(m.clearcoat_roughness_factor, 0, 1, 0, where + ": clearcoatRoughness");
       if (r != 0) c["clearcoatRoughnessFactor"] = num(r);
       layer_textures(kClearcoat, c);
       j["extensions"][kClearcoat] = std::move(c);
@@ -332,10 +332,12 @@ class Exporter {
     }
     if (m.iridescence_factor > 0) {
       json ir = json::object();
-      ir["iridescenceFactor"] = num(bounded(m.iridescence_factor, 0, 1, 0, where + ": iridescenceFactor"));
+      ir["iridescenceFactor"] =
+          num(bounded(m.iridescence_factor, 0, 1, 0, where + ": iridescenceFactor"));
       const float ior = bounded(m.iridescence_ior, 1, 10, 1.3f, where + ": iridescenceIor");
       if (ior != 1.3f) ir["iridescenceIor"] = num(ior);
-      const float t = bounded(m.iridescence_thickness, 0, 1e5f, 400, where + ": iridescenceThickness");
+      const float t =
+          bounded(m.iridescence_thickness, 0, 1e5f, 400, where + ": iridescenceThickness");
       if (t != 400) ir["iridescenceThicknessMaximum"] = num(t);
       const float lo = bounded(m.iridescence_thickness_minimum, 0, 1e5f, 100,
                                where + ": iridescenceThicknessMinimum");
@@ -423,7 +425,8 @@ class Exporter {
                                      num(bounded(sc.z, 0, 1, 0, where + ": sheenColorFactor"))};
         if (json t = tex(m.sheen_color, "sheenColorTexture"); !t.is_null())
           sheen["sheenColorTexture"] = std::move(t);
-        if (json t = tex(m.layer(LayerSlot::kSheenRoughness), "sheenRoughnessTexture"); !t.is_null())
+        if (json t = tex(m.layer(LayerSlot::kSheenRoughness), "sheenRoughnessTexture");
+            !t.is_null())
           sheen["sheenRoughnessTexture"] = std::move(t);
         const float r = bounded(m.sheen_roughness_factor, 0, 1, 0, where + ": sheenRoughness");
         if (r != 0) sheen["sheenRoughnessFactor"] = num(r);
@@ -819,7 +822,8 @@ class Exporter {
       const size_t n = set.positions.size();
       bool ok = n > 0 && !set.indices.empty();
       for (uint32_t i : set.indices) ok = ok && i < n;
-      for (const Vec3& v : set.positions) ok = ok && std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+      for (const Vec3& v : set.positions)
+        ok = ok && std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
       if (!ok) {
         note("points/lines " + std::to_string(l) + " '" + set.name + "': invalid; left out");
         continue;
@@ -827,22 +831,24 @@ class Exporter {
       Bounds b;
       for (Vec3 v : set.positions) b.add(v);
       json attrs = json::object();
-      attrs["POSITION"] = add_accessor(add_view(set.positions.data(), n * sizeof(Vec3), kArrayBuffer),
-                                       kFloat, "VEC3", n, {num(b.min.x), num(b.min.y), num(b.min.z)},
-                                       {num(b.max.x), num(b.max.y), num(b.max.z)});
+      attrs["POSITION"] = add_accessor(
+          add_view(set.positions.data(), n * sizeof(Vec3), kArrayBuffer), kFloat, "VEC3", n,
+          {num(b.min.x), num(b.min.y), num(b.min.z)}, {num(b.max.x), num(b.max.y), num(b.max.z)});
       if (set.colors.size() == n) {
         std::vector<Vec4> c = set.colors;
         for (Vec4& v : c)
-          for (float* f : {&v.x, &v.y, &v.z, &v.w}) *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
+          for (float* f : {&v.x, &v.y, &v.z, &v.w})
+            *f = std::isnan(*f) ? 0.0f : std::clamp(*f, 0.0f, 1.0f);
         attrs["COLOR_0"] = add_float_accessor(c, "VEC4", kArrayBuffer);
       }
-      int indices = add_accessor(add_view(set.indices.data(), set.indices.size() * 4, kElementArrayBuffer),
-                                 kUnsignedInt, "SCALAR", set.indices.size());
+      int indices =
+          add_accessor(add_view(set.indices.data(), set.indices.size() * 4, kElementArrayBuffer),
+                       kUnsignedInt, "SCALAR", set.indices.size());
       json material = json::object();
       float c[4] = {set.color.x, set.color.y, set.color.z, set.color.w};
       for (float& v : c) v = std::isnan(v) ? 1.0f : std::clamp(v, 0.0f, 1.0f);
-      material["pbrMetallicRoughness"] = {{"baseColorFactor", {num(c[0]), num(c[1]), num(c[2]), num(c[3])}},
-                                          {"metallicFactor", 0}};
+      material["pbrMetallicRoughness"] = {
+          {"baseColorFactor", {num(c[0]), num(c[1]), num(c[2]), num(c[3])}}, {"metallicFactor", 0}};
       if (c[3] < 1) material["alphaMode"] = "BLEND";
       material["name"] = set.points ? "points" : "lines";
       materials_.push_back(std::move(material));

@@ -7,15 +7,13 @@
 #include <cmath>
 #include <cstring>
 
+#include "exporters/gltf_constants.h"
+
 namespace meshmux {
 
 namespace {
 
-constexpr int kByte = 5120;
-constexpr int kUnsignedByte = 5121;
-constexpr int kUnsignedShort = 5123;
-constexpr int kUnsignedInt = 5125;
-constexpr int kFloat = 5126;
+using namespace gltf_enum;
 
 // An attribute array before coding: its format and its decoded bytes.
 struct RawAttribute {
