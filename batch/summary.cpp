@@ -13,7 +13,7 @@
 #include "core/text.h"
 
 #ifndef MESHMUX_VERSION
-#define MESHMUX_VERSION "0.0.0"
+#error "MESHMUX_VERSION (the project version) must be defined: batch.json names it"
 #endif
 
 namespace meshmux {

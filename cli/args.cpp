@@ -33,7 +33,7 @@ Flag number_flag(const char* name, unsigned commands, double lo, double hi, bool
 }
 
 const std::vector<Flag> kFlags = [] {
-  const double kHuge = 1.8e19;  // about UINT64_MAX: the limit flags' own ceiling
+  const double kHuge = 18446744073709551615.0;  // UINT64_MAX: the limit flags' own ceiling
   std::vector<Flag> f = {
       // Shared.
       text_flag("--output", kAll & ~(kServe | kInfo), "-o"),
@@ -112,7 +112,7 @@ std::string check_value(const Flag& f, const std::string& v) {
   errno = 0;
   if (f.value == FlagValue::kWhole) {
     std::string expects = "a whole number from " + number_text(f.lo) + " to " + number_text(f.hi);
-    if (f.hi >= 1e18) expects = "a whole number of at least " + number_text(f.lo);
+    if (f.hi >= 1e18) expects = "a positive whole number";
     if (v.empty() || (v[0] == '-' && f.lo >= 0)) return expects;
     const long double n = std::strtold(v.c_str(), &end);
     for (char c : v.substr(v[0] == '-' ? 1 : 0))
@@ -191,12 +191,14 @@ std::vector<std::string> ParsedArgs::convert_args() const {
 Result<ParsedArgs> parse_args(Command command, const std::vector<std::string>& args,
                               size_t max_positional) {
   ParsedArgs p;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
+  // Help wins over any mistake beside it: a user asking for it gets it.
+  for (const std::string& a : args)
     if (a == "-h" || a == "--help") {
       p.help = true;
-      continue;
+      return p;
     }
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
     if (const Flag* f = find_flag(command, a)) {
       std::string v;
       if (f->value != FlagValue::kSwitch) {

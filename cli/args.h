@@ -64,7 +64,8 @@ struct ParsedArgs {
 };
 
 // Parses `args` (after the command's name) for `command`, which takes at most `max_positional`
-// positional arguments. Errors (kInput), one line without the command's name: "unknown option
+// positional arguments. -h or --help anywhere: only `help` is set, whatever else is given. Errors
+// (kInput), one line without the command's name: "unknown option
 // --x", "--jobs expects a whole number from 1 to 1024, got '0'", "--host needs a value", "more
 // than one input given ('a' and 'b')".
 Result<ParsedArgs> parse_args(Command command, const std::vector<std::string>& args,

@@ -18,26 +18,6 @@
 // the request's parsed ranges before httplib's post-processing sees them and writes the 206 or
 // 416 response itself. A request with several ranges gets the whole file (200), which RFC 9110
 // allows.
-// `meshmux serve DIR`: a small static HTTP server for a converted output folder, so the
-// browser viewer can stream it (GET, HEAD, single Range requests, CORS preflight).
-//
-// Connections: httplib accepts, then hands every socket to the ConnectionGate (serve/gate.h),
-// which waits on one epoll thread for a complete request header (≤ 16 KiB, within 10 s, at
-// most 256 connections per client address) before a worker serves it with httplib's request
-// processing; kept-alive connections return to the gate between requests. Idle and slow
-// clients therefore never hold a worker.
-//
-// Every request goes through one pre-routing handler. Paths are decoded once (by httplib) and
-// refused with 403 when they could leave DIR: "..", backslash, NUL, an absolute path, a '%'
-// escape still left after the one decoding (double encoding), or a canonical file outside the
-// canonical DIR (symbolic links included).
-//
-// Ranges are answered here, not by httplib: cpp-httplib 0.11 neither clamps a range that runs
-// past the end of the content (its Content-Range then names bytes that do not exist) nor
-// answers a range that starts past the end with a correct 416. The handler therefore clears
-// the request's parsed ranges before httplib's post-processing sees them and writes the 206 or
-// 416 response itself. A request with several ranges gets the whole file (200), which RFC 9110
-// allows.
 #include "serve/server.h"
 
 #include <arpa/inet.h>

@@ -66,5 +66,12 @@ TEST(Args, NumberRangesKeepTheirOpenEnds) {
   EXPECT_FALSE(parse_args(kSample, {"extra"}, 0).ok());
 }
 
+// A user who asks for help gets it, even beside a mistake.
+TEST(Args, HelpWinsOverMistakes) {
+  auto p = parse_args(kServe, {"--bogus", "-h", "--port", "x"});
+  ASSERT_TRUE(p.ok()) << p.status().message();
+  EXPECT_TRUE(p->help);
+}
+
 }  // namespace
 }  // namespace meshmux
