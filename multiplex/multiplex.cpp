@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <map>
 #include <sstream>
 
@@ -223,24 +224,21 @@ struct CellRenders {
         image.encoded = *map.encoded;
         image.mime_type = map.mime_type;
         if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
-        TextureSet& set = texture[j];
-        if (std::optional<Channel> c = parse_channel(map.channel)) switch (*c) {
-            case Channel::kBaseColor:
-              set.base_color = gl.add_texture(image, true);
-              break;
-            case Channel::kNormal:
-              set.normal = gl.add_texture(image, false);
-              break;
-            case Channel::kOcclusionRoughnessMetallic:
-              set.orm = gl.add_texture(image, false);
-              break;
-            case Channel::kEmissive:
-              set.emissive = gl.add_texture(image, true);
-              break;
-            case Channel::kSheenColor:
-              set.sheen = gl.add_texture(image, true);
-              break;
-          }
+        // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
+        struct Slot {
+          int TextureSet::*field;
+          bool srgb;
+        };
+        static constexpr Slot kSlots[] = {{&TextureSet::base_color, true},
+                                          {&TextureSet::normal, false},
+                                          {&TextureSet::orm, false},
+                                          {&TextureSet::emissive, true},
+                                          {&TextureSet::sheen, true}};
+        static_assert(std::size(kSlots) == kChannelNames.size());
+        if (std::optional<Channel> c = parse_channel(map.channel)) {
+          const Slot& slot = kSlots[size_t(*c)];
+          texture[j].*slot.field = gl.add_texture(image, slot.srgb);
+        }
       }
     return Status::ok();
   }
