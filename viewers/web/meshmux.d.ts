@@ -32,6 +32,11 @@ export interface MeshmuxStreamOptions {
    * before this module loaded: taken over instead of asking again.
    */
   firstBytes?: Promise<Response> | null;
+  /**
+   * Decode mesh refinements in a Web Worker (stream_worker.js beside this module; default true).
+   * false, or a page where no worker can start (file://), decodes them on the page.
+   */
+  worker?: boolean;
 }
 
 export type MeshmuxState =
@@ -53,8 +58,11 @@ export interface MeshmuxStats {
   /** The order being followed: `order`, or "view-adapted" once re-planned for the camera. */
   orderFollowed: string;
   trianglesApplied: number;
+  /** Seconds spent decoding and applying mesh refinements (in the worker, when it decodes). */
   applySeconds: number;
   state: MeshmuxState;
+  /** Where mesh refinements are decoded. */
+  decoder: 'worker' | 'page';
 }
 
 /** The view and shading the package's order was measured with (the table's "view"). */
@@ -101,6 +109,8 @@ export class MeshmuxStream extends EventTarget {
   stop(): void;
   /** Releases the geometry, materials and textures; the stream cannot be used after. */
   dispose(): void;
+  /** Per package mesh, the digest of the decoded state (report.json's stream_digests when complete). */
+  stateDigests(): Promise<number[]>;
   /** The world-space bounds of what is shown. */
   worldBounds(target?: Box3): Box3;
   addEventListener<K extends keyof MeshmuxEventMap>(

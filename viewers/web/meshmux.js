@@ -28,11 +28,14 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, validateTable } from './package_reader.js';
-import { StreamMesh, applyMeshChunk, inflate } from './stream_mesh.js';
+import { StreamMesh, StreamWorker, applyMeshChunk, inflate } from './stream_mesh.js';
 import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
-export { PACKAGE_VERSION, validateTable, StreamMesh, applyMeshChunk, inflate };
+export { PACKAGE_VERSION, validateTable, StreamMesh, StreamWorker, applyMeshChunk, inflate };
 const HEADER_BYTES = 12;
+// Texture maps are decoded as stored (EXIF orientation applied): no colour conversion and no
+// premultiplied alpha (three.js is told each map's colour space).
+const IMAGE_OPTIONS = { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' };
 export const PROBE_BYTES = 65536;  // the first request: header, table and often the base too
 
 // ---- Textures and material -------------------------------------------------------------------
@@ -258,13 +261,15 @@ export class MeshmuxStream extends EventTarget {
   // false keeps the stored order whatever the camera), firstBytes (a Promise of the Response to
   // a request for the package's first PROBE_BYTES bytes, Range: bytes=0-65535, that the page
   // started before this module loaded: index.html does, so the package arrives beside the
-  // module graph).
+  // module graph), worker (default true: mesh refinements are decoded in a Web Worker,
+  // stream_worker.js beside this module, and the page only copies in and uploads what changed;
+  // false, or where no worker can start, decodes them on the page).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
-      camera: null, adaptive: true, firstBytes: null, ...options };
+      camera: null, adaptive: true, firstBytes: null, worker: true, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -287,6 +292,8 @@ export class MeshmuxStream extends EventTarget {
     this._textureSize = [0, 0];
     this._trianglesApplied = 0;
     this._applySeconds = 0;
+    this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
+    this._workerStart = null;  // the Promise of it while it starts
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -316,6 +323,7 @@ export class MeshmuxStream extends EventTarget {
       // The order being followed: the chosen one, or "view-adapted" once re-planned for the camera.
       orderFollowed: this._followed || (this.order ? this.order.name : this.options.order),
       trianglesApplied: this._trianglesApplied, applySeconds: this._applySeconds, state: this._state,
+      decoder: this._worker ? 'worker' : 'page',
     };
   }
 
@@ -361,8 +369,20 @@ export class MeshmuxStream extends EventTarget {
       // loads while the base arrives, not after.
       const draco = table.base.whole ? this._dracoLoader() : null;
       if (draco) draco.catch(() => {});  // awaited in _buildBase
+      // The decoding worker (mesh chunks and texture maps) starts while the base arrives.
+      const worker = this._workerStart = this.options.worker ? StreamWorker.start() : Promise.resolve(null);
       const base = await this._reader.read(table.base.offset, table.base.offset + table.base.size, signal);
+      this._worker = await worker;
+      // Later ranges are fetched by the worker (their bodies stay off the main thread).
+      if (this._worker) this._reader.fetchRange = (...a) => this._worker.fetchRange(...a);
       await this._buildBase(table, base, draco);
+      if (this._worker && this.meshes.length) {
+        try {
+          await this._worker.setup(table.meshes, this.meshes);
+        } catch (e) {
+          throw this._fail(`the base cannot be decoded (${e.message})`);
+        }
+      }
       this.table = table;
       this.order = order;
       this._sequence = order.chunks.slice();  // the chunks in the order followed (re-planned)
@@ -374,6 +394,9 @@ export class MeshmuxStream extends EventTarget {
       this._emit('progress');
       return this.object;
     } catch (error) {
+      // A failed open leaves no worker running (one may still be starting).
+      if (this._workerStart) this._workerStart.then((w) => { if (w) w.terminate(); });
+      this._worker = null;
       this._state = 'error';
       this._emit('error', { error });
       throw error;
@@ -418,7 +441,7 @@ export class MeshmuxStream extends EventTarget {
     if (root) root.traverse((o) => { if (o.isMesh) objects.push(o); });
     if (!objects.length) throw this._fail('the base .glb holds no mesh');
 
-    this.meshes = table.base.whole ? [] : table.meshes.map((d, i) => new StreamMesh(d, i));
+    this.meshes = table.base.whole ? [] : table.meshes.map((d, i) => new StreamMesh(d, i, { local: !this._worker }));
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     const baseFaces = new Set(), facesDone = new Set();
     const physical = table.view.physical;
@@ -657,6 +680,16 @@ export class MeshmuxStream extends EventTarget {
 
   async _applyChunk(index, chunk, payload) {
     if (chunk.kind === 'mesh') {
+      if (this._worker) {  // decoded in the worker; its own time is the decoding time
+        try {
+          const { added, seconds } = await this._worker.applyChunk(this.meshes, chunk, payload);
+          this._trianglesApplied += added;
+          this._applySeconds += seconds;
+        } catch (e) {
+          throw this._fail(`chunk ${index}: ${e.message}`);
+        }
+        return;
+      }
       const t0 = performance.now();
       try {
         this._trianglesApplied += await applyMeshChunk(this.meshes, chunk, payload);
@@ -680,8 +713,7 @@ export class MeshmuxStream extends EventTarget {
     let bitmap;
     try {
       const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
-      bitmap = await createImageBitmap(new Blob([bytes], { type: map.mime }),
-        { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+      bitmap = await this._decodeImage(bytes, map.mime);
     } catch (e) {
       throw this._fail(`chunk ${index}: the ${map.mime} texture level cannot be decoded (${e.message})`);
     }
@@ -706,8 +738,7 @@ export class MeshmuxStream extends EventTarget {
         const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
         let bitmap;
         try {
-          bitmap = await createImageBitmap(new Blob([bytes], { type: map.mime }),
-            { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+          bitmap = await this._decodeImage(bytes, map.mime);
         } catch (e) {
           throw this._fail(`chunk ${index}: the ${map.channel} ${map.mime} map cannot be decoded (${e.message})`);
         }
@@ -737,6 +768,14 @@ export class MeshmuxStream extends EventTarget {
     }
   }
 
+  // One map's JPEG or PNG bytes as an ImageBitmap, bytes as stored (no colour conversion, no
+  // premultiplied alpha): decoded in the worker when there is one (its main-thread share in
+  // chromium is tens of milliseconds per 2048² map), else on the page.
+  _decodeImage(bytes, mime) {
+    if (this._worker) return this._worker.decodeImage(bytes, mime, IMAGE_OPTIONS);
+    return createImageBitmap(new Blob([bytes], { type: mime }), IMAGE_OPTIONS);
+  }
+
   _releaseTexture(texture) {
     if (!texture) return;
     texture.dispose();
@@ -748,8 +787,17 @@ export class MeshmuxStream extends EventTarget {
     if (this._abort) this._abort.abort();
   }
 
+  // Per package mesh, the digest of the state its decoder holds (stream/vsplit.h state_digest;
+  // report.json's "stream_digests" once the stream is complete). For tests and tools.
+  async stateDigests() {
+    if (this._worker) return this._worker.digests();
+    return this.meshes.map((m) => m.state.digest());
+  }
+
   dispose() {
     this.stop();
+    if (this._worker) this._worker.terminate();
+    this._worker = null;
     this._state = 'disposed';
     if (this.object.parent) this.object.parent.remove(this.object);
     for (const m of this.meshes) m.dispose();

@@ -200,6 +200,17 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
 
 // ---- HTTP ranges -----------------------------------------------------------------------------
 
+// What the reader needs of a response: {status, statusText, contentRange, bytes}.
+async function responseParts(res) {
+  return { status: res.status, statusText: res.statusText, contentRange: res.headers.get('Content-Range'),
+    bytes: new Uint8Array(await res.arrayBuffer()) };
+}
+
+// Bytes [start, end) of `url` asked for with a Range header; resolves with responseParts.
+export async function fetchRange(url, start, end, signal) {
+  return responseParts(await fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal }));
+}
+
 // Reads byte ranges of one URL; falls back to the whole body when the server ignores Range.
 export class RangeReader {
   constructor(url) {
@@ -212,24 +223,27 @@ export class RangeReader {
   _error(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
 
   // `pending`: a fetch of exactly this range already under way (a Promise of its Response).
+  // Later ranges go through `this.fetchRange` when set (a function like fetchRange: the
+  // stream's worker fetches them, so their bodies never pass through the page's main thread).
   async _fetch(start, end, signal, pending = null) {
     let res;
     try {
-      res = await (pending || fetch(this.url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal }));
+      res = pending ? await responseParts(await pending)
+        : await (this.fetchRange || fetchRange)(this.url, start, end, signal);
     } catch (e) {
       if (e.name === 'AbortError') throw e;
       throw this._error(`cannot fetch bytes ${start}-${end - 1} (${e.message})`);
     }
     if (res.status === 200) {
-      this.whole = new Uint8Array(await res.arrayBuffer());
+      this.whole = res.bytes;
       this.size = this.whole.length;
       return this.whole.subarray(start, Math.min(end, this.size));
     }
     if (res.status !== 206) throw this._error(`HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''} for bytes ${start}-${end - 1}`);
-    const range = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.headers.get('Content-Range') || '');
+    const range = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.contentRange || '');
     if (range && Number(range[1]) !== start) throw this._error(`asked for bytes from ${start}, the server sent ${range[0]}`);
     if (range && range[3] !== '*') this.size = Number(range[3]);
-    return new Uint8Array(await res.arrayBuffer());
+    return res.bytes;
   }
 
   // The first n bytes (fewer if the file is shorter); `pending`, a request for them (Range:

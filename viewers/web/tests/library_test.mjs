@@ -39,7 +39,7 @@ const tarball = path.join(work, run('npm', ['pack', web, '--pack-destination', w
 fs.writeFileSync(path.join(app, 'package.json'), '{"name": "app", "private": true}\n');
 run('npm', ['install', '--offline', '--no-audit', '--no-fund', '--install-links', tarball,
   path.join(repo, 'node_modules', 'three')], app);
-for (const f of ['meshmux.js', 'meshmux.d.ts', 'package_reader.js', 'stream_mesh.js', 'package.json']) {
+for (const f of ['meshmux.js', 'meshmux.d.ts', 'package_reader.js', 'stream_mesh.js', 'stream_decode.js', 'stream_worker.js', 'package.json']) {
   if (!fs.existsSync(path.join(app, 'node_modules', 'meshmux-stream', f))) throw new Error(`the package lacks ${f}`);
 }
 // A model beside it, and the README's page.
