@@ -6,7 +6,9 @@ package and model.glb bytes and their ratio; the mesh part of the stream (the ba
 every mesh chunk) against Draco's geometry bytes for the same final mesh in model.glb, and its
 bits per triangle; the texture part of the stream (the base's level 0 + every texture chunk)
 against the top level alone (model.glb's image); the atlas's pixels against the source pixels
-its materials reference (from OUT.convert.log, convert's progress).
+its materials reference (from OUT.convert.log, convert's progress). A second table says where the
+refinements' bits go per vertex split, by field (report.json "mesh_stream_bits"), beside the whole
+mesh stream's and Draco's bits per vertex.
 
 usage: bench/stream_bytes.py OUT [OUT ...]      (bench/stream_bytes.sh converts the shared models)
 """
@@ -160,7 +162,11 @@ for out in sys.argv[1:]:
     tex = table.get("texture") or {}
     atlas_px, referenced_px = atlas_texels(out)
     report = os.path.join(out, "report.json")
-    dl = json.load(open(report)).get("download", {}) if os.path.exists(report) else {}
+    report_doc = json.load(open(report)) if os.path.exists(report) else {}
+    dl = report_doc.get("download", {})
+    # model.glb's vertices (each mesh's primitives once): Draco's bits per vertex.
+    glb_vertices = sum(doc["accessors"][p["attributes"]["POSITION"]]["count"]
+                       for m in doc.get("meshes", []) for p in m["primitives"] if "POSITION" in p["attributes"])
     area = dl["package_area"] / dl["download_area"] if dl.get("download_area") else None
     rows.append((name, dict(
         package=len(pkg), glb=len(glb), header=header, triangles=triangles,
@@ -169,10 +175,12 @@ for out in sys.argv[1:]:
         referenced=referenced_px,
         levels=sum(1 for c in table["chunks"] if c["kind"] == "texture") + (1 if base_images else 0),
         area=area, base=base_mesh + base_indices, base_draco=base_draco,
-        glb_channels=glb_channels, stream_channels=stream_channels)))
+        glb_channels=glb_channels, stream_channels=stream_channels,
+        stream_bits=report_doc.get("mesh_stream_bits"), glb_vertices=glb_vertices,
+        base_vertices=sum(m["base_vertices"] for m in table["meshes"]))))
 
 print("| model | triangles | model.glb | package | package / glb (≤ 1.3) | mesh stream | Draco geometry | "
-      "mesh / Draco (≤ 1.5) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px | "
+      "mesh / Draco (≤ 1.3) | bits / triangle | texture stream | top level | texture / top (≤ 1.15) | atlas px | "
       "referenced px | atlas / referenced (≤ 1) | area: stream / download (< 1) | base mesh | "
       "base.glb Draco | base / Draco (≤ 1.2) |")
 print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
@@ -189,6 +197,24 @@ for name, r in rows:
           f"{'–' if not r['referenced'] else ratio(r['pixels'], r['referenced'])} | {area_text} | "
           f"{r['base']} | {r['base_draco'] if r['base_draco'] is not None else '–'} | "
           f"{ratio(r['base'], r['base_draco']) if r['base_draco'] else '–'} |")
+
+# Where the refinements' bits go, per vertex split (report.json "mesh_stream_bits": the
+# information each field's decisions carried), beside Draco's bits per vertex of model.glb (its
+# geometry bytes over its vertices) and the whole mesh stream's (base included) per vertex.
+fields = ["parent", "mode", "connectivity", "twin", "position", "normal", "uv", "other"]
+split_rows = [(n, r) for n, r in rows if r and r["stream_bits"] and r["stream_bits"]["splits"]]
+if split_rows:
+    print()
+    print("| model | splits | " + " | ".join(fields) + " | refinement bits / split | "
+          "mesh stream bits / vertex | Draco bits / vertex | ratio |")
+    print("|---|---:|" + "---:|" * (len(fields) + 4))
+    for name, r in split_rows:
+        b = r["stream_bits"]
+        n = b["splits"]
+        stream_bpv = 8 * r["mesh"] / max(1, r["base_vertices"] + n)
+        draco_bpv = 8 * r["draco"] / max(1, r["glb_vertices"])
+        print(f"| {name} | {n} | " + " | ".join(f"{b['fields'].get(f, 0) / n:.2f}" for f in fields) +
+              f" | {b['bits'] / n:.2f} | {stream_bpv:.1f} | {draco_bpv:.1f} | {stream_bpv / draco_bpv:.2f} |")
 
 # What the maps beyond base colour cost, in model.glb and in the stream.
 channels = ["base_color", "normal", "occlusion_roughness_metallic", "emissive"]

@@ -5,6 +5,7 @@
 #include "multiplex/multiplex.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -462,6 +463,35 @@ void points(std::ostringstream& out, const std::vector<std::pair<uint64_t, doubl
 
 }  // namespace
 
+// Where the mesh stream's bits go (report.json "mesh_stream_bits"): the splits (vertices
+// added) and new faces over every part, the parts' bytes in bits, and per StreamField the
+// information its decisions carried (EncodedMeshPart::field_bits; the rest is the coder's
+// flush and rounding).
+namespace {
+std::string mesh_stream_bits_json(const std::vector<std::vector<EncodedMeshPart>>& layers) {
+  uint64_t splits = 0, faces = 0, bits = 0;
+  std::array<double, kStreamFields> fields{};
+  for (const auto& layer : layers)
+    for (const EncodedMeshPart& p : layer) {
+      splits += p.part.vertex_end - p.part.vertex_begin;
+      faces += p.part.face_end - p.part.face_begin;
+      bits += 8 * p.bytes();
+      for (size_t f = 0; f < kStreamFields; ++f) fields[f] += p.field_bits[f];
+    }
+  std::ostringstream out;
+  out << "{\"splits\": " << splits << ", \"faces\": " << faces << ", \"bits\": " << bits
+      << ", \"fields\": {";
+  char buf[64];
+  for (size_t f = 0; f < kStreamFields; ++f) {
+    std::snprintf(buf, sizeof buf, "%s\"%s\": %.0f", f ? ", " : "", kStreamFieldNames[f],
+                  fields[f]);
+    out << buf;
+  }
+  out << "}}";
+  return out.str();
+}
+}  // namespace
+
 std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) {
   std::ostringstream out;
   out << "{\n  \"curves\": {\n    \"rd\": ";
@@ -512,7 +542,8 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
   out << "],\n  \"stream_digests\": [";
   for (size_t k = 0; k < r.stream_digests.size(); ++k)
     out << (k ? ", " : "") << r.stream_digests[k];
-  out << "],\n  \"texture_level_bytes\": [";
+  out << "],\n  \"mesh_stream_bits\": " << mesh_stream_bits_json(r.layer_parts);
+  out << ",\n  \"texture_level_bytes\": [";
   for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
   out << "],\n  \"texture_levels\": {\"shipped\": [";
   for (size_t k = 0; k < r.texture_levels_shipped.size(); ++k) {

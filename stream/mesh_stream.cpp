@@ -227,6 +227,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   }
   RangeEncoder out;
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
+  auto field = [&](StreamField f) { out.count_bits(&e.field_bits[size_t(f)]); };
+  field(StreamField::kOther);
   out.put_direct(normals_ ? 1 : 0, 1);
   out.put_direct(uvs_ ? 1 : 0, 1);
   std::vector<uint8_t> takes, moved;  // per corner of the parent: taken by the new vertex
@@ -238,6 +240,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   uint32_t previous = 0, previous_mode = 1;
   for (uint32_t v = va; v < vb; ++v) {
     uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
+    field(StreamField::kParent);
     out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
     previous = p;
     sim_.add_vertex(QuantizedVertex{});
@@ -280,8 +283,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       fan_mode = found && count > 0 && sim_.fan(p, start, count, moved, vl, vr) &&
                  vl == made[0].w && vr == made[1].w && moved == takes;
     }
+    field(StreamField::kMode);
     out.put_bit(x.mode[previous_mode], fan_mode);
     previous_mode = fan_mode;
+    field(StreamField::kConnectivity);
     if (fan_mode) {  // fan() allows at most kFanLimit corners: both fit 5 bits
       out.put_tree(x.fan_start[dc], start);
       out.put_tree(x.fan_count[dc], count - 1);
@@ -324,7 +329,9 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       const QuantizedVertex& u = sim_.vertices[twin[t]];
       if (u.p[0] == q.p[0] && u.p[1] == q.p[1] && u.p[2] == q.p[2]) pick = t + 1;
     }
+    field(StreamField::kTwin);
     if (twins > 0) out.put_tree(x.twin[twins], pick);
+    field(StreamField::kPosition);
     e.twins += pick > 0;
     if (pick == 0) {  // two axes along the fan from the ring's mean, the third on its plane
       int64_t normal[3];
@@ -340,17 +347,20 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
                      kResidualModelledBits);
       }
     }
+    field(StreamField::kNormal);
     for (int k = 0; k < 3 && normals_; ++k)
       out.put_uint(x.normal[k], zigzag(int32_t(q.n[k]) - int32_t(pred.n[k])),
                    kResidualModelledBits);
     // The decoder knows v's position by then.
     const uint32_t uv_predicted = uvs_ && sim_.predict_uv(v, p, q.p, pred.t) ? 1 : 0;
+    field(StreamField::kUv);
     for (int k = 0; k < 2 && uvs_; ++k)
       out.put_uint(x.uv[k][uv_predicted], zigzag(int32_t(q.t[k]) - int32_t(pred.t[k])),
                    kResidualModelledBits);
     sim_.vertices[v] = q;
     sim_.add_twin(p, v);
   }
+  field(StreamField::kOther);
   out.put_uint(x.extra, uint32_t(extras.size()));
   for (uint32_t f : extras) {
     uint32_t s[3];

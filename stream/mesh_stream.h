@@ -5,6 +5,7 @@
 // once per conversion.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -23,12 +24,22 @@ struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
   uint64_t bytes = 0;
 };
+// What a part's bits code (stream/vsplit.h, in decoding order): Z, M, the fan or mask with
+// the face codes, W, P, N, T, and the header with the extra faces.
+enum class StreamField { kParent, kMode, kConnectivity, kTwin, kPosition, kNormal, kUv, kOther };
+constexpr size_t kStreamFields = 8;
+constexpr std::array<const char*, kStreamFields> kStreamFieldNames = {
+    "parent", "mode", "connectivity", "twin", "position", "normal", "uv", "other"};
+
 // A part with its coded bytes (stream/vsplit.h): a chunk's payload is its parts' bytes one
 // after the other (mesh_chunk_payload).
 struct EncodedMeshPart {
   PackagePart part;
   std::vector<uint8_t> data;
   uint32_t twins = 0;  // splits whose position came from a twin (stream/vsplit.h), for tests
+  // Per StreamField, the information its decisions carried (RangeEncoder::count_bits): where
+  // the part's bits go. Their sum is the bytes' bits less the coder's flush and rounding.
+  std::array<double, kStreamFields> field_bits{};
   uint64_t bytes() const { return data.size(); }
 };
 

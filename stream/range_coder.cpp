@@ -3,6 +3,9 @@
 // binary contexts whose probability moves by a fixed shift, as LZMA's coder does both.
 #include "stream/range_coder.h"
 
+#include <array>
+#include <cmath>
+
 namespace meshmux {
 
 namespace {
@@ -30,7 +33,23 @@ void RangeEncoder::shift_low() {
   low_ = (low_ & 0x00FFFFFFu) << 8;
 }
 
+namespace {
+// -log2(p / 2^kProbabilityBits) for every probability p a context can hold.
+const std::array<double, (1u << kProbabilityBits) + 1>& bit_costs() {
+  static const auto table = [] {
+    std::array<double, (1u << kProbabilityBits) + 1> t{};
+    for (size_t p = 1; p < t.size(); ++p)
+      t[p] = -std::log2(double(p) / double(1u << kProbabilityBits));
+    t[0] = double(kProbabilityBits);
+    return t;
+  }();
+  return table;
+}
+}  // namespace
+
 void RangeEncoder::put_bit(uint16_t& probability, uint32_t bit) {
+  if (tally_)
+    *tally_ += bit_costs()[bit == 0 ? probability : (1u << kProbabilityBits) - probability];
   const uint32_t bound = (range_ >> kProbabilityBits) * probability;
   if (bit == 0) {
     range_ = bound;
@@ -47,6 +66,7 @@ void RangeEncoder::put_bit(uint16_t& probability, uint32_t bit) {
 }
 
 void RangeEncoder::put_direct(uint32_t value, int bits) {
+  if (tally_) *tally_ += bits;
   // In pieces of at most kDirectPiece bits, most significant first: the range is cut into
   // 2^k equal slices (its remainder left unused) and the value's slice taken.
   while (bits > 0) {

@@ -65,9 +65,14 @@ class RangeEncoder {
   }
   // Ends the stream (kRangeCoderFlushBytes more bytes) and returns it; the encoder is spent.
   std::vector<uint8_t> finish();
+  // From now on, adds the information each coded decision carries (-log2 of its probability;
+  // a direct bit: 1) to *bits (null: stop counting). For reports of where a stream's bits go;
+  // the output does not change. O(1) per decision.
+  void count_bits(double* bits) { tally_ = bits; }
 
  private:
   void shift_low();
+  double* tally_ = nullptr;
   uint64_t low_ = 0;
   uint32_t range_ = 0xFFFFFFFFu;
   uint8_t cache_ = 0;

@@ -101,6 +101,37 @@ TEST(RangeCoder, SkewedBitsCostNearTheirEntropy) {
   EXPECT_GT(bits, entropy * 0.9);
 }
 
+// The bits counted per decision (count_bits, for reports of where a stream's bits go) add up to
+// the coded bytes' bits, less the flush: the mixed stream's contexts, split between two tallies
+// (one for modelled symbols, one for direct bits), and none counted while switched off.
+TEST(RangeCoder, CountedBitsAddUpToTheCodedBytes) {
+  std::vector<Symbol> symbols = mixed_symbols(5, 20000);
+  RangeEncoder out;
+  Contexts c;
+  double modelled = 0, direct = 0, off = 0;
+  for (size_t i = 0; i < symbols.size(); ++i) {
+    const Symbol& s = symbols[i];
+    out.count_bits(i < 100 ? nullptr : s.kind == 1 ? &direct : &modelled);
+    if (i < 100) {  // not counted: these bits go to the stream, not to a tally
+      const double before = modelled + direct;
+      out.put_direct(s.value & 1, 1);
+      off += 1;
+      EXPECT_EQ(modelled + direct, before);
+      continue;
+    }
+    if (s.kind == 0) out.put_bit(c.bit[0], s.value);
+    if (s.kind == 1) out.put_direct(s.value, s.bits);
+    if (s.kind == 2) out.put_uint(c.uint, s.value, s.bits);
+    if (s.kind == 3) out.put_tree(c.tree, s.value);
+  }
+  const double coded = 8.0 * double(out.finish().size());
+  const double counted = modelled + direct + off;
+  EXPECT_GT(direct, 0);
+  EXPECT_GT(modelled, 0);
+  EXPECT_LE(counted, coded + 16);  // the coder may round a few bits under the information
+  EXPECT_GE(counted, coded - 8.0 * (kRangeCoderFlushBytes + 2)) << counted << " of " << coded;
+}
+
 // A stream cut short is noticed (reads past the end fail rather than invent bytes), and so is
 // one with bytes left over.
 TEST(RangeCoder, TruncationIsNoticed) {

@@ -12,8 +12,8 @@
 
 #include "clean/clean.h"
 #include "importers/import.h"
-#include "stream/mesh_stream.h"
 #include "simplify/simplify.h"
+#include "stream/mesh_stream.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -224,6 +224,31 @@ TEST(Vsplit, FlatShadedMeshStreamsNoNormals) {
   // One smooth primitive among flat ones keeps the normals.
   pm.primitive_flat.push_back(0);
   EXPECT_TRUE(stream_carries_normals(pm));
+}
+
+// Where a part's bits go (EncodedMeshPart::field_bits, report.json "mesh_stream_bits"): the
+// fields add up to the part's bytes less the coder's flush, and each field is charged what it
+// codes: a flat-shaded mesh's normals cost nothing, a smooth one's do; positions cost most.
+TEST(Vsplit, FieldBitsAddUpToThePartsBytes) {
+  ProgressiveMesh pm = sphere_record();
+  for (bool flat : {false, true}) {
+    if (flat) pm.primitive_flat.assign(std::max<size_t>(pm.primitive_flat.size(), 1), 1);
+    MeshStreamEncoder encoder(pm, package_quantization(pm), 0, pm.base_level);
+    ASSERT_TRUE(encoder.status().is_ok());
+    auto part = encoder.next(pm.levels.size() - 1);
+    ASSERT_TRUE(part.ok()) << part.status().message();
+    const auto& f = part->field_bits;
+    double sum = 0;
+    for (double b : f) sum += b;
+    const double coded = 8.0 * double(part->bytes());
+    EXPECT_LE(sum, coded + 16) << (flat ? "flat" : "smooth");
+    EXPECT_GE(sum, coded - 8.0 * (kRangeCoderFlushBytes + 2)) << (flat ? "flat" : "smooth");
+    EXPECT_EQ(f[size_t(StreamField::kNormal)] == 0, flat);
+    EXPECT_GT(f[size_t(StreamField::kParent)], 0);
+    EXPECT_GT(f[size_t(StreamField::kConnectivity)], 0);
+    for (size_t k = 0; k < kStreamFields; ++k)
+      EXPECT_LE(f[k], f[size_t(StreamField::kPosition)]) << kStreamFieldNames[k];
+  }
 }
 
 TEST(Vsplit, SharedBunnyRoundTrips) {
