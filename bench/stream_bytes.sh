@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The stream-bytes table: converts every shared model (or the ones named; with none, also a
 # generated 1M-triangle mesh) into build/stream_bytes/ and prints where the stream's bytes go
-# beside model.glb (bench/stream_bytes.py).
+# beside model.glb (bench/stream_bytes.py), then the refinements' decoding rate in the web
+# client's decoder (bench/decode_rate.mjs).
 # usage: bench/stream_bytes.sh [BUILD_DIR] [MODEL ...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -31,3 +32,7 @@ if [ $# -eq 0 ]; then
   outs+=("$work/generated-1M")
 fi
 python3 "$here/bench/stream_bytes.py" "${outs[@]}"
+# The refinements' decoding rate, as the web client's worker decodes them (node runs the same
+# module), with the decoded state checked against the encoder's digests.
+echo
+node "$here/bench/decode_rate.mjs" "${outs[@]}"
