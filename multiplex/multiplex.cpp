@@ -246,10 +246,10 @@ struct CellRenders {
 
   // One camera per direction of the viewing sphere, each framing the full detail.
   void place_cameras(const ViewingSphere& sphere, const LodSelection& full,
-                     const MultiplexOptions& o) {
+                     const RenderOptions& render, const ViewOptions& views) {
     Bounds box = scene_bounds(materialize(ps, full));
-    float aspect = float(o.render.width) / float(std::max(1, o.render.height));
-    for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, o.views));
+    float aspect = float(render.width) / float(std::max(1, render.height));
+    for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, views));
     r.views = cameras.size();
     most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
   }
@@ -391,15 +391,20 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // Renders: the texture levels uploaded, the cameras placed, then the references and, where
   // every cell will be evaluated anyway (a grid of one row or column, whose descent walks it
   // all, or a small grid, which descend completes for the per-view table), every cell up front.
-  auto renderer = Renderer::create(o.render);
+  // A grid of one row or column has one order whatever the renders say: they are made cheaper
+  // (fewer views, smaller images), as they only measure the curve.
+  const bool forced = (m == 1 || n == 1) && o.forced_view_layers >= 0;
+  RenderOptions render = o.render;
+  if (forced) render.width = render.height = std::max(16, o.forced_image_size);
+  auto renderer = Renderer::create(render);
   if (!renderer.ok()) return renderer.status();
   // Render time counts the texture levels' decoding and upload (it used to be spread over the
   // layers' time and the first renders).
   auto render_start = Clock::now();
   CellRenders cells(ps, layers, **renderer, r, progress);
   if (Status s = cells.upload_textures(textures); !s) return s;
-  ViewingSphere sphere = viewing_sphere(o.view_layers);
-  cells.place_cameras(sphere, full, o);
+  ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
+  cells.place_cameras(sphere, full, render, o.views);
   if (m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells)
     cells.render_grid();
   else

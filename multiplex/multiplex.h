@@ -29,6 +29,14 @@ struct MultiplexOptions {
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
   int max_mesh_layers = 12;          // and at most this many
   uint64_t layer_bytes = 24 * 1024;  // target bytes per mesh batch, between those bounds
+  // Where the order is forced (one mesh layer or one texture level: the descent has no choice
+  // to make), the renders only draw report.json's curve and the package's expected distortions:
+  // with forced_view_layers ≥ 0 they are measured from that many viewing-sphere layers (0: the
+  // 4 tetrahedron views) at forced_image_size² instead. Off by default (< 0): 4 views at 128²
+  // do not track the full measurement (bench/render_plan.sh: the metric, a mean over covered
+  // pixels, weighs silhouettes more at lower resolution).
+  int forced_view_layers = -1;
+  int forced_image_size = 128;
 };
 
 struct MultiplexResult {

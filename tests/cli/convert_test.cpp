@@ -9,8 +9,8 @@
 
 #include "atlas/tiled.h"
 #include "clean/clean.h"
-#include "stream/package.h"
 #include "importers/import.h"
+#include "stream/package.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -756,8 +756,8 @@ TEST(ConvertFolder, WritesStreamPackage) {
   // The viewer page and the modules it imports sit beside the package.
   for (const char* f :
        {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
-        "viewer/stream_decode.js", "viewer/stream_worker.js",
-        "viewer/viewer.js", "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
+        "viewer/stream_decode.js", "viewer/stream_worker.js", "viewer/viewer.js",
+        "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
         "viewer/" MESHMUX_THREE_FOLDER "/three.core.js", "viewer/" MESHMUX_THREE_FOLDER "/LICENSE",
         "viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/GLTFLoader.js",
         "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",
