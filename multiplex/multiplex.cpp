@@ -391,8 +391,9 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // Renders: the texture levels uploaded, the cameras placed, then the references and, where
   // every cell will be evaluated anyway (a grid of one row or column, whose descent walks it
   // all, or a small grid, which descend completes for the per-view table), every cell up front.
-  // A grid of one row or column has one order whatever the renders say: they are made cheaper
-  // (fewer views, smaller images), as they only measure the curve.
+  // A grid of one row or column has one order whatever the renders say: asked to
+  // (MultiplexOptions::forced_view_layers ≥ 0, off by default), they measure its curve from
+  // fewer views on smaller images.
   const bool forced = (m == 1 || n == 1) && o.forced_view_layers >= 0;
   RenderOptions render = o.render;
   if (forced) render.width = render.height = std::max(16, o.forced_image_size);

@@ -173,8 +173,8 @@ export class StreamMesh {
       dirty[Math.floor(moved[i] / INDEX_BLOCK)] = 1;
     }
     this._uploadVertices(c.v0, c.vn);
+    // Ranges add to those not uploaded yet (three.js merges them when it uploads, then clears).
     const index = this.indexAttribute, lastBlock = Math.floor((3 * c.f0) / INDEX_BLOCK);
-    index.clearUpdateRanges();
     for (let b = 0; b <= lastBlock && b < dirty.length; b++) {
       if (!dirty[b]) continue;
       let e = b;

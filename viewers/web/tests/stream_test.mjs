@@ -262,19 +262,8 @@ try {
       const t0 = performance.now();
       for (const c of chunks) await applyMeshChunk(meshes, c, bytes.subarray(c.offset, c.offset + c.size));
       best = Math.min(best, (performance.now() - t0) / 1000);
-      if (run === 4) {  // the state every mesh ends in, as stream/vsplit.h state_digest
-        digests = meshes.map((m) => {
-          let h = 2166136261;
-          const byte = (b) => { h = Math.imul(h ^ (b & 0xff), 16777619) >>> 0; };
-          for (let i = 0; i < m.vertices; i++) {
-            for (let k = 0; k < 3; k++) { byte(m.qp[3 * i + k]); byte(m.qp[3 * i + k] >> 8); }
-            for (let k = 0; k < 3; k++) byte(m.qn[3 * i + k]);
-            for (let k = 0; k < 2; k++) { byte(m.qt[2 * i + k]); byte(m.qt[2 * i + k] >> 8); }
-          }
-          for (let i = 0; i < 3 * m.faces; i++) { const x = m.indices[i]; byte(x); byte(x >> 8); byte(x >> 16); byte(x >>> 24); }
-          return h;
-        });
-      }
+      // The state every mesh ends in, as stream/vsplit.h state_digest.
+      if (run === 4) digests = meshes.map((m) => m.state.digest());
       meshes.forEach((m) => m.dispose());
     }
     return { faces, splits, seconds: best, digests };
