@@ -1,130 +1,31 @@
 // The mesh stream's decoding rate where the web client runs it (the library's Web Worker runs
 // viewers/web/stream_decode.js; node runs the same module here): for each folder written by
 // `meshmux convert IN -o OUT`, the base's vertices and faces are read from the package's base
-// .glb (EXT_meshopt_compression through three's meshopt decoder, as GLTFLoader does), every mesh
-// chunk is applied in stored order, best of five runs, and the decoded state's digests are
-// checked against report.json's stream_digests (the encoder's).
+// .glb (viewers/web/tests/node_package.mjs), every mesh chunk is applied in stored order, best of
+// five runs, and the decoded state's digests are checked against report.json's stream_digests
+// (the encoder's).
 // usage: node bench/decode_rate.mjs OUT [OUT ...]      (prints a markdown table; exit 1 on a
 //        digest mismatch or a decoding error)
 import fs from 'node:fs';
 import path from 'node:path';
-import zlib from 'node:zlib';
-import { fileURLToPath } from 'node:url';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const { MeshState } = await import(path.join(here, '../viewers/web/stream_decode.js'));
-const { validateTable } = await import(path.join(here, '../viewers/web/package_reader.js'));
-const { MeshoptDecoder } = await import(path.join(here, '../node_modules/three/examples/jsm/libs/meshopt_decoder.module.js'));
-await MeshoptDecoder.ready;
-
-const UV_MAX = 4095, COMPONENTS = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4 };
-const TYPED = { 5120: Int8Array, 5121: Uint8Array, 5122: Int16Array, 5123: Uint16Array, 5125: Uint32Array, 5126: Float32Array };
-
-// A GLB's JSON and binary chunk.
-function parseGlb(bytes) {
-  const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-  let at = 12, doc = null, bin = null;
-  while (at + 8 <= bytes.length) {
-    const size = view.getUint32(at, true), kind = view.getUint32(at + 4, true);
-    if (kind === 0x4E4F534A) doc = JSON.parse(Buffer.from(bytes.subarray(at + 8, at + 8 + size)).toString('utf8'));
-    else if (kind === 0x004E4942) bin = bytes.subarray(at + 8, at + 8 + size);
-    at += 8 + size;
-  }
-  return { doc, bin };
-}
-
-// Accessor `index` as a typed array of its components (meshopt-compressed views decoded).
-function readAccessor({ doc, bin }, index, cache) {
-  const a = doc.accessors[index], n = COMPONENTS[a.type], Typed = TYPED[a.componentType];
-  const view = doc.bufferViews[a.bufferView];
-  let data = cache.get(a.bufferView);
-  if (!data) {
-    const ext = view.extensions && view.extensions.EXT_meshopt_compression;
-    if (ext) {
-      data = new Uint8Array(ext.count * ext.byteStride);
-      const source = bin.subarray(ext.byteOffset || 0, (ext.byteOffset || 0) + ext.byteLength);
-      MeshoptDecoder.decodeGltfBuffer(data, ext.count, ext.byteStride, source, ext.mode, ext.filter);
-    } else {
-      data = bin.subarray(view.byteOffset || 0, (view.byteOffset || 0) + view.byteLength);
-    }
-    cache.set(a.bufferView, data);
-  }
-  const stride = view.byteStride || n * Typed.BYTES_PER_ELEMENT, out = new Typed(a.count * n);
-  const dv = new DataView(data.buffer, data.byteOffset, data.byteLength);
-  const get = { 5120: 'getInt8', 5121: 'getUint8', 5122: 'getInt16', 5123: 'getUint16', 5125: 'getUint32', 5126: 'getFloat32' }[a.componentType];
-  for (let i = 0; i < a.count; i++)
-    for (let k = 0; k < n; k++) out[i * n + k] = dv[get]((a.byteOffset || 0) + i * stride + k * Typed.BYTES_PER_ELEMENT, true);
-  return { values: out, accessor: a };
-}
-
-// Per package mesh, its base: quantized vertices and the faces of its primitives in order.
-function readBase(glb, table) {
-  const cache = new Map(), bases = [];
-  for (const mesh of glb.doc.meshes || []) {
-    const m = mesh.extras && mesh.extras.meshmux_mesh;
-    if (!Number.isInteger(m) || bases[m]) continue;
-    const d = table.meshes[m], first = mesh.primitives[0].attributes;
-    const P = readAccessor(glb, first.POSITION, cache), count = P.accessor.count;
-    const qp = new Uint16Array(3 * count), qn = new Int8Array(3 * count), qt = new Uint16Array(2 * count);
-    const q = d.quantization || { origin: [0, 0, 0], step: 1 }, float = P.accessor.componentType === 5126;
-    for (let i = 0; i < 3 * count; i++) {
-      qp[i] = float ? Math.min(16383, Math.max(0, Math.round((P.values[i] - q.origin[i % 3]) / q.step))) : P.values[i];
-    }
-    // As StreamMesh.setBaseVertices reads what GLTFLoader gives: normalized integers or floats.
-    const real = (r, i) => {
-      const a = r.accessor;
-      if (!a.normalized) return r.values[i];
-      return a.componentType === 5120 ? Math.max(r.values[i] / 127, -1) : a.componentType === 5122
-        ? Math.max(r.values[i] / 32767, -1) : a.componentType === 5121 ? r.values[i] / 255 : r.values[i] / 65535;
-    };
-    if (first.NORMAL !== undefined) {
-      const N = readAccessor(glb, first.NORMAL, cache);
-      for (let i = 0; i < 3 * count; i++) qn[i] = Math.max(-127, Math.min(127, Math.round(real(N, i) * 127)));
-    } else for (let i = 0; i < count; i++) qn[3 * i + 2] = 127;
-    if (first.TEXCOORD_0 !== undefined) {
-      const T = readAccessor(glb, first.TEXCOORD_0, cache), unorm16 = T.accessor.normalized && T.accessor.componentType === 5123;
-      for (let i = 0; i < 2 * count; i++) {
-        const t = real(T, i);
-        qt[i] = unorm16 ? Math.floor((Math.round(t * 65535) * UV_MAX + 32767) / 65535) : t >= 0 ? (t >= 1 ? UV_MAX : Math.round(t * UV_MAX)) : 0;
-      }
-    }
-    const faces = mesh.primitives.map((p) => (p.indices === undefined ? new Uint32Array(0) : Uint32Array.from(readAccessor(glb, p.indices, cache).values)));
-    bases[m] = { qp, qn, qt, count, faces };
-  }
-  return bases;
-}
+import { applyChunk, freshStates, readPackage } from '../viewers/web/tests/node_package.mjs';
 
 let failed = false;
 console.log('| model | meshes | splits | new triangles | best of 5 (ms) | M triangles/s | digests |');
 console.log('|---|---:|---:|---:|---:|---:|---|');
 for (const out of process.argv.slice(2)) {
   const name = path.basename(path.resolve(out));
-  const bytes = new Uint8Array(fs.readFileSync(path.join(out, 'model.mmxp')));
-  const J = new DataView(bytes.buffer).getUint32(8, true), dataStart = 12 + J;
-  const table = validateTable(JSON.parse(zlib.inflateSync(bytes.subarray(12, dataStart)).toString('utf8')),
-    { fileSize: bytes.length, dataStart, fail: (m) => new Error(m) });
-  if (table.base.whole) { console.log(`| ${name} | – | – | – | – | – | the base is the whole model |`); continue; }
-  const stored = bytes.subarray(table.base.offset, table.base.offset + table.base.size);  // validated offsets are absolute
-  const glb = parseGlb(table.base.deflated ? new Uint8Array(zlib.inflateSync(stored)) : stored);
-  const bases = readBase(glb, table);
+  const { bytes, table, bases } = readPackage(path.join(out, 'model.mmxp'));
+  if (!bases) { console.log(`| ${name} | – | – | – | – | – | the base is the whole model |`); continue; }
   const chunks = table.chunks.filter((c) => c.kind === 'mesh');
   let best = Infinity, states = null, faces = 0, splits = 0;
   for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
   try {
     for (let run = 0; run < 5; run++) {
-      states = table.meshes.map((d, i) => {
-        const s = new MeshState(d, i), b = bases[i];
-        if (b) { s.setBase(b.qp, b.qn, b.qt, b.count); for (const f of b.faces) s.appendFaces(f); }
-        return s;
-      });
+      states = freshStates(table, bases);
       const t0 = performance.now();
-      for (const c of chunks) {
-        let at = c.offset;
-        for (const p of c.parts) {
-          states[p.mesh].applySplits(bytes, at, at + p.bytes, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
-          at += p.bytes;
-        }
-      }
+      for (const c of chunks) applyChunk(states, bytes, c);
       best = Math.min(best, performance.now() - t0);
     }
   } catch (e) {
