@@ -1,6 +1,7 @@
 // stream_worker.js — a meshmux stream's mesh decoding in a Web Worker (started by StreamWorker
 // in stream_mesh.js), so that the page's main thread only copies in what each chunk changed.
-// It holds a MeshState per package mesh (stream_decode.js) and answers, in order:
+// It holds a MeshState per package mesh (stream_decode.js) and answers (setup, chunk and digests
+// in the order asked; fetch and image once their work is done, so they may overtake):
 //   setup  {meshes: [{vertices, faces, origin, step, base: {qp, qn, qt, count, quantized,
 //          faces: [Uint32Array]} | null}]} → {}: the meshes with their bases
 //   chunk  {parts: [[mesh, splits, faces, bytes]], payload} → {changes, seconds}: the chunk's
@@ -13,7 +14,7 @@
 //          main thread (in chromium, a megabyte there stalls it for tens of milliseconds);
 //          abort {request} aborts such a fetch (it then answers with an error)
 //   image  {bytes, mime, options} → {bitmap}: a texture map's file decoded (createImageBitmap),
-//          the ImageBitmap transferred (replies to images may overtake later requests)
+//          the ImageBitmap transferred
 // Every reply carries the request's id; an Error becomes {type: 'error', id, message}. After
 // an error the states are not used again (the page fails the stream).
 import { fetchRange } from './package_reader.js';
