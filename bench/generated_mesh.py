@@ -3,12 +3,18 @@
 with normals and a uv set, `--triangles` triangles (default 1,000,000), no texture.
 bench/stream_bytes.sh and bench/speed.sh measure the stream and the conversion on it ("a generated
 1M-triangle mesh").
+`--scan` makes it scan-like, as a scanner's reconstruction comes: every vertex displaced along
+its normal by seeded noise of about a third of an edge (the surface is rough at the sampling
+scale, so nothing is flat and every collapse costs), no uv set, and the vertices and triangles in
+a seeded random order (no grid order for caches to ride on). bench/speed.sh's "scan-like 4M
+mesh" is `--triangles 4000000 --scan`.
 
-usage: bench/generated_mesh.py OUT.glb [--triangles N]
+usage: bench/generated_mesh.py OUT.glb [--triangles N] [--scan]
 """
 import argparse
 import json
 import math
+import random
 import struct
 
 
@@ -16,6 +22,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("out")
     ap.add_argument("--triangles", type=int, default=1_000_000)
+    ap.add_argument("--scan", action="store_true", help="noisy surface, no uv, shuffled order")
     a = ap.parse_args()
     # A uv sphere of r rings and s segments has 2·s·(r − 1) triangles; s = 2r.
     r = max(3, int(math.sqrt(a.triangles / 4)))
@@ -48,6 +55,10 @@ def main():
             if l == 0:
                 n, l = (a0[0], a0[1], a0[2]), math.sqrt(sum(c * c for c in a0))
             nrm.append(tuple(c / l for c in n))
+    if a.scan:
+        rng = random.Random(20261126)
+        amp = 0.33 * math.pi / r  # about a third of an edge on the unit sphere
+        pos = [tuple(p[k] + amp * (rng.random() - 0.5) * nrm[v][k] for k in range(3)) for v, p in enumerate(pos)]
     idx = []
     for i in range(r):
         for j in range(s):
@@ -57,6 +68,18 @@ def main():
             if i != r - 1:
                 idx += (a0 + 1, b0 + 1, b0)
     n = len(pos)
+    if a.scan:
+        # Shuffled vertices (seam duplicates of the sphere's grid stay, welded by meshmux) and
+        # shuffled triangles.
+        perm = list(range(n))
+        rng.shuffle(perm)
+        inv = [0] * n
+        for new, old in enumerate(perm):
+            inv[old] = new
+        pos, nrm = [pos[o] for o in perm], [nrm[o] for o in perm]
+        tris = [(inv[idx[t]], inv[idx[t + 1]], inv[idx[t + 2]]) for t in range(0, len(idx), 3)]
+        rng.shuffle(tris)
+        idx = [c for t in tris for c in t]
     bin_ = bytearray()
     views = []
 
@@ -69,20 +92,24 @@ def main():
 
     vp = view(struct.pack(f"<{3 * n}f", *[c for p in pos for c in p]), 34962)
     vn = view(struct.pack(f"<{3 * n}f", *[c for p in nrm for c in p]), 34962)
-    vt = view(struct.pack(f"<{2 * n}f", *[c for p in uv for c in p]), 34962)
+    vt = None if a.scan else view(struct.pack(f"<{2 * n}f", *[c for p in uv for c in p]), 34962)
     vi = view(struct.pack(f"<{len(idx)}I", *idx), 34963)
     lo = [min(p[k] for p in pos) for k in range(3)]
     hi = [max(p[k] for p in pos) for k in range(3)]
+    accessors = [
+        {"bufferView": vp, "componentType": 5126, "count": n, "type": "VEC3", "min": lo, "max": hi},
+        {"bufferView": vn, "componentType": 5126, "count": n, "type": "VEC3"},
+    ]
+    attributes = {"POSITION": 0, "NORMAL": 1}
+    if vt is not None:
+        attributes["TEXCOORD_0"] = len(accessors)
+        accessors.append({"bufferView": vt, "componentType": 5126, "count": n, "type": "VEC2"})
+    accessors.append({"bufferView": vi, "componentType": 5125, "count": len(idx), "type": "SCALAR"})
     doc = {
         "asset": {"version": "2.0", "generator": "meshmux bench/generated_mesh.py"},
         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "name": "bumpy sphere"}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3}]}],
-        "accessors": [
-            {"bufferView": vp, "componentType": 5126, "count": n, "type": "VEC3", "min": lo, "max": hi},
-            {"bufferView": vn, "componentType": 5126, "count": n, "type": "VEC3"},
-            {"bufferView": vt, "componentType": 5126, "count": n, "type": "VEC2"},
-            {"bufferView": vi, "componentType": 5125, "count": len(idx), "type": "SCALAR"},
-        ],
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": len(accessors) - 1}]}],
+        "accessors": accessors,
         "bufferViews": views, "buffers": [{"byteLength": len(bin_)}],
     }
     js = json.dumps(doc, separators=(",", ":")).encode()

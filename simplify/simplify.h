@@ -23,8 +23,8 @@
 //   mesh (per material) and simplified as such (Azim et al.: IAS pays off above 1.75);
 // - the whole collapse sequence is recorded: ProgressiveMesh levels from the coarsest reachable
 //   mesh to the full one, with monotone errors, and an InstanceOrder per submesh for thinning.
-// Complexity: O(T log T) per submesh (passes of sorted independent collapses), plus
-// O(T × instances) for the instance quadrics.
+// Complexity: O(T log T) per submesh (passes of sorted independent collapses, their costing on
+// every core), plus O(T × instances) for the instance quadrics.
 #pragma once
 
 #include <array>
@@ -53,9 +53,14 @@ struct SimplifyOptions {
                                        // costs more than this (fraction of the diagonal)
   uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
   double ship_whole_fraction = 0.10;   // refinements under this fraction of the mesh: ship whole
-  float pass_fraction = 0.05f;         // triangles removed per pass, as a fraction of live ones
-                                       // (smaller: closer to a true greedy order, more passes)
-  float min_flip_cos = 0.25f;          // refuse collapses that turn a face by more than ~75°
+  // The collapse loop's passes (bench/simplify.sh: at 1% and 1.1 the Hausdorff distances of
+  // the shared models at 20% match a true greedy's, geometric mean 0.97 of its; at 5% and 1.5
+  // the loop is 1.5x faster and up to 37% worse on some).
+  float pass_fraction = 0.01f;     // triangles removed per pass, as a fraction of live ones
+                                   // (smaller: closer to a true greedy order, more passes)
+  float pass_error_growth = 1.1f;  // a pass stops at this times the error of its expected
+                                   // last collapse (smaller: closer to greedy, more passes)
+  float min_flip_cos = 0.25f;      // refuse collapses that turn a face by more than ~75°
 };
 
 struct SimplifyReport {

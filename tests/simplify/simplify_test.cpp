@@ -2,8 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
 #include <map>
+#include <random>
 #include <set>
 
 #include "clean/clean.h"
@@ -355,6 +359,69 @@ TEST(Simplify, IsDeterministic) {
   EXPECT_EQ(a.parent, b.parent);
   ASSERT_EQ(a.levels.size(), b.levels.size());
   for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
+}
+
+// The collapse loop costs on every core; the record must not depend on how many there are
+// (determinism whatever the thread count). The sphere is large enough (16k triangles) for the
+// first passes to re-cost thousands of positions in several chunks on several threads.
+TEST(Simplify, RecordIsTheSameWhateverTheThreadCount) {
+  Scene s = scene_of(uv_sphere(64, 128));
+  auto with_threads = [&](const char* n) {
+    setenv("MESHMUX_THREADS", n, 1);
+    ProgressiveMesh pm = build_progressive(s, {}).meshes[0];
+    unsetenv("MESHMUX_THREADS");
+    return pm;
+  };
+  ProgressiveMesh one = with_threads("1"), three = with_threads("3");
+  EXPECT_EQ(one.indices, three.indices);
+  EXPECT_EQ(one.parent, three.parent);
+  EXPECT_EQ(one.positions.size(), three.positions.size());
+  ASSERT_EQ(one.levels.size(), three.levels.size());
+  for (size_t i = 0; i < one.levels.size(); ++i)
+    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+}
+
+// A scan's vertices and triangles come in no spatial order; the simplifier puts its working
+// copy in spatial order first. The input's order must not change what the record is: the same
+// input shuffled gives levels of the same triangle counts with errors within a few percent (the
+// order decides only ties and the rounding of sums), and every vertex keeps its own source
+// attributes (a wrong mapping back from the working order would pair positions with other
+// vertices' normals).
+TEST(Simplify, InputOrderDoesNotChangeTheRecord) {
+  Primitive p = uv_sphere(40, 80);
+  Primitive shuffled = p;
+  std::vector<uint32_t> perm(p.positions.size());
+  for (uint32_t i = 0; i < perm.size(); ++i) perm[i] = i;
+  std::mt19937 rng(7);
+  std::shuffle(perm.begin(), perm.end(), rng);
+  for (uint32_t i = 0; i < perm.size(); ++i) {
+    shuffled.positions[perm[i]] = p.positions[i];
+    shuffled.normals[perm[i]] = p.normals[i];
+    for (size_t s = 0; s < p.uvs.size(); ++s) shuffled.uvs[s][perm[i]] = p.uvs[s][i];
+  }
+  std::vector<std::array<uint32_t, 3>> tris;
+  for (size_t t = 0; t < p.indices.size(); t += 3)
+    tris.push_back({perm[p.indices[t]], perm[p.indices[t + 1]], perm[p.indices[t + 2]]});
+  std::shuffle(tris.begin(), tris.end(), rng);
+  shuffled.indices.clear();
+  for (const auto& t : tris) shuffled.indices.insert(shuffled.indices.end(), t.begin(), t.end());
+  ProgressiveMesh a = build_progressive(scene_of(p), {}).meshes[0];
+  ProgressiveMesh b = build_progressive(scene_of(shuffled), {}).meshes[0];
+  ASSERT_EQ(a.face_count(), b.face_count());
+  // The level at 20% of the triangles, and the coarsest.
+  for (double share : {0.2, 0.0}) {
+    auto at = [&](const ProgressiveMesh& pm) {
+      size_t i = 0;
+      while (i + 1 < pm.levels.size() && pm.levels[i].triangles < share * pm.face_count()) ++i;
+      return pm.levels[i];
+    };
+    ProgressiveLevel la = at(a), lb = at(b);
+    EXPECT_NEAR(double(la.triangles), double(lb.triangles), 0.01 * double(a.face_count()) + 2);
+    EXPECT_NEAR(la.error, lb.error, 0.05 * la.error + 1e-7) << "share " << share;
+  }
+  // Each vertex's normal is its own position's (a unit sphere about the origin).
+  for (size_t v = 0; v < b.positions.size(); ++v)
+    ASSERT_GT(dot(b.normals[v], normalize(b.positions[v])), 0.999f) << "vertex " << v;
 }
 
 // Small models ship whole: the base level is the full mesh (Terrace, Cheslack-Postava, Levis and
