@@ -318,6 +318,63 @@ Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& packa
 
 }  // namespace
 
+// The first picture's bound: base.glb at most `o.base_max_share` times model.glb's bytes, on
+// models the stream refines. When the stopping rule's base is over it, the finest coarser base
+// under it is taken: one error threshold over the submeshes (select_triangles), every instance,
+// found by bisection on its triangles (each step encodes a trial base.glb), and written back as
+// each mesh's base_level, so the package's base and the multiplexer follow. When even the
+// coarsest levels are over it (kept materials' images at full size, or a collapse loop that
+// the link condition stops early), the stopping rule's base stays and the progress says how
+// many bytes the coarsest levels and their images hold. Returns the base chosen.
+LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const TextureLevels& levels,
+                        const ConvertOptions& o, size_t model_bytes, Progress* progress) {
+  const double budget = o.base_max_share * double(model_bytes);
+  if (!(o.base_max_share > 0) ||
+      selection_triangles(ps, select_full(ps)) < o.simplify.ship_whole_below)
+    return base;
+  auto bytes = [&](const LodSelection& sel) {
+    Warnings scratch;  // the chosen base is encoded again with the caller's sink
+    auto glb = export_glb_bytes(level_scene(ps, sel, levels, 0, false), o.gltf, &scratch);
+    return glb.ok() ? double(glb->size()) : double(INFINITY);
+  };
+  const double base_bytes = bytes(base);
+  if (base_bytes <= budget) return base;
+  LodSelection coarsest = base;
+  std::fill(coarsest.level.begin(), coarsest.level.end(), size_t(0));
+  const double coarsest_bytes = bytes(coarsest);
+  if (coarsest_bytes > budget) {
+    size_t image_bytes = 0;
+    for (const Image& im : level_scene(ps, coarsest, levels, 0, false).images)
+      image_bytes += im.encoded.size();
+    report_step(progress,
+                format("base: %.1f kB, over %.2f x model.glb (%.1f kB) even at the coarsest "
+                       "levels (%llu triangles, %.1f kB, of which images %.1f kB); kept",
+                       base_bytes / 1e3, o.base_max_share, double(model_bytes) / 1e3,
+                       (unsigned long long)selection_triangles(ps, coarsest), coarsest_bytes / 1e3,
+                       double(image_bytes) / 1e3));
+    return base;
+  }
+  uint64_t lo = selection_triangles(ps, coarsest), hi = selection_triangles(ps, base);
+  LodSelection best = coarsest;
+  for (int it = 0; it < 10 && hi > lo + std::max<uint64_t>(16, hi / 50); ++it) {
+    const uint64_t mid = lo + (hi - lo) / 2;
+    LodSelection sel = select_triangles(ps, mid);
+    for (size_t m = 0; m < sel.level.size(); ++m)
+      sel.level[m] = std::min(sel.level[m], base.level[m]);
+    sel.instances = base.instances;
+    if (bytes(sel) <= budget)
+      lo = mid, best = sel;
+    else
+      hi = mid;
+  }
+  for (size_t m = 0; m < ps.meshes.size(); ++m) ps.meshes[m].base_level = best.level[m];
+  report_step(progress, format("base: %.1f kB was over %.2f x model.glb (%.1f kB): a coarser base "
+                               "of %llu triangles instead",
+                               base_bytes / 1e3, o.base_max_share, double(model_bytes) / 1e3,
+                               (unsigned long long)selection_triangles(ps, best)));
+  return best;
+}
+
 Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warnings* warnings,
                                Progress* progress) {
   ConvertOutputs out;
@@ -359,7 +416,8 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   out.model_glb = model.take();
   out.output = compute_stats(scene);
   if (!o.stream) return out;
-  LodSelection base = select_base(ps);
+  const LodSelection base =
+      bound_base(ps, select_base(ps), *levels, o, out.model_glb.size(), progress);
   out.base_triangles = selection_triangles(ps, base);
   report_step(progress,
               format("base level: %llu of %llu triangles%s, %llu collapses in %d ms",

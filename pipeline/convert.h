@@ -41,6 +41,10 @@ struct ConvertOptions {
   GltfExportOptions gltf{};        // Draco quantization of model.glb and base.glb
   bool stream = true;  // false: model.glb only (the CLI's `-o X.glb`); nothing else is run
   bool report = true;  // stream: render the rate-distortion order (report, svg, package)
+  // The first picture's bound: base.glb at most this times model.glb's bytes on models the
+  // stream refines (≥ simplify.ship_whole_below triangles); a coarser base is taken when the
+  // stopping rule's is over it. 0: no bound.
+  double base_max_share = 0.25;
 };
 
 struct ConvertOutputs {

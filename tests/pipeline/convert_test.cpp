@@ -128,6 +128,36 @@ TEST(Convert, LinesReachModelAndBase) {
   EXPECT_EQ(line_primitives(out->base_glb), 1u);
 }
 
+// The first picture's bound: a base that the stopping rule leaves nearly whole (here a
+// stopping error so small that it stops at once, as a CAD model's seams or a game level's
+// borders made it stop) would cost about what model.glb costs; the conversion takes the finest
+// coarser base under a quarter of model.glb's bytes instead. Without the bound (share 0) the
+// same scene's base is over it, so the case does exercise it.
+TEST(Convert, BaseGlbStaysUnderItsShareOfModelGlb) {
+  Scene scene;
+  Mesh mesh;
+  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  ConvertOptions o;
+  o.report = false;  // model.glb and base.glb, no renders
+  o.simplify.base_max_error = 1e-9f;
+  auto run = [&](double share) {
+    o.base_max_share = share;
+    Warnings warnings;
+    return convert(scene, o, &warnings, nullptr);
+  };
+  auto unbounded = run(0), bounded = run(0.25);
+  ASSERT_TRUE(unbounded.ok()) << unbounded.status().message();
+  ASSERT_TRUE(bounded.ok()) << bounded.status().message();
+  EXPECT_GT(unbounded->base_glb.size(), unbounded->model_glb.size() / 4);
+  EXPECT_LE(bounded->base_glb.size(), bounded->model_glb.size() / 4);
+  EXPECT_LT(bounded->base_triangles, unbounded->base_triangles);
+  // The finest base that fits, not the coarsest: well over the coarsest sphere's few dozen.
+  EXPECT_GT(bounded->base_triangles, 1000u);
+  EXPECT_EQ(bounded->model_glb, unbounded->model_glb);
+}
+
 // report.json sets the package, as a viewer receives it (real byte offsets, the stored order),
 // against the plain download of model.glb: both start blank, the download shows the model at its
 // last byte. The figures come from the outputs themselves.
