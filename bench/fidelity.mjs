@@ -554,6 +554,7 @@ async function corpusMode() {
       error: conv.status === 0 ? null : errorLine(conv), timedOut: conv.timedOut, crashed: !conv.timedOut && !!conv.signal,
       warnings: warningsOf(conv.stderr),
       inputBytes: m.bytes, glbBytes: fileBytes(path.join(out, 'model.glb')), mmxpBytes: fileBytes(path.join(out, 'model.mmxp')),
+      baseBytes: fileBytes(path.join(out, 'base.glb')),
       seconds: conv.seconds, peakRssKb: conv.peakRssKb, features: m.features };
     if (row.converted) {
       try {
@@ -658,13 +659,13 @@ function sweepMarkdown(rows, seconds) {
 // The same columns, one row per model, raw values (bytes, seconds, kB; empty when not measured).
 function sweepTsv(rows) {
   const columns = ['model', 'format', 'converted', 'exit', 'error', 'warnings', 'warning_texts', 'unlit_db', 'lit_db', 'iou',
-    'against_in', 'against_out', 'input_bytes', 'glb_bytes', 'mmxp_bytes', 'draw_calls_original', 'draw_calls',
-    'seconds', 'peak_rss_kb', 'harness_error', 'met', 'missed', 'cause_tags'];
+    'against_in', 'against_out', 'input_bytes', 'glb_bytes', 'mmxp_bytes', 'base_bytes', 'draw_calls_original',
+    'draw_calls', 'seconds', 'peak_rss_kb', 'harness_error', 'met', 'missed', 'cause_tags'];
   const v = (x) => (x == null || Number.isNaN(x) ? '' : x === Infinity ? 'inf' : String(x).replace(/[\t\n]/g, ' '));
   const lines = [columns.join('\t')];
   for (const r of rows)
     lines.push([r.model, r.format, r.converted ? 1 : 0, r.exit, r.error, r.warnings.count, r.warnings.texts.join(' | '),
-      r.unlit, r.lit, r.iou, r.againstIn, r.againstOut, r.inputBytes, r.glbBytes, r.mmxpBytes,
+      r.unlit, r.lit, r.iou, r.againstIn, r.againstOut, r.inputBytes, r.glbBytes, r.mmxpBytes, r.baseBytes,
       r.drawCalls?.original, r.drawCalls?.model, r.seconds, r.peakRssKb, r.harnessError, r.met ? 1 : 0,
       r.missed.join(','), r.causeTags.join(', ')].map(v).join('\t'));
   return lines.join('\n') + '\n';
