@@ -5,6 +5,7 @@
 #include <draco/core/decoder_buffer.h>
 #include <draco/core/encoder_buffer.h>
 #include <draco/mesh/mesh.h>
+#include <meshoptimizer.h>
 
 #include <algorithm>
 #include <array>
@@ -37,12 +38,25 @@ Result<DracoOutput> draco_encode(const DracoInput& in, const DracoSettings& sett
   try {
     const size_t n = in.positions->size();
     const size_t faces = in.indices->size() / 3;
+    // A scan's triangles can come in no spatial order; Draco's connectivity encoder then misses
+    // the cache on nearly every corner (a shuffled 4M-triangle mesh: 19 s, 8 s once sorted).
+    // Where a 16-entry vertex cache would miss nearly every vertex (ACMR over 2.5 of the 3 at
+    // worst), the faces go to Draco in spatial order (meshopt_spatialSortTriangles); ordered
+    // inputs keep theirs (a grid's sorted copy came out 1% larger).
+    const std::vector<uint32_t>* indices = in.indices;
+    std::vector<uint32_t> sorted;
+    if (meshopt_analyzeVertexCache(indices->data(), indices->size(), n, 16, 0, 0).acmr > 2.5f) {
+      sorted.resize(indices->size());
+      meshopt_spatialSortTriangles(sorted.data(), indices->data(), sorted.size(),
+                                   &(*in.positions)[0].x, n, sizeof(Vec3));
+      indices = &sorted;
+    }
     draco::Mesh mesh;
     mesh.set_num_points(draco::PointIndex::ValueType(n));
     mesh.SetNumFaces(faces);
     for (size_t f = 0; f < faces; ++f) {
       draco::Mesh::Face face;
-      for (int k = 0; k < 3; ++k) face[k] = draco::PointIndex((*in.indices)[f * 3 + k]);
+      for (int k = 0; k < 3; ++k) face[k] = draco::PointIndex((*indices)[f * 3 + k]);
       mesh.SetFace(draco::FaceIndex(uint32_t(f)), face);
     }
 

@@ -4,13 +4,18 @@
 #include <draco/core/decoder_buffer.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "core/file_io.h"
 #include "image/encode.h"
 #include "importers/import.h"
 #include "test_util.h"
@@ -474,7 +479,8 @@ TEST(GltfExport, ReflectionLayersRoundTrip) {
   m.iridescence_thickness = 700;
   auto bytes = export_ok(scene);
   Glb glb = parse_glb(bytes);
-  for (const char* e : {"KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_iridescence"})
+  for (const char* e :
+       {"KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_iridescence"})
     EXPECT_TRUE(has(glb.doc["extensionsUsed"], e)) << e;
   expect_valid(bytes, "layers.glb");
   TempDir dir;
@@ -518,7 +524,8 @@ TEST(GltfExport, LayerTexturesAndAnisotropyRoundTrip) {
   const json& ext = glb.doc["materials"][0]["extensions"];
   for (const LayerSlotName& slot : kLayerSlots)
     EXPECT_TRUE(ext[slot.extension].contains(slot.key)) << slot.extension << " " << slot.key;
-  EXPECT_FLOAT_EQ(ext["KHR_materials_clearcoat"]["clearcoatNormalTexture"]["scale"].get<float>(), 0.5f);
+  EXPECT_FLOAT_EQ(ext["KHR_materials_clearcoat"]["clearcoatNormalTexture"]["scale"].get<float>(),
+                  0.5f);
   EXPECT_FLOAT_EQ(ext["KHR_materials_anisotropy"]["anisotropyStrength"].get<float>(), 0.7f);
   EXPECT_TRUE(has(glb.doc["extensionsUsed"], "KHR_materials_anisotropy"));
   expect_valid(bytes, "layer_textures.glb");
@@ -547,7 +554,8 @@ TEST(GltfExport, AnisotropyWithoutNormalMapIsLeftOut) {
   EXPECT_FALSE(glb.doc["materials"][0].contains("extensions") &&
                glb.doc["materials"][0]["extensions"].contains("KHR_materials_anisotropy"));
   int said = 0;
-  for (const std::string& w : warnings.items()) said += w.find("anisotropy left out") != std::string::npos;
+  for (const std::string& w : warnings.items())
+    said += w.find("anisotropy left out") != std::string::npos;
   EXPECT_EQ(said, 1);
   expect_valid(bytes, "anisotropy_no_normal.glb");
 }
@@ -684,6 +692,58 @@ TEST(GltfExport, DracoDecodedCountMatchesAccessors) {
     EXPECT_EQ(pos["max"][k].get<float>(), hi[k]);
     EXPECT_NEAR(hi[k], 0.5f, 1e-3);
   }
+}
+
+// A scan's triangles can come in no spatial order (here a sphere's, shuffled: a vertex cache
+// would miss every vertex); the Draco encoder is then given them in spatial order, which must
+// change nothing but their order: the file read back holds the same triangles, each with its
+// corners' positions and normals (to the quantization).
+TEST(GltfExport, ShuffledTrianglesComeBackTheSame) {
+  Primitive p = testing::uv_sphere(30, 60);
+  std::vector<std::array<uint32_t, 3>> tris;
+  for (size_t t = 0; t < p.indices.size(); t += 3)
+    tris.push_back({p.indices[t], p.indices[t + 1], p.indices[t + 2]});
+  std::mt19937 rng(3);
+  std::shuffle(tris.begin(), tris.end(), rng);
+  p.indices.clear();
+  for (const auto& t : tris) p.indices.insert(p.indices.end(), t.begin(), t.end());
+  Scene scene;
+  scene.meshes.push_back(Mesh{});
+  scene.meshes[0].primitives.push_back(p);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  testing::TempDir dir;
+  ASSERT_TRUE(write_file_atomic(dir.file("s.glb"), export_ok(scene)).ok());
+  Warnings warnings;
+  auto back = import_scene(dir.file("s.glb"), {}, &warnings);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->meshes.size(), 1u);
+  const Primitive& q = back->meshes[0].primitives.at(0);
+  ASSERT_EQ(q.indices.size(), p.indices.size());
+  // Each triangle as its corners' positions, numbered by the input's distinct positions (the
+  // nearest one: quantization moves a corner by ~1e-4, neighbours are ~0.1 apart), rotated to
+  // start at the smallest: the two files' sets must match.
+  std::vector<Vec3> unique;
+  for (const Vec3& v : p.positions)
+    if (std::none_of(unique.begin(), unique.end(), [&](const Vec3& u) { return u == v; }))
+      unique.push_back(v);
+  auto id = [&](Vec3 v) {
+    size_t best = 0;
+    for (size_t i = 1; i < unique.size(); ++i)
+      if (length(unique[i] - v) < length(unique[best] - v)) best = i;
+    return best;
+  };
+  auto key = [&](const Primitive& m, size_t t) {
+    std::array<size_t, 3> c = {id(m.positions[m.indices[t]]), id(m.positions[m.indices[t + 1]]),
+                               id(m.positions[m.indices[t + 2]])};
+    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+    return c;
+  };
+  std::multiset<std::array<size_t, 3>> in, out;
+  for (size_t t = 0; t < p.indices.size(); t += 3) in.insert(key(p, t));
+  for (size_t t = 0; t < q.indices.size(); t += 3) out.insert(key(q, t));
+  EXPECT_EQ(in, out);
+  for (size_t v = 0; v < q.positions.size(); ++v)
+    ASSERT_GT(dot(q.normals[v], normalize(q.positions[v])), 0.99f) << "vertex " << v;
 }
 
 // More than 65535 vertices: 32-bit indices, in both encodings.
