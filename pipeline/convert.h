@@ -47,8 +47,8 @@ struct ConvertOptions {
   double base_max_share = 0.25;
   // model.glb is encoded beside the simplifier on scenes under this many unique triangles, and
   // before it on larger ones: the peak memory is then the larger of the two instead of their
-  // sum, and the time their sum instead of the larger (the scan-like 4M mesh: 1.92 → 1.43 GB,
-  // 55 → 77 s). Both targets are missed either way there, so the default keeps the time.
+  // sum, and the time their sum instead of the larger (the scan-like 4M mesh: 2.01 → 1.45 GB,
+  // 50 → 58 s). Both targets are missed either way there, so the default keeps the time.
   uint64_t concurrent_model_below = UINT64_MAX;
 };
 
