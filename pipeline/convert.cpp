@@ -325,7 +325,10 @@ Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& packa
 // each mesh's base_level, so the package's base and the multiplexer follow. When even the
 // coarsest levels are over it (kept materials' images at full size, or a collapse loop that
 // the link condition stops early), the stopping rule's base stays and the progress says how
-// many bytes the coarsest levels and their images hold. Returns the base chosen.
+// many bytes the coarsest levels and their images hold (a model shipped whole because its
+// refinements are under a tenth of it is such a case: its coarsest levels are nearly all of
+// it). A trial encode that fails counts as over the bound; the chosen base is encoded again by
+// the caller, where a failure is reported. Returns the base chosen.
 LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const TextureLevels& levels,
                         const ConvertOptions& o, size_t model_bytes, Progress* progress) {
   const double budget = o.base_max_share * double(model_bytes);

@@ -192,7 +192,7 @@ struct Collapse {
   uint32_t first_map = 0, map_count = 0;    // range in the (wedge, target) list
   uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
   float error = 0;
-  float queue_min = 0;  // the smallest candidate error of the pass (the greedy's E_current)
+  float queue_min = 0;  // the smallest candidate error of its pass (the greedy's E_current)
   float queue_max = 0;  // the largest candidate error of the pass (Terrace et al.'s E_max)
 };
 
@@ -330,11 +330,12 @@ class Simplifier {
   // (3) chooses, cheapest first, collapses whose ends no chosen one shares, until
   // `pass_fraction` of the live faces would go or the error passes `pass_error_growth` times
   // the error at the pass's expected collapse count, and applies them in spatial order. A
-  // collapse's cost reads only its two ends' quadrics and wedges, so with the ends locked every
-  // applied cost is the one it was chosen by; validity (link, flips, vanishing) is re-checked on
-  // the current mesh as each is applied. With small passes the order stays close to a true
-  // greedy's (the loop this replaces: Hausdorff distances on the shared models within a few
-  // percent either way). Deterministic: the order is a strict total order and the costing is
+  // collapse's geometric cost reads only its two ends' quadrics, so with the ends locked it is
+  // the one it was chosen by (the seam's target wedge may change where an earlier collapse of
+  // the pass took a face of the target); validity (link, flips, vanishing) and the cost are
+  // checked again on the current mesh as each is applied. With small passes the order stays close
+  // to a true greedy's (the loop this replaces: Hausdorff distances on the shared models within a
+  // few percent either way). Deterministic: the order is a strict total order and the costing is
   // pure, whatever the thread count.
   // `on_progress` (may be empty) is called with the collapses so far, every few thousand.
   void run(const std::function<void(uint64_t)>& on_progress = {}) {
@@ -379,7 +380,9 @@ class Simplifier {
       std::merge(live.begin(), live.end(), fresh.begin(), fresh.end(), merged.begin());
       live.swap(merged);
       if (live.empty()) break;
-      const float pass_max = live.back().error;
+      // The pass's cheapest and dearest candidates, recorded with each of its collapses: the
+      // base's stopping rule reads them, so it cuts between passes (record()).
+      const float pass_min = live.front().error, pass_max = live.back().error;
       const size_t goal = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
       const float error_goal =
           opt_.pass_error_growth * live[std::min(live.size() - 1, goal / 2)].error;
@@ -397,7 +400,7 @@ class Simplifier {
       std::sort(chosen.begin(), chosen.end(),
                 [](const Candidate& x, const Candidate& y) { return x.u < y.u; });
       for (const Candidate& c : chosen) {
-        const size_t faces = collapse(c, c.error, std::max(pass_max, c.error));
+        const size_t faces = collapse(c, pass_min, pass_max);
         stale[c.u] = 1;  // refused on the current mesh: out until its neighbourhood changes;
                          // collapsed: gone
         if (faces == 0) continue;
@@ -1008,7 +1011,10 @@ uint64_t morton(const DVec3& p, const DVec3& lo, double scale) {
 // their first position in that order. The collapse loop reads a position's faces, their
 // corners, the neighbours' quadrics and wedges: in the source's order (a scan's shuffled
 // vertices and triangles) nearly every read is a cache miss; in spatial order the neighbours
-// are near in memory. The order changes nothing the loop decides but ties between equal costs.
+// are near in memory. What the loop decides depends on the numbering only through ties, the
+// order a pass applies its collapses in (a refusal caused by a neighbour applied earlier) and
+// the rounding of the quadric sums: the same input in another order gives a record of the same
+// quality, not the same bytes.
 void spatial_order(Unit& u) {
   const size_t np = u.pos.size(), nw = u.wedge_pos.size(), nf = u.face_prim.size();
   const size_t k = size_t(u.channels);
