@@ -192,7 +192,7 @@ struct Collapse {
   uint32_t first_map = 0, map_count = 0;    // range in the (wedge, target) list
   uint32_t first_face = 0, face_count = 0;  // range in the removed-face list
   float error = 0;
-  float queue_min = 0;  // the smallest candidate error of its pass (the greedy's E_current)
+  float queue_min = 0;  // the collapse's own error (the greedy's E_current: see run())
   float queue_max = 0;  // the largest candidate error of the pass (Terrace et al.'s E_max)
 };
 
@@ -380,9 +380,13 @@ class Simplifier {
       std::merge(live.begin(), live.end(), fresh.begin(), fresh.end(), merged.begin());
       live.swap(merged);
       if (live.empty()) break;
-      // The pass's cheapest and dearest candidates, recorded with each of its collapses: the
-      // base's stopping rule reads them, so it cuts between passes (record()).
-      const float pass_min = live.front().error, pass_max = live.back().error;
+      // The base's stopping rule (record()) reads each collapse's own error as E_current and
+      // the pass's dearest candidate as E_max. A pass applies its collapses in spatial order,
+      // so the rule may cut inside a pass (at most one pass, 1% of the faces, unevenly over
+      // the surface); cutting between passes instead (the pass's cheapest as E_current) took
+      // one pass more into the base: 2CylinderEngine's area +3.2% against the greedy's, +0.7%
+      // this way.
+      const float pass_max = live.back().error;
       const size_t goal = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
       const float error_goal =
           opt_.pass_error_growth * live[std::min(live.size() - 1, goal / 2)].error;
@@ -400,7 +404,7 @@ class Simplifier {
       std::sort(chosen.begin(), chosen.end(),
                 [](const Candidate& x, const Candidate& y) { return x.u < y.u; });
       for (const Candidate& c : chosen) {
-        const size_t faces = collapse(c, pass_min, pass_max);
+        const size_t faces = collapse(c, c.error, pass_max);
         stale[c.u] = 1;  // refused on the current mesh: out until its neighbourhood changes;
                          // collapsed: gone
         if (faces == 0) continue;
@@ -926,9 +930,10 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (size_t r = 0; r <= m; ++r) pm.levels[r].error = prefix_max[m - r];
 
   // Base level: Terrace et al. formula 1, log(1+E_current)/log(1+E_max) ≥ threshold. A true
-  // greedy's E_current is the cheapest collapse left and E_max the dearest; a pass of sorted
-  // candidates has both at its two ends, so the rule is checked per pass and the base is the
-  // state before the first pass where it holds. On errors normalized to a unit diagonal the
+  // greedy's E_current is the cheapest collapse left and E_max the dearest; here each
+  // collapse's own error stands for E_current and its pass's dearest candidate for E_max
+  // (Simplifier::run), and the base is the state before the first collapse where the rule
+  // holds. On errors normalized to a unit diagonal the
   // rule fires only near the very end (the dearest candidates are outliers: corners, rims), so
   // the base also stops once the cheapest collapse left exceeds `base_max_error`.
   size_t stop = m;  // collapses applied in the base
