@@ -9,77 +9,80 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <unordered_map>
 
+#include "core/key_table.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
 
 namespace {
 
-// Attribute bit patterns are compared exactly.
-struct BytesHash {
-  size_t operator()(const std::vector<uint32_t>& k) const {
-    return size_t(fnv1a(k.data(), k.size()));
-  }
-};
-
 bool finite_unit(Vec3 n) {
   float l = length(n);
   return std::isfinite(l) && l > 0.5f && l < 1.5f;
 }
 
-// Welds exact duplicates; returns the remapped primitive (indices rewritten).
+// A vertex's attribute bits (position, normal, uv sets, colour; −0 folded into +0), the words
+// welding compares exactly.
+void vertex_words(const Primitive& p, size_t v, std::vector<uint32_t>& key) {
+  key.clear();
+  auto add3 = [&](Vec3 a) {
+    key.insert(key.end(), {float_bits(a.x), float_bits(a.y), float_bits(a.z)});
+  };
+  add3(p.positions[v]);
+  if (!p.normals.empty()) add3(p.normals[v]);
+  for (const auto& set : p.uvs) key.insert(key.end(), {float_bits(set[v].x), float_bits(set[v].y)});
+  if (!p.colors.empty()) {
+    Vec4 c = p.colors[v];
+    key.insert(key.end(), {float_bits(c.x), float_bits(c.y), float_bits(c.z), float_bits(c.w)});
+  }
+}
+
+// Welds exact duplicates; returns the remapped primitive (indices rewritten). Kept vertices
+// stay in first-occurrence order.
 Primitive weld(const Primitive& p) {
-  std::unordered_map<std::vector<uint32_t>, uint32_t, BytesHash> seen;
-  seen.reserve(p.positions.size() * 2);
-  std::vector<uint32_t> remap(p.positions.size());
+  const size_t n = p.positions.size();
+  KeyTable seen(n);
+  std::vector<uint32_t> remap(n), first_of;  // first_of: output vertex → its first input
   Primitive out;
   out.material = p.material;
   out.flat = p.flat;
   out.uvs.resize(p.uvs.size());
-  std::vector<uint32_t> key;
-  for (size_t v = 0; v < p.positions.size(); ++v) {
-    key.clear();
-    auto add3 = [&](Vec3 a) {
-      key.insert(key.end(), {float_bits(a.x), float_bits(a.y), float_bits(a.z)});
-    };
-    add3(p.positions[v]);
-    if (!p.normals.empty()) add3(p.normals[v]);
-    for (const auto& set : p.uvs)
-      key.insert(key.end(), {float_bits(set[v].x), float_bits(set[v].y)});
-    if (!p.colors.empty()) {
-      Vec4 c = p.colors[v];
-      key.insert(key.end(), {float_bits(c.x), float_bits(c.y), float_bits(c.z), float_bits(c.w)});
-    }
-    auto [it, inserted] = seen.emplace(key, uint32_t(out.positions.size()));
-    if (inserted) {
+  std::vector<uint32_t> key, other;
+  for (size_t v = 0; v < n; ++v) {
+    vertex_words(p, v, key);
+    const uint64_t h = fnv1a(key.data(), key.size());
+    uint32_t k = seen.find(h, [&](uint32_t cand) {
+      vertex_words(p, first_of[cand], other);
+      return other == key;
+    });
+    if (k == KeyTable::kEmpty) {
+      k = uint32_t(first_of.size());
+      first_of.push_back(uint32_t(v));
+      seen.insert(h, k);
       out.positions.push_back(p.positions[v]);
       if (!p.normals.empty()) out.normals.push_back(p.normals[v]);
       for (size_t s = 0; s < p.uvs.size(); ++s) out.uvs[s].push_back(p.uvs[s][v]);
       if (!p.colors.empty()) out.colors.push_back(p.colors[v]);
     }
-    remap[v] = it->second;
+    remap[v] = k;
   }
   out.indices.resize(p.indices.size());
   for (size_t i = 0; i < p.indices.size(); ++i) out.indices[i] = remap[p.indices[i]];
   return out;
 }
 
+// A triangle's corners rotated so the smallest index leads; the winding is kept.
+std::array<uint32_t, 3> rotated(uint32_t a, uint32_t b, uint32_t c) {
+  if (b < a && b < c) return {b, c, a};
+  if (c < a && c < b) return {c, a, b};
+  return {a, b, c};
+}
+
 // Removes degenerate and duplicate triangles in place; counts them.
 void filter_triangles(Primitive& p, const CleanOptions& o, CleanReport& r) {
-  struct TriKey {
-    uint32_t a, b, c;
-    bool operator==(const TriKey& k) const { return a == k.a && b == k.b && c == k.c; }
-  };
-  struct TriHash {
-    size_t operator()(const TriKey& k) const {
-      return size_t((uint64_t(k.a) * 73856093u) ^ (uint64_t(k.b) * 19349663u) ^
-                    (uint64_t(k.c) * 83492791u));
-    }
-  };
-  std::unordered_map<TriKey, char, TriHash> seen;
-  if (o.remove_duplicates) seen.reserve(p.indices.size() / 3 * 2);
+  // Kept triangles, keyed by their rotated corners.
+  KeyTable seen(o.remove_duplicates ? p.indices.size() / 3 : 0);
   std::vector<uint32_t> kept;
   kept.reserve(p.indices.size());
   for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
@@ -95,15 +98,17 @@ void filter_triangles(Primitive& p, const CleanOptions& o, CleanReport& r) {
     }
     if (o.remove_duplicates) {
       // Rotate so the smallest index leads; winding is preserved.
-      TriKey k{a, b, c};
-      if (b < a && b < c)
-        k = {b, c, a};
-      else if (c < a && c < b)
-        k = {c, a, b};
-      if (!seen.emplace(k, 0).second) {
+      const std::array<uint32_t, 3> k = rotated(a, b, c);
+      const uint64_t h = fnv1a(k.data(), 3);
+      auto same = [&](uint32_t t) {
+        const uint32_t* x = &kept[3 * size_t(t)];
+        return rotated(x[0], x[1], x[2]) == k;
+      };
+      if (seen.find(h, same) != KeyTable::kEmpty) {
         ++r.duplicates_removed;
         continue;
       }
+      seen.insert(h, uint32_t(kept.size() / 3));
     }
     kept.insert(kept.end(), {a, b, c});
   }
@@ -151,30 +156,28 @@ void generate_normals(Primitive& p, float crease_degrees) {
       corner_angle[t][size_t(c)] = std::acos(std::clamp(dot(e1, e2), -1.0f, 1.0f));
     }
   }
-  // Group corners by position.
-  struct PosHash {
-    size_t operator()(const Vec3& v) const {
-      return size_t(float_bits(v.x) * 73856093ull ^ float_bits(v.y) * 19349663ull ^
-                    float_bits(v.z) * 83492791ull);
-    }
-  };
-  struct PosEq {
-    bool operator()(const Vec3& a, const Vec3& b) const { return a == b; }
-  };
-  std::unordered_map<Vec3, uint32_t, PosHash, PosEq> group_of;
+  // Group corners by position (−0 folded into +0), groups numbered in corner order.
+  KeyTable group_of(p.positions.size());
+  std::vector<uint32_t> group_vertex;  // group → a vertex at its position
   std::vector<uint32_t> corner_group(p.indices.size());
   for (size_t i = 0; i < p.indices.size(); ++i) {
-    Vec3 pos = p.positions[p.indices[i]];
-    if (pos.x == 0) pos.x = 0;  // fold -0
-    if (pos.y == 0) pos.y = 0;
-    if (pos.z == 0) pos.z = 0;
-    auto [it, _] = group_of.emplace(pos, uint32_t(group_of.size()));
-    corner_group[i] = it->second;
+    const uint32_t v = p.indices[i];
+    const PositionKey key(p.positions[v]);
+    const uint64_t h = position_hash(p.positions[v]);
+    uint32_t g = group_of.find(
+        h, [&](uint32_t cand) { return PositionKey(p.positions[group_vertex[cand]]) == key; });
+    if (g == KeyTable::kEmpty) {
+      g = uint32_t(group_vertex.size());
+      group_vertex.push_back(v);
+      group_of.insert(h, g);
+    }
+    corner_group[i] = g;
   }
+  const size_t groups = group_vertex.size();
   // Corners of each group, in corner order (deterministic).
-  std::vector<uint32_t> start(group_of.size() + 1, 0), members(p.indices.size());
+  std::vector<uint32_t> start(groups + 1, 0), members(p.indices.size());
   for (uint32_t g : corner_group) ++start[g + 1];
-  for (size_t g = 0; g < group_of.size(); ++g) start[g + 1] += start[g];
+  for (size_t g = 0; g < groups; ++g) start[g + 1] += start[g];
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   for (size_t i = 0; i < p.indices.size(); ++i) members[fill[corner_group[i]]++] = uint32_t(i);
 
@@ -192,26 +195,33 @@ void generate_normals(Primitive& p, float crease_degrees) {
     Vec3 n = normalize(sum);
     corner_n[i] = length(n) > 0 ? n : face_n[t];
   }
-  // Split: one vertex per (original vertex, normal) pair.
-  std::unordered_map<uint64_t, uint32_t> made;
+  // Split: one vertex per (original vertex, normal bits) pair, in first-corner order.
   Primitive out;
   out.material = p.material;
   out.flat = p.flat;
   out.uvs.resize(p.uvs.size());
-  std::unordered_map<std::vector<uint32_t>, uint32_t, BytesHash> by_key;
-  std::vector<uint32_t> key;
+  KeyTable made(p.indices.size());
+  std::vector<uint32_t> made_source;  // output vertex → its input vertex
   for (size_t i = 0; i < p.indices.size(); ++i) {
-    uint32_t v = p.indices[i];
-    Vec3 n = corner_n[i];
-    key = {v, float_bits(n.x), float_bits(n.y), float_bits(n.z)};
-    auto [it, inserted] = by_key.emplace(key, uint32_t(out.positions.size()));
-    if (inserted) {
+    const uint32_t v = p.indices[i];
+    const Vec3 n = corner_n[i];
+    const uint32_t key[4] = {v, float_bits(n.x), float_bits(n.y), float_bits(n.z)};
+    const uint64_t h = fnv1a(key, 4);
+    uint32_t k = made.find(h, [&](uint32_t cand) {
+      const Vec3 m = out.normals[cand];
+      return made_source[cand] == v && float_bits(m.x) == key[1] && float_bits(m.y) == key[2] &&
+             float_bits(m.z) == key[3];
+    });
+    if (k == KeyTable::kEmpty) {
+      k = uint32_t(out.positions.size());
+      made_source.push_back(v);
+      made.insert(h, k);
       out.positions.push_back(p.positions[v]);
       out.normals.push_back(n);
       for (size_t s = 0; s < p.uvs.size(); ++s) out.uvs[s].push_back(p.uvs[s][v]);
       if (!p.colors.empty()) out.colors.push_back(p.colors[v]);
     }
-    out.indices.push_back(it->second);
+    out.indices.push_back(k);
   }
   p = std::move(out);
 }

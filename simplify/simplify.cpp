@@ -30,6 +30,7 @@
 #include <unordered_map>
 
 #include "clean/flatten.h"
+#include "core/key_table.h"
 #include "core/parallel.h"
 #include "scene/dvec3.h"
 #include "scene/position_key.h"
@@ -202,44 +203,6 @@ struct Candidate {
   bool operator<(const Candidate& o) const {
     return error != o.error ? error < o.error : (u != o.u ? u < o.u : v < o.v);
   }
-};
-
-// An open-addressing table of (64-bit key, value) entries for welding: several entries may
-// share a key (the caller tells them apart), find() returns the first whose value `same`
-// accepts. Sized once for `capacity` insertions (load ≤ 1/2); a flat array, where a hash map of
-// vectors spent most of make_unit's time allocating buckets.
-class KeyTable {
- public:
-  explicit KeyTable(size_t capacity) {
-    size_t n = 16;
-    while (n < 2 * capacity) n *= 2;
-    keys_.assign(n, 0);
-    values_.assign(n, kEmpty);
-    mask_ = n - 1;
-  }
-  template <class Same>
-  uint32_t find(uint64_t key, const Same& same) const {
-    for (size_t i = slot(key); values_[i] != kEmpty; i = (i + 1) & mask_)
-      if (keys_[i] == key && same(values_[i])) return values_[i];
-    return kEmpty;
-  }
-  void insert(uint64_t key, uint32_t value) {
-    size_t i = slot(key);
-    while (values_[i] != kEmpty) i = (i + 1) & mask_;
-    keys_[i] = key, values_[i] = value;
-  }
-  static constexpr uint32_t kEmpty = UINT32_MAX;
-
- private:
-  size_t slot(uint64_t key) const {
-    key ^= key >> 33;
-    key *= 0xFF51AFD7ED558CCDull;
-    key ^= key >> 33;
-    return size_t(key) & mask_;
-  }
-  std::vector<uint64_t> keys_;
-  std::vector<uint32_t> values_;
-  size_t mask_ = 0;
 };
 
 // Each position's live faces, in one pooled array: a run of slots per position, moved to the

@@ -33,6 +33,25 @@ TEST(Clean, WeldsVerticesWhoseAttributesAllAgree) {
   EXPECT_EQ(r.vertices_out, 4u);
 }
 
+// Welding compares bits with −0 folded into +0 (an exporter's −0 is the same point); the
+// vertices come out in the order the triangles first reach them, which the record's
+// determinism rests on.
+TEST(Clean, WeldsNegativeZeroAndKeepsFirstOccurrenceOrder) {
+  Primitive p;
+  p.positions = {{1, 0, 0}, {-0.0f, 0, 0}, {0, 1, 0}, {0, 0, 0}, {1, 0, 0}, {0, 1, -0.0f}};
+  p.normals.assign(6, {0, 0, 1});
+  p.indices = {0, 2, 1, 4, 5, 3};
+  Scene out = clean(one_primitive(p), {});
+  const Primitive& q = out.meshes[0].primitives[0];
+  ASSERT_EQ(q.vertex_count(), 3u);
+  EXPECT_EQ(q.positions[0], (Vec3{1, 0, 0}));
+  EXPECT_EQ(q.positions[1], (Vec3{0, 1, 0}));
+  EXPECT_EQ(q.positions[2], (Vec3{0, 0, 0}));
+  // The second triangle is the first one again: a duplicate after welding.
+  EXPECT_EQ(q.triangle_count(), 1u);
+  EXPECT_EQ(q.indices, (std::vector<uint32_t>{0, 1, 2}));
+}
+
 // Vertices at one position but with different uvs are a texture seam: they must stay apart.
 TEST(Clean, KeepsSeamVerticesWithDifferentUvs) {
   Primitive p;
