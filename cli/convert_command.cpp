@@ -48,7 +48,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   progress.step("importing " + upload->display());
   auto scene = import_scene(upload->model(), u.import, &warnings);
   if (!scene.ok()) return progress.flush(), print_error(scene.status());
-  auto r = convert(*scene, o, &warnings, &progress);
+  auto r = convert(scene.take(), o, &warnings, &progress);
   progress.flush();
   if (!r.ok()) return print_error(r.status());
   if (Status s = write_outputs(out, o.stream, *r, progress); !s) return print_error(s);

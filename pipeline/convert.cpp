@@ -378,12 +378,13 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
   return best;
 }
 
-Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warnings* warnings,
+Result<ConvertOutputs> convert(Scene input, const ConvertOptions& o, Warnings* warnings,
                                Progress* progress) {
   ConvertOutputs out;
   out.input = compute_stats(input);
-  // 1. Clean.
+  // 1. Clean; the input is not read again.
   Scene scene = clean_step(input, o, progress);
+  input = Scene{};
   // 2. Atlas (and the flattening decision).
   auto atlased = atlas_step(std::move(scene), o, warnings, progress);
   if (!atlased.ok()) return atlased.status();
@@ -421,6 +422,7 @@ Result<ConvertOutputs> convert(const Scene& input, const ConvertOptions& o, Warn
   out.model_glb = model.take();
   out.output = compute_stats(scene);
   if (!o.stream) return out;
+  scene = Scene{};  // the record (ps) holds the geometry from here on
   const LodSelection base =
       bound_base(ps, select_base(ps), *levels, o, out.model_glb.size(), progress);
   out.base_triangles = selection_triangles(ps, base);

@@ -64,8 +64,10 @@ struct InstanceOrder {
 };
 
 struct ProgressiveScene {
-  Scene scene;                                 // the conditioned scene the record refers to (after
-                                               // flattening, when that path was taken)
+  Scene scene;  // the conditioned scene the record refers to (after flattening, when that
+                // path was taken): materials, images, instances, lines and mesh names; its
+                // primitives keep their material and flags but no vertex or index data (the
+                // record below holds the geometry)
   std::vector<ProgressiveMesh> meshes;         // one per Scene mesh, same index
   std::vector<InstanceOrder> instance_orders;  // one per Scene mesh, same index
   bool flattened = false;                      // true when instances per submesh < 1.75 led to

@@ -1192,6 +1192,29 @@ std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
           sum.a02, sum.a12, sum.a22, sum.b2, sum.b0,  sum.b1,  sum.b2,  sum.c};
 }
 
+// The scene without its primitives' vertex and index arrays (everything else kept): what the
+// record refers to, where a full copy would hold the geometry twice beside the record.
+Scene without_vertex_data(const Scene& scene) {
+  Scene out;
+  out.materials = scene.materials;
+  out.images = scene.images;
+  out.lines = scene.lines;
+  out.instances = scene.instances;
+  out.source = scene.source;
+  out.normalization_scale = scene.normalization_scale;
+  out.meshes.resize(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    out.meshes[m].name = scene.meshes[m].name;
+    for (const Primitive& p : scene.meshes[m].primitives) {
+      Primitive q;
+      q.material = p.material;
+      q.flat = p.flat;
+      out.meshes[m].primitives.push_back(std::move(q));
+    }
+  }
+  return out;
+}
+
 ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
                                    SimplifyReport* report, Progress* progress) {
   auto start = std::chrono::steady_clock::now();
@@ -1201,9 +1224,10 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   r.instances_per_submesh = instances_per_submesh(cleaned);
   ProgressiveScene ps;
   ps.flattened = should_flatten(cleaned, options.flatten_below_ips);
-  ps.scene = ps.flattened ? flatten(cleaned) : cleaned;
+  const Scene flat = ps.flattened ? flatten(cleaned) : Scene{};
+  const Scene& scene = ps.flattened ? flat : cleaned;  // the geometry the record is made from
+  ps.scene = without_vertex_data(scene);
   r.flattened = ps.flattened;
-  const Scene& scene = ps.scene;
   double norm = scene.normalization_scale > 0 ? scene.normalization_scale : 1.0;
   Mat4 normalize_m = Mat4::scale(norm, norm, norm);
   Bounds box = scene_bounds(scene);

@@ -310,7 +310,7 @@ TEST(Simplify, FewInstancesPerSubmeshTakeTheFlattenPath) {
   EXPECT_TRUE(ps.flattened);
   EXPECT_EQ(ps.scene.meshes.size(), 1u);
   EXPECT_EQ(ps.scene.instances.size(), 1u);
-  EXPECT_EQ(compute_stats(ps.scene).scene_triangles, 3u);
+  EXPECT_EQ(compute_stats(materialize(ps, select_full(ps))).scene_triangles, 3u);
   // Two instances per submesh (≥ 1.75) keep instancing.
   s.instances.push_back({1, Mat4::translation(6, 0, 0), ""});
   EXPECT_FALSE(build_progressive(clean(s, {}), {}).flattened);
@@ -438,6 +438,33 @@ TEST(Simplify, SmallModelsShipWhole) {
 namespace meshmux {
 namespace {
 
+// The record holds the only copy of the geometry it was made from: ps.scene keeps materials,
+// instances and names for materialize(), its primitives no vertex data (at millions of
+// triangles a second copy would cost as much as the record), and the full level is still
+// the input.
+TEST(Simplify, RecordKeepsTheOnlyCopyOfTheGeometry) {
+  Scene s;
+  Mesh mesh;
+  mesh.name = "ball";
+  mesh.primitives.push_back(testing::uv_sphere(12, 16));
+  mesh.primitives[0].material = 0;
+  s.meshes.push_back(mesh);
+  s.materials.push_back(Material{});
+  for (int i = 0; i < 3; ++i) s.instances.push_back({0, Mat4::translation(2.0 * i, 0, 0), ""});
+  Scene cleaned = clean(s, {});
+  ProgressiveScene ps = build_progressive(cleaned, {});
+  ASSERT_EQ(ps.scene.meshes.size(), 1u);
+  EXPECT_EQ(ps.scene.meshes[0].name, "ball");
+  ASSERT_EQ(ps.scene.meshes[0].primitives.size(), 1u);
+  EXPECT_TRUE(ps.scene.meshes[0].primitives[0].positions.empty());
+  EXPECT_TRUE(ps.scene.meshes[0].primitives[0].indices.empty());
+  EXPECT_EQ(ps.scene.meshes[0].primitives[0].material, 0);
+  EXPECT_EQ(ps.scene.instances.size(), 3u);
+  Scene full = materialize(ps, select_full(ps));
+  EXPECT_EQ(compute_stats(full).scene_triangles, compute_stats(cleaned).scene_triangles);
+  EXPECT_EQ(full.meshes[0].name, "ball");
+}
+
 // Every shared model (CAD with slivers, scans with holes, seams, instancing, skins): the
 // record builds, every sampled level is a valid mesh with the promised triangle count, and the
 // full level is the cleaned input.
@@ -450,7 +477,7 @@ TEST_P(SimplifySharedModel, RecordIsValidAtEveryLevel) {
   Scene cleaned = clean(*in, {});
   ProgressiveScene ps = build_progressive(cleaned, {});
   EXPECT_EQ(compute_stats(materialize(ps, select_full(ps))).scene_triangles,
-            compute_stats(ps.scene).scene_triangles);
+            compute_stats(cleaned).scene_triangles);
   for (const ProgressiveMesh& pm : ps.meshes) {
     ASSERT_FALSE(pm.levels.empty());
     EXPECT_LE(pm.base_level, pm.levels.size() - 1);
