@@ -48,6 +48,7 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix) {
     faces[pm.face_primitive[f]].insert(faces[pm.face_primitive[f]].end(), {a, b, c});
   }
   std::vector<uint32_t> remap(k, UINT32_MAX);
+  std::vector<uint32_t> stamp(keep_prefix ? 0 : k, UINT32_MAX);  // vertex → last primitive using it
   for (size_t p = 0; p < nprim; ++p) {
     if (faces[p].empty()) continue;
     Primitive prim;
@@ -63,9 +64,17 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix) {
       used.resize(k);
       for (uint32_t v = 0; v < k; ++v) used[v] = v;
     } else {
-      used = faces[p];
-      std::sort(used.begin(), used.end());
-      used.erase(std::unique(used.begin(), used.end()), used.end());
+      // The distinct corners, ascending: sorted when few, else read off a scan of the prefix
+      // (sorting every corner cost a second per level at millions of faces).
+      for (uint32_t v : faces[p])
+        if (stamp[v] != uint32_t(p)) stamp[v] = uint32_t(p), used.push_back(v);
+      if (used.size() < k / 16) {
+        std::sort(used.begin(), used.end());
+      } else {
+        used.clear();
+        for (uint32_t v = 0; v < k; ++v)
+          if (stamp[v] == uint32_t(p)) used.push_back(v);
+      }
     }
     for (uint32_t v : used) {
       remap[v] = uint32_t(prim.positions.size());
