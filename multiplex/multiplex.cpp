@@ -248,6 +248,7 @@ struct CellRenders {
   void place_cameras(const ViewingSphere& sphere, const LodSelection& full,
                      const RenderOptions& render, const ViewOptions& views) {
     Bounds box = scene_bounds(materialize(ps, full));
+    r.bounds = box;
     float aspect = float(render.width) / float(std::max(1, render.height));
     for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, views));
     r.views = cameras.size();
@@ -520,6 +521,12 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
   out << buf;
   std::snprintf(buf, sizeof buf, "\n  \"empty_distortion\": %.6g,", r.empty_distortion);
   out << buf;
+  if (!r.bounds.empty()) {
+    std::snprintf(buf, sizeof buf, "\n  \"bounds\": [%.9g, %.9g, %.9g, %.9g, %.9g, %.9g],",
+                  r.bounds.min.x, r.bounds.min.y, r.bounds.min.z, r.bounds.max.x, r.bounds.max.y,
+                  r.bounds.max.z);
+    out << buf;
+  }
   if (vs) {
     // The package as received against the plain download, areas over the same bytes axis
     // (each curve held at its last value up to the longer one's end).

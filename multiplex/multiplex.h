@@ -62,6 +62,8 @@ struct MultiplexResult {
   double seconds_layers = 0, seconds_render = 0, seconds_total = 0;
   double empty_distortion = 0;  // the metric for showing nothing yet (blank frames against the
                                 // references): where every download starts
+  Bounds bounds;  // the full detail's world-space box, in the model's units (the views frame
+                  // it; report.json's "bounds", a world's layout reads it)
   // The texture levels shipped (width, height, bytes; smallest first) and those dropped, with
   // why: copied from the TextureLevels the stream was made of, for report.json.
   std::vector<std::array<uint64_t, 3>> texture_levels_shipped;

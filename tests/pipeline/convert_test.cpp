@@ -4,13 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
-
 #include <nlohmann/json.hpp>
 
-#include "stream/package.h"
 #include "image/encode.h"
-#include "stream/mesh_stream.h"
 #include "scene/sample.h"
+#include "stream/mesh_stream.h"
+#include "stream/package.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -156,6 +155,23 @@ TEST(Convert, BaseGlbStaysUnderItsShareOfModelGlb) {
   // The finest base that fits, not the coarsest: well over the coarsest sphere's few dozen.
   EXPECT_GT(bounded->base_triangles, 1000u);
   EXPECT_EQ(bounded->model_glb, unbounded->model_glb);
+}
+
+// report.json gives the converted scene's world box, which a world's grid sizes each model by:
+// the sample scene's own box (clean keeps positions; the full level is the cleaned scene).
+TEST(Convert, ReportGivesTheWorldBoxOfTheScene) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  const auto& out = converted().out;
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  auto report = nlohmann::json::parse(out->report_json);
+  ASSERT_TRUE(report.contains("bounds")) << out->report_json.substr(0, 400);
+  const auto& b = report["bounds"];
+  ASSERT_EQ(b.size(), 6u);
+  const Bounds box = scene_bounds(sample());
+  const float expected[6] = {box.min.x, box.min.y, box.min.z, box.max.x, box.max.y, box.max.z};
+  for (size_t i = 0; i < 6; ++i)
+    EXPECT_NEAR(b[i].get<double>(), expected[i], 1e-5 * (1 + std::abs(expected[i]))) << i;
 }
 
 // report.json sets the package, as a viewer receives it (real byte offsets, the stored order),
