@@ -12,6 +12,7 @@
 #include "batch/plan.h"
 #include "batch/process.h"
 #include "batch/summary.h"
+#include "batch/world.h"
 #include "core/exit_codes.h"
 #include "core/output_transaction.h"
 
@@ -61,6 +62,13 @@ int run_batch(const BatchRequest& r) {
   o.outroot = outroot;
   o.state_dir = outroot + "/.meshmux-batch";
   o.exe = self_executable();
+  // The layout is read now, so a bad file fails before any conversion (and again, as it is
+  // then, when world.json is written).
+  if (!o.layout.empty()) {
+    o.layout = fs::absolute(o.layout).lexically_normal().string();
+    if (auto layout = read_layout(o.layout); !layout.ok())
+      return print_error(layout.status().with_prefix("batch"), kExitInput);
+  }
   std::error_code ec;
   fs::create_directories(o.state_dir + "/records", ec);
   fs::create_directories(o.state_dir + "/logs", ec);
@@ -121,6 +129,7 @@ int run_batch(const BatchRequest& r) {
   BatchSummaryInfo info;
   info.mode = "local";
   info.convert_args = o.convert_args;
+  info.layout = o.layout;
   info.fingerprint = o.fingerprint;
   info.skipped = reused;
   info.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -135,12 +144,16 @@ int run_batch(const BatchRequest& r) {
         pool.usage_error.c_str());
     return kExitUsage;
   }
+  for (const std::string& note : counts->world_notes)
+    std::fprintf(stderr, "meshmux: batch: %s\n", note.c_str());
   if (!o.quiet)
     std::fprintf(stderr,
                  "meshmux: batch: %zu inputs: %zu converted (%zu with warnings, %zu from an "
-                 "earlier run), %zu failed, %zu not converted in %.1f s; wrote %s/index.html\n",
+                 "earlier run), %zu failed, %zu not converted in %.1f s; wrote %s/index.html and "
+                 "world.json (%zu models, %zu placements)\n",
                  counts->inputs, counts->ok, counts->with_warnings, counts->reused, counts->failed,
-                 counts->not_converted, info.seconds, outroot.c_str());
+                 counts->not_converted, info.seconds, outroot.c_str(), counts->world_packages,
+                 counts->world_placements);
   if (pool.interrupted) return kExitInterrupted;
   return counts->failed + counts->not_converted ? kExitSomeFailed : kExitOk;
 }

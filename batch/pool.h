@@ -24,6 +24,7 @@ struct BatchOptions {
   uint64_t max_memory_mb = 0;             // per conversion (convert --max-memory); 0: convert's
                                           // (the fingerprint has only a --max-memory given)
   bool retry_failed = false;              // convert again inputs that failed on their input
+  std::string layout;                     // a layout file for world.json (batch/world.h); "": grid
   bool quiet = false;                     // no progress lines
   std::string worker = "local";           // recorded: "local" or "slurm task N"
   std::string exe;                        // the meshmux executable the workers run

@@ -61,6 +61,7 @@ Status write_plan(const Plan& p) {
   j["timeout_seconds"] = p.options.timeout_seconds;
   j["max_memory_mb"] = p.options.max_memory_mb;
   j["retry_failed"] = p.options.retry_failed;
+  j["layout"] = p.options.layout;
   j["jobs_per_task"] = p.options.jobs;
   j["tasks"] = p.tasks;
   j["started"] = p.started;
@@ -89,6 +90,7 @@ Result<Plan> read_plan(const std::string& path) {
     p.options.timeout_seconds = j.at("timeout_seconds").get<double>();
     p.options.max_memory_mb = j.at("max_memory_mb").get<uint64_t>();
     p.options.retry_failed = j.at("retry_failed").get<bool>();
+    p.options.layout = j.value("layout", std::string());
     p.options.jobs = j.at("jobs_per_task").get<int>();
     p.tasks = j.at("tasks").get<int>();
     p.started = j.at("started").get<double>();
@@ -275,6 +277,7 @@ int submit_slurm_batch(const std::vector<BatchItem>& all, const std::vector<Batc
     BatchSummaryInfo info;
     info.mode = "slurm";
     info.convert_args = options.convert_args;
+    info.layout = options.layout;
     info.fingerprint = options.fingerprint;
     info.skipped = reused;
     auto counts = write_batch_summary(options.outroot, options.state_dir, all, info);
@@ -381,6 +384,7 @@ int run_slurm_summary(const std::string& plan_path, const std::string& array_job
   BatchSummaryInfo info;
   info.mode = "slurm";
   info.convert_args = plan->options.convert_args;
+  info.layout = plan->options.layout;
   info.fingerprint = plan->options.fingerprint;
   info.seconds = now_epoch() - plan->started;
   info.skipped = plan->reused;

@@ -2,6 +2,7 @@
 #include "batch/summary.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "batch/world.h"
 #include "core/file_io.h"
 #include "core/text.h"
 
@@ -30,6 +32,55 @@ const char* kPageStyle =
     "th{background:#f4f4f4}.ok{color:#176c2c}.warn{color:#8a5a00}.fail{color:#b00020}"
     "code{font-size:12px}.err{font-family:monospace;font-size:12px;word-break:break-word}";
 
+// The world box report.json gives a conversion ("bounds"), or why not.
+Result<std::array<double, 6>> report_bounds(const std::string& outroot, const std::string& name) {
+  auto bytes = read_whole_file(outroot + "/" + name + "/report.json", 64u << 20);
+  if (!bytes.ok()) return bytes.status();
+  auto j = nlohmann::json::parse(bytes->begin(), bytes->end(), nullptr, false);
+  auto b = j.is_object() ? j.find("bounds") : j.end();
+  if (!j.is_object() || b == j.end() || !b->is_array() || b->size() != 6)
+    return Status::error(name + "/report.json: no \"bounds\" (converted by an older meshmux?)",
+                         ErrorKind::kInput);
+  std::array<double, 6> out{};
+  for (size_t i = 0; i < 6; ++i) {
+    if (!(*b)[i].is_number() || !std::isfinite((*b)[i].get<double>()))
+      return Status::error(name + "/report.json: \"bounds\" are not 6 numbers", ErrorKind::kInput);
+    out[i] = (*b)[i].get<double>();
+  }
+  return out;
+}
+
+// world.json: the streamed conversions (`streamed`: name, package bytes), on a grid or where
+// the layout file puts them. What is left out is said in counts.world_notes.
+Status write_world(const std::string& outroot,
+                   const std::vector<std::pair<std::string, uint64_t>>& streamed,
+                   const std::string& layout_path, BatchCounts& counts) {
+  std::vector<WorldPackage> packages;
+  for (const auto& [name, bytes] : streamed) {
+    auto bounds = report_bounds(outroot, name);
+    if (!bounds.ok()) {
+      counts.world_notes.push_back(bounds.status().message() + "; left out of world.json");
+      continue;
+    }
+    packages.push_back({name, name + "/model.mmxp", *bounds, bytes});
+  }
+  World world;
+  if (layout_path.empty()) {
+    world = grid_world(std::move(packages));
+  } else {
+    auto layout = read_layout(layout_path);
+    if (!layout.ok()) return layout.status().with_prefix("batch");
+    std::vector<std::string> missing;
+    world = apply_layout(std::move(packages), *layout, &missing);
+    for (const std::string& name : missing)
+      counts.world_notes.push_back(base_name(layout_path) + ": \"" + name +
+                                   "\" is no streamed model of this batch; not placed");
+  }
+  counts.world_packages = world.packages.size();
+  counts.world_placements = world.placements.size();
+  return write_file_atomic(outroot + "/world.json", world_json(world));
+}
+
 }  // namespace
 
 Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::string& state_dir,
@@ -41,6 +92,7 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
   // The page lists what needs attention first: failed, then with warnings, then the rest
   // (each in list order); batch.json keeps the list order.
   std::string rows_by_class[3];
+  std::vector<std::pair<std::string, uint64_t>> streamed;  // (name, package bytes), list order
   for (const BatchItem& item : items) {
     ++counts.inputs;
     auto rec = read_record(state_dir, item.name);
@@ -82,6 +134,7 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
     j["glb_bytes"] = current ? rec->glb_bytes : 0;
     j["stream_bytes"] = current ? rec->stream_bytes : 0;
     const bool ok = current && rec->status == "ok";
+    if (ok && rec->stream_bytes > 0) streamed.push_back({item.name, rec->stream_bytes});
     j["output"] = ok ? item.name + "/" : "";
     j["viewer"] = ok && rec->viewer ? item.name + "/index.html" : "";
     j["log"] = ".meshmux-batch/logs/" + item.name + ".log";
@@ -150,6 +203,7 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
       "<th>time</th><th>bytes in</th><th>model.glb</th><th>stream</th></tr></thead><tbody>\n" +
       rows_by_class[0] + rows_by_class[1] + rows_by_class[2] + "</tbody></table>\n</body></html>\n";
   if (Status s = write_file_atomic(outroot + "/index.html", page); !s) return s;
+  if (Status s = write_world(outroot, streamed, info.layout, counts); !s) return s;
   return counts;
 }
 

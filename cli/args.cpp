@@ -68,6 +68,7 @@ const std::vector<Flag> kFlags = [] {
       switch_flag("--retry-failed", kBatch),
       switch_flag("--slurm", kBatch),
       text_flag("--partition", kBatch),
+      text_flag("--layout", kBatch),
       whole_flag("--tasks", kBatch, 1, 100000),
       whole_flag("--throttle", kBatch, 1, 100000),
       whole_flag("--cpus-per-task", kBatch, 1, 1024),

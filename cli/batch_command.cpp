@@ -38,6 +38,7 @@ const char* const kBatchUsage =
     "crash or kill. At the end OUTROOT/batch.json and OUTROOT/index.html list every input with\n"
     "its status, error line, time, bytes in and out and a link to its viewer (meshmux serve\n"
     "OUTROOT). Each conversion's messages are in OUTROOT/.meshmux-batch/logs/<name>.log.\n"
+    "OUTROOT/world.json places every streamed model in one scene (see --layout).\n"
     "\n"
     "options:\n"
     "  --jobs N           conversions at once (default: one per core)\n"
@@ -45,6 +46,11 @@ const char* const kBatchUsage =
     "  --max-memory MB    memory one conversion may use (default: the machine's memory\n"
     "                     divided by --jobs, at least 2048; on Slurm: convert's own default)\n"
     "  --retry-failed     convert again the inputs that failed on their input before\n"
+    "  --layout FILE      where the converted models go in OUTROOT/world.json: JSON\n"
+    "                     {\"placements\": [{\"name\": NAME, \"translation\": [x, y, z],\n"
+    "                     \"scale\": s, \"rotation_y_degrees\": r} or {\"name\": NAME,\n"
+    "                     \"matrix\": [16 numbers, column-major]}, ...]} (a name may be placed\n"
+    "                     several times); default: a grid, each model scaled to a unit diagonal\n"
     "  -q, --quiet        no progress lines\n"
     "\n"
     "on a cluster (Slurm):\n"
@@ -59,7 +65,8 @@ const char* const kBatchUsage =
     "  --wait             wait for the summary, show progress, exit as a local batch does\n"
     "\n"
     "exit codes: 0 every input converted (--slurm without --wait: submitted); 1 usage error;\n"
-    "  2 some inputs failed (listed in the summary); 3 OUTROOT could not be written;\n"
+    "  2 some inputs failed (listed in the summary), or the layout file is broken;\n"
+    "  3 OUTROOT could not be written;\n"
     "  5 Slurm is not available or refused the job; 130 interrupted (the summary lists what\n"
     "  was done; run again to finish)\n";
 
@@ -94,6 +101,7 @@ int cmd_batch(const std::vector<std::string>& args) {
   o.timeout_seconds = double(p->whole("--timeout", 1800));
   o.max_memory_mb = uint64_t(p->whole("--max-memory", 0));
   o.retry_failed = p->has("--retry-failed");
+  o.layout = p->text("--layout");
   o.quiet = p->has("--quiet");
   o.convert_args = p->convert_args();
   SlurmOptions& s = r.slurm;

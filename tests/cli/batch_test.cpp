@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "exporters/gltf.h"
 #include "core/sanitizers.h"
+#include "exporters/gltf.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -94,6 +94,38 @@ TEST(Batch, ConvertsGoodInputsAndListsEveryBadOneWithItsError) {
   for (const char* name : {"truncated", "garbage", "empty", "missing"})
     EXPECT_NE(html.find(std::string(name)), std::string::npos) << name;
   EXPECT_NE(html.find("5 inputs"), std::string::npos);
+  // world.json places the one streamed model (the failed ones are not in it).
+  auto world = read_json(out + "/world.json");
+  ASSERT_EQ(world["packages"].size(), 1u) << world.dump(1);
+  EXPECT_EQ(world["packages"][0]["url"], "good/model.mmxp");
+  EXPECT_EQ(world["packages"][0]["bytes"], good["stream_bytes"]);
+  EXPECT_EQ(world["placements"].size(), 1u);
+}
+
+// --layout: read before anything is converted, so a broken file costs nothing and says what is
+// wrong in one line; a good one places a model as often as it names it.
+TEST(Batch, LayoutFilePlacesModelsAndABrokenOneFailsFirst) {
+  Uploads u;
+  const std::string list = u.dir.file("one.txt");
+  write_text(list, u.good + "\n");
+  const std::string bad = u.dir.file("bad_layout.json"), out_bad = u.dir.file("out_bad");
+  write_text(bad, "{\"placements\": [{\"name\": \"good\", \"scale\": 0}]}");
+  auto r = run_meshmux({"batch", list, "-o", out_bad, "--layout", bad});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("bad_layout.json: placements[0] is singular"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out_bad + "/good")) << "nothing converted";
+  const std::string layout = u.dir.file("layout.json"), out = u.dir.file("out");
+  write_text(layout,
+             "{\"placements\": [{\"name\": \"good\"}, {\"name\": \"good\", "
+             "\"translation\": [3, 0, 0]}, {\"name\": \"elsewhere\"}]}");
+  r = run_meshmux({"batch", list, "-o", out, "--layout", layout});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("\"elsewhere\" is no streamed model of this batch"), std::string::npos)
+      << r.err;
+  auto world = read_json(out + "/world.json");
+  ASSERT_EQ(world["packages"].size(), 1u);
+  ASSERT_EQ(world["placements"].size(), 2u);
+  EXPECT_EQ(world["placements"][1]["matrix"][12], 3);
 }
 
 // A second run converts nothing: the finished input is reused (its files untouched) and the
@@ -193,7 +225,8 @@ TEST(Batch, SameFileNamesInDifferentFoldersGetDistinctOutputs) {
   ASSERT_EQ(run_meshmux({"sample", "-o", dir.file("carol/x.glb"), "-q"}).exit_code, 0);
   write_text(dir.file("carol/x.gltf"), "{}");
   write_text(dir.file("carol/x.DAE"), "<COLLADA/>");
-  list += dir.file("carol/x.glb") + "\n" + dir.file("carol/x.gltf") + "\n" + dir.file("carol/x.DAE") + "\n";
+  list += dir.file("carol/x.glb") + "\n" + dir.file("carol/x.gltf") + "\n" +
+          dir.file("carol/x.DAE") + "\n";
   write_text(dir.file("list.txt"), list);
   auto r = run_meshmux({"batch", dir.file("list.txt"), "-o", dir.file("out"), "-q"});
   EXPECT_EQ(r.exit_code, 2) << r.err;

@@ -1,0 +1,206 @@
+// batch/world.h: world.json written, read back and refused when it would leave its folder,
+// the grid layout and layout files.
+#include "batch/world.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "core/file_io.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using testing::TempDir;
+
+WorldPackage package(const std::string& name, std::array<double, 6> bounds, uint64_t bytes = 1000) {
+  return {name, name + "/model.mmxp", bounds, bytes};
+}
+
+// A point through a column-major affine matrix.
+std::array<double, 3> apply(const std::array<double, 16>& m, double x, double y, double z) {
+  return {m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
+          m[2] * x + m[6] * y + m[10] * z + m[14]};
+}
+
+// A written world reads back exactly: names with quotes, box coordinates that need 17 digits,
+// byte counts past 32 bits (what the player sizes requests by).
+TEST(World, JsonReadsBackExactly) {
+  World w = grid_world({package("Duck", {-1.5, 0, -0.1, 1.5, 2.25, 0.1}, 5'000'000'000ull),
+                        package("a\"b", {0.1, 0.2, 0.3, 0.4, 0.5, 0.6}, 7)});
+  auto back = parse_world(world_json(w), "world.json");
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->packages.size(), 2u);
+  EXPECT_EQ(back->packages[1].name, "a\"b");
+  EXPECT_EQ(back->packages[0].bytes, 5'000'000'000ull);
+  for (size_t i = 0; i < 2; ++i) EXPECT_EQ(back->packages[i].bounds, w.packages[i].bounds);
+  ASSERT_EQ(back->placements.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back->placements[i].package, w.placements[i].package);
+    EXPECT_EQ(back->placements[i].matrix, w.placements[i].matrix);
+  }
+  EXPECT_EQ(world_json(*back), world_json(w));
+}
+
+// Uploads come in every size (a 20-unit building beside a 0.2-unit duck): the grid scales each
+// to a unit diagonal, stands it on y = 0 and gives each its own cell, so none hides another.
+TEST(World, GridGivesEachModelAUnitCellOnTheGround) {
+  std::vector<WorldPackage> packages;
+  for (int i = 0; i < 5; ++i) {
+    const double s = std::pow(10.0, i - 2);  // 0.01 to 100 units
+    packages.push_back(package("m" + std::to_string(i), {10 * s, 5 * s, -s, 12 * s, 6 * s, s}));
+  }
+  World w = grid_world(packages);
+  ASSERT_EQ(w.placements.size(), 5u);
+  std::vector<std::array<double, 6>> placed;
+  for (const WorldPlacement& p : w.placements) {
+    const auto& b = w.packages[p.package].bounds;
+    const auto lo = apply(p.matrix, b[0], b[1], b[2]), hi = apply(p.matrix, b[3], b[4], b[5]);
+    const double d =
+        std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    EXPECT_NEAR(d, 1.0, 1e-9);
+    EXPECT_NEAR(lo[1], 0.0, 1e-9);  // standing on the ground
+    placed.push_back({lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]});
+  }
+  for (size_t i = 0; i < placed.size(); ++i)
+    for (size_t j = i + 1; j < placed.size(); ++j) {
+      const bool apart = placed[i][3] < placed[j][0] || placed[j][3] < placed[i][0] ||
+                         placed[i][5] < placed[j][2] || placed[j][5] < placed[i][2];
+      EXPECT_TRUE(apart) << i << " overlaps " << j;
+    }
+}
+
+// A world is fetched by a browser from the folder it is served from: a URL that leaves it
+// (a parent, an absolute path, another origin, a script) would read what the world's author
+// never published. Refused by name unless the world is trusted.
+TEST(World, UrlsStayInsideTheWorldsFolder) {
+  for (const char* bad : {"../secret.mmxp", "a/../../b.mmxp", "/etc/x.mmxp", "https://e.com/x.mmxp",
+                          "data:application/octet-stream,x", "javascript:alert(1)", "a\\b.mmxp",
+                          "x.mmxp?y", "a/%2e%2e/%2e%2e/b", ""}) {
+    World w = grid_world({package("a", {0, 0, 0, 1, 1, 1})});
+    w.packages[0].url = bad;
+    auto r = parse_world(world_json(w), "world.json");
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.status().message().find("world.json: packages[0].url"), std::string::npos)
+        << r.status().message();
+  }
+  for (const char* good : {"Duck/model.mmxp", "a/b/c.mmxp", "x..y/model.mmxp", "./a.mmxp"})
+    EXPECT_TRUE(world_url_is_inside(good)) << good;
+  World w = grid_world({package("a", {0, 0, 0, 1, 1, 1})});
+  w.packages[0].url = "https://cdn.example.com/a.mmxp";
+  WorldLimits trusted;
+  trusted.allow_external_urls = true;
+  EXPECT_TRUE(parse_world(world_json(w), "world.json", trusted).ok());
+}
+
+// Placements the player could not draw: an index past the packages, a matrix of 15 numbers,
+// a coordinate past float range, a projective row, a singular (flattening) matrix.
+TEST(World, RefusesPlacementsThePlayerCannotDraw) {
+  const std::string head =
+      "{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a/model.mmxp\", \"bounds\": "
+      "[0,0,0,1,1,1]}], "
+      "\"placements\": [";
+  const std::string id = "1,0,0,0, 0,1,0,0, 0,0,1,0, ";
+  struct Case {
+    std::string placement, says;
+  } cases[] = {
+      {"{\"package\": 1, \"matrix\": [" + id + "0,0,0,1]}", "placements[0].package"},
+      {"{\"package\": 0, \"matrix\": [" + id + "0,0,1]}", "placements[0].matrix is not 16"},
+      {"{\"package\": 0, \"matrix\": [" + id + "1e300,0,0,1]}", "not a finite coordinate"},
+      {"{\"package\": 0, \"matrix\": [" + id + "0,0,0,2]}", "not affine"},
+      {"{\"package\": 0, \"matrix\": [1,0,0,0, 2,0,0,0, 0,0,1,0, 0,0,0,1]}", "singular"},
+      {"{\"package\": -1, \"matrix\": [" + id + "0,0,0,1]}", "placements[0].package"},
+  };
+  for (const Case& c : cases) {
+    auto r = parse_world(head + c.placement + "]}", "w.json");
+    ASSERT_FALSE(r.ok()) << c.placement;
+    EXPECT_EQ(r.status().kind(), ErrorKind::kInput);
+    EXPECT_NE(r.status().message().find(c.says), std::string::npos) << r.status().message();
+  }
+  EXPECT_TRUE(
+      parse_world(head + "{\"package\": 0, \"matrix\": [" + id + "0,0,0,1]}]}", "w.json").ok());
+}
+
+// Hostile or broken files: empty, not JSON, nested to overflow a recursive parser, another
+// version, more packages than the limit, a box inside out. One line each, naming the file.
+TEST(World, RefusesBrokenFilesWithOneLine) {
+  std::string deep(100000, '[');
+  WorldLimits small;
+  small.max_packages = 1;
+  const std::string two =
+      "{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a\", \"bounds\": [0,0,0,1,1,1]}, "
+      "{\"url\": \"b\", \"bounds\": [0,0,0,1,1,1]}], \"placements\": []}";
+  struct Case {
+    std::string text, says;
+    WorldLimits limits;
+  } cases[] = {
+      {"", "empty file", {}},
+      {"{\"meshmux_world\": 1, \"packages\": [", "not valid JSON", {}},
+      {deep, "nested deeper", {}},
+      {"{\"meshmux_world\": 2, \"packages\": [], \"placements\": []}", "version 2", {}},
+      {"{\"packages\": [], \"placements\": []}", "not a meshmux world", {}},
+      {two, "2 packages (at most 1)", small},
+      {"{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a\", \"bounds\": [0,0,0,1,-1,1]}], "
+       "\"placements\": []}",
+       "minimum above its maximum",
+       {}},
+  };
+  for (const Case& c : cases) {
+    auto r = parse_world(c.text, "w.json", c.limits);
+    ASSERT_FALSE(r.ok()) << c.says;
+    EXPECT_EQ(r.status().message().rfind("w.json: ", 0), 0u) << r.status().message();
+    EXPECT_NE(r.status().message().find(c.says), std::string::npos) << r.status().message();
+    EXPECT_EQ(r.status().message().find('\n'), std::string::npos);
+  }
+}
+
+// A layout places named models (one twice, by translation, scale and rotation, or by matrix);
+// a name no model has is reported, not silently dropped; mixing a matrix with a translation is
+// refused as ambiguous.
+TEST(World, LayoutPlacesNamedModelsAndReportsUnknownNames) {
+  TempDir dir;
+  const std::string path = dir.file("layout.json");
+  ASSERT_TRUE(
+      write_file_atomic(
+          path,
+          std::string("{\"placements\": ["
+                      "{\"name\": \"Duck\", \"translation\": [10, 0, 0], \"scale\": 2, "
+                      "\"rotation_y_degrees\": 90},"
+                      "{\"name\": \"Duck\", \"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,5,0,1]},"
+                      "{\"name\": \"Ghost\"}]}"))
+          .is_ok());
+  auto layout = read_layout(path);
+  ASSERT_TRUE(layout.ok()) << layout.status().message();
+  ASSERT_EQ(layout->size(), 3u);
+  // Scale 2, a quarter turn about y (x → −z), then 10 along x.
+  const auto p = apply((*layout)[0].matrix, 1, 0, 0);
+  EXPECT_NEAR(p[0], 10, 1e-12);
+  EXPECT_NEAR(p[1], 0, 1e-12);
+  EXPECT_NEAR(p[2], -2, 1e-12);
+  std::vector<std::string> missing;
+  World w = apply_layout({package("Duck", {0, 0, 0, 1, 1, 1}), package("Fox", {0, 0, 0, 1, 1, 1})},
+                         *layout, &missing);
+  ASSERT_EQ(w.placements.size(), 2u);
+  EXPECT_EQ(w.placements[0].package, 0u);
+  EXPECT_EQ(w.placements[1].matrix[13], 5);
+  EXPECT_EQ(missing, std::vector<std::string>{"Ghost"});
+  ASSERT_TRUE(
+      write_file_atomic(path, std::string("{\"placements\": [{\"name\": \"Duck\", "
+                                          "\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "
+                                          "\"translation\": [1, 2, 3]}]}"))
+          .is_ok());
+  auto both = read_layout(path);
+  ASSERT_FALSE(both.ok());
+  EXPECT_NE(both.status().message().find("layout.json: placements[0] gives a matrix and"),
+            std::string::npos)
+      << both.status().message();
+  auto none = read_layout(dir.file("nothing.json"));
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().message().find("nothing.json"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace meshmux
