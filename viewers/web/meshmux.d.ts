@@ -37,6 +37,8 @@ export interface MeshmuxStreamOptions {
    * false, or a page where no worker can start (file://), decodes them on the page.
    */
   worker?: boolean;
+  /** A RequestLimiter shared with other streams: their range requests wait for it. */
+  limiter?: RequestLimiter | null;
 }
 
 export type MeshmuxState =
@@ -126,3 +128,12 @@ export class MeshmuxStream extends EventTarget {
  */
 export function addStreamLighting(view: MeshmuxView, scene: Scene, camera: Camera | PerspectiveCamera,
   renderer: WebGLRenderer): () => void;
+
+/** At most `max` range requests in flight over the streams that share it. */
+export class RequestLimiter {
+  constructor(max?: number);
+  readonly max: number;
+  /** The most requests that were in flight at once. */
+  readonly peak: number;
+  run<T>(fn: () => Promise<T>): Promise<T>;
+}

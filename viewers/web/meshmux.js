@@ -27,11 +27,11 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
-import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, validateTable } from './package_reader.js';
+import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, validateTable } from './package_reader.js';
 import { StreamMesh, StreamWorker, applyMeshChunk, inflate } from './stream_mesh.js';
 import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
-export { PACKAGE_VERSION, validateTable, StreamMesh, StreamWorker, applyMeshChunk, inflate };
+export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, applyMeshChunk, inflate };
 const HEADER_BYTES = 12;
 // Texture maps are decoded as stored (EXIF orientation applied): no colour conversion and no
 // premultiplied alpha (three.js is told each map's colour space).
@@ -263,13 +263,15 @@ export class MeshmuxStream extends EventTarget {
   // started before this module loaded: index.html does, so the package arrives beside the
   // module graph), worker (default true: mesh refinements are decoded in a Web Worker,
   // stream_worker.js beside this module, and the page only copies in and uploads what changed;
-  // false, or where no worker can start, decodes them on the page).
+  // false, or where no worker can start, decodes them on the page), limiter (a RequestLimiter
+  // shared by several streams: their range requests wait for it, so a page of many packages keeps
+  // few in flight; MeshmuxWorld passes one).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
-      camera: null, adaptive: true, firstBytes: null, worker: true, ...options };
+      camera: null, adaptive: true, firstBytes: null, worker: true, limiter: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -280,6 +282,7 @@ export class MeshmuxStream extends EventTarget {
     this._streamedMaterials = [];  // those of this.materials the texture levels refine
     this.notes = [];     // non-fatal findings about the package
     this._reader = new RangeReader(this.url);
+    this._reader.limiter = this.options.limiter;
     this._map = { value: null };  // the texture uniform shared by the materials (Lambert)
     this._maps = {};              // physical: channel → the texture every material shows
     this._ownTextures = new Set();
@@ -601,6 +604,22 @@ export class MeshmuxStream extends EventTarget {
     this._sequenceDistortion = sequenceDistortion(this.table, this._sequence);
     const adaptedBefore = this._followed === 'view-adapted';
     this._followed = plan.adapted || adaptedBefore ? 'view-adapted' : this.order.name;
+  }
+
+  // The chunk the stream would fetch next (after re-planning for the camera), or null when none
+  // is left: { index, chunk, applied (a Set of the chunks applied), before, after (the order's
+  // view-independent distortion before and after it) }. For a scheduler over many streams.
+  nextChunk() {
+    if (!this.table || this._state === 'error' || this._state === 'disposed') return null;
+    const pos = this._position;
+    this._replan(pos);
+    if (pos >= this._sequence.length) return null;
+    const index = this._sequence[pos];
+    return {
+      index, chunk: this.table.chunks[index], applied: new Set(this._sequence.slice(0, pos)),
+      before: pos > 0 ? this._sequenceDistortion[pos - 1] : this.table.base.distortion,
+      after: this._sequenceDistortion[pos],
+    };
   }
 
   // Fetches and applies chunks in the chosen order until the last one or the budget. Resolves

@@ -211,10 +211,35 @@ export async function fetchRange(url, start, end, signal) {
   return responseParts(await fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal }));
 }
 
+// At most `max` tasks at once (range requests of several streams): run(fn) waits for a slot.
+// `peak` is the most that ran at once.
+export class RequestLimiter {
+  constructor(max = 6) {
+    this.max = Math.max(1, max);
+    this.active = 0;
+    this.peak = 0;
+    this._waiting = [];
+  }
+
+  async run(fn) {
+    while (this.active >= this.max) await new Promise((resolve) => this._waiting.push(resolve));
+    this.active++;
+    this.peak = Math.max(this.peak, this.active);
+    try {
+      return await fn();
+    } finally {
+      this.active--;
+      const next = this._waiting.shift();
+      if (next) next();
+    }
+  }
+}
+
 // Reads byte ranges of one URL; falls back to the whole body when the server ignores Range.
 export class RangeReader {
   constructor(url) {
     this.url = url;
+    this.limiter = null;  // a RequestLimiter its requests wait for, or null
     this.whole = null;   // the entire file, once a server answered 200
     this.prefix = null;  // the probe's bytes, reused when a later range falls inside
     this.size = NaN;     // the file size, once known
@@ -228,8 +253,9 @@ export class RangeReader {
   async _fetch(start, end, signal, pending = null) {
     let res;
     try {
+      const request = () => (this.fetchRange || fetchRange)(this.url, start, end, signal);
       res = pending ? await responseParts(await pending)
-        : await (this.fetchRange || fetchRange)(this.url, start, end, signal);
+        : await (this.limiter ? this.limiter.run(request) : request());
     } catch (e) {
       if (e.name === 'AbortError') throw e;
       throw this._error(`cannot fetch bytes ${start}-${end - 1} (${e.message})`);

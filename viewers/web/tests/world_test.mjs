@@ -1,0 +1,128 @@
+// MeshmuxWorld in headless chromium: three packages (the built-in sample converted three times)
+// placed with one behind the camera, and a fourth whose package is missing. The one behind gets
+// no refinement bytes while the others stream ('waiting' once only it is left), then streams
+// once the camera turns to it; the missing one is reported by name and the rest play to the end;
+// no more than maxRequests range requests are ever in flight.
+//
+// usage: node world_test.mjs --meshmux BIN --work DIR [--chromium PATH]
+// Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
+import { spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { launch, opt, serve, skip } from './harness.mjs';
+
+const meshmux = opt('--meshmux');
+const work = opt('--work');
+const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+if (!meshmux || !work) {
+  console.error('usage: node world_test.mjs --meshmux BIN --work DIR');
+  process.exit(2);
+}
+if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
+const web = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
+
+function run(cmd, argv) {
+  const r = spawnSync(cmd, argv, { encoding: 'utf8', maxBuffer: 1 << 26 });
+  if (r.status !== 0) throw new Error(`${cmd} ${argv.join(' ')} exited ${r.status}: ${r.stderr}`);
+  return r.stdout;
+}
+
+fs.rmSync(work, { recursive: true, force: true });
+const site = path.join(work, 'site');
+fs.mkdirSync(site, { recursive: true });
+const sample = path.join(work, 'sample.glb');
+run(meshmux, ['sample', '-o', sample, '-q']);
+for (const name of ['a', 'b', 'c']) run(meshmux, ['convert', sample, '-o', path.join(site, name), '-q']);
+// The library beside them: a converted folder's viewer files, and the world's two modules.
+const lib = path.join(site, 'a', 'viewer');
+for (const f of ['world.js', 'world_plan.js']) fs.copyFileSync(path.join(web, f), path.join(lib, f));
+const three = fs.readdirSync(lib).find((f) => f.startsWith('three-'));
+const report = JSON.parse(fs.readFileSync(path.join(site, 'a', 'report.json'), 'utf8'));
+const bounds = report.bounds;
+const size = Math.hypot(bounds[3] - bounds[0], bounds[4] - bounds[1], bounds[5] - bounds[2]);
+// Camera at the origin looking down −z: a and b ahead, c behind, "gone" ahead but missing.
+const at = (x, z) => [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x * size, 0, z * size, 1];
+const world = {
+  meshmux_world: 1,
+  packages: ['a', 'b', 'c', 'gone'].map((n) => ({ name: n, url: `${n}/model.mmxp`, bounds, bytes: 1 })),
+  placements: [{ package: 0, matrix: at(-0.7, -2) }, { package: 1, matrix: at(0.7, -2) },
+    { package: 2, matrix: at(0, 2) }, { package: 3, matrix: at(0, -3) }],
+};
+fs.writeFileSync(path.join(site, 'world.json'), JSON.stringify(world));
+fs.writeFileSync(path.join(site, 'index.html'), `<!doctype html>
+<html><head><meta charset="utf-8">
+<script type="importmap">{"imports": {"three": "./a/viewer/${three}/three.module.js", "three/addons/": "./a/viewer/${three}/addons/"}}</script>
+</head><body><script type="module">
+import * as THREE from 'three';
+import { MeshmuxWorld } from './a/viewer/world.js';
+const renderer = new THREE.WebGLRenderer();
+renderer.setSize(480, 360);
+document.body.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+const camera = new THREE.PerspectiveCamera(50, 4 / 3, ${size} * 0.01, ${size} * 100);
+camera.position.set(${(bounds[0] + bounds[3]) / 2}, ${(bounds[1] + bounds[4]) / 2}, ${(bounds[2] + bounds[5]) / 2});
+camera.lookAt(camera.position.x, camera.position.y, camera.position.z - 1);
+const world = new MeshmuxWorld('world.json', { renderer, camera, maxRequests: 3 });
+const per = () => Object.fromEntries(world.packages.map((p) => [p.name, p.stream && p.stream.table ? p.stream.stats.chunksApplied : -1]));
+const log = { errors: [], waiting: null, final: null };
+world.addEventListener('error', (e) => log.errors.push(e.detail.package + ': ' + e.detail.error.message));
+world.addEventListener('chunk', () => renderer.render(scene, camera));
+world.addEventListener('waiting', () => {
+  if (log.waiting) return;
+  log.waiting = per();
+  // Turn around: c is ahead now.
+  camera.lookAt(camera.position.x, camera.position.y, camera.position.z + 1);
+  camera.updateMatrixWorld();
+});
+try {
+  scene.add(await world.open());
+  log.opened = per();
+  const stats = await world.play();
+  log.final = per();
+  log.stats = { failed: stats.failed, requestsPeak: stats.requestsPeak, state: stats.state,
+    chunksApplied: stats.chunksApplied, chunkCount: stats.chunkCount };
+} catch (e) {
+  log.errors.push('fatal: ' + e.message);
+}
+window.__world = log;
+console.log('meshmux-world: done');
+</script></body></html>
+`);
+
+const { server, url } = await serve(meshmux, site);
+const { context, close: closeBrowser } = await launch(work, chromiumPath);
+const problems = [];
+let log = null;
+try {
+  const page = context.pages()[0] || (await context.newPage());
+  page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
+  const done = new Promise((resolve) => page.on('console', (m) => { if (m.text() === 'meshmux-world: done') resolve('done'); }));
+  await page.goto(url);
+  let timer;
+  const timeout = new Promise((resolve) => { timer = setTimeout(() => resolve('timeout'), 240000); });
+  if ((await Promise.race([done, timeout])) !== 'done') problems.push('the page did not finish in 240 s');
+  clearTimeout(timer);
+  log = await page.evaluate(() => window.__world);
+} finally {
+  await closeBrowser();
+  server.kill();
+}
+const check = (ok, what) => { if (!ok) problems.push(what); };
+if (log) {
+  check(log.errors.length === 1 && /^gone: .*gone\/model\.mmxp/.test(log.errors[0]),
+    `the missing package is reported once, by name: ${JSON.stringify(log.errors)}`);
+  check(log.opened && log.opened.a === 0 && log.opened.c === 0, `bases only after open(): ${JSON.stringify(log.opened)}`);
+  check(log.waiting !== null, 'no "waiting" while only the package behind the camera was left');
+  if (log.waiting) {
+    check(log.waiting.c === 0, `the package behind the camera got ${log.waiting.c} chunks before the camera turned`);
+    check(log.waiting.a > 0 && log.waiting.b > 0, `the packages ahead streamed first: ${JSON.stringify(log.waiting)}`);
+  }
+  check(log.final && log.final.c > 0, `the package behind streamed once the camera turned: ${JSON.stringify(log.final)}`);
+  check(log.stats && log.stats.state === 'complete', `the world ended ${log.stats && log.stats.state}, not complete`);
+  check(log.stats && log.stats.chunksApplied === log.stats.chunkCount, `chunks ${JSON.stringify(log.stats)}`);
+  check(log.stats && log.stats.requestsPeak <= 3, `${log.stats && log.stats.requestsPeak} requests in flight (at most 3)`);
+}
+for (const p of problems) console.error(`FAIL: ${p}`);
+console.log(`world: ${JSON.stringify(log)}`);
+process.exitCode = problems.length ? 1 : 0;

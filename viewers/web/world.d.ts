@@ -1,0 +1,55 @@
+// Types of world.js (MeshmuxWorld) and world_plan.js.
+import type { Camera, Group, WebGLRenderer } from 'three';
+import type { RequestLimiter } from './meshmux.js';
+
+export interface WorldPackage { name: string; url: string; bounds: number[]; bytes: number; }
+export interface WorldPlacement { package: number; matrix: number[]; }
+export interface WorldBudget { triangles: number; texels: number; }
+
+export interface MeshmuxWorldOptions {
+  renderer?: WebGLRenderer | null;
+  /** The camera the world is seen through (needed to play). */
+  camera?: Camera | null;
+  /** Range requests in flight over all packages (default 6). */
+  maxRequests?: number;
+  /** Packages refining at once (default 2). */
+  concurrent?: number;
+  /** Stop refining where the next chunk would pass it (default: defaultBudget()). */
+  budget?: WorldBudget;
+  /** Package URLs outside the world's folder: trusted worlds only (default false). */
+  allowExternalUrls?: boolean;
+  worker?: boolean;
+  /** How often play() looks at the camera while only off-screen work is left (ms, default 200). */
+  pollMs?: number;
+}
+
+export interface MeshmuxWorldStats {
+  packages: number;
+  failed: { name: string; error: string }[];
+  bytesReceived: number;
+  bytesTotal: number;
+  chunksApplied: number;
+  chunkCount: number;
+  triangles: number;
+  texels: number;
+  budget: WorldBudget;
+  requestsPeak: number;
+  state: string;
+}
+
+export class MeshmuxWorld extends EventTarget {
+  constructor(world: string | URL | object, options?: MeshmuxWorldOptions);
+  readonly object: Group;
+  readonly limiter: RequestLimiter;
+  readonly state: string;
+  readonly stats: MeshmuxWorldStats;
+  open(): Promise<Group>;
+  play(): Promise<MeshmuxWorldStats>;
+  stop(): void;
+  dispose(): void;
+}
+
+export function defaultBudget(): WorldBudget;
+export function validateWorld(json: unknown, file?: string, options?: { allowExternalUrls?: boolean }):
+  { packages: WorldPackage[]; placements: WorldPlacement[] };
+export function screenShare(bounds: number[], matrix: number[], viewProjection: number[]): number;

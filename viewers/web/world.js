@@ -1,0 +1,236 @@
+// world.js — MeshmuxWorld: many meshmux packages streamed as one scene under one budget.
+//
+//   const world = new MeshmuxWorld('world.json', { renderer, camera });
+//   scene.add(await world.open());         // every base, largest on screen first
+//   world.addEventListener('chunk', render);
+//   await world.play();                    // refinements, each where it buys the most on screen
+//
+// One MeshmuxStream per package (placed as often as world.json says: the placements share its
+// geometry and materials, so a refinement shows everywhere at once), every range request through
+// one RequestLimiter (at most `maxRequests` in flight; a stream coalesces its adjacent chunks into
+// one request). After the bases, the next chunk is the one of best gain per byte over all
+// packages: its distortion drop on the package's per-view surface for the direction each
+// placement is seen from, times the share of the screen that placement covers
+// (world_plan.js chunkGain, screenShare). Re-planned before every grant from the current camera:
+// what is off screen gains nothing and waits (play() keeps watching the camera), what is tiny
+// gains little. A memory budget (triangles over all placements, texels over all packages) stops
+// refinement where the next chunk would pass it. A package that fails (missing, corrupt) is
+// reported by name ('error' event, stats.failed) and the rest play on.
+//
+// Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (+ package: a
+// package's base is in the scene), 'chunk' (+ package, chunk, kind), 'progress', 'waiting' (only
+// off-screen work is left), 'complete', 'stopped', 'error' (+ package, error).
+
+import * as THREE from 'three';
+
+import { MeshmuxStream } from './meshmux.js';
+import { RequestLimiter } from './package_reader.js';
+import { chunkCost, chunkGain, packageDirection, screenShare, validateWorld, viewWeights, WORLD_LIMITS } from './world_plan.js';
+
+export { validateWorld, screenShare, chunkGain };
+
+// Default memory budgets by device class: phones and tablets, then desktops.
+export function defaultBudget() {
+  const mobile = typeof navigator !== 'undefined' && /Mobi|Android|iPhone|iPad/i.test(navigator.userAgent || '');
+  return mobile ? { triangles: 4e6, texels: 64 * 2 ** 20 } : { triangles: 20e6, texels: 256 * 2 ** 20 };
+}
+
+export class MeshmuxWorld extends EventTarget {
+  // options: renderer (THREE.WebGLRenderer), camera (the THREE.Camera the world is seen through:
+  // required for play()), maxRequests (range requests in flight over all packages, default 6),
+  // concurrent (packages refining at once, default 2), budget ({triangles, texels}; default by
+  // device class, defaultBudget()), allowExternalUrls (package URLs outside the world's folder:
+  // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true),
+  // pollMs (how often play() looks at the camera while only off-screen work is left, default 200).
+  constructor(world, options = {}) {
+    super();
+    this.source = world;  // a URL of world.json, or its parsed JSON
+    this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 2, budget: defaultBudget(),
+      allowExternalUrls: false, worker: true, pollMs: 200, ...options };
+    this.object = new THREE.Group();
+    this.object.name = 'meshmux world';
+    this.limiter = new RequestLimiter(this.options.maxRequests);
+    this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
+    this._state = 'idle';
+    this._stop = false;
+    this._playing = null;
+  }
+
+  get state() { return this._state; }
+
+  get stats() {
+    let bytesReceived = 0, bytesTotal = 0, chunksApplied = 0, chunkCount = 0, triangles = 0, texels = 0;
+    const failed = [];
+    for (const p of this.packages) {
+      if (p.error) { failed.push({ name: p.name, error: p.error.message }); continue; }
+      if (!p.stream || !p.stream.table) { bytesTotal += p.bytes; continue; }
+      const s = p.stream.stats;
+      bytesReceived += s.bytesReceived;
+      bytesTotal += Number.isFinite(s.bytesTotal) ? s.bytesTotal : p.bytes;
+      chunksApplied += s.chunksApplied;
+      chunkCount += s.chunkCount;
+      triangles += s.triangles * p.placements.length;
+      texels += s.textureWidth * s.textureHeight;
+    }
+    return { packages: this.packages.length, failed, bytesReceived, bytesTotal, chunksApplied, chunkCount,
+      triangles, texels, budget: { ...this.options.budget }, requestsPeak: this.limiter.peak, state: this._state };
+  }
+
+  _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
+
+  async _readWorld() {
+    if (typeof this.source !== 'string' && !(this.source instanceof URL)) return { json: this.source, base: location.href };
+    const url = new URL(String(this.source), typeof location !== 'undefined' ? location.href : undefined).href;
+    const res = await fetch(url);
+    if (!res.ok) throw new Error(`meshmux: ${url}: HTTP ${res.status}`);
+    const text = await res.text();
+    if (text.length > WORLD_LIMITS.maxBytes) throw new Error(`meshmux: ${url}: larger than 16 MB`);
+    let json;
+    try { json = JSON.parse(text); } catch { throw new Error(`meshmux: ${url}: not valid JSON`); }
+    return { json, base: url };
+  }
+
+  // Reads and validates the world, then opens every package (its table and base) through the
+  // shared limiter, the largest on screen first; each base joins the scene as it arrives. A
+  // package that cannot open is reported ('error', stats.failed) and left out. Resolves with
+  // this.object once every package opened or failed; rejects only for the world file itself.
+  async open() {
+    if (this._state !== 'idle') return this.object;
+    this._state = 'opening';
+    const { json, base } = await this._readWorld();
+    const file = typeof this.source === 'string' ? this.source.split('/').pop() : 'world.json';
+    const world = validateWorld(json, file, { allowExternalUrls: this.options.allowExternalUrls });
+    this.packages = world.packages.map((p) => ({ ...p, url: new URL(p.url, base).href, placements: [], stream: null, error: null }));
+    for (const pl of world.placements) this.packages[pl.package].placements.push({ matrix: pl.matrix, group: null });
+    const shares = this.packages.map((p) => this._share(p));
+    const order = this.packages.map((_, i) => i).sort((a, b) => shares[b] - shares[a] || a - b);
+    await Promise.all(order.map((i) => this._openPackage(this.packages[i])));
+    this._state = 'open';
+    return this.object;
+  }
+
+  async _openPackage(p) {
+    if (p.placements.length === 0) return;
+    p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera,
+      limiter: this.limiter, worker: this.options.worker, budgetBytes: 0 });
+    p.stream.addEventListener('chunk', (e) => {
+      this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
+      this._emit('progress', { package: p.name });
+    });
+    try {
+      const object = await p.stream.open();
+      p.placements.forEach((pl, k) => {
+        const group = new THREE.Group();
+        group.name = `${p.name} ${k}`;
+        group.matrixAutoUpdate = false;
+        group.matrix.fromArray(pl.matrix);
+        group.add(k === 0 ? object : object.clone());  // clones share geometry and materials
+        pl.group = group;
+        this.object.add(group);
+      });
+      this.object.updateMatrixWorld(true);
+      this._emit('base', { package: p.name });
+    } catch (error) {
+      this._fail(p, error);
+    }
+  }
+
+  _fail(p, error) {
+    p.error = error instanceof Error ? error : new Error(String(error));
+    if (p.stream) p.stream.stop();
+    for (const pl of p.placements) if (pl.group) this.object.remove(pl.group);
+    this._emit('error', { package: p.name, error: p.error });
+  }
+
+  // The placements' screen shares and view weights of a package from the current camera.
+  _views(p) {
+    const camera = this.options.camera;
+    if (!camera) return p.placements.map(() => ({ share: 1, weights: null }));
+    camera.updateMatrixWorld();
+    const vp = new THREE.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse).elements;
+    const root = this.object.matrixWorld.elements;
+    const eye = camera.getWorldPosition(new THREE.Vector3()).toArray();
+    const vt = p.stream && p.stream.table && p.stream.table.view_table;
+    return p.placements.map((pl) => {
+      const m = new THREE.Matrix4().fromArray(root).multiply(new THREE.Matrix4().fromArray(pl.matrix)).elements;
+      const share = screenShare(p.bounds, m, vp);
+      return { share, weights: vt && share > 0 ? viewWeights(vt, packageDirection(p.bounds, m, eye)) : null };
+    });
+  }
+
+  _share(p) { return this._views(p).reduce((s, v) => s + v.share, 0); }
+
+  // The best grant now: { p, next, gain } of highest gain per byte within the budget, or null.
+  // `offscreen` is set when work is left that only a camera turn would make worth anything.
+  _pick(busy, used) {
+    let best = null, offscreen = false;
+    for (const p of this.packages) {
+      if (p.error || !p.stream || !p.stream.table || busy.has(p)) continue;
+      const next = p.stream.nextChunk();
+      if (!next) continue;
+      const cost = chunkCost(p.stream.table, next.index);
+      const s = p.stream.stats;
+      const texels = cost.texels ? cost.texels - s.textureWidth * s.textureHeight : 0;
+      if (used.triangles + cost.triangles * p.placements.length > this.options.budget.triangles ||
+          used.texels + texels > this.options.budget.texels) continue;
+      const gain = chunkGain(p.stream.table, next.applied, next.index, this._views(p), next) / Math.max(1, next.chunk.size);
+      if (!(gain > 0)) { offscreen = true; continue; }
+      if (!best || gain > best.gain) best = { p, next, gain };
+    }
+    return { best, offscreen };
+  }
+
+  // Streams refinements across the packages until every one is complete, the budget stops them,
+  // or stop(); while only off-screen work is left it waits for the camera ('waiting'). Resolves
+  // with the stats; while playing, returns the same promise.
+  play() {
+    if (this._state === 'idle' || this._state === 'opening') return Promise.reject(new Error('meshmux: play() before open()'));
+    if (!this._playing) this._playing = this._run().finally(() => { this._playing = null; });
+    return this._playing;
+  }
+
+  async _run() {
+    this._stop = false;
+    this._state = 'streaming';
+    const busy = new Map();  // package → the promise of its granted chunk
+    let waiting = false;
+    for (;;) {
+      if (this._stop) break;
+      const used = this.stats;
+      while (busy.size < this.options.concurrent) {
+        const { best } = this._pick(busy, used);
+        if (!best) break;
+        const { p, next } = best;
+        p.stream.budgetBytes = p.stream.stats.bytesReceived + next.chunk.size;  // exactly this chunk
+        busy.set(p, p.stream.play().catch((error) => this._fail(p, error)).finally(() => busy.delete(p)));
+        used.triangles += chunkCost(p.stream.table, next.index).triangles * p.placements.length;
+      }
+      if (busy.size > 0) {
+        waiting = false;
+        await Promise.race(busy.values());
+        continue;
+      }
+      const { best, offscreen } = this._pick(busy, this.stats);
+      if (best) continue;
+      if (!offscreen) break;  // nothing left that the budget allows
+      if (!waiting) { waiting = true; this._state = 'waiting'; this._emit('waiting'); }
+      await new Promise((resolve) => setTimeout(resolve, this.options.pollMs));
+      this._state = 'streaming';
+    }
+    const left = this.packages.some((p) => !p.error && p.stream && p.stream.nextChunk());
+    this._state = this._stop || left ? 'stopped' : 'complete';
+    this._emit(this._state);
+    return this.stats;
+  }
+
+  stop() {
+    this._stop = true;
+    for (const p of this.packages) if (p.stream) p.stream.stop();
+  }
+
+  dispose() {
+    this.stop();
+    for (const p of this.packages) if (p.stream) p.stream.dispose();
+    this._state = 'disposed';
+  }
+}
