@@ -242,8 +242,9 @@ std::vector<std::string> batch_names(const std::vector<std::string>& inputs) {
     if (with_ext[i]) s += "-" + exts[i];  // never ".glb": convert would write one file
     return s;
   };
+  // OUTROOT's own files, and viewer/ (world.html's library).
   const std::set<std::string> reserved = {"index.html", "batch.json", "index.html.gz",
-                                          "index.html.br"};
+                                          "index.html.br", "viewer"};
   for (int round = 0; round < 64; ++round) {
     std::map<std::string, std::vector<size_t>> groups;
     for (size_t i = 0; i < n; ++i) groups[lower(make(i))].push_back(i);

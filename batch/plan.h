@@ -41,8 +41,9 @@ Result<std::vector<std::string>> read_batch_inputs(const std::string& list,
 // name), restricted to
 // ASCII letters, digits, '-' and '_' (no '.': see clean_name). Where names clash
 // (case-insensitively), the folders above are prefixed ("Fox-glb_Fox", "Fox-meshopt-glb_Fox") until
-// they differ, then the extension ("model-gltf", "model-glb"), then "-2", "-3" in list order. The
-// same list always gives the same names.
+// they differ, then the extension ("model-gltf", "model-glb"), then "-2", "-3" in list order;
+// "viewer" (OUTROOT/viewer/ holds world.html's library) becomes "viewer-model". The same list
+// always gives the same names.
 std::vector<std::string> batch_names(const std::vector<std::string>& inputs);
 
 // The input's fingerprint and size: the file and, for .gltf, its external buffers and images,

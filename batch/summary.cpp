@@ -13,6 +13,7 @@
 #include "batch/world.h"
 #include "core/file_io.h"
 #include "core/text.h"
+#include "exporters/viewer_page.h"
 
 #ifndef MESHMUX_VERSION
 #error "MESHMUX_VERSION (the project version) must be defined: batch.json names it"
@@ -78,7 +79,9 @@ Status write_world(const std::string& outroot,
   }
   counts.world_packages = world.packages.size();
   counts.world_placements = world.placements.size();
-  return write_file_atomic(outroot + "/world.json", world_json(world));
+  if (Status s = write_file_atomic(outroot + "/world.json", world_json(world)); !s) return s;
+  // world.html and the library it runs on (MeshmuxWorld), beside world.json.
+  return write_viewer(outroot, ViewerPage::kWorld);
 }
 
 }  // namespace
@@ -199,7 +202,9 @@ Result<BatchCounts> write_batch_summary(const std::string& outroot, const std::s
       ". Each viewer streams its model over HTTP: <code>meshmux serve " + html_escape(outroot) +
       "</code>, then open the printed address. Every conversion's messages are in "
       "<code>.meshmux-batch/logs/</code>; the same list is in <a href=\"batch.json\">batch.json"
-      "</a>.</p>\n<table><thead><tr><th>input</th><th>status</th><th>error or warning</th>"
+      "</a>. Every streamed model in one scene: <a href=\"world.html\">world.html</a> (<a "
+      "href=\"world.json\">world.json</a>).</p>\n<table><thead><tr><th>input</th><th>status</"
+      "th><th>error or warning</th>"
       "<th>time</th><th>bytes in</th><th>model.glb</th><th>stream</th></tr></thead><tbody>\n" +
       rows_by_class[0] + rows_by_class[1] + rows_by_class[2] + "</tbody></table>\n</body></html>\n";
   if (Status s = write_file_atomic(outroot + "/index.html", page); !s) return s;

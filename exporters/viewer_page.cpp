@@ -35,9 +35,11 @@ std::vector<ViewerFile> viewer_files() {
   return out;
 }
 
-Status write_viewer(const std::string& dir) {
+Status write_viewer(const std::string& dir, ViewerPage page) {
   namespace fs = std::filesystem;
+  const std::string other = page == ViewerPage::kModel ? "world.html" : "index.html";
   for (const ViewerFile& f : viewer_files()) {
+    if (f.path == other || f.path.rfind(other + ".", 0) == 0) continue;  // and its .gz, .br
     fs::path target = fs::path(dir) / fs::path(f.path);
     std::error_code ec;
     fs::create_directories(target.parent_path(), ec);

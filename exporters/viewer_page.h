@@ -20,8 +20,13 @@ struct ViewerFile {
 // Every file of the viewer, in a fixed order.
 std::vector<ViewerFile> viewer_files();
 
-// Writes viewer_files() under `dir` (creating viewer/ subfolders), each through a temporary
-// name renamed when complete. Errors name the file (kOutput).
-Status write_viewer(const std::string& dir);
+// Which page goes with the viewer files: a converted model's index.html, or the world.html of
+// a batch's output root (MeshmuxWorld over its world.json).
+enum class ViewerPage { kModel, kWorld };
+
+// Writes viewer_files() under `dir` (creating viewer/ subfolders) with the page asked for and
+// not the other, each through a temporary name renamed when complete. Errors name the file
+// (kOutput).
+Status write_viewer(const std::string& dir, ViewerPage page = ViewerPage::kModel);
 
 }  // namespace meshmux

@@ -30,9 +30,10 @@ const threeFolder = `three-r${release[1]}`;
 // that name it.
 const versioned = (rel) => rel.replace(/^viewer\/three\//, `viewer/${threeFolder}/`);
 function renameThree(rel, bytes) {
-  if (rel !== 'index.html' && rel !== 'viewer/meshmux.js') return bytes;
+  const page = rel === 'index.html' || rel === 'world.html';
+  if (!page && rel !== 'viewer/meshmux.js') return bytes;
   const text = bytes.toString('utf8');
-  const renamed = rel === 'index.html'
+  const renamed = page
     ? text.replaceAll('./viewer/three/', `./viewer/${threeFolder}/`)
     : text.replaceAll('./three/addons/', `./${threeFolder}/addons/`);
   if (renamed === text) throw new Error(`${rel}: no three.js path to version`);

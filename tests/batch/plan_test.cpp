@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -43,6 +44,17 @@ TEST(BatchNames, CaseOnlyClashesAreSeparated) {
   const std::vector<std::string> names = batch_names({"/x/Model.glb", "/y/model.glb"});
   ASSERT_EQ(names.size(), 2u);
   EXPECT_NE(names[0], names[1]);
+}
+
+// An upload named like OUTROOT's own entries (viewer/ holds world.html's library, index.html
+// the summary) would overwrite them or be overwritten: it gets another name.
+TEST(BatchNames, OutrootsOwnNamesAreNotGiven) {
+  EXPECT_EQ(batch_names({"/x/viewer.glb", "/z/a.glb"}),
+            (std::vector<std::string>{"viewer-model", "a"}));
+  for (std::string name : batch_names({"/x/viewer.glb", "/y/Viewer.gltf"})) {
+    for (char& c : name) c = char(std::tolower(static_cast<unsigned char>(c)));
+    EXPECT_NE(name, "viewer");
+  }
 }
 
 BatchRecord finished(const std::string& status, const std::string& cause) {

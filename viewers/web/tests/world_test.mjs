@@ -2,7 +2,9 @@
 // placed with one behind the camera, and a fourth whose package is missing. The one behind gets
 // no refinement bytes while the others stream ('waiting' once only it is left), then streams
 // once the camera turns to it; the missing one is reported by name and the rest play to the end;
-// no more than maxRequests range requests are ever in flight.
+// no more than maxRequests range requests are ever in flight. Then the page `meshmux batch` writes:
+// two uploads batch-converted, OUTROOT served, world.html streams both to "complete" with no
+// page error or failed request.
 //
 // usage: node world_test.mjs --meshmux BIN --work DIR [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
@@ -108,7 +110,38 @@ try {
   await closeBrowser();
   server.kill();
 }
+// The batch's own world page.
+const uploads = path.join(work, 'uploads');
+fs.mkdirSync(uploads, { recursive: true });
+for (const n of ['one', 'two']) fs.copyFileSync(sample, path.join(uploads, `${n}.glb`));
+const outroot = path.join(work, 'outroot');
+run(meshmux, ['batch', uploads, '-o', outroot, '-q', '--jobs', '2']);
+let pageEnd = null;
+{
+  const { server: server2, url: url2 } = await serve(meshmux, outroot);
+  const { context: context2, close: close2 } = await launch(work, chromiumPath);
+  try {
+    const page = context2.pages()[0] || (await context2.newPage());
+    page.on('pageerror', (e) => problems.push(`world.html: page error: ${e.message}`));
+    page.on('response', (r) => { if (r.status() >= 400 && !r.url().endsWith('/favicon.ico')) problems.push(`world.html: HTTP ${r.status()}: ${r.url()}`); });
+    const done = new Promise((resolve) => page.on('console', (m) => {
+      if (m.type() === 'error') problems.push(`world.html: console error: ${m.text()}`);
+      const s = /^meshmux: (\w+)/.exec(m.text());
+      if (s) resolve(s[1]);
+    }));
+    await page.goto(url2 + 'world.html');
+    let timer;
+    const timeout = new Promise((resolve) => { timer = setTimeout(() => resolve('timeout'), 240000); });
+    pageEnd = await Promise.race([done, timeout]);
+    clearTimeout(timer);
+  } finally {
+    await close2();
+    server2.kill();
+  }
+}
+
 const check = (ok, what) => { if (!ok) problems.push(what); };
+check(pageEnd === 'complete', `world.html ended "${pageEnd}", not "complete"`);
 if (log) {
   check(log.errors.length === 1 && /^gone: .*gone\/model\.mmxp/.test(log.errors[0]),
     `the missing package is reported once, by name: ${JSON.stringify(log.errors)}`);
@@ -124,5 +157,5 @@ if (log) {
   check(log.stats && log.stats.requestsPeak <= 3, `${log.stats && log.stats.requestsPeak} requests in flight (at most 3)`);
 }
 for (const p of problems) console.error(`FAIL: ${p}`);
-console.log(`world: ${JSON.stringify(log)}`);
+console.log(`world: ${JSON.stringify(log)}; world.html: ${pageEnd}`);
 process.exitCode = problems.length ? 1 : 0;
