@@ -5,6 +5,7 @@
 // changes this file's preprocessed text (and compiler caches see it).
 #include "exporters/viewer_page.h"
 
+#include <cstring>
 #include <filesystem>
 
 #include "core/file_io.h"
@@ -47,6 +48,12 @@ Status write_viewer(const std::string& dir, ViewerPage page) {
       return Status::error(
           target.parent_path().string() + ": cannot create folder: " + ec.message(),
           ErrorKind::kOutput);
+    // A file already there with these bytes stays as it is (a batch's rerun rewrites nothing).
+    if (fs::file_size(target, ec) == f.size && !ec) {
+      auto old = read_whole_file(target.string(), f.size);
+      if (old.ok() && old->size() == f.size && std::memcmp(old->data(), f.data, f.size) == 0)
+        continue;
+    }
     std::vector<uint8_t> bytes(f.data, f.data + f.size);
     if (Status s = write_file_atomic(target.string(), bytes); !s) return s;
   }

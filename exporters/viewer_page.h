@@ -25,8 +25,8 @@ std::vector<ViewerFile> viewer_files();
 enum class ViewerPage { kModel, kWorld };
 
 // Writes viewer_files() under `dir` (creating viewer/ subfolders) with the page asked for and
-// not the other, each through a temporary name renamed when complete. Errors name the file
-// (kOutput).
+// not the other, each through a temporary name renamed when complete; a file already there
+// with the same bytes is left alone. Errors name the file (kOutput).
 Status write_viewer(const std::string& dir, ViewerPage page = ViewerPage::kModel);
 
 }  // namespace meshmux

@@ -215,7 +215,7 @@ async function local() {
   const temporaries = [...walk(out).keys()].filter((f) => /\.meshmux-tmp-|\.tmp-\d+/.test(f));
   check(temporaries.length === 0, `temporaries left: ${temporaries.join(', ')}`);
   for (const d of fs.readdirSync(out, { withFileTypes: true }))
-    check(!d.isDirectory() || d.name === '.meshmux-batch' || doc.inputs.some((e) => e.name === d.name && e.status.startsWith('ok')),
+    check(!d.isDirectory() || d.name === '.meshmux-batch' || d.name === 'viewer' || doc.inputs.some((e) => e.name === d.name && e.status.startsWith('ok')),
       `an output folder no input owns: ${d.name}`);
   console.log(`rerun: ${m && m[0]}; ${second.seconds.toFixed(1)} s; counts ${JSON.stringify(doc.counts)}`);
   table(doc);
