@@ -12,7 +12,7 @@ export interface MeshmuxWorldOptions {
   camera?: Camera | null;
   /** Range requests in flight over all packages (default 6). */
   maxRequests?: number;
-  /** Packages refining at once (default 2). */
+  /** Packages with a chunk granted at once (default 6). */
   concurrent?: number;
   /** Stop refining where the next chunk would pass it (default: defaultBudget()). */
   budget?: WorldBudget;

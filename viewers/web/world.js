@@ -1,7 +1,8 @@
 // world.js — MeshmuxWorld: many meshmux packages streamed as one scene under one budget.
 //
 //   const world = new MeshmuxWorld('world.json', { renderer, camera });
-//   scene.add(await world.open());         // every base, largest on screen first
+//   scene.add(world.object);               // each base shows as it arrives,
+//   await world.open();                    // largest on screen first
 //   world.addEventListener('chunk', render);
 //   await world.play();                    // refinements, each where it buys the most on screen
 //
@@ -38,14 +39,15 @@ export function defaultBudget() {
 export class MeshmuxWorld extends EventTarget {
   // options: renderer (THREE.WebGLRenderer), camera (the THREE.Camera the world is seen through:
   // required for play()), maxRequests (range requests in flight over all packages, default 6),
-  // concurrent (packages refining at once, default 2), budget ({triangles, texels}; default by
+  // concurrent (packages with a chunk granted at once, default 6: one chunk per request, so
+  // fewer would leave the link idle between requests), budget ({triangles, texels}; default by
   // device class, defaultBudget()), allowExternalUrls (package URLs outside the world's folder:
   // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true),
   // pollMs (how often play() looks at the camera while only off-screen work is left, default 200).
   constructor(world, options = {}) {
     super();
     this.source = world;  // a URL of world.json, or its parsed JSON
-    this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 2, budget: defaultBudget(),
+    this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 6, budget: defaultBudget(),
       allowExternalUrls: false, worker: true, pollMs: 200, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux world';

@@ -1,0 +1,228 @@
+// The world bench (docs/ARCHITECTURE.md "Targets": many packages as one world): every model of a
+// folder batch-converted (`meshmux batch`, its world.json: a grid), then played in headless
+// chromium along one recorded camera path at a throttled bandwidth, four ways:
+//   world        MeshmuxWorld (world.js): one plan over every package, by gain on screen
+//   independent  (a) every package's MeshmuxStream playing its own order at once
+//   sequential   (b) packages one after another, each base then its chunks
+//   gltf         (c) GLTFLoader loading every model.glb at once
+// Every 250 ms the page renders the path's camera (320x240) and keeps the pixels; once all is
+// loaded it renders the same cameras again (the finished world) and measures each sample's mean
+// squared error against its own final frame. Prints per bandwidth the area under that error over
+// time (lower is better), the mean PSNR, when every base was shown, when all was loaded, and the
+// longest main-thread task. Progress on stderr.
+//
+// usage: node bench/world.mjs --meshmux BIN [--models DIR] [--work DIR] [--mbit 10[,1.5,50]]
+//        [--seconds 40] [--modes world,independent,sequential,gltf] [--chromium PATH]
+import { spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { launch, opt, serve } from '../viewers/web/tests/harness.mjs';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const meshmux = opt('--meshmux', path.join(here, '..', 'build', 'meshmux'));
+const models = opt('--models', path.join(here, '..', '..', 'shared', 'models'));
+const work = path.resolve(opt('--work', path.join(here, '..', 'build', 'bench_world')));
+const rates = opt('--mbit', '10').split(',').map(Number);
+const seconds = Number(opt('--seconds', '40'));
+const modes = opt('--modes', 'world,independent,sequential,gltf').split(',');
+const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+if (!fs.existsSync(models)) { console.error(`SKIPPED: ${models} not found`); process.exit(77); }
+if (!fs.existsSync(chromiumPath)) { console.error(`SKIPPED: ${chromiumPath} not installed`); process.exit(77); }
+
+// 1. The world: every model converted (resumable: a second run reuses what is done).
+const outroot = path.join(work, 'outroot');
+fs.mkdirSync(work, { recursive: true });
+console.error(`world bench: converting ${models} into ${outroot}`);
+const b = spawnSync(meshmux, ['batch', models, '-o', outroot, '-q', '--jobs', '2'], { encoding: 'utf8' });
+if (!fs.existsSync(path.join(outroot, 'world.json'))) { console.error(b.stderr); process.exit(1); }
+const world = JSON.parse(fs.readFileSync(path.join(outroot, 'world.json'), 'utf8'));
+const three = fs.readdirSync(path.join(outroot, 'viewer')).find((f) => f.startsWith('three-'));
+console.error(`world bench: ${world.packages.length} packages, ${world.placements.length} placements`);
+
+// 2. The page: one run of one mode, its result in window.__bench.
+fs.writeFileSync(path.join(outroot, 'bench_world.html'), `<!doctype html>
+<html><head><meta charset="utf-8">
+<script type="importmap">{"imports": {"three": "./viewer/${three}/three.module.js", "three/addons/": "./viewer/${three}/addons/"}}</script>
+</head><body style="margin:0"><script type="module">
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { MeshmuxStream, addStreamLighting } from './viewer/meshmux.js';
+import { MeshmuxWorld } from './viewer/world.js';
+const q = new URLSearchParams(location.search), mode = q.get('mode'), T = Number(q.get('seconds'));
+const W = 320, H = 240, STEP = 250;
+const renderer = new THREE.WebGLRenderer({ preserveDrawingBuffer: true });
+renderer.setSize(W, H);
+document.body.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x202124);
+const camera = new THREE.PerspectiveCamera(45, W / H, 0.01, 1000);
+const world = await (await fetch('world.json')).json();
+// The world's box, and the path: one turn around it, closing in half way, over T seconds.
+const box = new THREE.Box3(), one = new THREE.Box3();
+for (const pl of world.placements) {
+  const p = world.packages[pl.package];
+  one.set(new THREE.Vector3(...p.bounds.slice(0, 3)), new THREE.Vector3(...p.bounds.slice(3)));
+  box.union(one.applyMatrix4(new THREE.Matrix4().fromArray(pl.matrix)));
+}
+const centre = box.getCenter(new THREE.Vector3()), radius = box.getSize(new THREE.Vector3()).length() / 2;
+camera.near = radius / 1000; camera.far = radius * 20; camera.updateProjectionMatrix();
+function pose(t) {
+  const a = 2 * Math.PI * t / T, r = radius * (1.6 - 1.1 * Math.sin(Math.PI * Math.min(1, t / T)));
+  camera.position.set(centre.x + r * Math.cos(a), centre.y + 0.5 * r, centre.z + r * Math.sin(a));
+  camera.lookAt(centre);
+  camera.updateMatrixWorld();
+}
+pose(0);
+const long = [];
+new PerformanceObserver((l) => { for (const e of l.getEntries()) long.push(e.duration); }).observe({ entryTypes: ['longtask'] });
+const t0 = performance.now(), now = () => (performance.now() - t0) / 1000;
+let basesAt = NaN, doneAt = NaN, lit = false;
+const light = (view) => { if (!lit && view) { addStreamLighting(view, scene, camera, renderer); lit = true; } };
+const placeAll = (object, pkg) => world.placements.forEach((pl, k) => {
+  if (pl.package !== pkg) return;
+  const g = new THREE.Group();
+  g.matrixAutoUpdate = false;
+  g.matrix.fromArray(pl.matrix);
+  g.add(object.parent ? object.clone() : object);
+  scene.add(g);
+});
+async function load() {
+  if (mode === 'world') {
+    const w = new MeshmuxWorld('world.json', { renderer, camera, worker: false });
+    scene.add(w.object);  // each base shows as it arrives
+    await w.open();
+    basesAt = now();
+    const first = w.packages.find((p) => p.stream && p.stream.table);
+    light(first && first.stream.table.view);
+    await w.play();
+    return;
+  }
+  const urls = world.packages.map((p) => p.url);
+  if (mode === 'gltf') {
+    const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder)
+      .setDRACOLoader(new DRACOLoader().setDecoderPath('./viewer/${three}/addons/libs/draco/gltf/'));
+    light({ environment: 1, lightIntensity: 2, lightDirection: [0.5, 1, 0.8], lightFollowsCamera: true });
+    let n = 0;
+    await Promise.all(urls.map(async (u, i) => {
+      try { placeAll((await loader.loadAsync(u.replace(/model\\.mmxp$/, 'model.glb'))).scene, i); } catch (e) { console.log('gltf: ' + u + ': ' + e.message); }
+      if (++n === urls.length) basesAt = now();
+    }));
+    return;
+  }
+  const streams = urls.map((u) => new MeshmuxStream(u, { renderer, camera, worker: false }));
+  if (mode === 'independent') {
+    let n = 0;
+    await Promise.all(streams.map(async (s, i) => {
+      try {
+        placeAll(await s.open(), i);
+        light(s.table.view);
+        if (++n === streams.length) basesAt = now();
+        await s.play();
+      } catch (e) { console.log('stream: ' + e.message); }
+    }));
+    return;
+  }
+  for (let i = 0; i < streams.length; i++) {  // sequential
+    try {
+      placeAll(await streams[i].open(), i);
+      light(streams[i].table.view);
+      await streams[i].play();
+    } catch (e) { console.log('stream: ' + e.message); }
+  }
+  basesAt = now();  // the last base came after every earlier package's chunks
+}
+// Samples along the path while loading (and until T).
+const samples = [];
+const grab = () => {
+  const px = new Uint8Array(W * H * 4);
+  renderer.render(scene, camera);
+  const gl = renderer.getContext();
+  gl.readPixels(0, 0, W, H, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  return px;
+};
+let finished = false;
+const loading = load().then(() => { doneAt = now(); finished = true; });
+for (let k = 0; ; k++) {
+  const t = (k * STEP) / 1000;
+  if (t > T && finished) break;
+  if (t > T) break;  // the area counts the path; what is left loads at full speed
+  while (now() < t) await new Promise((r) => setTimeout(r, Math.max(1, (t - now()) * 1000)));
+  pose(Math.min(t, T));
+  samples.push({ t, px: grab() });
+}
+window.__unthrottle = true;
+await loading;
+// The finished world from the same cameras.
+let area = 0, psnr = 0;
+const errors = [];
+for (let k = 0; k < samples.length; k++) {
+  pose(Math.min(samples[k].t, T));
+  const ref = grab(), px = samples[k].px;
+  let se = 0;
+  for (let i = 0; i < px.length; i += 4)
+    for (let c = 0; c < 3; c++) { const d = (px[i + c] - ref[i + c]) / 255; se += d * d; }
+  const mse = se / (W * H * 3);
+  errors.push(mse);
+  if (samples[k].t <= T) { area += mse * STEP / 1000; psnr += mse > 0 ? -10 * Math.log10(mse) : 100; }
+}
+const within = samples.filter((s) => s.t <= T).length;
+window.__bench = { mode, area, psnr: psnr / within, basesAt, doneAt, longMax: long.length ? Math.max(...long) : 0,
+  longCount: long.filter((d) => d > 16).length, errors };
+console.log('bench-world: done');
+</script></body></html>
+`);
+
+// 3. Every mode at every rate, each in a fresh browser profile (no cache between runs).
+const { server, url } = await serve(meshmux, outroot);
+const results = {};
+try {
+  for (const mbit of rates) {
+    for (const mode of modes) {
+      const { context, close } = await launch(work, chromiumPath, { width: 400, height: 300 });
+      try {
+        const page = context.pages()[0] || (await context.newPage());
+        page.on('console', (m) => { if (/^(gltf|stream):/.test(m.text())) console.error(`  ${mode}: ${m.text()}`); });
+        const cdp = await context.newCDPSession(page);
+        await cdp.send('Network.enable');
+        await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 20,
+          downloadThroughput: (mbit * 1e6) / 8, uploadThroughput: (mbit * 1e6) / 8 });
+        const done = new Promise((resolve) => page.on('console', (m) => { if (m.text() === 'bench-world: done') resolve(); }));
+        await page.goto(`${url}bench_world.html?mode=${mode}&seconds=${seconds}`);
+        // Past the path, the rest loads at full speed (only the references need it).
+        const lift = setInterval(async () => {
+          if (await page.evaluate(() => window.__unthrottle === true).catch(() => false)) {
+            clearInterval(lift);
+            await cdp.send('Network.emulateNetworkConditions', { offline: false, latency: 0, downloadThroughput: -1, uploadThroughput: -1 }).catch(() => {});
+          }
+        }, 500);
+        await done;
+        clearInterval(lift);
+        const r = await page.evaluate(() => window.__bench);
+        (results[mbit] ||= {})[mode] = r;
+        console.error(`world bench: ${mbit} Mbit/s ${mode}: area ${r.area.toFixed(4)}, PSNR ${r.psnr.toFixed(1)} dB, bases ${r.basesAt.toFixed(1)} s, loaded ${r.doneAt.toFixed(1)} s`);
+      } finally {
+        await close();
+      }
+    }
+  }
+} finally {
+  server.kill();
+}
+
+// 4. The tables.
+const f = (x, d = 2) => (Number.isFinite(x) ? x.toFixed(d) : '–');
+console.log(`# World bench\n\n${world.packages.length} packages of ${models}, one camera path of ${seconds} s (a turn around the grid, closing in), frames 320x240 every 250 ms against the finished world from the same camera; chromium headless, software GL.\n`);
+for (const mbit of rates) {
+  const rs = results[mbit] || {}, ref = rs.independent;
+  console.log(`## ${mbit} Mbit/s\n\n| order | area under error (s) | vs (a) | mean PSNR dB (exact frames 100) | every base shown s | all loaded s (full speed after the path) | main-thread tasks > 16 ms (longest ms) |\n|---|---:|---:|---:|---:|---:|---:|`);
+  for (const mode of modes) {
+    const r = rs[mode];
+    if (!r) continue;
+    const vs = ref && ref.area > 0 ? `${f((r.area / ref.area - 1) * 100, 1)}%` : '–';
+    console.log(`| ${mode} | ${f(r.area, 4)} | ${vs} | ${f(r.psnr, 1)} | ${f(r.basesAt, 1)} | ${f(r.doneAt, 1)} | ${r.longCount} (${f(r.longMax, 0)}) |`);
+  }
+  console.log('');
+}
