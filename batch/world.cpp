@@ -74,6 +74,18 @@ Status check_matrix(const std::array<double, 16>& m, const std::string& file,
   return Status::ok();
 }
 
+// j[key], an array of at most `limit` entries.
+Result<const Json*> array_field(const Json& j, const char* key, size_t limit,
+                                const std::string& file) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_array())
+    return fail(file, std::string("\"") + key + "\" is missing or not an array");
+  if (it->size() > limit)
+    return fail(
+        file, std::to_string(it->size()) + " " + key + " (at most " + std::to_string(limit) + ")");
+  return &*it;
+}
+
 Result<Json> parse_json(const std::string& text, const std::string& file, size_t max_bytes) {
   if (text.empty()) return fail(file, "empty file");
   if (text.size() > max_bytes)
@@ -149,12 +161,9 @@ Result<World> parse_world(const std::string& text, const std::string& file,
     return fail(file, "not a meshmux world (no \"meshmux_world\" version)");
   if (version->get<int64_t>() != 1)
     return fail(file, "world version " + version->dump() + " (this meshmux reads version 1)");
-  auto packages = j.find("packages");
-  if (packages == j.end() || !packages->is_array())
-    return fail(file, "\"packages\" is missing or not an array");
-  if (packages->size() > limits.max_packages)
-    return fail(file, std::to_string(packages->size()) + " packages (at most " +
-                          std::to_string(limits.max_packages) + ")");
+  auto packages_field = array_field(j, "packages", limits.max_packages, file);
+  if (!packages_field.ok()) return packages_field.status();
+  const Json* packages = *packages_field;
   World world;
   for (size_t i = 0; i < packages->size(); ++i) {
     const Json& e = (*packages)[i];
@@ -188,12 +197,9 @@ Result<World> parse_world(const std::string& text, const std::string& file,
     }
     world.packages.push_back(std::move(p));
   }
-  auto placements = j.find("placements");
-  if (placements == j.end() || !placements->is_array())
-    return fail(file, "\"placements\" is missing or not an array");
-  if (placements->size() > limits.max_placements)
-    return fail(file, std::to_string(placements->size()) + " placements (at most " +
-                          std::to_string(limits.max_placements) + ")");
+  auto placements_field = array_field(j, "placements", limits.max_placements, file);
+  if (!placements_field.ok()) return placements_field.status();
+  const Json* placements = *placements_field;
   for (size_t i = 0; i < placements->size(); ++i) {
     const Json& e = (*placements)[i];
     const std::string where = "placements[" + std::to_string(i) + "]";
@@ -243,12 +249,9 @@ Result<std::vector<LayoutEntry>> read_layout(const std::string& path, const Worl
   if (!bytes.ok()) return bytes.status();
   auto parsed = parse_json(std::string(bytes->begin(), bytes->end()), file, limits.max_bytes);
   if (!parsed.ok()) return parsed.status();
-  auto placements = parsed->find("placements");
-  if (placements == parsed->end() || !placements->is_array())
-    return fail(file, "\"placements\" is missing or not an array");
-  if (placements->size() > limits.max_placements)
-    return fail(file, std::to_string(placements->size()) + " placements (at most " +
-                          std::to_string(limits.max_placements) + ")");
+  auto placements_field = array_field(*parsed, "placements", limits.max_placements, file);
+  if (!placements_field.ok()) return placements_field.status();
+  const Json* placements = *placements_field;
   std::vector<LayoutEntry> out;
   for (size_t i = 0; i < placements->size(); ++i) {
     const Json& e = (*placements)[i];

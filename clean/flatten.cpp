@@ -11,12 +11,7 @@ namespace {
 // vertex layout), each one primitive with one identity instance (so every part stays a
 // streamable submesh); the other instances keep their meshes, renumbered after them.
 Scene flatten_where(const Scene& in, const std::vector<char>& take) {
-  Scene out;
-  out.materials = in.materials;
-  out.images = in.images;
-  out.lines = in.lines;
-  out.source = in.source;
-  out.normalization_scale = in.normalization_scale;
+  Scene out = empty_like(in);
   std::vector<Primitive> parts;
   std::map<std::tuple<int32_t, bool, size_t, bool, bool>, size_t> slot;
   for (size_t ii = 0; ii < in.instances.size(); ++ii) {

@@ -5,8 +5,8 @@
 namespace meshmux {
 
 std::vector<TextureRef*> texture_refs(Material& m) {
-  std::vector<TextureRef*> refs = {&m.base_color, &m.metallic_roughness, &m.normal,
-                                   &m.occlusion,  &m.emissive,           &m.sheen_color,
+  std::vector<TextureRef*> refs = {&m.base_color,  &m.metallic_roughness, &m.normal,
+                                   &m.occlusion,   &m.emissive,           &m.sheen_color,
                                    &m.transmission};
   for (TextureRef& t : m.layers) refs.push_back(&t);
   return refs;
@@ -61,6 +61,16 @@ Bounds mesh_bounds(const Mesh& mesh) {
   for (const Primitive& p : mesh.primitives)
     for (Vec3 v : p.positions) b.add(v);
   return b;
+}
+
+Scene empty_like(const Scene& scene) {
+  Scene out;
+  out.materials = scene.materials;
+  out.images = scene.images;
+  out.lines = scene.lines;
+  out.source = scene.source;
+  out.normalization_scale = scene.normalization_scale;
+  return out;
 }
 
 Bounds scene_bounds(const Scene& scene) {

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "scene/math.h"
 #include "core/status.h"
+#include "scene/math.h"
 
 namespace meshmux {
 
@@ -114,9 +114,9 @@ struct Material {
   float iridescence_ior = 1.3f;          // the film's index of refraction
   float iridescence_thickness = 400;     // the film's thickness, nanometres (glTF's maximum,
                                          // what applies without the thickness texture)
-  float iridescence_thickness_minimum = 100;  // nanometres, where the thickness texture is 0
-  float anisotropy_strength = 0;         // KHR_materials_anisotropy: [0,1] (0: isotropic)
-  float anisotropy_rotation = 0;         // radians, counter-clockwise from the tangent
+  float iridescence_thickness_minimum = 100;     // nanometres, where the thickness texture is 0
+  float anisotropy_strength = 0;                 // KHR_materials_anisotropy: [0,1] (0: isotropic)
+  float anisotropy_rotation = 0;                 // radians, counter-clockwise from the tangent
   TextureRef layers[size_t(LayerSlot::kCount)];  // the layers' textures, by LayerSlot
   const TextureRef& layer(LayerSlot s) const { return layers[size_t(s)]; }
   TextureRef& layer(LayerSlot s) { return layers[size_t(s)]; }
@@ -199,7 +199,7 @@ struct Scene {
   std::vector<Image> images;
   std::vector<Instance> instances;
   std::vector<LineSet> lines;  // points and lines, in world space (every stage hands them on)
-  std::string source;  // file the scene came from, for messages ("" for generated scenes)
+  std::string source;          // file the scene came from, for messages ("" for generated scenes)
   // Set by clean(): multiply world positions by this to give the scene a bounding-box
   // diagonal of 1, the unit in which later stages measure geometric error. 1 until then.
   double normalization_scale = 1;
@@ -223,6 +223,10 @@ struct SceneStats {
 };
 
 SceneStats compute_stats(const Scene& scene);
+
+// A scene with `scene`'s materials, images, lines, source and normalization scale, and no meshes
+// or instances: where a stage rebuilds the geometry (flattening, the record's reference).
+Scene empty_like(const Scene& scene);
 
 // Number of instances per mesh.
 std::vector<size_t> instance_counts(const Scene& scene);

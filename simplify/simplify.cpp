@@ -1195,13 +1195,8 @@ std::array<double, 16> instance_face_quadric(Vec3 a, Vec3 b, Vec3 c,
 // The scene without its primitives' vertex and index arrays (everything else kept): what the
 // record refers to, where a full copy would hold the geometry twice beside the record.
 Scene without_vertex_data(const Scene& scene) {
-  Scene out;
-  out.materials = scene.materials;
-  out.images = scene.images;
-  out.lines = scene.lines;
+  Scene out = empty_like(scene);
   out.instances = scene.instances;
-  out.source = scene.source;
-  out.normalization_scale = scene.normalization_scale;
   out.meshes.resize(scene.meshes.size());
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     out.meshes[m].name = scene.meshes[m].name;
