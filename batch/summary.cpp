@@ -44,8 +44,12 @@ Result<std::array<double, 6>> report_bounds(const std::string& outroot, const st
                          ErrorKind::kInput);
   std::array<double, 6> out{};
   for (size_t i = 0; i < 6; ++i) {
-    if (!(*b)[i].is_number() || !std::isfinite((*b)[i].get<double>()))
-      return Status::error(name + "/report.json: \"bounds\" are not 6 numbers", ErrorKind::kInput);
+    // The world's own rule (batch/world.h): coordinates a float32 transform can still place.
+    if (!(*b)[i].is_number() || !std::isfinite((*b)[i].get<double>()) ||
+        std::abs((*b)[i].get<double>()) > 1e15)
+      return Status::error(
+          name + "/report.json: \"bounds\" are not 6 coordinates a world can place",
+          ErrorKind::kInput);
     out[i] = (*b)[i].get<double>();
   }
   return out;

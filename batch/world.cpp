@@ -2,6 +2,7 @@
 #include "batch/world.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -114,8 +115,9 @@ std::array<double, 16> identity_matrix() {
 
 bool world_url_is_inside(const std::string& url) {
   if (url.empty() || url.size() > kMaxUrl || url[0] == '/') return false;
+  // Spaces too: URL parsers strip them at the ends (" //host/x" would leave the site).
   for (unsigned char c : url)
-    if (c < 0x20 || c == 0x7F || c == '\\' || c == '?' || c == '#') return false;
+    if (c <= 0x20 || c == 0x7F || c == '\\' || c == '?' || c == '#') return false;
   const size_t colon = url.find(':'), slash = url.find('/');
   if (colon != std::string::npos && (slash == std::string::npos || colon < slash))
     return false;  // a scheme ("https:", "data:", "javascript:")
@@ -123,9 +125,9 @@ bool world_url_is_inside(const std::string& url) {
   while (start <= url.size()) {
     size_t end = url.find('/', start);
     if (end == std::string::npos) end = url.size();
-    const std::string segment = url.substr(start, end - start);
-    if (segment == ".." || segment == "%2e%2e" || segment == "%2E%2E" || segment == ".%2e" ||
-        segment == "%2e.")
+    std::string segment = url.substr(start, end - start);
+    for (char& c : segment) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (segment == ".." || segment == "%2e%2e" || segment == ".%2e" || segment == "%2e.")
       return false;
     start = end + 1;
   }

@@ -9,8 +9,9 @@
 //                  "bytes": 34149}, ...],                            // the package's size
 //    "placements": [{"package": 0, "matrix": [16 numbers, column-major]}, ...]}
 // A package may be placed several times (and need not be placed). URLs are relative to the
-// world file's folder and stay inside it: no scheme, no leading '/', no '\', no ".." segment,
-// no query or fragment (WorldLimits::allow_external_urls lifts that for trusted worlds).
+// world file's folder and stay inside it: no scheme, no leading '/', no '\', no ".." segment
+// (also percent-encoded, any case), no query, fragment, space or control character
+// (WorldLimits::allow_external_urls lifts that for trusted worlds).
 #pragma once
 
 #include <array>

@@ -15,7 +15,7 @@ namespace meshmux {
 class KeyTable {
  public:
   // Room for `capacity` insertions; more would loop forever in insert(), so callers size it
-  // for the most they can insert. Memory: 24 bytes per slot, 2 to 4 slots per capacity.
+  // for the most they can insert. Memory: 12 bytes per slot, 2 to 4 slots per capacity.
   explicit KeyTable(size_t capacity) {
     size_t n = 16;
     while (n < 2 * capacity) n *= 2;

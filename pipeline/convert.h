@@ -70,7 +70,7 @@ struct ConvertOutputs {
 // taken by value and released once cleaned (callers done with it move it in): at millions of
 // triangles each copy of the geometry held through the later stages costs ~25 bytes per
 // triangle.
-Result<ConvertOutputs> convert(Scene scene, const ConvertOptions& options, Warnings* warnings,
+Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warnings* warnings,
                                Progress* progress);
 
 }  // namespace meshmux

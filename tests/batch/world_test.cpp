@@ -77,9 +77,10 @@ TEST(World, GridGivesEachModelAUnitCellOnTheGround) {
 // (a parent, an absolute path, another origin, a script) would read what the world's author
 // never published. Refused by name unless the world is trusted.
 TEST(World, UrlsStayInsideTheWorldsFolder) {
-  for (const char* bad : {"../secret.mmxp", "a/../../b.mmxp", "/etc/x.mmxp", "https://e.com/x.mmxp",
-                          "data:application/octet-stream,x", "javascript:alert(1)", "a\\b.mmxp",
-                          "x.mmxp?y", "a/%2e%2e/%2e%2e/b", ""}) {
+  for (const char* bad :
+       {"../secret.mmxp", "a/../../b.mmxp", "/etc/x.mmxp", "https://e.com/x.mmxp",
+        "data:application/octet-stream,x", "javascript:alert(1)", "a\\b.mmxp", "x.mmxp?y",
+        "a/%2e%2e/%2e%2e/b", "a/%2E%2e/b", "a/.%2E/b", " //evil.example/x.mmxp", "a/.. ", ""}) {
     World w = grid_world({package("a", {0, 0, 0, 1, 1, 1})});
     w.packages[0].url = bad;
     auto r = parse_world(world_json(w), "world.json");

@@ -215,7 +215,7 @@ export async function fetchRange(url, start, end, signal) {
 // `peak` is the most that ran at once.
 export class RequestLimiter {
   constructor(max = 6) {
-    this.max = Math.max(1, max);
+    this.max = Number.isFinite(max) && max >= 1 ? Math.floor(max) : 6;
     this.active = 0;
     this.peak = 0;
     this._waiting = [];

@@ -8,14 +8,16 @@
 //
 // One MeshmuxStream per package (placed as often as world.json says: the placements share its
 // geometry and materials, so a refinement shows everywhere at once), every range request through
-// one RequestLimiter (at most `maxRequests` in flight; a stream coalesces its adjacent chunks into
-// one request). After the bases, the next chunk is the one of best gain per byte over all
-// packages: its distortion drop on the package's per-view surface for the direction each
-// placement is seen from, times the share of the screen that placement covers
+// one RequestLimiter (at most `maxRequests` in flight; one chunk per request for now). After the
+// bases, the next chunk is the one of best gain per byte over all packages: each package offers
+// the next chunk of its own order as re-planned for its first placement's view (MeshmuxStream's
+// camera re-planning), scored by its distortion drop on the package's per-view surface for the
+// direction each placement is seen from, times the share of the screen that placement covers
 // (world_plan.js chunkGain, screenShare). Re-planned before every grant from the current camera:
 // what is off screen gains nothing and waits (play() keeps watching the camera), what is tiny
-// gains little. A memory budget (triangles over all placements, texels over all packages) stops
-// refinement where the next chunk would pass it. A package that fails (missing, corrupt) is
+// gains little. A budget of what is drawn (triangles over all placements, texels over all
+// packages, chunks on their way counted) stops refinement where the next chunk would pass it;
+// it does not bound the streams' own buffers (each holds its full mesh's capacity). A package that fails (missing, corrupt) is
 // reported by name ('error' event, stats.failed) and the rest play on.
 //
 // Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (+ package: a
@@ -51,6 +53,9 @@ export class MeshmuxWorld extends EventTarget {
       allowExternalUrls: false, worker: true, pollMs: 200, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux world';
+    const whole = (x, fallback) => (Number.isFinite(x) && x >= 1 ? Math.floor(x) : fallback);
+    this.options.maxRequests = whole(this.options.maxRequests, 6);
+    this.options.concurrent = whole(this.options.concurrent, 6);
     this.limiter = new RequestLimiter(this.options.maxRequests);
     this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
     this._state = 'idle';
@@ -99,9 +104,15 @@ export class MeshmuxWorld extends EventTarget {
   async open() {
     if (this._state !== 'idle') return this.object;
     this._state = 'opening';
-    const { json, base } = await this._readWorld();
-    const file = typeof this.source === 'string' ? this.source.split('/').pop() : 'world.json';
-    const world = validateWorld(json, file, { allowExternalUrls: this.options.allowExternalUrls });
+    let json, base, world;
+    try {
+      ({ json, base } = await this._readWorld());
+      const file = typeof this.source === 'string' ? this.source.split('/').pop() : 'world.json';
+      world = validateWorld(json, file, { allowExternalUrls: this.options.allowExternalUrls });
+    } catch (error) {
+      this._state = 'idle';  // open() may be called again
+      throw error;
+    }
     this.packages = world.packages.map((p) => ({ ...p, url: new URL(p.url, base).href, placements: [], stream: null, error: null }));
     for (const pl of world.placements) this.packages[pl.package].placements.push({ matrix: pl.matrix, group: null });
     const shares = this.packages.map((p) => this._share(p));
@@ -187,6 +198,7 @@ export class MeshmuxWorld extends EventTarget {
   // with the stats; while playing, returns the same promise.
   play() {
     if (this._state === 'idle' || this._state === 'opening') return Promise.reject(new Error('meshmux: play() before open()'));
+    if (!this.options.camera) return Promise.reject(new Error('meshmux: play() needs options.camera (the world is planned from it)'));
     if (!this._playing) this._playing = this._run().finally(() => { this._playing = null; });
     return this._playing;
   }
@@ -195,30 +207,40 @@ export class MeshmuxWorld extends EventTarget {
     this._stop = false;
     this._state = 'streaming';
     const busy = new Map();  // package → the promise of its granted chunk
+    const inFlight = new Map();  // package → { triangles, texels } its granted chunk adds
     let waiting = false;
+    // What is shown, plus what the chunks on their way will add (the budget counts both).
+    const used = () => {
+      const u = this.stats;
+      for (const c of inFlight.values()) u.triangles += c.triangles, u.texels += c.texels;
+      return u;
+    };
     for (;;) {
       if (this._stop) break;
-      const used = this.stats;
       while (busy.size < this.options.concurrent) {
-        const { best } = this._pick(busy, used);
+        const { best } = this._pick(busy, used());
         if (!best) break;
         const { p, next } = best;
-        p.stream.budgetBytes = p.stream.stats.bytesReceived + next.chunk.size;  // exactly this chunk
-        busy.set(p, p.stream.play().catch((error) => this._fail(p, error)).finally(() => busy.delete(p)));
-        used.triangles += chunkCost(p.stream.table, next.index).triangles * p.placements.length;
+        const cost = chunkCost(p.stream.table, next.index), s = p.stream.stats;
+        inFlight.set(p, { triangles: cost.triangles * p.placements.length,
+          texels: cost.texels ? Math.max(0, cost.texels - s.textureWidth * s.textureHeight) : 0 });
+        p.stream.budgetBytes = s.bytesReceived + next.chunk.size;  // exactly this chunk
+        busy.set(p, p.stream.play().catch((error) => this._fail(p, error))
+          .finally(() => { busy.delete(p); inFlight.delete(p); }));
       }
       if (busy.size > 0) {
         waiting = false;
         await Promise.race(busy.values());
         continue;
       }
-      const { best, offscreen } = this._pick(busy, this.stats);
+      const { best, offscreen } = this._pick(busy, used());
       if (best) continue;
       if (!offscreen) break;  // nothing left that the budget allows
       if (!waiting) { waiting = true; this._state = 'waiting'; this._emit('waiting'); }
       await new Promise((resolve) => setTimeout(resolve, this.options.pollMs));
       this._state = 'streaming';
     }
+    if (this._state === 'disposed') return this.stats;
     const left = this.packages.some((p) => !p.error && p.stream && p.stream.nextChunk());
     this._state = this._stop || left ? 'stopped' : 'complete';
     this._emit(this._state);

@@ -15,10 +15,11 @@ export const WORLD_LIMITS = { maxBytes: 16 << 20, maxPackages: 10000, maxPlaceme
 const MAX_COORDINATE = 1e15;
 
 // Whether a URL stays inside the world's folder: no scheme, no leading '/', no '\', no '..'
-// segment (also percent-encoded), no query or fragment, no control character.
+// segment (also percent-encoded, any case), no query or fragment, no space or control character.
 export function urlInsideWorld(url) {
   if (typeof url !== 'string' || url.length === 0 || url.length > 2048 || url[0] === '/') return false;
-  if (/[\u0000-\u001f\u007f\\?#]/.test(url)) return false;
+  // Spaces too: URL parsers strip them at the ends (" //host/x" would leave the site).
+  if (/[\u0000-\u0020\u007f\\?#]/.test(url)) return false;
   const colon = url.indexOf(':'), slash = url.indexOf('/');
   if (colon >= 0 && (slash < 0 || colon < slash)) return false;
   return !url.split('/').some((s) => /^(\.|%2e){2}$/i.test(s));

@@ -16,7 +16,7 @@ const refused = (json, says) => assert.throws(() => validateWorld(json, 'w.json'
 });
 const withUrl = (url) => ({ ...good, packages: [{ ...good.packages[0], url }] });
 // URLs that would read outside the world's folder: the same list batch/world.h refuses.
-for (const url of ['../x.mmxp', 'a/../../b.mmxp', '/abs.mmxp', 'https://e.com/x.mmxp', 'javascript:alert(1)', 'a\\b', 'x?y', 'a/%2E%2E/b'])
+for (const url of ['../x.mmxp', 'a/../../b.mmxp', '/abs.mmxp', 'https://e.com/x.mmxp', 'javascript:alert(1)', 'a\\b', 'x?y', 'a/%2E%2e/b', ' //evil.example/x.mmxp', 'a/.. '])
   refused(withUrl(url), 'packages[0].url');
 for (const url of ['Duck/model.mmxp', 'x..y/m.mmxp', './a.mmxp']) assert.ok(urlInsideWorld(url), url);
 assert.doesNotThrow(() => validateWorld(withUrl('https://cdn.example.com/a.mmxp'), 'w.json', { allowExternalUrls: true }));
