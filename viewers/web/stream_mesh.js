@@ -236,12 +236,14 @@ export async function applyMeshChunk(meshes, chunk, payload) {
 
 // ---- Decoding in a Web Worker ------------------------------------------------------------------
 
-// The page's side of stream_worker.js: one worker holding every mesh's decoding state. Messages
-// are answered in order; payloads and results move as transferred buffers.
-export class StreamWorker {
-  // Starts the worker; resolves with it once it runs, or null where workers cannot run (no
-  // Worker, a file:// page, a blocked script) so that the caller decodes on the page.
-  static async start(url = new URL('./stream_worker.js', import.meta.url)) {
+// The page's side of stream_worker.js. A DecoderWorker is one Web Worker; each stream talks to
+// it through its own StreamWorker (its stream number on every message), so that one worker can
+// decode for many streams (WorkerPool). Messages are answered in order per worker; payloads
+// and results move as transferred buffers.
+class DecoderWorker {
+  // Starts a worker; resolves with it once it runs, or null where workers cannot run (no
+  // Worker, a file:// page, a blocked script).
+  static async start(url) {
     if (typeof Worker === 'undefined') return null;
     let worker;
     try {
@@ -255,13 +257,15 @@ export class StreamWorker {
       worker.onerror = (e) => { e.preventDefault(); clearTimeout(timer); resolve(false); };
     });
     if (!ready) { worker.terminate(); return null; }
-    return new StreamWorker(worker);
+    return new DecoderWorker(worker);
   }
 
   constructor(worker) {
     this.worker = worker;
     this.pending = new Map();  // request id → { resolve, reject }
     this.nextId = 1;
+    this.nextStream = 1;       // the number the next StreamWorker on it gets
+    this.streams = 0;          // StreamWorkers on it now (a pool gives the next to the least used)
     this.failure = null;       // the worker died: every later request fails with this
     worker.onmessage = (e) => {
       const m = e.data, p = this.pending.get(m.id);
@@ -277,13 +281,78 @@ export class StreamWorker {
     };
   }
 
-  _request(message, transfer = []) {
-    if (this.failure) return Promise.reject(this.failure);
+  // Posts `message`; { id, promise of the reply }.
+  request(message, transfer = []) {
+    if (this.failure) return { id: 0, promise: Promise.reject(this.failure) };
     const id = this.nextId++;
-    return new Promise((resolve, reject) => {
+    const promise = new Promise((resolve, reject) => {
       this.pending.set(id, { resolve, reject });
       this.worker.postMessage({ ...message, id }, transfer);
     });
+    return { id, promise };
+  }
+
+  terminate() {
+    this.worker.terminate();
+    this.failure = new Error('the decoding worker was stopped');
+    for (const p of this.pending.values()) p.reject(this.failure);
+    this.pending.clear();
+  }
+}
+
+// Web Workers shared by many streams (MeshmuxWorld: fifty packages need not start fifty
+// workers): up to `size` workers, started as streams ask, each new stream on the least used.
+export class WorkerPool {
+  // size: workers at most (default: the cores but one, 1 to 4); url: stream_worker.js.
+  constructor(size = defaultPoolSize(), url = new URL('./stream_worker.js', import.meta.url)) {
+    this.size = Number.isFinite(size) && size >= 1 ? Math.floor(size) : 1;
+    this.url = url;
+    this._workers = [];  // Promises of DecoderWorker (null where workers cannot run)
+  }
+
+  // A StreamWorker for one stream, or null where workers cannot run.
+  async acquire() {
+    if (this._workers.length < this.size) this._workers.push(DecoderWorker.start(this.url));
+    const started = (await Promise.all(this._workers)).filter((w) => w && !w.failure);
+    if (!started.length) return null;
+    const worker = started.reduce((a, b) => (b.streams < a.streams ? b : a));
+    return new StreamWorker(worker, true);
+  }
+
+  // Stops every worker (their streams' later requests fail).
+  terminate() {
+    for (const w of this._workers) w.then((x) => { if (x) x.terminate(); });
+    this._workers = [];
+  }
+}
+
+function defaultPoolSize() {
+  const cores = typeof navigator !== 'undefined' && navigator.hardwareConcurrency ? navigator.hardwareConcurrency : 2;
+  return Math.max(1, Math.min(4, cores - 1));
+}
+
+// One stream's decoder: its meshes' states in a worker of its own (StreamWorker.start) or in a
+// pool's shared worker (WorkerPool.acquire).
+export class StreamWorker {
+  // Starts a worker of its own; resolves with the stream's decoder once it runs, or null where
+  // workers cannot run (no Worker, a file:// page, a blocked script) so that the caller decodes
+  // on the page.
+  static async start(url = new URL('./stream_worker.js', import.meta.url)) {
+    const worker = await DecoderWorker.start(url);
+    return worker ? new StreamWorker(worker, false) : null;
+  }
+
+  constructor(decoder, shared) {
+    this.decoder = decoder;
+    this.shared = shared;  // the worker serves other streams too: release, do not terminate
+    this.stream = decoder.nextStream++;
+    this.released = null;  // set once terminate() ran: every later request fails with this
+    decoder.streams++;
+  }
+
+  _request(message, transfer = []) {
+    if (this.released) return Promise.reject(this.released);
+    return this.decoder.request({ ...message, stream: this.stream }, transfer).promise;
   }
 
   // Hands the worker the package's meshes (their table entries) with their bases, taken from
@@ -321,13 +390,14 @@ export class StreamWorker {
   // aborts the worker's fetch.
   fetchRange(url, start, end, signal) {
     if (signal && signal.aborted) return Promise.reject(new DOMException('aborted', 'AbortError'));
-    const id = this.nextId;  // the id _request gives this request
-    const reply = this._request({ type: 'fetch', url: new URL(url, globalThis.location && location.href).href, start, end });
+    if (this.released) return Promise.reject(this.released);
+    const d = this.decoder;
+    const { id, promise: reply } = d.request({ type: 'fetch', stream: this.stream, url: new URL(url, globalThis.location && location.href).href, start, end });
     if (!signal) return reply;
     return new Promise((resolve, reject) => {
       const onAbort = () => {
-        if (!this.pending.delete(id)) return;
-        this.worker.postMessage({ type: 'abort', request: id });
+        if (!d.pending.delete(id)) return;
+        d.worker.postMessage({ type: 'abort', request: id });
         reject(new DOMException('aborted', 'AbortError'));
       };
       signal.addEventListener('abort', onAbort, { once: true });
@@ -347,10 +417,13 @@ export class StreamWorker {
     return (await this._request({ type: 'digests' })).digests;
   }
 
+  // Ends this stream's use of its worker: a worker of its own stops; a pool's worker drops the
+  // stream's states and serves the others on.
   terminate() {
-    this.worker.terminate();
-    this.failure = new Error('the decoding worker was stopped');
-    for (const p of this.pending.values()) p.reject(this.failure);
-    this.pending.clear();
+    if (this.released) return;
+    this.released = new Error('the decoding worker was stopped');
+    this.decoder.streams--;
+    if (!this.shared) this.decoder.terminate();
+    else if (!this.decoder.failure) this.decoder.request({ type: 'release', stream: this.stream }).promise.catch(() => {});
   }
 }

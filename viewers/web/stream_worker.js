@@ -1,14 +1,18 @@
-// stream_worker.js — a meshmux stream's mesh decoding in a Web Worker (started by StreamWorker
-// in stream_mesh.js), so that the page's main thread only copies in what each chunk changed.
-// It holds a MeshState per package mesh (stream_decode.js) and answers (setup, chunk and digests
-// in the order asked; fetch and image once their work is done, so they may overtake):
+// stream_worker.js — meshmux streams' mesh decoding in a Web Worker (started by StreamWorker
+// or a WorkerPool in stream_mesh.js), so that the page's main thread only copies in what each
+// chunk changed. It holds, per stream it serves (the `stream` number every request carries; a
+// pool's worker serves several), a MeshState per package mesh (stream_decode.js) and answers
+// (setup, chunk, digests and release in the order asked; fetch and image once their work is
+// done, so they may overtake):
 //   setup  {meshes: [{vertices, faces, origin, step, base: {qp, qn, qt, count, quantized,
 //          faces: [Uint32Array]} | null}]} → {}: the meshes with their bases
 //   chunk  {parts: [[mesh, splits, faces, bytes]], payload} → {changes, seconds}: the chunk's
 //          parts applied in order; per mesh touched {mesh, v0, vn, f0, nf, solid, position,
 //          normal, uv (the new vertices' float attributes), appended (the new faces' indices),
 //          moved ([corner, vertex] pairs: corners of earlier faces the splits moved)}
-//   digests {} → {digests}: per mesh, stream/vsplit.h state_digest of what it holds
+//   digests {} → {digests}: per mesh, stream/vsplit.h state_digest of what it holds (none
+//          before setup: a package whose base is whole streams no mesh)
+//   release {} → {}: the stream's states dropped (its MeshmuxStream was disposed)
 //   fetch  {url, start, end} → {status, statusText, contentRange, bytes}: a byte range fetched
 //          here (package_reader.js fetchRange), so its body never passes through the page's
 //          main thread (in chromium, a megabyte there stalls it for tens of milliseconds);
@@ -20,22 +24,29 @@
 import { fetchRange } from './package_reader.js';
 import { MeshState } from './stream_decode.js';
 
-let meshes = [];  // {state, origin, step, quantized}
+const streams = new Map();  // stream number → its meshes: [{state, origin, step, quantized}]
 const fetches = new Map();  // request id → the AbortController of its fetch
 
 function setup(m) {
-  meshes = m.meshes.map((d, i) => {
+  streams.set(m.stream, m.meshes.map((d, i) => {
     const state = new MeshState(d, i);
     if (d.base) {
       state.setBase(d.base.qp, d.base.qn, d.base.qt, d.base.count);
       for (const f of d.base.faces) state.appendFaces(f);
     }
     return { state, origin: d.origin, step: d.step, quantized: d.base ? d.base.quantized : true };
-  });
+  }));
   return {};
 }
 
+function meshesOf(m) {
+  const meshes = streams.get(m.stream);
+  if (!meshes) throw new Error(`stream ${m.stream} was not set up`);
+  return meshes;
+}
+
 function chunk(m) {
+  const meshes = meshesOf(m);
   const t0 = performance.now();
   const touched = new Map();  // mesh → where it stood before this chunk
   let at = 0;
@@ -89,8 +100,12 @@ self.onmessage = (e) => {
       createImageBitmap(new Blob([m.bytes], { type: m.mime }), m.options).then(
         (bitmap) => self.postMessage({ type: 'image', id: m.id, bitmap }, [bitmap]),
         (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }));
-    } else if (m.type === 'digests') self.postMessage({ type: 'digests', id: m.id, digests: meshes.map((x) => x.state.digest()) });
-    else throw new Error(`unknown request ${JSON.stringify(m.type)}`);
+    } else if (m.type === 'digests') {
+      self.postMessage({ type: 'digests', id: m.id, digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) });
+    } else if (m.type === 'release') {
+      streams.delete(m.stream);
+      self.postMessage({ type: 'release', id: m.id });
+    } else throw new Error(`unknown request ${JSON.stringify(m.type)}`);
   } catch (error) {
     self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) });
   }
