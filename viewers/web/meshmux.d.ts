@@ -37,6 +37,8 @@ export interface MeshmuxStreamOptions {
    * false, or a page where no worker can start (file://), decodes them on the page.
    */
   worker?: boolean;
+  /** A WorkerPool whose shared workers decode for this stream instead of a worker of its own. */
+  workers?: WorkerPool | null;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }
@@ -115,6 +117,13 @@ export class MeshmuxStream extends EventTarget {
   stateDigests(): Promise<number[]>;
   /** The world-space bounds of what is shown. */
   worldBounds(target?: Box3): Box3;
+  /**
+   * The chunks play() would fetch next (re-planned for the camera), at most `max` (default 1),
+   * each with the chunks applied before it and the order's distortion before and after it.
+   */
+  nextChunks(max?: number): MeshmuxNextChunk[];
+  /** nextChunks(1)'s entry, or null when every chunk is applied. */
+  nextChunk(): MeshmuxNextChunk | null;
   addEventListener<K extends keyof MeshmuxEventMap>(
     type: K, listener: (event: MeshmuxEventMap[K]) => void, options?: boolean | AddEventListenerOptions): void;
   addEventListener(type: string, listener: EventListenerOrEventListenerObject | null,
@@ -128,6 +137,22 @@ export class MeshmuxStream extends EventTarget {
  */
 export function addStreamLighting(view: MeshmuxView, scene: Scene, camera: Camera | PerspectiveCamera,
   renderer: WebGLRenderer): () => void;
+
+export interface MeshmuxNextChunk {
+  index: number;
+  chunk: { kind: 'mesh' | 'texture'; offset: number; size: number } & Record<string, unknown>;
+  applied: Set<number>;
+  before: number;
+  after: number;
+}
+
+/** Web Workers shared by many streams' decoding (default size: the cores but one, 1 to 4). */
+export class WorkerPool {
+  constructor(size?: number, url?: URL | string);
+  readonly size: number;
+  /** Stops every worker. */
+  terminate(): void;
+}
 
 /** At most `max` range requests in flight over the streams that share it. */
 export class RequestLimiter {

@@ -28,10 +28,10 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, validateTable } from './package_reader.js';
-import { StreamMesh, StreamWorker, applyMeshChunk, inflate } from './stream_mesh.js';
+import { StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate } from './stream_mesh.js';
 import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
-export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, applyMeshChunk, inflate };
+export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate };
 const HEADER_BYTES = 12;
 // Texture maps are decoded as stored (EXIF orientation applied): no colour conversion and no
 // premultiplied alpha (three.js is told each map's colour space).
@@ -263,7 +263,9 @@ export class MeshmuxStream extends EventTarget {
   // started before this module loaded: index.html does, so the package arrives beside the
   // module graph), worker (default true: mesh refinements are decoded in a Web Worker,
   // stream_worker.js beside this module, and the page only copies in and uploads what changed;
-  // false, or where no worker can start, decodes them on the page), limiter (a RequestLimiter
+  // false, or where no worker can start, decodes them on the page), workers (a WorkerPool whose
+  // shared workers decode for this stream instead of one of its own; MeshmuxWorld passes one),
+  // limiter (a RequestLimiter
   // shared by several streams: their range requests wait for it, so a page of many packages keeps
   // few in flight; MeshmuxWorld passes one).
   constructor(url, options = {}) {
@@ -271,7 +273,7 @@ export class MeshmuxStream extends EventTarget {
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
-      camera: null, adaptive: true, firstBytes: null, worker: true, limiter: null, ...options };
+      camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -373,7 +375,8 @@ export class MeshmuxStream extends EventTarget {
       const draco = table.base.whole ? this._dracoLoader() : null;
       if (draco) draco.catch(() => {});  // awaited in _buildBase
       // The decoding worker (mesh chunks and texture maps) starts while the base arrives.
-      const worker = this._workerStart = this.options.worker ? StreamWorker.start() : Promise.resolve(null);
+      const worker = this._workerStart = !this.options.worker ? Promise.resolve(null)
+        : this.options.workers ? this.options.workers.acquire() : StreamWorker.start();
       const base = await this._reader.read(table.base.offset, table.base.offset + table.base.size, signal);
       this._worker = await worker;
       // Later ranges are fetched by the worker (their bodies stay off the main thread).
@@ -606,21 +609,26 @@ export class MeshmuxStream extends EventTarget {
     this._followed = plan.adapted || adaptedBefore ? 'view-adapted' : this.order.name;
   }
 
-  // The chunk the stream would fetch next (after re-planning for the camera), or null when none
-  // is left: { index, chunk, applied (a Set of the chunks applied), before, after (the order's
-  // view-independent distortion before and after it) }. For a scheduler over many streams.
-  nextChunk() {
-    if (!this.table || this._state === 'error' || this._state === 'disposed') return null;
+  // The chunks the stream would fetch next (after re-planning for the camera), at most `max`,
+  // in order: [{ index, chunk, applied (a Set of the chunks applied before it), before, after
+  // (the order's view-independent distortion before and after it) }]; [] when none is left. For
+  // a scheduler over many streams.
+  nextChunks(max = 1) {
+    if (!this.table || this._state === 'error' || this._state === 'disposed') return [];
     const pos = this._position;
     this._replan(pos);
-    if (pos >= this._sequence.length) return null;
-    const index = this._sequence[pos];
-    return {
-      index, chunk: this.table.chunks[index], applied: new Set(this._sequence.slice(0, pos)),
-      before: pos > 0 ? this._sequenceDistortion[pos - 1] : this.table.base.distortion,
-      after: this._sequenceDistortion[pos],
-    };
+    const applied = new Set(this._sequence.slice(0, pos)), out = [];
+    for (let k = pos; k < Math.min(this._sequence.length, pos + max); k++) {
+      const index = this._sequence[k];
+      out.push({ index, chunk: this.table.chunks[index], applied: new Set(applied),
+        before: k > 0 ? this._sequenceDistortion[k - 1] : this.table.base.distortion, after: this._sequenceDistortion[k] });
+      applied.add(index);
+    }
+    return out;
   }
+
+  // nextChunks(1)'s one entry, or null when none is left.
+  nextChunk() { return this.nextChunks(1)[0] || null; }
 
   // Fetches and applies chunks in the chosen order until the last one or the budget. Resolves
   // with the stats; while playing, returns the same promise.

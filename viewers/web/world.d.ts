@@ -1,6 +1,6 @@
 // Types of world.js (MeshmuxWorld) and world_plan.js.
 import type { Camera, Group, WebGLRenderer } from 'three';
-import type { RequestLimiter } from './meshmux.js';
+import type { RequestLimiter, WorkerPool } from './meshmux.js';
 
 export interface WorldPackage { name: string; url: string; bounds: number[]; bytes: number; }
 export interface WorldPlacement { package: number; matrix: number[]; }
@@ -12,13 +12,16 @@ export interface MeshmuxWorldOptions {
   camera?: Camera | null;
   /** Range requests in flight over all packages (default 6). */
   maxRequests?: number;
-  /** Packages with a chunk granted at once (default 6). */
+  /** Packages with a grant (one range request of their next chunks) at once (default 6). */
   concurrent?: number;
   /** Stop refining where the next chunk would pass it (default: defaultBudget()). */
   budget?: WorldBudget;
   /** Package URLs outside the world's folder: trusted worlds only (default false). */
   allowExternalUrls?: boolean;
+  /** Decode in Web Workers (default true), shared by the packages. */
   worker?: boolean;
+  /** Workers in the world's pool (default: the cores but one, 1 to 4). */
+  workers?: number;
   /** How often play() looks at the camera while only off-screen work is left (ms, default 200). */
   pollMs?: number;
 }
@@ -31,7 +34,13 @@ export interface MeshmuxWorldStats {
   chunksApplied: number;
   chunkCount: number;
   triangles: number;
+  vertices: number;
   texels: number;
+  trianglesApplied: number;
+  /** Seconds spent decoding and applying mesh refinements, over the packages. */
+  applySeconds: number;
+  /** Where mesh refinements are decoded ('page' if any package decodes there). */
+  decoder: 'worker' | 'page';
   budget: WorldBudget;
   requestsPeak: number;
   state: string;
@@ -41,6 +50,8 @@ export class MeshmuxWorld extends EventTarget {
   constructor(world: string | URL | object, options?: MeshmuxWorldOptions);
   readonly object: Group;
   readonly limiter: RequestLimiter;
+  /** The decoding workers the packages share (null with worker: false). */
+  readonly workers: WorkerPool | null;
   readonly state: string;
   readonly stats: MeshmuxWorldStats;
   open(): Promise<Group>;

@@ -8,8 +8,9 @@
 //
 // One MeshmuxStream per package (placed as often as world.json says: the placements share its
 // geometry and materials, so a refinement shows everywhere at once), every range request through
-// one RequestLimiter (at most `maxRequests` in flight; one chunk per request for now). After the
-// bases, the next chunk is the one of best gain per byte over all packages: each package offers
+// one RequestLimiter (at most `maxRequests` in flight). After the bases, requests go to the
+// chunks of best gain per byte over all packages (each request carries a package's next chunks
+// while they follow in the file and beat the best offer left waiting): each package offers
 // the next chunk of its own order as re-planned for its first placement's view (MeshmuxStream's
 // camera re-planning), scored by its distortion drop on the package's per-view surface for the
 // direction each placement is seen from, times the share of the screen that placement covers
@@ -28,6 +29,7 @@ import * as THREE from 'three';
 
 import { MeshmuxStream } from './meshmux.js';
 import { RequestLimiter } from './package_reader.js';
+import { WorkerPool } from './stream_mesh.js';
 import { chunkCost, chunkGain, packageDirection, screenShare, validateWorld, viewWeights, WORLD_LIMITS } from './world_plan.js';
 
 export { validateWorld, screenShare, chunkGain };
@@ -41,22 +43,24 @@ export function defaultBudget() {
 export class MeshmuxWorld extends EventTarget {
   // options: renderer (THREE.WebGLRenderer), camera (the THREE.Camera the world is seen through:
   // required for play()), maxRequests (range requests in flight over all packages, default 6),
-  // concurrent (packages with a chunk granted at once, default 6: one chunk per request, so
+  // concurrent (packages with a grant at once, default 6: each grant is one range request, so
   // fewer would leave the link idle between requests), budget ({triangles, texels}; default by
   // device class, defaultBudget()), allowExternalUrls (package URLs outside the world's folder:
-  // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true),
+  // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true: a
+  // pool of `workers` workers shared by the packages, default the cores but one, 1 to 4),
   // pollMs (how often play() looks at the camera while only off-screen work is left, default 200).
   constructor(world, options = {}) {
     super();
     this.source = world;  // a URL of world.json, or its parsed JSON
     this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 6, budget: defaultBudget(),
-      allowExternalUrls: false, worker: true, pollMs: 200, ...options };
+      allowExternalUrls: false, worker: true, workers: undefined, pollMs: 200, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux world';
     const whole = (x, fallback) => (Number.isFinite(x) && x >= 1 ? Math.floor(x) : fallback);
     this.options.maxRequests = whole(this.options.maxRequests, 6);
     this.options.concurrent = whole(this.options.concurrent, 6);
     this.limiter = new RequestLimiter(this.options.maxRequests);
+    this.workers = this.options.worker ? new WorkerPool(this.options.workers) : null;
     this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
     this._state = 'idle';
     this._stop = false;
@@ -67,6 +71,7 @@ export class MeshmuxWorld extends EventTarget {
 
   get stats() {
     let bytesReceived = 0, bytesTotal = 0, chunksApplied = 0, chunkCount = 0, triangles = 0, texels = 0;
+    let vertices = 0, trianglesApplied = 0, applySeconds = 0, decoder = 'worker';
     const failed = [];
     for (const p of this.packages) {
       if (p.error) { failed.push({ name: p.name, error: p.error.message }); continue; }
@@ -78,9 +83,13 @@ export class MeshmuxWorld extends EventTarget {
       chunkCount += s.chunkCount;
       triangles += s.triangles * p.placements.length;
       texels += s.textureWidth * s.textureHeight;
+      vertices += s.vertices;
+      trianglesApplied += s.trianglesApplied;
+      applySeconds += s.applySeconds;
+      if (s.decoder === 'page') decoder = 'page';
     }
     return { packages: this.packages.length, failed, bytesReceived, bytesTotal, chunksApplied, chunkCount,
-      triangles, texels, budget: { ...this.options.budget }, requestsPeak: this.limiter.peak, state: this._state };
+      triangles, vertices, texels, trianglesApplied, applySeconds, decoder, budget: { ...this.options.budget }, requestsPeak: this.limiter.peak, state: this._state };
   }
 
   _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
@@ -125,7 +134,7 @@ export class MeshmuxWorld extends EventTarget {
   async _openPackage(p) {
     if (p.placements.length === 0) return;
     p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera,
-      limiter: this.limiter, worker: this.options.worker, budgetBytes: 0 });
+      limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
       this._emit('progress', { package: p.name });
@@ -173,24 +182,64 @@ export class MeshmuxWorld extends EventTarget {
 
   _share(p) { return this._views(p).reduce((s, v) => s + v.share, 0); }
 
-  // The best grant now: { p, next, gain } of highest gain per byte within the budget, or null.
-  // `offscreen` is set when work is left that only a camera turn would make worth anything.
-  _pick(busy, used) {
-    let best = null, offscreen = false;
+  // Every package's offer now: its next chunk with its gain per byte, where the budget allows
+  // it, best first ([{ p, next, views, gain }]). `offscreen` is set when work is left that only
+  // a camera turn would make worth anything.
+  _offers(busy, used) {
+    const offers = [];
+    let offscreen = false;
     for (const p of this.packages) {
       if (p.error || !p.stream || !p.stream.table || busy.has(p)) continue;
       const next = p.stream.nextChunk();
       if (!next) continue;
-      const cost = chunkCost(p.stream.table, next.index);
-      const s = p.stream.stats;
-      const texels = cost.texels ? cost.texels - s.textureWidth * s.textureHeight : 0;
-      if (used.triangles + cost.triangles * p.placements.length > this.options.budget.triangles ||
-          used.texels + texels > this.options.budget.texels) continue;
-      const gain = chunkGain(p.stream.table, next.applied, next.index, this._views(p), next) / Math.max(1, next.chunk.size);
+      const cost = this._cost(p, [next]);
+      if (!this._fits(used, cost)) continue;
+      const views = this._views(p);
+      const gain = chunkGain(p.stream.table, next.applied, next.index, views, next) / Math.max(1, next.chunk.size);
       if (!(gain > 0)) { offscreen = true; continue; }
-      if (!best || gain > best.gain) best = { p, next, gain };
+      offers.push({ p, next, views, gain });
     }
-    return { best, offscreen };
+    offers.sort((a, b) => b.gain - a.gain);
+    return { offers, offscreen };
+  }
+
+  // What granting `chunks` of package p adds to what is drawn: triangles over its placements
+  // (each mesh as often as the base draws it), and the texels its largest texture level adds over the one shown.
+  _cost(p, chunks) {
+    const s = p.stream.stats, shown = s.textureWidth * s.textureHeight;
+    const instances = p.stream.meshes.map((m) => m.instances);
+    let triangles = 0, texels = 0;
+    for (const c of chunks) {
+      const k = chunkCost(p.stream.table, c.index, instances);
+      triangles += k.triangles * p.placements.length;
+      texels = Math.max(texels, k.texels - shown);
+    }
+    return { triangles, texels };
+  }
+
+  _fits(used, cost) {
+    const b = this.options.budget;
+    return used.triangles + cost.triangles <= b.triangles && used.texels + cost.texels <= b.texels;
+  }
+
+  // The grant for an offer: its chunk, and after it the package's next ones while they follow
+  // in the file (one range request), fit the package's batch size and the budget, and gain per
+  // byte at least `floor` (the best offer left without a request this round), so that a
+  // request carries what is worth its round trip and nothing another package needs more.
+  _grant(offer, floor, used) {
+    const { p, views } = offer, stream = p.stream;
+    const chunks = [offer.next];
+    let end = offer.next.chunk.offset + offer.next.chunk.size, bytes = offer.next.chunk.size;
+    for (const c of stream.nextChunks(64).slice(1)) {
+      if (c.chunk.offset !== end || bytes + c.chunk.size > stream.options.chunkBatchBytes) break;
+      if (!this._fits(used, this._cost(p, [...chunks, c]))) break;
+      const gain = chunkGain(stream.table, c.applied, c.index, views, c) / Math.max(1, c.chunk.size);
+      if (!(gain > 0) || gain < floor) break;
+      chunks.push(c);
+      end += c.chunk.size;
+      bytes += c.chunk.size;
+    }
+    return { chunks, bytes, cost: this._cost(p, chunks) };
   }
 
   // Streams refinements across the packages until every one is complete, the budget stops them,
@@ -217,14 +266,16 @@ export class MeshmuxWorld extends EventTarget {
     };
     for (;;) {
       if (this._stop) break;
-      while (busy.size < this.options.concurrent) {
-        const { best } = this._pick(busy, used());
-        if (!best) break;
-        const { p, next } = best;
-        const cost = chunkCost(p.stream.table, next.index), s = p.stream.stats;
-        inFlight.set(p, { triangles: cost.triangles * p.placements.length,
-          texels: cost.texels ? Math.max(0, cost.texels - s.textureWidth * s.textureHeight) : 0 });
-        p.stream.budgetBytes = s.bytesReceived + next.chunk.size;  // exactly this chunk
+      const free = this.options.concurrent - busy.size;
+      const { offers, offscreen } = free > 0 ? this._offers(busy, used()) : { offers: [], offscreen: false };
+      // The best offers get this round's requests, each extended against the best one left.
+      const floor = offers.length > free ? offers[free].gain : 0;
+      for (const offer of offers.slice(0, free)) {
+        const u = used();
+        if (!this._fits(u, this._cost(offer.p, [offer.next]))) continue;  // an earlier grant took the room
+        const { p } = offer, { bytes, cost } = this._grant(offer, floor, u);
+        inFlight.set(p, cost);
+        p.stream.budgetBytes = p.stream.stats.bytesReceived + bytes;  // exactly the granted chunks
         busy.set(p, p.stream.play().catch((error) => this._fail(p, error))
           .finally(() => { busy.delete(p); inFlight.delete(p); }));
       }
@@ -233,8 +284,7 @@ export class MeshmuxWorld extends EventTarget {
         await Promise.race(busy.values());
         continue;
       }
-      const { best, offscreen } = this._pick(busy, used());
-      if (best) continue;
+      if (offers.length) continue;
       if (!offscreen) break;  // nothing left that the budget allows
       if (!waiting) { waiting = true; this._state = 'waiting'; this._emit('waiting'); }
       await new Promise((resolve) => setTimeout(resolve, this.options.pollMs));
@@ -255,6 +305,7 @@ export class MeshmuxWorld extends EventTarget {
   dispose() {
     this.stop();
     for (const p of this.packages) if (p.stream) p.stream.dispose();
+    if (this.workers) this.workers.terminate();
     this._state = 'disposed';
   }
 }

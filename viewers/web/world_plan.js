@@ -141,13 +141,15 @@ export function chunkGain(table, applied, next, placements, fallback) {
   return total;
 }
 
-// Triangles a mesh chunk adds (its parts' faces; an upper bound: a split may retire faces) and
-// texels a texture chunk brings (its level's size), for the memory budget.
-export function chunkCost(table, index) {
+// Triangles a mesh chunk adds (its parts' faces, each times the times its mesh is drawn:
+// `instances[mesh]`, the objects and instances drawing it in the base, default 1; an upper
+// bound: a split may retire faces) and texels a texture chunk brings (its level's size), for
+// the memory budget.
+export function chunkCost(table, index, instances = []) {
   const c = table.chunks[index];
   if (c.kind === 'texture') return { triangles: 0, texels: c.width * c.height };
   let faces = 0;
-  for (const p of c.parts) faces += (p.face_end - p.face_begin) * Math.max(1, table.meshes[p.mesh].instances || 1);
+  for (const p of c.parts) faces += (p.face_end - p.face_begin) * Math.max(1, instances[p.mesh] || 1);
   return { triangles: faces, texels: 0 };
 }
 

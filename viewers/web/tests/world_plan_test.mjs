@@ -61,7 +61,7 @@ for (let i = 0; i < 2; i++) for (let j = 0; j < 2; j++) distortion.push(directio
 const table = {
   chunks: [{ kind: 'mesh', size: 100, parts: [{ mesh: 0, face_begin: 10, face_end: 60 }] }, { kind: 'texture', size: 100, width: 64, height: 32 }],
   orders: [{ name: 'rate-distortion', chunks: [0, 1] }],
-  meshes: [{ instances: 1 }],
+  meshes: [{}],
   view_table: { directions, triangles, mesh_layers: 2, texture_layers: 2, distortion },
 };
 const fromPlusX = [{ share: 0.5, weights: viewWeights(table.view_table, [1, 0, 0]) }];
@@ -82,4 +82,6 @@ const flat = { ...table, view_table: null };
 assert.ok(Math.abs(chunkGain(flat, none, 0, fromPlusX, { before: 5, after: 2 }) - 0.5 * 3) < 1e-6);
 assert.deepEqual(chunkCost(table, 0), { triangles: 50, texels: 0 });
 assert.deepEqual(chunkCost(table, 1), { triangles: 0, texels: 2048 });
+// A mesh the base draws three times (three nodes, or instances) adds its faces three times.
+assert.deepEqual(chunkCost(table, 0, [3]), { triangles: 150, texels: 0 });
 console.log('world_plan: validation, screen shares, directions and gains as expected');

@@ -2,7 +2,9 @@
 // placed with one behind the camera, and a fourth whose package is missing. The one behind gets
 // no refinement bytes while the others stream ('waiting' once only it is left), then streams
 // once the camera turns to it; the missing one is reported by name and the rest play to the end;
-// no more than maxRequests range requests are ever in flight. Then the page `meshmux batch` writes:
+// no more than maxRequests range requests are ever in flight; decoding runs in the world's pool
+// of 2 workers. A second world of the two ahead, its budget the bases' texels and one package's
+// refinement triangles: no chunk passes it and it stops short. Then the page `meshmux batch` writes:
 // two uploads batch-converted, OUTROOT served, world.html streams both to "complete" with no
 // page error or failed request.
 //
@@ -52,6 +54,8 @@ const world = {
     { package: 2, matrix: at(0, 2) }, { package: 3, matrix: at(0, -3) }],
 };
 fs.writeFileSync(path.join(site, 'world.json'), JSON.stringify(world));
+// The budget world: a and b ahead, nothing else.
+fs.writeFileSync(path.join(site, 'budget.json'), JSON.stringify({ ...world, packages: world.packages.slice(0, 2), placements: world.placements.slice(0, 2) }));
 fs.writeFileSync(path.join(site, 'index.html'), `<!doctype html>
 <html><head><meta charset="utf-8">
 <script type="importmap">{"imports": {"three": "./a/viewer/${three}/three.module.js", "three/addons/": "./a/viewer/${three}/addons/"}}</script>
@@ -65,7 +69,7 @@ const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(50, 4 / 3, ${size} * 0.01, ${size} * 100);
 camera.position.set(${(bounds[0] + bounds[3]) / 2}, ${(bounds[1] + bounds[4]) / 2}, ${(bounds[2] + bounds[5]) / 2});
 camera.lookAt(camera.position.x, camera.position.y, camera.position.z - 1);
-const world = new MeshmuxWorld('world.json', { renderer, camera, maxRequests: 3 });
+const world = new MeshmuxWorld('world.json', { renderer, camera, maxRequests: 3, workers: 2 });
 const per = () => Object.fromEntries(world.packages.map((p) => [p.name, p.stream && p.stream.table ? p.stream.stats.chunksApplied : -1]));
 const log = { errors: [], waiting: null, final: null };
 world.addEventListener('error', (e) => log.errors.push(e.detail.package + ': ' + e.detail.error.message));
@@ -80,10 +84,30 @@ world.addEventListener('waiting', () => {
 try {
   scene.add(await world.open());
   log.opened = per();
+  log.opened.aTriangles = world.packages[0].stream.stats.triangles;
   const stats = await world.play();
   log.final = per();
   log.stats = { failed: stats.failed, requestsPeak: stats.requestsPeak, state: stats.state,
-    chunksApplied: stats.chunksApplied, chunkCount: stats.chunkCount };
+    chunksApplied: stats.chunksApplied, chunkCount: stats.chunkCount, decoder: stats.decoder,
+    workersStarted: world.workers._workers.length, poolSize: world.workers.size };
+  const a = world.packages[0].stream.stats;
+  log.fullTriangles = a.triangles;  // package a complete
+  // A budget that binds: the bases' texels, and triangles for one package's refinements over
+  // the two (each of a and b would take them all). Checked at every chunk.
+  const ahead = new THREE.PerspectiveCamera(50, 4 / 3, ${size} * 0.01, ${size} * 100);
+  ahead.position.copy(camera.position);
+  ahead.lookAt(camera.position.x, camera.position.y, camera.position.z - 1);
+  const tight = new MeshmuxWorld('budget.json', { renderer, camera: ahead, budget: { triangles: Infinity, texels: Infinity } });
+  await tight.open();
+  const base = tight.stats;
+  tight.options.budget = { triangles: base.triangles + (a.triangles - log.opened.aTriangles), texels: base.texels };
+  log.budget = { ...tight.options.budget, baseTriangles: base.triangles, over: [] };
+  tight.addEventListener('chunk', (e) => {
+    if (e.detail.triangles > log.budget.triangles || e.detail.texels > log.budget.texels)
+      log.budget.over.push([e.detail.triangles, e.detail.texels]);
+  });
+  const end = await tight.play();
+  log.budget.end = { state: end.state, triangles: end.triangles, texels: end.texels, chunksApplied: end.chunksApplied, chunkCount: end.chunkCount };
 } catch (e) {
   log.errors.push('fatal: ' + e.message);
 }
@@ -155,6 +179,18 @@ if (log) {
   check(log.stats && log.stats.state === 'complete', `the world ended ${log.stats && log.stats.state}, not complete`);
   check(log.stats && log.stats.chunksApplied === log.stats.chunkCount, `chunks ${JSON.stringify(log.stats)}`);
   check(log.stats && log.stats.requestsPeak <= 3, `${log.stats && log.stats.requestsPeak} requests in flight (at most 3)`);
+  // Decoding off the main thread, in the world's shared pool (not a worker per package).
+  check(log.stats && log.stats.decoder === 'worker', `decoded on the ${log.stats && log.stats.decoder}`);
+  check(log.stats && log.stats.workersStarted <= 2 && log.stats.poolSize === 2,
+    `${log.stats && log.stats.workersStarted} workers for 3 packages (pool of ${log.stats && log.stats.poolSize}, asked 2)`);
+  const b = log.budget;
+  check(b && b.end, `the budget world did not end: ${JSON.stringify(b)}`);
+  if (b && b.end) {
+    check(b.over.length === 0, `the budget was passed at ${b.over.length} chunks: ${JSON.stringify(b.over.slice(0, 3))} (budget ${b.triangles} triangles, ${b.texels} texels)`);
+    check(b.end.triangles <= b.triangles && b.end.texels <= b.texels, `the budget world ended past its budget: ${JSON.stringify(b)}`);
+    check(b.end.triangles > b.baseTriangles, `the budget world refined nothing: ${JSON.stringify(b)}`);
+    check(b.end.state === 'stopped' && b.end.chunksApplied < b.end.chunkCount, `the budget did not stop the world: ${JSON.stringify(b.end)}`);
+  }
 }
 for (const p of problems) console.error(`FAIL: ${p}`);
 console.log(`world: ${JSON.stringify(log)}; world.html: ${pageEnd}`);
