@@ -14,6 +14,7 @@
 #include "core/file_io.h"
 #include "core/text.h"
 #include "exporters/viewer_page.h"
+#include "stream/package.h"
 
 #ifndef MESHMUX_VERSION
 #error "MESHMUX_VERSION (the project version) must be defined: batch.json names it"
@@ -55,6 +56,16 @@ Result<std::array<double, 6>> report_bounds(const std::string& outroot, const st
   return out;
 }
 
+// Where a package's base ends (header, table and base: what a client reads first), or 0 when
+// that is unknown: a package past 64 MB is not read for it (its client then probes) and one
+// that does not read is left to the client to report.
+uint64_t package_head_bytes(const std::string& path) {
+  auto bytes = read_whole_file(path, 64u << 20);
+  if (!bytes.ok()) return 0;
+  auto package = read_package(*bytes);
+  return package.ok() ? package->base_offset + package->base_size : 0;
+}
+
 // world.json: the streamed conversions (`streamed`: name, package bytes), on a grid or where
 // the layout file puts them. What is left out is said in counts.world_notes.
 Status write_world(const std::string& outroot,
@@ -67,7 +78,8 @@ Status write_world(const std::string& outroot,
       counts.world_notes.push_back(bounds.status().message() + "; left out of world.json");
       continue;
     }
-    packages.push_back({name, name + "/model.mmxp", *bounds, bytes});
+    packages.push_back({name, name + "/model.mmxp", *bounds, bytes,
+                        package_head_bytes(outroot + "/" + name + "/model.mmxp")});
   }
   World world;
   if (layout_path.empty()) {

@@ -140,7 +140,9 @@ std::string world_json(const World& world) {
     const WorldPackage& p = world.packages[i];
     out += i ? ",\n    " : "\n    ";
     out += "{\"name\": " + Json(p.name).dump() + ", \"url\": " + Json(p.url).dump() +
-           ", \"bounds\": " + numbers(p.bounds) + ", \"bytes\": " + std::to_string(p.bytes) + "}";
+           ", \"bounds\": " + numbers(p.bounds) + ", \"bytes\": " + std::to_string(p.bytes);
+    if (p.head_bytes > 0) out += ", \"head_bytes\": " + std::to_string(p.head_bytes);
+    out += "}";
   }
   out += world.packages.empty() ? "],\n  \"placements\": [" : "\n  ],\n  \"placements\": [";
   for (size_t i = 0; i < world.placements.size(); ++i) {
@@ -196,6 +198,13 @@ Result<World> parse_world(const std::string& text, const std::string& file,
       if (!bytes->is_number_unsigned() || bytes->get<uint64_t>() > (uint64_t(1) << 53))
         return fail(file, where + ".bytes is not a byte count");
       p.bytes = bytes->get<uint64_t>();
+    }
+    if (auto head = e.find("head_bytes"); head != e.end()) {
+      if (!head->is_number_unsigned() || head->get<uint64_t>() > (uint64_t(1) << 53))
+        return fail(file, where + ".head_bytes is not a byte count");
+      p.head_bytes = head->get<uint64_t>();
+      if (p.bytes > 0 && p.head_bytes > p.bytes)
+        return fail(file, where + ".head_bytes is more than the package's bytes");
     }
     world.packages.push_back(std::move(p));
   }

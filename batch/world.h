@@ -6,7 +6,8 @@
 //   {"meshmux_world": 1,
 //    "packages": [{"name": "Duck", "url": "Duck/model.mmxp",
 //                  "bounds": [minx, miny, minz, maxx, maxy, maxz],   // world box, model units
-//                  "bytes": 34149}, ...],                            // the package's size
+//                  "bytes": 34149,                                   // the package's size
+//                  "head_bytes": 18602}, ...],   // optional: its header, table and base
 //    "placements": [{"package": 0, "matrix": [16 numbers, column-major]}, ...]}
 // A package may be placed several times (and need not be placed). URLs are relative to the
 // world file's folder and stay inside it: no scheme, no leading '/', no '\', no ".." segment
@@ -28,6 +29,8 @@ struct WorldPackage {
   std::string url;                 // relative to the world's folder
   std::array<double, 6> bounds{};  // world-space box of the package's full detail
   uint64_t bytes = 0;              // the package file's size (0: unknown)
+  uint64_t head_bytes = 0;  // bytes from the file's start through the end of its base (header,
+                            // table, base): one range request shows the package (0: unknown)
 };
 
 struct WorldPlacement {

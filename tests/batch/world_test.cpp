@@ -30,11 +30,14 @@ std::array<double, 3> apply(const std::array<double, 16>& m, double x, double y,
 TEST(World, JsonReadsBackExactly) {
   World w = grid_world({package("Duck", {-1.5, 0, -0.1, 1.5, 2.25, 0.1}, 5'000'000'000ull),
                         package("a\"b", {0.1, 0.2, 0.3, 0.4, 0.5, 0.6}, 7)});
+  w.packages[0].head_bytes = 18602;  // known for one, unknown (0, left out) for the other
   auto back = parse_world(world_json(w), "world.json");
   ASSERT_TRUE(back.ok()) << back.status().message();
   ASSERT_EQ(back->packages.size(), 2u);
   EXPECT_EQ(back->packages[1].name, "a\"b");
   EXPECT_EQ(back->packages[0].bytes, 5'000'000'000ull);
+  EXPECT_EQ(back->packages[0].head_bytes, 18602u);
+  EXPECT_EQ(back->packages[1].head_bytes, 0u);
   for (size_t i = 0; i < 2; ++i) EXPECT_EQ(back->packages[i].bounds, w.packages[i].bounds);
   ASSERT_EQ(back->placements.size(), 2u);
   for (size_t i = 0; i < 2; ++i) {
@@ -147,6 +150,15 @@ TEST(World, RefusesBrokenFilesWithOneLine) {
       {"{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a\", \"bounds\": [0,0,0,1,-1,1]}], "
        "\"placements\": []}",
        "minimum above its maximum",
+       {}},
+      // A head longer than its package would have the client ask past the file's end.
+      {"{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a\", \"bounds\": [0,0,0,1,1,1], "
+       "\"bytes\": 10, \"head_bytes\": 11}], \"placements\": []}",
+       "packages[0].head_bytes is more than the package's bytes",
+       {}},
+      {"{\"meshmux_world\": 1, \"packages\": [{\"url\": \"a\", \"bounds\": [0,0,0,1,1,1], "
+       "\"head_bytes\": -1}], \"placements\": []}",
+       "packages[0].head_bytes is not a byte count",
        {}},
   };
   for (const Case& c : cases) {

@@ -10,6 +10,7 @@
 
 #include "core/sanitizers.h"
 #include "exporters/gltf.h"
+#include "stream/package.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -99,6 +100,10 @@ TEST(Batch, ConvertsGoodInputsAndListsEveryBadOneWithItsError) {
   ASSERT_EQ(world["packages"].size(), 1u) << world.dump(1);
   EXPECT_EQ(world["packages"][0]["url"], "good/model.mmxp");
   EXPECT_EQ(world["packages"][0]["bytes"], good["stream_bytes"]);
+  // Its head: the header, the table and the base, where the package's own table says it ends.
+  auto package = read_package(read_file(out + "/good/model.mmxp"));
+  ASSERT_TRUE(package.ok()) << package.status().message();
+  EXPECT_EQ(world["packages"][0]["head_bytes"], package->base_offset + package->base_size);
   EXPECT_EQ(world["placements"].size(), 1u);
 }
 

@@ -39,6 +39,11 @@ export interface MeshmuxStreamOptions {
   worker?: boolean;
   /** A WorkerPool whose shared workers decode for this stream instead of a worker of its own. */
   workers?: WorkerPool | null;
+  /**
+   * The first request's bytes (default PROBE_BYTES): where the header, table and base are known
+   * to end (a world file's head_bytes), exactly that, so that the package opens in one request.
+   */
+  probeBytes?: number;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }

@@ -267,13 +267,16 @@ export class MeshmuxStream extends EventTarget {
   // shared workers decode for this stream instead of one of its own; MeshmuxWorld passes one),
   // limiter (a RequestLimiter
   // shared by several streams: their range requests wait for it, so a page of many packages keeps
-  // few in flight; MeshmuxWorld passes one).
+  // few in flight; MeshmuxWorld passes one), probeBytes (the first request's bytes, default
+  // PROBE_BYTES: where the header, table and base are known to end, exactly that, so that a
+  // package opens in one request of its own size; a world file says it).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
-      camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null, ...options };
+      camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
+      probeBytes: PROBE_BYTES, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -340,7 +343,8 @@ export class MeshmuxStream extends EventTarget {
     try {
       this._abort = new AbortController();
       const signal = this._abort.signal;
-      const probe = this._reader.probe(PROBE_BYTES, signal, this.options.firstBytes);
+      const first = this.options.firstBytes ? PROBE_BYTES : Math.max(HEADER_BYTES, Math.floor(this.options.probeBytes) || PROBE_BYTES);
+      const probe = this._reader.probe(first, signal, this.options.firstBytes);
       probe.catch(() => {});  // awaited below
       await MeshoptDecoder.ready;
       const head = await probe;

@@ -2,7 +2,11 @@
 import type { Camera, Group, WebGLRenderer } from 'three';
 import type { RequestLimiter, WorkerPool } from './meshmux.js';
 
-export interface WorldPackage { name: string; url: string; bounds: number[]; bytes: number; }
+export interface WorldPackage {
+  name: string; url: string; bounds: number[]; bytes: number;
+  /** Where the package's base ends (its first request); 0: unknown. */
+  headBytes: number;
+}
 export interface WorldPlacement { package: number; matrix: number[]; }
 export interface WorldBudget { triangles: number; texels: number; }
 

@@ -133,7 +133,10 @@ export class MeshmuxWorld extends EventTarget {
 
   async _openPackage(p) {
     if (p.placements.length === 0) return;
-    p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera,
+    // The first request: the package's header, table and base exactly where world.json says
+    // how long they are (a smaller package's base in one request of its own size).
+    const probeBytes = p.headBytes > 0 ? p.headBytes : undefined;
+    p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera, probeBytes,
       limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
@@ -141,19 +144,39 @@ export class MeshmuxWorld extends EventTarget {
     });
     try {
       const object = await p.stream.open();
-      p.placements.forEach((pl, k) => {
+      const groups = p.placements.map((pl, k) => {
         const group = new THREE.Group();
         group.name = `${p.name} ${k}`;
         group.matrixAutoUpdate = false;
         group.matrix.fromArray(pl.matrix);
         group.add(k === 0 ? object : object.clone());  // clones share geometry and materials
-        pl.group = group;
-        this.object.add(group);
+        return (pl.group = group);
       });
+      await this._compile(object);
+      if (p.error || this._state === 'disposed') return;  // failed or disposed meanwhile
+      for (const group of groups) this.object.add(group);
       this.object.updateMatrixWorld(true);
       this._emit('base', { package: p.name });
     } catch (error) {
       this._fail(p, error);
+    }
+  }
+
+  // Compiles the shaders `object` needs before it joins the scene (WebGLRenderer.compileAsync,
+  // with the scene the world is in for its lights): drawn as it arrives, a base's new
+  // materials would compile inside the application's next frame, all bases that arrived since
+  // the last frame at once. Where the driver compiles in parallel (KHR_parallel_shader_compile)
+  // this waits without blocking; elsewhere the compile runs here, once per base. Without a
+  // renderer: nothing.
+  async _compile(object) {
+    const renderer = this.options.renderer, camera = this.options.camera;
+    if (!renderer || !camera || typeof renderer.compileAsync !== 'function') return;
+    let root = this.object;
+    while (root.parent) root = root.parent;
+    try {
+      await renderer.compileAsync(object, camera, root.isScene ? root : null);
+    } catch {
+      // drawn anyway: the frame compiles what is missing
     }
   }
 

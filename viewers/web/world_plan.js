@@ -51,7 +51,9 @@ export function validateWorld(json, file = 'world.json', options = {}) {
     const bounds = numbers(p.bounds, 6, `${w}.bounds`);
     for (let a = 0; a < 3; a++) if (bounds[a] > bounds[a + 3]) fail(`${w}.bounds has a minimum above its maximum`);
     if (p.bytes !== undefined && !(Number.isSafeInteger(p.bytes) && p.bytes >= 0)) fail(`${w}.bytes is not a byte count`);
-    return { name: p.name === undefined ? p.url : p.name, url: p.url, bounds, bytes: p.bytes || 0 };
+    if (p.head_bytes !== undefined && !(Number.isSafeInteger(p.head_bytes) && p.head_bytes >= 0)) fail(`${w}.head_bytes is not a byte count`);
+    if (p.bytes > 0 && p.head_bytes > p.bytes) fail(`${w}.head_bytes is more than the package's bytes`);
+    return { name: p.name === undefined ? p.url : p.name, url: p.url, bounds, bytes: p.bytes || 0, headBytes: p.head_bytes || 0 };
   });
   if (!Array.isArray(json.placements)) fail('"placements" is missing or not an array');
   if (json.placements.length > WORLD_LIMITS.maxPlacements) fail(`${json.placements.length} placements (at most ${WORLD_LIMITS.maxPlacements})`);

@@ -30,6 +30,11 @@ refused({ ...good, meshmux_world: 2 }, 'version 2');
 refused({ packages: [] }, 'not a meshmux world');
 refused([], 'not a JSON object');
 refused({ ...good, packages: [{ ...good.packages[0], bounds: [0, 0, 0, 1, -1, 1] }] }, 'minimum above its maximum');
+// head_bytes: where the base ends (the first request's size); never past the package's end.
+assert.equal(validateWorld({ ...good, packages: [{ ...good.packages[0], head_bytes: 7 }] }).packages[0].headBytes, 7);
+assert.equal(w.packages[0].headBytes, 0, 'unknown: the client probes');
+refused({ ...good, packages: [{ ...good.packages[0], head_bytes: 11 }] }, 'packages[0].head_bytes is more than');
+refused({ ...good, packages: [{ ...good.packages[0], head_bytes: 1.5 }] }, 'packages[0].head_bytes is not a byte count');
 
 // ---- screenShare --------------------------------------------------------------------------------
 // A camera at the origin looking down −z, 90° vertical field, square: (x, y, z) → (x/−z, y/−z).
