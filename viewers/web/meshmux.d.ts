@@ -4,6 +4,8 @@ import type { Box3, Group, PerspectiveCamera, Camera, Scene, WebGLRenderer } fro
 
 /** The package format version this client reads. */
 export const PACKAGE_VERSION: number;
+/** three's Draco glTF decoder files by default: beside this module, as meshmux lays them out. */
+export const DRACO_DECODER_PATH: string;
 /** The bytes of the first request (header, table, often the base). */
 export const PROBE_BYTES: number;
 
@@ -44,6 +46,12 @@ export interface MeshmuxStreamOptions {
    * to end (a world file's head_bytes), exactly that, so that the package opens in one request.
    */
   probeBytes?: number;
+  /**
+   * Gives a three DRACOLoader (a Promise of it, its decoder preloaded) shared with other streams,
+   * called only for a Draco-coded base: each DRACOLoader starts its own decoding workers. Not
+   * disposed by the stream.
+   */
+  dracoLoader?: (() => Promise<unknown>) | null;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }

@@ -36,6 +36,9 @@ const HEADER_BYTES = 12;
 // Texture maps are decoded as stored (EXIF orientation applied): no colour conversion and no
 // premultiplied alpha (three.js is told each map's colour space).
 const IMAGE_OPTIONS = { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' };
+// Where three's Draco glTF decoder files are by default: beside this module, as `meshmux
+// convert` and `meshmux batch` lay them out.
+export const DRACO_DECODER_PATH = new URL('./three/addons/libs/draco/gltf/', import.meta.url).href;
 export const PROBE_BYTES = 65536;  // the first request: header, table and often the base too
 
 // ---- Textures and material -------------------------------------------------------------------
@@ -269,14 +272,17 @@ export class MeshmuxStream extends EventTarget {
   // shared by several streams: their range requests wait for it, so a page of many packages keeps
   // few in flight; MeshmuxWorld passes one), probeBytes (the first request's bytes, default
   // PROBE_BYTES: where the header, table and base are known to end, exactly that, so that a
-  // package opens in one request of its own size; a world file says it).
+  // package opens in one request of its own size; a world file says it), dracoLoader (a
+  // function giving a Promise of a three DRACOLoader, its decoder preloaded, shared by many
+  // streams: each DRACOLoader starts its own decoding workers and compiles the decoder in each;
+  // called only for a Draco-coded base; MeshmuxWorld passes one).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
-      dracoDecoderPath: new URL('./three/addons/libs/draco/gltf/', import.meta.url).href,
+      dracoDecoderPath: DRACO_DECODER_PATH,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
-      probeBytes: PROBE_BYTES, ...options };
+      probeBytes: PROBE_BYTES, dracoLoader: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -416,8 +422,11 @@ export class MeshmuxStream extends EventTarget {
   }
 
   // Parses the base .glb; swaps in the streaming geometries and the shared shading.
-  // three's DRACOLoader with its decoder fetched and compiled (DRACOLoader.preload).
+  // three's DRACOLoader with its decoder fetched and compiled (DRACOLoader.preload): the one
+  // options.dracoLoader() gives (shared by many streams, never disposed here), else one of the
+  // stream's own.
   async _dracoLoader() {
+    if (this.options.dracoLoader) return this.options.dracoLoader();
     const { DRACOLoader } = await import('three/addons/loaders/DRACOLoader.js');
     return new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath).preload();
   }
@@ -444,7 +453,7 @@ export class MeshmuxStream extends EventTarget {
     } catch (e) {
       throw this._fail(`the base .glb cannot be loaded (${e && e.message ? e.message : e})`);
     } finally {
-      if (draco) draco.dispose();
+      if (draco && !this.options.dracoLoader) draco.dispose();
     }
     const root = gltf.scene || gltf.scenes[0];
     const objects = [];

@@ -26,6 +26,8 @@ export interface MeshmuxWorldOptions {
   worker?: boolean;
   /** Workers in the world's pool (default: the cores but one, 1 to 4). */
   workers?: number;
+  /** three's draco/gltf/ decoder files (default: beside world.js, as batch lays them out). */
+  dracoDecoderPath?: string;
   /** How often play() looks at the camera while only off-screen work is left (ms, default 200). */
   pollMs?: number;
 }

@@ -2,7 +2,7 @@
 //
 //   const world = new MeshmuxWorld('world.json', { renderer, camera });
 //   scene.add(world.object);               // each base shows as it arrives,
-//   await world.open();                    // largest on screen first
+//   await world.open();                    // most screen per byte first
 //   world.addEventListener('chunk', render);
 //   await world.play();                    // refinements, each where it buys the most on screen
 //
@@ -27,7 +27,7 @@
 
 import * as THREE from 'three';
 
-import { MeshmuxStream } from './meshmux.js';
+import { DRACO_DECODER_PATH, MeshmuxStream, PROBE_BYTES } from './meshmux.js';
 import { RequestLimiter } from './package_reader.js';
 import { WorkerPool } from './stream_mesh.js';
 import { chunkCost, chunkGain, packageDirection, screenShare, validateWorld, viewWeights, WORLD_LIMITS } from './world_plan.js';
@@ -48,12 +48,15 @@ export class MeshmuxWorld extends EventTarget {
   // device class, defaultBudget()), allowExternalUrls (package URLs outside the world's folder:
   // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true: a
   // pool of `workers` workers shared by the packages, default the cores but one, 1 to 4),
-  // pollMs (how often play() looks at the camera while only off-screen work is left, default 200).
+  // pollMs (how often play() looks at the camera while only off-screen work is left, default
+  // 200), dracoDecoderPath (three's draco/gltf/ decoder files, for Draco-coded bases: one
+  // DRACOLoader serves every package; default beside this module, as batch lays them out).
   constructor(world, options = {}) {
     super();
     this.source = world;  // a URL of world.json, or its parsed JSON
     this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 6, budget: defaultBudget(),
-      allowExternalUrls: false, worker: true, workers: undefined, pollMs: 200, ...options };
+      allowExternalUrls: false, worker: true, workers: undefined, pollMs: 200,
+      dracoDecoderPath: DRACO_DECODER_PATH, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux world';
     const whole = (x, fallback) => (Number.isFinite(x) && x >= 1 ? Math.floor(x) : fallback);
@@ -107,7 +110,7 @@ export class MeshmuxWorld extends EventTarget {
   }
 
   // Reads and validates the world, then opens every package (its table and base) through the
-  // shared limiter, the largest on screen first; each base joins the scene as it arrives. A
+  // shared limiter, the most screen per byte first; each base joins the scene as it arrives. A
   // package that cannot open is reported ('error', stats.failed) and left out. Resolves with
   // this.object once every package opened or failed; rejects only for the world file itself.
   async open() {
@@ -124,8 +127,11 @@ export class MeshmuxWorld extends EventTarget {
     }
     this.packages = world.packages.map((p) => ({ ...p, url: new URL(p.url, base).href, placements: [], stream: null, error: null }));
     for (const pl of world.placements) this.packages[pl.package].placements.push({ matrix: pl.matrix, group: null });
-    const shares = this.packages.map((p) => this._share(p));
-    const order = this.packages.map((_, i) => i).sort((a, b) => shares[b] - shares[a] || a - b);
+    // Bases by screen share per byte of their first request (where world.json does not say
+    // it, the probe's): the screen fills fastest when a small base that covers as much as a
+    // large one comes first; among equal sizes, the largest on screen first.
+    const rate = this.packages.map((p) => this._share(p) / (p.headBytes > 0 ? p.headBytes : PROBE_BYTES));
+    const order = this.packages.map((_, i) => i).sort((a, b) => rate[b] - rate[a] || a - b);
     await Promise.all(order.map((i) => this._openPackage(this.packages[i])));
     this._state = 'open';
     return this.object;
@@ -137,6 +143,7 @@ export class MeshmuxWorld extends EventTarget {
     // how long they are (a smaller package's base in one request of its own size).
     const probeBytes = p.headBytes > 0 ? p.headBytes : undefined;
     p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera, probeBytes,
+      dracoLoader: () => this._draco(),
       limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
@@ -185,6 +192,17 @@ export class MeshmuxWorld extends EventTarget {
     if (p.stream) p.stream.stop();
     for (const pl of p.placements) if (pl.group) this.object.remove(pl.group);
     this._emit('error', { package: p.name, error: p.error });
+  }
+
+  // One DRACOLoader for every package whose base is Draco-coded (each loader starts its own
+  // workers and compiles the decoder in each), made when first asked for; a Promise.
+  _draco() {
+    if (!this._dracoPromise) {
+      this._dracoPromise = import('three/addons/loaders/DRACOLoader.js')
+        .then(({ DRACOLoader }) => (this._dracoInstance = new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath).preload()));
+      this._dracoPromise.catch(() => {});
+    }
+    return this._dracoPromise;
   }
 
   // The placements' screen shares and view weights of a package from the current camera.
@@ -329,6 +347,7 @@ export class MeshmuxWorld extends EventTarget {
     this.stop();
     for (const p of this.packages) if (p.stream) p.stream.dispose();
     if (this.workers) this.workers.terminate();
+    if (this._dracoInstance) this._dracoInstance.dispose();
     this._state = 'disposed';
   }
 }

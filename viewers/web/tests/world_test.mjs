@@ -5,14 +5,16 @@
 // no more than maxRequests range requests are ever in flight; decoding runs in the world's pool
 // of 2 workers. A second world of the two ahead, its budget the bases' texels and one package's
 // refinement triangles: no chunk passes it and it stops short. Then the page `meshmux batch` writes:
-// two uploads batch-converted, OUTROOT served, world.html streams both to "complete" with no
-// page error or failed request.
+// four uploads batch-converted (two samples, two cubes whose packages are whole Draco-coded
+// bases), OUTROOT served, world.html streams them to "complete" with no page error or failed
+// request.
 //
 // usage: node world_test.mjs --meshmux BIN --work DIR [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
+import zlib from 'node:zlib';
 import { fileURLToPath } from 'node:url';
 import { launch, opt, serve, skip } from './harness.mjs';
 
@@ -138,6 +140,20 @@ try {
 const uploads = path.join(work, 'uploads');
 fs.mkdirSync(uploads, { recursive: true });
 for (const n of ['one', 'two']) fs.copyFileSync(sample, path.join(uploads, `${n}.glb`));
+// Two cubes too: a model this small ships whole (a Draco-coded base, no refinements), and a
+// world's packages share one Draco decoder; two of them show that sharing works.
+{
+  const p = new Float32Array([0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1]);
+  const i = new Uint16Array([0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 3, 6, 2, 3, 7, 6, 1, 2, 6, 1, 6, 5, 0, 4, 7, 0, 7, 3]);
+  const bin = Buffer.concat([Buffer.from(p.buffer), Buffer.from(i.buffer)]);
+  const gltf = { asset: { version: '2.0' }, scene: 0, scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+    meshes: [{ primitives: [{ attributes: { POSITION: 0 }, indices: 1 }] }],
+    buffers: [{ byteLength: bin.length, uri: `data:application/octet-stream;base64,${bin.toString('base64')}` }],
+    bufferViews: [{ buffer: 0, byteOffset: 0, byteLength: 96 }, { buffer: 0, byteOffset: 96, byteLength: 72 }],
+    accessors: [{ bufferView: 0, componentType: 5126, count: 8, type: 'VEC3', min: [0, 0, 0], max: [1, 1, 1] },
+      { bufferView: 1, componentType: 5123, count: 36, type: 'SCALAR' }] };
+  for (const n of ['cube1', 'cube2']) fs.writeFileSync(path.join(uploads, `${n}.gltf`), JSON.stringify(gltf));
+}
 const outroot = path.join(work, 'outroot');
 run(meshmux, ['batch', uploads, '-o', outroot, '-q', '--jobs', '2']);
 let pageEnd = null;
@@ -166,6 +182,18 @@ let pageEnd = null;
 
 const check = (ok, what) => { if (!ok) problems.push(what); };
 check(pageEnd === 'complete', `world.html ended "${pageEnd}", not "complete"`);
+{
+  // The cubes' packages have whole (Draco-coded) bases: world.html played them above.
+  const wj = JSON.parse(fs.readFileSync(path.join(outroot, 'world.json'), 'utf8'));
+  check(wj.packages.length === 4, `world.json holds ${wj.packages.length} packages, not 4`);
+  for (const n of ['cube1', 'cube2']) {
+    const b = fs.readFileSync(path.join(outroot, n, 'model.mmxp'));
+    const deflated = b.subarray(12, 12 + b.readUInt32LE(8));
+    let table;
+    try { table = JSON.parse(zlib.inflateSync(deflated)); } catch { table = JSON.parse(zlib.inflateRawSync(deflated)); }
+    check(table.base.whole === true, `${n}: the base is not whole (${JSON.stringify(table.base)})`);
+  }
+}
 if (log) {
   check(log.errors.length === 1 && /^gone: .*gone\/model\.mmxp/.test(log.errors[0]),
     `the missing package is reported once, by name: ${JSON.stringify(log.errors)}`);
