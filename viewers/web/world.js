@@ -18,8 +18,9 @@
 // what is off screen gains nothing and waits (play() keeps watching the camera), what is tiny
 // gains little. A budget of what is drawn (triangles over all placements, texels over all
 // packages, chunks on their way counted) stops refinement where the next chunk would pass it;
-// it does not bound the streams' own buffers (each holds its full mesh's capacity). A package that fails (missing, corrupt) is
-// reported by name ('error' event, stats.failed) and the rest play on.
+// it does not bound the streams' own buffers (each holds its full mesh's capacity). A package
+// that fails (missing, corrupt) is reported by name ('error' event, stats.failed) and the rest
+// play on. The packages share one pool of decoding workers and one Draco decoder.
 //
 // Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (+ package: a
 // package's base is in the scene), 'chunk' (+ package, chunk, kind), 'progress', 'waiting' (only
@@ -245,7 +246,8 @@ export class MeshmuxWorld extends EventTarget {
   }
 
   // What granting `chunks` of package p adds to what is drawn: triangles over its placements
-  // (each mesh as often as the base draws it), and the texels its largest texture level adds over the one shown.
+  // (each mesh as often as the base draws it), and the texels its largest texture level adds
+  // over the one shown.
   _cost(p, chunks) {
     const s = p.stream.stats, shown = s.textureWidth * s.textureHeight;
     const instances = p.stream.meshes.map((m) => m.instances);
