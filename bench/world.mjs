@@ -190,7 +190,14 @@ for (let t = 0; t <= T;) {  // the area counts the path; what is left then loads
   t = Math.max(t + STEP / 1000, Math.ceil(now() / (STEP / 1000)) * (STEP / 1000));
 }
 window.__unthrottle = true;
-// The finished world is the reference: loading gets 10 minutes past the path to finish.
+// The finished world is the reference: loading gets 10 minutes past the path to finish. The
+// world plans from the camera, and what the path's last pose does not see would wait for a turn
+// that never comes: it finishes from far enough to see the whole grid.
+if (mode === 'world') {
+  camera.position.set(centre.x, centre.y + 2 * radius, centre.z + 3 * radius);
+  camera.lookAt(centre);
+  camera.updateMatrixWorld();
+}
 let unfinished = false;
 await Promise.race([loading, new Promise((r) => setTimeout(r, 600000))]);
 if (!finished) unfinished = true;
