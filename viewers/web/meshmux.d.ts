@@ -8,6 +8,14 @@ export const PACKAGE_VERSION: number;
 export const DRACO_DECODER_PATH: string;
 /** The bytes of the first request (header, table, often the base). */
 export const PROBE_BYTES: number;
+/** Resolves after a task boundary (a message, no timer clamping): the page runs its other tasks first. */
+export function nextTask(): Promise<void>;
+/**
+ * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band per
+ * task once the GPU took the one before, then its mipmaps; resolves false (the texture left
+ * unfinished) once `alive()` is false. A texture that fits in one band is left to three.js.
+ */
+export function uploadInBands(renderer: WebGLRenderer, texture: import('three').Texture, bandBytes: number, alive?: () => boolean): Promise<boolean>;
 
 export interface MeshmuxStreamOptions {
   /** The order to play: a name from the package's orders (default "rate-distortion"). */
@@ -52,6 +60,12 @@ export interface MeshmuxStreamOptions {
    * disposed by the stream.
    */
   dracoLoader?: (() => Promise<unknown>) | null;
+  /**
+   * With a renderer, a texture level goes to the GPU in bands of rows of at most this many
+   * bytes, one band per task once the GPU took the one before, before it is shown (default 256 KiB;
+   * Infinity: three.js uploads it whole inside the next frame).
+   */
+  uploadBandBytes?: number;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }

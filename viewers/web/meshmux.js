@@ -251,6 +251,79 @@ const pause = () => new Promise((resolve) => {
   requestAnimationFrame(() => { clearTimeout(timer); resolve(); });
 });
 
+// A bare task boundary (a message to itself: no timer clamping), so that the page's other
+// tasks (its frames, input) run between two steps of a long job.
+export const nextTask = () => new Promise((resolve) => {
+  if (typeof MessageChannel !== 'function') { setTimeout(resolve, 0); return; }
+  const channel = new MessageChannel();
+  channel.port1.onmessage = () => { channel.port1.close(); resolve(); };
+  channel.port2.postMessage(0);
+});
+
+// Resolves once the GPU has done what was submitted to `gl` so far (a fence polled between
+// tasks: WebGL updates a fence's status only then, so the poll never blocks), or after
+// `maxMs`. Without WebGL 2 fences: at once.
+async function gpuIdle(gl, maxMs = 2000) {
+  const sync = gl && gl.fenceSync && gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+  if (!sync) return;
+  gl.flush();
+  for (const t0 = performance.now(); performance.now() - t0 < maxMs;) {
+    await new Promise((resolve) => setTimeout(resolve, 2));
+    if (gl.clientWaitSync(sync, 0, 0) !== gl.TIMEOUT_EXPIRED) break;
+  }
+  gl.deleteSync(sync);
+}
+
+// A page-time budget for a long job on the main thread: `await slice()` returns at once while
+// the job has run less than `ms` since its last task boundary, else after one (nextTask), so
+// that the job's steps share tasks up to about `ms` and no task holds many of them.
+function taskSlicer(ms = 8) {
+  let start = performance.now();
+  return async () => {
+    if (performance.now() - start < ms) return;
+    await nextTask();
+    start = performance.now();
+  };
+}
+
+// Uploads `texture` (an ImageBitmap's) to the GPU in bands of rows of at most `bandBytes` of
+// pixels, one band per task, and its mipmaps after the last band:
+// handed to three.js whole, a 2048² level of four maps is 64 MB uploaded inside one frame of
+// the application's, the longest task on the page (in chromium on software GL, 16 MB from an
+// ImageBitmap take ~240 ms, 256 kB ~1 ms). The texture's storage is allocated first
+// (texStorage2D through WebGLRenderer.initTexture, no pixels: TextureSource.dataReady), then
+// each band is copied in (WebGLRenderer.copyTextureToTexture of a region) once the GPU has
+// taken the one before: a band sent while it is busy waits inside the call for room in the
+// browser's transfer buffer, on the page's thread (two bands in one task took up to 200 ms
+// there). Resolves false, leaving the texture
+// unfinished, once `alive()` turns false. Without a renderer (or a texture that fits in one
+// band) three.js uploads it whole when first drawn.
+export async function uploadInBands(renderer, texture, bandBytes, alive = () => true) {
+  const image = texture.image, width = image.width, height = image.height;
+  const rows = Math.max(1, Math.floor(bandBytes / (4 * width)));
+  if (!renderer || typeof renderer.copyTextureToTexture !== 'function' || rows >= height) return true;
+  const mipmaps = texture.mipmapsAutoUpdate;
+  texture.source.dataReady = false;
+  texture.mipmapsAutoUpdate = false;
+  renderer.initTexture(texture);
+  texture.source.dataReady = true;
+  const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
+  const region = new THREE.Box2(), at = new THREE.Vector2();
+  try {
+    for (let y = 0; y < height; y += rows) {
+      await (y === 0 ? nextTask() : gpuIdle(renderer.getContext(), 500));
+      if (!alive()) return false;
+      texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
+      region.min.set(0, y);
+      region.max.set(width, Math.min(height, y + rows));
+      renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
+    }
+  } finally {
+    texture.mipmapsAutoUpdate = mipmaps;
+  }
+  return true;
+}
+
 // ---- The stream ------------------------------------------------------------------------------
 
 export class MeshmuxStream extends EventTarget {
@@ -268,21 +341,23 @@ export class MeshmuxStream extends EventTarget {
   // stream_worker.js beside this module, and the page only copies in and uploads what changed;
   // false, or where no worker can start, decodes them on the page), workers (a WorkerPool whose
   // shared workers decode for this stream instead of one of its own; MeshmuxWorld passes one),
-  // limiter (a RequestLimiter
-  // shared by several streams: their range requests wait for it, so a page of many packages keeps
-  // few in flight; MeshmuxWorld passes one), probeBytes (the first request's bytes, default
+  // limiter (a RequestLimiter shared by several streams: their range requests wait for it, so a
+  // page of many packages keeps few in flight; MeshmuxWorld passes one), probeBytes (the first request's bytes, default
   // PROBE_BYTES: where the header, table and base are known to end, exactly that, so that a
   // package opens in one request of its own size; a world file says it), dracoLoader (a
   // function giving a Promise of a three DRACOLoader, its decoder preloaded, shared by many
   // streams: each DRACOLoader starts its own decoding workers and compiles the decoder in each;
-  // called only for a Draco-coded base; MeshmuxWorld passes one).
+  // called only for a Draco-coded base; MeshmuxWorld passes one), uploadBandBytes (with a
+  // renderer, a texture level goes to the GPU in bands of rows of at most this many bytes, one
+  // band per task, before it is shown: default 256 KiB; Infinity leaves
+  // three.js to upload it whole inside the next frame).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: DRACO_DECODER_PATH,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
-      probeBytes: PROBE_BYTES, dracoLoader: null, ...options };
+      probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -391,6 +466,7 @@ export class MeshmuxStream extends EventTarget {
       this._worker = await worker;
       // Later ranges are fetched by the worker (their bodies stay off the main thread).
       if (this._worker) this._reader.fetchRange = (...a) => this._worker.fetchRange(...a);
+      await nextTask();  // the base is built in tasks of its own (_buildBase), not in the fetch's
       await this._buildBase(table, base, draco);
       if (this._worker && this.meshes.length) {
         try {
@@ -441,6 +517,9 @@ export class MeshmuxStream extends EventTarget {
       }
     }
     if (bytes.length !== table.base.glbSize) throw this._fail(`the base .glb is ${bytes.length} bytes, the table says ${table.base.glbSize}`);
+    // Parsing, the meshes' buffers and the objects' swap each get tasks of their own: one task
+    // for all of a base is tens to hundreds of milliseconds of the page's time.
+    await nextTask();
     const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
     let gltf, draco = null;
     try {
@@ -450,6 +529,7 @@ export class MeshmuxStream extends EventTarget {
         loader.setDRACOLoader(draco);
       }
       gltf = await loader.parseAsync(glb, '');
+      await nextTask();
     } catch (e) {
       throw this._fail(`the base .glb cannot be loaded (${e && e.message ? e.message : e})`);
     } finally {
@@ -460,7 +540,14 @@ export class MeshmuxStream extends EventTarget {
     if (root) root.traverse((o) => { if (o.isMesh) objects.push(o); });
     if (!objects.length) throw this._fail('the base .glb holds no mesh');
 
-    this.meshes = table.base.whole ? [] : table.meshes.map((d, i) => new StreamMesh(d, i, { local: !this._worker }));
+    const slice = taskSlicer();
+    this.meshes = [];
+    if (!table.base.whole) {
+      for (const [i, d] of table.meshes.entries()) {
+        await slice();
+        this.meshes.push(new StreamMesh(d, i, { local: !this._worker }));
+      }
+    }
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();
     const baseFaces = new Set(), facesDone = new Set();
     const physical = table.view.physical;
@@ -491,6 +578,7 @@ export class MeshmuxStream extends EventTarget {
       return copy;
     };
     for (const o of objects) {
+      await slice();
       const source = Array.isArray(o.material) ? o.material[0] : o.material;
       if (!materialFor.has(source) && !streamed(source)) materialFor.set(source, ownUvSetOnly(source));
       if (!materialFor.has(source)) {
@@ -707,15 +795,7 @@ export class MeshmuxStream extends EventTarget {
   // upload and mipmaps, costly on software rasterizers), so that decoding the next chunk does
   // not compete with it for the CPU. Needs the renderer; gives up after 2 s.
   async _gpuIdle() {
-    const gl = this.options.renderer && this.options.renderer.getContext();
-    const sync = gl && gl.fenceSync && gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
-    if (!sync) return;
-    gl.flush();
-    for (const t0 = performance.now(); performance.now() - t0 < 2000;) {
-      if (gl.clientWaitSync(sync, 0, 0) !== gl.TIMEOUT_EXPIRED) break;
-      await new Promise((resolve) => setTimeout(resolve, 2));
-    }
-    gl.deleteSync(sync);
+    await gpuIdle(this.options.renderer && this.options.renderer.getContext());
   }
 
   async _applyChunk(index, chunk, payload) {
@@ -764,6 +844,7 @@ export class MeshmuxStream extends EventTarget {
     const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
+    if (!(await this._upload(texture))) return;
     this._releaseTexture(this._map.value);
     this._map.value = texture;
     this._textureSize = [bitmap.width, bitmap.height];
@@ -791,12 +872,18 @@ export class MeshmuxStream extends EventTarget {
       throw e;
     }
     if (this._state === 'disposed') { for (const [, b] of decoded) b.close(); return; }
+    // Every map on the GPU before any is shown: the level's maps change together.
+    const textures = [];
     for (const [channel, bitmap] of decoded) {
       if (!CHANNEL_SLOTS[channel]) { bitmap.close(); continue; }
       const texture = configureMap(new THREE.Texture(bitmap), channel, this._anisotropy());
       texture.name = `meshmux ${channel} ${bitmap.width}x${bitmap.height}`;
       this._ownTextures.add(texture);
-      const old = this._maps[channel];
+      textures.push([channel, texture]);
+    }
+    for (const [, texture] of textures) if (!(await this._upload(texture))) return;
+    for (const [channel, texture] of textures) {
+      const bitmap = texture.image, old = this._maps[channel];
       this._maps[channel] = texture;
       for (const m of this._streamedMaterials) {
         let changed = false;
@@ -814,6 +901,17 @@ export class MeshmuxStream extends EventTarget {
   _decodeImage(bytes, mime) {
     if (this._worker) return this._worker.decodeImage(bytes, mime, IMAGE_OPTIONS);
     return createImageBitmap(new Blob([bytes], { type: mime }), IMAGE_OPTIONS);
+  }
+
+  // A texture level of ours to the GPU in bands (uploadInBands); false, with the level's
+  // textures released, when the stream was disposed meanwhile.
+  async _upload(texture) {
+    const alive = () => this._state !== 'disposed';
+    if (await uploadInBands(this.options.renderer, texture, this.options.uploadBandBytes, alive) && alive()) return true;
+    for (const t of [...this._ownTextures]) {
+      if (t !== this._map.value && !Object.values(this._maps).includes(t)) this._releaseTexture(t);
+    }
+    return false;
   }
 
   _releaseTexture(texture) {

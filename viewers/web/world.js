@@ -28,7 +28,7 @@
 
 import * as THREE from 'three';
 
-import { DRACO_DECODER_PATH, MeshmuxStream, PROBE_BYTES } from './meshmux.js';
+import { DRACO_DECODER_PATH, MeshmuxStream, nextTask, PROBE_BYTES } from './meshmux.js';
 import { RequestLimiter } from './package_reader.js';
 import { WorkerPool } from './stream_mesh.js';
 import { chunkCost, chunkGain, packageDirection, screenShare, validateWorld, viewWeights, WORLD_LIMITS } from './world_plan.js';
@@ -160,7 +160,9 @@ export class MeshmuxWorld extends EventTarget {
         group.add(k === 0 ? object : object.clone());  // clones share geometry and materials
         return (pl.group = group);
       });
+      await nextTask();  // each package's compile in a task of its own, after its base's build
       await this._compile(object);
+      await nextTask();
       if (p.error || this._state === 'disposed') return;  // failed or disposed meanwhile
       for (const group of groups) this.object.add(group);
       this.object.updateMatrixWorld(true);
