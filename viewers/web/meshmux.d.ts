@@ -14,8 +14,9 @@ export function nextTask(): Promise<void>;
  * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band per
  * task once the GPU took the one before, then its mipmaps; resolves false (the texture left
  * unfinished) once `alive()` is false. A texture that fits in one band is left to three.js.
+ * Bands grow up to `grow` (default 4) times `bandBytes` while the GPU takes them quickly.
  */
-export function uploadInBands(renderer: WebGLRenderer, texture: import('three').Texture, bandBytes: number, alive?: () => boolean): Promise<boolean>;
+export function uploadInBands(renderer: WebGLRenderer, texture: import('three').Texture, bandBytes: number, alive?: () => boolean, grow?: number): Promise<boolean>;
 
 export interface MeshmuxStreamOptions {
   /** The order to play: a name from the package's orders (default "rate-distortion"). */

@@ -297,10 +297,13 @@ function taskSlicer(ms = 8) {
 // browser's transfer buffer, on the page's thread (two bands in one task took up to 200 ms
 // there). Resolves false, leaving the texture
 // unfinished, once `alive()` turns false. Without a renderer (or a texture that fits in one
-// band) three.js uploads it whole when first drawn.
-export async function uploadInBands(renderer, texture, bandBytes, alive = () => true) {
+// band) three.js uploads it whole when first drawn. Where the GPU takes bands quickly the band
+// grows (doubles after a copy of under 4 ms, up to `grow` times `bandBytes`, default 4) and shrinks back
+// after one of over 8 ms: fewer waits for the GPU, each task still short.
+export async function uploadInBands(renderer, texture, bandBytes, alive = () => true, grow = 4) {
   const image = texture.image, width = image.width, height = image.height;
-  const rows = Math.max(1, Math.floor(bandBytes / (4 * width)));
+  const least = Math.max(1, Math.floor(bandBytes / (4 * width))), most = Math.max(least, Math.floor(least * grow));
+  let rows = least;
   if (!renderer || typeof renderer.copyTextureToTexture !== 'function' || rows >= height) return true;
   const mipmaps = texture.mipmapsAutoUpdate;
   texture.source.dataReady = false;
@@ -310,13 +313,17 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
   const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
   const region = new THREE.Box2(), at = new THREE.Vector2();
   try {
-    for (let y = 0; y < height; y += rows) {
+    for (let y = 0; y < height;) {
       await (y === 0 ? nextTask() : gpuIdle(renderer.getContext(), 500));
       if (!alive()) return false;
       texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
       region.min.set(0, y);
       region.max.set(width, Math.min(height, y + rows));
+      const t0 = performance.now();
       renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
+      const ms = performance.now() - t0;
+      y += rows;
+      rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
     }
   } finally {
     texture.mipmapsAutoUpdate = mipmaps;

@@ -28,6 +28,11 @@ export interface MeshmuxWorldOptions {
   workers?: number;
   /** three's draco/gltf/ decoder files (default: beside world.js, as batch lays them out). */
   dracoDecoderPath?: string;
+  /**
+   * Workers of three's MeshoptDecoder that decode the bases' meshopt-coded buffers off the page
+   * (default 1; 0 leaves the decoder as the page set it: it is one module shared with the page).
+   */
+  meshoptWorkers?: number;
   /** How often play() looks at the camera while only off-screen work is left (ms, default 200). */
   pollMs?: number;
 }

@@ -27,6 +27,7 @@
 // off-screen work is left), 'complete', 'stopped', 'error' (+ package, error).
 
 import * as THREE from 'three';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { DRACO_DECODER_PATH, MeshmuxStream, nextTask, PROBE_BYTES } from './meshmux.js';
 import { RequestLimiter } from './package_reader.js';
@@ -51,13 +52,16 @@ export class MeshmuxWorld extends EventTarget {
   // pool of `workers` workers shared by the packages, default the cores but one, 1 to 4),
   // pollMs (how often play() looks at the camera while only off-screen work is left, default
   // 200), dracoDecoderPath (three's draco/gltf/ decoder files, for Draco-coded bases: one
-  // DRACOLoader serves every package; default beside this module, as batch lays them out).
+  // DRACOLoader serves every package; default beside this module, as batch lays them out),
+  // meshoptWorkers (the bases' meshopt-coded buffers are decoded in this many workers of three's
+  // MeshoptDecoder instead of on the page, default 1; 0 leaves the decoder as the page set it:
+  // it is one module shared with the page, so this sets its worker count for the page too).
   constructor(world, options = {}) {
     super();
     this.source = world;  // a URL of world.json, or its parsed JSON
     this.options = { renderer: null, camera: null, maxRequests: 6, concurrent: 6, budget: defaultBudget(),
       allowExternalUrls: false, worker: true, workers: undefined, pollMs: 200,
-      dracoDecoderPath: DRACO_DECODER_PATH, ...options };
+      dracoDecoderPath: DRACO_DECODER_PATH, meshoptWorkers: 1, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux world';
     const whole = (x, fallback) => (Number.isFinite(x) && x >= 1 ? Math.floor(x) : fallback);
@@ -65,6 +69,7 @@ export class MeshmuxWorld extends EventTarget {
     this.options.concurrent = whole(this.options.concurrent, 6);
     this.limiter = new RequestLimiter(this.options.maxRequests);
     this.workers = this.options.worker ? new WorkerPool(this.options.workers) : null;
+    if (this.options.meshoptWorkers >= 1) MeshoptDecoder.useWorkers(Math.min(4, Math.floor(this.options.meshoptWorkers)));
     this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
     this._state = 'idle';
     this._stop = false;

@@ -1,8 +1,9 @@
 // A texture level uploaded in bands (meshmux.js uploadInBands) is the same texture as three.js
-// uploading it whole, in every mip level, and no band's task holds the page long. The image is
+// uploading it whole, in every mip level (the longest task while the bands go is printed). The image is
 // 256×512 with every texel distinct (a band off by a row, a flipped band or a missing last band
 // shows), the bands 37 rows (the last one partial); level 0 is also checked against the source
-// pixels. Then a stopped upload (alive() false) resolves false after its first band, and a
+// pixels; bands that grow (from 5 rows: copies are quick on a 256-pixel-wide image) give the
+// same texture in fewer copies. Then a stopped upload (alive() false) resolves false after its first band, and a
 // texture that fits in one band is left to three.js (no band copied).
 //
 // usage: node upload_test.mjs --meshmux BIN --work DIR [--chromium PATH]
@@ -68,23 +69,29 @@ const differing = (a, b) => { let n = 0; for (let i = 0; i < a.length; i++) if (
 let copies = 0;
 const copy = renderer.copyTextureToTexture.bind(renderer);
 renderer.copyTextureToTexture = (...a) => { copies++; return copy(...a); };
+const whole = make();
+renderer.initTexture(whole);
+gl.finish();
 // Tasks while the bands go: a 2 ms timer's lateness.
 let longest = 0, tick = performance.now(), probing = true;
 (function probe() { const t = performance.now(); longest = Math.max(longest, t - tick - 2); tick = t; if (probing) setTimeout(probe, 2); })();
-
-const whole = make();
-renderer.initTexture(whole);
 const banded = make();
-const done = await uploadInBands(renderer, banded, ROWS * W * 4);
+const done = await uploadInBands(renderer, banded, ROWS * W * 4, () => true, 1);
 probing = false;
 const result = { done, copies, longest, mipmapsAutoUpdate: banded.mipmapsAutoUpdate, levels: [] };
 result.sourceDiffers = differing(read(banded, 0), new Uint8Array(source.buffer));
 for (const level of [0, 1, 3, 6]) result.levels.push({ level, differs: differing(read(banded, level), read(whole, level)) });
+// Bands that grow where copies are quick: the same texture.
+copies = 0;
+const grown = make();
+result.grownDone = await uploadInBands(renderer, grown, 5 * W * 4, () => true, 64);
+result.grownCopies = copies;
+result.grownDiffers = [0, 1, 3].map((level) => differing(read(grown, level), read(whole, level))).reduce((a, b) => a + b, 0);
 // Stopped after its first band.
 copies = 0;
 const stopped = make();
 let calls = 0;
-result.stopped = await uploadInBands(renderer, stopped, ROWS * W * 4, () => ++calls < 2);
+result.stopped = await uploadInBands(renderer, stopped, ROWS * W * 4, () => ++calls < 2, 1);
 result.stoppedCopies = copies;
 // One band would hold it all: three.js uploads it when first drawn.
 copies = 0;
@@ -106,12 +113,15 @@ try {
   await Promise.race([done, new Promise((_, reject) => setTimeout(() => reject(new Error('timed out')), 120000))]);
   const r = await page.evaluate(() => window.__upload);
   console.log(`banded: ${r.copies} bands, longest task ${r.longest.toFixed(1)} ms; texels differing from three.js's whole upload by level: ${r.levels.map((l) => `${l.level}: ${l.differs}`).join(', ')}; level 0 from the source: ${r.sourceDiffers}`);
+  console.log(`growing from 5 rows: ${r.grownCopies} bands, ${r.grownDiffers} bytes differ in levels 0, 1, 3`);
   console.log(`stopped: ${r.stopped} after ${r.stoppedCopies} band(s); one band's worth: ${r.small}, ${r.smallCopies} bands`);
   if (r.done !== true) fail('the banded upload did not resolve true');
   if (r.copies !== Math.ceil(512 / 37)) fail(`${r.copies} bands, expected ${Math.ceil(512 / 37)}`);
   for (const l of r.levels) if (l.differs) fail(`mip level ${l.level}: ${l.differs} bytes differ from the whole upload`);
   if (r.sourceDiffers) fail(`level 0: ${r.sourceDiffers} bytes differ from the source image`);
   if (r.mipmapsAutoUpdate !== true) fail('the texture\'s mipmapsAutoUpdate was not restored');
+  if (r.grownDone !== true || r.grownDiffers) fail(`growing bands: ${r.grownDone}, ${r.grownDiffers} bytes differ from the whole upload`);
+  if (!(r.grownCopies >= 2 && r.grownCopies < Math.ceil(512 / 5))) fail(`growing bands: ${r.grownCopies} copies (expected fewer than ${Math.ceil(512 / 5)}, more than 1)`);
   if (r.stopped !== false || r.stoppedCopies !== 1) fail(`a stopped upload resolved ${r.stopped} after ${r.stoppedCopies} bands (expected false after 1)`);
   if (r.small !== true || r.smallCopies !== 0) fail(`a texture within one band: ${r.small}, ${r.smallCopies} bands (expected true, 0)`);
 } finally {
