@@ -12,10 +12,14 @@
 // time (lower is better), the mean PSNR, when every base was shown, when all was loaded, and the
 // main-thread stalls while loading outside the bench's own renders. Progress on stderr.
 // Each mode decodes as its library does by default (MeshmuxStream / MeshmuxWorld: in workers).
+// --trace: each run is also traced (main_thread.mjs), and a second table says whose the page's
+// tasks over 16 ms were while loading: the library's (meshmux's scripts, or three's loaders), the
+// bench's frames, the browser's commits of them, or other; the trace slows the page, so its
+// runs' areas are not to be compared with untraced ones.
 //
 // usage: node bench/world.mjs --meshmux BIN [--models DIR | --corpus N] [--work DIR]
 //        [--mbit 10[,1.5,50]] [--seconds 40] [--modes world,independent,sequential,gltf]
-//        [--repeat K] [--chromium PATH]
+//        [--repeat K] [--trace] [--chromium PATH]
 // --corpus N: N models spread evenly over ../shared/corpus/models.tsv instead of the shared
 // models; --repeat K: K rounds of every mode, the modes interleaved, each figure the median.
 import { spawnSync } from 'node:child_process';
@@ -23,6 +27,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { launch, opt, serve } from '../viewers/web/tests/harness.mjs';
+import { startTrace, taskOwners } from './main_thread.mjs';
 import { throttle } from './throttle.mjs';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
@@ -36,6 +41,9 @@ const seconds = Number(opt('--seconds', '40'));
 const modes = opt('--modes', 'world,independent,sequential,gltf').split(',');
 const repeat = Math.max(1, Number(opt('--repeat', '1')) || 1);
 const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+const tracing = process.argv.includes('--trace');
+// The loading libraries' scripts: meshmux's modules, three's loaders and decoders.
+const LIBRARY = /\/viewer\/(world|meshmux|stream_\w+|package_reader|view_plan|world_plan)\.js|\/addons\/(loaders|libs)\//;
 if (!fs.existsSync(models)) { console.error(`SKIPPED: ${models} not found`); process.exit(77); }
 if (!fs.existsSync(chromiumPath)) { console.error(`SKIPPED: ${chromiumPath} not installed`); process.exit(77); }
 
@@ -116,6 +124,7 @@ let tick = performance.now();
 // already compiled, in whichever mode it happened.
 addStreamLighting({ physical: true, environment: 1, lightIntensity: 2, lightDirection: [0.5, 1, 0.8], lightFollowsCamera: true }, scene, camera, renderer);
 renderer.render(scene, camera);
+performance.mark('bench-start');
 const t0 = performance.now(), now = () => (performance.now() - t0) / 1000;
 let basesAt = NaN, doneAt = NaN;
 let received = () => 0;  // bytes the mode's streams received so far (meshmux modes)
@@ -180,7 +189,7 @@ const grab = () => {
   return px;
 };
 let finished = false;
-const loading = load().then(() => { doneAt = now(); finished = true; });
+const loading = load().then(() => { doneAt = now(); finished = true; performance.mark('bench-loaded'); });
 for (let t = 0; t <= T;) {  // the area counts the path; what is left then loads at full speed
   while (now() < t) await new Promise((r) => setTimeout(r, Math.max(1, (t - now()) * 1000)));
   pose(t);
@@ -240,6 +249,11 @@ try {
         const page = context.pages()[0] || (await context.newPage());
         page.on('console', (m) => { if (/^(gltf|stream):/.test(m.text())) console.error(`  ${mode}: ${m.text()}`); });
         const done = new Promise((resolve) => page.on('console', (m) => { if (m.text() === 'bench-world: done') resolve(); }));
+        let trace = null;
+        if (tracing) {  // the page's origin first: the bench page then runs in the traced renderer
+          await page.goto(`${url}world.json`);
+          trace = await startTrace(await context.newCDPSession(page));
+        }
         await page.goto(`${url}bench_world.html?mode=${mode}&seconds=${seconds}`);
         // Past the path, the rest loads at full speed (only the references need it).
         const lift = setInterval(async () => {
@@ -251,6 +265,12 @@ try {
         await done;
         clearInterval(lift);
         const r = await page.evaluate(() => window.__bench);
+        if (trace) {
+          const { events, profile } = await trace.stop();
+          r.tasks = taskOwners(events, profile, { start: 'bench-start', end: 'bench-loaded', library: LIBRARY, frameFunctions: ['grab'] });
+          const lib = r.tasks.tasks.filter((x) => x.owner === 'library').sort((a, b) => b.ms - a.ms).slice(0, 5);
+          console.error(`world bench: ${mbit} Mbit/s ${mode}: longest library tasks ${lib.map((x) => `${x.ms.toFixed(0)} ms at ${x.at.toFixed(1)} s (${x.top.join(', ')})`).join('; ') || 'none'}`);
+        }
         ((results[mbit] ||= {})[mode] ||= []).push(r);
         console.error(`world bench: ${mbit} Mbit/s ${mode}: area ${r.area.toFixed(4)}, PSNR ${r.psnr.toFixed(1)} dB, bases ${r.basesAt.toFixed(1)} s, loaded ${r.doneAt.toFixed(1)} s, frame render ${r.renderMs.toFixed(0)} ms, ${r.samples} frames${r.unfinished ? ', NOT FINISHED (its last state is the reference)' : ''}, MB at 5 s marks ${[5, 10, 15, 20, 25, 30].map((m) => { const k = r.times.findLastIndex((t) => t <= m); return k >= 0 ? (r.bytes[k] / 1e6).toFixed(1) : '–'; }).join(' ')}, area per 5 s ${r.errors.reduce((o, e, k) => { const end = k + 1 < r.times.length ? r.times[k + 1] : seconds; const b = Math.min(5, Math.floor(r.times[k] / 5)); o[b] = (o[b] || 0) + e * (end - r.times[k]); return o; }, []).map((x) => x.toFixed(3)).join(' ')}`);
       } finally {
@@ -283,6 +303,19 @@ for (const mbit of rates) {
     const range = r.areas.length > 1 ? ` (${f(Math.min(...r.areas), 4)}-${f(Math.max(...r.areas), 4)})` : '';
     const note = r.unfinished ? ` (${r.unfinished} run(s) did not finish in 10 min past the path)` : '';
     console.log(`| ${mode}${note} | ${f(r.area, 4)}${range} | ${vs} | ${f(r.psnr, 1)} | ${f(r.basesAt, 1)} | ${f(r.doneAt, 1)} | ${r.longCount} (${f(r.longMax, 0)}) |`);
+  }
+  console.log('');
+  if (!tracing) continue;
+  // Whose the tasks over 16 ms were, while loading (the runs' medians; the longest over all runs).
+  console.log(`Main-thread tasks over 16 ms while loading, by owner (traced runs): count, over 50 ms, longest ms\n\n| order | library (meshmux / three's loaders) | the bench's frames | the browser's commits of them | other |\n|---|---:|---:|---:|---:|`);
+  for (const mode of modes) {
+    const runs = (results[mbit] || {})[mode];
+    if (!runs) continue;
+    const cell = (owner) => {
+      const os = runs.map((r) => (r.tasks && r.tasks.owners[owner]) || { tasks: 0, over50: 0, longest: 0 });
+      return `${median(os.map((o) => o.tasks))}, ${median(os.map((o) => o.over50))}, ${f(Math.max(...os.map((o) => o.longest)), 0)}`;
+    };
+    console.log(`| ${mode} | ${cell('library')} | ${cell('frame')} | ${cell('commit')} | ${cell('other')} |`);
   }
   console.log('');
 }
