@@ -67,6 +67,12 @@ export interface MeshmuxStreamOptions {
    * Infinity: three.js uploads it whole inside the next frame).
    */
   uploadBandBytes?: number;
+  /**
+   * A limiter whose run(job) the base's build waits for (like a RequestLimiter): many streams
+   * on one page then build their bases a few at a time, first come first built (MeshmuxWorld
+   * passes one).
+   */
+  builds?: { run<T>(job: () => Promise<T>): Promise<T> } | null;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }

@@ -357,14 +357,17 @@ export class MeshmuxStream extends EventTarget {
   // called only for a Draco-coded base; MeshmuxWorld passes one), uploadBandBytes (with a
   // renderer, a texture level goes to the GPU in bands of rows of at most this many bytes, one
   // band per task, before it is shown: default 256 KiB; Infinity leaves
-  // three.js to upload it whole inside the next frame).
+  // three.js to upload it whole inside the next frame), builds (a limiter whose run(job) the
+  // base's build waits for, like a RequestLimiter: with many streams on a page the bases are
+  // built a few at a time, first come first built, instead of all at once taking turns task by
+  // task, which shows none until nearly all are done; MeshmuxWorld passes one).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: DRACO_DECODER_PATH,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
-      probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, ...options };
+      probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -474,7 +477,8 @@ export class MeshmuxStream extends EventTarget {
       // Later ranges are fetched by the worker (their bodies stay off the main thread).
       if (this._worker) this._reader.fetchRange = (...a) => this._worker.fetchRange(...a);
       await nextTask();  // the base is built in tasks of its own (_buildBase), not in the fetch's
-      await this._buildBase(table, base, draco);
+      const build = () => this._buildBase(table, base, draco);
+      await (this.options.builds ? this.options.builds.run(build) : build());
       if (this._worker && this.meshes.length) {
         try {
           await this._worker.setup(table.meshes, this.meshes);

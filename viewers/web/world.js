@@ -68,6 +68,9 @@ export class MeshmuxWorld extends EventTarget {
     this.options.maxRequests = whole(this.options.maxRequests, 6);
     this.options.concurrent = whole(this.options.concurrent, 6);
     this.limiter = new RequestLimiter(this.options.maxRequests);
+    // Bases are built (and their shaders compiled) two at a time, in the order they arrive: all
+    // at once, each yielding to the others task by task, none would show until nearly all did.
+    this.builds = new RequestLimiter(2);
     this.workers = this.options.worker ? new WorkerPool(this.options.workers) : null;
     if (this.options.meshoptWorkers >= 1) MeshoptDecoder.useWorkers(Math.min(4, Math.floor(this.options.meshoptWorkers)));
     this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
@@ -149,7 +152,7 @@ export class MeshmuxWorld extends EventTarget {
     // how long they are (a smaller package's base in one request of its own size).
     const probeBytes = p.headBytes > 0 ? p.headBytes : undefined;
     p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera, probeBytes,
-      dracoLoader: () => this._draco(),
+      dracoLoader: () => this._draco(), builds: this.builds,
       limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
@@ -166,7 +169,7 @@ export class MeshmuxWorld extends EventTarget {
         return (pl.group = group);
       });
       await nextTask();  // each package's compile in a task of its own, after its base's build
-      await this._compile(object);
+      await this.builds.run(() => this._compile(object));
       await nextTask();
       if (p.error || this._state === 'disposed') return;  // failed or disposed meanwhile
       for (const group of groups) this.object.add(group);
