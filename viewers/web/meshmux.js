@@ -287,24 +287,26 @@ function taskSlicer(ms = 8) {
 }
 
 // Uploads `texture` (an ImageBitmap's) to the GPU in bands of rows of at most `bandBytes` of
-// pixels, one band per task, and its mipmaps after the last band:
-// handed to three.js whole, a 2048² level of four maps is 64 MB uploaded inside one frame of
-// the application's, the longest task on the page (in chromium on software GL, 16 MB from an
-// ImageBitmap take ~240 ms, 256 kB ~1 ms). The texture's storage is allocated first
-// (texStorage2D through WebGLRenderer.initTexture, no pixels: TextureSource.dataReady), then
-// each band is copied in (WebGLRenderer.copyTextureToTexture of a region) once the GPU has
-// taken the one before: a band sent while it is busy waits inside the call for room in the
-// browser's transfer buffer, on the page's thread (two bands in one task took up to 200 ms
-// there). Resolves false, leaving the texture
-// unfinished, once `alive()` turns false. Without a renderer (or a texture that fits in one
-// band) three.js uploads it whole when first drawn. Where the GPU takes bands quickly the band
-// grows (doubles after a copy of under 4 ms, up to `grow` times `bandBytes`, default 4) and shrinks back
-// after one of over 8 ms: fewer waits for the GPU, each task still short.
+// pixels, one band per task, then its mipmaps. Handed to three.js whole, a 2048² level of four
+// maps is 64 MB uploaded inside one frame of the application's, the longest task on the page
+// (in chromium on software GL, 16 MB from an ImageBitmap take ~240 ms, 256 kB ~1 ms). The
+// texture's storage is allocated first (texStorage2D through WebGLRenderer.initTexture, no
+// pixels: TextureSource.dataReady), then each band is copied in (copyTextureToTexture of a
+// region), the next in the next task while copies take under 8 ms, else once the GPU has taken
+// what was sent: a band sent while it is busy waits inside the call for room in the browser's
+// transfer buffer, on the page's thread (two bands in one task took up to 200 ms there; a wait
+// for the GPU after every band made a world's levels arrive at a frame's pace). The band grows
+// (doubles after a copy of under 4 ms, up to `grow` times `bandBytes`) and shrinks back after
+// one of over 8 ms.
+// Resolves false, the texture unfinished, once `alive()` turns false. Without a renderer, for
+// a texture that fits in one band, or one past the GPU's largest side (three.js scales it
+// down), three.js uploads it whole when first drawn.
 export async function uploadInBands(renderer, texture, bandBytes, alive = () => true, grow = 4) {
   const image = texture.image, width = image.width, height = image.height;
   const least = Math.max(1, Math.floor(bandBytes / (4 * width))), most = Math.max(least, Math.floor(least * grow));
   let rows = least;
   if (!renderer || typeof renderer.copyTextureToTexture !== 'function' || rows >= height) return true;
+  if (Math.max(width, height) > renderer.capabilities.maxTextureSize) return true;
   const mipmaps = texture.mipmapsAutoUpdate;
   texture.source.dataReady = false;
   texture.mipmapsAutoUpdate = false;
@@ -312,9 +314,10 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
   texture.source.dataReady = true;
   const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
   const region = new THREE.Box2(), at = new THREE.Vector2();
+  let quick = true;  // the last copy took under 8 ms
   try {
     for (let y = 0; y < height;) {
-      await (y === 0 ? nextTask() : gpuIdle(renderer.getContext(), 500));
+      await (quick ? nextTask() : gpuIdle(renderer.getContext(), 500));
       if (!alive()) return false;
       texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
       region.min.set(0, y);
@@ -323,6 +326,7 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
       renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
       const ms = performance.now() - t0;
       y += rows;
+      quick = ms <= 8;
       rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
     }
   } finally {
@@ -348,19 +352,19 @@ export class MeshmuxStream extends EventTarget {
   // stream_worker.js beside this module, and the page only copies in and uploads what changed;
   // false, or where no worker can start, decodes them on the page), workers (a WorkerPool whose
   // shared workers decode for this stream instead of one of its own; MeshmuxWorld passes one),
-  // limiter (a RequestLimiter shared by several streams: their range requests wait for it, so a
-  // page of many packages keeps few in flight; MeshmuxWorld passes one), probeBytes (the first request's bytes, default
-  // PROBE_BYTES: where the header, table and base are known to end, exactly that, so that a
-  // package opens in one request of its own size; a world file says it), dracoLoader (a
-  // function giving a Promise of a three DRACOLoader, its decoder preloaded, shared by many
-  // streams: each DRACOLoader starts its own decoding workers and compiles the decoder in each;
-  // called only for a Draco-coded base; MeshmuxWorld passes one), uploadBandBytes (with a
-  // renderer, a texture level goes to the GPU in bands of rows of at most this many bytes, one
-  // band per task, before it is shown: default 256 KiB; Infinity leaves
-  // three.js to upload it whole inside the next frame), builds (a limiter whose run(job) the
-  // base's build waits for, like a RequestLimiter: with many streams on a page the bases are
-  // built a few at a time, first come first built, instead of all at once taking turns task by
-  // task, which shows none until nearly all are done; MeshmuxWorld passes one).
+  // limiter (a RequestLimiter shared by several streams: their range requests wait for it, so
+  // a page of many packages keeps few in flight; MeshmuxWorld passes one), probeBytes (the
+  // first request's bytes, default PROBE_BYTES: where the header, table and base are known to
+  // end, exactly that, so that a package opens in one request of its own size; a world file
+  // says it), dracoLoader (a function giving a Promise of a three DRACOLoader, its decoder
+  // preloaded, shared by many streams: each DRACOLoader starts its own decoding workers and
+  // compiles the decoder in each; called only for a Draco-coded base; MeshmuxWorld passes one),
+  // uploadBandBytes (with a renderer, a texture level goes to the GPU in bands of rows of at
+  // most this many bytes, one band per task, before it is shown: default 256 KiB; Infinity
+  // leaves three.js to upload it whole inside the next frame), builds (a limiter whose
+  // run(job) the base's build waits for, like a RequestLimiter: with many streams on a page
+  // the bases are built a few at a time, first come first built, instead of all at once taking
+  // turns task by task, which shows none until nearly all are done; MeshmuxWorld passes one).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
