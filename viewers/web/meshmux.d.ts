@@ -12,7 +12,7 @@ export const PROBE_BYTES: number;
 export function nextTask(): Promise<void>;
 /**
  * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band per
- * task (after a slow copy, once the GPU took what was sent), then its mipmaps; resolves false (the texture left
+ * task while the GPU has taken all but a few of those sent, then its mipmaps; resolves false (the texture left
  * unfinished) once `alive()` is false. A texture that fits in one band is left to three.js.
  * Bands grow up to `grow` (default 4) times `bandBytes` while the GPU takes them quickly.
  */
@@ -63,7 +63,7 @@ export interface MeshmuxStreamOptions {
   dracoLoader?: (() => Promise<unknown>) | null;
   /**
    * With a renderer, a texture level goes to the GPU in bands of rows of at most this many
-   * bytes, one band per task (after a slow copy, once the GPU took what was sent), before it is shown (default 256 KiB;
+   * bytes, one band per task while the GPU has taken all but a few of those sent, before it is shown (default 256 KiB;
    * Infinity: three.js uploads it whole inside the next frame).
    */
   uploadBandBytes?: number;

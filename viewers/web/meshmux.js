@@ -267,12 +267,19 @@ async function gpuIdle(gl, maxMs = 2000) {
   const sync = gl && gl.fenceSync && gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
   if (!sync) return;
   gl.flush();
-  for (const t0 = performance.now(); performance.now() - t0 < maxMs;) {
+  await fenceDone(gl, sync, maxMs);
+}
+
+// Resolves once the fence `sync` has signalled (polled every 2 ms, between tasks) or after
+// `maxMs`, and deletes it.
+async function fenceDone(gl, sync, maxMs) {
+  for (const t0 = performance.now(); gl.clientWaitSync(sync, 0, 0) === gl.TIMEOUT_EXPIRED && performance.now() - t0 < maxMs;)
     await new Promise((resolve) => setTimeout(resolve, 2));
-    if (gl.clientWaitSync(sync, 0, 0) !== gl.TIMEOUT_EXPIRED) break;
-  }
   gl.deleteSync(sync);
 }
+
+// Texture bands sent to the GPU and not yet taken before the next waits (uploadInBands).
+const BANDS_IN_FLIGHT = 4;
 
 // A page-time budget for a long job on the main thread: `await slice()` returns at once while
 // the job has run less than `ms` since its last task boundary, else after one (nextTask), so
@@ -292,12 +299,12 @@ function taskSlicer(ms = 8) {
 // (in chromium on software GL, 16 MB from an ImageBitmap take ~240 ms, 256 kB ~1 ms). The
 // texture's storage is allocated first (texStorage2D through WebGLRenderer.initTexture, no
 // pixels: TextureSource.dataReady), then each band is copied in (copyTextureToTexture of a
-// region), the next in the next task while copies take under 8 ms, else once the GPU has taken
-// what was sent: a band sent while it is busy waits inside the call for room in the browser's
-// transfer buffer, on the page's thread (two bands in one task took up to 200 ms there; a wait
-// for the GPU after every band made a world's levels arrive at a frame's pace). The band grows
-// (doubles after a copy of under 4 ms, up to `grow` times `bandBytes`) and shrinks back after
-// one of over 8 ms.
+// region) in the next task, once the GPU has taken all but BANDS_IN_FLIGHT - 1 of those sent
+// (a fence after each): bands sent while it is busy wait inside the call for room in the
+// browser's transfer buffer, on the page's thread (two bands in one task took up to 200 ms
+// there, bands sent whenever a copy was quick up to 149 ms), and a wait for the GPU after every
+// band made a world's levels arrive at a frame's pace. The band grows (doubles after a copy of
+// under 4 ms, up to `grow` times `bandBytes`) and shrinks back after one of over 8 ms.
 // Resolves false, the texture unfinished, once `alive()` turns false. Without a renderer, for
 // a texture that fits in one band, or one past the GPU's largest side (three.js scales it
 // down), three.js uploads it whole when first drawn.
@@ -314,10 +321,11 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
   texture.source.dataReady = true;
   const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
   const region = new THREE.Box2(), at = new THREE.Vector2();
-  let quick = true;  // the last copy took under 8 ms
+  const gl = renderer.getContext(), fences = [];  // one per band the GPU may not have taken
   try {
     for (let y = 0; y < height;) {
-      await (quick ? nextTask() : gpuIdle(renderer.getContext(), 500));
+      await nextTask();
+      if (fences.length >= BANDS_IN_FLIGHT) await fenceDone(gl, fences.shift(), 500);
       if (!alive()) return false;
       texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
       region.min.set(0, y);
@@ -325,12 +333,16 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
       const t0 = performance.now();
       renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
       const ms = performance.now() - t0;
+      if (gl.fenceSync) {
+        fences.push(gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0));
+        gl.flush();
+      }
       y += rows;
-      quick = ms <= 8;
       rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
     }
   } finally {
     texture.mipmapsAutoUpdate = mipmaps;
+    for (const sync of fences) gl.deleteSync(sync);
   }
   return true;
 }
