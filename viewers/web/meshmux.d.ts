@@ -11,10 +11,11 @@ export const PROBE_BYTES: number;
 /** Resolves after a task boundary (a message, no timer clamping): the page runs its other tasks first. */
 export function nextTask(): Promise<void>;
 /**
- * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band per
- * task while the GPU has taken all but a few of those sent, then its mipmaps; resolves false (the texture left
- * unfinished) once `alive()` is false. A texture that fits in one band is left to three.js.
- * Bands grow up to `grow` (default 4) times `bandBytes` while the GPU takes them quickly.
+ * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band
+ * per task while the GPU has taken all but a few of those sent, then its mipmaps; resolves
+ * false (the texture left unfinished) once `alive()` is false. A texture that fits in one band
+ * is left to three.js. Bands grow up to `grow` (default 4) times `bandBytes` while the GPU
+ * takes them quickly.
  */
 export function uploadInBands(renderer: WebGLRenderer, texture: import('three').Texture, bandBytes: number, alive?: () => boolean, grow?: number): Promise<boolean>;
 
@@ -63,8 +64,8 @@ export interface MeshmuxStreamOptions {
   dracoLoader?: (() => Promise<unknown>) | null;
   /**
    * With a renderer, a texture level goes to the GPU in bands of rows of at most this many
-   * bytes, one band per task while the GPU has taken all but a few of those sent, before it is shown (default 256 KiB;
-   * Infinity: three.js uploads it whole inside the next frame).
+   * bytes, one band per task while the GPU has taken all but a few of those sent, before it is
+   * shown (default 256 KiB; Infinity: three.js uploads it whole inside the next frame).
    */
   uploadBandBytes?: number;
   /**

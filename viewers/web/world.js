@@ -20,7 +20,8 @@
 // packages, chunks on their way counted) stops refinement where the next chunk would pass it;
 // it does not bound the streams' own buffers (each holds its full mesh's capacity). A package
 // that fails (missing, corrupt) is reported by name ('error' event, stats.failed) and the rest
-// play on. The packages share one pool of decoding workers and one Draco decoder.
+// play on. The packages share one pool of decoding workers and one Draco decoder; their bases
+// are built two at a time, in arrival order.
 //
 // Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (+ package: a
 // package's base is in the scene), 'chunk' (+ package, chunk, kind), 'progress', 'waiting' (only
@@ -72,7 +73,8 @@ export class MeshmuxWorld extends EventTarget {
     // at once, each yielding to the others task by task, none would show until nearly all did.
     this.builds = new RequestLimiter(2);
     this.workers = this.options.worker ? new WorkerPool(this.options.workers) : null;
-    if (this.options.meshoptWorkers >= 1) MeshoptDecoder.useWorkers(Math.min(4, Math.floor(this.options.meshoptWorkers)));
+    if (this.options.meshoptWorkers >= 1 && typeof MeshoptDecoder.useWorkers === 'function')  // none without WebAssembly
+      MeshoptDecoder.useWorkers(Math.min(4, Math.floor(this.options.meshoptWorkers)));
     this.packages = [];  // { name, url, bounds, bytes, placements: [{matrix, group}], stream, error }
     this._state = 'idle';
     this._stop = false;
