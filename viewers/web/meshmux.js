@@ -278,8 +278,35 @@ async function fenceDone(gl, sync, maxMs) {
   gl.deleteSync(sync);
 }
 
-// Texture bands sent to the GPU and not yet taken before the next waits (uploadInBands).
+// Texture bands sent to the GPU and not yet taken before the next waits (uploadInBands): as
+// many as four of the largest bands a texture is sent in, counted in bytes over every texture
+// uploading on the same context, since all of them go through one transfer buffer.
 const BANDS_IN_FLIGHT = 4;
+const bandsSent = new WeakMap();  // WebGL context → { fences: [{ sync, bytes }], bytes }
+
+// Resolves once `bytes` more fit in the context's bands in flight (`most` bytes), or after
+// `maxMs` (a band then goes anyway: a fence that never signals does not stop the page); the
+// returned queue takes the band's fence (sent()).
+async function roomForBand(gl, bytes, most, maxMs) {
+  let queue = bandsSent.get(gl);
+  if (!queue) bandsSent.set(gl, queue = { fences: [], bytes: 0 });
+  for (const t0 = performance.now(); ;) {
+    while (queue.fences.length && gl.clientWaitSync(queue.fences[0].sync, 0, 0) !== gl.TIMEOUT_EXPIRED) {
+      const taken = queue.fences.shift();
+      gl.deleteSync(taken.sync);
+      queue.bytes -= taken.bytes;
+    }
+    if (queue.bytes + bytes <= most || !queue.fences.length || performance.now() - t0 >= maxMs) break;
+    await new Promise((resolve) => setTimeout(resolve, 2));
+  }
+  return {
+    sent() {
+      queue.fences.push({ sync: gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0), bytes });
+      queue.bytes += bytes;
+      gl.flush();
+    },
+  };
+}
 
 // A page-time budget for a long job on the main thread: `await slice()` returns at once while
 // the job has run less than `ms` since its last task boundary, else after one (nextTask), so
@@ -299,11 +326,12 @@ function taskSlicer(ms = 8) {
 // (in chromium on software GL, 16 MB from an ImageBitmap take ~240 ms, 256 kB ~1 ms). The
 // texture's storage is allocated first (texStorage2D through WebGLRenderer.initTexture, no
 // pixels: TextureSource.dataReady), then each band is copied in (copyTextureToTexture of a
-// region) in the next task, once the GPU has taken all but BANDS_IN_FLIGHT - 1 of those sent
-// (a fence after each): bands sent while it is busy wait inside the call for room in the
-// browser's transfer buffer, on the page's thread (two bands in one task took up to 200 ms
-// there, bands sent whenever a copy was quick up to 149 ms), and a wait for the GPU after every
-// band made a world's levels arrive at a frame's pace. The band grows (doubles after a copy of
+// region) in the next task, once the bands sent on this context that the GPU has not taken (a
+// fence after each, counted over every texture uploading on the page) leave room for it: at most
+// BANDS_IN_FLIGHT of this texture's largest bands' bytes. Bands sent while it is busy wait inside
+// the call for room in the browser's transfer buffer, on the page's thread (two bands in one task
+// took up to 200 ms there, bands sent whenever a copy was quick up to 149 ms), and a wait for the
+// GPU after every band made a world's levels arrive at a frame's pace. The band grows (doubles after a copy of
 // under 4 ms, up to `grow` times `bandBytes`) and shrinks back after one of over 8 ms.
 // Resolves false, the texture unfinished, once `alive()` turns false. Without a renderer, for
 // a texture that fits in one band, or one past the GPU's largest side (three.js scales it
@@ -321,11 +349,12 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
   texture.source.dataReady = true;
   const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
   const region = new THREE.Box2(), at = new THREE.Vector2();
-  const gl = renderer.getContext(), fences = [];  // one per band the GPU may not have taken
+  const gl = renderer.getContext(), fenced = typeof gl.fenceSync === 'function';
   try {
     for (let y = 0; y < height;) {
       await nextTask();
-      if (fences.length >= BANDS_IN_FLIGHT) await fenceDone(gl, fences.shift(), 500);
+      const band = Math.min(rows, height - y) * width * 4;
+      const room = fenced ? await roomForBand(gl, band, BANDS_IN_FLIGHT * most * width * 4, 500) : null;
       if (!alive()) return false;
       texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
       region.min.set(0, y);
@@ -333,16 +362,12 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
       const t0 = performance.now();
       renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
       const ms = performance.now() - t0;
-      if (gl.fenceSync) {
-        fences.push(gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0));
-        gl.flush();
-      }
+      if (room) room.sent();
       y += rows;
       rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
     }
   } finally {
     texture.mipmapsAutoUpdate = mipmaps;
-    for (const sync of fences) gl.deleteSync(sync);
   }
   return true;
 }
@@ -376,14 +401,20 @@ export class MeshmuxStream extends EventTarget {
   // leaves three.js to upload it whole inside the next frame), builds (a limiter whose
   // run(job) the base's build waits for, like a RequestLimiter: with many streams on a page
   // the bases are built a few at a time, first come first built, instead of all at once taking
-  // turns task by task, which shows none until nearly all are done; MeshmuxWorld passes one).
+  // turns task by task, which shows none until nearly all are done; MeshmuxWorld passes one),
+  // uploadsBeside (default false: a texture level is on screen before the chunk after it is
+  // taken; true: once its maps are decoded the stream goes on, the level's upload and swap
+  // running beside the next chunks, levels still shown in order (`uploading` is the Promise of
+  // the last one, null when none is left); MeshmuxWorld sets it, so that a package's grant ends
+  // with its bytes decoded and a texture level being uploaded holds no request slot).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
       dracoDecoderPath: DRACO_DECODER_PATH,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
-      probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, ...options };
+      probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, uploadsBeside: false,
+      ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -409,6 +440,7 @@ export class MeshmuxStream extends EventTarget {
     this._applySeconds = 0;
     this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
     this._workerStart = null;  // the Promise of it while it starts
+    this._uploads = null;  // uploadsBeside: the Promise of the last texture level's upload and swap
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -419,6 +451,9 @@ export class MeshmuxStream extends EventTarget {
   set budgetBytes(bytes) { this.options.budgetBytes = bytes; }
   get state() { return this._state; }
   get playing() { return this._playing !== null; }
+  // uploadsBeside: the Promise of the texture level being uploaded (it resolves once that level
+  // and every one before it are shown), or null when none is.
+  get uploading() { return this._uploads; }
 
   get stats() {
     let triangles = 0, vertices = 0;
@@ -793,7 +828,7 @@ export class MeshmuxStream extends EventTarget {
           this._emit('chunk', { chunk: index, kind: chunk.kind });
           this._emit('progress');
           await pause();
-          if (chunk.kind === 'texture') await this._gpuIdle();
+          if (chunk.kind === 'texture' && !this.options.uploadsBeside) await this._gpuIdle();
         }
         if (!batch) break;
         batch = next;
@@ -871,10 +906,12 @@ export class MeshmuxStream extends EventTarget {
     const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
-    if (!(await this._upload(texture))) return;
-    this._releaseTexture(this._map.value);
-    this._map.value = texture;
-    this._textureSize = [bitmap.width, bitmap.height];
+    await this._show(async () => {
+      if (!(await this._upload(texture))) return;
+      this._releaseTexture(this._map.value);
+      this._map.value = texture;
+      this._textureSize = [bitmap.width, bitmap.height];
+    });
   }
 
   // Physical shading: every map of the level decoded off the main thread (bytes as stored; the
@@ -908,18 +945,33 @@ export class MeshmuxStream extends EventTarget {
       this._ownTextures.add(texture);
       textures.push([channel, texture]);
     }
-    for (const [, texture] of textures) if (!(await this._upload(texture))) return;
-    for (const [channel, texture] of textures) {
-      const bitmap = texture.image, old = this._maps[channel];
-      this._maps[channel] = texture;
-      for (const m of this._streamedMaterials) {
-        let changed = false;
-        for (const slot of CHANNEL_SLOTS[channel]) { changed ||= !m[slot]; m[slot] = texture; }
-        if (changed) m.needsUpdate = true;  // a map it did not have: another shader
+    await this._show(async () => {
+      for (const [, texture] of textures) if (!(await this._upload(texture))) return;
+      for (const [channel, texture] of textures) {
+        const bitmap = texture.image, old = this._maps[channel];
+        this._maps[channel] = texture;
+        for (const m of this._streamedMaterials) {
+          let changed = false;
+          for (const slot of CHANNEL_SLOTS[channel]) { changed ||= !m[slot]; m[slot] = texture; }
+          if (changed) m.needsUpdate = true;  // a map it did not have: another shader
+        }
+        this._releaseTexture(old);
+        if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
       }
-      this._releaseTexture(old);
-      if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
-    }
+    });
+  }
+
+  // A decoded texture level's upload and swap (`job`): awaited, or with uploadsBeside queued
+  // behind the level before it and left running (`uploading`). A level that fails to go up
+  // beside the stream is left out with a note (three.js keeps showing the one before).
+  _show(job) {
+    if (!this.options.uploadsBeside) return job();
+    const run = (this._uploads || Promise.resolve()).then(job).catch((e) => {
+      this.notes.push(`a texture level could not be uploaded (${e && e.message})`);
+    });
+    this._uploads = run;
+    run.then(() => { if (this._uploads === run) this._uploads = null; });
+    return undefined;
   }
 
   // One map's JPEG or PNG bytes as an ImageBitmap, bytes as stored (no colour conversion, no

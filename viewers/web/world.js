@@ -154,7 +154,7 @@ export class MeshmuxWorld extends EventTarget {
     // how long they are (a smaller package's base in one request of its own size).
     const probeBytes = p.headBytes > 0 ? p.headBytes : undefined;
     p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera, probeBytes,
-      dracoLoader: () => this._draco(), builds: this.builds,
+      dracoLoader: () => this._draco(), builds: this.builds, uploadsBeside: true,
       limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
@@ -246,6 +246,7 @@ export class MeshmuxWorld extends EventTarget {
       if (p.error || !p.stream || !p.stream.table || busy.has(p)) continue;
       const next = p.stream.nextChunk();
       if (!next) continue;
+      if (next.chunk.kind === 'texture' && p.stream.uploading) continue;  // one level in memory beside the GPU's
       const cost = this._cost(p, [next]);
       if (!this._fits(used, cost)) continue;
       const views = this._views(p);
@@ -312,12 +313,25 @@ export class MeshmuxWorld extends EventTarget {
     this._state = 'streaming';
     const busy = new Map();  // package → the promise of its granted chunk
     const inFlight = new Map();  // package → { triangles, texels } its granted chunk adds
+    // package → { texels, done }: a texture level of a grant that ended, still going up to the
+    // GPU beside the next grants (MeshmuxStream uploadsBeside): its texels count until shown.
+    const uploads = new Map();
     let waiting = false;
     // What is shown, plus what the chunks on their way will add (the budget counts both).
     const used = () => {
       const u = this.stats;
       for (const c of inFlight.values()) u.triangles += c.triangles, u.texels += c.texels;
+      for (const c of uploads.values()) u.texels += c.texels;
       return u;
+    };
+    const ended = (p, cost) => {
+      busy.delete(p);
+      inFlight.delete(p);
+      const pending = p.stream.uploading;
+      if (!pending || cost.texels <= 0) return;
+      const texels = Math.max(cost.texels, uploads.has(p) ? uploads.get(p).texels : 0);  // both over what is shown
+      const done = pending.then(() => { if (uploads.get(p) && uploads.get(p).done === done) uploads.delete(p); });
+      uploads.set(p, { texels, done });
     };
     for (;;) {
       if (this._stop) break;
@@ -331,12 +345,12 @@ export class MeshmuxWorld extends EventTarget {
         const { p } = offer, { bytes, cost } = this._grant(offer, floor, u);
         inFlight.set(p, cost);
         p.stream.budgetBytes = p.stream.stats.bytesReceived + bytes;  // exactly the granted chunks
-        busy.set(p, p.stream.play().catch((error) => this._fail(p, error))
-          .finally(() => { busy.delete(p); inFlight.delete(p); }));
+        busy.set(p, p.stream.play().catch((error) => this._fail(p, error)).finally(() => ended(p, cost)));
       }
-      if (busy.size > 0) {
+      const uploading = this.packages.map((p) => p.stream && p.stream.uploading).filter(Boolean);
+      if (busy.size > 0 || (!offers.length && uploading.length > 0)) {
         waiting = false;
-        await Promise.race(busy.values());
+        await Promise.race([...busy.values(), ...uploading]);  // a package whose level is up may go on
         continue;
       }
       if (offers.length) continue;

@@ -1,10 +1,12 @@
 // A texture level uploaded in bands (meshmux.js uploadInBands) is the same texture as three.js
-// uploading it whole, in every mip level (the longest task while the bands go is printed). The image is
-// 256×512 with every texel distinct (a band off by a row, a flipped band or a missing last band
-// shows), the bands 37 rows (the last one partial); level 0 is also checked against the source
-// pixels; bands that grow (from 5 rows: copies are quick on a 256-pixel-wide image) give the
-// same texture in fewer copies. Then a stopped upload (alive() false) resolves false after its first band, and a
-// texture that fits in one band is left to three.js (no band copied).
+// uploading it whole, in every mip level (the longest task while the bands go is printed). The
+// image is 256×512 with every texel distinct (a band off by a row, a flipped band or a missing
+// last band shows), the bands 37 rows (the last one partial); level 0 is also checked against
+// the source pixels; bands that grow (from 5 rows: copies are quick on a 256-pixel-wide image)
+// give the same texture in fewer copies; two textures uploading at once (their bands
+// interleaved, one room on the context) both come out whole. Then a stopped upload (alive()
+// false) resolves false after its first band, and a texture that fits in one band is left to
+// three.js (no band copied).
 //
 // usage: node upload_test.mjs --meshmux BIN --work DIR [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
@@ -87,6 +89,12 @@ const grown = make();
 result.grownDone = await uploadInBands(renderer, grown, 5 * W * 4, () => true, 64);
 result.grownCopies = copies;
 result.grownDiffers = [0, 1, 3].map((level) => differing(read(grown, level), read(whole, level))).reduce((a, b) => a + b, 0);
+// Two textures at once (a world's packages): their bands share the context's room, interleaved.
+copies = 0;
+const pair = [make(), make()];
+result.pairDone = await Promise.all(pair.map((t) => uploadInBands(renderer, t, ROWS * W * 4, () => true, 1)));
+result.pairCopies = copies;
+result.pairDiffers = pair.map((t) => [0, 1, 3].map((level) => differing(read(t, level), read(whole, level))).reduce((a, b) => a + b, 0));
 // Stopped after its first band.
 copies = 0;
 const stopped = make();
@@ -114,6 +122,9 @@ try {
   const r = await page.evaluate(() => window.__upload);
   console.log(`banded: ${r.copies} bands, longest task ${r.longest.toFixed(1)} ms; texels differing from three.js's whole upload by level: ${r.levels.map((l) => `${l.level}: ${l.differs}`).join(', ')}; level 0 from the source: ${r.sourceDiffers}`);
   console.log(`growing from 5 rows: ${r.grownCopies} bands, ${r.grownDiffers} bytes differ in levels 0, 1, 3`);
+  console.log(`two at once: ${r.pairCopies} bands, bytes differing in levels 0, 1, 3: ${r.pairDiffers.join(', ')}`);
+  if (r.pairDone.join() !== 'true,true' || r.pairDiffers.some((n) => n) || r.pairCopies !== 2 * Math.ceil(512 / 37))
+    fail(`two textures uploading at once: ${r.pairDone}, ${r.pairCopies} bands, ${r.pairDiffers} bytes differ`);
   console.log(`stopped: ${r.stopped} after ${r.stoppedCopies} band(s); one band's worth: ${r.small}, ${r.smallCopies} bands`);
   if (r.done !== true) fail('the banded upload did not resolve true');
   if (r.copies !== Math.ceil(512 / 37)) fail(`${r.copies} bands, expected ${Math.ceil(512 / 37)}`);

@@ -1,7 +1,8 @@
 // MeshmuxWorld in headless chromium: three packages (the built-in sample converted three times)
 // placed with one behind the camera, and a fourth whose package is missing. The one behind gets
 // no refinement bytes while the others stream ('waiting' once only it is left), then streams
-// once the camera turns to it; the missing one is reported by name and the rest play to the end;
+// once the camera turns to it; the missing one is reported by name and the rest play to the end,
+// every package showing its largest texture level at "complete" (levels go up beside later grants);
 // no more than maxRequests range requests are ever in flight; decoding runs in the world's pool
 // of 2 workers. A second world of the two ahead, its budget the bases' texels and one package's
 // refinement triangles: no chunk passes it and it stops short. Then the page `meshmux batch` writes:
@@ -91,7 +92,11 @@ try {
   log.final = per();
   log.stats = { failed: stats.failed, requestsPeak: stats.requestsPeak, state: stats.state,
     chunksApplied: stats.chunksApplied, chunkCount: stats.chunkCount, decoder: stats.decoder,
-    workersStarted: world.workers._workers.length, poolSize: world.workers.size };
+    workersStarted: world.workers._workers.length, poolSize: world.workers.size, texels: stats.texels };
+  // Texture levels go up beside the next grants: 'complete' waits for the last of them.
+  log.stats.levelTexels = world.packages.filter((p) => p.stream && p.stream.table).reduce((sum, p) =>
+    sum + Math.max(0, ...p.stream.table.chunks.filter((c) => c.kind === 'texture').map((c) => c.width * c.height)), 0);
+  log.stats.uploadingAtEnd = world.packages.filter((p) => p.stream && p.stream.uploading).length;
   const a = world.packages[0].stream.stats;
   log.fullTriangles = a.triangles;  // package a complete
   // A budget that binds: the bases' texels, and triangles for one package's refinements over
@@ -206,6 +211,8 @@ if (log) {
   check(log.final && log.final.c > 0, `the package behind streamed once the camera turned: ${JSON.stringify(log.final)}`);
   check(log.stats && log.stats.state === 'complete', `the world ended ${log.stats && log.stats.state}, not complete`);
   check(log.stats && log.stats.chunksApplied === log.stats.chunkCount, `chunks ${JSON.stringify(log.stats)}`);
+  check(log.stats && log.stats.levelTexels > 0 && log.stats.texels === log.stats.levelTexels && log.stats.uploadingAtEnd === 0,
+    `at "complete" every package shows its largest texture level: ${JSON.stringify(log.stats)}`);
   check(log.stats && log.stats.requestsPeak <= 3, `${log.stats && log.stats.requestsPeak} requests in flight (at most 3)`);
   // Decoding off the main thread, in the world's shared pool (not a worker per package).
   check(log.stats && log.stats.decoder === 'worker', `decoded on the ${log.stats && log.stats.decoder}`);
