@@ -361,8 +361,8 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
       region.max.set(width, Math.min(height, y + rows));
       const t0 = performance.now();
       renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
+      if (room) room.sent();  // its flush may be where the band's pixels go
       const ms = performance.now() - t0;
-      if (room) room.sent();
       y += rows;
       rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
     }
@@ -607,7 +607,9 @@ export class MeshmuxStream extends EventTarget {
     if (!table.base.whole) {
       for (const [i, d] of table.meshes.entries()) {
         await slice();
-        this.meshes.push(new StreamMesh(d, i, { local: !this._worker }));
+        const mesh = new StreamMesh(d, i, { local: !this._worker, deferCommit: true });
+        for (const _ of mesh.commitPieces()) await slice();
+        this.meshes.push(mesh);
       }
     }
     const filled = new Set(), oldGeometries = new Set(), oldMaterials = new Set(), materialFor = new Map();

@@ -20,9 +20,10 @@ const INDEX_BLOCK = 16384;
 // Package mesh m on the page: arrays with the full mesh's capacity and the BufferGeometry that
 // draws them, the counts received so far, and (decoding on the page) the MeshState the vertex
 // splits are coded against. With `{ local: false }` a StreamWorker holds that state and this
-// object only takes in its changes (applyChanges).
+// object only takes in its changes (applyChanges); with `{ deferCommit: true }` the caller
+// commits the buffers' memory itself (commitPieces) before the first chunk.
 export class StreamMesh {
-  constructor(desc, index, { local = true } = {}) {
+  constructor(desc, index, { local = true, deferCommit = false } = {}) {
     this.index = index;
     this.capacityVertices = desc.vertices;
     this.capacityFaces = desc.faces;
@@ -40,8 +41,9 @@ export class StreamMesh {
     this.normal = new Float32Array(3 * V);
     this.uv = new Float32Array(2 * V);
     this.indices = new Uint32Array(3 * F);
-    // Commit the memory now (load time) rather than page by page while refining.
-    for (const a of [this.position, this.normal, this.uv, this.indices]) a.fill(0);
+    // The memory is committed at load time rather than page by page while refining: here, or
+    // piece by piece by a caller that walks commitPieces() between tasks.
+    if (!deferCommit) for (const a of [this.position, this.normal, this.uv, this.indices]) a.fill(0);
     this.state = local ? new MeshState(desc, index, this.indices) : null;
     this.base = null;  // decoding in a worker: the base's quantized vertices and faces to send it
     this._dirty = local ? null : new Uint8Array(Math.ceil((3 * F) / INDEX_BLOCK));
@@ -54,6 +56,17 @@ export class StreamMesh {
     g.setIndex(this.indexAttribute = attribute(this.indices, 1));
     this._setBox(desc.bounds);
     g.setDrawRange(0, 0);
+  }
+
+  // Writes the buffers' pages (zeros, as allocated) `piece` elements at a time, yielding after
+  // each: a large mesh's buffers are tens of megabytes, tens of milliseconds to commit at once.
+  *commitPieces(piece = 1 << 20) {
+    for (const a of [this.position, this.normal, this.uv, this.indices]) {
+      for (let i = 0; i < a.length; i += piece) {
+        a.fill(0, i, Math.min(a.length, i + piece));
+        yield;
+      }
+    }
   }
 
   // The decoder's quantized attributes (decoding on the page; for tests and tools).

@@ -186,17 +186,30 @@ export class MeshmuxWorld extends EventTarget {
   // with the scene the world is in for its lights): drawn as it arrives, a base's new
   // materials would compile inside the application's next frame, all bases that arrived since
   // the last frame at once. Where the driver compiles in parallel (KHR_parallel_shader_compile)
-  // this waits without blocking; elsewhere the compile runs here, once per base. Without a
-  // renderer: nothing.
+  // this waits without blocking; elsewhere the compile runs here, a task per program (a base's
+  // materials at once were up to 80 ms of the page's thread). Without a renderer: nothing.
   async _compile(object) {
     const renderer = this.options.renderer, camera = this.options.camera;
     if (!renderer || !camera || typeof renderer.compileAsync !== 'function') return;
     let root = this.object;
     while (root.parent) root = root.parent;
-    try {
-      await renderer.compileAsync(object, camera, root.isScene ? root : null);
-    } catch {
-      // drawn anyway: the frame compiles what is missing
+    // A program depends on the material and on what draws it (instancing, vertex colours): the
+    // first object of each such kind.
+    const kinds = new Map();
+    object.traverse((o) => {
+      if (!o.isMesh) return;
+      for (const m of [o.material].flat()) {
+        const kind = `${m && m.uuid} ${!!o.isInstancedMesh} ${Object.keys(o.geometry.attributes).join()}`;
+        if (m && !kinds.has(kind)) kinds.set(kind, o);
+      }
+    });
+    for (const o of new Set(kinds.values())) {
+      try {
+        await renderer.compileAsync(o, camera, root.isScene ? root : null);
+      } catch {
+        // drawn anyway: the frame compiles what is missing
+      }
+      await nextTask();
     }
   }
 
