@@ -64,8 +64,8 @@ export interface MeshmuxStreamOptions {
   dracoLoader?: (() => Promise<unknown>) | null;
   /**
    * With a renderer, a texture level goes to the GPU in bands of rows of at most this many
-   * bytes, one band per task while the GPU has taken all but a few of those sent, before it is
-   * shown (default 256 KiB; Infinity: three.js uploads it whole inside the next frame).
+   * bytes, one band per task while the bands the GPU has not taken yet (over every texture
+   * uploading on the context) leave room, before it is shown (default 256 KiB; Infinity: three.js uploads it whole inside the next frame).
    */
   uploadBandBytes?: number;
   /**
@@ -74,6 +74,13 @@ export interface MeshmuxStreamOptions {
    * passes one).
    */
   builds?: { run<T>(job: () => Promise<T>): Promise<T> } | null;
+  /**
+   * Default false: a texture level is on screen before the chunk after it is taken. True: once
+   * its maps are decoded the stream goes on, the level's upload and swap running beside the
+   * next chunks (levels still shown in order; `uploading` is the Promise of the last one).
+   * MeshmuxWorld sets it.
+   */
+  uploadsBeside?: boolean;
   /** A RequestLimiter shared with other streams: their range requests wait for it. */
   limiter?: RequestLimiter | null;
 }
@@ -139,6 +146,8 @@ export class MeshmuxStream extends EventTarget {
   budgetBytes: number;
   readonly state: MeshmuxState;
   readonly playing: boolean;
+  /** uploadsBeside: the Promise of the texture level going up (and those before it), or null. */
+  readonly uploading: Promise<void> | null;
   readonly stats: MeshmuxStats;
   /** Fetches the table and the base; resolves to `object`, which then shows the model. */
   open(): Promise<Group>;
