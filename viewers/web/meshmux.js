@@ -278,6 +278,9 @@ async function fenceDone(gl, sync, maxMs) {
   gl.deleteSync(sync);
 }
 
+// A stream re-plans for the camera once its direction turned by more than a degree (view_plan.js).
+const REPLAN_COS = Math.cos(Math.PI / 180);
+
 // Texture bands sent to the GPU and not yet taken before the next waits (uploadInBands): as
 // many as four of the largest bands a texture is sent in, counted in bytes over every texture
 // uploading on the same context, since all of them go through one transfer buffer.
@@ -441,6 +444,8 @@ export class MeshmuxStream extends EventTarget {
     this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
     this._workerStart = null;  // the Promise of it while it starts
     this._uploads = null;  // uploadsBeside: the Promise of the last texture level's upload and swap
+    this._bounds = null;   // worldBounds() as last computed, and the object's matrix then
+    this._planned = null;  // the position and view direction the order was last re-planned at
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -716,13 +721,18 @@ export class MeshmuxStream extends EventTarget {
   }
 
   // The world-space box of all the stream will draw: each mesh's package bounds through each
-  // object's world matrix (and instance matrices).
+  // object's world matrix (and instance matrices). Kept while `object`'s world matrix stays as it
+  // was (the objects inside it are not moved; a world re-plans every package before each of its
+  // requests, and a game scene's base has thousands of instances).
   worldBounds(target = new THREE.Box3()) {
+    this.object.updateWorldMatrix(true, false);
+    const at = this.object.matrixWorld, cached = this._bounds;
+    if (cached && cached.objects === this.object.children.length && cached.matrix.equals(at)) return target.copy(cached.box);
     target.makeEmpty();
     this.object.updateWorldMatrix(true, true);
-    const matrix = new THREE.Matrix4(), box = new THREE.Box3();
+    const matrix = new THREE.Matrix4(), box = new THREE.Box3(), wholes = new Set(this._whole);
     this.object.traverse((o) => {
-      const whole = this._whole.includes(o), mesh = o.isMesh && !whole && this.meshes[o.userData.meshmux_mesh];
+      const whole = wholes.has(o), mesh = o.isMesh && !whole && this.meshes[o.userData.meshmux_mesh];
       if (!mesh && !whole) return;
       const geometry = whole ? o.geometry : mesh.geometry;
       if (whole && !geometry.boundingBox) geometry.computeBoundingBox();
@@ -732,6 +742,7 @@ export class MeshmuxStream extends EventTarget {
         target.union(box.copy(geometry.boundingBox).applyMatrix4(matrix));
       }
     });
+    this._bounds = { matrix: at.clone(), objects: this.object.children.length, box: target.clone() };
     return target;
   }
 
@@ -765,6 +776,11 @@ export class MeshmuxStream extends EventTarget {
     const direction = eye.sub(centre);
     this.object.updateWorldMatrix(true, false);
     direction.transformDirection(new THREE.Matrix4().copy(this.object.matrixWorld).invert());
+    // Planned already at this position from within a degree of this direction: kept (a world
+    // asks every package before each of its requests).
+    const last = this._planned;
+    if (last && last.pos === pos && last.direction.dot(direction) > REPLAN_COS) return;
+    this._planned = { pos, direction };
     const applied = new Set(this._sequence.slice(0, pos));
     const stored = this.order.chunks.filter((c) => !applied.has(c));
     const plan = planRemaining(this.table, viewWeights(vt, direction.toArray()), applied, stored);
