@@ -330,12 +330,13 @@ function taskSlicer(ms = 8) {
 // texture's storage is allocated first (texStorage2D through WebGLRenderer.initTexture, no
 // pixels: TextureSource.dataReady), then each band is copied in (copyTextureToTexture of a
 // region) in the next task, once the bands sent on this context that the GPU has not taken (a
-// fence after each, counted over every texture uploading on the page) leave room for it: at most
-// BANDS_IN_FLIGHT of this texture's largest bands' bytes. Bands sent while it is busy wait inside
-// the call for room in the browser's transfer buffer, on the page's thread (two bands in one task
-// took up to 200 ms there, bands sent whenever a copy was quick up to 149 ms), and a wait for the
-// GPU after every band made a world's levels arrive at a frame's pace. The band grows (doubles after a copy of
-// under 4 ms, up to `grow` times `bandBytes`) and shrinks back after one of over 8 ms.
+// fence after each, counted over every texture uploading on the page) leave room for it: at
+// most BANDS_IN_FLIGHT of this texture's largest bands' bytes. Bands sent while it is busy wait
+// inside the call for room in the browser's transfer buffer, on the page's thread (two bands in
+// one task took up to 200 ms there, bands sent whenever a copy was quick up to 149 ms), and a
+// wait for the GPU after every band made a world's levels arrive at a frame's pace. The band
+// grows (doubles after a copy and its flush of under 4 ms, up to `grow` times `bandBytes`) and
+// shrinks back after one of over 8 ms.
 // Resolves false, the texture unfinished, once `alive()` turns false. Without a renderer, for
 // a texture that fits in one band, or one past the GPU's largest side (three.js scales it
 // down), three.js uploads it whole when first drawn.
