@@ -193,13 +193,14 @@ export class MeshmuxWorld extends EventTarget {
     if (!renderer || !camera || typeof renderer.compileAsync !== 'function') return;
     let root = this.object;
     while (root.parent) root = root.parent;
-    // A program depends on the material and on what draws it (instancing, vertex colours): the
-    // first object of each such kind.
+    // A program depends on the material and on what draws it (instancing, skinning, morph
+    // targets, vertex colours): the first object of each such kind.
     const kinds = new Map();
     object.traverse((o) => {
       if (!o.isMesh) return;
+      const g = o.geometry, drawn = `${!!o.isInstancedMesh} ${!!o.isSkinnedMesh} ${Object.keys(g.attributes)} ${Object.keys(g.morphAttributes)}`;
       for (const m of [o.material].flat()) {
-        const kind = `${m && m.uuid} ${!!o.isInstancedMesh} ${Object.keys(o.geometry.attributes).join()}`;
+        const kind = `${m && m.uuid} ${drawn}`;
         if (m && !kinds.has(kind)) kinds.set(kind, o);
       }
     });
