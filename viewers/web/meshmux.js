@@ -285,28 +285,48 @@ const REPLAN_COS = Math.cos(Math.PI / 180);
 // many as four of the largest bands a texture is sent in, counted in bytes over every texture
 // uploading on the same context, since all of them go through one transfer buffer.
 const BANDS_IN_FLIGHT = 4;
-const bandsSent = new WeakMap();  // WebGL context → { fences: [{ sync, bytes }], bytes }
+const bandsSent = new WeakMap();  // WebGL context → { fences: [{ sync, bytes }], bytes, waiting, polling }
 
-// Resolves once `bytes` more fit in the context's bands in flight (`most` bytes), or after
-// `maxMs` (a band then goes anyway: a fence that never signals does not stop the page); the
-// returned queue takes the band's fence (sent()).
+// Lets waiting bands through in arrival order while they fit in the context's bands in flight
+// (each its texture's `most` bytes), or once one waited `maxMs` (it then goes anyway: a fence
+// that never signals does not stop the page), or when nothing is in flight; a band let through
+// has its bytes counted at once. One timer per context polls the fences while bands wait.
+function letBandsThrough(gl, queue) {
+  while (queue.fences.length && gl.clientWaitSync(queue.fences[0].sync, 0, 0) !== gl.TIMEOUT_EXPIRED) {
+    const taken = queue.fences.shift();
+    gl.deleteSync(taken.sync);
+    queue.bytes -= taken.bytes;
+  }
+  while (queue.waiting.length) {
+    const w = queue.waiting[0];
+    if (queue.bytes + w.bytes > w.most && queue.bytes > 0 && performance.now() - w.t0 < w.maxMs) break;
+    queue.waiting.shift();
+    queue.bytes += w.bytes;
+    w.resolve();
+  }
+  if (queue.waiting.length && !queue.polling) {
+    queue.polling = true;
+    setTimeout(() => { queue.polling = false; letBandsThrough(gl, queue); }, 2);
+  }
+}
+
+// Resolves once a band of `bytes` may be sent on `gl` (letBandsThrough); the returned handle
+// fences it once sent (sent()), or gives its room back when it is not (cancel()).
 async function roomForBand(gl, bytes, most, maxMs) {
   let queue = bandsSent.get(gl);
-  if (!queue) bandsSent.set(gl, queue = { fences: [], bytes: 0 });
-  for (const t0 = performance.now(); ;) {
-    while (queue.fences.length && gl.clientWaitSync(queue.fences[0].sync, 0, 0) !== gl.TIMEOUT_EXPIRED) {
-      const taken = queue.fences.shift();
-      gl.deleteSync(taken.sync);
-      queue.bytes -= taken.bytes;
-    }
-    if (queue.bytes + bytes <= most || !queue.fences.length || performance.now() - t0 >= maxMs) break;
-    await new Promise((resolve) => setTimeout(resolve, 2));
-  }
+  if (!queue) bandsSent.set(gl, queue = { fences: [], bytes: 0, waiting: [], polling: false });
+  await new Promise((resolve) => {
+    queue.waiting.push({ bytes, most, maxMs, t0: performance.now(), resolve });
+    letBandsThrough(gl, queue);
+  });
   return {
     sent() {
       queue.fences.push({ sync: gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0), bytes });
-      queue.bytes += bytes;
       gl.flush();
+    },
+    cancel() {
+      queue.bytes -= bytes;
+      letBandsThrough(gl, queue);
     },
   };
 }
@@ -359,13 +379,19 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
       await nextTask();
       const band = Math.min(rows, height - y) * width * 4;
       const room = fenced ? await roomForBand(gl, band, BANDS_IN_FLIGHT * most * width * 4, 500) : null;
-      if (!alive()) return false;
+      if (!alive()) {
+        if (room) room.cancel();
+        return false;
+      }
       texture.mipmapsAutoUpdate = mipmaps && y + rows >= height;  // generated once, after the last band
       region.min.set(0, y);
       region.max.set(width, Math.min(height, y + rows));
       const t0 = performance.now();
-      renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
-      if (room) room.sent();  // its flush may be where the band's pixels go
+      try {
+        renderer.copyTextureToTexture(source, texture, region, at.set(0, y));
+      } finally {
+        if (room) room.sent();  // its flush may be where the band's pixels go
+      }
       const ms = performance.now() - t0;
       y += rows;
       rows = ms < 4 ? Math.min(most, 2 * rows) : ms > 8 ? Math.max(least, rows >> 1) : rows;
