@@ -12,7 +12,8 @@ export const PROBE_BYTES: number;
 export function nextTask(): Promise<void>;
 /**
  * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band
- * per task while the GPU has taken all but a few of those sent, then its mipmaps; resolves
+ * per task while the bands the GPU has not taken yet (over every texture uploading on the
+ * context) leave room, then its mipmaps; resolves
  * false (the texture left unfinished) once `alive()` is false. A texture that fits in one band
  * is left to three.js. Bands grow up to `grow` (default 4) times `bandBytes` while the GPU
  * takes them quickly.
