@@ -6,6 +6,8 @@
 //   independent  (a) every package's MeshmuxStream playing its own order at once
 //   sequential   (b) packages one after another, each base then its chunks
 //   gltf         (c) GLTFLoader loading every model.glb at once
+//   open         the world's bases alone, no path (the page draws nothing while they come):
+//                "every base shown" is when the first frame with all of them is finished
 // Every 250 ms the page renders the path's camera (320x240) and keeps the pixels; once all is
 // loaded it renders the same cameras again (the finished world) and measures each sample's mean
 // squared error against its own final frame. Prints per bandwidth the area under that error over
@@ -18,8 +20,8 @@
 // runs' areas are not to be compared with untraced ones.
 //
 // usage: node bench/world.mjs --meshmux BIN [--models DIR | --corpus N] [--work DIR]
-//        [--mbit 10[,1.5,50]] [--seconds 40] [--modes world,independent,sequential,gltf]
-//        [--repeat K] [--trace] [--chromium PATH]
+//        [--mbit 10[,1.5,50]] [--seconds 40] [--modes world,independent,sequential,gltf,open]
+//        [--repeat K] [--trace] [--split] [--chromium PATH]
 // --corpus N: N models spread evenly over ../shared/corpus/models.tsv instead of the shared
 // models; --repeat K: K rounds of every mode, the modes interleaved, each figure the median.
 import { spawnSync } from 'node:child_process';
@@ -42,6 +44,9 @@ const modes = opt('--modes', 'world,independent,sequential,gltf').split(',');
 const repeat = Math.max(1, Number(opt('--repeat', '1')) || 1);
 const chromiumPath = opt('--chromium', '/usr/bin/chromium');
 const tracing = process.argv.includes('--trace');
+// --split (mode open): the first frame taken apart: the bases' textures uploaded, each package
+// drawn alone (its programs' first draws: software GL compiles them then), then the whole frame.
+const split = process.argv.includes('--split');
 // The loading libraries' scripts: meshmux's modules, three's loaders and decoders.
 const LIBRARY = /\/viewer\/(world|meshmux|stream_\w+|package_reader|view_plan|world_plan)\.js|\/addons\/(loaders|libs)\//;
 if (!fs.existsSync(models)) { console.error(`SKIPPED: ${models} not found`); process.exit(77); }
@@ -142,7 +147,52 @@ const placeAll = (object, pkg) => world.placements.forEach((pl, k) => {
   g.add(object.parent ? object.clone() : object);
   scene.add(g);
 });
+const baseTimes = [];
 async function load() {
+  if (mode === 'open') {
+    const w = new MeshmuxWorld('world.json', { renderer, camera });
+    received = () => w.stats.bytesReceived;
+    w.addEventListener('base', () => baseTimes.push(now()));
+    scene.add(w.object);
+    await w.open();
+    const gl = renderer.getContext(), px = new Uint8Array(4);
+    if (q.get('split')) {
+      const texs = new Set(); let texels = 0;
+      scene.traverse((o) => { if (o.material) for (const m of [o.material].flat()) for (const v of Object.values(m)) if (v && v.isTexture && !texs.has(v)) { texs.add(v); texels += (v.image?.width || 0) * (v.image?.height || 0); } });
+      const a = now();
+      for (const t of texs) renderer.initTexture(t);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      const b = now();
+      renderer.compile(scene, camera);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      const c0 = now();
+      const groups = w.packages.map((p) => [p.name, p.placements.map((pl) => pl.group).filter(Boolean)]);
+      for (const [, gs] of groups) for (const g of gs) g.visible = false;
+      const per = [];
+      for (const [name, gs] of groups) {
+        for (const g of gs) g.visible = true;
+        const a0 = now();
+        renderer.render(scene, camera);
+        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+        per.push([now() - a0, name]);
+        for (const g of gs) g.visible = false;
+      }
+      for (const [, gs] of groups) for (const g of gs) g.visible = true;
+      per.sort((x, y) => y[0] - x[0]);
+      console.log('split: one package at a time ' + (now() - c0).toFixed(2) + ' s, programs ' + renderer.info.programs.length + ': ' + per.slice(0, 12).map(([t, n]) => n + ' ' + t.toFixed(2)).join(', '));
+      const c = now();
+      renderer.render(scene, camera);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      const d = now();
+      renderer.render(scene, camera);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      console.log('split: opened ' + a.toFixed(2) + ' s, ' + texs.size + ' textures ' + (texels / 1e6).toFixed(1) + ' Mtexels up ' + (b - a).toFixed(2) + ' s, compile ' + (c - b).toFixed(2) + ' s, first frame ' + (d - c).toFixed(2) + ' s, second ' + (now() - d).toFixed(2) + ' s');
+    }
+    renderer.render(scene, camera);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    basesAt = now();
+    return;
+  }
   if (mode === 'world') {
     const w = new MeshmuxWorld('world.json', { renderer, camera });
     received = () => w.stats.bytesReceived;
@@ -196,7 +246,7 @@ const grab = () => {
 };
 let finished = false;
 const loading = load().then(() => { doneAt = now(); finished = true; performance.mark('bench-loaded'); });
-for (let t = 0; t <= T;) {  // the area counts the path; what is left then loads at full speed
+for (let t = 0; t <= (mode === 'open' ? -1 : T);) {  // the area counts the path; what is left then loads at full speed
   while (now() < t) await new Promise((r) => setTimeout(r, Math.max(1, (t - now()) * 1000)));
   pose(t);
   samples.push({ t, px: grab(), bytes: received() });
@@ -237,7 +287,7 @@ const loadingTasks = long.filter(([s, d]) => s < loadingEnd && !renders.some(([a
 const renderMs = renders.slice(0, samples.length).map(([a, b]) => b - a).sort((a, b) => a - b);
 window.__bench = { mode, unfinished, renderMs: renderMs[renderMs.length >> 1], samples: samples.length,
   times: samples.map((s) => s.t), bytes: samples.map((s) => s.bytes), area, psnr: psnr / T, basesAt, doneAt, longMax: loadingTasks.length ? Math.max(...loadingTasks) : 0,
-  longCount: loadingTasks.length, errors };
+  longCount: loadingTasks.length, errors, baseTimes };
 console.log('bench-world: done');
 </script></body></html>
 `);
@@ -253,14 +303,14 @@ try {
       const url = link.url;
       try {
         const page = context.pages()[0] || (await context.newPage());
-        page.on('console', (m) => { if (/^(gltf|stream):/.test(m.text())) console.error(`  ${mode}: ${m.text()}`); });
+        page.on('console', (m) => { if (/^(gltf|stream|split):/.test(m.text())) console.error(`  ${mode}: ${m.text()}`); });
         const done = new Promise((resolve) => page.on('console', (m) => { if (m.text() === 'bench-world: done') resolve(); }));
         let trace = null;
         if (tracing) {  // the page's origin first: the bench page then runs in the traced renderer
           await page.goto(`${url}world.json`);
           trace = await startTrace(await context.newCDPSession(page));
         }
-        await page.goto(`${url}bench_world.html?mode=${mode}&seconds=${seconds}`);
+        await page.goto(`${url}bench_world.html?mode=${mode}&seconds=${seconds}${split ? '&split=1' : ''}`);
         // Past the path, the rest loads at full speed (only the references need it).
         const lift = setInterval(async () => {
           if (await page.evaluate(() => window.__unthrottle === true).catch(() => false)) {
@@ -278,6 +328,11 @@ try {
           console.error(`world bench: ${mbit} Mbit/s ${mode}: longest library tasks ${lib.map((x) => `${x.ms.toFixed(0)} ms at ${x.at.toFixed(1)} s (${x.top.join(', ')})`).join('; ') || 'none'}`);
         }
         ((results[mbit] ||= {})[mode] ||= []).push(r);
+        if (mode === 'open') {
+          const at = [...r.baseTimes].sort((x, y) => x - y);
+          console.error(`world bench: ${mbit} Mbit/s open: ${at.length} bases, half by ${at[(at.length - 1) >> 1].toFixed(2)} s, the last joined ${at[at.length - 1].toFixed(2)} s, every base drawn ${r.basesAt.toFixed(2)} s`);
+          continue;
+        }
         console.error(`world bench: ${mbit} Mbit/s ${mode}: area ${r.area.toFixed(4)}, PSNR ${r.psnr.toFixed(1)} dB, bases ${r.basesAt.toFixed(1)} s, loaded ${r.doneAt.toFixed(1)} s, frame render ${r.renderMs.toFixed(0)} ms, ${r.samples} frames${r.unfinished ? ', NOT FINISHED (its last state is the reference)' : ''}, MB at 5 s marks ${[5, 10, 15, 20, 25, 30].map((m) => { const k = r.times.findLastIndex((t) => t <= m); return k >= 0 ? (r.bytes[k] / 1e6).toFixed(1) : '–'; }).join(' ')}, area per 5 s ${r.errors.reduce((o, e, k) => { const end = k + 1 < r.times.length ? r.times[k + 1] : seconds; const b = Math.min(5, Math.floor(r.times[k] / 5)); o[b] = (o[b] || 0) + e * (end - r.times[k]); return o; }, []).map((x) => x.toFixed(3)).join(' ')}`);
       } finally {
         await close();

@@ -168,6 +168,7 @@ class Exporter {
       }
       json j = {{"bufferView", add_view(bytes->data(), bytes->size(), 0)}, {"mimeType", mime}};
       if (!img.name.empty()) j["name"] = img.name;
+      if (opt_.tag_meshes) j["extras"] = {{"meshmux_image", i}};
       image_map_[i] = int(images_.size());
       images_.push_back(std::move(j));
     }

@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "stream/quantize.h"
 #include "scene/scene.h"
+#include "stream/quantize.h"
 
 namespace meshmux {
 
@@ -39,10 +39,10 @@ struct GltfExportOptions {
   int draco_speed = 3;                          // Draco encoder speed 0 (smallest) .. 10 (fastest)
   size_t min_gpu_instances = kMinGpuInstances;  // instances per mesh for EXT_mesh_gpu_instancing
   std::string generator = "meshmux";            // asset.generator
-  bool tag_meshes =
-      false;             // mesh.extras = {"meshmux_mesh": Scene mesh index} (stream package base)
-  bool meshopt = false;  // EXT_meshopt_compression + KHR_mesh_quantization, vertex order kept
-                         // (stream package base); takes precedence over `draco`
+  bool tag_meshes = false;  // mesh.extras = {"meshmux_mesh": Scene mesh index} and image.extras
+                            // = {"meshmux_image": Scene image index} (stream package base)
+  bool meshopt = false;     // EXT_meshopt_compression + KHR_mesh_quantization, vertex order kept
+                            // (stream package base); takes precedence over `draco`
   std::vector<PositionQuantization>
       position_quantization;  // meshopt: grid per Scene mesh; missing entries are computed
                               // from the bounds of the mesh's positions over all its primitives

@@ -189,6 +189,10 @@ std::vector<std::vector<LevelMap>> texture_layers(const TextureLevels& levels, M
     // A level's cost is all its maps: the channels move together.
     uint64_t bytes = l.encoded.size();
     for (const TextureMap& tm : l.other_maps) bytes += tm.encoded.size();
+    // The kept materials' images at the level's scale ride with it (image/kept_levels.h): their
+    // bytes count, their texels are not rendered here (the cells draw every primitive with the
+    // level's set).
+    for (const KeptMap& km : l.kept) bytes += km.encoded.size();
     r.texture_bytes.push_back(bytes);
     r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
     textures.push_back(std::move(maps));

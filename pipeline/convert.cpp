@@ -16,6 +16,7 @@
 #include "atlas/kept.h"
 #include "clean/flatten.h"
 #include "core/parallel.h"
+#include "image/kept_levels.h"
 #include "multiplex/stream_plan.h"
 #include "simplify/lod.h"
 #include "stream/package.h"
@@ -175,6 +176,9 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
     channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
   auto levels = make_texture_levels(*texture, to, channels);
   if (!levels.ok()) return levels.status();
+  // The kept materials' images go with the levels, each at its level's scale.
+  if (whole_pyramid)
+    if (Status st = add_kept_levels(scene, *levels, to.preview_quality); !st) return st;
   // From here on the levels stand for the atlas's images: their pixels are released (a 4096²
   // atlas's four channels are 256 MB, which every later copy of the scene would repeat).
   texture->encoded = levels->levels.back().encoded;
@@ -186,6 +190,14 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
     img.mime_type = levels->levels.back().other_maps[c].mime_type;
     std::vector<uint8_t>().swap(img.rgba);
   }
+  size_t kept_bytes = 0, kept_maps = 0;
+  for (const TextureLevel& l : levels->levels)
+    for (const KeptMap& k : l.kept)
+      if (&l != &levels->levels.back()) kept_bytes += k.encoded.size(), ++kept_maps;
+  if (kept_maps > 0)
+    report_step(progress, format("texture levels: %zu kept image(s) at the levels' scales below "
+                                 "the top, %zu maps, %.1f kB",
+                                 kept_level_images(scene).size(), kept_maps, kept_bytes / 1e3));
   std::string dropped;
   for (const DroppedTextureLevel& d : levels->dropped)
     dropped += format(", %dx%d dropped (%s)", d.width, d.height, d.why.c_str());
@@ -219,6 +231,7 @@ Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const Tex
       ci.width = l.width, ci.height = l.height;
     }
   }
+  apply_kept_level(s, levels, level);
   return s;
 }
 

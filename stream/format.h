@@ -15,7 +15,7 @@
 //   12  J  the JSON table (UTF-8), zlib-deflated (browsers: DecompressionStream("deflate"))
 //   12+J   the data: the base .glb (deflated when "deflated"), then each chunk, in table order
 // JSON table:
-//   {"version": 13,                                         // kPackageVersion
+//   {"version": 14,                                         // kPackageVersion
 //    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
 //             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
 //             "ambient": a, "diffuse": d,                    // near/far at distance ∓
@@ -45,6 +45,11 @@
 //                "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...]}],
 //                   // the payload is the maps' files in this order; base_color comes first,
 //                   // then any other of the channels below (physically based maps)
+//                "kept": [{"image": k, "width": w, "height": h, "mime": "image/jpeg",
+//                          "size": n}, ...]}],         // optional: after the maps' files, the
+//                   // images of materials kept beside the atlas at this level's scale, each
+//                   // replacing the base .glb's image tagged extras {"meshmux_image": k}
+//                   // wherever a material samples it (sampler, uv set, transform unchanged)
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
 //               {"name": "mesh-first", ...}, ...]}                  // see below
 // Offsets count from the data start (12 + J).
@@ -64,7 +69,9 @@
 // is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits
 // taking the mesh from vertex a to b and face c to e (stream/vsplit.h; the splits' order is the
 // stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A texture
-// chunk is the complete JPEG or PNG files of that level's maps, one per channel.
+// chunk is the complete JPEG or PNG files of that level's maps, one per channel, then its kept
+// images (image/kept_levels.h: the base carries each at the base level's scale, a level only
+// where the size changes, the finest level as the image came).
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
 // order is a permutation of the chunks that keeps the mesh chunks' relative order (texture
@@ -83,15 +90,17 @@
 
 namespace meshmux {
 
-// 13: a part is one adaptive range-coded stream (stream/range_coder.h; 12: ten byte streams,
+// 14: texture chunks may carry "kept" images (and the base .glb tags its images); 13: a part
+// is one adaptive range-coded stream (stream/range_coder.h; 12: ten byte streams,
 // the chunk's parts deflated together); flat-shaded meshes carry no normals since 12. The web
 // client (viewers/web/package_reader.js, PACKAGE_VERSION) reads exactly this version.
-constexpr uint32_t kPackageVersion = 13;
+constexpr uint32_t kPackageVersion = 14;
 constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
 constexpr uint64_t kMaxTextureSide = 65536;              // pixels, either side of a texture level
 constexpr int kMaxJsonDepth = 32;                        // bracket nesting of the JSON table
+constexpr uint64_t kMaxKeptImages = 65536;               // a kept map's "image" is below this
 // Vertices or faces per mesh the stream format allows; the package table carries it to the
 // reader and the web client ("limits").
 constexpr uint64_t kMaxStreamElements = uint64_t(1) << 28;

@@ -47,8 +47,10 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& input);
 // before anything is exposed; errors name the problem ("package: chunk 3: offset past the end").
 // One map of a texture chunk: its channel, file type and absolute byte range.
 struct PackageMap {
-  std::string channel, mime;
+  std::string channel, mime;  // channel: empty for a kept image
   uint64_t offset = 0, size = 0;
+  int32_t image = -1;         // a kept image: the base .glb image tagged meshmux_image = image
+  int width = 0, height = 0;  // a kept image's size (a channel map's is the chunk's)
 };
 struct PackageChunk {
   StreamStep::Kind kind = StreamStep::kMesh;
@@ -57,6 +59,7 @@ struct PackageChunk {
   std::vector<PackagePart> parts;  // mesh chunks
   int width = 0, height = 0;       // texture chunks
   std::vector<PackageMap> maps;    // texture chunks: base_color first
+  std::vector<PackageMap> kept;    // texture chunks: kept images at this level, after the maps
 };
 struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;

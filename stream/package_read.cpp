@@ -203,6 +203,41 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   return Status::ok();
 }
 
+// A texture chunk's "kept" maps (optional): the kept materials' images at the level's scale,
+// their files after the channel maps' from `at` on (advanced past them).
+Status read_kept(const Json& j, PackageChunk& c, uint64_t& at, const std::string& where) {
+  auto kept = j.find("kept");
+  if (kept == j.end()) return Status::ok();
+  if (!kept->is_array()) return fail(where + ": \"kept\" is not an array");
+  Status s;
+  for (size_t i = 0; i < kept->size(); ++i) {
+    const Json& e = (*kept)[i];
+    std::string kw = where + " kept " + std::to_string(i);
+    if (!e.is_object()) return fail(kw + " is not an object");
+    auto mime = e.find("mime");
+    if (mime == e.end() || !mime->is_string())
+      return fail(kw + ": \"mime\" missing or not a string");
+    PackageMap m;
+    m.mime = mime->get<std::string>();
+    if (m.mime != "image/jpeg" && m.mime != "image/png")
+      return fail(kw + ": mime type is neither JPEG nor PNG");
+    uint64_t image = 0;
+    if (!(s = get_uint(e, "image", kMaxKeptImages - 1, image, kw))) return s;
+    m.image = int32_t(image);
+    for (const PackageMap& before : c.kept)
+      if (before.image == m.image) return fail(kw + ": image " + std::to_string(image) + " twice");
+    if (!(s = get_side(e, "width", m.width, kw)) || !(s = get_side(e, "height", m.height, kw)))
+      return s;
+    if (!(s = get_uint(e, "size", c.size, m.size, kw))) return s;
+    if (m.size == 0) return fail(kw + ": empty map");
+    if (m.size > c.offset + c.size - at) return fail(kw + ": maps hold more than the chunk");
+    m.offset = at;
+    at += m.size;
+    c.kept.push_back(std::move(m));
+  }
+  return Status::ok();
+}
+
 // `file_size`: the bytes after the data start; offsets are relative to it, and made absolute
 // (+ data_start) on the way.
 Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_t data_start,
@@ -259,6 +294,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
       at += m.size;
       c.maps.push_back(std::move(m));
     }
+    if (Status k = read_kept(j, c, at, where); !k) return k;
     if (at != c.offset + c.size)
       return fail(where + ": maps hold " + std::to_string(at - c.offset) + " bytes, the chunk " +
                   std::to_string(c.size));

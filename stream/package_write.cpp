@@ -51,6 +51,19 @@ Status check_texture_level(const TextureLevel& t, const std::string& where) {
     if (m.encoded.empty() || (m.mime_type != "image/jpeg" && m.mime_type != "image/png"))
       return fail(where + "texture level " + m.channel + " map is empty or neither JPEG nor PNG");
   }
+  for (size_t i = 0; i < t.kept.size(); ++i) {
+    const KeptMap& k = t.kept[i];
+    for (size_t b = 0; b < i; ++b)
+      if (t.kept[b].image == k.image)
+        return fail(where + "texture level kept image " + std::to_string(k.image) + " twice");
+    if (k.image < 0 || uint64_t(k.image) >= kMaxKeptImages || k.width <= 0 || k.height <= 0 ||
+        uint64_t(k.width) > kMaxTextureSide || uint64_t(k.height) > kMaxTextureSide)
+      return fail(where + "texture level kept image " + std::to_string(k.image) +
+                  ": bad index or size");
+    if (k.encoded.empty() || (k.mime_type != "image/jpeg" && k.mime_type != "image/png"))
+      return fail(where + "texture level kept image " + std::to_string(k.image) +
+                  " is empty or neither JPEG nor PNG");
+  }
   return Status::ok();
 }
 
@@ -92,6 +105,8 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
       c.texture = &t;
       c.payload = t.encoded;
       for (const TextureMap& m : t.other_maps)
+        c.payload.insert(c.payload.end(), m.encoded.begin(), m.encoded.end());
+      for (const KeptMap& m : t.kept)
         c.payload.insert(c.payload.end(), m.encoded.begin(), m.encoded.end());
     } else {
       if (in.base_whole)
@@ -233,6 +248,16 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
         maps.push_back(
             {{"channel", m.channel}, {"mime", m.mime_type}, {"size", uint64_t(m.encoded.size())}});
       e["maps"] = std::move(maps);
+      if (!c.texture->kept.empty()) {
+        OrderedJson kept = OrderedJson::array();
+        for (const KeptMap& k : c.texture->kept)
+          kept.push_back({{"image", k.image},
+                          {"width", k.width},
+                          {"height", k.height},
+                          {"mime", k.mime_type},
+                          {"size", uint64_t(k.encoded.size())}});
+        e["kept"] = std::move(kept);
+      }
     }
     offset += c.payload.size();
     cs.push_back(std::move(e));

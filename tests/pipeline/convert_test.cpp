@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -314,6 +315,81 @@ TEST(Convert, TiledTextureOfAnySizeStreamsWithoutTextureLevels) {
   EXPECT_FALSE(out->package.empty());
   EXPECT_EQ(out->texture_levels, 0u);
   EXPECT_EQ(out->output.draw_calls, 1u);
+}
+
+// A photograph-like pattern, decoded and JPEG-coded as an importer gives it.
+Image pattern(int side, int seed) {
+  Image im;
+  im.name = "pattern " + std::to_string(seed);
+  im.width = im.height = side;
+  im.rgba.resize(size_t(side) * size_t(side) * 4);
+  for (int y = 0; y < side; ++y)
+    for (int x = 0; x < side; ++x) {
+      uint8_t* q = &im.rgba[(size_t(y) * size_t(side) + size_t(x)) * 4];
+      q[0] = uint8_t((x * 7 + seed * 40) & 255), q[1] = uint8_t((y * 5) & 255);
+      q[2] = uint8_t(((x ^ y) * 3) & 255), q[3] = 255;
+    }
+  im.mime_type = "image/jpeg";
+  im.encoded = encode_jpeg(im, 90).take();
+  return im;
+}
+
+// A material kept beside the atlas (a texture tiled 20 times) beside one the atlas bakes: its
+// image went into the base at full size, so a glass or iridescent model's base was nearly its
+// whole model.glb. Now the base holds it at the base level's scale and the finest texture step
+// brings it as model.glb has it.
+TEST(Convert, KeptImagesComeWithTheTextureLevels) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene s;
+  for (int i = 0; i < 2; ++i) {
+    Mesh mesh;
+    Primitive p = testing::uv_sphere(24, 32, 1, {float(3 * i), 0, 0});
+    if (i == 1)
+      for (Vec2& t : p.uvs[0]) t = {t.x * 20, t.y * 20};
+    p.material = i;
+    mesh.primitives.push_back(p);
+    s.meshes.push_back(mesh);
+    s.instances.push_back({uint32_t(i), Mat4::identity(), "sphere " + std::to_string(i)});
+    Material m;
+    m.base_color.image = i;
+    s.materials.push_back(m);
+  }
+  s.images = {pattern(1024, 0), pattern(256, 1)};
+  Warnings warnings;
+  auto out = convert(s, ConvertOptions{}, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_GE(out->texture_levels, 2u);
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  int finest = 0;
+  for (const PackageChunk& c : pkg->chunks) {
+    if (c.kind != StreamStep::kTexture) continue;
+    for (const PackageMap& k : c.kept) {
+      EXPECT_LT(k.width, 256 * c.width / pkg->texture_width + 2) << "at the level's scale";
+      if (c.width == pkg->texture_width) {
+        finest = k.width;
+        // model.glb's own bytes of the image (the atlas step may have re-encoded it).
+        const auto first = out->package.begin() + long(k.offset);
+        EXPECT_NE(
+            std::search(out->model_glb.begin(), out->model_glb.end(), first, first + long(k.size)),
+            out->model_glb.end());
+      }
+    }
+  }
+  EXPECT_EQ(finest, 256) << "the finest level carries the image as it came";
+  // The base holds the atlas's level 0 and the tiled image at its scale, far under 256².
+  testing::TempDir dir;
+  testing::write_file(dir.file("base.glb"), out->base_glb);
+  testing::write_file(dir.file("model.glb"), out->model_glb);
+  auto base = testing::run_meshmux({"info", dir.file("base.glb"), "--json"});
+  auto model = testing::run_meshmux({"info", dir.file("model.glb"), "--json"});
+  ASSERT_EQ(base.exit_code, 0) << base.err;
+  ASSERT_EQ(model.exit_code, 0) << model.err;
+  const uint64_t base_texels = nlohmann::json::parse(base.out)["texture_pixels"].get<uint64_t>();
+  const uint64_t model_texels = nlohmann::json::parse(model.out)["texture_pixels"].get<uint64_t>();
+  EXPECT_LT(base_texels, 256u * 256u);
+  EXPECT_GE(model_texels, 256u * 256u) << "model.glb keeps it whole";
 }
 
 }  // namespace

@@ -15,15 +15,15 @@
 #include <random>
 
 #include "clean/clean.h"
+#include "core/file_io.h"
 #include "exporters/gltf.h"
 #include "image/texture_levels.h"
 #include "importers/import.h"
 #include "multiplex/stream_plan.h"
-#include "stream/deflate.h"
-#include "stream/vsplit.h"
-#include "core/file_io.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
+#include "stream/deflate.h"
+#include "stream/vsplit.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -367,6 +367,52 @@ TEST(Package, TextureStepsCarrySeveralMaps) {
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_NE(r.status().message().find("channel"), std::string::npos) << r.status().message();
   }
+}
+
+// A texture step carries the kept materials' images at its scale after its maps (a glass
+// model's images were in its base at full size): each listed with the image it replaces, its
+// size and type, read back at its own range; one named twice or empty is refused.
+TEST(Package, TextureStepsCarryKeptImages) {
+  const Fixture& f = fixture();
+  TextureLevels levels = f.textures;
+  PackageInput in = f.input;
+  in.textures = &levels;
+  for (size_t j = 0; j < levels.levels.size(); ++j) {
+    KeptMap k;
+    k.image = 3;
+    k.width = 10 << j, k.height = 5 << j;
+    k.mime_type = "image/jpeg";
+    k.encoded.assign(9 + j, uint8_t(j + 1));  // the reader checks ranges, not pixels
+    levels.levels[j].kept = {k};
+  }
+  auto bytes = write_package(in);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  size_t texture_chunks = 0;
+  for (size_t i = 0; i < pkg->chunks.size(); ++i) {
+    const PackageChunk& c = pkg->chunks[i];
+    if (c.kind != StreamStep::kTexture) continue;
+    ++texture_chunks;
+    const size_t j = in.steps[i].texture_level;
+    const TextureLevel& l = levels.levels[j];
+    ASSERT_EQ(c.kept.size(), 1u);
+    EXPECT_EQ(c.kept[0].image, 3);
+    EXPECT_EQ(c.kept[0].width, int(10 << j));
+    EXPECT_EQ(c.kept[0].height, int(5 << j));
+    EXPECT_EQ(c.kept[0].mime, "image/jpeg");
+    EXPECT_EQ(c.kept[0].offset, c.offset + l.encoded.size());
+    EXPECT_EQ(c.size, l.encoded.size() + 9 + j);
+    EXPECT_TRUE(std::equal(l.kept[0].encoded.begin(), l.kept[0].encoded.end(),
+                           bytes->begin() + long(c.kept[0].offset)));
+  }
+  EXPECT_EQ(texture_chunks, 2u);
+  for (TextureLevel& l : levels.levels) l.kept.push_back(l.kept[0]);
+  auto twice = write_package(in);
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().message().find("twice"), std::string::npos) << twice.status().message();
+  for (TextureLevel& l : levels.levels) l.kept.resize(1), l.kept[0].encoded.clear();
+  EXPECT_FALSE(write_package(in).ok());
 }
 
 TEST(Package, WriterRejectsInconsistentInput) {

@@ -99,6 +99,8 @@ export interface MeshmuxStats {
   vertices: number;
   textureWidth: number;
   textureHeight: number;
+  /** Texels of the images of materials kept beside the atlas, as shown (texture levels bring them up). */
+  keptTexels: number;
   /** The distortion the package expects at this point (CIEDE2000, lower is better). */
   distortion: number;
   order: string;
@@ -159,6 +161,8 @@ export class MeshmuxStream extends EventTarget {
   /** Releases the geometry, materials and textures; the stream cannot be used after. */
   dispose(): void;
   /** Per package mesh, the digest of the decoded state (report.json's stream_digests when complete). */
+  /** Texels of the kept materials' image `image` (the base .glb's extras.meshmux_image) as shown, or of all of them; 0 for one no material shows. */
+  keptTexels(image?: number): number;
   stateDigests(): Promise<number[]>;
   /** The world-space bounds of what is shown. */
   worldBounds(target?: Box3): Box3;

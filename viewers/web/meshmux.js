@@ -1,4 +1,4 @@
-// meshmux.js — web client of meshmux stream packages (model.mmxp, version 13; the format: stream/format.h).
+// meshmux.js — web client of meshmux stream packages (model.mmxp, version 14; the format: stream/format.h).
 //
 // A package is one file: a 12-byte header ("MMXP", version, table length), a deflated JSON table, a base
 // .glb any glTF viewer opens, each mesh's base faces, then chunks (mesh refinements and texture
@@ -459,6 +459,10 @@ export class MeshmuxStream extends EventTarget {
     this._map = { value: null };  // the texture uniform shared by the materials (Lambert)
     this._maps = {};              // physical: channel → the texture every material shows
     this._ownTextures = new Set();
+    // Images of materials kept beside the atlas that texture levels bring up ("kept" maps): the
+    // base .glb image index (extras.meshmux_image) → { texture: the one its materials show,
+    // uses: [[material, slot], ...] }.
+    this._kept = new Map();
     this._unshownChannels = new Set();  // texture channels streamed that this client does not shade yet
     this._state = 'idle';
     this._abort = null;
@@ -500,6 +504,7 @@ export class MeshmuxStream extends EventTarget {
       bytesReceived: this._bytes, bytesTotal: this._reader.size,
       chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
       triangles, vertices, textureWidth: this._textureSize[0], textureHeight: this._textureSize[1],
+      keptTexels: this.keptTexels(),
       distortion: this._position > 0 ? this._sequenceDistortion[this._position - 1] : this.table ? this.table.base.distortion : NaN,
       order: this.order ? this.order.name : this.options.order,
       // The order being followed: the chosen one, or "view-adapted" once re-planned for the camera.
@@ -743,8 +748,69 @@ export class MeshmuxStream extends EventTarget {
     this.materials = [...materialFor.values()];
     // The materials the texture levels refine (kept ones keep their own textures).
     this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
+    this._findKept(gltf.parser, [...materialFor].filter(([source]) => !streamed(source)).map(([, m]) => m));
     this.object.add(root);
     this.object.updateMatrixWorld(true);
+  }
+
+  // Where the kept materials' images are shown (this._kept): each texture GLTFLoader made is
+  // traced to its glTF image through the parser's associations (textures that share an image
+  // share its THREE.Source, clones for another uv set or a transform included).
+  _findKept(parser, materials) {
+    const json = parser.json, imageOfSource = new Map();
+    for (const [o, ref] of parser.associations) {
+      if (!o || !o.isTexture || !ref || ref.textures === undefined) continue;
+      const k = json.images?.[json.textures?.[ref.textures]?.source]?.extras?.meshmux_image;
+      if (Number.isInteger(k)) imageOfSource.set(o.source, k);
+    }
+    for (const m of materials) {
+      for (const [slot, value] of Object.entries(m)) {
+        if (!value || !value.isTexture || !imageOfSource.has(value.source)) continue;
+        const k = imageOfSource.get(value.source);
+        if (!this._kept.has(k)) this._kept.set(k, { textures: new Set(), uses: [] });
+        this._kept.get(k).textures.add(value);
+        this._kept.get(k).uses.push([m, slot]);
+      }
+    }
+  }
+
+  // Texels of the kept images as shown (image k alone, or all of them).
+  keptTexels(k) {
+    const of = (e) => { const t = e.textures.values().next().value, i = t && t.image; return i ? (i.width || 0) * (i.height || 0) : 0; };
+    if (k !== undefined) return this._kept.has(k) ? of(this._kept.get(k)) : 0;
+    let n = 0;
+    for (const e of this._kept.values()) n += of(e);
+    return n;
+  }
+
+  // A texture level's kept images (decoded: [[k, bitmap]]), uploaded then shown: every texture
+  // showing image k is replaced by a copy (sampler, uv set, transform, colour space kept) of the
+  // new pixels. Images no material shows here are let go.
+  async _showKept(decoded) {
+    const swaps = [];
+    for (const [k, bitmap] of decoded) {
+      const e = this._kept.get(k);
+      if (!e) { bitmap.close(); continue; }
+      const replaced = new Map();
+      for (const old of e.textures) {
+        const t = old.clone();
+        t.source = new THREE.TextureSource(bitmap);
+        t.name = `meshmux kept ${k} ${bitmap.width}x${bitmap.height}`;
+        t.needsUpdate = true;
+        replaced.set(old, t);
+      }
+      swaps.push([e, replaced, bitmap]);
+    }
+    for (const [, replaced] of swaps) for (const t of replaced.values()) if (!(await this._upload(t))) return;
+    for (const [e, replaced, bitmap] of swaps) {
+      for (const [m, slot] of e.uses) if (replaced.has(m[slot])) m[slot] = replaced.get(m[slot]);
+      for (const old of e.textures) {
+        old.dispose();
+        if (e.own && old.image && typeof old.image.close === 'function') old.image.close();
+      }
+      e.textures = new Set(replaced.values());
+      e.own = bitmap;
+    }
   }
 
   // The world-space box of all the stream will draw: each mesh's package bounds through each
@@ -948,6 +1014,14 @@ export class MeshmuxStream extends EventTarget {
     if (bitmap.width !== chunk.width || bitmap.height !== chunk.height) {
       this.notes.push(`chunk ${index}: the texture is ${bitmap.width}×${bitmap.height}, the table says ${chunk.width}×${chunk.height}`);
     }
+    let kept;
+    try {
+      kept = await this._decodeKept(index, chunk, payload);
+    } catch (e) {
+      bitmap.close();
+      throw e;
+    }
+    if (this._state === 'disposed') { bitmap.close(); for (const [, b] of kept) b.close(); return; }
     const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
@@ -956,6 +1030,7 @@ export class MeshmuxStream extends EventTarget {
       this._releaseTexture(this._map.value);
       this._map.value = texture;
       this._textureSize = [bitmap.width, bitmap.height];
+      await this._showKept(kept);
     });
   }
 
@@ -963,6 +1038,7 @@ export class MeshmuxStream extends EventTarget {
   // texture's colour space says how three.js reads them), then swapped in on every material.
   async _applyMaps(index, chunk, payload) {
     const decoded = [];
+    let kept = [];
     try {
       for (const map of chunk.maps) {
         const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
@@ -976,11 +1052,12 @@ export class MeshmuxStream extends EventTarget {
         if (bitmap.width !== chunk.width || bitmap.height !== chunk.height)
           this.notes.push(`chunk ${index}: the ${map.channel} map is ${bitmap.width}×${bitmap.height}, the table says ${chunk.width}×${chunk.height}`);
       }
+      kept = await this._decodeKept(index, chunk, payload);
     } catch (e) {
       for (const [, b] of decoded) b.close();
       throw e;
     }
-    if (this._state === 'disposed') { for (const [, b] of decoded) b.close(); return; }
+    if (this._state === 'disposed') { for (const [, b] of [...decoded, ...kept]) b.close(); return; }
     // Every map on the GPU before any is shown: the level's maps change together.
     const textures = [];
     for (const [channel, bitmap] of decoded) {
@@ -1003,7 +1080,32 @@ export class MeshmuxStream extends EventTarget {
         this._releaseTexture(old);
         if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
       }
+      await this._showKept(kept);
     });
+  }
+
+  // A texture chunk's kept images decoded off the main thread ([[image, bitmap]], table order);
+  // on failure none is left open.
+  async _decodeKept(index, chunk, payload) {
+    const out = [];
+    try {
+      for (const map of chunk.kept || []) {
+        const bytes = payload.subarray(map.offset - chunk.offset, map.offset - chunk.offset + map.size);
+        let bitmap;
+        try {
+          bitmap = await this._decodeImage(bytes, map.mime);
+        } catch (e) {
+          throw this._fail(`chunk ${index}: kept image ${map.image} (${map.mime}) cannot be decoded (${e.message})`);
+        }
+        out.push([map.image, bitmap]);
+        if (bitmap.width !== map.width || bitmap.height !== map.height)
+          this.notes.push(`chunk ${index}: kept image ${map.image} is ${bitmap.width}×${bitmap.height}, the table says ${map.width}×${map.height}`);
+      }
+    } catch (e) {
+      for (const [, b] of out) b.close();
+      throw e;
+    }
+    return out;
   }
 
   // A decoded texture level's upload and swap (`job`): awaited, or with uploadsBeside queued
@@ -1070,6 +1172,11 @@ export class MeshmuxStream extends EventTarget {
     this._map.value = null;
     for (const t of Object.values(this._maps)) this._releaseTexture(t);
     this._maps = {};
+    for (const e of this._kept.values()) {
+      for (const t of e.textures) t.dispose();
+      if (e.own) e.own.close();
+    }
+    this._kept.clear();
     this.meshes = [];
     this.materials = [];
     this._streamedMaterials = [];

@@ -1,10 +1,12 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 13; layout in
+// package_reader.js — reading a meshmux stream package (model.mmxp, version 14; layout in
 // stream/format.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 13;
+export const PACKAGE_VERSION = 14;
 // The JSON table and the base .glb inflate to at most these (stream/format.h).
 export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
+// A kept image's index is below this; a texture side at most the table's limit, and this.
+const MAX_KEPT_IMAGES = 65536, MAX_TEXTURE_SIDE = 65536;
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -63,6 +65,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   }
   const limits = obj(t.limits, 'limits');
   const MAX_ELEMENTS = Math.min(int(limits.max_elements, 'limits.max_elements'), TYPED_ARRAY_ELEMENTS);
+  const maxSide = Math.min(int(limits.max_texture_side, 'limits.max_texture_side'), MAX_TEXTURE_SIDE);
   const base = { ...range(obj(t.base, 'base'), 'base'), distortion: dist(t.base.distortion, 'base.distortion') };
   need(typeof t.base.deflated === 'boolean', 'base.deflated must be true or false');
   base.deflated = t.base.deflated;
@@ -109,9 +112,24 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
         at += size;
         return map;
       });
+      // Then the images of materials kept beside the atlas at this level's scale, each standing
+      // for the base .glb image tagged extras.meshmux_image = image.
+      const kept = (c.kept === undefined ? [] : arr(c.kept, `${w}.kept`)).map((k, j) => {
+        const kw = `${w}.kept[${j}]`;
+        obj(k, kw);
+        need(/^image\/(jpeg|png)$/.test(k.mime), `${kw}.mime ${JSON.stringify(k.mime)} is not image/jpeg or image/png`);
+        const size = int(k.size, `${kw}.size`);
+        need(size > 0 && at + size <= chunk.offset + chunk.size, `${kw}: ${size} bytes do not fit the chunk`);
+        const map = { image: int(k.image, `${kw}.image`, MAX_KEPT_IMAGES - 1), width: int(k.width, `${kw}.width`, maxSide),
+          height: int(k.height, `${kw}.height`, maxSide), mime: k.mime, offset: at, size };
+        need(map.width > 0 && map.height > 0, `${kw}: a side is 0`);
+        at += size;
+        return map;
+      });
       need(maps.length > 0 && at === chunk.offset + chunk.size, `${w}: its maps hold ${at - chunk.offset} bytes, the chunk ${chunk.size}`);
       need(new Set(maps.map((m) => m.channel)).size === maps.length, `${w}: a channel appears twice`);
-      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), maps };
+      need(new Set(kept.map((m) => m.image)).size === kept.length, `${w}: a kept image appears twice`);
+      return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), maps, kept };
     }
     need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
     need(!base.whole, `${w}: a mesh refinement in a package whose base is the whole model`);

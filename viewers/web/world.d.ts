@@ -46,6 +46,7 @@ export interface MeshmuxWorldStats {
   chunkCount: number;
   triangles: number;
   vertices: number;
+  /** Texels shown over the packages: texture levels and kept materials' images. */
   texels: number;
   trianglesApplied: number;
   /** Seconds spent decoding and applying mesh refinements, over the packages. */

@@ -96,7 +96,7 @@ export class MeshmuxWorld extends EventTarget {
       chunksApplied += s.chunksApplied;
       chunkCount += s.chunkCount;
       triangles += s.triangles * p.placements.length;
-      texels += s.textureWidth * s.textureHeight;
+      texels += s.textureWidth * s.textureHeight + (s.keptTexels || 0);
       vertices += s.vertices;
       trianglesApplied += s.trianglesApplied;
       applySeconds += s.applySeconds;
@@ -274,16 +274,19 @@ export class MeshmuxWorld extends EventTarget {
 
   // What granting `chunks` of package p adds to what is drawn: triangles over its placements
   // (each mesh as often as the base draws it), and the texels its largest texture level adds
-  // over the one shown.
+  // over the one shown, with its kept images' over theirs.
   _cost(p, chunks) {
     const s = p.stream.stats, shown = s.textureWidth * s.textureHeight;
     const instances = p.stream.meshes.map((m) => m.instances);
     let triangles = 0, texels = 0;
+    const kept = new Map();  // kept image → the most texels a granted level gives it
     for (const c of chunks) {
       const k = chunkCost(p.stream.table, c.index, instances);
       triangles += k.triangles * p.placements.length;
       texels = Math.max(texels, k.texels - shown);
+      for (const m of p.stream.table.chunks[c.index].kept || []) kept.set(m.image, Math.max(kept.get(m.image) || 0, m.width * m.height));
     }
+    for (const [image, n] of kept) texels += Math.max(0, n - p.stream.keptTexels(image));
     return { triangles, texels };
   }
 

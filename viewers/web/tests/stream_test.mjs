@@ -222,6 +222,26 @@ try {
   if (!stall.tasks) fail('the trace holds no main-thread task');
   if (stall.longest > maxStall) fail(`a main-thread task ran ${stall.longest.toFixed(1)} ms while the library streamed (most ${maxStall})`);
   if (!(final.psnr >= minPsnr)) fail(`final frame PSNR ${final.psnr.toFixed(2)} dB < ${minPsnr}`);
+  // The images of materials kept beside the atlas come with the texture levels ("kept" maps):
+  // the base shows each at its level's scale, the finished stream at least the largest map of it.
+  const table = (() => {
+    const bytes = fs.readFileSync(path.join(out, 'model.mmxp')), J = bytes.readUInt32LE(8);
+    return JSON.parse(zlib.inflateSync(bytes.subarray(12, 12 + J)).toString('utf8'));
+  })();
+  const largestKept = new Map();
+  for (const c of table.chunks) for (const k of c.kept || []) largestKept.set(k.image, Math.max(largestKept.get(k.image) || 0, k.width * k.height));
+  if (largestKept.size) {
+    // Per image, the texels complete shows (0: no material shows it while streaming, as an
+    // occlusion map on the second uv set, which the stream does not carry).
+    const shown = await page.evaluate((ks) => ks.map((k) => window.meshmuxViewer.stream.keptTexels(k)), [...largestKept.keys()]);
+    const short = [...largestKept].filter(([, n], i) => shown[i] > 0 && shown[i] < n);
+    const base = await load('?budget=0.000001', ['stopped', 'complete']);
+    result.kept = { images: largestKept.size, shown: shown.filter((n) => n > 0).length, baseTexels: base.keptTexels, finalTexels: full.keptTexels };
+    console.log(`kept images: ${largestKept.size} in the texture levels, ${result.kept.shown} shown; texels at the base ${base.keptTexels}, complete ${full.keptTexels}`);
+    if (!result.kept.shown) fail('no kept image of the texture levels is shown');
+    if (short.length) fail(`kept images shown smaller than their largest maps at complete: ${short.map(([k]) => k).join(', ')}`);
+    if (!(base.keptTexels < full.keptTexels)) fail(`the base shows ${base.keptTexels} texels of kept images, no fewer than complete (${full.keptTexels})`);
+  }
 
   // Refinement speed in steady state: the page's own client code (viewer/meshmux.js) applies
   // every mesh chunk of the file, already in memory, to fresh meshes, five times; the best

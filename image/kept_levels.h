@@ -1,0 +1,38 @@
+// The images of materials kept beside the atlas (tiled textures, layer textures, texel grids:
+// atlas/kept.h) carried by the texture levels at each level's scale (TextureLevel::kept), so the
+// base holds them small and the stream brings them up with the atlas. Without this a kept
+// material's images went into the base at full size: a glass or iridescent model's base was
+// nearly its whole model.glb (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised
+// conversion of 3D models for interactive metaverses" §4.4: the base shows a small texture and
+// the levels refine it; this extends that to the images the atlas cannot stand in for).
+//
+// Which images: every image some material samples that the streamed material (material 0, the
+// atlas's, whose base colour the levels are) does not. Scale of level j: its width over the
+// finest level's (levels.back()); an image's side s becomes max(min(s, kKeptMinSide),
+// round(s · scale)). The finest level carries the image's own bytes; a level carries an image
+// only where its size differs from the level below's (level 0, the base's, carries every one).
+// Reduced by 2×2 box halvings (linear light for colour, renormalized for normal maps, as stored
+// for data), then a Catmull-Rom resample to the exact size; encoded as the image came (JPEG at
+// `preview_quality`, or PNG). Images that are not decoded and cannot be decoded stay as they
+// are (no kept maps). O(kept texels) filtering plus encoding.
+#pragma once
+
+#include "scene/scene.h"
+#include "scene/texture_levels.h"
+
+namespace meshmux {
+
+constexpr int kKeptMinSide = 4;  // a kept image is never reduced below this side (or its own)
+
+// The image indices of `scene` that a level carries as kept maps (see above), ascending.
+std::vector<int32_t> kept_level_images(const Scene& scene);
+
+// Fills levels.levels[j].kept for every level. `levels` as make_texture_levels gave them (at
+// least one level); a no-op without levels. Errors name the image that failed to encode.
+Status add_kept_levels(const Scene& scene, TextureLevels& levels, int preview_quality);
+
+// `scene`'s images as texture level `level` shows them: each kept image replaced by the last
+// kept map of it at levels 0..level (encoded bytes, mime type and size; pixels dropped).
+void apply_kept_level(Scene& scene, const TextureLevels& levels, size_t level);
+
+}  // namespace meshmux

@@ -1,0 +1,124 @@
+#include "image/kept_levels.h"
+
+#include <gtest/gtest.h>
+
+#include "image/decode.h"
+#include "image/encode.h"
+
+namespace meshmux {
+namespace {
+
+// One colour, decoded, and its file bytes in `mime`.
+Image solid(int w, int h, uint8_t r, uint8_t g, uint8_t b, const std::string& mime) {
+  Image img;
+  img.name = "solid";
+  img.width = w, img.height = h;
+  img.rgba.resize(size_t(w) * size_t(h) * 4);
+  for (size_t i = 0; i < img.rgba.size(); i += 4)
+    img.rgba[i] = r, img.rgba[i + 1] = g, img.rgba[i + 2] = b, img.rgba[i + 3] = 255;
+  img.mime_type = mime;
+  img.encoded = mime == "image/png" ? encode_png(img).take() : encode_jpeg(img, 90).take();
+  return img;
+}
+
+// The atlas material (0) samples image 0; a tiled material (1) samples image 1 as base colour
+// and image 2 as normal map; a third samples a 4 × 4 image (3). Levels 16², 64² and 256² of the
+// atlas (a quarter of the side a step, as the levels ship by default).
+struct KeptScene {
+  Scene scene;
+  TextureLevels levels;
+  KeptScene() {
+    scene.images = {
+        solid(256, 256, 200, 10, 10, "image/jpeg"), solid(200, 100, 20, 180, 30, "image/jpeg"),
+        solid(64, 64, 128, 128, 255, "image/png"), solid(4, 4, 250, 250, 0, "image/png")};
+    scene.materials.resize(3);
+    scene.materials[0].base_color.image = 0;
+    scene.materials[1].base_color.image = 1;
+    scene.materials[1].normal.image = 2;
+    scene.materials[2].base_color.image = 3;
+    for (int side : {16, 64, 256}) {
+      TextureLevel l;
+      l.width = l.height = side;
+      l.mime_type = "image/jpeg";
+      l.encoded = {1};
+      levels.levels.push_back(l);
+    }
+  }
+};
+
+const KeptMap* find(const TextureLevel& l, int32_t image) {
+  for (const KeptMap& k : l.kept)
+    if (k.image == image) return &k;
+  return nullptr;
+}
+
+// Every image the atlas material does not sample rides with the levels.
+TEST(KeptLevels, ImagesAreThoseTheStreamedMaterialDoesNotSample) {
+  KeptScene k;
+  EXPECT_EQ(kept_level_images(k.scene), (std::vector<int32_t>{1, 2, 3}));
+  k.scene.materials[0].normal.image = 2;  // shared with the atlas material: streamed with it
+  EXPECT_EQ(kept_level_images(k.scene), (std::vector<int32_t>{1, 3}));
+}
+
+// A kept image is at each level's scale of the finest (16/256, 64/256, 1), never below 4 pixels a
+// side; the finest level carries the bytes it came with; each reduced map decodes to its size and
+// keeps its colour; an image too small to reduce is in the base's level only.
+TEST(KeptLevels, EachLevelCarriesTheImagesAtItsScale) {
+  KeptScene k;
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, 75).is_ok());
+  const std::vector<std::pair<int, int>> sides1 = {{13, 6}, {50, 25}, {200, 100}};
+  for (size_t j = 0; j < 3; ++j) {
+    const KeptMap* m = find(k.levels.levels[j], 1);
+    ASSERT_NE(m, nullptr) << j;
+    EXPECT_EQ(std::make_pair(m->width, m->height), sides1[j]) << j;
+    EXPECT_EQ(m->mime_type, "image/jpeg");
+    Image d;
+    d.name = "kept";
+    d.encoded = m->encoded;
+    ASSERT_TRUE(decode_image(d).is_ok());
+    EXPECT_EQ(std::make_pair(d.width, d.height), sides1[j]);
+    EXPECT_NEAR(d.rgba[(size_t(d.width) * size_t(d.height / 2) + size_t(d.width / 2)) * 4 + 1], 180,
+                6);
+  }
+  EXPECT_EQ(find(k.levels.levels[2], 1)->encoded, k.scene.images[1].encoded);
+  // The normal map stays PNG: 4 × 4, 16 × 16, then its own 64 × 64.
+  const std::vector<int> sides2 = {4, 16, 64};
+  for (size_t j = 0; j < 3; ++j) {
+    const KeptMap* m = find(k.levels.levels[j], 2);
+    ASSERT_NE(m, nullptr) << j;
+    EXPECT_EQ(m->width, sides2[j]);
+    EXPECT_EQ(m->mime_type, "image/png");
+  }
+  // 4 × 4 at every scale: the base's level carries it as it came, no level after it again.
+  ASSERT_NE(find(k.levels.levels[0], 3), nullptr);
+  EXPECT_EQ(find(k.levels.levels[0], 3)->encoded, k.scene.images[3].encoded);
+  EXPECT_EQ(find(k.levels.levels[1], 3), nullptr);
+  EXPECT_EQ(find(k.levels.levels[2], 3), nullptr);
+  // The atlas's own image is never a kept map.
+  for (const TextureLevel& l : k.levels.levels) EXPECT_EQ(find(l, 0), nullptr);
+}
+
+// A scene shown at level j holds, for each kept image, the last map of it up to j.
+TEST(KeptLevels, ApplyShowsTheLastMapUpToTheLevel) {
+  KeptScene k;
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, 75).is_ok());
+  Scene s = k.scene;
+  apply_kept_level(s, k.levels, 1);
+  EXPECT_EQ(s.images[1].width, 50);
+  EXPECT_EQ(s.images[1].encoded, find(k.levels.levels[1], 1)->encoded);
+  EXPECT_TRUE(s.images[1].rgba.empty());
+  EXPECT_EQ(s.images[3].encoded, k.scene.images[3].encoded);  // from level 0
+  EXPECT_EQ(s.images[0].encoded, k.scene.images[0].encoded);  // not a kept image
+  EXPECT_EQ(s.images[0].width, 256);
+}
+
+// No levels (an untextured atlas, or no stream): nothing to carry.
+TEST(KeptLevels, NoLevelsNoMaps) {
+  KeptScene k;
+  TextureLevels none;
+  ASSERT_TRUE(add_kept_levels(k.scene, none, 75).is_ok());
+  EXPECT_TRUE(none.levels.empty());
+}
+
+}  // namespace
+}  // namespace meshmux
