@@ -6,7 +6,8 @@
 //   independent  (a) every package's MeshmuxStream playing its own order at once
 //   sequential   (b) packages one after another, each base then its chunks
 //   gltf         (c) GLTFLoader loading every model.glb at once
-//   open         the world's bases alone, no path (the page draws nothing while they come):
+//   open         the world's bases alone from the path's first camera, the page drawing frames
+//                one after another as a viewer does (with --split: none until all are in):
 //                "every base shown" is when the first frame with all of them is finished
 // Every 250 ms the page renders the path's camera (320x240) and keeps the pixels; once all is
 // loaded it renders the same cameras again (the finished world) and measures each sample's mean
@@ -152,10 +153,17 @@ async function load() {
   if (mode === 'open') {
     const w = new MeshmuxWorld('world.json', { renderer, camera });
     received = () => w.stats.bytesReceived;
-    w.addEventListener('base', () => baseTimes.push(now()));
+    w.addEventListener('base', (e) => baseTimes.push([now(), e.detail && e.detail.package]));
     scene.add(w.object);
-    await w.open();
     const gl = renderer.getContext(), px = new Uint8Array(4);
+    const opened = w.open();
+    let open = false;
+    opened.then(() => { open = true; }, () => { open = true; });
+    while (!q.get('split') && !open) {  // a viewer's frames while the bases come
+      renderer.render(scene, camera);
+      await new Promise((r) => requestAnimationFrame(r));
+    }
+    await opened;
     if (q.get('split')) {
       const texs = new Set(); let texels = 0;
       scene.traverse((o) => { if (o.material) for (const m of [o.material].flat()) for (const v of Object.values(m)) if (v && v.isTexture && !texs.has(v)) { texs.add(v); texels += (v.image?.width || 0) * (v.image?.height || 0); } });
@@ -329,8 +337,8 @@ try {
         }
         ((results[mbit] ||= {})[mode] ||= []).push(r);
         if (mode === 'open') {
-          const at = [...r.baseTimes].sort((x, y) => x - y);
-          console.error(`world bench: ${mbit} Mbit/s open: ${at.length} bases, half by ${at[(at.length - 1) >> 1].toFixed(2)} s, the last joined ${at[at.length - 1].toFixed(2)} s, every base drawn ${r.basesAt.toFixed(2)} s`);
+          const at = [...r.baseTimes].sort((x, y) => x[0] - y[0]);
+          console.error(`world bench: ${mbit} Mbit/s open: ${at.length} bases, half by ${at[(at.length - 1) >> 1][0].toFixed(2)} s, the last joined ${at[at.length - 1][0].toFixed(2)} s, every base drawn ${r.basesAt.toFixed(2)} s; the last four: ${at.slice(-4).map(([t, n]) => `${n} ${t.toFixed(2)}`).join(', ')}`);
           continue;
         }
         console.error(`world bench: ${mbit} Mbit/s ${mode}: area ${r.area.toFixed(4)}, PSNR ${r.psnr.toFixed(1)} dB, bases ${r.basesAt.toFixed(1)} s, loaded ${r.doneAt.toFixed(1)} s, frame render ${r.renderMs.toFixed(0)} ms, ${r.samples} frames${r.unfinished ? ', NOT FINISHED (its last state is the reference)' : ''}, MB at 5 s marks ${[5, 10, 15, 20, 25, 30].map((m) => { const k = r.times.findLastIndex((t) => t <= m); return k >= 0 ? (r.bytes[k] / 1e6).toFixed(1) : '–'; }).join(' ')}, area per 5 s ${r.errors.reduce((o, e, k) => { const end = k + 1 < r.times.length ? r.times[k + 1] : seconds; const b = Math.min(5, Math.floor(r.times[k] / 5)); o[b] = (o[b] || 0) + e * (end - r.times[k]); return o; }, []).map((x) => x.toFixed(3)).join(' ')}`);

@@ -126,10 +126,11 @@ std::vector<double> distortions(const std::vector<RenderImage>& reference,
 // errors, and its encoded bytes, decoded when uploaded (one map at a time, so the decoded
 // texels are held once, by the renderer).
 struct LevelMap {
-  std::string channel;
+  std::string channel;  // empty for a kept image
   std::string name;
   const std::vector<uint8_t>* encoded = nullptr;
   std::string mime_type;
+  int32_t image = -1;  // a kept image: the scene's image it stands for
 };
 
 // Mesh layers: scene-wide selections from the base (layer 0) to the full detail (the last),
@@ -186,12 +187,15 @@ std::vector<std::vector<LevelMap>> texture_layers(const TextureLevels& levels, M
     }
     add(kBaseColorChannel, l.encoded, l.mime_type);
     for (const TextureMap& tm : l.other_maps) add(tm.channel, tm.encoded, tm.mime_type);
+    for (const KeptMap& km : l.kept)
+      maps.push_back(
+          {"", "level " + std::to_string(l.width) + " kept image " + std::to_string(km.image),
+           &km.encoded, km.mime_type, km.image});
     // A level's cost is all its maps: the channels move together.
     uint64_t bytes = l.encoded.size();
     for (const TextureMap& tm : l.other_maps) bytes += tm.encoded.size();
     // The kept materials' images at the level's scale ride with it (image/kept_levels.h): their
-    // bytes count, their texels are not rendered here (the cells draw every primitive with the
-    // level's set).
+    // bytes count, and the cells draw the kept materials with them.
     for (const KeptMap& km : l.kept) bytes += km.encoded.size();
     r.texture_bytes.push_back(bytes);
     r.texture_levels_shipped.push_back({uint64_t(l.width), uint64_t(l.height), bytes});
@@ -219,16 +223,22 @@ struct CellRenders {
         measured(size_t(m) * size_t(n)) {}
 
   // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
-  // them, one map at a time.
+  // them, one map at a time. A level's kept images are the last map of each at that level or
+  // below (a level carries one only where its size changes).
   Status upload_textures(const std::vector<std::vector<LevelMap>>& textures) {
     texture.resize(textures.size());
-    for (size_t j = 0; j < textures.size(); ++j)
+    std::map<int32_t, int> kept;  // kept image → its handle so far
+    for (size_t j = 0; j < textures.size(); ++j) {
       for (const LevelMap& map : textures[j]) {
         Image image;
         image.name = map.name;
         image.encoded = *map.encoded;
         image.mime_type = map.mime_type;
         if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
+        if (map.image >= 0) {
+          kept[map.image] = gl.add_texture(image, colour_image(map.image));
+          continue;
+        }
         // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
         struct Slot {
           int TextureSet::*field;
@@ -245,7 +255,18 @@ struct CellRenders {
           texture[j].*slot.field = gl.add_texture(image, slot.srgb);
         }
       }
+      texture[j].kept.assign(kept.begin(), kept.end());
+    }
     return Status::ok();
+  }
+
+  // Whether the scene's image `i` holds colour (sampled as base colour, emissive or sheen colour)
+  // rather than data.
+  bool colour_image(int32_t i) const {
+    for (const Material& mat : ps.scene.materials)
+      for (const TextureRef* t : {&mat.base_color, &mat.emissive, &mat.sheen_color})
+        if (t->present() && t->image == i) return true;
+    return false;
   }
 
   // One camera per direction of the viewing sphere, each framing the full detail.
@@ -327,7 +348,8 @@ struct CellRenders {
   // Mesh layer i's geometry handle, uploaded on first use.
   int geometry_of(int i) {
     if (geometry[size_t(i)] < 0)
-      geometry[size_t(i)] = gl.add_geometry(materialize(ps, layers[size_t(i)]));
+      geometry[size_t(i)] =
+          gl.add_geometry(materialize(ps, layers[size_t(i)]), false, /*kept_images=*/true);
     return geometry[size_t(i)];
   }
   // Texture level j's maps (an empty set without textures).

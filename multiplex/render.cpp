@@ -47,6 +47,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <climits>
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
@@ -177,6 +179,11 @@ struct GpuPrimitive {
   Vec3 sheen{0, 0, 0};  // sheen colour factor (0: no sheen layer)
   float sheen_roughness = 0;
   TextureSet textures;  // its material's own textures (add_geometry with_textures), or none
+  // add_geometry kept_images: a primitive of a material kept beside the atlas, drawn with its
+  // own images (per TextureSet slot: base colour, normal, orm, emissive, sheen; -1 none) through
+  // an explicit set's `kept` handles.
+  bool keeps_own = false;
+  std::array<int32_t, 5> images{-1, -1, -1, -1, -1};
 };
 
 struct GpuInstance {
@@ -244,6 +251,7 @@ struct Renderer::Impl {
   void set_instance(const CameraFrame& frame, const GpuInstance& inst);
   void set_primitive(const GpuPrimitive& p, bool explicit_set);
   void bind_set(const TextureSet& set, TextureSet& bound);
+  static TextureSet kept_set(const GpuPrimitive& p, const TextureSet& t);
   void bind_map(int want, int have, GLint flag, GLenum unit);
   void bind_unit(GLenum unit, int k);
 };
@@ -529,7 +537,7 @@ Renderer::~Renderer() {
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
 
-int Renderer::add_geometry(const Scene& scene, bool with_textures) {
+int Renderer::add_geometry(const Scene& scene, bool with_textures, bool kept_images) {
   Impl& m = *impl_;
   m.make_current();
   // Each material's decoded images, uploaded once (as colour or as data).
@@ -557,6 +565,14 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
                                      : nullptr;
       TextureSet own;
       size_t uv_set = 0;  // the set the primitive's own texture reads (set 0 without one)
+      auto image_of = [](const Material* mat) {
+        return mat && mat->base_color.present() ? mat->base_color.image : -1;
+      };
+      const bool keeps_own = kept_images && material && !scene.materials.empty() &&
+                             image_of(material) != image_of(&scene.materials[0]);
+      if (keeps_own && material->base_color.present() &&
+          material->base_color.tex_coord < p.uvs.size())
+        uv_set = material->base_color.tex_coord;
       if (with_textures && material) {
         own.base_color = upload(material->base_color, true);
         own.normal = upload(material->normal, false);
@@ -610,6 +626,13 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures) {
                                     : 0.0f;
       }
       gp.textures = own;
+      gp.keeps_own = keeps_own;
+      if (keeps_own) {
+        const TextureRef* refs[5] = {&material->base_color, &material->normal,
+                                     &material->metallic_roughness, &material->emissive,
+                                     &material->sheen_color};
+        for (size_t k = 0; k < 5; ++k) gp.images[k] = refs[k]->present() ? refs[k]->image : -1;
+      }
       glGenVertexArrays(1, &gp.vao);
       glBindVertexArray(gp.vao);
       glGenBuffers(1, &gp.vbo);
@@ -799,12 +822,28 @@ void Renderer::Impl::draw_shaded(const GpuGeometry& geo, const CameraFrame& fram
     if (prims.empty()) continue;
     set_instance(frame, inst);
     for (const GpuPrimitive& p : prims) {
-      set_primitive(p, explicit_set);
-      bind_set(explicit_set ? t : p.textures, bound);
+      const bool use_set = explicit_set && !p.keeps_own;
+      set_primitive(p, use_set);
+      bind_set(use_set ? t : p.keeps_own && explicit_set ? kept_set(p, t) : p.textures, bound);
       glBindVertexArray(p.vao);
       glDrawElements(GL_TRIANGLES, p.index_count, GL_UNSIGNED_INT, nullptr);
     }
   }
+}
+
+// The set a primitive keeping its own images draws with: each slot's image through `t.kept`.
+TextureSet Renderer::Impl::kept_set(const GpuPrimitive& p, const TextureSet& t) {
+  auto handle = [&](int32_t image) {
+    auto it = std::lower_bound(t.kept.begin(), t.kept.end(), std::make_pair(image, INT_MIN));
+    return image >= 0 && it != t.kept.end() && it->first == image ? it->second : -1;
+  };
+  TextureSet s;
+  s.base_color = handle(p.images[0]);
+  s.normal = handle(p.images[1]);
+  s.orm = handle(p.images[2]);
+  s.emissive = handle(p.images[3]);
+  s.sheen = handle(p.images[4]);
+  return s;
 }
 
 // The shading program with the pass's uniforms: the light and the texture units.

@@ -2,6 +2,8 @@
 // layer with) and the depth pre-pass it uses on textured draws. Skips when EGL is unavailable.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -105,6 +107,53 @@ TEST(RenderSets, EveryImageEqualsItsOwnRender) {
     }
   // The levels differ, so the comparison above compared different pictures.
   EXPECT_FALSE(same_pixels(images[0], images[2]));
+}
+
+// Mean colour of the covered pixels left (x < width / 2) or right of the middle.
+std::array<double, 3> mean_colour(const RenderImage& im, bool right) {
+  std::array<double, 3> sum{0, 0, 0};
+  double n = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = right ? im.width / 2 : 0; x < (right ? im.width : im.width / 2); ++x) {
+      const size_t i = size_t(y) * size_t(im.width) + size_t(x);
+      if (!im.coverage[i]) continue;
+      for (int c = 0; c < 3; ++c) sum[size_t(c)] += im.rgba[i * 4 + size_t(c)];
+      ++n;
+    }
+  for (double& v : sum) v /= std::max(1.0, n);
+  return sum;
+}
+
+// Why: a material kept beside the atlas (atlas/kept.h) shows its own images, which the texture
+// levels bring at each level's scale; drawn with the level's atlas set (as the cells were) it
+// showed the atlas through its own uvs, so the multiplexer measured nothing of its images.
+TEST(RenderSets, KeptMaterialsDrawTheirOwnImagesThroughTheSet) {
+  MAKE_RENDERER(r, RenderOptions{});
+  Scene s;
+  s.meshes.push_back({"atlas", {sphere({-0.6f, 0, 0}, 0.5f)}});
+  s.meshes.push_back({"kept", {sphere({0.6f, 0, 0}, 0.5f)}});
+  s.meshes[0].primitives[0].material = 0;
+  s.meshes[1].primitives[0].material = 1;
+  s.instances.push_back({0, Mat4{}, "atlas"});
+  s.instances.push_back({1, Mat4{}, "kept"});
+  s.materials.resize(2);
+  s.materials[0].base_color.image = 0;
+  s.materials[1].base_color.image = 1;
+  s.images = {checker(8, 8, {255, 255, 255}, {255, 255, 255}),
+              checker(8, 8, {255, 255, 255}, {255, 255, 255})};
+  TextureSet level;
+  level.base_color = r->add_texture(checker(16, 16, {230, 20, 20}, {230, 20, 20}), true);
+  level.kept = {{1, r->add_texture(checker(16, 16, {20, 220, 20}, {20, 220, 20}), true)}};
+  const Camera camera = looking_from({0, 0, 4});
+  const RenderImage kept =
+      r->render(r->add_geometry(s, false, /*kept_images=*/true), level, camera);
+  const auto left = mean_colour(kept, false), right = mean_colour(kept, true);
+  EXPECT_GT(left[0], 2 * left[1]) << "the atlas's material shows the level's set";
+  EXPECT_GT(right[1], 2 * right[0]) << "the kept material shows its image's handle";
+  // Without kept_images every primitive shows the set, as before.
+  const RenderImage all = r->render(r->add_geometry(s), level, camera);
+  const auto both = mean_colour(all, true);
+  EXPECT_GT(both[0], 2 * both[1]);
 }
 
 // Why: with the pre-pass (drawn when a call has several sets) each pixel is shaded once, from
