@@ -6,9 +6,10 @@
 //   independent  (a) every package's MeshmuxStream playing its own order at once
 //   sequential   (b) packages one after another, each base then its chunks
 //   gltf         (c) GLTFLoader loading every model.glb at once
-//   open         the world's bases alone from the path's first camera, the page drawing frames
-//                one after another as a viewer does (with --split: none until all are in):
-//                "every base shown" is when the first frame with all of them is finished
+//   open         the world's bases alone from the path's first camera, the page drawing no
+//                frame until every base has joined the scene: "every base shown" is when the
+//                first frame with all of them is finished (on software GL that frame compiles
+//                every program's variants: --split takes it apart)
 // Every 250 ms the page renders the path's camera (320x240) and keeps the pixels; once all is
 // loaded it renders the same cameras again (the finished world) and measures each sample's mean
 // squared error against its own final frame. Prints per bandwidth the area under that error over
@@ -156,14 +157,7 @@ async function load() {
     w.addEventListener('base', (e) => baseTimes.push([now(), e.detail && e.detail.package]));
     scene.add(w.object);
     const gl = renderer.getContext(), px = new Uint8Array(4);
-    const opened = w.open();
-    let open = false;
-    opened.then(() => { open = true; }, () => { open = true; });
-    while (!q.get('split') && !open) {  // a viewer's frames while the bases come
-      renderer.render(scene, camera);
-      await new Promise((r) => requestAnimationFrame(r));
-    }
-    await opened;
+    await w.open();
     if (q.get('split')) {
       const texs = new Set(); let texels = 0;
       scene.traverse((o) => { if (o.material) for (const m of [o.material].flat()) for (const v of Object.values(m)) if (v && v.isTexture && !texs.has(v)) { texs.add(v); texels += (v.image?.width || 0) * (v.image?.height || 0); } });

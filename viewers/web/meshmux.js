@@ -460,8 +460,9 @@ export class MeshmuxStream extends EventTarget {
     this._maps = {};              // physical: channel → the texture every material shows
     this._ownTextures = new Set();
     // Images of materials kept beside the atlas that texture levels bring up ("kept" maps): the
-    // base .glb image index (extras.meshmux_image) → { texture: the one its materials show,
-    // uses: [[material, slot], ...] }.
+    // base .glb image index (extras.meshmux_image) → { textures: those its materials show (one
+    // per sampler, uv set or transform), uses: [[material, slot], ...], own: the ImageBitmap of
+    // ours they show, once a level replaced GLTFLoader's }.
     this._kept = new Map();
     this._unshownChannels = new Set();  // texture channels streamed that this client does not shade yet
     this._state = 'idle';
@@ -783,11 +784,11 @@ export class MeshmuxStream extends EventTarget {
     return n;
   }
 
-  // A texture level's kept images (decoded: [[k, bitmap]]), uploaded then shown: every texture
-  // showing image k is replaced by a copy (sampler, uv set, transform, colour space kept) of the
-  // new pixels. Images no material shows here are let go.
-  async _showKept(decoded) {
-    const swaps = [];
+  // A texture level's kept images (decoded: [[k, bitmap]]) as the textures that replace those
+  // showing them: each a copy (sampler, uv set, transform, colour space kept) of the new pixels.
+  // Images no material shows here are let go. Upload `textures`, then swap with _swapKept.
+  _keptSwaps(decoded) {
+    const swaps = [], textures = [];
     for (const [k, bitmap] of decoded) {
       const e = this._kept.get(k);
       if (!e) { bitmap.close(); continue; }
@@ -798,10 +799,14 @@ export class MeshmuxStream extends EventTarget {
         t.name = `meshmux kept ${k} ${bitmap.width}x${bitmap.height}`;
         t.needsUpdate = true;
         replaced.set(old, t);
+        textures.push(t);
       }
       swaps.push([e, replaced, bitmap]);
     }
-    for (const [, replaced] of swaps) for (const t of replaced.values()) if (!(await this._upload(t))) return;
+    return { swaps, textures };
+  }
+
+  _swapKept({ swaps }) {
     for (const [e, replaced, bitmap] of swaps) {
       for (const [m, slot] of e.uses) if (replaced.has(m[slot])) m[slot] = replaced.get(m[slot]);
       for (const old of e.textures) {
@@ -1025,12 +1030,13 @@ export class MeshmuxStream extends EventTarget {
     const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
-    await this._show(async () => {
-      if (!(await this._upload(texture))) return;
+    const keptSwaps = this._keptSwaps(kept);
+    await this._show(async () => {  // the level's maps change together
+      for (const t of [texture, ...keptSwaps.textures]) if (!(await this._upload(t))) return;
       this._releaseTexture(this._map.value);
       this._map.value = texture;
       this._textureSize = [bitmap.width, bitmap.height];
-      await this._showKept(kept);
+      this._swapKept(keptSwaps);
     });
   }
 
@@ -1067,8 +1073,9 @@ export class MeshmuxStream extends EventTarget {
       this._ownTextures.add(texture);
       textures.push([channel, texture]);
     }
+    const keptSwaps = this._keptSwaps(kept);
     await this._show(async () => {
-      for (const [, texture] of textures) if (!(await this._upload(texture))) return;
+      for (const texture of [...textures.map(([, t]) => t), ...keptSwaps.textures]) if (!(await this._upload(texture))) return;
       for (const [channel, texture] of textures) {
         const bitmap = texture.image, old = this._maps[channel];
         this._maps[channel] = texture;
@@ -1080,7 +1087,7 @@ export class MeshmuxStream extends EventTarget {
         this._releaseTexture(old);
         if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
       }
-      await this._showKept(kept);
+      this._swapKept(keptSwaps);
     });
   }
 
