@@ -203,6 +203,17 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   return Status::ok();
 }
 
+// A map's "size", placed at `at` inside chunk `c` (then `at` is past it).
+Status map_range(const Json& e, const PackageChunk& c, uint64_t& at, PackageMap& m,
+                 const std::string& where) {
+  if (Status s = get_uint(e, "size", c.size, m.size, where); !s) return s;
+  if (m.size == 0) return fail(where + ": empty map");
+  if (m.size > c.offset + c.size - at) return fail(where + ": maps hold more than the chunk");
+  m.offset = at;
+  at += m.size;
+  return Status::ok();
+}
+
 // A texture chunk's "kept" maps (optional): the kept materials' images at the level's scale,
 // their files after the channel maps' from `at` on (advanced past them).
 Status read_kept(const Json& j, PackageChunk& c, uint64_t& at, const std::string& where) {
@@ -228,11 +239,7 @@ Status read_kept(const Json& j, PackageChunk& c, uint64_t& at, const std::string
       if (before.image == m.image) return fail(kw + ": image " + std::to_string(image) + " twice");
     if (!(s = get_side(e, "width", m.width, kw)) || !(s = get_side(e, "height", m.height, kw)))
       return s;
-    if (!(s = get_uint(e, "size", c.size, m.size, kw))) return s;
-    if (m.size == 0) return fail(kw + ": empty map");
-    if (m.size > c.offset + c.size - at) return fail(kw + ": maps hold more than the chunk");
-    m.offset = at;
-    at += m.size;
+    if (!(s = map_range(e, c, at, m, kw))) return s;
     c.kept.push_back(std::move(m));
   }
   return Status::ok();
@@ -287,11 +294,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
         if (before.channel == m.channel) return fail(mw + ": channel " + m.channel + " twice");
       if (m.mime != "image/jpeg" && m.mime != "image/png")
         return fail(mw + ": mime type is neither JPEG nor PNG");
-      if (!(s = get_uint(e, "size", c.size, m.size, mw))) return s;
-      if (m.size == 0) return fail(mw + ": empty map");
-      if (m.size > c.offset + c.size - at) return fail(mw + ": maps hold more than the chunk");
-      m.offset = at;
-      at += m.size;
+      if (!(s = map_range(e, c, at, m, mw))) return s;
       c.maps.push_back(std::move(m));
     }
     if (Status k = read_kept(j, c, at, where); !k) return k;

@@ -12,6 +12,7 @@
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 
 #include "clean/clean.h"
@@ -327,6 +328,30 @@ TEST(Package, RoundTripDecodesEveryPart) {
   EXPECT_EQ(*again, *bytes);
 }
 
+// The package `in` gives, read back: its bytes, and each texture chunk with the level it holds.
+struct Written {
+  std::vector<uint8_t> bytes;
+  Package pkg;
+  std::vector<std::pair<PackageChunk, size_t>> texture_chunks;
+};
+std::optional<Written> write_and_read(const PackageInput& in) {
+  auto bytes = write_package(in);
+  if (!bytes.ok()) {
+    ADD_FAILURE() << bytes.status().message();
+    return std::nullopt;
+  }
+  auto pkg = read_package(*bytes);
+  if (!pkg.ok()) {
+    ADD_FAILURE() << pkg.status().message();
+    return std::nullopt;
+  }
+  Written w{bytes.take(), pkg.take(), {}};
+  for (size_t i = 0; i < w.pkg.chunks.size(); ++i)
+    if (w.pkg.chunks[i].kind == StreamStep::kTexture)
+      w.texture_chunks.push_back({w.pkg.chunks[i], in.steps[i].texture_level});
+  return w;
+}
+
 // A texture step may carry several maps at one resolution: each is listed with its channel, type
 // and bytes, base colour first, and reads back at its own range.
 TEST(Package, TextureStepsCarrySeveralMaps) {
@@ -339,16 +364,11 @@ TEST(Package, TextureStepsCarrySeveralMaps) {
   normal.mime_type = "image/png";
   normal.encoded = {1, 2, 3, 4, 5, 6, 7};  // the reader checks ranges, not pixels
   for (TextureLevel& l : levels.levels) l.other_maps = {normal};
-  auto bytes = write_package(in);
-  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-  auto pkg = read_package(*bytes);
-  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
-  size_t texture_chunks = 0;
-  for (size_t i = 0; i < pkg->chunks.size(); ++i) {
-    const PackageChunk& c = pkg->chunks[i];
-    if (c.kind != StreamStep::kTexture) continue;
-    ++texture_chunks;
-    const TextureLevel& l = levels.levels[in.steps[i].texture_level];
+  const std::optional<Written> w = write_and_read(in);
+  ASSERT_TRUE(w);
+  const std::vector<uint8_t>* bytes = &w->bytes;
+  for (const auto& [c, level] : w->texture_chunks) {
+    const TextureLevel& l = levels.levels[level];
     ASSERT_EQ(c.maps.size(), 2u);
     EXPECT_EQ(c.maps[0].channel, "base_color");
     EXPECT_EQ(c.maps[0].size, l.encoded.size());
@@ -359,7 +379,7 @@ TEST(Package, TextureStepsCarrySeveralMaps) {
     EXPECT_TRUE(std::equal(normal.encoded.begin(), normal.encoded.end(),
                            bytes->begin() + long(c.maps[1].offset)));
   }
-  EXPECT_EQ(texture_chunks, 2u);
+  EXPECT_EQ(w->texture_chunks.size(), 2u);
   // A map that names the base colour again, or no known channel, is refused by the writer.
   for (const char* bad : {"base_color", "specular"}) {
     for (TextureLevel& l : levels.levels) l.other_maps[0].channel = bad;
@@ -385,16 +405,10 @@ TEST(Package, TextureStepsCarryKeptImages) {
     k.encoded.assign(9 + j, uint8_t(j + 1));  // the reader checks ranges, not pixels
     levels.levels[j].kept = {k};
   }
-  auto bytes = write_package(in);
-  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-  auto pkg = read_package(*bytes);
-  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
-  size_t texture_chunks = 0;
-  for (size_t i = 0; i < pkg->chunks.size(); ++i) {
-    const PackageChunk& c = pkg->chunks[i];
-    if (c.kind != StreamStep::kTexture) continue;
-    ++texture_chunks;
-    const size_t j = in.steps[i].texture_level;
+  const std::optional<Written> w = write_and_read(in);
+  ASSERT_TRUE(w);
+  const std::vector<uint8_t>* bytes = &w->bytes;
+  for (const auto& [c, j] : w->texture_chunks) {
     const TextureLevel& l = levels.levels[j];
     ASSERT_EQ(c.kept.size(), 1u);
     EXPECT_EQ(c.kept[0].image, 3);
@@ -406,7 +420,7 @@ TEST(Package, TextureStepsCarryKeptImages) {
     EXPECT_TRUE(std::equal(l.kept[0].encoded.begin(), l.kept[0].encoded.end(),
                            bytes->begin() + long(c.kept[0].offset)));
   }
-  EXPECT_EQ(texture_chunks, 2u);
+  EXPECT_EQ(w->texture_chunks.size(), 2u);
   for (TextureLevel& l : levels.levels) l.kept.push_back(l.kept[0]);
   auto twice = write_package(in);
   ASSERT_FALSE(twice.ok());
