@@ -12,11 +12,9 @@
 
 namespace meshmux {
 
-namespace {
+namespace {}  // namespace
 
-// How an image's texels average: by the slots that sample it (colour wins over data; a normal
-// map only as a normal map).
-TexelFilter filter_of(const Scene& scene, int32_t image) {
+TexelFilter kept_image_filter(const Scene& scene, int32_t image) {
   bool colour = false, normal = false, other = false;
   for (const Material& m : scene.materials) {
     auto is = [&](const TextureRef& t) { return t.present() && t.image == image; };
@@ -31,6 +29,8 @@ TexelFilter filter_of(const Scene& scene, int32_t image) {
   if (colour) return TexelFilter::kSrgb;
   return normal && !other ? TexelFilter::kNormal : TexelFilter::kData;
 }
+
+namespace {
 
 // The image's sides at `scale` of its own.
 std::pair<int, int> scaled_sides(const Image& img, double scale) {
@@ -71,10 +71,14 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels, int preview_qu
     const Image& source = scene.images[size_t(i)];
     if (source.encoded.empty() ||
         (source.mime_type != "image/jpeg" && source.mime_type != "image/png"))
-      continue;  // shipped as it is (the exporter re-encodes what it must)
-    Image full = source;
-    if (!full.decoded() && !decode_image(full)) continue;
-    const TexelFilter filter = filter_of(scene, i);
+      continue;     // shipped as it is (the exporter re-encodes what it must)
+    Image decoded;  // only when the scene holds no pixels for it
+    if (!source.decoded()) {
+      decoded = source;
+      if (!decode_image(decoded)) continue;
+    }
+    const Image& full = source.decoded() ? source : decoded;
+    const TexelFilter filter = kept_image_filter(scene, i);
     const bool jpeg = source.mime_type == "image/jpeg";
     std::pair<int, int> before = {0, 0};
     for (size_t j = 0; j < levels.levels.size(); ++j) {

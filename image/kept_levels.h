@@ -17,6 +17,7 @@
 // are (no kept maps). O(kept texels) filtering plus encoding.
 #pragma once
 
+#include "image/texture_levels.h"
 #include "scene/scene.h"
 #include "scene/texture_levels.h"
 
@@ -26,6 +27,10 @@ constexpr int kKeptMinSide = 4;  // a kept image is never reduced below this sid
 
 // The image indices of `scene` that a level carries as kept maps (see above), ascending.
 std::vector<int32_t> kept_level_images(const Scene& scene);
+
+// How image `image` of `scene` holds its texels, by the slots that sample it: colour (base colour,
+// emissive, sheen or specular colour) wins; a normal map only as a normal map; else data.
+TexelFilter kept_image_filter(const Scene& scene, int32_t image);
 
 // Fills levels.levels[j].kept for every level. `levels` as make_texture_levels gave them (at
 // least one level); a no-op without levels. Errors name the image that failed to encode.

@@ -16,6 +16,7 @@
 
 #include "core/parallel.h"
 #include "image/decode.h"
+#include "image/kept_levels.h"
 #include "multiplex/distortion.h"
 #include "simplify/lod.h"
 #include "stream/mesh_stream.h"
@@ -236,7 +237,8 @@ struct CellRenders {
         image.mime_type = map.mime_type;
         if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
         if (map.image >= 0) {
-          kept[map.image] = gl.add_texture(image, colour_image(map.image));
+          kept[map.image] =
+              gl.add_texture(image, kept_image_filter(ps.scene, map.image) == TexelFilter::kSrgb);
           continue;
         }
         // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
@@ -258,15 +260,6 @@ struct CellRenders {
       texture[j].kept.assign(kept.begin(), kept.end());
     }
     return Status::ok();
-  }
-
-  // Whether the scene's image `i` holds colour (sampled as base colour, emissive or sheen colour)
-  // rather than data.
-  bool colour_image(int32_t i) const {
-    for (const Material& mat : ps.scene.materials)
-      for (const TextureRef* t : {&mat.base_color, &mat.emissive, &mat.sheen_color})
-        if (t->present() && t->image == i) return true;
-    return false;
   }
 
   // One camera per direction of the viewing sphere, each framing the full detail.
