@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 #include "image/decode.h"
@@ -11,8 +12,6 @@
 #include "image/texture_levels.h"
 
 namespace meshmux {
-
-namespace {}  // namespace
 
 TexelFilter kept_image_filter(const Scene& scene, int32_t image) {
   bool colour = false, normal = false, other = false;
@@ -64,47 +63,135 @@ std::vector<int32_t> kept_level_images(const Scene& scene) {
   return {used.begin(), used.end()};
 }
 
-Status add_kept_levels(const Scene& scene, TextureLevels& levels, int preview_quality) {
-  if (levels.levels.empty()) return Status::ok();
-  const double top = double(std::max(1, levels.levels.back().width));
+namespace {
+
+// One kept image's texels, decoded once for every level (and every refit).
+struct KeptSource {
+  int32_t image = -1;
+  const Image* source = nullptr;  // the scene's image: its encoded bytes and mime type
+  Image decoded;                  // its pixels, when the scene holds none
+  TexelFilter filter = TexelFilter::kData;
+  const Image& full() const { return source->decoded() ? *source : decoded; }
+};
+
+// The kept images a level can carry: JPEG or PNG, decodable.
+std::vector<KeptSource> kept_sources(const Scene& scene) {
+  std::vector<KeptSource> out;
   for (int32_t i : kept_level_images(scene)) {
     const Image& source = scene.images[size_t(i)];
     if (source.encoded.empty() ||
         (source.mime_type != "image/jpeg" && source.mime_type != "image/png"))
-      continue;     // shipped as it is (the exporter re-encodes what it must)
-    Image decoded;  // only when the scene holds no pixels for it
+      continue;  // shipped as it is (the exporter re-encodes what it must)
+    KeptSource k;
+    k.image = i, k.source = &source, k.filter = kept_image_filter(scene, i);
     if (!source.decoded()) {
-      decoded = source;
-      if (!decode_image(decoded)) continue;
+      k.decoded = source;
+      if (!decode_image(k.decoded)) continue;
     }
-    const Image& full = source.decoded() ? source : decoded;
-    const TexelFilter filter = kept_image_filter(scene, i);
-    const bool jpeg = source.mime_type == "image/jpeg";
+    out.push_back(std::move(k));
+  }
+  return out;
+}
+
+// Fills levels[j].kept with every source at scales[j] of its size (the finest: as it came), a
+// map only where the size differs from the level below's.
+Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<double>& scales,
+                 TextureLevels& levels, int preview_quality) {
+  for (TextureLevel& l : levels.levels) l.kept.clear();
+  for (const KeptSource& k : sources) {
+    const Image& full = k.full();
     std::pair<int, int> before = {0, 0};
     for (size_t j = 0; j < levels.levels.size(); ++j) {
-      TextureLevel& level = levels.levels[j];
       const bool finest = j + 1 == levels.levels.size();
-      const std::pair<int, int> sides = finest ? std::pair<int, int>{full.width, full.height}
-                                               : scaled_sides(full, double(level.width) / top);
+      const std::pair<int, int> sides =
+          finest ? std::pair<int, int>{full.width, full.height} : scaled_sides(full, scales[j]);
       if (sides == before) continue;  // the level below's map stands
       before = sides;
       KeptMap map;
-      map.image = i;
+      map.image = k.image;
       map.width = sides.first, map.height = sides.second;
-      map.mime_type = source.mime_type;
+      map.mime_type = k.source->mime_type;
       if (sides == std::pair<int, int>{full.width, full.height}) {
-        map.encoded = source.encoded;
+        map.encoded = k.source->encoded;
       } else {
-        Image small = reduce(full, sides.first, sides.second, filter);
-        auto bytes = jpeg ? encode_jpeg(small, preview_quality) : encode_png(small);
+        Image small = reduce(full, sides.first, sides.second, k.filter);
+        auto bytes =
+            map.mime_type == "image/jpeg" ? encode_jpeg(small, preview_quality) : encode_png(small);
         if (!bytes.ok())
-          return Status::error("texture levels: kept image " + std::to_string(i) + " '" +
-                                   source.name + "': " + bytes.status().message(),
+          return Status::error("texture levels: kept image " + std::to_string(k.image) + " '" +
+                                   k.source->name + "': " + bytes.status().message(),
                                ErrorKind::kInternal);
         map.encoded = bytes.take();
       }
-      level.kept.push_back(std::move(map));
+      levels.levels[j].kept.push_back(std::move(map));
     }
+  }
+  return Status::ok();
+}
+
+uint64_t level_bytes(const TextureLevel& l) {
+  uint64_t n = l.encoded.size();
+  for (const TextureMap& m : l.other_maps) n += m.encoded.size();
+  for (const KeptMap& k : l.kept) n += k.encoded.size();
+  return n;
+}
+
+double pyramid_ratio(const TextureLevels& levels) {
+  uint64_t total = 0;
+  for (const TextureLevel& l : levels.levels) total += level_bytes(l);
+  return double(total) / double(std::max<uint64_t>(1, level_bytes(levels.levels.back())));
+}
+
+}  // namespace
+
+Status add_kept_levels(const Scene& scene, TextureLevels& levels,
+                       const TextureLevelOptions& options) {
+  if (levels.levels.empty()) return Status::ok();
+  const std::vector<KeptSource> sources = kept_sources(scene);
+  if (sources.empty()) return Status::ok();
+  const double top = double(std::max(1, levels.levels.back().width));
+  std::vector<double> scales;
+  for (const TextureLevel& l : levels.levels) scales.push_back(double(l.width) / top);
+  // An atlas of one level (smaller than the base size) gives the kept images no smaller scale:
+  // levels below it are made for them, the atlas resent as it is (a few bytes at that size),
+  // each a level's step smaller, until the largest kept image fits the base size.
+  int largest = 0;
+  for (const KeptSource& k : sources)
+    largest = std::max({largest, k.full().width, k.full().height});
+  size_t inserted = 0;
+  if (levels.levels.size() == 1) {
+    const double step = double(1 << std::clamp(options.level_halvings, 1, 4));
+    for (double s = 1.0 / step; double(largest) * s * step > double(options.base_size);
+         s /= step, ++inserted) {
+      levels.levels.insert(levels.levels.begin(), levels.levels.front());
+      scales.insert(scales.begin(), s);
+    }
+  }
+  if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
+  // The byte bound counts the kept maps as make_texture_levels counts the atlas's: levels
+  // between the smallest and the top go, most bytes first, while the pyramid is over it.
+  while (levels.levels.size() > 2 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
+    auto dearest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
+                                    [](const TextureLevel& a, const TextureLevel& b) {
+                                      return level_bytes(a) < level_bytes(b);
+                                    });
+    char why[200];
+    std::snprintf(why, sizeof why,
+                  "with it the levels and the kept images' maps cost %.3f× the top level (limit "
+                  "%.2f); the largest level between the smallest and the top goes first",
+                  pyramid_ratio(levels), options.max_pyramid_ratio);
+    const size_t at = size_t(dearest - levels.levels.begin());
+    levels.dropped.push_back({dearest->width, dearest->height, level_bytes(*dearest), why});
+    if (at < inserted) --inserted;
+    levels.levels.erase(dearest);
+    scales.erase(scales.begin() + std::ptrdiff_t(at));
+    if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
+  }
+  // A level made for the kept images alone that costs more than the bound (the atlas resent is
+  // dearer than the kept images save): the atlas's one level carries them as they came.
+  if (inserted > 0 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
+    levels.levels.erase(levels.levels.begin(), levels.levels.end() - 1);
+    return fill_kept(sources, {1.0}, levels, options.preview_quality);
   }
   return Status::ok();
 }

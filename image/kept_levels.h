@@ -33,8 +33,17 @@ std::vector<int32_t> kept_level_images(const Scene& scene);
 TexelFilter kept_image_filter(const Scene& scene, int32_t image);
 
 // Fills levels.levels[j].kept for every level. `levels` as make_texture_levels gave them (at
-// least one level); a no-op without levels. Errors name the image that failed to encode.
-Status add_kept_levels(const Scene& scene, TextureLevels& levels, int preview_quality);
+// least one level); a no-op without levels or kept images. Two more rules, from `options`:
+// - an atlas of one level (smaller than base_size) gets levels below it for the kept images, the
+//   atlas resent at its size in each, one level step (level_halvings) apart, until the largest
+//   kept image fits base_size: without them the base held every kept image at full size;
+// - max_pyramid_ratio counts the kept maps with the atlas's: levels between the smallest and the
+//   top are dropped, most bytes first (recorded in levels.dropped), while all levels cost more
+//   than that times the top level (levels made for the kept images go too, if they alone are
+//   over it).
+// Errors name the image that failed to encode.
+Status add_kept_levels(const Scene& scene, TextureLevels& levels,
+                       const TextureLevelOptions& options);
 
 // `scene`'s images as texture level `level` shows them: each kept image replaced by the last
 // kept map of it at levels 0..level (encoded bytes, mime type and size; pixels dropped).

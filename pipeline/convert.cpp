@@ -178,7 +178,7 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
   if (!levels.ok()) return levels.status();
   // The kept materials' images go with the levels, each at its level's scale.
   if (whole_pyramid)
-    if (Status st = add_kept_levels(scene, *levels, to.preview_quality); !st) return st;
+    if (Status st = add_kept_levels(scene, *levels, to); !st) return st;
   // From here on the levels stand for the atlas's images: their pixels are released (a 4096²
   // atlas's four channels are 256 MB, which every later copy of the scene would repeat).
   texture->encoded = levels->levels.back().encoded;

@@ -46,6 +46,60 @@ struct KeptScene {
   }
 };
 
+// The scale rules alone: no byte bound, previews at quality 75.
+const TextureLevelOptions kUnbounded = [] {
+  TextureLevelOptions o;
+  o.max_pyramid_ratio = 1e9;
+  o.preview_quality = 75;
+  return o;
+}();
+
+// Texture-like noise (every pixel its own value, so a JPEG's bytes follow its pixels, as a
+// photograph's do), and its JPEG bytes.
+Image noise(int w, int h) {
+  Image img;
+  img.name = "noise";
+  img.width = w, img.height = h;
+  img.rgba.resize(size_t(w) * size_t(h) * 4);
+  uint32_t x = 12345;
+  for (size_t i = 0; i < img.rgba.size(); ++i) {
+    x = x * 1664525u + 1013904223u;
+    img.rgba[i] = (i % 4 == 3) ? 255 : uint8_t(x >> 24);
+  }
+  img.mime_type = "image/jpeg";
+  img.encoded = encode_jpeg(img, 85).take();
+  return img;
+}
+
+// A scene whose atlas (image 0) has `sides` as its levels (a byte each, so the kept maps are
+// what the bound sees) and whose second material samples `kept`.
+struct NoiseScene {
+  Scene scene;
+  TextureLevels levels;
+  NoiseScene(std::vector<int> sides, Image kept) {
+    scene.images = {solid(sides.back(), sides.back(), 9, 9, 9, "image/jpeg"), std::move(kept)};
+    scene.materials.resize(2);
+    scene.materials[0].base_color.image = 0;
+    scene.materials[1].base_color.image = 1;
+    for (int side : sides) {
+      TextureLevel l;
+      l.width = l.height = side;
+      l.mime_type = "image/jpeg";
+      l.encoded = {1};
+      levels.levels.push_back(l);
+    }
+  }
+  double ratio() const {
+    uint64_t total = 0, top = 0;
+    for (const TextureLevel& l : levels.levels) {
+      uint64_t n = l.encoded.size();
+      for (const KeptMap& k : l.kept) n += k.encoded.size();
+      total += n, top = n;
+    }
+    return double(total) / double(top);
+  }
+};
+
 const KeptMap* find(const TextureLevel& l, int32_t image) {
   for (const KeptMap& k : l.kept)
     if (k.image == image) return &k;
@@ -65,7 +119,7 @@ TEST(KeptLevels, ImagesAreThoseTheStreamedMaterialDoesNotSample) {
 // keeps its colour; an image too small to reduce is in the base's level only.
 TEST(KeptLevels, EachLevelCarriesTheImagesAtItsScale) {
   KeptScene k;
-  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, 75).is_ok());
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, kUnbounded).is_ok());
   const std::vector<std::pair<int, int>> sides1 = {{13, 6}, {50, 25}, {200, 100}};
   for (size_t j = 0; j < 3; ++j) {
     const KeptMap* m = find(k.levels.levels[j], 1);
@@ -101,7 +155,7 @@ TEST(KeptLevels, EachLevelCarriesTheImagesAtItsScale) {
 // A scene shown at level j holds, for each kept image, the last map of it up to j.
 TEST(KeptLevels, ApplyShowsTheLastMapUpToTheLevel) {
   KeptScene k;
-  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, 75).is_ok());
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, kUnbounded).is_ok());
   Scene s = k.scene;
   apply_kept_level(s, k.levels, 1);
   EXPECT_EQ(s.images[1].width, 50);
@@ -116,8 +170,56 @@ TEST(KeptLevels, ApplyShowsTheLastMapUpToTheLevel) {
 TEST(KeptLevels, NoLevelsNoMaps) {
   KeptScene k;
   TextureLevels none;
-  ASSERT_TRUE(add_kept_levels(k.scene, none, 75).is_ok());
+  ASSERT_TRUE(add_kept_levels(k.scene, none, kUnbounded).is_ok());
   EXPECT_TRUE(none.levels.empty());
+}
+
+// The levels' byte bound counts the kept maps: atlas levels a half apart (64, 128, 256) cost
+// nothing here, but a 512² kept image at 1/4 and 1/2 of its side adds about a third of its bytes;
+// the middle level goes (as it would for the atlas's own maps), and the kept maps are made again
+// for the levels left. Before, the bound saw the atlas alone and shipped all three.
+TEST(KeptLevels, KeptMapsCountInTheLevelsByteBound) {
+  NoiseScene k({64, 128, 256}, noise(512, 512));
+  TextureLevelOptions o;  // the default bound, 1.15
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, o).is_ok());
+  ASSERT_EQ(k.levels.levels.size(), 2u);
+  EXPECT_EQ(k.levels.levels[0].width, 64);
+  EXPECT_EQ(k.levels.levels[1].width, 256);
+  ASSERT_EQ(k.levels.dropped.size(), 1u);
+  EXPECT_EQ(k.levels.dropped[0].width, 128);
+  EXPECT_LE(k.ratio(), o.max_pyramid_ratio);
+  const KeptMap* base = find(k.levels.levels[0], 1);
+  ASSERT_NE(base, nullptr);
+  EXPECT_EQ(base->width, 128);  // 64 / 256 of 512
+  EXPECT_EQ(find(k.levels.levels[1], 1)->encoded, k.scene.images[1].encoded);
+}
+
+// An atlas of one level (16²: smaller than the base size) gave the kept images no smaller scale,
+// so the base held a 1024² image whole. Levels are made below it for them — the atlas resent,
+// the image at 1/16 and 1/4 — until the image fits the base size (128).
+TEST(KeptLevels, OneAtlasLevelGetsLevelsForTheKeptImages) {
+  NoiseScene k({16}, noise(1024, 1024));
+  TextureLevelOptions o;
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, o).is_ok());
+  ASSERT_EQ(k.levels.levels.size(), 3u);
+  const std::vector<int> sides = {64, 256, 1024};
+  for (size_t j = 0; j < 3; ++j) {
+    EXPECT_EQ(k.levels.levels[j].width, 16) << j;
+    EXPECT_EQ(k.levels.levels[j].encoded, std::vector<uint8_t>{1}) << j;
+    const KeptMap* m = find(k.levels.levels[j], 1);
+    ASSERT_NE(m, nullptr) << j;
+    EXPECT_EQ(m->width, sides[j]) << j;
+  }
+  EXPECT_LE(k.ratio(), o.max_pyramid_ratio);
+}
+
+// A kept image that already fits the base size needs no level of its own: one atlas level
+// carries it as it came.
+TEST(KeptLevels, OneAtlasLevelAndASmallKeptImageStayOneLevel) {
+  NoiseScene k({16}, noise(128, 64));
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, TextureLevelOptions{}).is_ok());
+  ASSERT_EQ(k.levels.levels.size(), 1u);
+  EXPECT_EQ(find(k.levels.levels[0], 1)->encoded, k.scene.images[1].encoded);
 }
 
 }  // namespace
