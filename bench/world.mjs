@@ -19,7 +19,8 @@
 // --trace: each run is also traced (main_thread.mjs), and a second table says whose the page's
 // tasks over 16 ms were while loading: the library's (meshmux's scripts, or three's loaders), the
 // bench's frames, the browser's commits of them, or other; the trace slows the page, so its
-// runs' areas are not to be compared with untraced ones.
+// runs' areas are not to be compared with untraced ones. Each traced run's tasks over 16 ms go
+// to WORK/tasks-MBIT-MODE-RUN.json (owner, ms, s after the start, the library's busiest functions).
 //
 // usage: node bench/world.mjs --meshmux BIN [--models DIR | --corpus N] [--work DIR]
 //        [--mbit 10[,1.5,50]] [--seconds 40] [--modes world,independent,sequential,gltf,open]
@@ -327,6 +328,9 @@ try {
           const { events, profile } = await trace.stop();
           r.tasks = taskOwners(events, profile, { start: 'bench-start', end: 'bench-loaded', library: LIBRARY, frameFunctions: ['grab'] });
           const lib = r.tasks.tasks.filter((x) => x.owner === 'library').sort((a, b) => b.ms - a.ms).slice(0, 5);
+          // Every task over 16 ms, with its owner and the library's busiest functions, for a closer look.
+          const dump = path.join(work, `tasks-${mbit}-${mode}-${((results[mbit] || {})[mode] || []).length}.json`);
+          fs.writeFileSync(dump, JSON.stringify(r.tasks.tasks, null, 1));
           console.error(`world bench: ${mbit} Mbit/s ${mode}: longest library tasks ${lib.map((x) => `${x.ms.toFixed(0)} ms at ${x.at.toFixed(1)} s (${x.top.join(', ')})`).join('; ') || 'none'}`);
         }
         ((results[mbit] ||= {})[mode] ||= []).push(r);
