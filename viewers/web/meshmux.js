@@ -28,7 +28,7 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, validateTable } from './package_reader.js';
-import { StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate } from './stream_mesh.js';
+import { PixelImage, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, textureOf } from './stream_mesh.js';
 import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 
 export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate };
@@ -343,7 +343,7 @@ function taskSlicer(ms = 8) {
   };
 }
 
-// Uploads `texture` (an ImageBitmap's) to the GPU in bands of rows of at most `bandBytes` of
+// Uploads `texture` (an ImageBitmap's or a PixelImage's) to the GPU in bands of rows of at most `bandBytes` of
 // pixels, one band per task, then its mipmaps. Handed to three.js whole, a 2048² level of four
 // maps is 64 MB uploaded inside one frame of the application's, the longest task on the page
 // (in chromium on software GL, 16 MB from an ImageBitmap take ~240 ms, 256 kB ~1 ms). The
@@ -371,7 +371,9 @@ export async function uploadInBands(renderer, texture, bandBytes, alive = () => 
   texture.mipmapsAutoUpdate = false;
   renderer.initTexture(texture);
   texture.source.dataReady = true;
-  const source = new THREE.Texture(image);  // the same pixels as the copy's source (never uploaded itself)
+  // The same pixels as the copy's source (never uploaded itself). A PixelImage's bands cost their
+  // own bytes; an ImageBitmap is converted whole by chromium for every band.
+  const source = texture.isDataTexture ? new THREE.DataTexture(image.data, width, height) : new THREE.Texture(image);
   const region = new THREE.Box2(), at = new THREE.Vector2();
   const gl = renderer.getContext(), fenced = typeof gl.fenceSync === 'function';
   try {
@@ -495,12 +497,18 @@ export class MeshmuxStream extends EventTarget {
   get stats() {
     let triangles = 0, vertices = 0;
     for (const m of this.meshes) { triangles += m.solid * m.instances; vertices += m.vertices; }
-    const counted = new Set();
-    for (const o of this._whole) {
-      const g = o.geometry, count = g.index ? g.index.count : g.getAttribute('position').count;
-      triangles += Math.floor(count / 3) * (o.isInstancedMesh ? o.count : 1);
-      if (!counted.has(g)) { counted.add(g); vertices += g.getAttribute('position').count; }
+    // A whole base never refines: its count is taken once (a game scene's has thousands of
+    // objects, and a world reads every stream's stats at each of their events).
+    if (!this._wholeCount || this._wholeCount.objects !== this._whole.length) {
+      const counted = new Set(), c = this._wholeCount = { objects: this._whole.length, triangles: 0, vertices: 0 };
+      for (const o of this._whole) {
+        const g = o.geometry, count = g.index ? g.index.count : g.getAttribute('position').count;
+        c.triangles += Math.floor(count / 3) * (o.isInstancedMesh ? o.count : 1);
+        if (!counted.has(g)) { counted.add(g); c.vertices += g.getAttribute('position').count; }
+      }
     }
+    triangles += this._wholeCount.triangles;
+    vertices += this._wholeCount.vertices;
     return {
       bytesReceived: this._bytes, bytesTotal: this._reader.size,
       chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
@@ -738,18 +746,24 @@ export class MeshmuxStream extends EventTarget {
       if (!filled.has(m)) this.notes.push(`package mesh ${m} is drawn by no object of the base .glb`);
       else if (mesh.faces !== table.meshes[m].base_faces) throw this._fail(`base .glb mesh ${m} has ${mesh.faces} faces, the table says base_faces ${table.meshes[m].base_faces}`);
     });
-    for (const g of oldGeometries) g.dispose();
+    for (const g of oldGeometries) {
+      await slice();
+      g.dispose();
+    }
+    // The textures that live on: the stream's, and those of materials kept as they came.
+    const live = new Set([this._map.value, ...Object.values(this._maps)]);
+    for (const m of materialFor.values()) for (const value of Object.values(m)) if (value && value.isTexture) live.add(value);
     for (const material of oldMaterials) {
-      const kept = new Set([this._map.value, ...Object.values(this._maps)]);
-      for (const m of materialFor.values())  // materials kept as they came: their textures live
-        for (const value of Object.values(m)) if (value && value.isTexture) kept.add(value);
-      for (const value of Object.values(material)) if (value && value.isTexture && !kept.has(value)) value.dispose();
+      await slice();
+      for (const value of Object.values(material)) if (value && value.isTexture && !live.has(value)) value.dispose();
       material.dispose();
     }
     this.materials = [...materialFor.values()];
     // The materials the texture levels refine (kept ones keep their own textures).
     this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
+    await slice();
     this._findKept(gltf.parser, [...materialFor].filter(([source]) => !streamed(source)).map(([, m]) => m));
+    await slice();
     this.object.add(root);
     this.object.updateMatrixWorld(true);
   }
@@ -794,7 +808,7 @@ export class MeshmuxStream extends EventTarget {
       if (!e) { bitmap.close(); continue; }
       const replaced = new Map();
       for (const old of e.textures) {
-        const t = old.clone();
+        const t = bitmap instanceof PixelImage ? new THREE.DataTexture().copy(old) : old.clone();
         t.source = new THREE.TextureSource(bitmap);
         t.name = `meshmux kept ${k} ${bitmap.width}x${bitmap.height}`;
         t.needsUpdate = true;
@@ -1027,7 +1041,7 @@ export class MeshmuxStream extends EventTarget {
       throw e;
     }
     if (this._state === 'disposed') { bitmap.close(); for (const [, b] of kept) b.close(); return; }
-    const texture = configureTexture(new THREE.Texture(bitmap), this._anisotropy());
+    const texture = configureTexture(textureOf(bitmap), this._anisotropy());
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
     const keptSwaps = this._keptSwaps(kept);
@@ -1068,7 +1082,7 @@ export class MeshmuxStream extends EventTarget {
     const textures = [];
     for (const [channel, bitmap] of decoded) {
       if (!CHANNEL_SLOTS[channel]) { bitmap.close(); continue; }
-      const texture = configureMap(new THREE.Texture(bitmap), channel, this._anisotropy());
+      const texture = configureMap(textureOf(bitmap), channel, this._anisotropy());
       texture.name = `meshmux ${channel} ${bitmap.width}x${bitmap.height}`;
       this._ownTextures.add(texture);
       textures.push([channel, texture]);
@@ -1130,9 +1144,10 @@ export class MeshmuxStream extends EventTarget {
 
   // One map's JPEG or PNG bytes as an ImageBitmap, bytes as stored (no colour conversion, no
   // premultiplied alpha): decoded in the worker when there is one (its main-thread share in
-  // chromium is tens of milliseconds per 2048² map), else on the page.
+  // chromium is tens of milliseconds per 2048² map), then as a PixelImage where its bytes can be
+  // read exactly there (uploadInBands sends a band's rows at the band's cost), else on the page.
   _decodeImage(bytes, mime) {
-    if (this._worker) return this._worker.decodeImage(bytes, mime, IMAGE_OPTIONS);
+    if (this._worker) return this._worker.decodeImage(bytes, mime, IMAGE_OPTIONS, true);
     return createImageBitmap(new Blob([bytes], { type: mime }), IMAGE_OPTIONS);
   }
 

@@ -253,6 +253,30 @@ export async function applyMeshChunk(meshes, chunk, payload) {
 // it through its own StreamWorker (its stream number on every message), so that one worker can
 // decode for many streams (WorkerPool). Messages are answered in order per worker; payloads
 // and results move as transferred buffers.
+// A texture map decoded in the worker, as its RGBA bytes (rows top first) where an
+// ImageBitmap would be: a THREE.DataTexture's image ({data, width, height}), uploaded a band of
+// rows at a time at the band's own cost. close() lets the bytes go, as ImageBitmap's does.
+export class PixelImage {
+  constructor(data, width, height) {
+    this.data = data;
+    this.width = width;
+    this.height = height;
+  }
+
+  close() {
+    this.data = null;
+  }
+}
+
+// A texture of a decoded map: an ImageBitmap's, or a PixelImage's (a DataTexture: three.js
+// uploads its bytes), the image itself the texture's source (its close() lets it go).
+export function textureOf(image) {
+  if (!(image instanceof PixelImage)) return new THREE.Texture(image);
+  const texture = new THREE.DataTexture();
+  texture.source = new THREE.TextureSource(image);
+  return texture;
+}
+
 class DecoderWorker {
   // Starts a worker; resolves with it once it runs, or null where workers cannot run (no
   // Worker, a file:// page, a blocked script).
@@ -419,10 +443,13 @@ export class StreamWorker {
   }
 
   // One image file's bytes decoded in the worker (createImageBitmap with `options`); resolves
-  // with the ImageBitmap.
-  async decodeImage(bytes, mime, options) {
+  // with the ImageBitmap, or with `pixels` a PixelImage (its RGBA bytes as stored) wherever the
+  // worker can read them exactly (stream_worker.js decodeImage: a PNG where there is WebCodecs'
+  // ImageDecoder, any opaque map).
+  async decodeImage(bytes, mime, options, pixels = false) {
     const copy = bytes.slice();
-    return (await this._request({ type: 'image', bytes: copy, mime, options }, [copy.buffer])).bitmap;
+    const r = await this._request({ type: 'image', bytes: copy, mime, options, pixels }, [copy.buffer]);
+    return r.bitmap || new PixelImage(r.pixels, r.width, r.height);
   }
 
   // Per mesh, the digest of the state the worker holds (stream/vsplit.h state_digest).

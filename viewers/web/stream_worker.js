@@ -17,8 +17,9 @@
 //          here (package_reader.js fetchRange), so its body never passes through the page's
 //          main thread (in chromium, a megabyte there stalls it for tens of milliseconds);
 //          abort {request} aborts such a fetch (it then answers with an error)
-//   image  {bytes, mime, options} → {bitmap}: a texture map's file decoded (createImageBitmap),
-//          the ImageBitmap transferred
+//   image  {bytes, mime, options, pixels} → {bitmap} | {pixels, width, height}: a texture map's
+//          file decoded (createImageBitmap with `options`, the ImageBitmap transferred); with
+//          `pixels`, as its RGBA bytes where they can be had exactly (decodeImage below)
 // Every reply carries the request's id; an Error becomes {type: 'error', id, message}. After
 // an error the states are not used again (the page fails the stream).
 import { fetchRange } from './package_reader.js';
@@ -80,6 +81,56 @@ function chunk(m) {
   return { reply: { changes, seconds }, transfer };
 }
 
+// A map's RGBA bytes, rows top first, as stored (no premultiplied alpha, no colour conversion):
+// {pixels: Uint8Array, width, height}, or null where they cannot be had exactly (the caller then
+// sends the ImageBitmap). The page uploads such bytes a band of rows at a time at the band's own
+// cost; an ImageBitmap given to WebGL with a sub-rectangle is converted whole by chromium for
+// every band (tens of ms for a 2048² map on the page's thread, each time).
+// A PNG through ImageDecoder (WebCodecs: secure contexts; its RGBA/BGRA frames copy out exactly);
+// else an opaque bitmap through a 2D OffscreenCanvas (which stores texels premultiplied: exact
+// only where they are opaque). Not a JPEG through ImageDecoder: its YUV frames convert to RGB
+// otherwise than the browser's image decoder does (up to 95 levels apart on sharp detail).
+async function decodedPng(bytes) {
+  if (typeof ImageDecoder !== 'function') return null;
+  let decoder = null, image = null;
+  try {
+    decoder = new ImageDecoder({ data: bytes, type: 'image/png', premultiplyAlpha: 'none', colorSpaceConversion: 'none' });
+    image = (await decoder.decode()).image;
+    if (!/^(RGB|BGR)[AX]$/.test(image.format)) return null;
+    const width = image.displayWidth, height = image.displayHeight, pixels = new Uint8Array(width * height * 4);
+    await image.copyTo(pixels, { format: 'RGBA' });
+    return { pixels, width, height };
+  } catch {
+    return null;  // the bitmap's decode says what is wrong, if anything is
+  } finally {
+    if (image) image.close();
+    if (decoder) decoder.close();
+  }
+}
+
+function opaquePixels(bitmap) {
+  if (typeof OffscreenCanvas !== 'function') return null;
+  const { width, height } = bitmap;
+  const context = new OffscreenCanvas(width, height).getContext('2d', { willReadFrequently: true });
+  if (!context) return null;
+  context.drawImage(bitmap, 0, 0);
+  const data = context.getImageData(0, 0, width, height).data;
+  for (let i = 3; i < data.length; i += 4) if (data[i] !== 255) return null;
+  return { pixels: new Uint8Array(data.buffer, data.byteOffset, data.byteLength), width, height };
+}
+
+// The `image` request: {bitmap} or, with m.pixels, {pixels, width, height} where exact; and the
+// transfer list.
+async function decodeImage(m) {
+  const png = m.pixels && m.mime === 'image/png' ? await decodedPng(m.bytes) : null;
+  if (png) return { reply: png, transfer: [png.pixels.buffer] };
+  const bitmap = await createImageBitmap(new Blob([m.bytes], { type: m.mime }), m.options);
+  const pixels = m.pixels ? opaquePixels(bitmap) : null;
+  if (!pixels) return { reply: { bitmap }, transfer: [bitmap] };
+  bitmap.close();
+  return { reply: pixels, transfer: [pixels.pixels.buffer] };
+}
+
 self.onmessage = (e) => {
   const m = e.data;
   try {
@@ -97,8 +148,8 @@ self.onmessage = (e) => {
     } else if (m.type === 'abort') {
       if (fetches.has(m.request)) fetches.get(m.request).abort();
     } else if (m.type === 'image') {
-      createImageBitmap(new Blob([m.bytes], { type: m.mime }), m.options).then(
-        (bitmap) => self.postMessage({ type: 'image', id: m.id, bitmap }, [bitmap]),
+      decodeImage(m).then(
+        ({ reply, transfer }) => self.postMessage({ type: 'image', id: m.id, ...reply }, transfer),
         (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }));
     } else if (m.type === 'digests') {
       self.postMessage({ type: 'digests', id: m.id, digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) });

@@ -4,7 +4,9 @@
 // last band shows), the bands 37 rows (the last one partial); level 0 is also checked against
 // the source pixels; bands that grow (from 5 rows: copies are quick on a 256-pixel-wide image)
 // give the same texture in fewer copies; two textures uploading at once (their bands
-// interleaved, one room on the context) both come out whole. Then a stopped upload (alive()
+// interleaved, one room on the context) both come out whole; an opaque map the decoding worker
+// gives as its bytes (a PixelImage) is the source exactly and bands to the same texture; one
+// with alpha comes as bytes equal to its ImageBitmap's upload where there is ImageDecoder. Then a stopped upload (alive()
 // false) resolves false after its first band, and a texture that fits in one band is left to
 // three.js (no band copied).
 //
@@ -38,6 +40,7 @@ fs.writeFileSync(path.join(site, 'upload.html'), `<!doctype html><html><head><me
 </head><body><script type="module">
 import * as THREE from 'three';
 import { uploadInBands } from './viewer/meshmux.js';
+import { PixelImage, StreamWorker, textureOf } from './viewer/stream_mesh.js';
 const W = 256, H = 512, ROWS = 37;
 const renderer = new THREE.WebGLRenderer();
 const gl = renderer.getContext();
@@ -101,6 +104,39 @@ const stopped = make();
 let calls = 0;
 result.stopped = await uploadInBands(renderer, stopped, ROWS * W * 4, () => ++calls < 2, 1);
 result.stoppedCopies = copies;
+// An opaque map as the decoding worker gives it (stream_worker.js: a PNG of the source decoded
+// there, its bytes read back): the source's bytes exactly, as a PixelImage; its DataTexture
+// (textureOf) uploaded in bands is the same texture as the bitmap's whole upload. A map with
+// alpha comes back an ImageBitmap (a 2D canvas's premultiplied texels are not exact there).
+const png = async (pixels) => {
+  const canvas = new OffscreenCanvas(W, H);
+  canvas.getContext('2d').putImageData(new ImageData(pixels, W, H), 0, 0);
+  return new Uint8Array(await (await canvas.convertToBlob({ type: 'image/png' })).arrayBuffer());
+};
+const worker = await StreamWorker.start();
+const decoded = await worker.decodeImage(await png(source), 'image/png', { premultiplyAlpha: 'none', colorSpaceConversion: 'none' }, true);
+result.workerPixels = decoded instanceof PixelImage;
+result.workerDiffers = result.workerPixels ? differing(decoded.data, new Uint8Array(source.buffer)) : -1;
+const fromPixels = textureOf(decoded);
+Object.assign(fromPixels, { colorSpace: THREE.NoColorSpace, flipY: false, minFilter: THREE.LinearMipmapLinearFilter, generateMipmaps: true, needsUpdate: true });
+copies = 0;
+result.pixelsDone = await uploadInBands(renderer, fromPixels, ROWS * W * 4, () => true, 1);
+result.pixelsCopies = copies;
+result.pixelsDiffers = [0, 1, 3, 6].map((level) => differing(read(fromPixels, level), read(whole, level))).reduce((a, b) => a + b, 0);
+// With alpha (every texel's its own, 1..255): where the page has WebCodecs' ImageDecoder (a secure
+// context, as this loopback page is), the bytes as stored, the same as the GPU holds from the
+// ImageBitmap of the same file uploaded whole by three.js.
+const translucent = source.slice();
+for (let i = 3; i < translucent.length; i += 4) translucent[i] = 1 + ((i >> 2) % 255);
+const alphaPng = await png(translucent), options = { premultiplyAlpha: 'none', colorSpaceConversion: 'none' };
+const withAlpha = await worker.decodeImage(alphaPng, 'image/png', options, true);
+const alphaWhole = make();
+alphaWhole.image = await createImageBitmap(new Blob([alphaPng], { type: 'image/png' }), options);
+renderer.initTexture(alphaWhole);
+result.decoderHere = typeof ImageDecoder === 'function';
+result.alphaPixels = withAlpha instanceof PixelImage;
+result.alphaDiffers = result.alphaPixels ? differing(withAlpha.data, read(alphaWhole, 0)) : -1;
+worker.terminate();
 // One band would hold it all: three.js uploads it when first drawn.
 copies = 0;
 result.small = await uploadInBands(renderer, make(), W * H * 4);
@@ -134,6 +170,11 @@ try {
   if (r.grownDone !== true || r.grownDiffers) fail(`growing bands: ${r.grownDone}, ${r.grownDiffers} bytes differ from the whole upload`);
   if (!(r.grownCopies >= 2 && r.grownCopies < Math.ceil(512 / 5))) fail(`growing bands: ${r.grownCopies} copies (expected fewer than ${Math.ceil(512 / 5)}, more than 1)`);
   if (r.stopped !== false || r.stoppedCopies !== 1) fail(`a stopped upload resolved ${r.stopped} after ${r.stoppedCopies} bands (expected false after 1)`);
+  console.log(`worker-decoded opaque PNG: ${r.workerPixels ? 'bytes' : 'an ImageBitmap'}, ${r.workerDiffers} bytes differ from the source; banded from its bytes: ${r.pixelsCopies} bands, ${r.pixelsDiffers} bytes differ in levels 0, 1, 3, 6; with alpha: ${r.alphaPixels ? `bytes, ${r.alphaDiffers} differ from the GPU's copy of its ImageBitmap` : 'an ImageBitmap'} (ImageDecoder ${r.decoderHere ? '' : 'not '}here)`);
+  if (!r.workerPixels || r.workerDiffers !== 0) fail(`the worker's opaque map: ${r.workerPixels ? `${r.workerDiffers} bytes differ from the source` : 'not given as bytes'}`);
+  if (r.pixelsDone !== true || r.pixelsCopies !== Math.ceil(512 / 37) || r.pixelsDiffers) fail(`banded from bytes: ${r.pixelsDone}, ${r.pixelsCopies} bands, ${r.pixelsDiffers} bytes differ from the whole upload`);
+  if (r.decoderHere && (!r.alphaPixels || r.alphaDiffers !== 0)) fail(`a map with alpha: ${r.alphaPixels ? `${r.alphaDiffers} bytes differ from its ImageBitmap's` : 'not given as bytes'}`);
+  if (!r.decoderHere && r.alphaPixels) fail('a map with alpha came back as bytes without ImageDecoder (a 2D canvas premultiplies it)');
   if (r.small !== true || r.smallCopies !== 0) fail(`a texture within one band: ${r.small}, ${r.smallCopies} bands (expected true, 0)`);
 } finally {
   await close();
