@@ -11,7 +11,9 @@ export const PROBE_BYTES: number;
 /** Resolves after a task boundary (a message, no timer clamping): the page runs its other tasks first. */
 export function nextTask(): Promise<void>;
 /**
- * Uploads an ImageBitmap texture to the GPU in bands of rows of at most `bandBytes`, one band
+ * Uploads a texture (an ImageBitmap's, or a DataTexture's bytes: a band of those costs the page
+ * only the band, an ImageBitmap's is converted whole by chromium for every band) to the GPU in
+ * bands of rows of at most `bandBytes`, one band
  * per task while the bands the GPU has not taken yet (over every texture uploading on the
  * context) leave room, then its mipmaps; resolves
  * false (the texture left unfinished) once `alive()` is false. A texture that fits in one band
