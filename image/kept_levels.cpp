@@ -65,13 +65,13 @@ std::vector<int32_t> kept_level_images(const Scene& scene) {
 
 namespace {
 
-// One kept image's texels, decoded once for every level (and every refit).
+// One kept image a level can carry. Its pixels are the scene's, or decoded where they are used
+// (one image's at a time: a scene of many large tiled textures would hold them all otherwise).
 struct KeptSource {
   int32_t image = -1;
   const Image* source = nullptr;  // the scene's image: its encoded bytes and mime type
-  Image decoded;                  // its pixels, when the scene holds none
   TexelFilter filter = TexelFilter::kData;
-  const Image& full() const { return source->decoded() ? *source : decoded; }
+  int width = 0, height = 0;  // as decoded
 };
 
 // The kept images a level can carry: JPEG or PNG, decodable.
@@ -84,11 +84,13 @@ std::vector<KeptSource> kept_sources(const Scene& scene) {
       continue;  // shipped as it is (the exporter re-encodes what it must)
     KeptSource k;
     k.image = i, k.source = &source, k.filter = kept_image_filter(scene, i);
+    k.width = source.width, k.height = source.height;
     if (!source.decoded()) {
-      k.decoded = source;
-      if (!decode_image(k.decoded)) continue;
+      Image probe = source;
+      if (!decode_image(probe)) continue;
+      k.width = probe.width, k.height = probe.height;
     }
-    out.push_back(std::move(k));
+    out.push_back(k);
   }
   return out;
 }
@@ -99,7 +101,15 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
                  TextureLevels& levels, int preview_quality) {
   for (TextureLevel& l : levels.levels) l.kept.clear();
   for (const KeptSource& k : sources) {
-    const Image& full = k.full();
+    Image decoded;  // only when the scene holds no pixels for it
+    if (!k.source->decoded()) {
+      decoded = *k.source;
+      if (Status st = decode_image(decoded); !st)
+        return Status::error("texture levels: kept image " + std::to_string(k.image) + " '" +
+                                 k.source->name + "': " + st.message(),
+                             ErrorKind::kInternal);
+    }
+    const Image& full = k.source->decoded() ? *k.source : decoded;
     std::pair<int, int> before = {0, 0};
     for (size_t j = 0; j < levels.levels.size(); ++j) {
       const bool finest = j + 1 == levels.levels.size();
@@ -156,8 +166,7 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
   // levels below it are made for them, the atlas resent as it is (a few bytes at that size),
   // each a level's step smaller, until the largest kept image fits the base size.
   int largest = 0;
-  for (const KeptSource& k : sources)
-    largest = std::max({largest, k.full().width, k.full().height});
+  for (const KeptSource& k : sources) largest = std::max({largest, k.width, k.height});
   size_t inserted = 0;
   if (levels.levels.size() == 1) {
     const double step = double(1 << std::clamp(options.level_halvings, 1, 4));
