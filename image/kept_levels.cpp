@@ -85,7 +85,7 @@ std::vector<KeptSource> kept_sources(const Scene& scene) {
     KeptSource k;
     k.image = i, k.source = &source, k.filter = kept_image_filter(scene, i);
     k.width = source.width, k.height = source.height;
-    if (!source.decoded()) {
+    if (k.width <= 0 || k.height <= 0) {  // never decoded: is it decodable, and how large?
       Image probe = source;
       if (!decode_image(probe)) continue;
       k.width = probe.width, k.height = probe.height;
@@ -104,10 +104,7 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
     Image decoded;  // only when the scene holds no pixels for it
     if (!k.source->decoded()) {
       decoded = *k.source;
-      if (Status st = decode_image(decoded); !st)
-        return Status::error("texture levels: kept image " + std::to_string(k.image) + " '" +
-                                 k.source->name + "': " + st.message(),
-                             ErrorKind::kInternal);
+      if (!decode_image(decoded)) continue;  // shipped as it is, like an image not JPEG or PNG
     }
     const Image& full = k.source->decoded() ? *k.source : decoded;
     std::pair<int, int> before = {0, 0};

@@ -718,7 +718,7 @@ export class MeshmuxStream extends EventTarget {
         if (!pos || pos.count !== d.base_vertices) {
           throw this._fail(`base .glb mesh ${m} has ${pos ? pos.count : 0} vertices, the table says base_vertices ${d.base_vertices}`);
         }
-        mesh.setBaseVertices(o.geometry);
+        for (const _ of mesh.baseVertexPieces(o.geometry)) await slice();
         filled.add(m);
       }
       // The base faces: the mesh's primitives' indices in primitive order (its first node's

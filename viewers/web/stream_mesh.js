@@ -60,7 +60,7 @@ export class StreamMesh {
 
   // Writes the buffers' pages (zeros, as allocated) `piece` elements at a time, yielding after
   // each: a large mesh's buffers are tens of megabytes, tens of milliseconds to commit at once.
-  *commitPieces(piece = 1 << 20) {
+  *commitPieces(piece = 1 << 18) {
     for (const a of [this.position, this.normal, this.uv, this.indices]) {
       for (let i = 0; i < a.length; i += piece) {
         a.fill(0, i, Math.min(a.length, i + piece));
@@ -91,6 +91,12 @@ export class StreamMesh {
   // from the quantized attributes) and what the GPU draws. A base written with float positions
   // (no quantization) keeps mesh units, and stream vertices are dequantized to match.
   setBaseVertices(glbGeometry) {
+    for (const _ of this.baseVertexPieces(glbGeometry));
+  }
+
+  // setBaseVertices a piece of `piece` vertices at a time: the caller may yield the page at
+  // each step (in one go it held traced world tasks of 25-34 ms).
+  *baseVertexPieces(glbGeometry, piece = 1 << 14) {
     const pos = glbGeometry.getAttribute('position'), nrm = glbGeometry.getAttribute('normal');
     const uv = glbGeometry.getAttribute('uv');
     const count = pos.count;
@@ -104,6 +110,7 @@ export class StreamMesh {
     const grid = (x, k) => Math.min(POSITION_MAX, Math.max(0, Math.round((x - o[k]) / s)));
     const uvNormalized = uv && uv.normalized;
     for (let i = 0; i < count; i++) {
+      if (i > 0 && i % piece === 0) yield;
       const x = pos.getX(i), y = pos.getY(i), z = pos.getZ(i);
       P[3 * i] = x; P[3 * i + 1] = y; P[3 * i + 2] = z;
       if (this.quantized) { qp[3 * i] = x; qp[3 * i + 1] = y; qp[3 * i + 2] = z; }
