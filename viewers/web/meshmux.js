@@ -343,8 +343,8 @@ function taskSlicer(ms = 8) {
   };
 }
 
-// Uploads `texture` (an ImageBitmap's or a PixelImage's) to the GPU in bands of rows of at most `bandBytes` of
-// pixels, one band per task, then its mipmaps. Handed to three.js whole, a 2048² level of four
+// Uploads `texture` (an ImageBitmap's or a PixelImage's) to the GPU in bands of rows of at most
+// `bandBytes` of pixels, one band per task, then its mipmaps. Handed to three.js whole, a 2048² level of four
 // maps is 64 MB uploaded inside one frame of the application's, the longest task on the page
 // (in chromium on software GL, 16 MB from an ImageBitmap take ~240 ms, 256 kB ~1 ms). The
 // texture's storage is allocated first (texStorage2D through WebGLRenderer.initTexture, no

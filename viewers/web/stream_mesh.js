@@ -256,10 +256,6 @@ export async function applyMeshChunk(meshes, chunk, payload) {
 
 // ---- Decoding in a Web Worker ------------------------------------------------------------------
 
-// The page's side of stream_worker.js. A DecoderWorker is one Web Worker; each stream talks to
-// it through its own StreamWorker (its stream number on every message), so that one worker can
-// decode for many streams (WorkerPool). Messages are answered in order per worker; payloads
-// and results move as transferred buffers.
 // A texture map decoded in the worker, as its RGBA bytes (rows top first) where an
 // ImageBitmap would be: a THREE.DataTexture's image ({data, width, height}), uploaded a band of
 // rows at a time at the band's own cost. close() lets the bytes go, as ImageBitmap's does.
@@ -284,6 +280,10 @@ export function textureOf(image) {
   return texture;
 }
 
+// The page's side of stream_worker.js. A DecoderWorker is one Web Worker; each stream talks to
+// it through its own StreamWorker (its stream number on every message), so that one worker can
+// decode for many streams (WorkerPool). Messages are answered in order per worker; payloads
+// and results move as transferred buffers.
 class DecoderWorker {
   // Starts a worker; resolves with it once it runs, or null where workers cannot run (no
   // Worker, a file:// page, a blocked script).
