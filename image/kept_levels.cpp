@@ -136,19 +136,6 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
   return Status::ok();
 }
 
-uint64_t level_bytes(const TextureLevel& l) {
-  uint64_t n = l.encoded.size();
-  for (const TextureMap& m : l.other_maps) n += m.encoded.size();
-  for (const KeptMap& k : l.kept) n += k.encoded.size();
-  return n;
-}
-
-double pyramid_ratio(const TextureLevels& levels) {
-  uint64_t total = 0;
-  for (const TextureLevel& l : levels.levels) total += level_bytes(l);
-  return double(total) / double(std::max<uint64_t>(1, level_bytes(levels.levels.back())));
-}
-
 }  // namespace
 
 Status add_kept_levels(const Scene& scene, TextureLevels& levels,
@@ -176,21 +163,10 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
   if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
   // The byte bound counts the kept maps as make_texture_levels counts the atlas's: levels
   // between the smallest and the top go, most bytes first, while the pyramid is over it.
-  while (levels.levels.size() > 2 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
-    auto dearest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
-                                    [](const TextureLevel& a, const TextureLevel& b) {
-                                      return level_bytes(a) < level_bytes(b);
-                                    });
-    char why[200];
-    std::snprintf(why, sizeof why,
-                  "with it the levels and the kept images' maps cost %.3f× the top level (limit "
-                  "%.2f); the largest level between the smallest and the top goes first",
-                  pyramid_ratio(levels), options.max_pyramid_ratio);
-    const size_t at = size_t(dearest - levels.levels.begin());
-    levels.dropped.push_back({dearest->width, dearest->height, level_bytes(*dearest), why});
-    if (at < inserted) --inserted;
-    levels.levels.erase(dearest);
-    scales.erase(scales.begin() + std::ptrdiff_t(at));
+  while (const std::optional<size_t> at = drop_dearest_middle_level(
+             levels, options.max_pyramid_ratio, "the levels and the kept images' maps")) {
+    if (*at < inserted) --inserted;
+    scales.erase(scales.begin() + std::ptrdiff_t(*at));
     if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
   }
   // A level made for the kept images alone that costs more than the bound (the atlas resent is

@@ -24,6 +24,37 @@ bool power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
 
 }  // namespace
 
+uint64_t level_bytes(const TextureLevel& l) {
+  uint64_t n = l.encoded.size();
+  for (const TextureMap& m : l.other_maps) n += m.encoded.size();
+  for (const KeptMap& k : l.kept) n += k.encoded.size();
+  return n;
+}
+
+double pyramid_ratio(const TextureLevels& levels) {
+  uint64_t total = 0;
+  for (const TextureLevel& l : levels.levels) total += level_bytes(l);
+  return double(total) / double(std::max<uint64_t>(1, level_bytes(levels.levels.back())));
+}
+
+std::optional<size_t> drop_dearest_middle_level(TextureLevels& levels, double max_ratio,
+                                                const std::string& what) {
+  if (levels.levels.size() <= 2 || pyramid_ratio(levels) <= max_ratio) return std::nullopt;
+  auto dearest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
+                                  [](const TextureLevel& a, const TextureLevel& b) {
+                                    return level_bytes(a) < level_bytes(b);
+                                  });
+  char why[240];
+  std::snprintf(why, sizeof why,
+                "with it %s cost %.3f× the top level (limit %.2f); the largest level between the "
+                "smallest and the top goes first",
+                what.c_str(), pyramid_ratio(levels), max_ratio);
+  levels.dropped.push_back({dearest->width, dearest->height, level_bytes(*dearest), why});
+  const size_t at = size_t(dearest - levels.levels.begin());
+  levels.levels.erase(dearest);
+  return at;
+}
+
 Image downsample_half(const Image& in) { return downsample_half(in, TexelFilter::kSrgb); }
 
 Image downsample_half(const Image& in, TexelFilter filter) {
@@ -129,11 +160,6 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
     }
     return Status::ok();
   };
-  auto level_bytes = [](const TextureLevel& l) {
-    uint64_t n = l.encoded.size();
-    for (const TextureMap& m : l.other_maps) n += m.encoded.size();
-    return n;
-  };
   TextureLevels levels;
   for (size_t i = chain.size(); i-- > 0;) {
     if (i % step != 0 && i + 1 != chain.size()) continue;
@@ -143,49 +169,32 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
       return s;
     levels.levels.push_back(std::move(level));
   }
-  auto total = [&] {
-    uint64_t n = 0;
-    for (const TextureLevel& l : levels.levels) n += level_bytes(l);
-    return n;
-  };
-  const double top = double(level_bytes(levels.levels.back()));
-  while (levels.levels.size() > 2 && double(total()) > o.max_pyramid_ratio * top) {
-    auto largest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
-                                    [&](const TextureLevel& a, const TextureLevel& b) {
-                                      return level_bytes(a) < level_bytes(b);
-                                    });
-    char why[160];
-    std::snprintf(why, sizeof why,
-                  "with it the levels cost %.3f× the top level (limit %.2f); the largest level "
-                  "between the smallest and the top goes first",
-                  double(total()) / top, o.max_pyramid_ratio);
-    levels.dropped.push_back({largest->width, largest->height, level_bytes(*largest), why});
-    levels.levels.erase(largest);
+  while (drop_dearest_middle_level(levels, o.max_pyramid_ratio, "the levels")) {
   }
   // Still too dear with only the smallest level below the top: that level halves again (a
   // smaller first picture) until the pyramid fits or it is a single texel.
   Maps smallest = chain.back();
-  while (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top &&
+  while (levels.levels.size() == 2 && pyramid_ratio(levels) > o.max_pyramid_ratio &&
          std::max(smallest[0]->width, smallest[0]->height) > kMinPreviewSide) {
     TextureLevel& first = levels.levels.front();
     char why[160];
     std::snprintf(why, sizeof why,
                   "with it the levels cost %.3f× the top level (limit %.2f); the smallest level "
                   "halves instead",
-                  double(total()) / top, o.max_pyramid_ratio);
+                  pyramid_ratio(levels), o.max_pyramid_ratio);
     levels.dropped.push_back({first.width, first.height, level_bytes(first), why});
     smallest = halve(smallest);
     if (Status s = encode_level(smallest, o.preview_quality, &first); !s.is_ok()) return s;
   }
   // A preview that small still too dear (a tiny texture: the file's headers dominate): the top
   // level is the only one.
-  if (levels.levels.size() == 2 && double(total()) > o.max_pyramid_ratio * top) {
+  if (levels.levels.size() == 2 && pyramid_ratio(levels) > o.max_pyramid_ratio) {
     const TextureLevel& first = levels.levels.front();
     char why[160];
     std::snprintf(why, sizeof why,
                   "with it the levels cost %.3f× the top level (limit %.2f) even at %dx%d: the "
                   "top level is the only one",
-                  double(total()) / top, o.max_pyramid_ratio, first.width, first.height);
+                  pyramid_ratio(levels), o.max_pyramid_ratio, first.width, first.height);
     levels.dropped.push_back({first.width, first.height, level_bytes(first), why});
     levels.levels.erase(levels.levels.begin());
   }

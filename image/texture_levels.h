@@ -8,6 +8,8 @@
 // Complexity: O(pixels) for the filtering (4/3 of the full size in all), plus encoding.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,19 @@ struct ChannelTexture {
 // count them all.
 Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& options,
                                           const std::vector<ChannelTexture>& channels = {});
+
+// The bytes of one level: every map it carries (base colour, further channels, kept images).
+uint64_t level_bytes(const TextureLevel& level);
+
+// All levels' bytes over the top level's (levels.back()); requires at least one level.
+double pyramid_ratio(const TextureLevels& levels);
+
+// With more than two levels and the pyramid over `max_ratio` (pyramid_ratio), drops the level
+// between the smallest and the top that costs most bytes, records it in levels.dropped (its why
+// names `what`, e.g. "the levels") and returns its index; otherwise changes nothing and returns
+// nullopt. Both byte bounds (make_texture_levels, add_kept_levels) drop through this.
+std::optional<size_t> drop_dearest_middle_level(TextureLevels& levels, double max_ratio,
+                                                const std::string& what);
 
 // One 2x2 box-filter reduction in linear light (width and height halved, never below 1).
 // Exposed for tests and for the renderer's mip chain.

@@ -105,7 +105,7 @@ Image detailed(int size) {
     }
   return img;
 }
-double pyramid_ratio(const TextureLevels& l) {
+double encoded_over_top(const TextureLevels& l) {
   size_t n = 0;
   for (const TextureLevel& t : l.levels) n += t.encoded.size();
   return double(n) / double(l.levels.back().encoded.size());
@@ -130,9 +130,9 @@ TEST(TextureLevels, DefaultPyramidCostsLittleMoreThanItsTop) {
   ASSERT_TRUE(all.ok());
   EXPECT_EQ(all->levels.size(), 4u);
   std::printf("[ levels ] pyramid / top: default %.3f, every level at one quality %.3f\n",
-              pyramid_ratio(*def), pyramid_ratio(*all));
-  EXPECT_LE(pyramid_ratio(*def), 1.15);
-  EXPECT_GT(pyramid_ratio(*all), pyramid_ratio(*def));
+              encoded_over_top(*def), encoded_over_top(*all));
+  EXPECT_LE(encoded_over_top(*def), 1.15);
+  EXPECT_GT(encoded_over_top(*all), encoded_over_top(*def));
   EXPECT_EQ(def->levels.back().encoded, all->levels.back().encoded);  // the same top level
 }
 
@@ -146,7 +146,7 @@ TEST(TextureLevels, LevelsPastTheByteLimitAreDroppedWithAReason) {
   auto l = make_texture_levels(detailed(1024), o);
   ASSERT_TRUE(l.ok());
   ASSERT_FALSE(l->dropped.empty());
-  EXPECT_LE(pyramid_ratio(*l), 1.1);
+  EXPECT_LE(encoded_over_top(*l), 1.1);
   EXPECT_EQ(l->levels.front().width, 128);
   EXPECT_EQ(l->levels.back().width, 1024);
   EXPECT_EQ(l->levels.size() + l->dropped.size(), 4u);
@@ -163,7 +163,7 @@ TEST(TextureLevels, ATooDearSmallestLevelHalves) {
   auto l = make_texture_levels(detailed(256), o);  // 256² and 64²
   ASSERT_TRUE(l.ok());
   ASSERT_EQ(l->levels.size(), 2u);
-  EXPECT_LE(pyramid_ratio(*l), 1.15);
+  EXPECT_LE(encoded_over_top(*l), 1.15);
   ASSERT_FALSE(l->dropped.empty());
   EXPECT_EQ(l->dropped[0].width, 64);
   EXPECT_LT(l->levels[0].width, 64);
@@ -277,6 +277,40 @@ TEST(TextureLevels, NormalFilterRenormalizes) {
   EXPECT_NEAR(half.rgba[0], 128, 1);
   EXPECT_NEAR(half.rgba[1], 128, 1);
   EXPECT_EQ(half.rgba[2], 255);
+}
+
+// The shared byte bound counts every map a level carries (a kept image's map as much as the
+// atlas's) and takes the dearest level between the smallest and the top, never either end: the
+// smallest is the first picture, the top is model.glb's texture.
+TEST(TextureLevels, DropDearestMiddleLevelCountsKeptMapsAndKeepsTheEnds) {
+  auto level = [](int side, size_t atlas, size_t kept) {
+    TextureLevel l;
+    l.width = l.height = side;
+    l.encoded.assign(atlas, 1);
+    if (kept > 0) l.kept.push_back({});
+    if (kept > 0) l.kept.back().encoded.assign(kept, 2);
+    return l;
+  };
+  TextureLevels levels;
+  // 16²: 50 B; 64²: 30 B + a 60 B kept map (the dearest middle one only with it); 256²: 80 B;
+  // top 1024²: 1000 B. Together 1.22× the top.
+  levels.levels = {level(16, 50, 0), level(64, 30, 60), level(256, 80, 0), level(1024, 1000, 0)};
+  EXPECT_NEAR(pyramid_ratio(levels), 1.22, 1e-9);
+  const std::optional<size_t> at = drop_dearest_middle_level(levels, 1.15, "the levels");
+  ASSERT_TRUE(at.has_value());
+  EXPECT_EQ(*at, 1u);
+  ASSERT_EQ(levels.levels.size(), 3u);
+  EXPECT_EQ(levels.levels[1].width, 256);
+  ASSERT_EQ(levels.dropped.size(), 1u);
+  EXPECT_EQ(levels.dropped[0].width, 64);
+  EXPECT_EQ(levels.dropped[0].bytes, 90u);
+  EXPECT_NE(levels.dropped[0].why.find("the levels cost 1.220"), std::string::npos);
+  // 1.13× now: within the bound, nothing more goes.
+  EXPECT_FALSE(drop_dearest_middle_level(levels, 1.15, "the levels").has_value());
+  // Over a tighter bound the 256² goes; with two levels left, neither end is ever dropped.
+  EXPECT_EQ(drop_dearest_middle_level(levels, 1.0, "the levels"), std::optional<size_t>(1));
+  EXPECT_FALSE(drop_dearest_middle_level(levels, 1.0, "the levels").has_value());
+  EXPECT_EQ(levels.levels.size(), 2u);
 }
 
 }  // namespace
