@@ -40,10 +40,9 @@ double pyramid_ratio(const TextureLevels& levels) {
 std::optional<size_t> drop_dearest_middle_level(TextureLevels& levels, double max_ratio,
                                                 const std::string& what) {
   if (levels.levels.size() <= 2 || pyramid_ratio(levels) <= max_ratio) return std::nullopt;
-  auto dearest = std::max_element(levels.levels.begin() + 1, levels.levels.end() - 1,
-                                  [](const TextureLevel& a, const TextureLevel& b) {
-                                    return level_bytes(a) < level_bytes(b);
-                                  });
+  auto dearest = std::max_element(
+      levels.levels.begin() + 1, levels.levels.end() - 1,
+      [](const TextureLevel& a, const TextureLevel& b) { return level_bytes(a) < level_bytes(b); });
   char why[240];
   std::snprintf(why, sizeof why,
                 "with it %s cost %.3f× the top level (limit %.2f); the largest level between the "
