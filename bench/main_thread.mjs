@@ -46,7 +46,8 @@ function pageMainThread(events) {
 
 // Every task over `overMs` between the marks `start` and `end` (user timing marks; the trace's
 // ends where one is missing), each { ms, owner, at (s after start), top (the library's busiest
-// functions, for a library task) }, and per owner { tasks, over50, ms, longest }.
+// functions, for a library task; cpuMs: the thread's own time in it, null where the trace has
+// none; samples and leaves: the profile's samples in it and their innermost frames) }, and per owner { tasks, over50, ms, longest }.
 export function taskOwners(events, profile, { start, end, library, frameFunctions = [], overMs = 16 }) {
   const main = pageMainThread(events);
   if (!main) return { tasks: [], owners: {} };
@@ -63,7 +64,7 @@ export function taskOwners(events, profile, { start, end, library, frameFunction
   };
   let t = profile.startTime;
   const samples = profile.samples.map((id, i) => ({ t: (t += profile.timeDeltas[i]), id }));
-  const name = (f) => `${f.functionName || '(anonymous)'} (${f.url.split('/').pop()}:${f.lineNumber + 1})`;
+  const name = (f) => `${f.functionName || '(anonymous)'} (${f.url.split('/').pop()}:${f.lineNumber + 1}:${f.columnNumber + 1})`;
   const tasks = [], owners = {};
   const commits = onMain.filter((e) => e.name === 'Commit');
   let s0 = 0;
@@ -85,13 +86,22 @@ export function taskOwners(events, profile, { start, end, library, frameFunction
       }
       top = [...count].sort((a, b) => b[1] - a[1]).slice(0, 2).map(([k]) => k);
     }
+    // Where the task's samples were, whoever's code: the innermost frame of each (three's
+    // functions, the browser's built-ins, "(garbage collector)", "(idle)": the thread waiting).
+    const leaf = new Map();
+    for (const st of stacks) leaf.set(name(st[0]), (leaf.get(name(st[0])) || 0) + 1);
+    const leaves = [...leaf].sort((a, b) => b[1] - a[1]).slice(0, 4).map(([k, n]) => `${k} ${n}`);
     const ms = task.dur / 1000;
-    tasks.push({ ms, owner, at: (task.ts - from) / 1e6, top });
-    const o = (owners[owner] ||= { tasks: 0, over50: 0, ms: 0, longest: 0 });
+    // The thread's own time in the task (tdur): far under ms when the thread waited for a core.
+    const cpuMs = Number.isFinite(task.tdur) ? task.tdur / 1000 : null;
+    tasks.push({ ms, cpuMs, owner, at: (task.ts - from) / 1e6, top, samples: stacks.length, leaves });
+    const o = (owners[owner] ||= { tasks: 0, over50: 0, ms: 0, longest: 0, cpuOver: 0, cpuLongest: 0 });
     o.tasks++;
     if (ms > 50) o.over50++;
     o.ms += ms;
     o.longest = Math.max(o.longest, ms);
+    if (cpuMs !== null && cpuMs > overMs) o.cpuOver++;
+    o.cpuLongest = Math.max(o.cpuLongest, cpuMs || 0);
   }
   return { tasks, owners };
 }
