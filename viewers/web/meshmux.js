@@ -331,6 +331,80 @@ async function roomForBand(gl, bytes, most, maxMs) {
   };
 }
 
+// A GLTFLoader plugin that builds each mesh of a base in a task of its own. GLTFLoader's parse
+// is a web of promises: when a shared buffer view's decode (a worker's reply) resolves, every
+// accessor, geometry and mesh waiting on it is built in that one task's microtasks, and the
+// scene after them; a base of many meshes held the page for tens of milliseconds per reply.
+// Here a mesh first waits for its accessors and materials, then for a task boundary, then is
+// built (GLTFParser.loadMesh, finding them ready); a Draco primitive's accessors are not asked
+// for (the extension decodes them), nor are morph targets' (built with the mesh, as before).
+class TaskPerMesh {
+  constructor(parser) {
+    this.parser = parser;
+    this.name = 'meshmux_task_per_mesh';
+  }
+
+  async loadMesh(index) {
+    const parser = this.parser, def = parser.json.meshes && parser.json.meshes[index];
+    const ready = [];
+    for (const primitive of (def && def.primitives) || []) {
+      const draco = primitive.extensions && primitive.extensions.KHR_draco_mesh_compression;
+      if (!draco) {
+        for (const a of Object.values(primitive.attributes || {})) ready.push(parser.getDependency('accessor', a));
+        if (primitive.indices !== undefined) ready.push(parser.getDependency('accessor', primitive.indices));
+      }
+      if (primitive.material !== undefined) ready.push(parser.getDependency('material', primitive.material));
+    }
+    await Promise.all(ready).catch(() => {});  // a failure is GLTFParser.loadMesh's to report, as it would
+    await nextTask();
+    return parser.loadMesh(index);
+  }
+}
+
+// A GLTFLoader plugin that decodes a base's embedded PNG and JPEG images in the stream's
+// worker (`decode(bytes, mime)`: a PixelImage or an ImageBitmap), its bytes handed over as
+// the buffer view GLTFLoader read. GLTFLoader's own way copies each image into a Blob and
+// fetches that on the page's thread (for a base's full-size kept images, up to 20 ms a task).
+// GLTFLoader still makes the texture (sampler, name, associations) from what this gives; an
+// image with a texture extension (WebP, KTX2) or a URI is left to it.
+class TexturesInWorker {
+  constructor(parser, decode) {
+    this.parser = parser;
+    this.decode = decode;
+    this.name = 'meshmux_textures_in_worker';
+  }
+
+  loadTexture(index) {
+    const json = this.parser.json, def = json.textures && json.textures[index];
+    if (!def || (def.extensions && Object.keys(def.extensions).length)) return null;
+    const source = json.images && json.images[def.source];
+    if (!source || source.bufferView === undefined || !['image/png', 'image/jpeg'].includes(source.mimeType)) return null;
+    // GLTFLoader hands a KTX2 loader the buffer view's bytes as they are (no Blob): this
+    // loader is one in that respect only.
+    const decode = this.decode, mime = source.mimeType, own = this._onlyUser(source.bufferView);
+    const loader = {
+      isKTX2Loader: true,
+      parse(buffer, onLoad, onError) {
+        decode(new Uint8Array(buffer), mime, own).then((image) => {
+          const texture = textureOf(image);
+          texture.needsUpdate = true;
+          onLoad(texture);
+        }, onError);
+      },
+    };
+    return this.parser.loadTextureImage(index, def.source, loader);
+  }
+
+  // Whether the buffer view holds this image alone (no accessor, no other image reads it): its
+  // bytes may then be given to the worker rather than copied.
+  _onlyUser(view) {
+    const json = this.parser.json;
+    const images = (json.images || []).filter((i) => i.bufferView === view).length;
+    return images === 1 && !(json.accessors || []).some((a) => a.bufferView === view ||
+      (a.sparse && (a.sparse.indices.bufferView === view || a.sparse.values.bufferView === view)));
+  }
+}
+
 // A page-time budget for a long job on the main thread: `await slice()` returns at once while
 // the job has run less than `ms` since its last task boundary, else after one (nextTask), so
 // that the job's steps share tasks up to about `ms` and no task holds many of them.
@@ -631,7 +705,9 @@ export class MeshmuxStream extends EventTarget {
     const glb = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
     let gltf, draco = null;
     try {
-      const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+      const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).register((parser) => new TaskPerMesh(parser));
+      const worker = this._worker;
+      if (worker) loader.register((parser) => new TexturesInWorker(parser, (bytes, mime, own) => worker.decodeImage(bytes, mime, IMAGE_OPTIONS, true, own)));
       if (table.base.whole) {  // Draco-coded (stream/format.h): its decoder, loaded only then
         draco = await (dracoLoader || this._dracoLoader());
         loader.setDRACOLoader(draco);
@@ -808,7 +884,7 @@ export class MeshmuxStream extends EventTarget {
       if (!e) { bitmap.close(); continue; }
       const replaced = new Map();
       for (const old of e.textures) {
-        const t = bitmap instanceof PixelImage ? new THREE.DataTexture().copy(old) : old.clone();
+        const t = (bitmap instanceof PixelImage ? new THREE.DataTexture() : new THREE.Texture()).copy(old);
         t.source = new THREE.TextureSource(bitmap);
         t.name = `meshmux kept ${k} ${bitmap.width}x${bitmap.height}`;
         t.needsUpdate = true;
@@ -934,9 +1010,15 @@ export class MeshmuxStream extends EventTarget {
 
   async _run() {
     const abort = this._abort = new AbortController(), signal = abort.signal;
+    // Ranges asked for and not yet taken: with a worker, their bytes stay there (HeldBytes) and
+    // are let go once their chunks are applied, or here when the run ends without them.
+    const reads = new Set();
     const read = (batch) => {
-      const promise = batch && this._reader.read(batch.start, batch.end, signal);
-      if (promise) promise.catch(() => {});  // awaited later, or dropped by the abort below
+      const promise = batch && this._reader.read(batch.start, batch.end, signal, true);
+      if (promise) {
+        promise.catch(() => {});  // awaited later, or dropped by the abort below
+        reads.add(promise);
+      }
       return promise;
     };
     const stopped = () => new DOMException('stopped', 'AbortError');
@@ -945,20 +1027,25 @@ export class MeshmuxStream extends EventTarget {
       let batch = this._planBatch(this._position, this._bytes), fetching = read(batch);
       while (batch) {
         const data = await fetching;
+        reads.delete(fetching);
         const next = this._planBatch(this._position + batch.indices.length, batch.bytes);
         const nextFetch = read(next);  // prefetch while this batch is applied
-        for (const index of batch.indices) {
-          if (signal.aborted) throw stopped();
-          const chunk = this.table.chunks[index];
-          if (this._bytes + chunk.size > this.options.budgetBytes) { batch = null; break; }  // the budget was lowered
-          await this._applyChunk(index, chunk, data.subarray(chunk.offset - batch.start, chunk.offset - batch.start + chunk.size));
-          if (signal.aborted) throw stopped();
-          this._position++;
-          this._bytes += chunk.size;
-          this._emit('chunk', { chunk: index, kind: chunk.kind });
-          this._emit('progress');
-          await pause();
-          if (chunk.kind === 'texture' && !this.options.uploadsBeside) await this._gpuIdle();
+        try {
+          for (const index of batch.indices) {
+            if (signal.aborted) throw stopped();
+            const chunk = this.table.chunks[index];
+            if (this._bytes + chunk.size > this.options.budgetBytes) { batch = null; break; }  // the budget was lowered
+            await this._applyChunk(index, chunk, data.subarray(chunk.offset - batch.start, chunk.offset - batch.start + chunk.size));
+            if (signal.aborted) throw stopped();
+            this._position++;
+            this._bytes += chunk.size;
+            this._emit('chunk', { chunk: index, kind: chunk.kind });
+            this._emit('progress');
+            await pause();
+            if (chunk.kind === 'texture' && !this.options.uploadsBeside) await this._gpuIdle();
+          }
+        } finally {
+          if (data.release) data.release();
         }
         if (!batch) break;
         batch = next;
@@ -980,6 +1067,7 @@ export class MeshmuxStream extends EventTarget {
       throw error;
     } finally {
       if (this._abort === abort) this._abort = null;
+      for (const r of reads) r.then((d) => { if (d && d.release) d.release(); }, () => {});
     }
   }
 

@@ -268,10 +268,10 @@ export class RangeReader {
   // `pending`: a fetch of exactly this range already under way (a Promise of its Response).
   // Later ranges go through `this.fetchRange` when set (a function like fetchRange: the
   // stream's worker fetches them, so their bodies never pass through the page's main thread).
-  async _fetch(start, end, signal, pending = null) {
+  async _fetch(start, end, signal, pending = null, hold = false) {
     let res;
     try {
-      const request = () => (this.fetchRange || fetchRange)(this.url, start, end, signal);
+      const request = () => (this.fetchRange || fetchRange)(this.url, start, end, signal, hold);
       res = pending ? await responseParts(await pending)
         : await (this.limiter ? this.limiter.run(request) : request());
     } catch (e) {
@@ -298,14 +298,19 @@ export class RangeReader {
     return this.prefix;
   }
 
-  // Exactly bytes [start, end).
-  async read(start, end, signal) {
+  // Exactly bytes [start, end). With `hold`, where `this.fetchRange` is a worker's that can
+  // keep them (StreamWorker.fetchRange), they may come as the worker's HeldBytes (release()
+  // them once used) instead of a Uint8Array.
+  async read(start, end, signal, hold = false) {
     if (end <= start) return new Uint8Array(0);
     if (this.whole && end > this.whole.length) throw this._error(`bytes ${start}-${end - 1} lie past the end of the file (${this.whole.length} bytes)`);
     if (this.whole) return this.whole.subarray(start, end);
     if (this.prefix && end <= this.prefix.length) return this.prefix.subarray(start, end);
-    const bytes = await this._fetch(start, end, signal);
-    if (bytes.length < end - start) throw this._error(`short read: bytes ${start}-${end - 1} gave ${bytes.length} bytes`);
+    const bytes = await this._fetch(start, end, signal, null, hold);
+    if (bytes.length < end - start) {
+      if (bytes.release) bytes.release();
+      throw this._error(`short read: bytes ${start}-${end - 1} gave ${bytes.length} bytes`);
+    }
     return bytes.subarray(0, end - start);
   }
 }

@@ -271,6 +271,27 @@ export class PixelImage {
   }
 }
 
+// Bytes a stream's worker holds (a range it fetched with `hold`: stream_worker.js): the page
+// knows how many and names parts of them (subarray) in the worker's chunk and image requests,
+// so that a range's body is neither copied on the page's thread nor sent back to the worker.
+// release() lets the worker drop them (every part named before it is served first).
+export class HeldBytes {
+  constructor(stream, id, offset, length) {
+    this.stream = stream;  // the StreamWorker whose worker holds them
+    this.id = id;          // the fetch request's id, the worker's key
+    this.offset = offset;  // where this part starts in the range held
+    this.length = length;
+  }
+
+  // Bytes [begin, end) of these, clamped like TypedArray.subarray (no negative indices).
+  subarray(begin = 0, end = this.length) {
+    const b = Math.max(0, Math.min(this.length, begin)), e = Math.max(b, Math.min(this.length, end));
+    return new HeldBytes(this.stream, this.id, this.offset + b, e - b);
+  }
+
+  release() { this.stream.dropHeld(this.id); }
+}
+
 // A texture of a decoded map: an ImageBitmap's, or a PixelImage's (a DataTexture: three.js
 // uploads its bytes), the image itself the texture's source (its close() lets it go).
 export function textureOf(image) {
@@ -313,7 +334,10 @@ class DecoderWorker {
     this.failure = null;       // the worker died: every later request fails with this
     worker.onmessage = (e) => {
       const m = e.data, p = this.pending.get(m.id);
-      if (!p) return;
+      if (!p) {
+        if (m.held !== undefined) worker.postMessage({ type: 'drop', held: m.held });  // an aborted fetch's
+        return;
+      }
       this.pending.delete(m.id);
       if (m.type === 'error') p.reject(new Error(m.message)); else p.resolve(m);
     };
@@ -416,11 +440,11 @@ export class StreamWorker {
 
   // Decodes one mesh chunk in the worker and takes its changes into `meshes`. Resolves with
   // { added, seconds }: the faces added and the worker's decoding time.
+  // `payload`: the chunk's bytes, or HeldBytes of this worker's.
   async applyChunk(meshes, chunk, payload) {
     checkParts(meshes, chunk, payload);
-    const bytes = payload.slice();  // the worker takes this copy
     const parts = chunk.parts.map((p) => [p.mesh, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin, p.bytes]);
-    const reply = await this._request({ type: 'chunk', parts, payload: bytes }, [bytes.buffer]);
+    const reply = await this._request(...this._bytesMessage({ type: 'chunk', parts }, 'payload', payload));
     let added = 0;
     for (const c of reply.changes) {
       meshes[c.mesh].applyChanges(c);
@@ -429,14 +453,30 @@ export class StreamWorker {
     return { added, seconds: reply.seconds };
   }
 
+  // A request's message and transfer list carrying `bytes` as `field`: HeldBytes by name, else
+  // a copy the worker takes (the caller's bytes may be a view of a larger buffer).
+  _bytesMessage(message, field, bytes) {
+    if (bytes instanceof HeldBytes && bytes.stream === this) return [{ ...message, held: bytes.id, offset: bytes.offset, size: bytes.length }, []];
+    const copy = bytes instanceof HeldBytes ? null : bytes.slice();
+    if (!copy) throw new Error('bytes held by another stream\'s worker');
+    return [{ ...message, [field]: copy }, [copy.buffer]];
+  }
+
+  // Lets the worker drop the range fetched by request `id` (HeldBytes.release).
+  dropHeld(id) {
+    if (!this.released && !this.decoder.failure) this.decoder.worker.postMessage({ type: 'drop', held: id });
+  }
+
   // Bytes [start, end) of `url` (relative to the page) fetched by the worker; resolves like
-  // package_reader.js fetchRange. An abort of `signal` rejects at once with an AbortError and
-  // aborts the worker's fetch.
-  fetchRange(url, start, end, signal) {
+  // package_reader.js fetchRange. With `hold`, a range sent as asked (HTTP 206) stays in the
+  // worker: `bytes` is then HeldBytes, to be released once used. An abort of `signal` rejects
+  // at once with an AbortError and aborts the worker's fetch.
+  fetchRange(url, start, end, signal, hold = false) {
     if (signal && signal.aborted) return Promise.reject(new DOMException('aborted', 'AbortError'));
     if (this.released) return Promise.reject(this.released);
     const d = this.decoder;
-    const { id, promise: reply } = d.request({ type: 'fetch', stream: this.stream, url: new URL(url, globalThis.location && location.href).href, start, end });
+    const { id, promise } = d.request({ type: 'fetch', stream: this.stream, url: new URL(url, globalThis.location && location.href).href, start, end, hold });
+    const reply = promise.then((r) => (r.held === undefined ? r : { ...r, bytes: new HeldBytes(this, r.held, 0, r.length) }));
     if (!signal) return reply;
     return new Promise((resolve, reject) => {
       const onAbort = () => {
@@ -453,15 +493,25 @@ export class StreamWorker {
   // with the ImageBitmap, or with `pixels` a PixelImage (its RGBA bytes as stored) wherever the
   // worker can read them exactly (stream_worker.js decodeImage: a PNG where there is WebCodecs'
   // ImageDecoder, any opaque map).
-  async decodeImage(bytes, mime, options, pixels = false) {
-    const copy = bytes.slice();
-    const r = await this._request({ type: 'image', bytes: copy, mime, options, pixels }, [copy.buffer]);
+  // `bytes`: the file's bytes, or HeldBytes of this worker's; `own`: the caller gives up a
+  // Uint8Array over a whole buffer (transferred, not copied).
+  async decodeImage(bytes, mime, options, pixels = false, own = false) {
+    const whole = own && bytes instanceof Uint8Array && bytes.byteOffset === 0 && bytes.byteLength === bytes.buffer.byteLength;
+    const r = await this._request(...(whole ? [{ type: 'image', mime, options, pixels, bytes }, [bytes.buffer]]
+      : this._bytesMessage({ type: 'image', mime, options, pixels }, 'bytes', bytes)));
     return r.bitmap || new PixelImage(r.pixels, r.width, r.height);
   }
 
   // Per mesh, the digest of the state the worker holds (stream/vsplit.h state_digest).
   async digests() {
     return (await this._request({ type: 'digests' })).digests;
+  }
+
+  // The fetched ranges the worker holds for this stream: { count (now: none once its play
+  // ended), ever (in all) }.
+  async heldRanges() {
+    const { count, ever } = await this._request({ type: 'held' });
+    return { count, ever };
   }
 
   // Ends this stream's use of its worker: a worker of its own stops; a pool's worker drops the

@@ -13,10 +13,17 @@
 //   digests {} → {digests}: per mesh, stream/vsplit.h state_digest of what it holds (none
 //          before setup: a package whose base is whole streams no mesh)
 //   release {} → {}: the stream's states dropped (its MeshmuxStream was disposed)
-//   fetch  {url, start, end} → {status, statusText, contentRange, bytes}: a byte range fetched
-//          here (package_reader.js fetchRange), so its body never passes through the page's
-//          main thread (in chromium, a megabyte there stalls it for tens of milliseconds);
-//          abort {request} aborts such a fetch (it then answers with an error)
+//   held   {} → {count, ever}: how many fetched ranges the worker holds for the stream now, and
+//          has held for it in all
+//   fetch  {url, start, end, hold} → {status, statusText, contentRange, bytes}: a byte range
+//          fetched here (package_reader.js fetchRange), so its body never passes through the
+//          page's main thread (in chromium, a megabyte there stalls it for tens of milliseconds);
+//          with `hold`, a range the server sent as asked (206) stays here and the reply says
+//          {held (this request's id), length} instead of `bytes`: the page then names parts of
+//          it in `chunk` and `image` requests ({held, offset, size} for payload or bytes), so
+//          they are not copied on the page nor sent back; drop {held} lets it go (no reply).
+//          abort {request} aborts such a fetch (it then answers with an error) or drops what
+//          it holds
 //   image  {bytes, mime, options, pixels} → {bitmap} | {pixels, width, height}: a texture map's
 //          file decoded (createImageBitmap with `options`, the ImageBitmap transferred); with
 //          `pixels`, as its RGBA bytes where they can be had exactly (decodeImage below)
@@ -27,6 +34,18 @@ import { MeshState } from './stream_decode.js';
 
 const streams = new Map();  // stream number → its meshes: [{state, origin, step, quantized}]
 const fetches = new Map();  // request id → the AbortController of its fetch
+const held = new Map();     // fetch request id → {bytes, stream}: a range the page names parts of
+const heldEver = new Map(); // stream number → how many ranges were ever held for it
+
+// A request's bytes: its own `field`, or the part {offset, size} of a range held here.
+function bytesOf(m, field) {
+  if (m.held === undefined) return m[field];
+  const range = held.get(m.held);
+  if (!range) throw new Error(`bytes of fetch ${m.held} are no longer held`);
+  if (!(Number.isInteger(m.offset) && Number.isInteger(m.size) && m.offset >= 0 && m.size >= 0 && m.offset + m.size <= range.bytes.length))
+    throw new Error(`bytes ${m.offset}+${m.size} lie outside the ${range.bytes.length} held of fetch ${m.held}`);
+  return range.bytes.subarray(m.offset, m.offset + m.size);
+}
 
 function setup(m) {
   streams.set(m.stream, m.meshes.map((d, i) => {
@@ -48,6 +67,7 @@ function meshesOf(m) {
 
 function chunk(m) {
   const meshes = meshesOf(m);
+  const payload = bytesOf(m, 'payload');
   const t0 = performance.now();
   const touched = new Map();  // mesh → where it stood before this chunk
   let at = 0;
@@ -58,7 +78,7 @@ function chunk(m) {
       entry.state.beginChanges();
       touched.set(mesh, [entry.state.vertices, entry.state.faces]);
     }
-    entry.state.applySplits(m.payload, at, at + bytes, splits, faces);
+    entry.state.applySplits(payload, at, at + bytes, splits, faces);
     at += bytes;
   }
   const seconds = (performance.now() - t0) / 1000;
@@ -142,19 +162,33 @@ self.onmessage = (e) => {
       const abort = new AbortController();
       fetches.set(m.id, abort);
       fetchRange(m.url, m.start, m.end, abort.signal).then(
-        (r) => self.postMessage({ type: 'fetch', id: m.id, ...r }, [r.bytes.buffer]),
+        (r) => {
+          if (!m.hold || r.status !== 206) { self.postMessage({ type: 'fetch', id: m.id, ...r }, [r.bytes.buffer]); return; }
+          held.set(m.id, { bytes: r.bytes, stream: m.stream });
+          heldEver.set(m.stream, (heldEver.get(m.stream) || 0) + 1);
+          self.postMessage({ type: 'fetch', id: m.id, status: r.status, statusText: r.statusText, contentRange: r.contentRange, held: m.id, length: r.bytes.length });
+        },
         (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }))
         .finally(() => fetches.delete(m.id));
     } else if (m.type === 'abort') {
       if (fetches.has(m.request)) fetches.get(m.request).abort();
+      held.delete(m.request);  // its reply came too late for the page
+    } else if (m.type === 'drop') {
+      held.delete(m.held);
     } else if (m.type === 'image') {
-      decodeImage(m).then(
+      decodeImage({ ...m, bytes: bytesOf(m, 'bytes') }).then(
         ({ reply, transfer }) => self.postMessage({ type: 'image', id: m.id, ...reply }, transfer),
         (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }));
+    } else if (m.type === 'held') {
+      let count = 0;
+      for (const range of held.values()) count += range.stream === m.stream;
+      self.postMessage({ type: 'held', id: m.id, count, ever: heldEver.get(m.stream) || 0 });
     } else if (m.type === 'digests') {
       self.postMessage({ type: 'digests', id: m.id, digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) });
     } else if (m.type === 'release') {
       streams.delete(m.stream);
+      heldEver.delete(m.stream);
+      for (const [id, range] of held) if (range.stream === m.stream) held.delete(id);
       self.postMessage({ type: 'release', id: m.id });
     } else throw new Error(`unknown request ${JSON.stringify(m.type)}`);
   } catch (error) {

@@ -171,6 +171,13 @@ try {
   // 2. The whole stream.
   const full = await load('', ['complete']);
   const fullDigests = await page.evaluate(() => window.meshmuxViewer.stream.stateDigests());
+  // The chunks' bytes stayed in the worker (HeldBytes) and were all let go once applied.
+  const held = await page.evaluate(() => { const w = window.meshmuxViewer.stream._worker; return w ? w.heldRanges() : null; });
+  if (!held) fail('the stream played without its decoding worker');
+  else if (held.count !== 0) fail(`the decoding worker still holds ${held.count} fetched range(s) after the stream completed`);
+  // (a package under twice the first request's 64 kB may have come whole in it: nothing to hold)
+  else if (packageBytes > 2 * 65536 && held.ever === 0) fail('no chunk range was held in the worker: the chunks\' bytes crossed to the page');
+  else console.log(`chunk bytes: ${held.ever} fetched range(s) held in the worker, none left after the stream completed`);
   // The library alone on the page: a MeshmuxStream without a renderer plays the package while
   // chromium traces its main thread; the longest task run there meanwhile (the browser's own
   // measure, as DevTools shows it: ThreadControllerImpl::RunTask on CrRendererMain), and the
