@@ -379,8 +379,9 @@ class TexturesInWorker {
     if (!def || (def.extensions && Object.keys(def.extensions).length)) return null;
     const source = json.images && json.images[def.source];
     if (!source || source.bufferView === undefined || !['image/png', 'image/jpeg'].includes(source.mimeType)) return null;
-    // GLTFLoader hands a KTX2 loader the buffer view's bytes as they are (no Blob): this
-    // loader is one in that respect only.
+    // GLTFLoader (r187) hands a KTX2 loader the buffer view's bytes as they are (no Blob):
+    // this loader is one in that respect only. Should a later GLTFLoader load it by URL (the
+    // Blob's) instead, it fetches that and decodes the same way.
     const decode = this.decode, mime = source.mimeType, own = this._onlyUser(source.bufferView);
     const loader = {
       isKTX2Loader: true,
@@ -390,6 +391,9 @@ class TexturesInWorker {
           texture.needsUpdate = true;
           onLoad(texture);
         }, onError);
+      },
+      load(url, onLoad, onProgress, onError) {
+        fetch(url).then((r) => r.arrayBuffer()).then((buffer) => loader.parse(buffer, onLoad, onError), onError);
       },
     };
     return this.parser.loadTextureImage(index, def.source, loader);

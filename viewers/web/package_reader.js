@@ -285,7 +285,10 @@ export class RangeReader {
     }
     if (res.status !== 206) throw this._error(`HTTP ${res.status}${res.statusText ? ' ' + res.statusText : ''} for bytes ${start}-${end - 1}`);
     const range = /^bytes (\d+)-(\d+)\/(\d+|\*)$/.exec(res.contentRange || '');
-    if (range && Number(range[1]) !== start) throw this._error(`asked for bytes from ${start}, the server sent ${range[0]}`);
+    if (range && Number(range[1]) !== start) {
+      if (res.bytes.release) res.bytes.release();  // held by a worker (read's hold)
+      throw this._error(`asked for bytes from ${start}, the server sent ${range[0]}`);
+    }
     if (range && range[3] !== '*') this.size = Number(range[3]);
     return res.bytes;
   }
