@@ -362,7 +362,7 @@ class TaskPerMesh {
 }
 
 // A GLTFLoader plugin that decodes a base's embedded PNG and JPEG images in the stream's
-// worker (`decode(bytes, mime)`: a PixelImage or an ImageBitmap), its bytes handed over as
+// worker (`decode(bytes, mime, own)`: an ImageBitmap or a PixelImage), its bytes handed over as
 // the buffer view GLTFLoader read. GLTFLoader's own way copies each image into a Blob and
 // fetches that on the page's thread (for a base's full-size kept images, up to 20 ms a task).
 // GLTFLoader still makes the texture (sampler, name, associations) from what this gives; an
@@ -711,7 +711,9 @@ export class MeshmuxStream extends EventTarget {
     try {
       const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).register((parser) => new TaskPerMesh(parser));
       const worker = this._worker;
-      if (worker) loader.register((parser) => new TexturesInWorker(parser, (bytes, mime, own) => worker.decodeImage(bytes, mime, IMAGE_OPTIONS, true, own)));
+      // As ImageBitmaps: three uploads a base's textures whole, and reading their bytes out
+      // (PixelImage) would cost the worker a copy each for nothing.
+      if (worker) loader.register((parser) => new TexturesInWorker(parser, (bytes, mime, own) => worker.decodeImage(bytes, mime, IMAGE_OPTIONS, false, own)));
       if (table.base.whole) {  // Draco-coded (stream/format.h): its decoder, loaded only then
         draco = await (dracoLoader || this._dracoLoader());
         loader.setDRACOLoader(draco);
