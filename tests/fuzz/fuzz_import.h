@@ -9,17 +9,27 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "importers/import.h"
 
 namespace meshmux::fuzz {
 
+// The folder, made on first use and removed with what it holds when the fuzzer exits normally
+// (a run of -runs=N or -max_total_time; a crash leaves it, beside libFuzzer's own artifact).
+// Its name lives in plain static storage, still there when exit handlers run.
 inline const std::string& folder() {
+  static char made[] = "/tmp/meshmux-fuzz-XXXXXX";
   static const std::string dir = [] {
-    char tmpl[] = "/tmp/meshmux-fuzz-XXXXXX";
-    const char* d = mkdtemp(tmpl);
-    return std::string(d ? d : "/tmp");
+    if (!mkdtemp(made)) return std::string("/tmp");
+    std::atexit([] {
+      std::error_code ignored;
+      std::filesystem::remove_all(made, ignored);
+    });
+    return std::string(made);
   }();
   return dir;
 }
