@@ -400,12 +400,18 @@ class TexturesInWorker {
   }
 
   // Whether the buffer view holds this image alone (no accessor, no other image reads it): its
-  // bytes may then be given to the worker rather than copied.
+  // bytes may then be given to the worker rather than copied. Users counted once per base.
   _onlyUser(view) {
-    const json = this.parser.json;
-    const images = (json.images || []).filter((i) => i.bufferView === view).length;
-    return images === 1 && !(json.accessors || []).some((a) => a.bufferView === view ||
-      (a.sparse && (a.sparse.indices.bufferView === view || a.sparse.values.bufferView === view)));
+    if (!this._users) {
+      const json = this.parser.json, users = (this._users = new Map());
+      const use = (v) => { if (v !== undefined) users.set(v, (users.get(v) || 0) + 1); };
+      for (const i of json.images || []) use(i.bufferView);
+      for (const a of json.accessors || []) {
+        use(a.bufferView);
+        if (a.sparse) { use(a.sparse.indices.bufferView); use(a.sparse.values.bufferView); }
+      }
+    }
+    return this._users.get(view) === 1;
   }
 }
 
