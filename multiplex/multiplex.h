@@ -72,21 +72,6 @@ struct MultiplexResult {
   ViewTable view_table;                       // every cell evaluated, per view
 };
 
-// The stream as a viewer receives it, beside the plain download of model.glb. Both show nothing
-// (empty_distortion) until their first picture; the download's first picture is its last byte, and
-// then it shows the full model (distortion 0).
-struct DownloadComparison {
-  uint64_t model_glb_bytes = 0;
-  // The package as received: (bytes received, distortion shown from then on), from (0, empty):
-  // the first picture once the header, table, base and base faces are in, then each chunk of
-  // the stored order with its real size.
-  std::vector<std::pair<uint64_t, double>> package;
-};
-
-// Area under a received-bytes / distortion step curve: each distortion holds until the next
-// point's bytes have arrived (what a viewer shows while downloading). Lower is better.
-double step_area(const std::vector<std::pair<uint64_t, double>>& curve);
-
 // `ps` is the progressive record of the atlased scene; `levels` its texture levels, encoded
 // (none for an untextured scene: one empty texture layer). Errors: kUnavailable when no
 // offscreen OpenGL is available, kInternal otherwise.
@@ -95,11 +80,5 @@ double step_area(const std::vector<std::pair<uint64_t, double>>& curve);
 Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
                                   const MultiplexOptions& options = {},
                                   Progress* progress = nullptr);
-
-// report.json's "curves" and summary as JSON text, and rd.svg plotting the four curves; with
-// `vs`, also the package as received against the download of model.glb ("download" curve,
-// their step areas and whether the stream beats the file).
-std::string report_json(const MultiplexResult& r, const DownloadComparison* vs = nullptr);
-std::string rd_svg(const MultiplexResult& r, const DownloadComparison* vs = nullptr);
 
 }  // namespace meshmux

@@ -17,6 +17,7 @@
 #include "clean/flatten.h"
 #include "core/parallel.h"
 #include "image/kept_levels.h"
+#include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
 #include "simplify/lod.h"
 #include "stream/package.h"
@@ -99,9 +100,10 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
       report_step(progress, format("atlas: the kept materials' opaque images re-encoded as JPEG, "
                                    "%.0f kB smaller",
                                    double(saved) / 1e3));
-  if (should_flatten(out)) {
+  if (should_flatten(out, o.simplify.flatten_below_ips)) {
     out = flatten(out);
-    report_step(progress, "flattened (fewer than 1.75 instances per submesh): one mesh");
+    report_step(progress, format("flattened (fewer than %.2f instances per submesh): one mesh",
+                                 o.simplify.flatten_below_ips));
   }
   return out;
 }
@@ -331,27 +333,35 @@ Result<DownloadComparison> download_comparison(const std::vector<uint8_t>& packa
 
 }  // namespace
 
-// The first picture's bound: base.glb at most `o.base_max_share` times model.glb's bytes, on
-// models the stream refines. When the stopping rule's base is over it, the finest coarser base
-// under it is taken: one error threshold over the submeshes (select_triangles), every instance,
-// found by bisection on its triangles (each step encodes a trial base.glb), and written back as
-// each mesh's base_level, so the package's base and the multiplexer follow. When even the
-// coarsest levels are over it (kept materials' images at full size, or a collapse loop that
-// the link condition stops early), the stopping rule's base stays and the progress says how
-// many bytes the coarsest levels and their images hold (a model shipped whole because its
-// refinements are under a tenth of it is such a case: its coarsest levels are nearly all of
-// it). A trial encode that fails counts as over the bound; the chosen base is encoded again by
+uint64_t first_picture_bytes(uint64_t model_bytes, const ConvertOptions& o) {
+  if (!(o.base_model_share > 0)) return 0;
+  const double share = o.base_model_share * double(model_bytes);
+  return std::min(o.base_max_bytes,
+                  std::max(o.base_min_bytes, uint64_t(std::min(share, double(UINT64_MAX / 2)))));
+}
+
+// The first picture's bound (first_picture_bytes), on models the stream refines. When the
+// stopping rule's base is over it, the finest coarser base under it is taken: one error
+// threshold over the submeshes (select_triangles), every instance, found by bisection on its
+// triangles (each step encodes a trial base.glb), and written back as each mesh's base_level,
+// so the package's base and the multiplexer follow. When even the coarsest levels are over it
+// (thousands of separate parts, kept materials' images at full size, a collapse loop that the
+// link condition stops early), the coarsest levels are taken and the progress says what they
+// hold. A trial encode that fails counts as over the bound; the chosen base is encoded again by
 // the caller, where a failure is reported. Returns the base chosen.
 LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const TextureLevels& levels,
                         const ConvertOptions& o, size_t model_bytes, Progress* progress) {
-  const double budget = o.base_max_share * double(model_bytes);
-  if (!(o.base_max_share > 0) ||
-      selection_triangles(ps, select_full(ps)) < o.simplify.ship_whole_below)
+  const uint64_t limit = first_picture_bytes(model_bytes, o);
+  const double budget = double(limit);
+  if (limit == 0 || selection_triangles(ps, select_full(ps)) < o.simplify.ship_whole_below)
     return base;
   auto bytes = [&](const LodSelection& sel) {
     Warnings scratch;  // the chosen base is encoded again with the caller's sink
     auto glb = export_glb_bytes(level_scene(ps, sel, levels, 0, false), o.gltf, &scratch);
     return glb.ok() ? double(glb->size()) : double(INFINITY);
+  };
+  auto write_back = [&](const LodSelection& sel) {
+    for (size_t m = 0; m < ps.meshes.size(); ++m) ps.meshes[m].base_level = sel.level[m];
   };
   const double base_bytes = bytes(base);
   if (base_bytes <= budget) return base;
@@ -362,13 +372,13 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
     size_t image_bytes = 0;
     for (const Image& im : level_scene(ps, coarsest, levels, 0, false).images)
       image_bytes += im.encoded.size();
+    write_back(coarsest);
     report_step(progress,
-                format("base: %.1f kB, over %.2f x model.glb (%.1f kB) even at the coarsest "
-                       "levels (%llu triangles, %.1f kB, of which images %.1f kB); kept",
-                       base_bytes / 1e3, o.base_max_share, double(model_bytes) / 1e3,
-                       (unsigned long long)selection_triangles(ps, coarsest), coarsest_bytes / 1e3,
-                       double(image_bytes) / 1e3));
-    return base;
+                format("base: over the first picture's %.1f kB even at the coarsest levels: "
+                       "%llu triangles, %.1f kB (images %.1f kB) instead of %.1f kB",
+                       budget / 1e3, (unsigned long long)selection_triangles(ps, coarsest),
+                       coarsest_bytes / 1e3, double(image_bytes) / 1e3, base_bytes / 1e3));
+    return coarsest;
   }
   uint64_t lo = selection_triangles(ps, coarsest), hi = selection_triangles(ps, base);
   LodSelection best = coarsest;
@@ -383,10 +393,10 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
     else
       hi = mid;
   }
-  for (size_t m = 0; m < ps.meshes.size(); ++m) ps.meshes[m].base_level = best.level[m];
-  report_step(progress, format("base: %.1f kB was over %.2f x model.glb (%.1f kB): a coarser base "
-                               "of %llu triangles instead",
-                               base_bytes / 1e3, o.base_max_share, double(model_bytes) / 1e3,
+  write_back(best);
+  report_step(progress, format("base: %.1f kB was over the first picture's %.1f kB (model.glb "
+                               "%.1f kB): a coarser base of %llu triangles instead",
+                               base_bytes / 1e3, budget / 1e3, double(model_bytes) / 1e3,
                                (unsigned long long)selection_triangles(ps, best)));
   return best;
 }
@@ -470,9 +480,11 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& o, Warnings* w
   out.package = package.take();
   out.mesh_chunks = m.layer_parts.size() - 1;
   out.texture_chunks = levels->levels.empty() ? 0 : levels->levels.size() - 1;
-  // 10. The report: the order's curves, and the package as received against model.glb.
+  // 10. The report: the order's curves, costed from the base as it ships, and the package as
+  // received against model.glb.
   auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
   if (!cmp.ok()) return cmp.status();
+  cost_base_as_shipped(*out.multiplexed, cmp->package[1].first);
   out.report_json = report_json(m, &*cmp);
   out.rd_svg = rd_svg(m, &*cmp);
   return out;

@@ -41,10 +41,14 @@ struct ConvertOptions {
   GltfExportOptions gltf{};        // Draco quantization of model.glb and base.glb
   bool stream = true;  // false: model.glb only (the CLI's `-o X.glb`); nothing else is run
   bool report = true;  // stream: render the rate-distortion order (report, svg, package)
-  // The first picture's bound: base.glb at most this times model.glb's bytes on models the
-  // stream refines (≥ simplify.ship_whole_below triangles); a coarser base is taken when the
-  // stopping rule's is over it. 0: no bound.
-  double base_max_share = 0.25;
+  // The first picture's bound, in bytes of base.glb, on models the stream refines (≥
+  // simplify.ship_whole_below triangles): min(base_max_bytes, max(base_min_bytes,
+  // base_model_share × model.glb's bytes)) — 256 KiB is 1.4 s at 1.5 Mbit/s. The stopping
+  // rule's base stands when it fits; otherwise the finest coarser base that fits, or the
+  // coarsest the record has (said in the progress). base_model_share ≤ 0: no bound.
+  double base_model_share = 0.1;
+  uint64_t base_min_bytes = 64 * 1024;   // the bound is never below this (small models)
+  uint64_t base_max_bytes = 256 * 1024;  // nor above this (large models)
   // model.glb is encoded beside the simplifier on scenes under this many unique triangles, and
   // before it on larger ones: the peak memory is then the larger of the two instead of their
   // sum, and the time their sum instead of the larger (the scan-like 4M mesh: 2.01 → 1.45 GB,
@@ -64,6 +68,10 @@ struct ConvertOutputs {
   size_t mesh_chunks = 0, texture_chunks = 0;  // chunks in the package
   std::optional<MultiplexResult> multiplexed;  // the multiplexer's result (curves, renders)
 };
+
+// The first picture's bound for a model.glb of `model_bytes` (ConvertOptions above); 0 when
+// `o.base_model_share` ≤ 0 (no bound).
+uint64_t first_picture_bytes(uint64_t model_bytes, const ConvertOptions& o);
 
 // Runs the pipeline. Errors name the stage; kUnavailable never surfaces (no offscreen OpenGL
 // only skips the report and the package, with a warning). Progress may be null. The scene is

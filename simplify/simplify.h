@@ -46,7 +46,8 @@ struct SimplifyOptions {
   float color_weight = 0.05f;          // vertex colours (RGBA in [0,1])
   float boundary_weight = 1.0f;        // constraint-plane weight on open boundaries (× length²)
   double flatten_below_ips = 1.75;     // flatten when instances per submesh are below this
-                                       // (clean/flatten.h should_flatten)
+                                       // (clean/flatten.h should_flatten; the pipeline's
+                                       // flattening after the atlas reads the same field)
   uint32_t min_submesh_triangles = 1;  // no collapse takes a submesh below this many triangles
   float stop_ratio = 0.9f;             // Terrace et al. formula 1 threshold for the base level
   float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left

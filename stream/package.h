@@ -26,10 +26,10 @@ struct PackageInput {
   // Per mesh layer, its chunk's payload: those parts' bytes in order (mesh_chunk_payload,
   // MultiplexResult::layer_chunks), as many entries as mesh_layers.
   const std::vector<std::vector<uint8_t>>* mesh_chunks = nullptr;
-  const TextureLevels* textures = nullptr;  // may be null for untextured scenes
-  size_t base_texture_level = 0;            // the level embedded in the base .glb
-  std::vector<StreamStep> steps;            // in stream order; each mesh layer once
-  double base_distortion = 0;               // expected distortion of the base alone
+  // May be null for untextured scenes; the base .glb embeds level 0 (the smallest).
+  const TextureLevels* textures = nullptr;
+  std::vector<StreamStep> steps;  // in stream order; each mesh layer once
+  double base_distortion = 0;     // expected distortion of the base alone
   // Further orders of the same steps (baselines). The stream order itself is written first
   // as "rate-distortion".
   std::vector<StreamOrder> orders;

@@ -75,11 +75,8 @@ Status check_input(const PackageInput& in) {
         b.base_vertices > b.vertices || b.base_faces > b.faces)
       return fail("mesh " + std::to_string(m) + ": counts out of range");
   }
-  if (in.textures && !in.textures->levels.empty()) {
-    if (in.base_texture_level >= in.textures->levels.size())
-      return fail("base texture level out of range");
+  if (in.textures && !in.textures->levels.empty())
     if (Status s = check_texture_level(in.textures->levels.back(), "full "); !s) return s;
-  }
   if (!std::isfinite(in.base_distortion)) return fail("base distortion is not finite");
   return Status::ok();
 }

@@ -128,12 +128,55 @@ TEST(Convert, LinesReachModelAndBase) {
   EXPECT_EQ(line_primitives(out->base_glb), 1u);
 }
 
+// One flattening policy for the pipeline and the simplifier: two spheres of two colours (so
+// the atlas is built and the pipeline's own flattening runs after it), one placed twice and one
+// once (1.5 instances per submesh), are flattened into one mesh under the default 1.75, and kept
+// as two instanced meshes when flatten_below_ips says 1.25.
+TEST(Convert, FlatteningFollowsTheSimplifyOption) {
+  Scene scene;
+  for (int k = 0; k < 2; ++k) {
+    Mesh mesh;
+    mesh.primitives.push_back(testing::uv_sphere(6, 12, 1, {float(4 * k), 0, 0}));
+    mesh.primitives.back().material = k;
+    scene.meshes.push_back(mesh);
+    Material m;
+    m.base_color_factor = {float(k), 0.5f, 1.0f - float(k), 1};
+    scene.materials.push_back(m);
+  }
+  scene.instances.push_back({0, Mat4::identity(), "a"});
+  scene.instances.push_back({0, Mat4::translation(0, 4, 0), "a2"});
+  scene.instances.push_back({1, Mat4::identity(), "b"});
+  ConvertOptions o;
+  o.stream = false;  // model.glb only
+  Warnings warnings;
+  auto flattened = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(flattened.ok()) << flattened.status().message();
+  EXPECT_EQ(flattened->output.instances, 1u);
+  o.simplify.flatten_below_ips = 1.25;
+  auto kept = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(kept.ok()) << kept.status().message();
+  EXPECT_EQ(kept->output.instances, 3u);
+  EXPECT_EQ(kept->output.meshes, 2u);
+}
+
+// The first picture's bound is min(256 KiB, max(64 KiB, 0.1× model.glb)): small models get
+// the floor, large ones the ceiling, the rest a tenth of their model.glb.
+TEST(Convert, FirstPictureBytesFollowTheModelBetweenFloorAndCeiling) {
+  ConvertOptions o;
+  EXPECT_EQ(first_picture_bytes(100'000, o), 64u * 1024);
+  EXPECT_EQ(first_picture_bytes(1'000'000, o), 100'000u);
+  EXPECT_EQ(first_picture_bytes(50'000'000, o), 256u * 1024);
+  o.base_model_share = 0;
+  EXPECT_EQ(first_picture_bytes(50'000'000, o), 0u);  // no bound
+}
+
 // The first picture's bound: a base that the stopping rule leaves nearly whole (here a
 // stopping error so small that it stops at once, as a CAD model's seams or a game level's
 // borders made it stop) would cost about what model.glb costs; the conversion takes the finest
-// coarser base under a quarter of model.glb's bytes instead. Without the bound (share 0) the
-// same scene's base is over it, so the case does exercise it.
-TEST(Convert, BaseGlbStaysUnderItsShareOfModelGlb) {
+// coarser base within the bound instead (the floor lowered so that a tenth of this small
+// model's bytes binds). Without the bound (share 0) the same scene's base is over it, so the
+// case does exercise it.
+TEST(Convert, BaseGlbStaysWithinTheFirstPictureBytes) {
   Scene scene;
   Mesh mesh;
   mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
@@ -142,20 +185,43 @@ TEST(Convert, BaseGlbStaysUnderItsShareOfModelGlb) {
   ConvertOptions o;
   o.report = false;  // model.glb and base.glb, no renders
   o.simplify.base_max_error = 1e-9f;
+  o.base_min_bytes = 0;
   auto run = [&](double share) {
-    o.base_max_share = share;
+    o.base_model_share = share;
     Warnings warnings;
     return convert(scene, o, &warnings, nullptr);
   };
-  auto unbounded = run(0), bounded = run(0.25);
+  auto unbounded = run(0), bounded = run(0.1);
   ASSERT_TRUE(unbounded.ok()) << unbounded.status().message();
   ASSERT_TRUE(bounded.ok()) << bounded.status().message();
-  EXPECT_GT(unbounded->base_glb.size(), unbounded->model_glb.size() / 4);
-  EXPECT_LE(bounded->base_glb.size(), bounded->model_glb.size() / 4);
+  EXPECT_GT(unbounded->base_glb.size(), unbounded->model_glb.size() / 10);
+  EXPECT_LE(bounded->base_glb.size(), bounded->model_glb.size() / 10);
   EXPECT_LT(bounded->base_triangles, unbounded->base_triangles);
   // The finest base that fits, not the coarsest: well over the coarsest sphere's few dozen.
-  EXPECT_GT(bounded->base_triangles, 1000u);
+  EXPECT_GT(bounded->base_triangles, 200u);
   EXPECT_EQ(bounded->model_glb, unbounded->model_glb);
+}
+
+// When even the coarsest levels are over the bound (here a bound of 1 byte), the base is the
+// coarsest the record has, not the stopping rule's: as close to the first picture as it goes.
+TEST(Convert, BaseOverTheBoundEvenAtTheCoarsestTakesTheCoarsest) {
+  Scene scene;
+  Mesh mesh;
+  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  ConvertOptions o;
+  o.report = false;
+  o.simplify.base_max_error = 1e-9f;
+  o.base_min_bytes = 0, o.base_max_bytes = 1;
+  Warnings warnings;
+  auto out = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  o.base_model_share = 0;
+  auto unbounded = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(unbounded.ok()) << unbounded.status().message();
+  EXPECT_LT(out->base_triangles, unbounded->base_triangles / 10);
+  EXPECT_LT(out->base_glb.size(), unbounded->base_glb.size() / 4);
 }
 
 // report.json gives the converted scene's world box, which a world's grid sizes each model by:
@@ -205,6 +271,14 @@ TEST(Convert, ReportComparesThePackageWithTheDownload) {
   EXPECT_EQ(d["stream_beats_download"].get<bool>(),
             d["package_area"].get<double>() < d["download_area"].get<double>());
   EXPECT_NE(out->rd_svg.find("model.glb download"), std::string::npos);
+  // The order's curves are costed from the base that ships: every one starts at the package's
+  // first picture, and the stored order's points are the package's as received.
+  for (const char* c : {"rd", "mesh_first", "texture_first", "constant_ratio"})
+    EXPECT_EQ(report["curves"][c][0][0].get<uint64_t>(), curve[1][0].get<uint64_t>()) << c;
+  const auto& rd = report["curves"]["rd"];
+  ASSERT_EQ(rd.size() + 1, curve.size());
+  for (size_t k = 0; k < rd.size(); ++k)
+    EXPECT_EQ(rd[k][0].get<uint64_t>(), curve[k + 1][0].get<uint64_t>()) << k;
 }
 
 // report.json says which texture levels the stream ships (every one the package holds, with its

@@ -111,7 +111,6 @@ const Fixture& fixture() {
     f->input.textures = &f->textures;
     // The view a conversion measures with by default: the table carries it, the reader checks it.
     f->input.view = package_view(MultiplexOptions{});
-    f->input.base_texture_level = 0;
     size_t b = base.level[0], full = pm.levels.size() - 1;
     auto mesh_step = [&](size_t level, double d) {
       std::vector<EncodedMeshPart> parts;
