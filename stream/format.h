@@ -14,45 +14,77 @@
 //   8   4  uint32 table length J (bytes)
 //   12  J  the JSON table (UTF-8), zlib-deflated (browsers: DecompressionStream("deflate"))
 //   12+J   the data: the base .glb (deflated when "deflated"), then each chunk, in table order
-// JSON table:
-//   {"version": 14,                                         // kPackageVersion
-//    "view": {"fov_y_degrees": 45, "fill": 0.8,              // how the distortion was measured:
-//             "direction": [x, y, z], "clip_margin": 1.5,    // framing, default view direction,
-//             "ambient": a, "diffuse": d,                    // near/far at distance ∓
-//             margin·radius, "light_direction": [x, y, z],                  // shading (light in
-//             view space "light_follows_camera": true,                  // when it follows the
-//             "shading": "lambert" | "physical", "environment": e,      // physical: uniform
-//             "light_intensity": i},                                    // environment radiance e,
-//                                                                       // light intensity i
-//             camera)
-//    "limits": {"max_elements": 2^28, "max_texture_side": 65536, "max_json_depth": 32},
-//    "base": {"offset": O, "size": S, "deflated": z,          // byte range of the base as
-//             "glb_size": G, "distortion": d0,                // stored; the .glb's own size
-//             "whole": true},                                 // optional, see below
-//    "meshes": [{"vertices": V, "faces": F,                  // full progressive mesh sizes
-//                "base_vertices": v0, "base_faces": f0,      // what the base holds
-//                "bounds": [minx,miny,minz,maxx,maxy,maxz],  // of every position, mesh units
-//                                                            // (floats, shortest decimals)
-//                "quantization": {"origin": [x,y,z], "step": s}}],  // the position grid
-//    "texture": {"width": W, "height": H} | null,           // full texture size
-//    "chunks": [{"kind": "mesh", "offset": o, "size": s, "distortion": d,
-//                "parts": [[m, b, e, n], ...]},  // mesh m to vertex b and face e in n coded
-//                                                  // bytes (summing to the chunk's size),
-//                                                  // from where m stands (its base, then the
-//                                                  // parts before in file order): vertex a, face c
-//               {"kind": "texture", "offset": o, "size": s, "distortion": d,
-//                "width": w, "height": h,                  // every map's size
-//                "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...]}],
-//                   // the payload is the maps' files in this order; base_color comes first,
-//                   // then any other of the channels below (physically based maps)
-//                "kept": [{"image": k, "width": w, "height": h, "mime": "image/jpeg",
-//                          "size": n}, ...]}],         // optional: after the maps' files, the
-//                   // images of materials kept beside the atlas at this level's scale, each
-//                   // replacing the base .glb's image tagged extras {"meshmux_image": k}
-//                   // wherever a material samples it (sampler, uv set, transform unchanged)
+// JSON table (keys in the order written; letters stand for values):
+// clang-format off
+//   {"version": 14,                                  // kPackageVersion
+//    "view": {                                       // how the distortion was measured:
+//      "fov_y_degrees": 45, "fill": 0.8,             //   framing (the bounding sphere fills
+//      "direction": [x, y, z],                       //   `fill` of the view), the default
+//      "clip_margin": 1.5,                           //   view direction, near/far at distance
+//                                                    //   ∓ margin·radius;
+//      "ambient": a, "diffuse": d,                   //   shading (the light in view space
+//      "light_direction": [x, y, z],                 //   when it follows the camera);
+//      "light_follows_camera": true,
+//      "shading": "lambert" | "physical",            //   absent: "lambert";
+//      "environment": e, "light_intensity": i},      //   physical: uniform environment
+//                                                    //   radiance e, the light's intensity i
+//    "limits": {"max_elements": 268435456,           // 2^28
+//               "max_texture_side": 65536, "max_json_depth": 32},
+//    "base": {"offset": O, "size": S,                // byte range of the base as stored
+//             "deflated": z,                         // true: zlib-deflated
+//             "glb_size": G,                         // the .glb's own size
+//             "distortion": d0,                      // expected distortion of the base alone
+//             "whole": true},                        // optional, see below
+//    "meshes": [{"vertices": V, "faces": F,          // full progressive mesh sizes
+//                "base_vertices": v0, "base_faces": f0,            // what the base holds
+//                "bounds": [minx, miny, minz, maxx, maxy, maxz],   // of every position, mesh
+//                                                                  // units (floats, shortest
+//                                                                  // decimals)
+//                "quantization": {"origin": [x, y, z], "step": s}  // the position grid
+//               }, ...],
+//    "texture": {"width": W, "height": H} | null,    // full texture size
+//    "chunks": [
+//      {"kind": "mesh", "offset": o, "size": s, "distortion": d,
+//       "parts": [[m, b, e, n], ...]},               // see "Parts" below
+//      {"kind": "texture", "offset": o, "size": s, "distortion": d,
+//       "width": w, "height": h,                     // every map's size
+//       "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...],
+//       "kept": [{"image": k, "width": w, "height": h, "mime": "image/jpeg", "size": n},
+//                ...]},                              // optional, see "Kept" below
+//      ...],
 //    "orders": [{"name": "rate-distortion", "chunks": [0, 1, ...], "distortion": [...]},
-//               {"name": "mesh-first", ...}, ...]}                  // see below
-// Offsets count from the data start (12 + J).
+//               {"name": "mesh-first", ...}, ...],   // see "Orders" below
+//    "view_table": {...}}                            // optional, see "View table" below
+// clang-format on
+// Offsets count from the data start (12 + J). A chunk's "distortion" is the expected distortion
+// once it is applied (after the chunks before it in the stored order).
+// Parts: [m, b, e, n] takes mesh m to vertex b and face e in n coded bytes (the parts' bytes sum
+// to the chunk's size), from where m stands (its base, then the parts before in file order):
+// vertex a, face c.
+// Maps: a texture chunk's payload is the maps' files in this order; base_color comes first, then
+// any other of the channels below (physically based maps), each once.
+// Kept (optional): after the maps' files, the images of materials kept beside the atlas at this
+// level's scale, each replacing the base .glb's image tagged extras {"meshmux_image": k} wherever
+// a material samples it (sampler, uv set, transform unchanged); each k once per chunk.
+//
+// View table (optional; written only when there are at least two mesh layers and two texture
+// layers, so a client has an order to re-plan): the distortion of every cell of the grid (mesh
+// layers received × texture levels received) from each view of the viewing sphere, for a client
+// that re-plans the order for its own camera (ViewTable below; Yang, Shen and Kuo §3).
+// clang-format off
+//   "view_table": {"directions": [[x, y, z], ...],  // unit, from the model's centre to each view
+//                  "triangles": [[i, j, k], ...],   // the viewing mesh: indices into directions
+//                  "mesh_layers": M,                // mesh chunks + 1 (layer 0: the base)
+//                  "texture_layers": T,             // texture chunks + 1 (level 0: the base's)
+//                  "distortion": [[d, ...] | null, ...]}  // M × T cells, one d per direction
+// clang-format on
+// Cells are row-major: cell i × T + j is the state after i mesh chunks and j texture chunks (the
+// k-th mesh chunk of the stored order is mesh layer k + 1, the k-th texture chunk texture level
+// k + 1); null where the cell was not measured. Directions and values are floats' shortest
+// decimals. The web reader (viewers/web/package_reader.js) accepts a missing or null table, else
+// requires M and T to equal the mesh and texture chunks + 1, 1 to 4096 directions of 3 finite
+// numbers, triangles of 3 integer indices below the directions' count, and exactly M × T cells,
+// each null or one finite number per direction. The C++ reader (package_read.cpp) skips it.
 //
 // The mesh stream (Hoppe's shared vertex buffer, made streamable). A client holds per mesh
 // a vertex buffer that is only appended to and an index buffer of every face received so far.

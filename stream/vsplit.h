@@ -1,6 +1,6 @@
 // Compact vertex splits: the stream package's mesh refinement coding (docs/ARCHITECTURE.md
 // "Package"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
-// web client (viewers/web/stream_mesh.js: StreamMesh, applyMeshChunk) mirrors this file
+// web client's decoder (viewers/web/stream_decode.js: MeshState, applySplits) mirrors this file
 // operation for operation.
 //
 // Ideas taken from the literature on progressive mesh compression:
@@ -30,7 +30,8 @@
 //           texture coordinates gives (0, 0).
 //   per split, with d the parent's corner count before the split:
 //   Z   uint(parent): zigzag(parent - previous parent) (previous starts at 0 per part).
-//   M   bit(mode[previous split's mode]): 1 = a fan split (Hoppe's vsplit, fan()).
+//   M   bit(mode[previous split's mode]): 1 = a fan split (Hoppe's vsplit, fan()); the previous
+//       mode starts at 1 per part.
 //   fan:  tree5(fan_start[min(d, kFanLimit)]) the list position of vl's corner, then
 //         tree5(fan_count[min(d, kFanLimit)]) the count of corners moved - 1. The corners fan()
 //         walks move to v and the new faces are (v, p, vl) then (v, vr, p).
@@ -97,7 +98,8 @@ constexpr int kResidualModelledBits = 1;
 constexpr uint64_t kPartElementsPerByte = 256;
 constexpr uint64_t kPartElementsConstant = 4096;
 
-// The adaptive contexts of one part (fresh per part, both ends).
+// The coder's adaptive contexts of one mesh (both ends): fresh with its base (VsplitMesh::reset),
+// carried over from part to part.
 struct VsplitContexts {
   UIntContext parent, faces, face, escape, extra;
   uint16_t mode[2];
