@@ -51,7 +51,7 @@ const tracing = process.argv.includes('--trace');
 // drawn alone (its programs' first draws: software GL compiles them then), then the whole frame.
 const split = process.argv.includes('--split');
 // The loading libraries' scripts: meshmux's modules, three's loaders and decoders.
-const LIBRARY = /\/viewer\/(world|meshmux|stream_\w+|package_reader|view_plan|world_plan)\.js|\/addons\/(loaders|libs)\//;
+const LIBRARY = /\/viewer\/(world|meshmux|stream_\w+|package_reader|view_plan|world_plan|materials|lighting|upload|gltf_plugins|worker_client)\.js|\/addons\/(loaders|libs)\//;
 if (!fs.existsSync(models)) { console.error(`SKIPPED: ${models} not found`); process.exit(77); }
 if (!fs.existsSync(chromiumPath)) { console.error(`SKIPPED: ${chromiumPath} not installed`); process.exit(77); }
 

@@ -756,8 +756,9 @@ TEST(ConvertFolder, WritesStreamPackage) {
   // The viewer page and the modules it imports sit beside the package.
   for (const char* f :
        {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
-        "viewer/stream_decode.js", "viewer/stream_worker.js", "viewer/viewer.js",
-        "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
+        "viewer/stream_decode.js", "viewer/stream_worker.js", "viewer/worker_client.js",
+        "viewer/materials.js", "viewer/lighting.js", "viewer/upload.js", "viewer/gltf_plugins.js",
+        "viewer/viewer.js", "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
         "viewer/" MESHMUX_THREE_FOLDER "/three.core.js", "viewer/" MESHMUX_THREE_FOLDER "/LICENSE",
         "viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/GLTFLoader.js",
         "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",

@@ -1,5 +1,5 @@
 // stream_worker.js — meshmux streams' mesh decoding in a Web Worker (started by StreamWorker
-// or a WorkerPool in stream_mesh.js), so that the page's main thread only copies in what each
+// or a WorkerPool in worker_client.js), so that the page's main thread only copies in what each
 // chunk changed. It holds, per stream it serves (the `stream` number every request carries; a
 // pool's worker serves several), a MeshState per package mesh (stream_decode.js) and answers
 // (setup, chunk, digests and release in the order asked; fetch and image once their work is

@@ -32,7 +32,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { DRACO_DECODER_PATH, MeshmuxStream, nextTask, PROBE_BYTES } from './meshmux.js';
 import { RequestLimiter } from './package_reader.js';
-import { WorkerPool } from './stream_mesh.js';
+import { WorkerPool } from './worker_client.js';
 import { chunkCost, chunkGain, packageDirection, screenShare, validateWorld, viewWeights, WORLD_LIMITS } from './world_plan.js';
 
 export { validateWorld, screenShare, chunkGain };

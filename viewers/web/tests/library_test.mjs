@@ -39,9 +39,16 @@ const tarball = path.join(work, run('npm', ['pack', web, '--pack-destination', w
 fs.writeFileSync(path.join(app, 'package.json'), '{"name": "app", "private": true}\n');
 run('npm', ['install', '--offline', '--no-audit', '--no-fund', '--install-links', tarball,
   path.join(repo, 'node_modules', 'three')], app);
-for (const f of ['meshmux.js', 'meshmux.d.ts', 'package_reader.js', 'stream_mesh.js', 'stream_decode.js', 'stream_worker.js', 'package.json']) {
-  if (!fs.existsSync(path.join(app, 'node_modules', 'meshmux-stream', f))) throw new Error(`the package lacks ${f}`);
+// Every module the public ones import (relative imports inside the package), and only the
+// public API exported.
+const installed = path.join(app, 'node_modules', 'meshmux-stream');
+for (const f of ['meshmux.js', 'meshmux.d.ts', 'gltf_plugins.js', 'lighting.js', 'materials.js', 'package_reader.js',
+  'stream_mesh.js', 'stream_decode.js', 'stream_worker.js', 'upload.js', 'view_plan.js', 'worker_client.js',
+  'world.js', 'world.d.ts', 'world_plan.js', 'package.json']) {
+  if (!fs.existsSync(path.join(installed, f))) throw new Error(`the package lacks ${f}`);
 }
+const exported = Object.keys(JSON.parse(fs.readFileSync(path.join(installed, 'package.json'), 'utf8')).exports).join(' ');
+if (exported !== '. ./world.js ./package.json') throw new Error(`the package exports ${exported}, not only its public API`);
 // A model beside it, and the README's page.
 let input = model;
 if (!input) {
