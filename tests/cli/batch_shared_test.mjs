@@ -1,7 +1,7 @@
 // meshmux batch over every shared model plus 20 broken copies, driven as a user would: the meshmux
 // binary, a list file, kill -9, reruns.
 //
-//   node batch_shared_test.mjs --meshmux BIN --work DIR --mode local
+//   node batch_shared_test.mjs --meshmux BIN --work DIR --mode local [--subset A,B,…]
 //     a batch killed with SIGKILL mid-run, then rerun: every good model converts, every bad
 //     one is listed with its one line, nothing is lost, no temporary is left, no conversion
 //     outlives the batch; a third run converts nothing and touches nothing.
@@ -55,7 +55,13 @@ function modelFiles(dir) {
   }
   return out.sort();
 }
-const shared = modelFiles(models);
+// --subset A,B,…: only the shared models in those folders (the suite's run; bench/batch.sh and a
+// run without it take every one).
+const subset = opt('--subset', '');
+const shared = modelFiles(models).filter((f) =>
+  !subset || subset.split(',').includes(path.relative(models, f).split(path.sep)[0]));
+if (subset && shared.length !== subset.split(',').length)
+  throw new Error(`--subset names ${subset.split(',').length} folders, ${shared.length} models found`);
 const model = (rel) => path.join(models, rel);
 
 // 20 broken copies: truncated, garbage, and missing buffers or textures. `expect` is "failed"
