@@ -52,6 +52,8 @@ const std::vector<Flag> kFlags = [] {
       whole_flag("--uv-bits", kConvert | kBatch, 1, 30, true),
       whole_flag("--jpeg-quality", kConvert | kBatch, 1, 100, true),
       whole_flag("--crease", kConvert | kBatch, 0, 180, true),
+      {"--max-package-ratio", nullptr, kConvert | kBatch, FlagValue::kNumber, 0, 100, false, false,
+       true},
       switch_flag("--no-draco", kConvert | kBatch, true),
       switch_flag("--no-atlas", kConvert | kBatch, true),
       switch_flag("--no-report", kConvert | kBatch, true),

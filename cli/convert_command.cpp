@@ -26,6 +26,7 @@ ConvertOptions convert_options(const ParsedArgs& p) {
   if (p.has("--no-draco")) o.gltf.draco = false;
   if (p.has("--no-atlas")) o.atlas = false;
   if (p.has("--no-report")) o.report = false;
+  o.max_package_ratio = p.number("--max-package-ratio", o.max_package_ratio);
   return o;
 }
 

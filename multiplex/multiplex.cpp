@@ -61,9 +61,11 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
 // Encodes the mesh layers once (stream/mesh_stream.h): layer 0 is the base (its encoded
 // vertices and faces stand for the base's bytes); each further layer's parts are what the
 // package's mesh chunk holds. Fills r's mesh_streams, layer_parts, layer_chunks, mesh_bytes,
-// layer_triangles, layer_levels and stream_digests, and nothing else of r.
+// layer_triangles, layer_levels and stream_digests, and nothing else of r; `layer_digests` gets
+// per layer every mesh's state digest once the layer's parts are applied.
 Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>& layers,
-                     const LodSelection& base, MultiplexResult& r) {
+                     const LodSelection& base, MultiplexResult& r,
+                     std::vector<std::vector<uint32_t>>& layer_digests) {
   const int m = int(layers.size());
   std::vector<MeshStreamEncoder> encoders;
   encoders.reserve(ps.meshes.size());
@@ -102,8 +104,11 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
     r.mesh_bytes.push_back(bytes);
     r.layer_triangles.push_back(uint32_t(selection_triangles(ps, layers[size_t(k)])));
     r.layer_levels.push_back(layers[size_t(k)].level);
+    std::vector<uint32_t> digests;
+    for (const MeshStreamEncoder& e : encoders) digests.push_back(state_digest(e.client()));
+    layer_digests.push_back(std::move(digests));
   }
-  for (const MeshStreamEncoder& e : encoders) r.stream_digests.push_back(state_digest(e.client()));
+  r.stream_digests = layer_digests.back();
   return Status::ok();
 }
 
@@ -317,10 +322,11 @@ struct CellRenders {
   }
 
   // The distortion of cell (i, j), the mean over the views, with the per-view values written to
-  // r's view table; rendered now unless measured up front or asked for before.
-  double distortion(int i, int j) {
+  // `per_view` (when not null); rendered now unless measured up front or asked for before.
+  double distortion(int i, int j, std::vector<double>* per_view_out) {
     const size_t V = cameras.size();
-    std::vector<double>& per_view = r.view_table.cells[size_t(i) * size_t(n) + size_t(j)];
+    std::vector<double> scratch;
+    std::vector<double>& per_view = per_view_out ? *per_view_out : scratch;
     per_view.assign(cameras.size(), 0.0);
     if (i == m - 1 && j == n - 1) return 0.0;
     std::vector<double>& stored = measured[size_t(i) * size_t(n) + size_t(j)];
@@ -363,13 +369,21 @@ struct CellRenders {
 
 // Descent and baselines: the steepest descent over the grid (the order the stream ships), the
 // fixed orders it is compared with, and where a choice exists on a small grid, every cell for
-// the per-view table. Fills r's rd, the baselines' paths and the cell counts.
-void descend(CellRenders& cells, MultiplexResult& r) {
-  const int m = cells.m, n = cells.n;
+// the per-view table. The grid's row i is mesh layer rows[i] of the renders (the completion's
+// row draws the full mesh); r.mesh_bytes has one entry per row. Fills r's rd, the baselines'
+// paths, the view table and the cell counts.
+void descend(CellRenders& cells, const std::vector<int>& rows, MultiplexResult& r) {
+  const int m = int(rows.size()), n = cells.n;
+  r.view_table.mesh_layers = m;
+  r.view_table.texture_layers = n;
+  r.view_table.cells.assign(size_t(m) * size_t(n), {});
   RdGrid grid;
   grid.mesh_bytes = r.mesh_bytes;
   grid.texture_bytes = r.texture_bytes;
-  grid.distortion = [&](int i, int j) { return cells.distortion(i, j); };
+  grid.distortion = [&](int i, int j) {
+    return cells.distortion(rows[size_t(i)], j,
+                            &r.view_table.cells[size_t(i) * size_t(n) + size_t(j)]);
+  };
   RdCache cache(grid);
   r.rd = steepest_descent(cache);
   r.cells_descent = cache.evaluated();
@@ -385,10 +399,126 @@ void descend(CellRenders& cells, MultiplexResult& r) {
   r.cells_total = size_t(m) * size_t(n);
 }
 
+// The package's header and table, estimated: the fixed fields, an entry per chunk and the
+// per-view table (a number per view and cell, deflated).
+uint64_t table_estimate(size_t chunks, size_t views, size_t cells) {
+  return kPackageHeaderBytes + 2048 + 96 * uint64_t(chunks) +
+         4 * uint64_t(views) * std::min(cells, kViewTableMaxCells);
+}
+
+// The completion step (stream/format.h "Completion"), planned on the descent over every split
+// (r.rd): when the package with every mesh layer would be over bound.max_bytes, the chain of
+// splits ends after layer k and the completion (every mesh not yet full at k, single-rate)
+// follows. k is the latest layer that keeps the bound, or earlier where the descent's next mesh
+// step has a shallower slope than the completion would from the same state (distortion drop per
+// byte: D(i, j) − D(i + 1, j) over the layer's bytes against D(i, j) − D(full, j) over the
+// completion's; `cell` gives D over the renders' layers). Where no layer keeps the bound, the
+// smaller package of the two. Rewrites r's layer vectors (layers k + 1 … m − 2 dropped, the last
+// layer the completion), its stream digests, completion and report; returns the grid's rows as
+// mesh layers of the renders (the completion's row is the full mesh, m − 1), or every layer
+// when there is no completion.
+Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers,
+                                         const PackageBound& bound,
+                                         const std::vector<std::vector<uint32_t>>& layer_digests,
+                                         const std::function<double(int, int)>& cell,
+                                         MultiplexResult& r) {
+  const size_t m = layers.size(), n = r.texture_bytes.size();
+  std::vector<int> rows(m, 0);
+  for (size_t i = 0; i < m; ++i) rows[i] = int(i);
+  if (m < 3 || !bound.fixed_bytes || !bound.completion) return rows;
+  auto fixed = bound.fixed_bytes(r.mesh_streams);
+  if (!fixed.ok()) return fixed.status().with_prefix("multiplex: completion");
+  uint64_t textures = 0;
+  for (size_t j = 1; j < n; ++j) textures += r.texture_bytes[j];
+  std::vector<uint64_t> chain(m, 0);  // splits up to layer k
+  for (size_t k = 1; k < m; ++k) chain[k] = chain[k - 1] + r.mesh_bytes[k];
+  const uint64_t whole =
+      *fixed + textures + chain[m - 1] + table_estimate(m - 1 + n - 1, r.views, m * n);
+  CompletionReport& cr = r.completion_report;
+  cr.chain_layers = m;
+  cr.chain_bytes = whole;
+  if (whole <= bound.max_bytes) return rows;
+  std::vector<uint32_t> refined;  // meshes the chain refines past the base
+  for (size_t i = 0; i < layers[0].level.size(); ++i)
+    if (layers[0].level[i] < layers[m - 1].level[i]) refined.push_back(uint32_t(i));
+  auto meshes = bound.completion(refined);
+  if (!meshes.ok()) return meshes.status().with_prefix("multiplex: completion");
+  if (meshes->size() != refined.size())
+    return Status::error("multiplex: completion: one bitstream per mesh expected",
+                         ErrorKind::kInternal);
+  auto not_full = [&](size_t k, size_t c) {
+    return layers[k].level[refined[c]] < layers[m - 1].level[refined[c]];
+  };
+  auto completion_bytes = [&](size_t k) {  // the completion after layer k
+    uint64_t b = 0;
+    for (size_t c = 0; c < refined.size(); ++c)
+      if (not_full(k, c)) b += (*meshes)[c].data.size();
+    return b;
+  };
+  auto planned = [&](size_t k) {
+    return *fixed + textures + chain[k] + completion_bytes(k) +
+           table_estimate(k + 1 + n - 1, r.views, (k + 2) * n);
+  };
+  size_t k = m;  // none yet
+  for (size_t c = m - 1; c-- > 0;)
+    if (planned(c) <= bound.max_bytes) {
+      k = c, cr.why = "bound";
+      break;
+    }
+  if (k == m) {  // no layer keeps the bound: the smaller package
+    if (planned(0) >= whole) return rows;
+    k = 0, cr.why = "bound";
+  }
+  // The descent's mesh steps before k: the first whose slope the completion beats.
+  for (size_t s = 1; s < r.rd.cells.size(); ++s) {
+    const auto [i0, j0] = r.rd.cells[s - 1];
+    const auto [i1, j1] = r.rd.cells[s];
+    if (i1 != i0 + 1 || size_t(i0) >= k) continue;
+    const double here = r.rd.distortion[s - 1];
+    const double step =
+        (here - r.rd.distortion[s]) / double(std::max<uint64_t>(1, r.mesh_bytes[size_t(i1)]));
+    const double full = cell(int(m - 1), j0);
+    const double jump = (here - full) / double(std::max<uint64_t>(1, completion_bytes(size_t(i0))));
+    if (jump > step) {
+      k = size_t(i0), cr.why = "slope";
+      break;
+    }
+  }
+  cr.used = true;
+  cr.after_layer = k;
+  cr.bytes = completion_bytes(k);
+  cr.tail_bytes = chain[m - 1] - chain[k];
+  cr.planned_bytes = planned(k);
+  std::vector<uint8_t> payload;
+  for (size_t c = 0; c < refined.size(); ++c)
+    if (not_full(k, c)) {
+      CompletionMesh& cm = (*meshes)[c];
+      payload.insert(payload.end(), cm.data.begin(), cm.data.end());
+      r.completion.push_back(std::move(cm));
+    }
+  const uint32_t full_triangles = r.layer_triangles.back();
+  const std::vector<size_t> full_levels = r.layer_levels.back();
+  r.mesh_bytes.resize(k + 1);
+  r.layer_parts.resize(k + 1);
+  r.layer_chunks.resize(k + 1);
+  r.layer_triangles.resize(k + 1);
+  r.layer_levels.resize(k + 1);
+  r.mesh_bytes.push_back(payload.size());
+  r.layer_parts.emplace_back();
+  r.layer_chunks.push_back(std::move(payload));
+  r.layer_triangles.push_back(full_triangles);
+  r.layer_levels.push_back(full_levels);
+  r.stream_digests = layer_digests[k];
+  rows.resize(k + 1);
+  rows.push_back(int(m - 1));
+  return rows;
+}
+
 }  // namespace
 
 Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
-                                  const MultiplexOptions& o, Progress* progress) {
+                                  const MultiplexOptions& o, Progress* progress,
+                                  const PackageBound* bound) {
   auto start = Clock::now();
   MultiplexResult r;
   const LodSelection base = select_base(ps), full = select_full(ps);
@@ -397,9 +527,10 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // The layers' stream bytes are encoded on a thread of their own while the renders below run
   // (they need only the selections); the descent waits for them.
   Status encoded;
+  std::vector<std::vector<uint32_t>> layer_digests;  // per layer, per mesh
   Background encoder([&] {
     const auto t = Clock::now();
-    encoded = encode_layers(ps, layers, base, r);
+    encoded = encode_layers(ps, layers, base, r, layer_digests);
     r.seconds_layers = since(t);
   });
   const std::vector<std::vector<LevelMap>> textures = texture_layers(levels, r);
@@ -430,13 +561,24 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   cells.measure_blank_frames();
   r.view_table.directions = sphere.directions;
   r.view_table.triangles = sphere.triangles;
-  r.view_table.mesh_layers = m;
-  r.view_table.texture_layers = n;
-  r.view_table.cells.assign(size_t(m) * size_t(n), {});
 
   encoder.wait();
   if (!encoded) return encoded;
-  descend(cells, r);
+  std::vector<int> rows(static_cast<size_t>(m), 0);
+  for (int i = 0; i < m; ++i) rows[size_t(i)] = i;
+  descend(cells, rows, r);  // over every split
+  if (bound && bound->max_bytes > 0) {
+    auto cell = [&](int i, int j) { return cells.distortion(i, j, nullptr); };
+    auto planned = plan_completion(layers, *bound, layer_digests, cell, r);
+    if (!planned.ok()) return planned.status();
+    if (r.completion_report.used) {
+      // The order with the completion, and what it cost against the chain's (the same views;
+      // its cells are measured once, whichever grid asks).
+      r.completion_report.chain_area = area_under(r.rd);
+      descend(cells, *planned, r);
+      r.completion_report.area = area_under(r.rd);
+    }
+  }
   r.seconds_render = since(render_start);
   r.seconds_total = since(start);
   return r;

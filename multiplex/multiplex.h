@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,34 @@ struct MultiplexOptions {
   int forced_image_size = 128;
 };
 
+// The package's bound (the completion step, stream/format.h "Completion"): what the
+// multiplexer needs from the stages after it, asked once the mesh layers are encoded.
+struct PackageBound {
+  uint64_t max_bytes = 0;  // the package's bytes at most (0: no bound, no completion)
+  // The package's bytes besides its chunks (the base as stored), given the mesh streams' heads
+  // (the base's vertex order). The header and table are estimated here.
+  std::function<Result<uint64_t>(const std::vector<MeshStreamBase>&)> fixed_bytes;
+  // The completion of the meshes listed (their full detail, single-rate), in that order; asked
+  // only when the package with every mesh layer would be over max_bytes.
+  std::function<Result<std::vector<CompletionMesh>>(const std::vector<uint32_t>& meshes)>
+      completion;
+};
+
+// Where the completion went (report.json "completion").
+struct CompletionReport {
+  bool used = false;
+  std::string why;             // "bound" (the latest layer within it) or "slope" (earlier:
+                               // the completion's slope beats the descent's next mesh step)
+  size_t after_layer = 0;      // the mesh layer it follows (0: the base)
+  size_t chain_layers = 0;     // mesh layers of the whole chain
+  uint64_t bytes = 0;          // its bitstreams
+  uint64_t tail_bytes = 0;     // the splits it stands in for
+  uint64_t planned_bytes = 0;  // the package as planned with it (header and table estimated)
+  uint64_t chain_bytes = 0;    // ... and with every split instead
+  double area = 0;             // area under the descent with it
+  double chain_area = 0;       // ... over the whole chain of splits (the same views)
+};
+
 struct MultiplexResult {
   std::vector<uint64_t> mesh_bytes;               // per mesh layer (0: the base geometry)
   std::vector<uint64_t> texture_bytes;            // per texture level (0: the 128² level)
@@ -51,7 +80,13 @@ struct MultiplexResult {
   // Per mesh layer, its chunk's payload: the parts' bytes in order (mesh_chunk_payload);
   // mesh_bytes[k] is its size (layer 0: the base's bytes, no payload).
   std::vector<std::vector<uint8_t>> layer_chunks;
-  std::vector<uint32_t> stream_digests;  // per mesh: state_digest of a client after every part
+  // Per mesh: state_digest of a client after every part shipped (with a completion, the state
+  // its splits reach before it).
+  std::vector<uint32_t> stream_digests;
+  // The completion (the last mesh layer, when used): its meshes' bitstreams, in mesh order;
+  // layer_chunks' last entry is their concatenation.
+  std::vector<CompletionMesh> completion;
+  CompletionReport completion_report;
   RdPath rd, mesh_first, texture_first, constant_ratio;
   std::string metric = "ciede2000";  // mean CIEDE2000 over covered pixels, averaged over views
   size_t views = 0;
@@ -77,8 +112,10 @@ struct MultiplexResult {
 // offscreen OpenGL is available, kInternal otherwise.
 // `progress` (optional) receives the fraction done: renders so far over the most the grid can
 // need (every cell from every view, plus the references).
+// `bound` (optional): the package's bound; past it the chain of splits ends in the completion.
 Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevels& levels,
                                   const MultiplexOptions& options = {},
-                                  Progress* progress = nullptr);
+                                  Progress* progress = nullptr,
+                                  const PackageBound* bound = nullptr);
 
 }  // namespace meshmux

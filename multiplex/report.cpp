@@ -140,6 +140,21 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
                   pa, da, pa < da ? "true" : "false");
     out << buf;
   }
+  {
+    // Where the chain of splits ended in the full mesh single-rate, and what that cost: the
+    // descent's area with it against the descent over every split (the same views).
+    const CompletionReport& c = r.completion_report;
+    std::snprintf(buf, sizeof buf,
+                  "\n  \"completion\": {\"used\": %s, \"why\": \"%s\", \"after_layer\": %zu, "
+                  "\"chain_layers\": %zu, \"bytes\": %llu, \"tail_bytes\": %llu, "
+                  "\"planned_bytes\": %llu, \"chain_bytes\": %llu, \"area\": %.6g, "
+                  "\"chain_area\": %.6g, \"area_cost\": %.6g},",
+                  c.used ? "true" : "false", c.why.c_str(), c.after_layer, c.chain_layers,
+                  (unsigned long long)c.bytes, (unsigned long long)c.tail_bytes,
+                  (unsigned long long)c.planned_bytes, (unsigned long long)c.chain_bytes, c.area,
+                  c.chain_area, c.used ? c.area - c.chain_area : 0.0);
+    out << buf;
+  }
   out << "\n  \"mesh_layer_bytes\": [";
   for (size_t k = 0; k < r.mesh_bytes.size(); ++k) out << (k ? ", " : "") << r.mesh_bytes[k];
   out << "],\n  \"mesh_layer_triangles\": [";

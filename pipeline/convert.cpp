@@ -16,10 +16,12 @@
 #include "atlas/kept.h"
 #include "clean/flatten.h"
 #include "core/parallel.h"
+#include "exporters/draco_encode.h"
 #include "image/kept_levels.h"
 #include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
 #include "simplify/lod.h"
+#include "stream/deflate.h"
 #include "stream/package.h"
 #include "stream/package_base.h"
 
@@ -240,10 +242,11 @@ Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const Tex
 // 8. Multiplex (Yang, Shen and Kuo §3). No offscreen OpenGL: a warning, no report and no package.
 Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps,
                                                       const TextureLevels& levels,
-                                                      const ConvertOptions& o, Warnings* warnings,
+                                                      const ConvertOptions& o,
+                                                      const PackageBound& bound, Warnings* warnings,
                                                       Progress* progress) {
   report_step(progress, "multiplexing (rendering levels from the viewing sphere)");
-  auto mx = multiplex(ps, levels, o.multiplex, progress);
+  auto mx = multiplex(ps, levels, o.multiplex, progress, &bound);
   if (!mx.ok() && mx.status().kind() == ErrorKind::kUnavailable) {
     warn(warnings,
          "report: " + mx.status().message() + "; report.json, rd.svg and model.mmxp not written");
@@ -261,18 +264,51 @@ Result<std::optional<MultiplexResult>> multiplex_step(const ProgressiveScene& ps
 // The stream package's base when refinements follow: meshoptimizer's order-keeping codecs over
 // attributes quantized exactly as the stream codes them (stream/quantize.h), so vertex i is the
 // stream's vertex i and its integers are the ones the vertex splits are predicted from.
-Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps, const MultiplexResult& mx,
+Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps,
+                                              const std::vector<MeshStreamBase>& heads,
                                               const TextureLevels& levels, const ConvertOptions& o,
                                               Warnings* warnings) {
   GltfExportOptions plain = o.gltf;
   plain.draco = false;
   plain.meshopt = true;
   plain.tag_meshes = true;
-  for (const MeshStreamBase& m : mx.mesh_streams)
-    plain.position_quantization.push_back(m.quantization);
+  for (const MeshStreamBase& m : heads) plain.position_quantization.push_back(m.quantization);
   Scene base_scene = level_scene(ps, select_base(ps), levels, 0, /*keep_prefix=*/true);
-  if (Status st = order_base_scene(base_scene, mx.mesh_streams); !st) return st;
+  if (Status st = order_base_scene(base_scene, heads); !st) return st;
   return export_glb_bytes(base_scene, plain, warnings);
+}
+
+// The completion (stream/format.h "Completion") of mesh m: its full detail, single-rate, as
+// model.glb codes it (Draco) but with positions on the stream's grid, so that the base's node
+// transforms dequantize it; normals where the stream carries them, the first uv set where the
+// mesh has one.
+Result<CompletionMesh> completion_mesh(const ProgressiveMesh& pm, const MeshStreamBase& head,
+                                       uint32_t m, const GltfExportOptions& gltf) {
+  const size_t V = pm.vertex_count();
+  std::vector<Vec3> grid(V);
+  for (size_t v = 0; v < V; ++v) {
+    const QuantizedVertex q = quantize_vertex(pm, head.quantization, uint32_t(v));
+    grid[v] = {float(q.p[0]), float(q.p[1]), float(q.p[2])};
+  }
+  std::vector<std::vector<Vec2>> uvs;
+  if (!pm.uvs.empty() && pm.uvs[0].size() == V) uvs.push_back(pm.uvs[0]);
+  DracoInput in;
+  in.positions = &grid;
+  in.normals = head.normals && pm.normals.size() == V ? &pm.normals : nullptr;
+  in.uvs = uvs.empty() ? nullptr : &uvs;
+  in.indices = &pm.indices;
+  DracoSettings settings;
+  settings.position_bits = kPositionBits;  // the grid's integers, exactly
+  settings.normal_bits = gltf.normal_bits, settings.uv_bits = gltf.uv_bits;
+  settings.speed = gltf.draco_speed;
+  auto coded = draco_encode(in, settings);
+  if (!coded.ok())
+    return Status::error("completion: mesh " + std::to_string(m) + ": " + coded.status().message(),
+                         ErrorKind::kInternal);
+  CompletionMesh out;
+  out.mesh = m, out.vertices = coded->num_points, out.faces = coded->num_faces;
+  out.data = std::move(coded->bytes);
+  return out;
 }
 
 // 9. The stream package: the base (mesh layer 0 with texture level 0: ordered_base_glb, or
@@ -280,19 +316,21 @@ Result<std::vector<uint8_t>> ordered_base_glb(const ProgressiveScene& ps, const 
 // multiplexer encoded; the baselines ride along as orders of the same chunks.
 Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const MultiplexResult& mx,
                                           const TextureLevels& levels, const ConvertOptions& o,
+                                          std::optional<std::vector<uint8_t>> ordered_base,
                                           Warnings* warnings) {
   auto plan = stream_plan(mx);
   if (!plan.ok()) return plan.status();
   // Every mesh ships whole (no refinement follows; small models, docs/ARCHITECTURE.md "Simplify"):
   // no vertex order needs keeping, so the base is coded as model.glb is, with Draco (about 0.6x the
   // bytes of meshopt + deflate on Duck), its meshes tagged for the client.
-  bool whole = true;
+  bool whole = mx.completion.empty();
   for (const std::vector<EncodedMeshPart>& parts : mx.layer_parts) whole = whole && parts.empty();
   GltfExportOptions tagged = o.gltf;
   tagged.tag_meshes = true;
-  auto base =
+  Result<std::vector<uint8_t>> base =
       whole ? export_glb_bytes(level_scene(ps, select_base(ps), levels, 0, false), tagged, warnings)
-            : ordered_base_glb(ps, mx, levels, o, warnings);
+      : ordered_base ? Result<std::vector<uint8_t>>(std::move(*ordered_base))
+                     : ordered_base_glb(ps, mx.mesh_streams, levels, o, warnings);
   if (!base.ok()) return base.status();
   PackageInput in;
   in.base_glb = base.take();
@@ -300,6 +338,7 @@ Result<std::vector<uint8_t>> package_step(const ProgressiveScene& ps, const Mult
   in.meshes = mx.mesh_streams;
   in.mesh_layers = &mx.layer_parts;
   in.mesh_chunks = &mx.layer_chunks;
+  in.completion = mx.completion;
   in.textures = levels.levels.empty() ? nullptr : &levels;
   in.steps = plan->steps;
   in.base_distortion = plan->base_distortion;
@@ -461,8 +500,38 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& o, Warnings* w
   if (!base_glb.ok()) return base_glb.status();
   out.base_glb = base_glb.take();
   if (!o.report) return out;
-  // 8. Multiplex: renders, the order, the mesh parts encoded once.
-  auto mx = multiplex_step(ps, *levels, o, warnings, progress);
+  // 8. Multiplex: renders, the order, the mesh parts encoded once; past the package's bound the
+  // chain of splits ends in the completion. The package's base is built when the bound asks for
+  // its bytes, and handed on to the package.
+  std::optional<std::vector<uint8_t>> ordered_base;
+  std::vector<MeshStreamBase> heads;
+  PackageBound bound;
+  if (o.max_package_ratio > 0) {
+    bound.max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
+    bound.fixed_bytes = [&](const std::vector<MeshStreamBase>& h) -> Result<uint64_t> {
+      heads = h;
+      auto glb = ordered_base_glb(ps, h, *levels, o, warnings);
+      if (!glb.ok()) return glb.status();
+      const uint64_t stored = std::min(deflate_bytes(*glb).size(), glb->size());
+      ordered_base = glb.take();
+      return stored;
+    };
+    bound.completion =
+        [&](const std::vector<uint32_t>& meshes) -> Result<std::vector<CompletionMesh>> {
+      std::vector<Result<CompletionMesh>> coded(meshes.size(), Status::ok());
+      parallel_chunks(meshes.size(), 1, [&](size_t begin, size_t end) {
+        for (size_t c = begin; c < end; ++c)
+          coded[c] = completion_mesh(ps.meshes[meshes[c]], heads[meshes[c]], meshes[c], o.gltf);
+      });
+      std::vector<CompletionMesh> list;
+      for (Result<CompletionMesh>& c : coded) {
+        if (!c.ok()) return c.status();
+        list.push_back(c.take());
+      }
+      return list;
+    };
+  }
+  auto mx = multiplex_step(ps, *levels, o, bound, warnings, progress);
   if (!mx.ok()) return mx.status();
   if (!mx->has_value()) return out;
   out.multiplexed = std::move(**mx);
@@ -475,7 +544,19 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& o, Warnings* w
     out.rd_svg = rd_svg(m);
     return out;
   }
-  auto package = package_step(ps, m, *levels, o, warnings);
+  if (m.completion_report.used)
+    report_step(progress,
+                format("completion: after mesh layer %zu of %zu, the full mesh single-rate "
+                       "(%.1f kB for %.1f kB of splits; %s): package planned at %.2f x model.glb "
+                       "(%.2f x with every split)",
+                       m.completion_report.after_layer, m.completion_report.chain_layers - 1,
+                       m.completion_report.bytes / 1e3, m.completion_report.tail_bytes / 1e3,
+                       m.completion_report.why == "bound"
+                           ? "the latest layer within the package's bound"
+                           : "earlier, where its slope beats the next mesh step's",
+                       double(m.completion_report.planned_bytes) / double(out.model_glb.size()),
+                       double(m.completion_report.chain_bytes) / double(out.model_glb.size())));
+  auto package = package_step(ps, m, *levels, o, std::move(ordered_base), warnings);
   if (!package.ok()) return package.status();
   out.package = package.take();
   out.mesh_chunks = m.layer_parts.size() - 1;

@@ -49,6 +49,9 @@ struct ConvertOptions {
   double base_model_share = 0.1;
   uint64_t base_min_bytes = 64 * 1024;   // the bound is never below this (small models)
   uint64_t base_max_bytes = 256 * 1024;  // nor above this (large models)
+  // The package at most this times model.glb's bytes (the completion step, multiplex.h
+  // PackageBound): past it the chain of splits ends in the full mesh single-rate. 0: no bound.
+  double max_package_ratio = 1.2;
   // model.glb is encoded beside the simplifier on scenes under this many unique triangles, and
   // before it on larger ones: the peak memory is then the larger of the two instead of their
   // sum, and the time their sum instead of the larger (the scan-like 4M mesh: 2.01 → 1.45 GB,

@@ -46,6 +46,8 @@
 //    "chunks": [
 //      {"kind": "mesh", "offset": o, "size": s, "distortion": d,
 //       "parts": [[m, b, e, n], ...]},               // see "Parts" below
+//      {"kind": "complete", "offset": o, "size": s, "distortion": d,
+//       "meshes": [[m, v, f, n], ...]},              // see "Completion" below
 //      {"kind": "texture", "offset": o, "size": s, "distortion": d,
 //       "width": w, "height": h,                     // every map's size
 //       "maps": [{"channel": "base_color", "mime": "image/jpeg", "size": n}, ...],
@@ -61,6 +63,14 @@
 // Parts: [m, b, e, n] takes mesh m to vertex b and face e in n coded bytes (the parts' bytes sum
 // to the chunk's size), from where m stands (its base, then the parts before in file order):
 // vertex a, face c.
+// Completion (optional, at most one, after every mesh chunk in every order): the full mesh sent
+// single-rate where the vertex splits' tail would cost more (the package's bound, or a tail
+// dearer than the full mesh). [m, v, f, n]: mesh m's full detail as a Draco bitstream of n
+// bytes (the payload holds them in this order, summing to the chunk's size) that decodes to v
+// points and f triangles, positions in the mesh's grid integers as the base's (so the base's
+// node transforms dequantize them), normals (when the stream carries them) and uv (when the
+// mesh has them) as Draco's generic attributes. A client replaces mesh m's vertex and index
+// buffers with it; no split follows. Each m once; a mesh not listed is full already.
 // Maps: a texture chunk's payload is the maps' files in this order; base_color comes first, then
 // any other of the channels below (physically based maps), each once.
 // Kept (optional): after the maps' files, the images of materials kept beside the atlas at this
@@ -122,11 +132,12 @@
 
 namespace meshmux {
 
-// 14: texture chunks may carry "kept" images (and the base .glb tags its images); 13: a part
+// 15: a "complete" chunk may end the mesh chunks (the full mesh single-rate); 14: texture
+// chunks may carry "kept" images (and the base .glb tags its images); 13: a part
 // is one adaptive range-coded stream (stream/range_coder.h; 12: ten byte streams,
 // the chunk's parts deflated together); flat-shaded meshes carry no normals since 12. The web
 // client (viewers/web/package_reader.js, PACKAGE_VERSION) reads exactly this version.
-constexpr uint32_t kPackageVersion = 14;
+constexpr uint32_t kPackageVersion = 15;
 constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
@@ -155,7 +166,9 @@ inline const char* const kBaseColorChannel = kChannelNames[0];
 
 // One step of the multiplexed order: a chunk of the package.
 struct StreamStep {
-  enum Kind { kMesh, kTexture } kind = kMesh;
+  // kComplete: a package chunk only (the completion, "complete"); a plan's steps name mesh
+  // layers, and the writer makes the completion layer's step that chunk.
+  enum Kind { kMesh, kTexture, kComplete } kind = kMesh;
   size_t mesh_layer = 0;     // kMesh: the mesh layer that arrives (its parts, in layer order)
   size_t texture_level = 0;  // kTexture: the texture level (index into TextureLevels::levels)
   double distortion = 0;     // expected distortion once this step is applied

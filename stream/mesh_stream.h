@@ -43,6 +43,14 @@ struct EncodedMeshPart {
   uint64_t bytes() const { return data.size(); }
 };
 
+// One mesh of a completion chunk (stream/format.h "Completion"): its full detail single-rate,
+// a Draco bitstream that decodes to `vertices` points and `faces` triangles on the mesh's
+// position grid.
+struct CompletionMesh {
+  uint32_t mesh = 0, vertices = 0, faces = 0;
+  std::vector<uint8_t> data;
+};
+
 // What the package table says of one mesh, and what its base .glb must hold.
 struct MeshStreamBase {
   uint32_t vertices = 0, faces = 0;            // the full progressive mesh

@@ -26,6 +26,10 @@ struct PackageInput {
   // Per mesh layer, its chunk's payload: those parts' bytes in order (mesh_chunk_payload,
   // MultiplexResult::layer_chunks), as many entries as mesh_layers.
   const std::vector<std::vector<uint8_t>>* mesh_chunks = nullptr;
+  // When not empty, the last mesh layer is the completion (stream/format.h "Completion"): these
+  // meshes' full detail single-rate, their data concatenated in mesh_chunks' last entry, and no
+  // parts in mesh_layers' last entry.
+  std::vector<CompletionMesh> completion;
   // May be null for untextured scenes; the base .glb embeds level 0 (the smallest).
   const TextureLevels* textures = nullptr;
   std::vector<StreamStep> steps;  // in stream order; each mesh layer once
@@ -56,10 +60,12 @@ struct PackageChunk {
   StreamStep::Kind kind = StreamStep::kMesh;
   uint64_t offset = 0, size = 0;
   double distortion = 0;
-  std::vector<PackagePart> parts;  // mesh chunks
-  int width = 0, height = 0;       // texture chunks
-  std::vector<PackageMap> maps;    // texture chunks: base_color first
-  std::vector<PackageMap> kept;    // texture chunks: kept images at this level, after the maps
+  // Mesh chunks: the parts; the completion: per mesh its Draco bitstream, as mesh, vertex_end
+  // (points), face_end (triangles) and bytes, the begins 0.
+  std::vector<PackagePart> parts;
+  int width = 0, height = 0;     // texture chunks
+  std::vector<PackageMap> maps;  // texture chunks: base_color first
+  std::vector<PackageMap> kept;  // texture chunks: kept images at this level, after the maps
 };
 struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;

@@ -203,6 +203,45 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   return Status::ok();
 }
 
+// The completion's "meshes" (stream/format.h "Completion"): [m, points, triangles, bytes], each
+// mesh once, bitstreams of at least one byte summing to the chunk's size.
+Status read_completion(const Json& j, const std::vector<PackageMesh>& meshes, PackageChunk& c,
+                       const std::string& where) {
+  auto list = j.find("meshes");
+  if (list == j.end() || !list->is_array() || list->empty())
+    return fail(where + ": \"meshes\" missing, not an array or empty");
+  uint64_t sum = 0;
+  std::vector<bool> seen(meshes.size(), false);
+  for (size_t i = 0; i < list->size(); ++i) {
+    const Json& e = (*list)[i];
+    const std::string w = where + " mesh entry " + std::to_string(i);
+    if (!e.is_array() || e.size() != 4) return fail(w + " is not [mesh, points, faces, bytes]");
+    uint64_t v[4];
+    const uint64_t max[4] = {meshes.size() ? meshes.size() - 1 : 0, kMaxCount, kMaxCount, c.size};
+    for (size_t k = 0; k < 4; ++k) {
+      if (!e[k].is_number_unsigned() && !(e[k].is_number_integer() && e[k].get<int64_t>() >= 0))
+        return fail(w + ": entry " + std::to_string(k) + " is not an unsigned integer");
+      v[k] = e[k].get<uint64_t>();
+      if (v[k] > max[k] || (k == 0 && meshes.empty()))
+        return fail(w + ": entry " + std::to_string(k) + " = " + std::to_string(v[k]) +
+                    " out of range");
+    }
+    if (seen[size_t(v[0])]) return fail(w + ": mesh " + std::to_string(v[0]) + " twice");
+    seen[size_t(v[0])] = true;
+    if (v[3] == 0) return fail(w + ": empty bitstream");
+    sum += v[3];
+    if (sum > c.size) return fail(where + ": meshes hold more bytes than the chunk's");
+    PackagePart p;
+    p.mesh = uint32_t(v[0]), p.vertex_end = uint32_t(v[1]), p.face_end = uint32_t(v[2]);
+    p.bytes = v[3];
+    c.parts.push_back(p);
+  }
+  if (sum != c.size)
+    return fail(where + ": meshes hold " + std::to_string(sum) + " bytes, the chunk " +
+                std::to_string(c.size));
+  return Status::ok();
+}
+
 // A map's "size", placed at `at` inside chunk `c` (then `at` is past it).
 Status map_range(const Json& e, const PackageChunk& c, uint64_t& at, PackageMap& m,
                  const std::string& where) {
@@ -259,6 +298,8 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
     c.kind = StreamStep::kMesh;
   else if (k == "texture")
     c.kind = StreamStep::kTexture;
+  else if (k == "complete")
+    c.kind = StreamStep::kComplete;
   else
     return fail(where + ": unknown kind");
   Status s;
@@ -303,6 +344,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
                   std::to_string(c.size));
     return Status::ok();
   }
+  if (c.kind == StreamStep::kComplete) return read_completion(j, pkg.meshes, c, where);
   auto parts = j.find("parts");
   if (parts == j.end() || !parts->is_array())
     return fail(where + ": \"parts\" missing or not an array");
@@ -400,7 +442,7 @@ Status read_orders(const Json& j, Package& pkg) {
       if (seen[k]) return fail(where + ": chunk " + std::to_string(k) + " listed twice");
       seen[k] = true;
       if (o == 0 && k != i) return fail(where + ": the first order is not the stored order");
-      if (pkg.chunks[k].kind == StreamStep::kMesh) {
+      if (pkg.chunks[k].kind != StreamStep::kTexture) {  // mesh chunks and the completion
         if (int64_t(k) < last_mesh) return fail(where + ": mesh chunks out of order");
         last_mesh = int64_t(k);
       }
@@ -486,6 +528,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
   std::vector<std::pair<uint32_t, uint32_t>> held;  // per mesh: vertices, faces so far
   for (const PackageMesh& m : pkg.meshes) held.push_back({m.base_vertices, m.base_faces});
+  bool completed = false;  // the completion was read: no mesh chunk may follow
   for (size_t i = 0; i < chunks->size(); ++i) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
@@ -495,8 +538,11 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
                   " overlaps the base or the chunk before");
     if (c.kind == StreamStep::kTexture && pkg.texture_width == 0)
       return fail(where + ": texture chunk in a package without texture");
-    if (c.kind == StreamStep::kMesh && pkg.base_whole)
+    if (c.kind != StreamStep::kTexture && pkg.base_whole)
       return fail(where + ": mesh refinement in a package whose base is the whole model");
+    if (c.kind != StreamStep::kTexture && completed)
+      return fail(where + ": a mesh chunk after the completion");
+    completed = completed || c.kind == StreamStep::kComplete;
     end = c.offset + c.size;
     pkg.chunks.push_back(std::move(c));
   }

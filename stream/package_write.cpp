@@ -30,7 +30,7 @@ void put_u32(std::vector<uint8_t>& out, size_t at, uint32_t v) {
 
 // A chunk's payload and table entry, offsets filled in later.
 struct Chunk {
-  bool mesh = true;
+  StreamStep::Kind kind = StreamStep::kMesh;
   double distortion = 0;
   std::vector<PackagePart> parts;
   const TextureLevel* texture = nullptr;
@@ -98,7 +98,7 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
                     " out of range");
       const TextureLevel& t = in.textures->levels[step.texture_level];
       if (Status s = check_texture_level(t, where); !s) return s;
-      c.mesh = false;
+      c.kind = StreamStep::kTexture;
       c.texture = &t;
       c.payload = t.encoded;
       for (const TextureMap& m : t.other_maps)
@@ -115,6 +115,25 @@ Result<std::vector<Chunk>> build_chunks(const PackageInput& in) {
       next_layer = step.mesh_layer + 1;
       if (!in.mesh_chunks || in.mesh_chunks->size() != in.mesh_layers->size())
         return fail(where + "no payload for mesh layer " + std::to_string(step.mesh_layer));
+      if (!in.completion.empty() && step.mesh_layer + 1 == in.mesh_layers->size()) {
+        c.kind = StreamStep::kComplete;
+        uint64_t sum = 0;
+        for (const CompletionMesh& cm : in.completion) {
+          if (cm.mesh >= in.meshes.size() || cm.data.empty())
+            return fail(where + "completion of mesh " + std::to_string(cm.mesh) +
+                        " out of range or empty");
+          PackagePart p;
+          p.mesh = cm.mesh, p.vertex_end = cm.vertices, p.face_end = cm.faces;
+          p.bytes = cm.data.size();
+          sum += p.bytes;
+          c.parts.push_back(p);
+        }
+        c.payload = (*in.mesh_chunks)[step.mesh_layer];
+        if (sum != c.payload.size() || !(*in.mesh_layers)[step.mesh_layer].empty())
+          return fail(where + "the completion's payload is not its meshes' bitstreams");
+        chunks.push_back(std::move(c));
+        continue;
+      }
       for (const EncodedMeshPart& part : (*in.mesh_layers)[step.mesh_layer]) {
         if (part.part.mesh >= in.meshes.size())
           return fail(where + "part of mesh " + std::to_string(part.part.mesh) + " out of range");
@@ -228,9 +247,16 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
   OrderedJson cs = OrderedJson::array();
   for (const Chunk& c : chunks) {
     OrderedJson e;
-    e["kind"] = c.mesh ? "mesh" : "texture";
+    e["kind"] = c.kind == StreamStep::kMesh       ? "mesh"
+                : c.kind == StreamStep::kComplete ? "complete"
+                                                  : "texture";
     e["offset"] = offset, e["size"] = uint64_t(c.payload.size()), e["distortion"] = c.distortion;
-    if (c.mesh) {
+    if (c.kind == StreamStep::kComplete) {
+      OrderedJson meshes = OrderedJson::array();
+      for (const PackagePart& p : c.parts)
+        meshes.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
+      e["meshes"] = std::move(meshes);
+    } else if (c.kind == StreamStep::kMesh) {
       OrderedJson parts = OrderedJson::array();
       for (const PackagePart& p : c.parts)
         parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});

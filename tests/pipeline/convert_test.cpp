@@ -1,6 +1,7 @@
 // The conversion pipeline as one function: every output from one call, each thing encoded once.
 #include "pipeline/convert.h"
 
+#include <draco/compression/decode.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -222,6 +223,74 @@ TEST(Convert, BaseOverTheBoundEvenAtTheCoarsestTakesTheCoarsest) {
   ASSERT_TRUE(unbounded.ok()) << unbounded.status().message();
   EXPECT_LT(out->base_triangles, unbounded->base_triangles / 10);
   EXPECT_LT(out->base_glb.size(), unbounded->base_glb.size() / 4);
+}
+
+// The completion step: a streamed mesh whose splits would take the package over its bound
+// (here 1.1x model.glb; the splits of a smooth sphere cost about 1.5x Draco's single-rate) ends
+// its mesh chunks in the full mesh sent single-rate: the package stays within the bound,
+// report.json says where and what area it cost, and the completion's bitstream decodes to the
+// full mesh on the stream's position grid (integers the base's transforms dequantize). Without
+// the bound every split ships, over it, and model.glb is the same.
+TEST(Convert, PackageOverItsBoundEndsInTheCompletion) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene;
+  Mesh mesh;
+  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  ConvertOptions o;
+  o.max_package_ratio = 1.1;
+  Warnings warnings;
+  auto bounded = convert(scene, o, &warnings, nullptr);
+  o.max_package_ratio = 0;
+  auto chain = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(bounded.ok()) << bounded.status().message();
+  ASSERT_TRUE(chain.ok()) << chain.status().message();
+  ASSERT_FALSE(bounded->package.empty()) << bounded->not_streamed;
+  EXPECT_EQ(bounded->model_glb, chain->model_glb);
+  EXPECT_GT(chain->package.size(), chain->model_glb.size());
+  EXPECT_LE(double(bounded->package.size()), 1.1 * double(bounded->model_glb.size()));
+  auto report = nlohmann::json::parse(bounded->report_json);
+  const auto& c = report["completion"];
+  ASSERT_TRUE(c["used"].get<bool>()) << bounded->report_json.substr(0, 600);
+  EXPECT_LT(c["after_layer"].get<size_t>() + 1, c["chain_layers"].get<size_t>());
+  EXPECT_GT(c["chain_area"].get<double>(), 0);
+  EXPECT_FALSE(nlohmann::json::parse(chain->report_json)["completion"]["used"].get<bool>());
+  auto pkg = read_package(bounded->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  const PackageChunk& last_mesh = [&]() -> const PackageChunk& {
+    for (size_t k = pkg->chunks.size(); k-- > 0;)
+      if (pkg->chunks[k].kind != StreamStep::kTexture) return pkg->chunks[k];
+    return pkg->chunks.back();
+  }();
+  ASSERT_EQ(last_mesh.kind, StreamStep::kComplete);
+  ASSERT_EQ(last_mesh.parts.size(), 1u);
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(bounded->package.data() + last_mesh.offset),
+              last_mesh.size);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().error_msg_string();
+  std::unique_ptr<draco::Mesh> full = std::move(decoded).value();
+  EXPECT_EQ(full->num_points(), last_mesh.parts[0].vertex_end);
+  EXPECT_EQ(full->num_faces(), last_mesh.parts[0].face_end);
+  EXPECT_EQ(full->num_faces(), pkg->meshes[0].faces);
+  const draco::PointAttribute* position =
+      full->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  ASSERT_NE(position, nullptr);
+  float top = 0;
+  for (draco::PointIndex p(0); p < full->num_points(); ++p) {
+    std::array<float, 3> v{};
+    ASSERT_TRUE((position->GetValue<float, 3>(position->mapped_index(p), &v)));
+    for (float x : v) {
+      ASSERT_GE(x, 0.0f);
+      ASSERT_LE(x, 16383.0f);
+      ASSERT_EQ(x, std::round(x));
+      top = std::max(top, x);
+    }
+  }
+  EXPECT_EQ(top, 16383.0f);  // the grid spans the mesh's longest side
 }
 
 // report.json gives the converted scene's world box, which a world's grid sizes each model by:

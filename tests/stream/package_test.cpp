@@ -697,6 +697,65 @@ TEST(Package, WholeBaseAllowsNoMeshChunk) {
   EXPECT_NE(w.status().message().find("whole model"), std::string::npos) << w.status().message();
 }
 
+// The completion (the full mesh single-rate ending the mesh chunks, stream/format.h): written as
+// a "complete" chunk whose meshes' bitstreams fill it, read back with each mesh's counts and
+// bytes; a mesh chunk after it, bitstreams that do not fill it, or a mesh listed twice are
+// refused by name. The reader does not decode the bitstreams (Draco's), so stand-in bytes do.
+TEST(Package, CompletionEndsTheMeshChunks) {
+  const Fixture& f = fixture();
+  std::vector<std::vector<EncodedMeshPart>> layers = f.layers;
+  std::vector<std::vector<uint8_t>> chunks = f.chunks;
+  const ProgressiveMesh& pm = f.ps.meshes[0];
+  CompletionMesh cm;
+  cm.mesh = 0, cm.vertices = uint32_t(pm.vertex_count()), cm.faces = uint32_t(pm.face_count());
+  cm.data.assign(1000, 0x5a);
+  layers.back().clear();
+  chunks.back() = cm.data;
+  PackageInput in = f.input;
+  in.mesh_layers = &layers;
+  in.mesh_chunks = &chunks;
+  in.completion = {cm};
+  auto bytes = write_package(in);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  auto pkg = read_package(*bytes);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  const PackageChunk& last = pkg->chunks.back();
+  ASSERT_EQ(last.kind, StreamStep::kComplete);
+  EXPECT_EQ(last.size, 1000u);
+  ASSERT_EQ(last.parts.size(), 1u);
+  EXPECT_EQ(last.parts[0].vertex_end, cm.vertices);
+  EXPECT_EQ(last.parts[0].face_end, cm.faces);
+  EXPECT_EQ(std::vector<uint8_t>(bytes->begin() + long(last.offset),
+                                 bytes->begin() + long(last.offset + last.size)),
+            cm.data);
+  // The table, edited.
+  uint32_t json_size = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 |
+                       uint32_t((*bytes)[10]) << 16 | uint32_t((*bytes)[11]) << 24;
+  auto inflated = inflate_bytes(bytes->data() + 12, json_size, kMaxTableBytes);
+  ASSERT_TRUE(inflated.ok());
+  const nlohmann::json table = nlohmann::json::parse(inflated->begin(), inflated->end());
+  auto refused = [&](nlohmann::json t, const char* why) {
+    auto r = read_package(with_header(*bytes, t.dump(), 0));
+    ASSERT_FALSE(r.ok()) << why;
+    EXPECT_NE(r.status().message().find(why), std::string::npos) << r.status().message();
+  };
+  const size_t c = table["chunks"].size() - 1;
+  ASSERT_EQ(table["chunks"][c]["kind"], "complete");
+  nlohmann::json t = table;
+  t["chunks"][0]["kind"] = "complete";  // a completion before mesh chunks
+  t["chunks"][0]["meshes"] = {{0, 10, 10, t["chunks"][0]["size"]}};
+  refused(t, "after the completion");
+  t = table;
+  t["chunks"][c]["meshes"][0][3] = 999;
+  refused(t, "hold 999 bytes");
+  t = table;
+  t["chunks"][c]["meshes"] = {{0, 1, 1, 500}, {0, 1, 1, 500}};
+  refused(t, "twice");
+  // The writer takes a completion only as the last mesh layer, without parts.
+  layers.back() = f.layers.back();
+  EXPECT_FALSE(write_package(in).ok());
+}
+
 TEST(Package, RejectsBadHeadersWithClearMessages) {
   const Fixture& f = fixture();
   auto valid = write_package(f.input);

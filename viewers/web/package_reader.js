@@ -2,7 +2,7 @@
 // stream/format.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
 // the package's JSON table against the file (validateTable). Used by meshmux.js.
 
-export const PACKAGE_VERSION = 14;
+export const PACKAGE_VERSION = 15;
 // The JSON table and the base .glb inflate to at most these (stream/format.h).
 export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
 // A kept image's index is below this; a texture side at most the table's limit, and this.
@@ -92,6 +92,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
 
   // Chunks, with the parts simulated in stream order: each continues where its mesh stands.
   const held = meshes.map((m) => ({ vertices: m.base_vertices, faces: m.base_faces }));
+  let completed = false;  // the completion was read: no mesh chunk may follow
   const chunks = arr(t.chunks, 'chunks').map((c, i) => {
     const w = `chunks[${i}]`;
     const chunk = { kind: obj(c, w).kind, ...range(c, w), distortion: dist(c.distortion, `${w}.distortion`) };
@@ -131,8 +132,32 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       need(new Set(kept.map((m) => m.image)).size === kept.length, `${w}: a kept image appears twice`);
       return { ...chunk, width: int(c.width, `${w}.width`), height: int(c.height, `${w}.height`), maps, kept };
     }
-    need(c.kind === 'mesh', `${w}.kind ${JSON.stringify(c.kind)} is neither "mesh" nor "texture"`);
+    need(c.kind === 'mesh' || c.kind === 'complete', `${w}.kind ${JSON.stringify(c.kind)} is not "mesh", "complete" or "texture"`);
     need(!base.whole, `${w}: a mesh refinement in a package whose base is the whole model`);
+    need(!completed, `${w}: a mesh chunk after the completion`);
+    if (c.kind === 'complete') {
+      // The full mesh single-rate (stream/format.h "Completion"): per mesh [mesh, points,
+      // faces, bytes], a Draco bitstream each, one after the other; each mesh once.
+      completed = true;
+      let at = chunk.offset;
+      const seen = new Set();
+      chunk.meshes = arr(c.meshes, `${w}.meshes`).map((e, j) => {
+        const ew = `${w}.meshes[${j}]`;
+        need(Array.isArray(e) && e.length === 4, `${ew} must be [mesh, points, faces, bytes]`);
+        const entry = { mesh: int(e[0], `${ew}[0] (mesh)`, meshes.length - 1), vertices: int(e[1], `${ew}[1] (points)`, MAX_ELEMENTS),
+          faces: int(e[2], `${ew}[2] (faces)`, MAX_ELEMENTS), offset: at, bytes: int(e[3], `${ew}[3] (bytes)`) };
+        entry.face_begin = held[entry.mesh].faces;  // what the splits before it hold
+        need(!seen.has(entry.mesh), `${ew}: mesh ${entry.mesh} twice`);
+        seen.add(entry.mesh);
+        need(entry.bytes > 0 && at + entry.bytes <= chunk.offset + chunk.size, `${ew}: ${entry.bytes} bytes do not fit the chunk`);
+        at += entry.bytes;
+        held[entry.mesh] = { vertices: meshes[entry.mesh].vertices, faces: meshes[entry.mesh].faces };
+        return entry;
+      });
+      need(chunk.meshes.length > 0 && at === chunk.offset + chunk.size, `${w}: its meshes hold ${at - chunk.offset} bytes, the chunk ${chunk.size}`);
+      chunk.parts = [];
+      return chunk;
+    }
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
       // [mesh, vertex_end, face_end, bytes], starting where its mesh stands.
@@ -167,7 +192,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     let lastMesh = -1;
     seq.forEach((c, i) => {
       need(!seen[int(c, `${w}.chunks[${i}]`, n - 1)]++, `${w} lists chunk ${c} twice`);
-      if (chunks[c].kind !== 'mesh') return;
+      if (chunks[c].kind === 'texture') return;  // mesh chunks and the completion keep their order
       need(c > lastMesh, `${w} reorders mesh chunks (${c} after ${lastMesh})`);
       lastMesh = c;
     });
@@ -187,7 +212,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     const v = obj(t.view_table, 'view_table');
     const meshLayers = int(v.mesh_layers, 'view_table.mesh_layers', n + 1);
     const textureLayers = int(v.texture_layers, 'view_table.texture_layers', n + 1);
-    const meshChunks = chunks.filter((c) => c.kind === 'mesh').length;
+    const meshChunks = chunks.filter((c) => c.kind !== 'texture').length;
     need(meshLayers === meshChunks + 1 && textureLayers === n - meshChunks + 1,
       `view_table is ${meshLayers} × ${textureLayers} cells, the chunks make ${meshChunks + 1} × ${n - meshChunks + 1}`);
     const directions = arr(v.directions, 'view_table.directions').map((d, i) => {

@@ -61,7 +61,7 @@ export function surface(viewTable, weights) {
 // The chunk of each move: mesh[k] the chunk of mesh layer k + 1, texture[k] of level k + 1.
 export function layerChunks(table) {
   const mesh = [], texture = [];
-  for (const index of table.orders[0].chunks) (table.chunks[index].kind === 'mesh' ? mesh : texture).push(index);
+  for (const index of table.orders[0].chunks) (table.chunks[index].kind !== 'texture' ? mesh : texture).push(index);
   return { mesh, texture };
 }
 
@@ -83,7 +83,7 @@ export function pathArea(table, D, layers, i, j, sequence) {
     const d = D[i * n + j];
     if (!Number.isFinite(d)) return Infinity;
     area += d * table.chunks[index].size;
-    if (table.chunks[index].kind === 'mesh') i++; else j++;
+    if (table.chunks[index].kind !== 'texture') i++; else j++;
   }
   return area;
 }
@@ -127,7 +127,7 @@ export function sequenceDistortion(table, sequence) {
   const views = vt.directions.length, out = [];
   let i = 0, j = 0;
   for (const index of sequence) {
-    if (table.chunks[index].kind === 'mesh') i++; else j++;
+    if (table.chunks[index].kind !== 'texture') i++; else j++;
     const cell = vt.distortion[i * n + j];
     out.push(cell ? cell.reduce((a, b) => a + b, 0) / views : NaN);
   }

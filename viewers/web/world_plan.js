@@ -130,7 +130,7 @@ export function chunkGain(table, applied, next, placements, fallback) {
   let i = 0, j = 0;
   while (i < layers.mesh.length && applied.has(layers.mesh[i])) i++;
   while (j < layers.texture.length && applied.has(layers.texture[j])) j++;
-  const after = table.chunks[next].kind === 'mesh' ? [i + 1, j] : [i, j + 1];
+  const after = table.chunks[next].kind !== 'texture' ? [i + 1, j] : [i, j + 1];
   for (const p of placements) {
     if (!(p.share > 0)) continue;
     const D = surface(vt, p.weights);
@@ -152,6 +152,8 @@ export function chunkCost(table, index, instances = []) {
   if (c.kind === 'texture') return { triangles: 0, texels: c.width * c.height };
   let faces = 0;
   for (const p of c.parts) faces += (p.face_end - p.face_begin) * Math.max(1, instances[p.mesh] || 1);
+  // The completion: each mesh's full faces in place of those its splits held.
+  for (const e of c.meshes || []) faces += Math.max(0, e.faces - e.face_begin) * Math.max(1, instances[e.mesh] || 1);
   return { triangles: faces, texels: 0 };
 }
 
