@@ -466,7 +466,10 @@ Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers
       break;
     }
   if (k == m) {  // no layer keeps the bound: the smaller package
-    if (planned(0) >= whole) return rows;
+    if (planned(0) >= whole) {
+      cr.why = "over the bound, and no smaller with it";
+      return rows;
+    }
     k = 0, cr.why = "bound";
   }
   // The descent's mesh steps before k: the first whose slope the completion beats.
