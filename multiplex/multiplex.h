@@ -57,7 +57,8 @@ struct PackageBound {
 struct CompletionReport {
   bool used = false;
   std::string why;             // "bound" (the latest layer within it) or "slope" (earlier:
-                               // the completion's slope beats the descent's next mesh step)
+                               // the completion's slope beats the descent's next mesh step);
+                               // unused: why not, where the splits were over the bound
   size_t after_layer = 0;      // the mesh layer it follows (0: the base)
   size_t chain_layers = 0;     // mesh layers of the whole chain
   uint64_t bytes = 0;          // its bitstreams

@@ -652,7 +652,52 @@ export class MeshmuxStream extends EventTarget {
     await gpuIdle(this.options.renderer && this.options.renderer.getContext());
   }
 
+  // The completion (stream/format.h "Completion"): each listed mesh's full detail, a Draco
+  // bitstream decoded by three's DRACOLoader (its own workers), swapped in for the buffers the
+  // splits grew; the meshes change together, in one task.
+  async _applyCompletion(index, chunk, payload) {
+    const t0 = performance.now();
+    let loader, bytes;
+    try {
+      loader = await this._dracoLoader();
+      bytes = this._worker ? await this._worker.pageBytes(payload) : payload;
+    } catch (e) {
+      throw this._fail(`chunk ${index}: the completion cannot be read (${e.message})`);
+    }
+    let decoded;
+    try {
+      decoded = await Promise.all(chunk.meshes.map((e) => new Promise((resolve, reject) => {
+        const part = bytes.slice(e.offset - chunk.offset, e.offset - chunk.offset + e.bytes);
+        loader.parse(part.buffer, resolve, reject);
+      })));
+    } catch (e) {
+      if (!this.options.dracoLoader) loader.dispose();
+      throw this._fail(`chunk ${index}: the completion cannot be decoded (${e && e.message ? e.message : e})`);
+    }
+    try {
+      if (this._state === 'disposed') return;
+      chunk.meshes.forEach((e, k) => {
+        const g = decoded[k], points = g.getAttribute('position'), faces = g.getIndex();
+        if (!points || points.count !== e.vertices || !faces || faces.count !== 3 * e.faces) {
+          throw new Error(`mesh ${e.mesh}: the completion decodes to ${points ? points.count : 0} points and ${faces ? faces.count / 3 : 0} faces, the table says ${e.vertices} and ${e.faces}`);
+        }
+      });
+      chunk.meshes.forEach((e, k) => {
+        const mesh = this.meshes[e.mesh], before = mesh.solid;
+        mesh.complete(decoded[k]);
+        this._trianglesApplied += Math.max(0, mesh.solid - before);
+      });
+    } catch (e) {
+      throw this._fail(`chunk ${index}: ${e.message}`);
+    } finally {
+      for (const g of decoded) g.dispose();
+      if (!this.options.dracoLoader) loader.dispose();  // its workers were this chunk's alone
+      this._applySeconds += (performance.now() - t0) / 1000;
+    }
+  }
+
   async _applyChunk(index, chunk, payload) {
+    if (chunk.kind === 'complete') { await this._applyCompletion(index, chunk, payload); return; }
     if (chunk.kind === 'mesh') {
       if (this._worker) {  // decoded in the worker; its own time is the decoding time
         try {

@@ -215,6 +215,44 @@ export class StreamMesh {
     this.geometry.setDrawRange(0, 3 * this.faces);
   }
 
+  // Takes in the completion (stream/format.h "Completion"): the full mesh decoded from its
+  // single-rate bitstream (`decoded`, a BufferGeometry: positions on the mesh's grid as the
+  // base's, normals and uv where the stream carries them), in place of the vertex and index
+  // buffers the splits grew; no split follows. The splits' decoder state is kept as it stands
+  // (its digest is the encoder's before the completion).
+  complete(decoded) {
+    const pos = decoded.getAttribute('position'), index = decoded.getIndex();
+    if (!pos || !index) throw new Error(`mesh ${this.index}: the completion has no positions or faces`);
+    const count = pos.count;
+    const P = Float32Array.from(pos.array);
+    if (!this.quantized) {  // a base with float positions: stream vertices in mesh units
+      const o = this.origin, s = this.step;
+      for (let i = 0; i < 3 * count; i++) P[i] = o[i % 3] + P[i] * s;
+    }
+    const nrm = decoded.getAttribute('normal'), uv = decoded.getAttribute('uv');
+    const N = nrm ? Float32Array.from(nrm.array) : new Float32Array(3 * count);
+    if (!nrm) for (let i = 0; i < count; i++) N[3 * i + 2] = 1;  // +Z, as the stream without normals
+    const T = uv ? Float32Array.from(uv.array) : new Float32Array(2 * count);
+    const I = Uint32Array.from(index.array);
+    for (let i = 0; i < I.length; i++) {
+      if (I[i] >= count) throw new Error(`mesh ${this.index}: the completion's face ${Math.floor(i / 3)} names point ${I[i]} of ${count}`);
+    }
+    const g = this.geometry;
+    g.dispose();  // the grown buffers leave the GPU; the new ones go up with the next frame
+    const attribute = (array, size) => new THREE.BufferAttribute(array, size);
+    g.setAttribute('position', this.positionAttribute = attribute(P, 3));
+    g.setAttribute('normal', this.normalAttribute = attribute(N, 3));
+    g.setAttribute('uv', this.uvAttribute = attribute(T, 2));
+    g.setIndex(this.indexAttribute = attribute(I, 1));
+    this.position = P, this.normal = N, this.uv = T, this.indices = I;
+    this.vertices = count;
+    this.faces = I.length / 3;
+    this.solid = this.faces;
+    this.completed = true;
+    this._dirty = null;
+    g.setDrawRange(0, I.length);
+  }
+
   _uploadVertices(v0, vn) {
     if (vn <= v0) return;
     this.positionAttribute.addUpdateRange(3 * v0, 3 * (vn - v0));

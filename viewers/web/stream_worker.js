@@ -179,6 +179,11 @@ self.onmessage = (e) => {
       decodeImage({ ...m, bytes: bytesOf(m, 'bytes') }).then(
         ({ reply, transfer }) => self.postMessage({ type: 'image', id: m.id, ...reply }, transfer),
         (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }));
+    } else if (m.type === 'copy') {
+      // A copy of bytes the worker holds, for a part the page decodes itself (the completion's
+      // bitstreams go to three's Draco decoder).
+      const bytes = bytesOf(m, 'bytes').slice();
+      self.postMessage({ type: 'copy', id: m.id, bytes }, [bytes.buffer]);
     } else if (m.type === 'held') {
       let count = 0;
       for (const range of held.values()) count += range.stream === m.stream;

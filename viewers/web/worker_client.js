@@ -259,6 +259,13 @@ export class StreamWorker {
     return r.bitmap || new PixelImage(r.pixels, r.width, r.height);
   }
 
+  // `bytes` on the page: a copy of HeldBytes of this worker's (the page decodes them itself), or
+  // the bytes as given.
+  async pageBytes(bytes) {
+    if (!(bytes instanceof HeldBytes)) return bytes;
+    return (await this._request(...this._bytesMessage({ type: 'copy' }, 'bytes', bytes))).bytes;
+  }
+
   // Per mesh, the digest of the state the worker holds (stream/vsplit.h state_digest).
   async digests() {
     return (await this._request({ type: 'digests' })).digests;
