@@ -523,6 +523,26 @@ function explainingTags(m, r) {
   }
   return tags;
 }
+// The judge's reading (a product decision): COLLADA <transparency>0</transparency> under A_ONE,
+// which three.js's ColladaLoader reads as invisible, is opaque where the simulator the models come
+// from and their authoring tools show it opaque; meshmux converts it opaque and says so in a
+// warning. Such misses are listed apart, each with one line of evidence, and the appearance
+// target is counted on the other converted models.
+const kGazeboTransparency = 'Gazebo draws it opaque: its COLLADA loader blends A_ONE with source factor ' +
+  '1 − a·transparency = 1 (gazebo/common/ColladaLoader.cc, LoadTransparent)';
+function judgesReading(m, r) {
+  if (!r.converted || r.met || !r.warnings.texts.some((t) => /transparency makes it invisible/.test(t))) return null;
+  let tool = '';
+  try {
+    const text = fs.readFileSync(path.join(m.dir, m.file)).toString('utf8');
+    tool = (/<authoring_tool>([^<]*)<\/authoring_tool>/.exec(text) || [])[1] || '';
+  } catch {
+    // unreadable: the evidence goes without the tool
+  }
+  return `${m.name.startsWith('gazebo-') ? kGazeboTransparency : 'meshmux reads <transparency>0 as opaque'}` +
+    `${tool ? `; authored with ${tool.trim()}` : ''}`;
+}
+
 const kMetricText = { unlit: `unlit < ${kCorpus.unlit} dB`, lit: `lit < ${kCorpus.lit} dB`, iou: `IoU < ${kCorpus.iou}`,
   normals: 'normals > input + 0.1%' };
 // The corpus targets a judged row misses (NaN, nothing to compare, misses).
@@ -567,6 +587,7 @@ async function corpusMode() {
     row.missed = row.converted && !row.harnessError ? missed(row) : [];
     row.met = row.converted && !row.harnessError && !row.missed.length;
     row.causeTags = row.missed.length ? explainingTags(m, row) : [];
+    row.judgesReading = judgesReading(m, row);
     rows.push(row);
     console.error(`[${k + 1}/${models.length}] ${m.name}: ` + (!row.converted ? `not converted (exit ${row.exit}): ${row.error}`
       : row.harnessError ? `harness: ${row.harnessError}`
@@ -593,10 +614,22 @@ function write(rows, seconds) {
 // The summary line of the sweep.
 function sweepSummary(rows) {
   const converted = rows.filter((r) => r.converted), met = rows.filter((r) => r.met);
+  const judged = converted.filter((r) => !r.judgesReading);
   const share = (a, b) => (b ? `${((100 * a) / b).toFixed(1)} %` : '—');
-  return `${converted.length} of ${rows.length} convert (${share(converted.length, rows.length)}); of those converted ` +
-    `${met.length} (${share(met.length, converted.length)}) meet unlit ≥ ${kCorpus.unlit}, lit ≥ ${kCorpus.lit}, ` +
-    `IoU ≥ ${kCorpus.iou}, normals ≤ input + 0.1 %`;
+  return `${converted.length} of ${rows.length} convert (${share(converted.length, rows.length)}); ` +
+    `${converted.length - judged.length} in the judge's-reading column (below); of the other ${judged.length} converted ` +
+    `${met.length} (${share(met.length, judged.length)}) meet unlit ≥ ${kCorpus.unlit}, lit ≥ ${kCorpus.lit}, ` +
+    `IoU ≥ ${kCorpus.iou}, normals ≤ input + 0.1 % (of all converted: ${share(met.length, converted.length)})`;
+}
+
+// The judge's-reading column: the models whose misses are three.js's reading of the file, not
+// what its authors meant, each with its line of evidence.
+function judgesReadingSection(rows) {
+  const list = rows.filter((r) => r.judgesReading);
+  const lines = ["## Judge's reading", ''];
+  if (!list.length) lines.push('None.');
+  for (const r of list) lines.push(`- ${r.model} (missed ${r.missed.join(', ')}): ${r.judgesReading}`);
+  return lines.join('\n') + '\n';
 }
 
 // Misses grouped by cause: refusals by their error line (names blanked), harness errors by
@@ -638,8 +671,8 @@ function sweepMarkdown(rows, seconds) {
     'IoU is the unlit coverage (alpha > 0) of original and model.glb, pooled over the views.', '',
     `| model | format | result | unlit dB (≥ ${kCorpus.unlit}) | lit dB (≥ ${kCorpus.lit}) | IoU (≥ ${kCorpus.iou}) | ` +
     'normals against winding, input → model.glb | input | model.glb | model.mmxp | draw calls (original → model.glb) | ' +
-    'time s | peak RSS MB | met | warnings |',
-    '|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|---|'];
+    "time s | peak RSS MB | met | judge's reading | warnings |",
+    '|---|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|---|---|'];
   for (const r of rows) {
     const judged = r.converted && !r.harnessError;
     const result = !r.converted ? `${r.crashed ? 'crashed' : r.timedOut ? 'timed out' : `refused (exit ${r.exit})`}: ${r.error}`
@@ -650,9 +683,10 @@ function sweepMarkdown(rows, seconds) {
       judged ? `${pct(r.againstIn)} → ${pct(r.againstOut)}` : '',
       mb(r.inputBytes), mb(r.glbBytes), mb(r.mmxpBytes), judged ? `${r.drawCalls.original} → ${r.drawCalls.model}` : '',
       r.seconds == null ? '—' : r.seconds.toFixed(2), r.peakRssKb == null ? '—' : (r.peakRssKb / 1024).toFixed(0),
-      r.met ? 'yes' : `no${r.missed.length ? ` (${r.missed.join(', ')})` : ''}`, warn].map(cell).join(' | ')} |`);
+      r.met ? 'yes' : `no${r.missed.length ? ` (${r.missed.join(', ')})` : ''}`, r.judgesReading ? 'yes' : '', warn]
+      .map(cell).join(' | ')} |`);
   }
-  lines.push('', missesByCause(rows));
+  lines.push('', judgesReadingSection(rows), missesByCause(rows.filter((r) => !r.judgesReading)));
   return lines.join('\n') + '\n';
 }
 
@@ -660,14 +694,14 @@ function sweepMarkdown(rows, seconds) {
 function sweepTsv(rows) {
   const columns = ['model', 'format', 'converted', 'exit', 'error', 'warnings', 'warning_texts', 'unlit_db', 'lit_db', 'iou',
     'against_in', 'against_out', 'input_bytes', 'glb_bytes', 'mmxp_bytes', 'base_bytes', 'draw_calls_original',
-    'draw_calls', 'seconds', 'peak_rss_kb', 'harness_error', 'met', 'missed', 'cause_tags'];
+    'draw_calls', 'seconds', 'peak_rss_kb', 'harness_error', 'met', 'missed', 'cause_tags', 'judges_reading'];
   const v = (x) => (x == null || Number.isNaN(x) ? '' : x === Infinity ? 'inf' : String(x).replace(/[\t\n]/g, ' '));
   const lines = [columns.join('\t')];
   for (const r of rows)
     lines.push([r.model, r.format, r.converted ? 1 : 0, r.exit, r.error, r.warnings.count, r.warnings.texts.join(' | '),
       r.unlit, r.lit, r.iou, r.againstIn, r.againstOut, r.inputBytes, r.glbBytes, r.mmxpBytes, r.baseBytes,
       r.drawCalls?.original, r.drawCalls?.model, r.seconds, r.peakRssKb, r.harnessError, r.met ? 1 : 0,
-      r.missed.join(','), r.causeTags.join(', ')].map(v).join('\t'));
+      r.missed.join(','), r.causeTags.join(', '), r.judgesReading].map(v).join('\t'));
   return lines.join('\n') + '\n';
 }
 
