@@ -39,8 +39,8 @@ TEST(Format, WebClientKnowsTheChannelsInOrder) {
     names.push_back((*it)[1].str());
   ASSERT_EQ(names.size(), kChannelNames.size());
   for (size_t i = 0; i < names.size(); ++i) EXPECT_EQ(names[i], kChannelNames[i]) << i;
-  // The client binds every channel to a material slot.
-  const std::string client = web_file("meshmux.js");
+  // The client binds every channel to a material slot (viewers/web/materials.js CHANNEL_SLOTS).
+  const std::string client = web_file("materials.js");
   for (const char* name : kChannelNames)
     EXPECT_NE(client.find(std::string("  ") + name + ": ["), std::string::npos) << name;
 }
