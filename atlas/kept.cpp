@@ -22,7 +22,7 @@ bool grid_filter(const Sampler& s) {
 
 }  // namespace
 
-size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality) {
+size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality, EncodeCounts* counts) {
   std::vector<char> kept(scene.images.size(), 0);
   const size_t first = scene.materials.size() - std::min(kept_materials, scene.materials.size());
   for (size_t m = first; m < scene.materials.size(); ++m)
@@ -35,7 +35,7 @@ size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality) {
     bool opaque = true;
     for (size_t k = 3; k < img.rgba.size() && opaque; k += 4) opaque = img.rgba[k] == 255;
     if (!opaque) continue;
-    auto jpeg = encode_jpeg(img, quality);
+    auto jpeg = encode_jpeg(img, quality, counts);
     if (!jpeg.ok() || double(jpeg->size()) > kKeptJpegShare * double(img.encoded.size())) continue;
     saved += img.encoded.size() - jpeg->size();
     img.encoded = jpeg.take();

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/encode_counts.h"
 #include "scene/scene.h"
 
 namespace meshmux {
@@ -48,7 +49,9 @@ KeptSplit split_kept(const Scene& scene, const std::vector<KeptReason>& kept);
 // bytes it came with (lossless PNG sources of photographs and data maps: the corpus's kept
 // textures doubled model.glb's bytes when shipped as they came). Images with alpha, or whose
 // JPEG would save little, keep their bytes. Returns the bytes saved.
-size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality);
+// Each file encoded is counted in `counts` (when given).
+size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality,
+                          EncodeCounts* counts = nullptr);
 
 // Appends `extra`'s images, materials, meshes and instances to `out`, indices shifted.
 void append_scene(Scene& out, const Scene& extra);

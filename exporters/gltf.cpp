@@ -155,7 +155,7 @@ class Exporter {
       } else if (img.mime_type == "image/jpeg" && is_jpeg(img.encoded)) {
         bytes = &img.encoded, mime = "image/jpeg";
       } else if (img.decoded()) {
-        auto r = encode_png(img);
+        auto r = encode_png(img, opt_.counts);
         if (!r.ok()) {
           note(label + ": cannot embed (" + r.status().message() + ")");
           continue;

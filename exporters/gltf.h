@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "core/encode_counts.h"
 #include "scene/scene.h"
 #include "stream/quantize.h"
 
@@ -43,6 +44,7 @@ struct GltfExportOptions {
                             // = {"meshmux_image": Scene image index} (stream package base)
   bool meshopt = false;     // EXT_meshopt_compression + KHR_mesh_quantization, vertex order kept
                             // (stream package base); takes precedence over `draco`
+  EncodeCounts* counts = nullptr;  // observer: images encoded here (undecodable-as-is sources)
   std::vector<PositionQuantization>
       position_quantization;  // meshopt: grid per Scene mesh; missing entries are computed
                               // from the bounds of the mesh's positions over all its primitives

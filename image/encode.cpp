@@ -2,7 +2,6 @@
 
 #include <png.h>
 
-#include <atomic>
 #include <csetjmp>
 #include <cstring>
 #include <exception>
@@ -12,9 +11,6 @@
 namespace meshmux {
 
 namespace {
-
-std::atomic<uint64_t> g_images_encoded{0};
-thread_local bool t_uncounted = false;  // inside encoded_size: a measure, not an output
 
 std::string image_label(const Image& image) {
   return image.name.empty() ? std::string("image") : "image '" + image.name + "'";
@@ -55,22 +51,16 @@ bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vec
 
 }  // namespace
 
-uint64_t images_encoded() { return g_images_encoded.load(); }
-void count_image_encoded() {
-  if (!t_uncounted) ++g_images_encoded;
-}
-
 size_t encoded_size(const Image& image, int quality, bool alpha) {
   if (!image.decoded()) return 0;
   bool opaque = true;
-  for (size_t i = 3; alpha && opaque && i < image.rgba.size(); i += 4) opaque = image.rgba[i] == 255;
-  t_uncounted = true;
+  for (size_t i = 3; alpha && opaque && i < image.rgba.size(); i += 4)
+    opaque = image.rgba[i] == 255;
   auto bytes = alpha && !opaque ? encode_png(image) : encode_jpeg(image, quality);
-  t_uncounted = false;
   return bytes.ok() ? bytes->size() : 0;
 }
 
-Result<std::vector<uint8_t>> encode_png(const Image& image) {
+Result<std::vector<uint8_t>> encode_png(const Image& image, EncodeCounts* counts) {
   const std::string where = "png encode: " + image_label(image);
   if (!image.decoded()) return Status::error(where + ": not decoded", ErrorKind::kInternal);
   const size_t w = size_t(image.width), h = size_t(image.height);
@@ -99,7 +89,7 @@ Result<std::vector<uint8_t>> encode_png(const Image& image) {
       return Status::error(where + ": the PNG writer failed", ErrorKind::kInternal);
     if (bytes.size() < 8)
       return Status::error(where + ": writer produced no data", ErrorKind::kInternal);
-    count_image_encoded();
+    count(counts, &EncodeCounts::images);
     return bytes;
   } catch (const std::exception& e) {
     return Status::error(where + ": " + e.what(), ErrorKind::kInternal);

@@ -7,9 +7,7 @@
 
 namespace meshmux {
 
-void count_image_encoded();  // image/encode.cpp
-
-Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality) {
+Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality, EncodeCounts* counts) {
   if (!image.decoded())
     return Status::error("jpeg: " + image.name + ": image is not decoded", ErrorKind::kInternal);
   if (quality < 1 || quality > 100)
@@ -28,7 +26,7 @@ Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality) {
   }
   std::vector<uint8_t> out(buf, buf + size);
   tjFree(buf);
-  count_image_encoded();
+  count(counts, &EncodeCounts::images);
   return out;
 }
 

@@ -98,7 +98,7 @@ std::vector<KeptSource> kept_sources(const Scene& scene) {
 // Fills levels[j].kept with every source at scales[j] of its size (the finest: as it came), a
 // map only where the size differs from the level below's.
 Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<double>& scales,
-                 TextureLevels& levels, int preview_quality) {
+                 TextureLevels& levels, int preview_quality, EncodeCounts* counts) {
   for (TextureLevel& l : levels.levels) l.kept.clear();
   for (const KeptSource& k : sources) {
     Image decoded;  // only when the scene holds no pixels for it
@@ -122,8 +122,8 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
         map.encoded = k.source->encoded;
       } else {
         Image small = reduce(full, sides.first, sides.second, k.filter);
-        auto bytes =
-            map.mime_type == "image/jpeg" ? encode_jpeg(small, preview_quality) : encode_png(small);
+        auto bytes = map.mime_type == "image/jpeg" ? encode_jpeg(small, preview_quality, counts)
+                                                   : encode_png(small, counts);
         if (!bytes.ok())
           return Status::error("texture levels: kept image " + std::to_string(k.image) + " '" +
                                    k.source->name + "': " + bytes.status().message(),
@@ -160,20 +160,23 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
       scales.insert(scales.begin(), s);
     }
   }
-  if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
+  if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts); !st)
+    return st;
   // The byte bound counts the kept maps as make_texture_levels counts the atlas's: levels
   // between the smallest and the top go, most bytes first, while the pyramid is over it.
   while (const std::optional<size_t> at = drop_dearest_middle_level(
              levels, options.max_pyramid_ratio, "the levels and the kept images' maps")) {
     if (*at < inserted) --inserted;
     scales.erase(scales.begin() + std::ptrdiff_t(*at));
-    if (Status st = fill_kept(sources, scales, levels, options.preview_quality); !st) return st;
+    if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts);
+        !st)
+      return st;
   }
   // A level made for the kept images alone that costs more than the bound (the atlas resent is
   // dearer than the kept images save): the atlas's one level carries them as they came.
   if (inserted > 0 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
     levels.levels.erase(levels.levels.begin(), levels.levels.end() - 1);
-    return fill_kept(sources, {1.0}, levels, options.preview_quality);
+    return fill_kept(sources, {1.0}, levels, options.preview_quality, options.counts);
   }
   return Status::ok();
 }

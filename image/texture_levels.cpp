@@ -147,13 +147,13 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
   auto encode_level = [&](const Maps& m, int quality, TextureLevel* level) -> Status {
     level->width = m[0]->width;
     level->height = m[0]->height;
-    auto bytes = alpha ? encode_png(*m[0]) : encode_jpeg(*m[0], quality);
+    auto bytes = alpha ? encode_png(*m[0], o.counts) : encode_jpeg(*m[0], quality, o.counts);
     if (!bytes.ok()) return bytes.status().with_prefix(who);
     level->mime_type = alpha ? "image/png" : "image/jpeg";
     level->encoded = bytes.take();
     level->other_maps.clear();
     for (size_t c = 0; c < channels.size(); ++c) {
-      auto more = encode_jpeg(*m[c + 1], quality);
+      auto more = encode_jpeg(*m[c + 1], quality, o.counts);
       if (!more.ok()) return more.status().with_prefix(who + ": " + channels[c].channel);
       level->other_maps.push_back({channels[c].channel, "image/jpeg", more.take()});
     }

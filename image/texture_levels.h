@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/encode_counts.h"
 #include "scene/scene.h"
 #include "scene/texture_levels.h"
 
@@ -32,6 +33,7 @@ struct TextureLevelOptions {
   // together cost more than this times the top level (pay only for levels that pay);
   // with only the smallest left below the top, it halves until the pyramid fits.
   double max_pyramid_ratio = 1.15;
+  EncodeCounts* counts = nullptr;  // observer: every file encoded is counted here (when given)
 };
 
 // How a channel's texels average when a level halves.

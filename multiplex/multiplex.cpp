@@ -64,14 +64,14 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
 // layer_triangles, layer_levels and stream_digests, and nothing else of r; `layer_digests` gets
 // per layer every mesh's state digest once the layer's parts are applied.
 Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>& layers,
-                     const LodSelection& base, MultiplexResult& r,
+                     const LodSelection& base, EncodeCounts* counts, MultiplexResult& r,
                      std::vector<std::vector<uint32_t>>& layer_digests) {
   const int m = int(layers.size());
   std::vector<MeshStreamEncoder> encoders;
   encoders.reserve(ps.meshes.size());
   for (size_t i = 0; i < ps.meshes.size(); ++i) {
     encoders.emplace_back(ps.meshes[i], package_quantization(ps.meshes[i]), uint32_t(i),
-                          base.level[i]);
+                          base.level[i], counts);
     if (!encoders.back().status()) return encoders.back().status().with_prefix("multiplex");
     const ProgressiveMesh& pm = ps.meshes[i];
     MeshStreamBase head;
@@ -533,7 +533,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   std::vector<std::vector<uint32_t>> layer_digests;  // per layer, per mesh
   Background encoder([&] {
     const auto t = Clock::now();
-    encoded = encode_layers(ps, layers, base, r, layer_digests);
+    encoded = encode_layers(ps, layers, base, o.counts, r, layer_digests);
     r.seconds_layers = since(t);
   });
   const std::vector<std::vector<LevelMap>> textures = texture_layers(levels, r);

@@ -38,6 +38,7 @@ struct MultiplexOptions {
   // pixels, weighs silhouettes more at lower resolution).
   int forced_view_layers = -1;
   int forced_image_size = 128;
+  EncodeCounts* counts = nullptr;  // observer: every mesh part encoded is counted here
 };
 
 // The package's bound (the completion step, stream/format.h "Completion"): what the

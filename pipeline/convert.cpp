@@ -98,7 +98,8 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                        ar.layer_materials, ar.texel_grid_materials));
   Scene out = atlased.take();
   if (ar.kept_materials > 0)
-    if (size_t saved = encode_kept_images(out, ar.kept_materials, o.textures.jpeg_quality))
+    if (size_t saved =
+            encode_kept_images(out, ar.kept_materials, o.textures.jpeg_quality, o.counts))
       report_step(progress, format("atlas: the kept materials' opaque images re-encoded as JPEG, "
                                    "%.0f kB smaller",
                                    double(saved) / 1e3));
@@ -440,8 +441,10 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
   return best;
 }
 
-Result<ConvertOutputs> convert(Scene input, const ConvertOptions& o, Warnings* warnings,
+Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warnings* warnings,
                                Progress* progress) {
+  ConvertOptions o = options;
+  if (o.counts) o.textures.counts = o.gltf.counts = o.multiplex.counts = o.counts;
   ConvertOutputs out;
   out.input = compute_stats(input);
   // 1. Clean; the input is not read again.

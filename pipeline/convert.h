@@ -52,6 +52,9 @@ struct ConvertOptions {
   // The package at most this times model.glb's bytes (the completion step, multiplex.h
   // PackageBound): past it the chain of splits ends in the full mesh single-rate. 0: no bound.
   double max_package_ratio = 1.2;
+  // Observer (tests, tools): every image file and mesh part the conversion encodes is counted
+  // here, where it is encoded; it overrides the stage options' own. Null: nothing counted.
+  EncodeCounts* counts = nullptr;
   // model.glb is encoded beside the simplifier on scenes under this many unique triangles, and
   // before it on larger ones: the peak memory is then the larger of the two instead of their
   // sum, and the time their sum instead of the larger (the scan-like 4M mesh: 2.01 → 1.45 GB,

@@ -23,8 +23,6 @@ namespace meshmux {
 
 namespace {
 
-std::atomic<uint64_t> g_parts_encoded{0};
-
 Status internal(uint32_t mesh, const std::string& what) {
   return Status::error("package: mesh " + std::to_string(mesh) + ": " + what, ErrorKind::kInternal);
 }
@@ -47,12 +45,10 @@ Status check_mesh(const ProgressiveMesh& pm, uint32_t m) {
 
 }  // namespace
 
-uint64_t mesh_parts_encoded() { return g_parts_encoded.load(); }
-
 MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
                                      const PositionQuantization& quantization, uint32_t mesh,
-                                     size_t base_level)
-    : pm_(pm), quantization_(quantization), mesh_(mesh), level_(base_level) {
+                                     size_t base_level, EncodeCounts* counts)
+    : pm_(pm), quantization_(quantization), mesh_(mesh), level_(base_level), counts_(counts) {
   if (Status s = check_mesh(pm, mesh); !s) {
     status_ = s;
     return;
@@ -378,7 +374,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   e.data = std::move(plain);
   e.part.bytes = e.data.size();
   level_ = level;
-  ++g_parts_encoded;
+  count(counts_, &EncodeCounts::mesh_parts);
   return e;
 }
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/encode_counts.h"
 #include "scene/progressive.h"
 #include "scene/scene.h"
 #include "stream/format.h"
@@ -81,8 +82,9 @@ struct MeshStreamBase {
 // kMaxStreamElements, parents and indices in range); a failure shows in status().
 class MeshStreamEncoder {
  public:
+  // Each part encoded is counted in `counts` (when given).
   MeshStreamEncoder(const ProgressiveMesh& pm, const PositionQuantization& quantization,
-                    uint32_t mesh, size_t base_level);
+                    uint32_t mesh, size_t base_level, EncodeCounts* counts = nullptr);
   const Status& status() const { return status_; }
   // The base faces per source primitive (MeshStreamBase::base_primitive_faces).
   const std::vector<std::vector<uint32_t>>& base_faces() const { return base_faces_; }
@@ -100,6 +102,7 @@ class MeshStreamEncoder {
   PositionQuantization quantization_;
   uint32_t mesh_ = 0;
   size_t level_ = 0;
+  EncodeCounts* counts_ = nullptr;
   bool normals_ = true;
   bool uvs_ = true;  // the mesh has texture coordinates (else the stream carries none)
   QuantizedVertex quantize(uint32_t pm_vertex) const;  // quantize_vertex, +Z when !normals_
@@ -114,10 +117,6 @@ class MeshStreamEncoder {
 
 // A mesh chunk's payload: its parts' bytes in order (empty without parts). O(total bytes).
 std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts);
-
-// Parts encoded by every MeshStreamEncoder of this process so far (a counter for tests that
-// check each part is encoded once per conversion). Thread-safe.
-uint64_t mesh_parts_encoded();
 
 // Whether `pm`'s stream carries normals: false when every source primitive is flat.
 bool stream_carries_normals(const ProgressiveMesh& pm);

@@ -32,10 +32,12 @@ const Converted& converted() {
   static const Converted c = [] {
     Converted r;
     Scene scene = sample();
-    uint64_t images0 = images_encoded(), parts0 = mesh_parts_encoded();
+    EncodeCounts counts;
+    ConvertOptions o;
+    o.counts = &counts;
     Warnings warnings;
-    r.out = convert(scene, ConvertOptions{}, &warnings, nullptr);
-    r.images = images_encoded() - images0, r.parts = mesh_parts_encoded() - parts0;
+    r.out = convert(scene, o, &warnings, nullptr);
+    r.images = counts.images, r.parts = counts.mesh_parts;
     return r;
   }();
   return c;
