@@ -9,6 +9,8 @@ if [ "${MESHMUX_SANITIZE:-0}" = 1 ]; then
   dir="$here/build-asan"
   flags+=(-DMESHMUX_SANITIZE=ON)
 fi
+# ccache keys paths relative to the checkout, so a clone elsewhere (CI's) reuses the cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}"
 cmake -S "$here" -B "$dir" -G Ninja "${flags[@]}" >/dev/null
 cmake --build "$dir" -j "$(nproc)"
 echo "$dir"
