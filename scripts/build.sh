@@ -9,8 +9,9 @@ if [ "${MESHMUX_SANITIZE:-0}" = 1 ]; then
   dir="$here/build-asan"
   flags+=(-DMESHMUX_SANITIZE=ON)
 fi
-# ccache keys paths relative to the checkout, so a clone elsewhere (CI's) reuses the cache.
-export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}"
+# ccache keys paths relative to the checkout, and not the build folder's path (-g1 would put it
+# in the key), so a clone elsewhere (CI's) reuses the cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S "$here" -B "$dir" -G Ninja "${flags[@]}" >/dev/null
 cmake --build "$dir" -j "$(nproc)"
 echo "$dir"

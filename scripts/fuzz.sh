@@ -11,8 +11,9 @@ runs=${1:-100000}
 seconds=${2:-600}
 build="$here/build-fuzz"
 command -v clang++ >/dev/null || { echo "fuzz: clang++ not installed (apt-get install clang)" >&2; exit 2; }
-# ccache keys paths relative to the checkout, so a clone elsewhere (CI's) reuses the cache.
-export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}"
+# ccache keys paths relative to the checkout, and not the build folder's path (-g1 would put it
+# in the key), so a clone elsewhere (CI's) reuses the cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DMESHMUX_FUZZ=ON -DMESHMUX_TESTS=OFF >/dev/null
 cmake --build "$build" -j "$(nproc)" --target fuzz_gltf fuzz_glb fuzz_collada fuzz_package meshmux >/dev/null

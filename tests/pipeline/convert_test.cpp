@@ -162,6 +162,17 @@ TEST(Convert, FlatteningFollowsTheSimplifyOption) {
   EXPECT_EQ(kept->output.meshes, 2u);
 }
 
+// One smooth sphere of 39,800 triangles, placed once: streamed (over 10,000 triangles), its
+// splits dearer than Draco's single-rate coding, its coarsest level a few dozen triangles.
+Scene sphere_scene() {
+  Scene scene;
+  Mesh mesh;
+  mesh.primitives.push_back(testing::uv_sphere(100, 200));
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  return scene;
+}
+
 // The first picture's bound is min(256 KiB, max(64 KiB, 0.1× model.glb)): small models get
 // the floor, large ones the ceiling, the rest a tenth of their model.glb.
 TEST(Convert, FirstPictureBytesFollowTheModelBetweenFloorAndCeiling) {
@@ -180,11 +191,7 @@ TEST(Convert, FirstPictureBytesFollowTheModelBetweenFloorAndCeiling) {
 // model's bytes binds). Without the bound (share 0) the same scene's base is over it, so the
 // case does exercise it.
 TEST(Convert, BaseGlbStaysWithinTheFirstPictureBytes) {
-  Scene scene;
-  Mesh mesh;
-  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
-  scene.meshes.push_back(mesh);
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  const Scene scene = sphere_scene();
   ConvertOptions o;
   o.report = false;  // model.glb and base.glb, no renders
   o.simplify.base_max_error = 1e-9f;
@@ -208,11 +215,7 @@ TEST(Convert, BaseGlbStaysWithinTheFirstPictureBytes) {
 // When even the coarsest levels are over the bound (here a bound of 1 byte), the base is the
 // coarsest the record has, not the stopping rule's: as close to the first picture as it goes.
 TEST(Convert, BaseOverTheBoundEvenAtTheCoarsestTakesTheCoarsest) {
-  Scene scene;
-  Mesh mesh;
-  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
-  scene.meshes.push_back(mesh);
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  const Scene scene = sphere_scene();
   ConvertOptions o;
   o.report = false;
   o.simplify.base_max_error = 1e-9f;
@@ -236,11 +239,7 @@ TEST(Convert, BaseOverTheBoundEvenAtTheCoarsestTakesTheCoarsest) {
 TEST(Convert, PackageOverItsBoundEndsInTheCompletion) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene;
-  Mesh mesh;
-  mesh.primitives.push_back(testing::uv_sphere(100, 200));  // 39,800 triangles
-  scene.meshes.push_back(mesh);
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  const Scene scene = sphere_scene();
   ConvertOptions o;
   o.max_package_ratio = 1.1;
   Warnings warnings;
