@@ -507,12 +507,12 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   // chain of splits ends in the completion. The package's base is built when the bound asks for
   // its bytes, and handed on to the package.
   std::optional<std::vector<uint8_t>> ordered_base;
-  std::vector<MeshStreamBase> heads;
+  const std::vector<MeshStreamBase>* heads = nullptr;  // the multiplexer's, while it runs
   PackageBound bound;
   if (o.max_package_ratio > 0) {
     bound.max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
     bound.fixed_bytes = [&](const std::vector<MeshStreamBase>& h) -> Result<uint64_t> {
-      heads = h;
+      heads = &h;
       auto glb = ordered_base_glb(ps, h, *levels, o, warnings);
       if (!glb.ok()) return glb.status();
       const uint64_t stored = std::min(deflate_bytes(*glb).size(), glb->size());
@@ -524,7 +524,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
       std::vector<Result<CompletionMesh>> coded(meshes.size(), Status::ok());
       parallel_chunks(meshes.size(), 1, [&](size_t begin, size_t end) {
         for (size_t c = begin; c < end; ++c)
-          coded[c] = completion_mesh(ps.meshes[meshes[c]], heads[meshes[c]], meshes[c], o.gltf);
+          coded[c] = completion_mesh(ps.meshes[meshes[c]], (*heads)[meshes[c]], meshes[c], o.gltf);
       });
       std::vector<CompletionMesh> list;
       for (Result<CompletionMesh>& c : coded) {
