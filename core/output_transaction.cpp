@@ -23,9 +23,58 @@ const std::set<std::string> kOwnEntries = {"model.glb",     "base.glb",      "mo
                                            "report.json",   "rd.svg",        "index.html",
                                            "index.html.gz", "index.html.br", "viewer"};
 
-bool process_running(long pid) {
+// The state letter and start time (clock ticks after boot) of a process, from /proc/<pid>/stat;
+// false when it cannot be read. The command name (field 2) may hold spaces and parentheses, so
+// the fields are read after its last ')'.
+bool process_stat(long pid, char& state, unsigned long long& start_ticks) {
+  FILE* f = fopen(("/proc/" + std::to_string(pid) + "/stat").c_str(), "r");
+  if (!f) return false;
+  char buf[1024];
+  const size_t n = fread(buf, 1, sizeof buf - 1, f);
+  fclose(f);
+  buf[n] = 0;
+  const char* p = strrchr(buf, ')');
+  if (!p) return false;
+  // After ')': state (field 3), then fields 4..21, then starttime (field 22).
+  if (sscanf(p + 1, " %c", &state) != 1) return false;
+  const char* q = p + 2;
+  for (int field = 3; field < 22 && q; ++field) {
+    q = strchr(q, ' ');
+    if (q) ++q;
+  }
+  return q && sscanf(q, "%llu", &start_ticks) == 1;
+}
+
+// Seconds since the epoch at which the machine booted (/proc/stat "btime"), or -1.
+long long boot_time() {
+  FILE* f = fopen("/proc/stat", "r");
+  if (!f) return -1;
+  char line[256];
+  long long bt = -1;
+  while (fgets(line, sizeof line, f))
+    if (sscanf(line, "btime %lld", &bt) == 1) break;
+  fclose(f);
+  return bt;
+}
+
+// Whether the process that named a temporary still runs. A zombie does not (its parent was
+// killed and nothing reaps it: kill(pid, 0) still succeeds on it), nor does a process that
+// started after the temporary was last written (the pid was reused).
+bool process_running(long pid, const fs::path& temporary) {
   if (pid <= 0) return false;
-  return kill(pid_t(pid), 0) == 0 || errno == EPERM;
+  if (kill(pid_t(pid), 0) != 0 && errno != EPERM) return false;
+  char state = 0;
+  unsigned long long start = 0;
+  if (!process_stat(pid, state, start)) return true;  // no /proc: trust kill()
+  if (state == 'Z' || state == 'X') return false;
+  struct stat st;
+  const long long bt = boot_time();
+  const long hz = sysconf(_SC_CLK_TCK);
+  if (bt < 0 || hz <= 0 || lstat(temporary.c_str(), &st) != 0) return true;
+  const long long started = bt + (long long)(start / (unsigned long long)hz);
+  // Slack for the rounding of both clocks and a small step of the wall clock: a live run's
+  // temporary must never be judged stale.
+  return started <= (long long)st.st_mtime + 10;
 }
 
 // The pid a temporary's name ends with after `marker`, or -1.
@@ -80,7 +129,7 @@ void clean_stale_temporaries(const std::string& out) {
     long pid = pid_after(n, name + ".meshmux-tmp-");
     if (pid < 0) pid = pid_after(n, name + ".tmp-");
     if (pid < 0) pid = pid_after(n, name + ".meshmux-upload-");  // an unpacked .zip upload
-    if (pid < 0 || process_running(pid)) continue;
+    if (pid < 0 || process_running(pid, e.path())) continue;
     std::error_code rm;
     fs::remove_all(e.path(), rm);
   }

@@ -25,7 +25,9 @@ namespace meshmux {
 Status refuse_overwriting_input(const std::string& input, const std::string& out, bool folder);
 
 // Removes the temporaries of dead meshmux runs beside `out` (its folder's entries named
-// "<out name>.meshmux-tmp-<pid>" or "<out name>.tmp-<pid>" whose pid is not running).
+// "<out name>.meshmux-tmp-<pid>" or "<out name>.tmp-<pid>" whose pid is not running). A zombie
+// (a killed run's child that nothing reaps, as under a container's init) does not count as
+// running, nor does a process that started after the temporary was last written (a reused pid).
 void clean_stale_temporaries(const std::string& out);
 
 class OutputFolder {

@@ -2,6 +2,7 @@
 // service's output folder before.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/output_transaction.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -54,6 +56,34 @@ TEST(OutputTransaction, KilledRunLeavesThePreviousOutputAndNextRunCleansUp) {
   convert_sample(dir, /*report=*/false);
   for (const auto& e : fs::directory_iterator(dir.path()))
     EXPECT_EQ(e.path().filename().string().find(".meshmux-tmp-"), std::string::npos) << e.path();
+}
+
+// A batch killed with SIGKILL takes its conversions with it, but under a container's init
+// nothing reaps them: they stay zombies, kill(pid, 0) succeeds, and their temporary folders
+// were judged live and left in the output forever (seen in CI). A zombie's temporary goes; a
+// live process's stays.
+TEST(OutputTransaction, ZombiesTemporaryIsCleanedALiveOnesIsKept) {
+  TempDir dir;
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) _exit(0);
+  // Wait until the child has exited (it is a zombie: not reaped yet).
+  for (int i = 0; i < 500; ++i) {
+    std::ifstream st("/proc/" + std::to_string(child) + "/stat");
+    std::string text((std::istreambuf_iterator<char>(st)), std::istreambuf_iterator<char>());
+    if (text.find(") Z ") != std::string::npos) break;
+    usleep(10000);
+  }
+  const std::string out = dir.file("out");
+  const std::string zombie = out + ".meshmux-tmp-" + std::to_string(child);
+  const std::string live = out + ".meshmux-tmp-" + std::to_string(getpid());
+  fs::create_directories(zombie);
+  fs::create_directories(live);
+  meshmux::clean_stale_temporaries(out);
+  EXPECT_FALSE(fs::exists(zombie)) << "a zombie's temporary was judged live";
+  EXPECT_TRUE(fs::exists(live)) << "a running process's temporary was removed";
+  int status = 0;
+  waitpid(child, &status, 0);
 }
 
 // Re-converting with --no-report left the old package and viewer beside the new model.glb:
