@@ -45,9 +45,9 @@ Result<std::array<double, 6>> report_bounds(const std::string& outroot, const st
                          ErrorKind::kInput);
   std::array<double, 6> out{};
   for (size_t i = 0; i < 6; ++i) {
-    // The world's own rule (batch/world.h): coordinates a float32 transform can still place.
+    // The world's own rule (stream/world_format.h): coordinates a float32 transform can place.
     if (!(*b)[i].is_number() || !std::isfinite((*b)[i].get<double>()) ||
-        std::abs((*b)[i].get<double>()) > 1e15)
+        std::abs((*b)[i].get<double>()) > kWorldMaxCoordinate)
       return Status::error(
           name + "/report.json: \"bounds\" are not 6 coordinates a world can place",
           ErrorKind::kInput);

@@ -1,87 +1,18 @@
-// A world: many converted packages placed in one scene, streamed under one budget by the web
-// library's MeshmuxWorld. `meshmux batch` writes OUTROOT/world.json for its outputs, on a grid
-// (grid_world) or where a layout file puts them (read_layout, apply_layout).
-//
-// world.json (version 1):
-//   {"meshmux_world": 1,
-//    "packages": [{"name": "Duck", "url": "Duck/model.mmxp",
-//                  "bounds": [minx, miny, minz, maxx, maxy, maxz],   // world box, model units
-//                  "bytes": 34149,                                   // the package's size
-//                  "head_bytes": 18602}, ...],   // optional: its header, table and base
-//    "placements": [{"package": 0, "matrix": [16 numbers, column-major]}, ...]}
-// A package may be placed several times (and need not be placed). URLs are relative to the
-// world file's folder and stay inside it: no scheme, no leading '/', no '\', no ".." segment
-// (also percent-encoded, any case), no query, fragment, space or control character
-// (WorldLimits::allow_external_urls lifts that for trusted worlds).
+// Where `meshmux batch` places its streamed conversions in world.json (the format:
+// stream/world_format.h): on a grid, or where a layout file puts them.
 #pragma once
 
-#include <array>
-#include <cstdint>
 #include <string>
 #include <vector>
 
-#include "core/status.h"
+#include "stream/world_format.h"
 
 namespace meshmux {
-
-struct WorldPackage {
-  std::string name;                // for messages and the page (≤ 256 bytes)
-  std::string url;                 // relative to the world's folder
-  std::array<double, 6> bounds{};  // world-space box of the package's full detail
-  uint64_t bytes = 0;              // the package file's size (0: unknown)
-  uint64_t head_bytes = 0;  // bytes from the file's start through the end of its base (header,
-                            // table, base): one range request shows the package (0: unknown)
-};
-
-struct WorldPlacement {
-  uint32_t package = 0;             // index into World::packages
-  std::array<double, 16> matrix{};  // column-major affine transform, world from package
-};
-
-struct World {
-  std::vector<WorldPackage> packages;
-  std::vector<WorldPlacement> placements;
-};
-
-struct WorldLimits {
-  size_t max_bytes = 16u << 20;      // the file's size
-  size_t max_packages = 10000;       // entries of "packages"
-  size_t max_placements = 100000;    // entries of "placements"
-  bool allow_external_urls = false;  // URLs outside the world's folder (trusted worlds only)
-};
-
-// The identity, as a column-major 4x4.
-std::array<double, 16> identity_matrix();
-
-// Whether `url` stays inside the world's folder (see the header comment). "" → false.
-bool world_url_is_inside(const std::string& url);
-
-// world.json's text for `world` (deterministic: the same world gives the same bytes).
-std::string world_json(const World& world);
-
-// Parses and validates world.json text. Errors (kInput) name `file` and the element:
-// "world.json: packages[3].url \"../x.mmxp\" leaves the world's folder".
-Result<World> parse_world(const std::string& text, const std::string& file,
-                          const WorldLimits& limits = {});
 
 // The packages on a square-ish grid in list order: each scaled so its box diagonal is 1,
 // centred on its cell in x and z and standing on y = 0, cells 1.5 apart. A package whose box is
 // empty or not finite keeps unit scale. O(packages).
 World grid_world(std::vector<WorldPackage> packages);
-
-// A layout file: where named packages go. JSON: {"placements": [{"name": "Duck", and either
-// "matrix": [16 numbers, column-major] or any of "translation": [x, y, z], "scale": s or
-// [sx, sy, sz], "rotation_y_degrees": r (applied scale, then rotation, then translation)}]}.
-// A name may be placed several times.
-struct LayoutEntry {
-  std::string name;
-  std::array<double, 16> matrix{};
-};
-
-// Reads and validates a layout file (limits as for worlds). Errors (kInput) name the file and
-// the entry.
-Result<std::vector<LayoutEntry>> read_layout(const std::string& path,
-                                             const WorldLimits& limits = {});
 
 // The world of `packages` placed as `layout` says (in layout order). Names the layout gives
 // that no package has are returned in *missing (not placed); packages the layout does not

@@ -1,6 +1,9 @@
 // meshmux info FILE [--json]: what an upload holds (meshes, instances, triangles, materials,
-// textures, draw calls, bytes served), as text or JSON on stdout.
+// textures, draw calls, bytes served), or what a world.json places (stream/world_format.h) with
+// each package file checked, as text or JSON on stdout.
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -8,16 +11,95 @@
 #include "cli/args.h"
 #include "cli/commands.h"
 #include "core/exit_codes.h"
+#include "core/file_io.h"
 #include "core/text.h"
 #include "pipeline/inputs.h"
+#include "stream/world_format.h"
 
 namespace meshmux {
+
+namespace {
+
+bool ends_with_json(const std::string& path) {
+  if (path.size() < 5) return false;
+  std::string tail = path.substr(path.size() - 5);
+  for (char& c : tail) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return tail == ".json";
+}
+
+// "%41" → "A": a world's URLs are percent-encoded paths relative to its folder.
+std::string percent_decoded(const std::string& url) {
+  std::string out;
+  for (size_t i = 0; i < url.size(); ++i) {
+    if (url[i] == '%' && i + 2 < url.size() &&
+        std::isxdigit(static_cast<unsigned char>(url[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(url[i + 2]))) {
+      out += char(std::stoi(url.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += url[i];
+    }
+  }
+  return out;
+}
+
+// A world.json: validated as the browser validates it, then every package's file looked for
+// beside it (present, and of the size the world says). Problems go to stderr, one line each,
+// and make the exit code kExitInput.
+int info_world(const std::string& path, bool json) {
+  const std::string file = base_name(path);
+  auto bytes = read_whole_file(path, kWorldMaxBytes);
+  if (!bytes.ok()) return print_error(bytes.status());
+  auto world = parse_world(std::string(bytes->begin(), bytes->end()), file);
+  if (!world.ok()) return print_error(world.status());
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::vector<std::string> problems;
+  uint64_t total = 0;
+  for (size_t i = 0; i < world->packages.size(); ++i) {
+    const WorldPackage& p = world->packages[i];
+    const std::string where = file + ": packages[" + std::to_string(i) + "] '" + p.name + "': ";
+    std::error_code ec;
+    const std::filesystem::path on_disk = folder / percent_decoded(p.url);
+    const bool present = std::filesystem::is_regular_file(on_disk, ec);
+    const uintmax_t size = present ? std::filesystem::file_size(on_disk, ec) : 0;
+    if (!present || ec)
+      problems.push_back(where + p.url + ": no such file");
+    else if (p.bytes > 0 && size != p.bytes)
+      problems.push_back(where + p.url + ": " + std::to_string(size) + " bytes, the world says " +
+                         std::to_string(p.bytes));
+    total += p.bytes;
+  }
+  if (json) {
+    nlohmann::ordered_json j;
+    j["file"] = path;
+    j["world_version"] = kWorldVersion;
+    j["packages"] = world->packages.size();
+    j["placements"] = world->placements.size();
+    j["package_bytes"] = total;
+    j["problems"] = problems;
+    std::printf("%s\n", j.dump(1).c_str());
+  } else {
+    std::printf("file              %s\n", path.c_str());
+    std::printf("world version     %d\n", kWorldVersion);
+    std::printf("packages          %zu (%s in all)\n", world->packages.size(),
+                human_bytes(total).c_str());
+    std::printf("placements        %zu\n", world->placements.size());
+    std::printf("package files     %s\n",
+                problems.empty() ? "all present"
+                                 : (std::to_string(problems.size()) + " with problems").c_str());
+  }
+  for (const std::string& p : problems) std::fprintf(stderr, "meshmux: %s\n", p.c_str());
+  return problems.empty() ? kExitOk : kExitInput;
+}
+
+}  // namespace
 
 int cmd_info(const std::vector<std::string>& args) {
   auto p = parse_args(kInfo, args);
   if (!p.ok()) return usage_error(kInfo, p.status().message());
   if (p->help) return std::fputs(meshmux_usage(), stdout), kExitOk;
   if (p->positional.empty()) return usage_error(kInfo, "no file given");
+  if (ends_with_json(p->positional[0])) return info_world(p->positional[0], p->has("--json"));
   UploadFlags u = upload_flags(*p);
   auto upload = open_input(p->positional[0], u.upload, "", &u.import);
   if (!upload.ok()) return print_error(upload.status());

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/file_io.h"
+#include "stream/world_format.h"
 
 namespace meshmux {
 namespace {
@@ -25,6 +26,24 @@ TEST(Format, WebClientReadsThisVersion) {
   std::smatch m;
   ASSERT_TRUE(std::regex_search(reader, m, std::regex(R"(PACKAGE_VERSION = (\d+);)")));
   EXPECT_EQ(std::stoul(m[1].str()), kPackageVersion);
+}
+
+// world.json's version and limits (stream/world_format.h) against the browser's reader
+// (world_plan.js): a world `meshmux batch` writes must be one the browser accepts, and a world
+// the browser accepts must be one `meshmux info` accepts.
+TEST(Format, WebWorldReaderHasTheSpecsVersionAndLimits) {
+  const std::string plan = web_file("world_plan.js");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(plan, m, std::regex(R"(WORLD_VERSION = (\d+);)")));
+  EXPECT_EQ(std::stoi(m[1].str()), kWorldVersion);
+  ASSERT_TRUE(std::regex_search(
+      plan, m,
+      std::regex(R"(maxBytes: (\d+) << (\d+), maxPackages: (\d+), maxPlacements: (\d+))")));
+  EXPECT_EQ(std::stoull(m[1].str()) << std::stoull(m[2].str()), kWorldMaxBytes);
+  EXPECT_EQ(std::stoull(m[3].str()), kWorldMaxPackages);
+  EXPECT_EQ(std::stoull(m[4].str()), kWorldMaxPlacements);
+  ASSERT_TRUE(std::regex_search(plan, m, std::regex(R"(MAX_COORDINATE = ([0-9e.]+);)")));
+  EXPECT_EQ(std::stod(m[1].str()), kWorldMaxCoordinate);
 }
 
 TEST(Format, WebClientKnowsTheChannelsInOrder) {

@@ -4,13 +4,13 @@
 // weighted by that share. The world streams the chunk of best gain per byte next, across every
 // package; what is off screen gains nothing and waits, what is tiny gains little.
 //
-// world.json (written by `meshmux batch`, read by batch/world.h the same way):
-//   {"meshmux_world": 1,
-//    "packages": [{"name", "url" (relative, inside the world's folder), "bounds": [6], "bytes"}],
-//    "placements": [{"package": index, "matrix": [16, column-major, affine]}]}
+// world.json: its spec is stream/world_format.h (written by `meshmux batch`, read by
+// `meshmux info` with the same rules); the version and limits below are checked against it by
+// tests/stream/format_test.cpp.
 
 import { layerChunks, surface, viewWeights } from './view_plan.js';
 
+export const WORLD_VERSION = 1;
 export const WORLD_LIMITS = { maxBytes: 16 << 20, maxPackages: 10000, maxPlacements: 100000 };
 const MAX_COORDINATE = 1e15;
 
@@ -39,7 +39,7 @@ export function validateWorld(json, file = 'world.json', options = {}) {
   };
   if (!isObj(json)) fail('not a JSON object');
   if (json.meshmux_world === undefined) fail('not a meshmux world (no "meshmux_world" version)');
-  if (json.meshmux_world !== 1) fail(`world version ${JSON.stringify(json.meshmux_world)} (this library reads version 1)`);
+  if (json.meshmux_world !== WORLD_VERSION) fail(`world version ${JSON.stringify(json.meshmux_world)} (this library reads version ${WORLD_VERSION})`);
   if (!Array.isArray(json.packages)) fail('"packages" is missing or not an array');
   if (json.packages.length > WORLD_LIMITS.maxPackages) fail(`${json.packages.length} packages (at most ${WORLD_LIMITS.maxPackages})`);
   const packages = json.packages.map((p, i) => {
