@@ -1046,7 +1046,10 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
   };
   if (std::all_of(kept.begin(), kept.end(), [](KeptReason k) { return k == KeptReason::kNone; })) {
     auto out = build_atlas_core(scene, o, report, warnings);
-    if (out.ok() && report) baked_images(*report, out->images.size());
+    if (out.ok() && report) {
+      baked_images(*report, out->images.size());
+      report->streamed_material = out->materials.empty() ? -1 : 0;
+    }
     return out;
   }
   // Kept materials stay as they came, beside the atlas of the rest (atlas/kept.h).
@@ -1077,6 +1080,9 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
       rep.layer_materials += kept[i] == KeptReason::kLayers;
       rep.texel_grid_materials += kept[i] == KeptReason::kTexelGrid;
     }
+  // The atlas's materials come first; without a rest, the first kept one (its texture streams
+  // where its sides allow, pipeline/convert.cpp).
+  rep.streamed_material = out.materials.empty() ? -1 : 0;
   if (report) *report = std::move(rep);
   return out;
 }

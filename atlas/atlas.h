@@ -96,6 +96,10 @@ struct AtlasReport {
   double tangent_deviation_deg = 0;  // mean angle between dp/du and ∇u over the textured
                                      // charts (MikkTSpace's frame against the baked one)
   double seconds = 0;
+  // The material whose texture set the texture levels stream (the atlas's first material: every
+  // atlas material shares its images; where no atlas was needed, the scene's first material,
+  // its one texture set), or -1 (no material). The others keep their own images (atlas/kept.h).
+  int32_t streamed_material = -1;
   // For the bytes bound (atlas/atlas_bytes.h): the source images the atlas replaces (indices
   // into the input scene's images: those of the baked materials in use), and how many images
   // the atlas made (the output's first atlas_images; 0 when no charts were baked).

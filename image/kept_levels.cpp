@@ -51,10 +51,10 @@ Image reduce(const Image& full, int width, int height, TexelFilter filter) {
 
 }  // namespace
 
-std::vector<int32_t> kept_level_images(const Scene& scene) {
+std::vector<int32_t> kept_level_images(const Scene& scene, int32_t streamed_material) {
   std::set<int32_t> streamed, used;
-  if (!scene.materials.empty())
-    for (const TextureRef* t : texture_refs(scene.materials[0]))
+  if (streamed_material >= 0 && size_t(streamed_material) < scene.materials.size())
+    for (const TextureRef* t : texture_refs(scene.materials[size_t(streamed_material)]))
       if (t->present()) streamed.insert(t->image);
   for (const Material& m : scene.materials)
     for (const TextureRef* t : texture_refs(m))
@@ -74,10 +74,11 @@ struct KeptSource {
   int width = 0, height = 0;  // as decoded
 };
 
-// The kept images a level can carry: JPEG or PNG, decodable.
-std::vector<KeptSource> kept_sources(const Scene& scene) {
+// The kept images a level can carry: JPEG or PNG, decodable (`streamed_material`'s own images
+// are the levels').
+std::vector<KeptSource> kept_sources(const Scene& scene, int32_t streamed_material) {
   std::vector<KeptSource> out;
-  for (int32_t i : kept_level_images(scene)) {
+  for (int32_t i : kept_level_images(scene, streamed_material)) {
     const Image& source = scene.images[size_t(i)];
     if (source.encoded.empty() ||
         (source.mime_type != "image/jpeg" && source.mime_type != "image/png"))
@@ -141,7 +142,7 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
 Status add_kept_levels(const Scene& scene, TextureLevels& levels,
                        const TextureLevelOptions& options) {
   if (levels.levels.empty()) return Status::ok();
-  const std::vector<KeptSource> sources = kept_sources(scene);
+  const std::vector<KeptSource> sources = kept_sources(scene, levels.material);
   if (sources.empty()) return Status::ok();
   const double top = double(std::max(1, levels.levels.back().width));
   std::vector<double> scales;

@@ -25,8 +25,10 @@ namespace meshmux {
 
 constexpr int kKeptMinSide = 4;  // a kept image is never reduced below this side (or its own)
 
-// The image indices of `scene` that a level carries as kept maps (see above), ascending.
-std::vector<int32_t> kept_level_images(const Scene& scene);
+// The image indices of `scene` that a level carries as kept maps (see above), ascending: every
+// image a material samples but `streamed_material` (the levels' own, TextureLevels::material;
+// -1: none) does not.
+std::vector<int32_t> kept_level_images(const Scene& scene, int32_t streamed_material);
 
 // How image `image` of `scene` holds its texels, by the slots that sample it: colour (base colour,
 // emissive, sheen or specular colour) wins; a normal map only as a normal map; else data.

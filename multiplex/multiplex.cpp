@@ -214,9 +214,11 @@ std::vector<std::vector<LevelMap>> texture_layers(const TextureLevels& levels, M
 // to `progress`.
 struct CellRenders {
   CellRenders(const ProgressiveScene& scene, const std::vector<LodSelection>& selections,
-              Renderer& renderer, MultiplexResult& result, Progress* report_to)
+              int32_t texture_material, Renderer& renderer, MultiplexResult& result,
+              Progress* report_to)
       : ps(scene),
         layers(selections),
+        streamed_material(texture_material),
         gl(renderer),
         r(result),
         progress(report_to),
@@ -345,7 +347,7 @@ struct CellRenders {
   int geometry_of(int i) {
     if (geometry[size_t(i)] < 0)
       geometry[size_t(i)] =
-          gl.add_geometry(materialize(ps, layers[size_t(i)]), false, /*kept_images=*/true);
+          gl.add_geometry(materialize(ps, layers[size_t(i)]), false, streamed_material);
     return geometry[size_t(i)];
   }
   // Texture level j's maps (an empty set without textures).
@@ -354,6 +356,7 @@ struct CellRenders {
 
   const ProgressiveScene& ps;
   const std::vector<LodSelection>& layers;
+  const int32_t streamed_material;  // the material the texture levels stream (TextureLevels)
   Renderer& gl;
   MultiplexResult& r;
   Progress* progress;
@@ -553,7 +556,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // Render time counts the texture levels' decoding and upload (it used to be spread over the
   // layers' time and the first renders).
   auto render_start = Clock::now();
-  CellRenders cells(ps, layers, **renderer, r, progress);
+  CellRenders cells(ps, layers, levels.material, **renderer, r, progress);
   if (Status s = cells.upload_textures(textures); !s) return s;
   ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
   cells.place_cameras(sphere, full, render, o.views);

@@ -179,7 +179,7 @@ struct GpuPrimitive {
   Vec3 sheen{0, 0, 0};  // sheen colour factor (0: no sheen layer)
   float sheen_roughness = 0;
   TextureSet textures;  // its material's own textures (add_geometry with_textures), or none
-  // add_geometry kept_images: a primitive of a material kept beside the atlas, drawn with its
+  // add_geometry streamed_material: a primitive of a material kept beside the atlas, drawn with its
   // own images (per TextureSet slot: base colour, normal, orm, emissive, sheen; -1 none) through
   // an explicit set's `kept` handles.
   bool keeps_own = false;
@@ -537,7 +537,7 @@ Renderer::~Renderer() {
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
 
-int Renderer::add_geometry(const Scene& scene, bool with_textures, bool kept_images) {
+int Renderer::add_geometry(const Scene& scene, bool with_textures, int32_t streamed_material) {
   Impl& m = *impl_;
   m.make_current();
   // Each material's decoded images, uploaded once (as colour or as data).
@@ -568,8 +568,10 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures, bool kept_ima
       auto image_of = [](const Material* mat) {
         return mat && mat->base_color.present() ? mat->base_color.image : -1;
       };
-      const bool keeps_own = kept_images && material && !scene.materials.empty() &&
-                             image_of(material) != image_of(&scene.materials[0]);
+      const bool keeps_own =
+          material && streamed_material >= 0 &&
+          size_t(streamed_material) < scene.materials.size() &&
+          image_of(material) != image_of(&scene.materials[size_t(streamed_material)]);
       if (keeps_own && material->base_color.present() &&
           material->base_color.tex_coord < p.uvs.size())
         uv_set = material->base_color.tex_coord;

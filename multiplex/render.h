@@ -64,7 +64,7 @@ struct TextureSet {
   int orm = -1;         // occlusion (R), roughness (G), metallic (B) (data)
   int emissive = -1;    // sRGB colour
   int sheen = -1;       // sheen colour (KHR_materials_sheen), sRGB
-  // For primitives that keep their own material's images (add_geometry kept_images): the
+  // For primitives that keep their own material's images (add_geometry streamed_material): the
   // handle standing for each of the scene's images (image index, handle), ascending by index;
   // an image not listed is drawn without its texture.
   std::vector<std::pair<int32_t, int>> kept;
@@ -90,11 +90,12 @@ class Renderer {
   // primitive also gets its material's decoded images (base colour, normal, metallic-roughness
   // with any occlusion in its R, emissive; uploaded once per image) and reads the uv set the
   // base colour names: what `meshmux render` of a multi-material scene needs. Returns a handle.
-  // With `kept_images` instead, the primitives whose material does not sample the base colour
-  // image materials[0] samples (the materials kept beside the atlas, atlas/kept.h) keep their
+  // With `streamed_material` ≥ 0 instead (the material the texture levels stream,
+  // TextureLevels::material), the primitives whose material does not sample the base colour
+  // image that material samples (the materials kept beside the atlas, atlas/kept.h) keep their
   // own images when drawn with an explicit set: each slot's image through the set's `kept`
   // handles (nothing is uploaded here), with their own uv set and factors.
-  int add_geometry(const Scene& scene, bool with_textures = false, bool kept_images = false);
+  int add_geometry(const Scene& scene, bool with_textures = false, int32_t streamed_material = -1);
   // Uploads an RGBA8 texture with a full mip chain. Returns a handle. `color`: the texels are
   // sRGB colours (base colour, emissive), decoded by the GL under physical shading; otherwise
   // data (normal, occlusion-roughness-metallic), read as stored.
@@ -107,7 +108,7 @@ class Renderer {
   // (add_geometry with_textures), or base-colour factors only.
   RenderImage render(int g, int t, const Camera& camera);
   // Draws geometry `g` with the texture set `t` on every primitive (its factors from each
-  // primitive's material), but those that keep their own images (add_geometry kept_images);
+  // primitive's material), but those that keep their own images (add_geometry streamed_material);
   // an empty set (all -1): each primitive's own textures, as above.
   RenderImage render(int g, const TextureSet& t, const Camera& camera);
   // Draws geometry `g` with every set from every camera: images camera-major (camera c, set k

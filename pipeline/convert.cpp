@@ -53,8 +53,11 @@ Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress
 
 // 2. Atlas: one material, one texture (Terrace et al. §4.2–4.4); then the one flattening
 // decision (Azim et al.: below 1.75 instances per submesh, one mesh is one draw call).
+// `*streamed_material` gets the material whose texture set the texture levels stream (the
+// atlas's, AtlasReport::streamed_material), -1 without an atlas.
 Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
-                         Progress* progress) {
+                         Progress* progress, int32_t* streamed_material) {
+  *streamed_material = -1;
   if (!o.atlas) return scene;
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
   AtlasReport ar;
@@ -71,6 +74,7 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     warn(warnings, atlased.status().message() + "; the source materials are kept (no atlas)");
     return scene;
   }
+  *streamed_material = ar.streamed_material;
   if (!ar.built) {
     report_step(progress, "atlas: not needed (one material, no texture)");
     return scene;
@@ -131,13 +135,15 @@ std::string unstreamable_record(const ProgressiveScene& ps, size_t base_meshes) 
   return "";
 }
 
-// The scene's one streamed texture (the atlas's base colour), or null. The texture levels need
-// power-of-two sides, as the atlas has: a scene whose first material kept a source texture of
-// other sides (a tiled texture, atlas/tiled.h, in a scene with nothing else) streams no texture
-// levels, and its texture ships as it came.
-Image* stream_texture(Scene& scene) {
-  if (scene.materials.empty() || !scene.materials[0].base_color.present()) return nullptr;
-  size_t i = size_t(scene.materials[0].base_color.image);
+// The scene's one streamed texture (material `material`'s base colour: the atlas's), or null.
+// The texture levels need power-of-two sides, as the atlas has: a scene whose streamed material
+// kept a source texture of other sides (a tiled texture, atlas/tiled.h, in a scene with nothing
+// else) streams no texture levels, and its texture ships as it came.
+Image* stream_texture(Scene& scene, int32_t material) {
+  if (material < 0 || size_t(material) >= scene.materials.size() ||
+      !scene.materials[size_t(material)].base_color.present())
+    return nullptr;
+  size_t i = size_t(scene.materials[size_t(material)].base_color.image);
   if (i >= scene.images.size()) return nullptr;
   auto pow2 = [](int v) { return v > 0 && (v & (v - 1)) == 0; };
   return pow2(scene.images[i].width) && pow2(scene.images[i].height) ? &scene.images[i] : nullptr;
@@ -150,10 +156,10 @@ struct SceneChannel {
   int32_t image;
   TexelFilter filter;
 };
-std::vector<SceneChannel> scene_channels(const Scene& scene) {
+std::vector<SceneChannel> scene_channels(const Scene& scene, int32_t material) {
   std::vector<SceneChannel> out;
-  if (scene.materials.empty()) return out;
-  const Material& m = scene.materials[0];
+  if (material < 0 || size_t(material) >= scene.materials.size()) return out;
+  const Material& m = scene.materials[size_t(material)];
   auto add = [&](const TextureRef& t, const char* name, TexelFilter f) {
     if (t.present() && size_t(t.image) < scene.images.size() &&
         scene.images[size_t(t.image)].width > 0)
@@ -169,18 +175,19 @@ std::vector<SceneChannel> scene_channels(const Scene& scene) {
 // 4. Texture levels, encoded once (model.glb embeds the top level, the stream all of them).
 // Without a stream only the top level is built. The atlas's channels move together: every level
 // carries each at its size.
-Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool whole_pyramid,
-                                   Progress* progress) {
-  Image* texture = o.atlas ? stream_texture(scene) : nullptr;
+Result<TextureLevels> texture_step(Scene& scene, int32_t streamed_material, const ConvertOptions& o,
+                                   bool whole_pyramid, Progress* progress) {
+  Image* texture = o.atlas ? stream_texture(scene, streamed_material) : nullptr;
   if (!texture) return TextureLevels{};
   TextureLevelOptions to = o.textures;
   if (!whole_pyramid) to.base_size = 1 << 30;  // a base larger than the texture: one level
-  const std::vector<SceneChannel> sc = scene_channels(scene);
+  const std::vector<SceneChannel> sc = scene_channels(scene, streamed_material);
   std::vector<ChannelTexture> channels;
   for (const SceneChannel& c : sc)
     channels.push_back({c.channel, &scene.images[size_t(c.image)], c.filter});
   auto levels = make_texture_levels(*texture, to, channels);
   if (!levels.ok()) return levels.status();
+  levels->material = streamed_material;
   // The kept materials' images go with the levels, each at its level's scale.
   if (whole_pyramid)
     if (Status st = add_kept_levels(scene, *levels, to); !st) return st;
@@ -202,7 +209,8 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
   if (kept_maps > 0)
     report_step(progress, format("texture levels: %zu kept image(s) at the levels' scales below "
                                  "the top, %zu maps, %.1f kB",
-                                 kept_level_images(scene).size(), kept_maps, kept_bytes / 1e3));
+                                 kept_level_images(scene, levels->material).size(), kept_maps,
+                                 kept_bytes / 1e3));
   std::string dropped;
   for (const DroppedTextureLevel& d : levels->dropped)
     dropped += format(", %dx%d dropped (%s)", d.width, d.height, d.why.c_str());
@@ -217,10 +225,10 @@ Result<TextureLevels> texture_step(Scene& scene, const ConvertOptions& o, bool w
 Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const TextureLevels& levels,
                   size_t level, bool keep_prefix) {
   Scene s = materialize(ps, sel, keep_prefix);
-  Image* texture = stream_texture(s);
+  Image* texture = stream_texture(s, levels.material);
   if (texture && level < levels.levels.size()) {
     const TextureLevel& l = levels.levels[level];
-    const std::vector<SceneChannel> sc = scene_channels(s);
+    const std::vector<SceneChannel> sc = scene_channels(s, levels.material);
     Image img;
     img.name = "texture level " + std::to_string(level);
     img.encoded = l.encoded;
@@ -451,13 +459,14 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   Scene scene = clean_step(input, o, progress);
   input = Scene{};
   // 2. Atlas (and the flattening decision).
-  auto atlased = atlas_step(std::move(scene), o, warnings, progress);
+  int32_t streamed_material = -1;
+  auto atlased = atlas_step(std::move(scene), o, warnings, progress, &streamed_material);
   if (!atlased.ok()) return atlased.status();
   scene = atlased.take();
   // 3. Streamable? Decided now, before the expensive stages.
   out.not_streamed = o.stream && o.report ? unstreamable_reason(scene) : "";
   // 4. Texture levels, encoded once.
-  auto levels = texture_step(scene, o, o.stream, progress);
+  auto levels = texture_step(scene, streamed_material, o, o.stream, progress);
   if (!levels.ok()) return levels.status();
   out.texture_levels = levels->levels.size();
   // 5. model.glb, full quality; with a stream to make, encoded on a thread of its own while the

@@ -46,6 +46,8 @@ struct DroppedTextureLevel {
 struct TextureLevels {
   std::vector<TextureLevel> levels;  // smallest first; levels.back() is the full size
   std::vector<DroppedTextureLevel> dropped;
+  int32_t material = -1;  // the scene's material whose texture set the levels stand for (the
+                          // atlas's; the other materials' images ride as kept maps); -1: none
 };
 
 }  // namespace meshmux

@@ -36,6 +36,7 @@ struct KeptScene {
     scene.materials[1].base_color.image = 1;
     scene.materials[1].normal.image = 2;
     scene.materials[2].base_color.image = 3;
+    levels.material = 0;
     for (int side : {16, 64, 256}) {
       TextureLevel l;
       l.width = l.height = side;
@@ -81,6 +82,7 @@ struct NoiseScene {
     scene.materials.resize(2);
     scene.materials[0].base_color.image = 0;
     scene.materials[1].base_color.image = 1;
+    levels.material = 0;
     for (int side : sides) {
       TextureLevel l;
       l.width = l.height = side;
@@ -106,12 +108,15 @@ const KeptMap* find(const TextureLevel& l, int32_t image) {
   return nullptr;
 }
 
-// Every image the atlas material does not sample rides with the levels.
+// Every image the streamed material does not sample rides with the levels. The streamed
+// material is the one the levels name, wherever it sits (it used to be read as materials[0]).
 TEST(KeptLevels, ImagesAreThoseTheStreamedMaterialDoesNotSample) {
   KeptScene k;
-  EXPECT_EQ(kept_level_images(k.scene), (std::vector<int32_t>{1, 2, 3}));
+  EXPECT_EQ(kept_level_images(k.scene, 0), (std::vector<int32_t>{1, 2, 3}));
+  EXPECT_EQ(kept_level_images(k.scene, 1), (std::vector<int32_t>{0, 3}));
+  EXPECT_EQ(kept_level_images(k.scene, -1), (std::vector<int32_t>{0, 1, 2, 3}));
   k.scene.materials[0].normal.image = 2;  // shared with the atlas material: streamed with it
-  EXPECT_EQ(kept_level_images(k.scene), (std::vector<int32_t>{1, 3}));
+  EXPECT_EQ(kept_level_images(k.scene, 0), (std::vector<int32_t>{1, 3}));
 }
 
 // A kept image is at each level's scale of the finest (16/256, 64/256, 1), never below 4 pixels a
@@ -170,6 +175,7 @@ TEST(KeptLevels, ApplyShowsTheLastMapUpToTheLevel) {
 TEST(KeptLevels, NoLevelsNoMaps) {
   KeptScene k;
   TextureLevels none;
+  none.material = 0;
   ASSERT_TRUE(add_kept_levels(k.scene, none, kUnbounded).is_ok());
   EXPECT_TRUE(none.levels.empty());
 }

@@ -146,7 +146,7 @@ TEST(RenderSets, KeptMaterialsDrawTheirOwnImagesThroughTheSet) {
   level.kept = {{1, r->add_texture(checker(16, 16, {20, 220, 20}, {20, 220, 20}), true)}};
   const Camera camera = looking_from({0, 0, 4});
   const RenderImage kept =
-      r->render(r->add_geometry(s, false, /*kept_images=*/true), level, camera);
+      r->render(r->add_geometry(s, false, /*streamed_material=*/0), level, camera);
   const auto left = mean_colour(kept, false), right = mean_colour(kept, true);
   EXPECT_GT(left[0], 2 * left[1]) << "the atlas's material shows the level's set";
   EXPECT_GT(right[1], 2 * right[0]) << "the kept material shows its image's handle";
