@@ -15,6 +15,7 @@
 #include <unordered_map>
 
 #include "atlas/kept.h"
+#include "atlas/palette.h"
 #include "atlas/source_atlas.h"
 #include "core/parallel.h"
 #include "scene/dvec3.h"
@@ -903,10 +904,22 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
 namespace {
 
 // The atlas of a scene with no tiled material (see build_atlas).
-Result<Scene> build_atlas_core(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
+Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasReport* report,
                                Warnings* warnings) {
   auto start = std::chrono::steady_clock::now();
   AtlasReport rep;
+  // Palette textures become plain colours (atlas/palette.h) where that leaves the scene one
+  // real texture the atlas may keep as it is (atlas/source_atlas.h); elsewhere the charts bake
+  // them as before.
+  std::optional<Scene> plain;
+  if (o.reuse_source_texture && !find_source_atlas(input, o.max_size)) {
+    plain = palette_as_plain_colors(input, &rep.palette_materials);
+    if (plain && !find_source_atlas(*plain, o.max_size)) {
+      plain.reset();
+      rep.palette_materials = 0;
+    }
+  }
+  const Scene& scene = plain ? *plain : input;
   if (!needs_atlas(scene)) {
     if (report) *report = rep;
     return scene;

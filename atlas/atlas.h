@@ -77,6 +77,8 @@ struct AtlasReport {
   size_t tiled_materials = 0;       //   for a tiled texture,
   size_t layer_materials = 0;       //   for layer or transmission textures or anisotropy,
   size_t texel_grid_materials = 0;  // for a sampler without mipmaps or NEAREST magnification
+  size_t palette_materials = 0;     // materials whose palette texture became plain colours
+                                    // (atlas/palette.h)
   size_t charts = 0;                // textured charts after splitting invalid ones
   size_t flat_colors = 0;           // distinct flat-colour blocks
   size_t split = 0;                 // charts split because they could not be flattened

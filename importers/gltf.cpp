@@ -759,6 +759,63 @@ class Importer {
                                 : 0;
   }
 
+  // KHR_materials_anisotropy's direction is tangent-space: x along T, y along the bitangent.
+  // With TANGENT the bitangent is glTF's (3.7.2.1: cross(N, T) · w, up the image, −v); without
+  // it viewers derive B along +v (three.js getTangentFrame; GLTFLoader mirrors normal maps for
+  // it by negating normalScale.y, anisotropy not). meshmux writes no TANGENT, so the direction
+  // of a material drawn by primitives with TANGENT is mirrored across T into the derived frame:
+  // rotation → −rotation, the texture's direction y → −y (G → 255 − G, exact for 2G/255 − 1).
+  // This takes the source's T to be the uv-derived one (MikkTSpace's is, up to its smoothing).
+  // A material drawn both with and without TANGENT gets a mirrored copy for the former
+  // (tangent_material_). Before, AnisotropyRotationTest's rotated highlights turned the other
+  // way (lit 19.3 dB).
+  void anisotropy_in_tangent_frames() {
+    const size_t n = m_.materials.size();
+    tangent_material_.resize(n);
+    std::vector<char> with(n, 0), without(n, 0);
+    for (const tinygltf::Mesh& mesh : m_.meshes)
+      for (const tinygltf::Primitive& p : mesh.primitives)
+        if (p.material >= 0 && size_t(p.material) < n)
+          (p.attributes.count("TANGENT") ? with : without)[size_t(p.material)] = 1;
+    for (size_t i = 0; i < n; ++i) {
+      tangent_material_[i] = int32_t(i);
+      const Material& mat = scene_.materials[i];
+      const bool directed =
+          mat.anisotropy_rotation != 0 || mat.layer(LayerSlot::kAnisotropy).present();
+      if (!with[i] || mat.anisotropy_strength <= 0 || !directed) continue;
+      Material mirrored = mat;
+      mirrored.anisotropy_rotation = -mat.anisotropy_rotation;
+      TextureRef& tex = mirrored.layer(LayerSlot::kAnisotropy);
+      if (tex.present()) tex.image = mirrored_direction_image(tex.image);
+      if (!without[i]) {
+        scene_.materials[i] = std::move(mirrored);
+        continue;
+      }
+      tangent_material_[i] = int32_t(scene_.materials.size());
+      scene_.materials.push_back(std::move(mirrored));
+    }
+  }
+
+  // A copy of an anisotropy texture with its direction's y negated (G → 255 − G); the image
+  // itself when it is not decoded (said once).
+  int32_t mirrored_direction_image(int32_t image) {
+    if (auto it = mirrored_images_.find(image); it != mirrored_images_.end()) return it->second;
+    const Image& src = scene_.images[size_t(image)];
+    if (!src.decoded()) {
+      warn(warnings_, "gltf: " + file_ + ": anisotropy texture " + src.name +
+                          " not decoded: its direction stays in TANGENT's frame");
+      return mirrored_images_[image] = image;
+    }
+    Image out;
+    out.name = src.name + " (direction in the uv-derived tangent frame)";
+    out.width = src.width;
+    out.height = src.height;
+    out.rgba = src.rgba;
+    for (size_t k = 1; k < out.rgba.size(); k += 4) out.rgba[k] = uint8_t(255 - out.rgba[k]);
+    scene_.images.push_back(std::move(out));
+    return mirrored_images_[image] = int32_t(scene_.images.size() - 1);
+  }
+
   // The layers' textures (kLayerSlots) and the transmission texture: carried as they came.
   void layer_textures(const tinygltf::Material& src, const std::string& where, Material* mat) {
     auto info = [&](const char* extension, const char* key) -> const tinygltf::Value* {
@@ -827,6 +884,7 @@ class Importer {
       if (mat.anisotropy_strength > 0 && !mat.normal.present()) flat_normal_map(&mat);
       scene_.materials.push_back(std::move(mat));
     }
+    anisotropy_in_tangent_frames();
     // One warning per material extension that changes appearance and is not carried over,
     // saying what the output shows instead (sheen cloth once turned near-black silently).
     for (const auto& [name, count] : effects_)
@@ -851,6 +909,8 @@ class Importer {
     if (p.material >= int(m_.materials.size()))
       return r_.err(where, "material " + std::to_string(p.material) + " does not exist");
     out->material = p.material;
+    if (p.material >= 0 && p.attributes.count("TANGENT"))
+      out->material = tangent_material_[size_t(p.material)];
     auto draco = p.extensions.find("KHR_draco_mesh_compression");
     if (draco != p.extensions.end()) return draco_primitive(p, draco->second, where, out, skin);
 
@@ -1317,9 +1377,12 @@ class Importer {
   }
 
   const tinygltf::Model& m_;
-  std::map<std::string, size_t> effects_;         // appearance extension → materials using it
-  std::set<size_t> differing_weights_;            // meshes whose nodes disagree on morph weights
-  int32_t flat_normal_ = -1;                      // the flat normal map anisotropy needs (if made)
+  std::map<std::string, size_t> effects_;  // appearance extension → materials using it
+  std::set<size_t> differing_weights_;     // meshes whose nodes disagree on morph weights
+  int32_t flat_normal_ = -1;               // the flat normal map anisotropy needs (if made)
+  std::vector<int32_t> tangent_material_;  // per glTF material: the one primitives with TANGENT
+                                           // use (anisotropy_in_tangent_frames)
+  std::map<int32_t, int32_t> mirrored_images_;    // anisotropy texture → its mirrored copy
   std::vector<std::vector<LineSet>> mesh_lines_;  // per glTF mesh: its points and lines
   bool morphed_ = false;                          // some primitive shows morph targets at rest
   std::vector<std::vector<SkinInfluences>> influences_;  // per scene mesh, per primitive

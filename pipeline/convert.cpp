@@ -79,10 +79,14 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     report_step(progress, "atlas: not needed (one material, no texture)");
     return scene;
   }
+  const std::string palettes =
+      ar.palette_materials > 0
+          ? format(" (%zu palette material(s) among them, atlas/palette.h)", ar.palette_materials)
+          : "";
   if (ar.reused_source)
     report_step(progress, format("atlas: the source's one texture kept as it is, %dx%d, + %zu "
-                                 "plain colours in unused texels (no resampling)",
-                                 ar.size, ar.height, ar.flat_colors));
+                                 "plain colours in unused texels%s (no resampling)",
+                                 ar.size, ar.height, ar.flat_colors, palettes.c_str()));
   else if (ar.size > 0)
     report_step(progress,
                 format("atlas: %zu charts + %zu flat colours, %dx%d (%.0f texels of "

@@ -382,8 +382,9 @@ TEST(GltfImport, AnisotropyWithoutNormalMapGetsAFlatOne) {
   Blob b = triangle_blob(&p, &i);
   json doc = triangle_doc(b, p, i);
   doc["extensionsUsed"] = {"KHR_materials_anisotropy"};
-  doc["materials"] = {{{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.5}}}}}},
-                      {{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.2}}}}}}};
+  doc["materials"] = {
+      {{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.5}}}}}},
+      {{"extensions", {{"KHR_materials_anisotropy", {{"anisotropyStrength", 0.2}}}}}}};
   doc["meshes"][0]["primitives"][0]["material"] = 0;
   auto s = import_gltf(write_gltf(dir, "aniso.gltf", doc, b), {}, nullptr);
   ASSERT_TRUE(s.ok()) << s.status().message();
@@ -394,6 +395,52 @@ TEST(GltfImport, AnisotropyWithoutNormalMapGetsAFlatOne) {
   const Image& flat = s->images[size_t(n.image)];
   EXPECT_EQ(flat.width, 1);
   EXPECT_EQ(flat.rgba, (std::vector<uint8_t>{128, 128, 255, 255}));
+}
+
+// Anisotropy's direction is tangent-space, and the bitangent glTF builds from TANGENT (up the
+// image) is the mirror of the one viewers derive from the uvs without it (along +v). meshmux
+// writes no TANGENT, so a primitive that came with one must get its material's direction
+// mirrored: rotation negated, the texture's y (G) flipped. AnisotropyRotationTest's rotated
+// highlights turned the other way without it (lit 19.3 dB). A material also drawn without
+// TANGENT keeps the direction as it came there, through a mirrored copy for the other.
+TEST(GltfImport, AnisotropyDirectionFollowsTheTangentFrameWrittenOut) {
+  TempDir dir;
+  size_t p, i;
+  Blob b = triangle_blob(&p, &i);
+  const size_t t = b.add<float>({1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1});
+  json doc = triangle_doc(b, p, i);
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", t}, {"byteLength", 48}});
+  doc["accessors"].push_back(
+      {{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC4"}});
+  json with = doc["meshes"][0];
+  with["primitives"][0]["attributes"]["TANGENT"] = 2;
+  with["primitives"][0]["material"] = 0;
+  doc["meshes"][0]["primitives"][0]["material"] = 0;
+  doc["meshes"].push_back(with);
+  doc["nodes"].push_back({{"mesh", 1}});
+  doc["scenes"][0]["nodes"] = {0, 1};
+  doc["images"] = {{{"uri", "data:image/png;base64," + base64(testing::kPng)}}};
+  doc["textures"] = {{{"source", 0}}};
+  doc["extensionsUsed"] = {"KHR_materials_anisotropy"};
+  doc["materials"] = {{{"extensions",
+                        {{"KHR_materials_anisotropy",
+                          {{"anisotropyStrength", 0.5},
+                           {"anisotropyRotation", 0.5},
+                           {"anisotropyTexture", {{"index", 0}}}}}}}}};
+  auto s = import_gltf(write_gltf(dir, "aniso_tangent.gltf", doc, b), {}, nullptr);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  ASSERT_EQ(s->meshes.size(), 2u);
+  const Material& plain = s->materials[size_t(s->meshes[0].primitives[0].material)];
+  const Material& tangent = s->materials[size_t(s->meshes[1].primitives[0].material)];
+  EXPECT_FLOAT_EQ(plain.anisotropy_rotation, 0.5f) << "no TANGENT: the derived frame, as it came";
+  EXPECT_FLOAT_EQ(tangent.anisotropy_rotation, -0.5f);
+  EXPECT_FLOAT_EQ(tangent.anisotropy_strength, 0.5f);
+  const Image& src = s->images[size_t(plain.layer(LayerSlot::kAnisotropy).image)];
+  const Image& mirrored = s->images[size_t(tangent.layer(LayerSlot::kAnisotropy).image)];
+  ASSERT_TRUE(src.decoded());
+  ASSERT_EQ(mirrored.rgba.size(), src.rgba.size());
+  for (size_t k = 0; k < src.rgba.size(); ++k)
+    EXPECT_EQ(mirrored.rgba[k], k % 4 == 1 ? 255 - src.rgba[k] : src.rgba[k]) << k;
 }
 
 // KHR_texture_transform must be carried to the material so the atlas can honour it.
@@ -613,7 +660,8 @@ std::string ktx_refusal(const TempDir& dir, const std::string& name, const std::
 
 TEST(GltfImport, KtxTexturesAreOneClearError) {
   TempDir dir;
-  testing::write_text(dir.file("t.ktx2"), std::string("\xabKTX 20\xbb\r\n\x1a\n", 12) + std::string(64, '\0'));
+  testing::write_text(dir.file("t.ktx2"),
+                      std::string("\xabKTX 20\xbb\r\n\x1a\n", 12) + std::string(64, '\0'));
   const std::string basisu = ktx_refusal(dir, "basisu.gltf", R"({
     "asset": {"version": "2.0"},
     "extensionsUsed": ["KHR_texture_basisu"], "extensionsRequired": ["KHR_texture_basisu"],
@@ -675,8 +723,9 @@ TEST(GltfImport, MorphTargetsAtTheirDefaultWeights) {
   TempDir dir;
   const float data[18] = {0, 0, 0, 1, 0, 0, 0, 1, 0,   // the base triangle
                           0, 0, 2, 0, 0, 2, 0, 0, 2};  // target 0: +2 along z
-  testing::write_file(dir.file("m.bin"), std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(data),
-                                                              reinterpret_cast<const uint8_t*>(data) + sizeof data));
+  testing::write_file(dir.file("m.bin"),
+                      std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(data),
+                                           reinterpret_cast<const uint8_t*>(data) + sizeof data));
   const std::string doc = R"({"asset":{"version":"2.0"},
     "buffers":[{"uri":"m.bin","byteLength":72}],
     "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":36}],
@@ -684,7 +733,8 @@ TEST(GltfImport, MorphTargetsAtTheirDefaultWeights) {
                  {"bufferView":1,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,2],"max":[0,0,2]}],
     "meshes":[{"weights":[0.25],"primitives":[{"attributes":{"POSITION":0},"targets":[{"POSITION":1}]}]}],
     "nodes":[{"mesh":0 NODE_WEIGHTS}],"scenes":[{"nodes":[0]}],"scene":0})";
-  for (const auto& [node_weights, z] : {std::pair{"", 0.5f}, std::pair{", \"weights\": [1]", 2.0f}}) {
+  for (const auto& [node_weights, z] :
+       {std::pair{"", 0.5f}, std::pair{", \"weights\": [1]", 2.0f}}) {
     std::string text = doc;
     text.replace(text.find("NODE_WEIGHTS"), 12, node_weights);
     testing::write_text(dir.file("m.gltf"), text);
@@ -692,7 +742,8 @@ TEST(GltfImport, MorphTargetsAtTheirDefaultWeights) {
     auto s = import_gltf(dir.file("m.gltf"), {}, &w);
     ASSERT_TRUE(s.ok()) << s.status().message();
     ASSERT_EQ(s->meshes.size(), 1u);
-    for (const Vec3& p : s->meshes[0].primitives[0].positions) EXPECT_FLOAT_EQ(p.z, z) << node_weights;
+    for (const Vec3& p : s->meshes[0].primitives[0].positions)
+      EXPECT_FLOAT_EQ(p.z, z) << node_weights;
     EXPECT_TRUE(std::any_of(w.items().begin(), w.items().end(), [](const std::string& m) {
       return m.find("morph targets applied at their default weights") != std::string::npos;
     }));
@@ -712,8 +763,9 @@ TEST(GltfImport, SkinIsPosedAsItsJointsStand) {
                      1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   } data;
   static_assert(sizeof data == 36 + 12 + 48 + 128);
-  testing::write_file(dir.file("s.bin"), std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(&data),
-                                                              reinterpret_cast<const uint8_t*>(&data) + sizeof data));
+  testing::write_file(dir.file("s.bin"),
+                      std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(&data),
+                                           reinterpret_cast<const uint8_t*>(&data) + sizeof data));
   testing::write_text(dir.file("s.gltf"), R"({"asset":{"version":"2.0"},
     "buffers":[{"uri":"s.bin","byteLength":224}],
     "bufferViews":[{"buffer":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":12},
@@ -734,9 +786,9 @@ TEST(GltfImport, SkinIsPosedAsItsJointsStand) {
   ASSERT_EQ(s->instances.size(), 1u);
   EXPECT_TRUE(s->instances[0].world.is_identity());
   const std::vector<Vec3>& p = s->meshes[s->instances[0].mesh].primitives[0].positions;
-  EXPECT_EQ(p[0], (Vec3{1, 0, 0}));        // joint 0 alone (weights 2, 0 normalised)
-  EXPECT_EQ(p[1], (Vec3{1.5f, 1, 0}));     // half of each: (2,0,0)/2 + (1,2,0)/2
-  EXPECT_EQ(p[2], (Vec3{0, 3, 0}));        // joint 1 alone
+  EXPECT_EQ(p[0], (Vec3{1, 0, 0}));     // joint 0 alone (weights 2, 0 normalised)
+  EXPECT_EQ(p[1], (Vec3{1.5f, 1, 0}));  // half of each: (2,0,0)/2 + (1,2,0)/2
+  EXPECT_EQ(p[2], (Vec3{0, 3, 0}));     // joint 1 alone
   EXPECT_TRUE(std::any_of(w.items().begin(), w.items().end(), [](const std::string& m) {
     return m.find("1 skinned mesh node(s) posed as the joints stand at rest") != std::string::npos;
   }));
