@@ -8,7 +8,8 @@
 //   centre (i + ½, j + ½)); a texel belongs to the face when its centre is inside the triangle,
 //   or, conservatively, within half a texel of it, so thin triangles still get texels. A texel
 //   claimed by several faces keeps the nearest one (centre inside beats centre outside; the
-//   first face in chart order wins ties);
+//   first face in chart order wins ties); a chart smaller than a texel that reaches no texel
+//   centre so takes the texel under its centre (its own cell's), so it is never left to the fill;
 // - the colour of a texel is atlas/material_sample.h's base colour at the surface point whose
 //   barycentrics are those of the point of the triangle nearest to the sample (all uv sets and
 //   COLOR_0 interpolated), averaged over supersample² samples in linear light. Two passes: the
@@ -236,15 +237,16 @@ class Source {
 constexpr double kMargin = 0.5;  // conservative coverage margin, texels
 
 // Pass 1 for one face: every texel whose centre is within kMargin of the triangle and nearer to
-// it than to any face seen so far takes the face (job) as its owner.
-void cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>& owner,
-                std::vector<float>& dist) {
+// it than to any face seen so far takes the face (job) as its owner. Returns how many it took.
+size_t cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>& owner,
+                  std::vector<float>& dist) {
   double minx = std::min({c[0].x, c[1].x, c[2].x}) - kMargin;
   double maxx = std::max({c[0].x, c[1].x, c[2].x}) + kMargin;
   double miny = std::min({c[0].y, c[1].y, c[2].y}) - kMargin;
   double maxy = std::max({c[0].y, c[1].y, c[2].y}) + kMargin;
   if (!(std::isfinite(minx) && std::isfinite(maxx) && std::isfinite(miny) && std::isfinite(maxy)))
-    return;
+    return 0;
+  size_t taken = 0;
   // Texels whose centre i + ½ lies in [min, max].
   int x0 = int(std::clamp(std::ceil(minx - 0.5), 0.0, double(w)));
   int x1 = int(std::clamp(std::floor(maxx - 0.5), -1.0, double(w - 1)));
@@ -259,7 +261,41 @@ void cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>& 
       if (!(float(d) < dist[i])) continue;  // an earlier face is at least as near
       owner[i] = job;
       dist[i] = float(d);
+      ++taken;
     }
+  return taken;
+}
+
+// Pass 1 for a chart smaller than a texel whose faces reached no texel centre within kMargin (a
+// sphere sampling a 1×1 texture is sized to a fraction of a texel): the texel under the centre
+// of its corners' bounds takes the chart's face nearest to that texel's centre, so the chart
+// has its colour there instead of whatever the fill around it brings. The chart's cell is its
+// own, so no other chart holds that texel.
+void cover_tiny_chart(Source& src, const std::vector<Job>& jobs, size_t first_job, int w, int h,
+                      std::vector<int32_t>& owner, std::vector<float>& dist) {
+  double minx = std::numeric_limits<double>::infinity(), miny = minx;
+  double maxx = -minx, maxy = -minx;
+  for (size_t j = first_job; j < jobs.size(); ++j) {
+    src.select(jobs[j]);
+    for (int k = 0; k < 3; ++k) {
+      const P2 c = src.corners()[k];
+      minx = std::min(minx, c.x), maxx = std::max(maxx, c.x);
+      miny = std::min(miny, c.y), maxy = std::max(maxy, c.y);
+    }
+  }
+  if (!(std::isfinite(minx) && std::isfinite(maxx) && std::isfinite(miny) && std::isfinite(maxy)))
+    return;
+  const int x = int(std::clamp(std::floor(0.5 * (minx + maxx)), 0.0, double(w - 1)));
+  const int y = int(std::clamp(std::floor(0.5 * (miny + maxy)), 0.0, double(h - 1)));
+  const size_t i = size_t(y) * size_t(w) + size_t(x);
+  for (size_t j = first_job; j < jobs.size(); ++j) {
+    src.select(jobs[j]);
+    double bary[3];
+    const double d = nearest_barycentric(src.corners(), {x + 0.5, y + 0.5}, bary);
+    if (owner[i] >= 0 && !(float(d) < dist[i])) continue;
+    owner[i] = int32_t(j);
+    dist[i] = float(d);
+  }
 }
 
 const int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
@@ -430,12 +466,16 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
           }
         continue;
       }
+      const size_t first_job = jobs.size();
+      size_t taken = 0;
       for (size_t k = 0; k < chart.faces.size(); ++k) {
         Job j{uint32_t(c), uint32_t(k)};
         if (!src.select(j)) continue;
         jobs.push_back(j);
-        cover_face(src.corners(), int32_t(jobs.size() - 1), w, h, owner, dist);
+        taken += cover_face(src.corners(), int32_t(jobs.size() - 1), w, h, owner, dist);
       }
+      if (taken == 0 && jobs.size() > first_job)
+        cover_tiny_chart(src, jobs, first_job, w, h, owner, dist);
     }
   }
 

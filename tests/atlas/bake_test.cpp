@@ -288,6 +288,34 @@ TEST(Bake, ThinTrianglesStillGetTexels) {
   for (int x = 3; x < 12; ++x) EXPECT_EQ(chart_at(r, x, 5), 0) << x;
 }
 
+// A chart smaller than a texel whose faces come no nearer than kMargin to any texel centre
+// still gets a texel of its own colour. The atlas sizes a chart from the source texels it
+// samples, so a sphere that samples a 1x1 texture (TextureEncodingTest's "Texture" column) is a
+// fraction of a texel; before, such a chart baked nothing and showed whatever colour the fill
+// around it brought from neighbouring charts (its spheres rendered in patches of other colours).
+TEST(Bake, ChartSmallerThanATexelStillGetsItsColour) {
+  const Rgba kRed{230, 20, 20, 255};
+  Image one;
+  one.name = "one texel";
+  one.width = one.height = 1;
+  one.rgba.assign(kRed.begin(), kRed.end());
+  Scene s = scene_with(one);
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 16;
+  // Chart 0: the quad at 0.1 texel per side, its corner at the texel corner (3, 3): the nearest
+  // texel centre (3.5, 3.5) is 0.57 texel away. Chart 1: a green block beside it.
+  add_chart(cs, uvs, layout, quad_chart(), quad_uv(1), {3, 3}, 0.1, 4);
+  add_chart(cs, uvs, layout, flat_chart({0, 1, 0, 1}), quad_uv(1), {8, 0}, 0, 8);
+  BakeOptions o;
+  o.gutter = 0;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, o);
+  EXPECT_EQ(chart_at(r, 3, 3), 0);
+  const Rgba got = texel(r.atlas, 3, 3);
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(got[size_t(k)], kRed[size_t(k)], 1) << k;
+}
+
 // Empty texels take the charts' colour AND alpha: transparent black there would be averaged
 // into every chart edge at the coarse mip levels a model is seen at (AlphaBlendModeTest went
 // from 27.8 to 32.3 dB unlit in the fidelity harness when this was fixed).
