@@ -697,19 +697,53 @@ struct ChannelSlots {
   int32_t normal = -1, orm = -1, emissive = -1, sheen = -1;
 };
 
+// The minification filter of the group's atlas when the atlas's texels are the source's own
+// (atlas/source_atlas.h, not resampled): the mipmapped one (NEAREST/LINEAR_MIPMAP_NEAREST/
+// LINEAR, 9984–9987) that every base-colour texture the group's faces sample agrees on, an
+// unspecified one counting as LINEAR_MIPMAP_LINEAR (what viewers then use); otherwise, or with
+// no texture, LINEAR_MIPMAP_LINEAR. Minified, NEAREST within a level shows one texel's colour
+// and its aliasing where LINEAR blends four: CesiumMan's NEAREST_MIPMAP_LINEAR stripes lost
+// 10 dB unlit to the original when its own image and uvs were sampled LINEAR_MIPMAP_LINEAR.
+// Resampled texels (charts, or an image whose sides were rounded up to powers of two) alias
+// elsewhere, where trilinear filtering comes closer (BoxTexturedNonPowerOfTwo: −2 dB with
+// NEAREST_MIPMAP_LINEAR), so the caller asks only for kept texels. Samplers without mipmaps
+// never reach the atlas (atlas/kept.h).
+int group_min_filter(const Scene& scene, const std::vector<MeshView>& views,
+                     const std::vector<std::vector<int32_t>>& prim_group, int32_t group) {
+  constexpr int kLinearMipmapLinear = 9987;
+  int agreed = 0;
+  for (size_t m = 0; m < views.size(); ++m)
+    for (size_t pi = 0; pi < views[m].mesh.primitives.size(); ++pi) {
+      const Primitive& p = views[m].mesh.primitives[pi];
+      if (prim_group[m][pi] != group || p.indices.empty() || p.material < 0 ||
+          size_t(p.material) >= scene.materials.size())
+        continue;
+      const TextureRef& t = scene.materials[size_t(p.material)].base_color;
+      if (!t.present()) continue;
+      const int f = t.sampler.min_filter == 0 ? kLinearMipmapLinear : t.sampler.min_filter;
+      if (f < 9984 || f > 9987 || (agreed != 0 && f != agreed)) return kLinearMipmapLinear;
+      agreed = f;
+    }
+  return agreed != 0 ? agreed : kLinearMipmapLinear;
+}
+
 // The group's material: the atlas's base colour; the baked channels' images (factors folded in,
 // so the output's factors are 1), or the factors the sources share (metallic and roughness
-// area-weighted over the group's faces, equal when they agree).
+// area-weighted over the group's faces, equal when they agree). Every channel is sampled
+// clamped, LINEAR magnified, minified LINEAR_MIPMAP_LINEAR or, when `source_texels` (the atlas
+// is the source's image, not resampled), as group_min_filter says.
 // `prim_group[m][p]`: the group of mesh m's primitive p, computed once by build_atlas.
 Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
                          const std::vector<std::vector<int32_t>>& prim_group, int32_t group,
-                         const GroupKey& key, const ChannelNeeds& need, const ChannelSlots& slots) {
+                         const GroupKey& key, const ChannelNeeds& need, const ChannelSlots& slots,
+                         bool source_texels) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
   mat.base_color.sampler.wrap_s = mat.base_color.sampler.wrap_t = Wrap::kClampToEdge;
   mat.base_color.sampler.mag_filter = 9729;  // LINEAR
-  mat.base_color.sampler.min_filter = 9987;  // LINEAR_MIPMAP_LINEAR
+  mat.base_color.sampler.min_filter =
+      source_texels ? group_min_filter(scene, views, prim_group, group) : 9987;
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
@@ -840,10 +874,11 @@ Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& co
 
 // 5. The output scene: one primitive per mesh into the atlas, one material per group, one
 // image (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with
-// alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs.
+// alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs;
+// `source_texels`: the atlas is the source's image, not resampled (merged_material).
 Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
                const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv, Image atlas,
-               ChannelImages channels, const ChannelNeeds& need) {
+               ChannelImages channels, const ChannelNeeds& need, bool source_texels) {
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
@@ -876,7 +911,8 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
     }
   for (size_t g = 0; g < groups.size(); ++g)
     out.materials.push_back(
-        merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots));
+        merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots,
+                        source_texels));
   // Each mesh splits into one mesh per group it has faces in (one primitive each, so the stream
   // can refine it); its instances place every part.
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
@@ -978,7 +1014,13 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
       if (need.bake.sheen)
         channels.sheen = source_atlas_channel(scene, *source, AtlasChannel::kSheen, es);
       name_channels(channels);
-      Scene out = assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need);
+      // The source's texels as they are (its sides already powers of two): its sampler's
+      // filtering within a mip level shows them as the original does.
+      const Image& src_image = scene.images[size_t(source->image)];
+      const bool source_texels =
+          src_image.width == source->part_width && src_image.height == source->part_height;
+      Scene out = assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need,
+                           source_texels);
       rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       if (report) *report = std::move(rep);
       return out;
@@ -1027,7 +1069,8 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
   ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
                          std::move(baked.sheen)};
   name_channels(channels);
-  Scene out = assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need);
+  Scene out =
+      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, false);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
   return out;

@@ -9,16 +9,19 @@
 // (atlas/source_atlas.h), that image is the atlas and the source uvs are kept: no charts, no
 // resampling.
 //
-// The single material: base colour = the atlas (factors and vertex colours folded in), alpha
-// mode BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE;
-// double-sided if any source is. The physically based channels go through the same
-// charts: when a material in use samples a normal, occlusion, metallic-roughness or emissive
-// texture, or the materials' factors for a channel differ, that channel is baked into an image
-// of the atlas's size (Scene::images after the base colour: normal, occlusion-roughness-metallic
-// packed as glTF packs it, emissive), factors folded in; otherwise the shared factors stay
-// factors. Normal maps are re-expressed in the tangent frame viewers derive from the atlas uvs
-// (atlas/tangent_frame.h). Scenes with no texture, no vertex colour and at most one material
-// are returned unchanged (they already have one material and need no texture).
+// The single material: base colour = the atlas (factors and vertex colours folded in), alpha mode
+// BLEND if any source blends, else MASK if any masks (smallest cutoff), else OPAQUE; double-sided
+// if any source is. Its textures are clamped, magnified LINEAR and minified LINEAR_MIPMAP_LINEAR,
+// or, where the atlas is the source's own image texel for texel, with the mipmapped minFilter its
+// textured materials agree on (NEAREST_MIPMAP_LINEAR shows those texels otherwise than trilinear
+// filtering does). The physically based channels go through the same charts: when a material in use
+// samples a normal, occlusion, metallic-roughness or emissive texture, or the materials' factors
+// for a channel differ, that channel is baked into an image of the atlas's size (Scene::images
+// after the base colour: normal, occlusion-roughness-metallic packed as glTF packs it, emissive),
+// factors folded in; otherwise the shared factors stay factors. Normal maps are re-expressed in the
+// tangent frame viewers derive from the atlas uvs (atlas/tangent_frame.h). Scenes with no texture,
+// no vertex colour and at most one material are returned unchanged (they already have one material
+// and need no texture).
 // Materials the atlas cannot stand in for are not baked: tiled textures (a REPEAT sampler over
 // more than `tiled_periods` periods), layer textures, anisotropy, samplers showing the texel
 // grid; they stay as they came, after the atlas's (atlas/kept.h).
