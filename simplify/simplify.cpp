@@ -197,6 +197,21 @@ struct Collapse {
   float queue_max = 0;  // the largest candidate error of the pass (Terrace et al.'s E_max)
 };
 
+// Wedges a collapse leaves without faces while never collapsed themselves: at a hard edge or
+// a seam a collapse removes the faces L and R, and the far ends' wedges in them may have no
+// other face (on faceted geometry every face has wedges of its own: every collapse orphans two).
+// Kept as base vertices, they filled the base's vertex prefix with vertices no base face uses
+// (a faceted 58k-triangle level: 45.6k base vertices for 3,964 triangles, the base 4× the bytes
+// of its Draco twin). They are sent instead with the split that brings their faces back, each
+// with a parent alive before it (Hoppe, "Progressive meshes": a vertex appears when the first
+// face that needs it does).
+struct OrphanSchedule {
+  std::vector<uint32_t> last_state;  // per wedge: the last state (collapses applied) in which
+                                     // it is present: its collapse's index, the collapse that
+                                     // removed its last face, or the collapse count
+  std::vector<uint32_t> parent;      // per orphan: a wedge present before it; UINT32_MAX else
+};
+
 struct Candidate {
   float error;
   uint32_t u, v;
@@ -400,6 +415,9 @@ class Simplifier {
 
   // Builds the ProgressiveMesh from the collapse history (after run()).
   void record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const;
+  // When each never-collapsed wedge is last used and, for those a collapse orphans, the wedge
+  // each splits from (OrphanSchedule). O(wedges + faces + collapses).
+  OrphanSchedule orphan_schedule() const;
 
  private:
   void init_quadrics(const std::vector<Mat4>& transforms);
@@ -857,20 +875,96 @@ size_t Simplifier::collapse(const Candidate& c, float queue_min, float queue_max
   return rec.face_count;
 }
 
+OrphanSchedule Simplifier::orphan_schedule() const {
+  const size_t nw = u_.wedge_pos.size(), nf = alive_.size(), m = collapses_.size();
+  OrphanSchedule out;
+  out.last_state.assign(nw, uint32_t(m));
+  out.parent.assign(nw, UINT32_MAX);
+  // Each face's last state: the collapse that removed it (alive in states 0..i), m if never.
+  std::vector<uint32_t> face_last(nf, uint32_t(m));
+  for (uint32_t i = 0; i < m; ++i)
+    for (uint32_t k = 0; k < collapses_[i].face_count; ++k)
+      face_last[removed_faces_[collapses_[i].first_face + k]] = i;
+  // Each wedge's root (the never-collapsed wedge its chain of targets ends at) and, for a
+  // collapsed wedge, its last state (the collapse that took it); a collapse's target is alive
+  // after it, so walking the collapses last to first finds each target's root first.
+  std::vector<uint32_t> root(nw);
+  std::vector<uint8_t> collapsed(nw, 0);
+  for (uint32_t w = 0; w < nw; ++w) root[w] = w;
+  for (size_t i = m; i-- > 0;)
+    for (uint32_t k = 0; k < collapses_[i].map_count; ++k) {
+      const auto& [w, target] = maps_[collapses_[i].first_map + k];
+      root[w] = root[target];
+      collapsed[w] = 1;
+      out.last_state[w] = uint32_t(i);
+    }
+  // A root is referenced only while a face whose corner's chain ends at it is alive.
+  std::vector<uint32_t> root_last(nw, 0);
+  std::vector<uint8_t> used(nw, 0);
+  for (uint32_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t r = root[original_corners_[3 * f + k]];
+      root_last[r] = used[r] ? std::max(root_last[r], face_last[f]) : face_last[f];
+      used[r] = 1;
+    }
+  // Wedges per position, for the orphans' parents.
+  std::unordered_map<uint32_t, std::vector<uint32_t>> at;
+  for (uint32_t w = 0; w < nw; ++w)
+    if (!collapsed[w] && used[w] && root_last[w] < m) out.last_state[w] = root_last[w];
+  for (uint32_t w = 0; w < nw; ++w)
+    if (!collapsed[w] && out.last_state[w] < m) at[u_.wedge_pos[w]];
+  if (at.empty()) return out;
+  for (uint32_t w = 0; w < nw; ++w)
+    if (auto it = at.find(u_.wedge_pos[w]); it != at.end()) it->second.push_back(w);
+  for (uint32_t w = 0; w < nw; ++w) {
+    const uint32_t d = out.last_state[w];
+    if (collapsed[w] || d >= m) continue;
+    // Present before it: a wedge alive in state d + 1; the one at its position living longest
+    // (its position is then a twin's, not sent), else a target of the collapse orphaning it
+    // that outlives it, else none (it stays a base vertex).
+    uint32_t best = UINT32_MAX;
+    for (uint32_t x : at[u_.wedge_pos[w]])
+      if (x != w && out.last_state[x] > d &&
+          (best == UINT32_MAX || out.last_state[x] > out.last_state[best] ||
+           (out.last_state[x] == out.last_state[best] && x < best)))
+        best = x;
+    for (uint32_t k = 0; best == UINT32_MAX && k < collapses_[d].map_count; ++k) {
+      const uint32_t t = maps_[collapses_[d].first_map + k].second;
+      if (t != w && out.last_state[t] > d) best = t;
+    }
+    if (best == UINT32_MAX)
+      out.last_state[w] = uint32_t(m);  // nothing present to split from: a base vertex
+    else
+      out.parent[w] = best;
+  }
+  return out;
+}
+
 void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const {
   size_t nw = u_.wedge_pos.size(), nf = alive_.size();
-  // Appearance order of wedges: base wedges (never collapsed, in index order), then the
-  // wedges of each collapse from the last collapse to the first.
+  // Appearance order of wedges: base wedges (never collapsed and used by a face of the
+  // coarsest level, in index order), then per collapse from the last to the first the orphans
+  // it made (orphan_schedule), ascending, and its wedges.
+  const OrphanSchedule orphans = orphan_schedule();
+  const uint32_t m_all = uint32_t(collapses_.size());
+  std::vector<std::vector<uint32_t>> orphaned_by(m_all);
   std::vector<uint8_t> collapsed(nw, 0);
   for (const auto& m : maps_) collapsed[m.first] = 1;
   std::vector<uint32_t> order;  // new index → wedge
   order.reserve(nw);
   for (uint32_t w = 0; w < nw; ++w)
-    if (!collapsed[w]) order.push_back(w);
+    if (!collapsed[w]) {
+      if (orphans.last_state[w] < m_all)
+        orphaned_by[orphans.last_state[w]].push_back(w);
+      else
+        order.push_back(w);
+    }
   // A wedge that no face ever used would not be reachable; clean() removed those.
   uint32_t base_vertices = uint32_t(order.size());
   std::vector<uint32_t> parent_of(nw, UINT32_MAX);
   for (const auto& m : maps_) parent_of[m.first] = m.second;
+  for (uint32_t w = 0; w < nw; ++w)
+    if (orphans.parent[w] != UINT32_MAX) parent_of[w] = orphans.parent[w];
   std::vector<uint32_t> face_order;
   face_order.reserve(nf);
   for (uint32_t f = 0; f < nf; ++f)
@@ -880,6 +974,8 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   pm.levels.push_back({base_vertices, base_faces, base_faces, 0});
   for (size_t i = collapses_.size(); i-- > 0;) {
     const Collapse& c = collapses_[i];
+    // The orphans first: the collapse's wedges may have them as targets.
+    for (uint32_t w : orphaned_by[i]) order.push_back(w);
     for (uint32_t k = 0; k < c.map_count; ++k) order.push_back(maps_[c.first_map + k].first);
     for (uint32_t k = 0; k < c.face_count; ++k)
       face_order.push_back(removed_faces_[c.first_face + k]);
