@@ -188,15 +188,12 @@ class Converter {
     prim.positions.resize(n);
     for (size_t v = 0; v < n; ++v)
       prim.positions[v] = {am.mVertices[v].x, am.mVertices[v].y, am.mVertices[v].z};
+    // Zero or NaN normals stay as they are: the clean stage regenerates a primitive's normals
+    // only when a triangle it keeps uses one (exporters write zero normals on degenerate ones).
     if (am.mNormals) {
       prim.normals.resize(n);
-      for (size_t v = 0; v < n; ++v) {
+      for (size_t v = 0; v < n; ++v)
         prim.normals[v] = normalize({am.mNormals[v].x, am.mNormals[v].y, am.mNormals[v].z});
-        if (!(std::fabs(dot(prim.normals[v], prim.normals[v]) - 1) < 1e-3f)) {  // zero or NaN
-          prim.normals.clear();  // broken normals: let the clean stage generate them all
-          break;
-        }
-      }
     }
     // uv sets in order, stopping at the first gap; COLLADA's v points up, glTF's down.
     for (unsigned k = 0; k < AI_MAX_NUMBER_OF_TEXTURECOORDS && am.mTextureCoords[k]; ++k) {
