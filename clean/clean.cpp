@@ -226,6 +226,22 @@ void generate_normals(Primitive& p, float crease_degrees) {
   p = std::move(out);
 }
 
+// Whether a triangle that stays (one with area) uses a zero, NaN or far-from-unit normal. The
+// normals only degenerate triangles use do not count: exporters give those zero normals (a
+// table's four zero normals once cost all 1566 of its authored ones, its bevels smoothed by the
+// generated normals, lit 26 dB), and the triangles go in filter_triangles.
+bool has_broken_normals(const Primitive& p, bool degenerate_removed) {
+  if (p.normals.empty()) return false;
+  for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+    const uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
+    const Vec3 n = cross(p.positions[b] - p.positions[a], p.positions[c] - p.positions[a]);
+    if (degenerate_removed && !(dot(n, n) > 0)) continue;
+    if (!finite_unit(p.normals[a]) || !finite_unit(p.normals[b]) || !finite_unit(p.normals[c]))
+      return true;
+  }
+  return false;
+}
+
 void sanitize(Primitive& p) {
   for (auto& set : p.uvs)
     for (Vec2& uv : set) {
@@ -256,13 +272,7 @@ Scene clean(const Scene& in, const CleanOptions& o, CleanReport* report) {
       r.triangles_in += src.triangle_count();
       Primitive p = src;
       sanitize(p);
-      bool broken_normals = false;
-      for (Vec3 n : p.normals)
-        if (!finite_unit(n)) {
-          broken_normals = true;
-          break;
-        }
-      if (broken_normals && o.generate_normals) p.normals.clear();
+      if (o.generate_normals && has_broken_normals(p, o.remove_degenerate)) p.normals.clear();
       if (o.weld) p = weld(p);
       filter_triangles(p, o, r);
       if (p.indices.empty()) {

@@ -39,11 +39,13 @@ std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vect
   // effect id → the texcoord semantic of its diffuse texture, and its shininess.
   std::map<std::string, std::string> effect_semantic;
   std::map<std::string, float> effect_shininess;
+  std::map<std::string, bool> effect_diffuse;
   std::vector<pugi::xml_node> effects;
   collect(doc, "effect", effects);
   for (const pugi::xml_node& e : effects) {
     std::vector<pugi::xml_node> diffuse;
     collect(e, "diffuse", diffuse);
+    effect_diffuse[e.attribute("id").value()] = !diffuse.empty();
     for (const pugi::xml_node& d : diffuse)
       if (pugi::xml_node t = d.child("texture"); t && t.attribute("texcoord"))
         effect_semantic.emplace(e.attribute("id").value(), t.attribute("texcoord").value());
@@ -62,6 +64,8 @@ std::map<std::string, ColladaMaterialInfo> collada_material_info(const std::vect
   for (const pugi::xml_node& m : materials) {
     std::string effect = fragment(m.child("instance_effect").attribute("url").value());
     std::string id = m.attribute("id").value(), name = m.attribute("name").value();
+    out[id].diffuse = effect_diffuse[effect];
+    if (!name.empty()) out[name].diffuse = out[id].diffuse;
     if (auto sh = effect_shininess.find(effect); sh != effect_shininess.end()) {
       out[id].shininess = sh->second;
       if (!name.empty()) out[name].shininess = sh->second;

@@ -3,7 +3,8 @@
 // that semantic to a TEXCOORD set with <bind_vertex_input semantic="CHANNEL1"
 // input_semantic="TEXCOORD" input_set="0"/>. Assimp 5.2 guesses the set from the digit in the
 // semantic's name instead, which reads a uv set that may not exist. Also the <shininess> of
-// phong and blinn effects, which Assimp 5.2 reports as 0. Used by importers/collada.
+// phong and blinn effects, which Assimp 5.2 reports as 0, and whether an effect has a <diffuse>
+// at all (Assimp 5.2 makes a missing one 0.6 grey). Used by importers/collada.
 #pragma once
 
 #include <map>
@@ -17,6 +18,7 @@ namespace meshmux {
 struct ColladaMaterialInfo {
   int uv_set = -1;       // the TEXCOORD set its diffuse texture is bound to (-1: no binding)
   float shininess = -1;  // the Blinn-Phong exponent of a <phong>/<blinn> effect (-1: none)
+  bool diffuse = false;  // its effect has a <diffuse> (a colour or a texture)
 };
 
 // Material (by id and by name) → what the document says of it. `xml` is the whole document; a

@@ -172,8 +172,8 @@ struct Mesh {
 };
 
 // Points and line segments (glTF's POINTS, LINES, LINE_STRIP and LINE_LOOP; COLLADA's <lines>
-// stay skipped, as the simulators whose models carry them draw them), carried beside the
-// triangles and drawn as glTF viewers draw them (one pixel
+// and <linestrips>, which three.js's ColladaLoader draws and Gazebo's loads as LINES submeshes),
+// carried beside the triangles and drawn as glTF viewers draw them (one pixel
 // wide, in their material's colour, unlit): placed in the world at import (their nodes'
 // transforms applied), never cleaned, simplified, baked or refined; model.glb and the base
 // carry them whole.

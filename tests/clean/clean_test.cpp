@@ -157,6 +157,31 @@ TEST(Clean, ReplacesZeroNormals) {
   for (Vec3 n : out.meshes[0].primitives[0].normals) EXPECT_NEAR(length(n), 1.0f, 1e-6);
 }
 
+// Zero normals on a degenerate (zero-area) triangle, as exporters write them, must not cost the
+// primitive its authored normals: those triangles are removed anyway. Once they did, and the
+// generated normals (60° crease) smoothed a table's 45° bevels that its file shades flat (lit
+// 26 dB against three.js). Here two faces meet at 45° with flat normals of their own, beside a
+// degenerate triangle whose corners have zero normals: the faces keep their flat normals.
+TEST(Clean, ZeroNormalsOnDegenerateTrianglesKeepTheAuthoredNormals) {
+  const Vec3 up{0, 0, 1}, bevel = normalize(Vec3{1, 0, 1});
+  Primitive p;
+  p.positions = {{0, 0, 0}, {1, 0, 0},  {0, 1, 0},   // flat face, normal +z
+                 {1, 0, 0}, {2, 0, -1}, {1, 1, 0},   // bevel face at 45°, below x = 1
+                 {3, 3, 3}, {3, 3, 3},  {4, 4, 4}};  // degenerate, zero normals
+  p.normals = {up, up, up, bevel, bevel, bevel, {}, {}, {}};
+  p.indices = {0, 1, 2, 3, 4, 5, 6, 7, 8};
+  CleanReport r;
+  Scene out = clean(one_primitive(p), {}, &r);
+  const Primitive& q = out.meshes[0].primitives[0];
+  EXPECT_EQ(r.degenerate_removed, 1u);
+  EXPECT_EQ(r.primitives_with_generated_normals, 0u);
+  ASSERT_EQ(q.triangle_count(), 2u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(dot(q.normals[q.indices[size_t(k)]], up), 1.0f, 1e-6f) << k;
+    EXPECT_NEAR(dot(q.normals[q.indices[size_t(3 + k)]], bevel), 1.0f, 1e-6f) << k;
+  }
+}
+
 // Cleaning works on the shared mesh: instances survive untouched, and a mesh left empty is
 // dropped with its instances.
 TEST(Clean, KeepsInstancesAndDropsEmptiedMeshes) {
