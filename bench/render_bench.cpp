@@ -1,7 +1,10 @@
 // Offscreen renderer benchmark (moved out of the unit tests: timing is a figure, not a test).
 // Renders the built-in sample scene at the multiplexer's default size (256²) from the default
 // view and prints the upload time and the time per render; the multiplexer's cost is about
-// renders × this. usage: meshmux_bench_render [COLUMNS_PER_SIDE]
+// renders × this. A second row draws the same geometry untextured with its uvs ×100 (uvs that
+// span hundreds of periods on a mesh no texture reads, as simulator models come): on llvmpipe
+// it must cost what the first row's geometry costs untextured (a third row), not many times
+// more. usage: meshmux_bench_render [COLUMNS_PER_SIDE]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -45,5 +48,22 @@ int main(int argc, char** argv) {
               static_cast<unsigned long long>(st.scene_triangles), s.images[0].width,
               s.images[0].height, std::chrono::duration<double, std::milli>(t1 - t0).count(),
               std::chrono::duration<double, std::milli>(t3 - t2).count() / runs, covered / runs);
+  // Untextured, uvs as they are and ×100.
+  for (float scale : {1.0f, 100.0f}) {
+    Scene u = s;
+    for (Material& m : u.materials) m = Material{};
+    for (Mesh& mesh : u.meshes)
+      for (Primitive& p : mesh.primitives)
+        for (auto& set : p.uvs)
+          for (Vec2& c : set) c = {c.x * scale, c.y * scale};
+    int gu = r.add_geometry(u);
+    r.render(gu, -1, cam);
+    auto u0 = Clock::now();
+    for (int i = 0; i < runs; ++i) r.render(gu, -1, cam);
+    auto u1 = Clock::now();
+    std::printf("| %llu | 256x256, untextured, uvs x%g | | %.2f | |\n",
+                static_cast<unsigned long long>(st.scene_triangles), double(scale),
+                std::chrono::duration<double, std::milli>(u1 - u0).count() / runs);
+  }
   return 0;
 }
