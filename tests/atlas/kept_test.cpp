@@ -66,6 +66,21 @@ TEST(Kept, SamplersShowingTheTexelGridAreKept) {
   }
 }
 
+// NEAREST within a mip level shows the texel grid too; a power-of-two image keeps it where the
+// atlas reuses the image as it is, but one of other sides must be resampled to powers of two
+// for the atlas and the texture levels, and its grid then moves: kept (a 211² palette sampled
+// NEAREST_MIPMAP_LINEAR lost 6 dB resampled). Trilinear NPOT images are baked as before.
+TEST(Kept, NearestWithinALevelOfANonPowerOfTwoImageIsKept) {
+  for (auto [min, side, kept] : {std::tuple{9986, 13, true}, std::tuple{9984, 13, true},
+                                 std::tuple{9986, 16, false}, std::tuple{9987, 13, false}}) {
+    Scene s = two_quads();
+    s.images[0] = gradient(side);
+    s.materials[0].base_color.sampler.min_filter = min;
+    EXPECT_EQ(find_kept_materials(s, 2)[0], kept ? KeptReason::kTexelGrid : KeptReason::kNone)
+        << min << " " << side;
+  }
+}
+
 // A layer texture (here the clearcoat's normal map), a transmission texture or anisotropy keep
 // their material: the atlas carries none of them.
 TEST(Kept, LayerTexturesAndAnisotropyAreKept) {
