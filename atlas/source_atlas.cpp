@@ -129,18 +129,22 @@ bool any_channel_texture(const Material& m) {
 // Rows [rows, height) of a `width`-wide RGBA image whose first `rows` rows are the image's
 // part: what the atlas's sampler must show past the part's edges (glTF 2.0 §3.8.4.4). Clamped:
 // copies of row rows − 1 (what a clamped sampler shows past the edge, so filtering and mip
-// levels across the boundary see no other colour). Repeating: the part's rows again, from its
-// first (the appended half's first rows continue the part across its bottom edge as REPEAT
-// does; its last rows are the part's last, which the atlas, wrapping, shows above the part's
-// top edge; with sides powers of two each box-filtered mip level of the atlas is then the
-// part's level twice). `rgba` is resized to height rows.
-void extend_part(std::vector<uint8_t>& rgba, size_t width, size_t rows, size_t height,
-                 Wrap wrap_t) {
+// levels across the boundary see no other colour). Repeating (height = 2 · rows): the first
+// `keep` rows are the part's first (they continue it across its bottom edge as REPEAT does),
+// the last `keep` the part's last (the atlas, wrapping, shows them above the part's top edge),
+// so every box-filtered mip level down to log2(keep) reads across either edge what the
+// source's own level reads there; the rows between repeat the last of the first ones (plain
+// columns: the encoded image grows by little). `rgba` is resized to height rows.
+void extend_part(std::vector<uint8_t>& rgba, size_t width, size_t rows, size_t height, Wrap wrap_t,
+                 size_t keep) {
   rgba.resize(width * height * 4);
   if (rows == 0) return;
   const size_t row = width * 4;
+  keep = std::min(keep, rows);
   for (size_t y = rows; y < height; ++y) {
-    const size_t from = wrap_t == Wrap::kRepeat ? y % rows : rows - 1;
+    size_t from = rows - 1;
+    if (wrap_t == Wrap::kRepeat)
+      from = y < rows + keep || y + keep >= height ? y % rows : std::max<size_t>(keep, 1) - 1;
     std::copy(rgba.begin() + std::ptrdiff_t(from * row),
               rgba.begin() + std::ptrdiff_t((from + 1) * row),
               rgba.begin() + std::ptrdiff_t(y * row));
@@ -304,7 +308,8 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
     }
   const size_t w = size_t(out.width);
   if (source.height > source.part_height)  // the appended half: past the part's edges
-    extend_part(out.rgba, w, size_t(source.part_height), size_t(out.height), source.wrap_t);
+    extend_part(out.rgba, w, size_t(source.part_height), size_t(out.height), source.wrap_t,
+                size_t(source.block));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     put(px, source.flat_colors[c]);
@@ -375,7 +380,8 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
     value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px, flat_uvs);
     if (channel == AtlasChannel::kNormal) px[0] = 128, px[1] = 128, px[2] = 255;
   };
-  if (source.height > ph) extend_part(out.rgba, w, size_t(ph), size_t(out.height), source.wrap_t);
+  if (source.height > ph)
+    extend_part(out.rgba, w, size_t(ph), size_t(out.height), source.wrap_t, size_t(source.block));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     flat_value(c, px);

@@ -81,9 +81,10 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
 // The atlas image: the source pixels × the factor (sRGB-decoded, multiplied in linear light,
 // re-encoded; alpha × factor.w; unchanged when the factor is 1), resampled to the part's sides;
 // the appended half (if any) repeats the part's last row (as a clamped edge shows, so nothing
-// bleeds across the boundary) or, when wrap_t repeats, is a copy of the part (so bilinear
-// filtering and every box-filtered mip level across either edge of the part read what REPEAT
-// reads there: the opposite edge's rows); then each plain colour's block. Named "atlas".
+// bleeds across the boundary) or, when wrap_t repeats, starts with the part's first `block`
+// rows and ends with its last `block` rows (so bilinear filtering and the box-filtered mip
+// levels down to log2(block) read across either edge of the part what REPEAT reads there: the
+// opposite edge's rows); then each plain colour's block, between them. Named "atlas".
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
 
 // A further channel as an image of the atlas's size: each texel of the source's part takes the
