@@ -727,23 +727,31 @@ int group_min_filter(const Scene& scene, const std::vector<MeshView>& views,
   return agreed != 0 ? agreed : kLinearMipmapLinear;
 }
 
+// How the atlas is sampled: charts are clamped (each chart's gutter holds its edge); the
+// source's image kept as the atlas (atlas/source_atlas.h) wraps as its sampler does.
+struct AtlasSampling {
+  bool source_texels = false;  // the atlas is the source's image, not resampled
+  Wrap wrap_s = Wrap::kClampToEdge, wrap_t = Wrap::kClampToEdge;
+};
+
 // The group's material: the atlas's base colour; the baked channels' images (factors folded in,
 // so the output's factors are 1), or the factors the sources share (metallic and roughness
 // area-weighted over the group's faces, equal when they agree). Every channel is sampled
-// clamped, LINEAR magnified, minified LINEAR_MIPMAP_LINEAR or, when `source_texels` (the atlas
-// is the source's image, not resampled), as group_min_filter says.
+// with `sampling`'s wraps, LINEAR magnified, minified LINEAR_MIPMAP_LINEAR or, when
+// source_texels, as group_min_filter says.
 // `prim_group[m][p]`: the group of mesh m's primitive p, computed once by build_atlas.
 Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
                          const std::vector<std::vector<int32_t>>& prim_group, int32_t group,
                          const GroupKey& key, const ChannelNeeds& need, const ChannelSlots& slots,
-                         bool source_texels) {
+                         const AtlasSampling& sampling) {
   Material mat;
   mat.name = "atlas";
   mat.base_color.image = 0;
-  mat.base_color.sampler.wrap_s = mat.base_color.sampler.wrap_t = Wrap::kClampToEdge;
+  mat.base_color.sampler.wrap_s = sampling.wrap_s;
+  mat.base_color.sampler.wrap_t = sampling.wrap_t;
   mat.base_color.sampler.mag_filter = 9729;  // LINEAR
   mat.base_color.sampler.min_filter =
-      source_texels ? group_min_filter(scene, views, prim_group, group) : 9987;
+      sampling.source_texels ? group_min_filter(scene, views, prim_group, group) : 9987;
   mat.metallic_factor = 0;
   mat.roughness_factor = 0;
   double area_total = 0;
@@ -875,10 +883,10 @@ Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& co
 // 5. The output scene: one primitive per mesh into the atlas, one material per group, one
 // image (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with
 // alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs;
-// `source_texels`: the atlas is the source's image, not resampled (merged_material).
+// `sampling`: how the materials sample the atlas (merged_material).
 Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
                const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv, Image atlas,
-               ChannelImages channels, const ChannelNeeds& need, bool source_texels) {
+               ChannelImages channels, const ChannelNeeds& need, const AtlasSampling& sampling) {
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
@@ -911,8 +919,7 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
     }
   for (size_t g = 0; g < groups.size(); ++g)
     out.materials.push_back(
-        merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots,
-                        source_texels));
+        merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots, sampling));
   // Each mesh splits into one mesh per group it has faces in (one primitive each, so the stream
   // can refine it); its instances place every part.
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
@@ -1015,12 +1022,16 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
         channels.sheen = source_atlas_channel(scene, *source, AtlasChannel::kSheen, es);
       name_channels(channels);
       // The source's texels as they are (its sides already powers of two): its sampler's
-      // filtering within a mip level shows them as the original does.
+      // filtering within a mip level shows them as the original does; its wraps show across
+      // the image's edges what the original shows there.
       const Image& src_image = scene.images[size_t(source->image)];
-      const bool source_texels =
+      AtlasSampling sampling;
+      sampling.source_texels =
           src_image.width == source->part_width && src_image.height == source->part_height;
-      Scene out = assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need,
-                           source_texels);
+      sampling.wrap_s = source->wrap_s;
+      sampling.wrap_t = source->wrap_t;
+      Scene out =
+          assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need, sampling);
       rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       if (report) *report = std::move(rep);
       return out;
@@ -1070,7 +1081,7 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
                          std::move(baked.sheen)};
   name_channels(channels);
   Scene out =
-      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, false);
+      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, {});
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
   return out;

@@ -126,16 +126,29 @@ bool any_channel_texture(const Material& m) {
          m.emissive.present() || m.sheen_color.present();
 }
 
-// Rows [rows, height) of a `width`-wide RGBA image: copies of row rows − 1 (what a clamped
-// sampler shows past the image's edge, so filtering and mip levels across the boundary see no
-// other colour). `rgba` is resized to height rows.
-void extend_last_row(std::vector<uint8_t>& rgba, size_t width, size_t rows, size_t height) {
+// Rows [rows, height) of a `width`-wide RGBA image whose first `rows` rows are the image's
+// part: what the atlas's sampler must show past the part's edges (glTF 2.0 §3.8.4.4). Clamped:
+// copies of row rows − 1 (what a clamped sampler shows past the edge, so filtering and mip
+// levels across the boundary see no other colour). Repeating (height = 2 · rows): the first
+// `keep` rows are the part's first (they continue it across its bottom edge as REPEAT does),
+// the last `keep` the part's last (the atlas, wrapping, shows them above the part's top edge),
+// so every box-filtered mip level down to log2(keep) reads across either edge what the
+// source's own level reads there; the rows between repeat the last of the first ones (plain
+// columns: the encoded image grows by little). `rgba` is resized to height rows.
+void extend_part(std::vector<uint8_t>& rgba, size_t width, size_t rows, size_t height, Wrap wrap_t,
+                 size_t keep) {
   rgba.resize(width * height * 4);
   if (rows == 0) return;
   const size_t row = width * 4;
-  for (size_t y = rows; y < height; ++y)
-    std::copy(rgba.begin() + std::ptrdiff_t((rows - 1) * row),
-              rgba.begin() + std::ptrdiff_t(rows * row), rgba.begin() + std::ptrdiff_t(y * row));
+  keep = std::min(keep, rows);
+  for (size_t y = rows; y < height; ++y) {
+    size_t from = rows - 1;
+    if (wrap_t == Wrap::kRepeat)
+      from = y < rows + keep || y + keep >= height ? y % rows : std::max<size_t>(keep, 1) - 1;
+    std::copy(rgba.begin() + std::ptrdiff_t(from * row),
+              rgba.begin() + std::ptrdiff_t((from + 1) * row),
+              rgba.begin() + std::ptrdiff_t(y * row));
+  }
 }
 
 }  // namespace
@@ -145,6 +158,7 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   std::vector<Vec4> flat;
   std::vector<int32_t> flat_material;
   const Material default_material;
+  bool repeat_s = true, repeat_t = true;  // every textured face's sampler repeats on the axis
   // Pass 1: one image, one uv set, one factor; the plain colours.
   for (const Mesh& mesh : scene.meshes)
     for (const Primitive& p : mesh.primitives) {
@@ -174,6 +188,8 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
             (c->tex_coord != t.tex_coord || !c->transform.is_identity() ||
              size_t(c->image) >= scene.images.size() || !scene.images[size_t(c->image)].decoded()))
           return std::nullopt;
+      repeat_s = repeat_s && t.sampler.wrap_s == Wrap::kRepeat;
+      repeat_t = repeat_t && t.sampler.wrap_t == Wrap::kRepeat;
       SourceAtlas here;
       here.image = t.image;
       here.tex_coord = t.tex_coord;
@@ -194,6 +210,8 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   // Sides that are not powers of two are rounded up (the image resampled): texture levels halve.
   const int w = next_power_of_two(image.width), h = next_power_of_two(image.height);
   if (w > max_size || h > max_size) return std::nullopt;
+  found->wrap_s = repeat_s ? Wrap::kRepeat : Wrap::kClampToEdge;
+  found->wrap_t = repeat_t ? Wrap::kRepeat : Wrap::kClampToEdge;
   // Pass 2: each textured face inside one unit cell (moved to [0, 1]² where the sampler
   // repeats); with plain colours to place, the texels the faces come near are marked.
   std::vector<uint8_t> used(flat.empty() ? 0 : size_t(w) * size_t(h), 0);
@@ -217,12 +235,17 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
         for (const Vec2& q : c)
           if (q.x - cell.x > 1 + kUvSlack || q.y - cell.y > 1 + kUvSlack) return std::nullopt;
         if (flat.empty()) continue;
-        double x[3], y[3];
-        for (int k = 0; k < 3; ++k) {
-          x[k] = double(c[k].x - cell.x) * w;
-          y[k] = double(c[k].y - cell.y) * h;
-        }
-        mark_triangle(x, y, kMargin, w, h, used);
+        // The face, and on a repeating axis its copies one period away: near an edge the
+        // original's filtering and mip levels read the texels across it.
+        for (int sy = repeat_t ? -1 : 0; sy <= (repeat_t ? 1 : 0); ++sy)
+          for (int sx = repeat_s ? -1 : 0; sx <= (repeat_s ? 1 : 0); ++sx) {
+            double x[3], y[3];
+            for (int k = 0; k < 3; ++k) {
+              x[k] = (double(c[k].x - cell.x) + sx) * w;
+              y[k] = (double(c[k].y - cell.y) + sy) * h;
+            }
+            mark_triangle(x, y, kMargin, w, h, used);
+          }
       }
     }
   found->width = found->part_width = w;
@@ -239,11 +262,16 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   if (cells.size() < flat.size()) {
     if (2 * h > max_size) return std::nullopt;
     found->height = 2 * h;
-    block = std::max(1, std::min({kMaxBlock, w, h / 2}));  // the upper rows stay the image's edge
+    // Clamped: the upper rows stay the image's edge (its last row repeated, see
+    // source_atlas_image), the blocks from the bottom up, as far from it as they can be.
+    // Repeating: the appended half copies the image, whose first and last `block` rows stay
+    // (they continue the image across its bottom edge and, wrapping, across its top), the
+    // blocks between them.
+    const bool repeat = found->wrap_t == Wrap::kRepeat;
+    block = std::max(1, std::min({kMaxBlock, w, repeat ? h / 4 : h / 2}));
+    const int top = repeat ? h + block : h, bottom = repeat ? 2 * h - block : 2 * h;
     cells.clear();
-    // From the bottom up: the rows next to the image's part repeat its last row (a clamped
-    // edge, see source_atlas_image), the blocks as far from it as they can be.
-    for (int y = 2 * h - block; y >= h && cells.size() < flat.size(); y -= block)
+    for (int y = bottom - block; y >= top && cells.size() < flat.size(); y -= block)
       for (int x = 0; x + block <= w && cells.size() < flat.size(); x += block)
         cells.push_back({x, y});
     if (cells.size() < flat.size()) return std::nullopt;
@@ -279,8 +307,9 @@ Image source_atlas_image(const Scene& scene, const SourceAtlas& source) {
       out.rgba[i + 3] = uint8_t(std::lround(std::clamp(out.rgba[i + 3] * f.w, 0.0f, 255.0f)));
     }
   const size_t w = size_t(out.width);
-  if (source.height > source.part_height)  // the appended half: the part's last row repeated
-    extend_last_row(out.rgba, w, size_t(source.part_height), size_t(out.height));
+  if (source.height > source.part_height)  // the appended half: past the part's edges
+    extend_part(out.rgba, w, size_t(source.part_height), size_t(out.height), source.wrap_t,
+                size_t(source.block));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     put(px, source.flat_colors[c]);
@@ -351,7 +380,8 @@ Image source_atlas_channel(const Scene& scene, const SourceAtlas& source, AtlasC
     value(c < source.flat_material.size() ? source.flat_material[c] : -1, {0, 0}, px, flat_uvs);
     if (channel == AtlasChannel::kNormal) px[0] = 128, px[1] = 128, px[2] = 255;
   };
-  if (source.height > ph) extend_last_row(out.rgba, w, size_t(ph), size_t(out.height));
+  if (source.height > ph)
+    extend_part(out.rgba, w, size_t(ph), size_t(out.height), source.wrap_t, size_t(source.block));
   for (size_t c = 0; c < source.flat_colors.size(); ++c) {
     uint8_t px[4];
     flat_value(c, px);

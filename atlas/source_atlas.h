@@ -27,6 +27,11 @@ struct SourceAtlas {
                               // plain colours found no room in it
   int part_width = 0, part_height = 0;  // the image's part of the atlas: its sides rounded up to
                                         // powers of two (resampled when they differ)
+  // The atlas's wrap per axis: kRepeat where every textured face's base-colour sampler repeats
+  // on that axis (the atlas then shows past the image's edges what REPEAT shows there: the
+  // image's opposite edge, glTF 2.0 §3.8.4.4), else kClampToEdge (a mirrored repeat shows the
+  // edge texel past the edge too, as a clamp does, for the faces inside [0, 1]).
+  Wrap wrap_s = Wrap::kClampToEdge, wrap_t = Wrap::kClampToEdge;
   // Plain colours: faces whose material has no base-colour texture (and no vertex colours)
   // show their factor; each distinct one gets an aligned square block of texels no textured
   // face comes near (`block` texels, clean down to mip level log2(block)).
@@ -54,7 +59,10 @@ enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive, kShee
 // - the image is decoded and its sides, rounded up to powers of two, are at most `max_size`
 //   (texture levels halve: other sides are resampled up, image/resize.h, never losing density);
 // - the plain colours find aligned free blocks (4 to 64 texels, 8 texels clear of every
-//   textured face) in the image or in a second image height appended below it (≤ max_size).
+//   textured face, and of its copies one period away on a repeating axis: the original samples
+//   there across the edge) in the image or in a second image height appended below it
+//   (≤ max_size): below its first `block` rows when wrap_t repeats (they continue the image
+//   across its bottom edge) and above its last `block` rows (they continue it across its top).
 // - the textured faces' materials agree on their normal, occlusion, metallic-roughness and
 //   emissive textures (through the same uv set, no transform) and factors; plain-colour
 //   materials sample no texture, and those sharing a colour share their factors.
@@ -73,13 +81,15 @@ int flat_color_index(const Scene& scene, const SourceAtlas& source, int32_t mate
 // The atlas image: the source pixels × the factor (sRGB-decoded, multiplied in linear light,
 // re-encoded; alpha × factor.w; unchanged when the factor is 1), resampled to the part's sides;
 // the appended half (if any) repeats the part's last row (as a clamped edge shows, so nothing
-// bleeds across the boundary), and each plain colour's block, placed from the bottom up, far
-// from it. Named "atlas".
+// bleeds across the boundary) or, when wrap_t repeats, starts with the part's first `block`
+// rows and ends with its last `block` rows (so bilinear filtering and the box-filtered mip
+// levels down to log2(block) read across either edge of the part what REPEAT reads there: the
+// opposite edge's rows); then each plain colour's block, between them. Named "atlas".
 Image source_atlas_image(const Scene& scene, const SourceAtlas& source);
 
 // A further channel as an image of the atlas's size: each texel of the source's part takes the
 // textured material's value at its centre (atlas/material_sample.h: factors folded in), the
-// appended half repeats the part's last row, each plain colour's block takes its material's
+// appended half is made as source_atlas_image's, each plain colour's block takes its material's
 // factors. Normal: the
 // source's map (normalized, scale folded; the uvs and so the tangent frame are the source's),
 // flat (0, 0, 1) in the blocks. Occlusion-roughness-metallic: linear bytes. Emissive: sRGB

@@ -227,6 +227,28 @@ struct CellRenders {
         geometry(size_t(m), -1),
         measured(size_t(m) * size_t(n)) {}
 
+  // The sampler the streamed material samples its base colour with (every channel of the atlas
+  // shares it, atlas/atlas.cpp merged_material); clamped without one.
+  Sampler atlas_sampler() const {
+    Sampler clamped;
+    clamped.wrap_s = clamped.wrap_t = Wrap::kClampToEdge;
+    if (streamed_material < 0 || size_t(streamed_material) >= ps.scene.materials.size())
+      return clamped;
+    const TextureRef& t = ps.scene.materials[size_t(streamed_material)].base_color;
+    return t.present() ? t.sampler : clamped;
+  }
+
+  // The sampler of the first texture reference (material order, base colour first) that
+  // samples a kept image; clamped if none does.
+  Sampler sampler_of(int32_t image) const {
+    for (const Material& m : ps.scene.materials)
+      for (const TextureRef* t : texture_refs(m))
+        if (t->present() && t->image == image) return t->sampler;
+    Sampler clamped;
+    clamped.wrap_s = clamped.wrap_t = Wrap::kClampToEdge;
+    return clamped;
+  }
+
   // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
   // them, one map at a time. A level's kept images are the last map of each at that level or
   // below (a level carries one only where its size changes).
@@ -241,8 +263,10 @@ struct CellRenders {
         image.mime_type = map.mime_type;
         if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
         if (map.image >= 0) {
+          const Sampler smp = sampler_of(map.image);
           kept[map.image] =
-              gl.add_texture(image, kept_image_filter(ps.scene, map.image) == TexelFilter::kSrgb);
+              gl.add_texture(image, kept_image_filter(ps.scene, map.image) == TexelFilter::kSrgb,
+                             smp.wrap_s, smp.wrap_t);
           continue;
         }
         // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
@@ -258,7 +282,8 @@ struct CellRenders {
         static_assert(std::size(kSlots) == kChannelNames.size());
         if (std::optional<Channel> c = parse_channel(map.channel)) {
           const Slot& slot = kSlots[size_t(*c)];
-          texture[j].*slot.field = gl.add_texture(image, slot.srgb);
+          const Sampler smp = atlas_sampler();
+          texture[j].*slot.field = gl.add_texture(image, slot.srgb, smp.wrap_s, smp.wrap_t);
         }
       }
       texture[j].kept.assign(kept.begin(), kept.end());

@@ -28,7 +28,8 @@
 // multiplexer's texture levels of the atlas), or, for geometry added with its textures, each
 // primitive with its own material's. Rows are uploaded top row first, so
 // GL's t = 0 is the image's top row, which is exactly glTF's v = 0: uvs are used unflipped.
-// Trilinear mipmapping + anisotropic filtering, clamp-to-edge. llvmpipe's anisotropic filter
+// Trilinear mipmapping + anisotropic filtering, each texture wrapped as add_texture was told
+// (clamp-to-edge unless its material's sampler repeats). llvmpipe's anisotropic filter
 // (Mesa 22.3) also kicks in under magnification, where it blurs and jitters texels (a 2x2
 // texture magnified 64x comes out noisy); GPUs filter magnified texels bilinearly. So the texture
 // is bound twice, with an anisotropic and a plain trilinear sampler object, and the shader uses
@@ -58,6 +59,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <tuple>
 
 #include "image/texture_levels.h"
 #include "multiplex/dfg_lut.h"
@@ -76,6 +78,10 @@ namespace {
 
 // Texels per view pixel beyond which a texture's finer mip levels are not uploaded (add_texture).
 constexpr int kUploadPerPixel = 4;
+
+// The GL wrap modes (glTF's sampler values are the GL enums), and a Wrap's index among them.
+constexpr GLenum kWraps[3] = {GL_CLAMP_TO_EDGE, GL_REPEAT, GL_MIRRORED_REPEAT};
+int wrap_index(Wrap w) { return w == Wrap::kRepeat ? 1 : w == Wrap::kMirroredRepeat ? 2 : 0; }
 
 // ---- EGL helpers -------------------------------------------------------------------------
 
@@ -226,13 +232,15 @@ struct Renderer::Impl {
   // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
   // occlusion-roughness-metallic, 4 emissive, 6 sheen colour (anisotropic sampler), 5 the DFG
   // table.
-  GLuint sampler_aniso = 0, sampler_plain = 0, sampler_table = 0;
+  // samplers[a][s][t]: anisotropic (a = 1) or plain, wrap s and t by wrap_index.
+  GLuint samplers[2][3][3] = {}, sampler_table = 0;
   GLuint dfg_texture = 0;
   float max_anisotropy = 1;
   std::vector<GpuGeometry> geometries;
   struct Texture {
     GLuint id = 0;  // 0 = freed
     int width = 0, height = 0;
+    Wrap wrap_s = Wrap::kClampToEdge, wrap_t = Wrap::kClampToEdge;
   };
   std::vector<Texture> textures;
 
@@ -412,21 +420,23 @@ Status Renderer::Impl::init_gl() {
   u_sheen = glGetUniformLocation(program, "u_sheen");
   u_sheen_roughness = glGetUniformLocation(program, "u_sheen_roughness");
 
-  // Sampling state lives in sampler objects (they override the textures' own parameters).
-  glGenSamplers(1, &sampler_aniso);
-  glGenSamplers(1, &sampler_plain);
-  for (GLuint smp : {sampler_aniso, sampler_plain}) {
-    glSamplerParameteri(smp, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glSamplerParameteri(smp, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glSamplerParameteri(smp, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glSamplerParameteri(smp, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  }
-  glSamplerParameterf(sampler_aniso, GL_TEXTURE_MAX_ANISOTROPY,
-                      std::clamp(options.anisotropy, 1.0f, max_anisotropy));
-  glGetError();  // tolerate a driver without anisotropic filtering
-  glBindSampler(0, sampler_aniso);
-  glBindSampler(1, sampler_plain);
-  for (GLuint unit : {2u, 3u, 4u, 6u}) glBindSampler(unit, sampler_aniso);
+  // Sampling state lives in sampler objects (they override the textures' own parameters), one
+  // per filtering and wrap pair; bind_unit binds the one its texture asks for.
+  for (int a = 0; a < 2; ++a)
+    for (int ws = 0; ws < 3; ++ws)
+      for (int wt = 0; wt < 3; ++wt) {
+        GLuint& smp = samplers[a][ws][wt];
+        glGenSamplers(1, &smp);
+        glSamplerParameteri(smp, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+        glSamplerParameteri(smp, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glSamplerParameteri(smp, GL_TEXTURE_WRAP_S, GLint(kWraps[ws]));
+        glSamplerParameteri(smp, GL_TEXTURE_WRAP_T, GLint(kWraps[wt]));
+        if (a == 1)
+          glSamplerParameterf(smp, GL_TEXTURE_MAX_ANISOTROPY,
+                              std::clamp(options.anisotropy, 1.0f, max_anisotropy));
+        glGetError();  // tolerate a driver without anisotropic filtering
+      }
+  for (GLuint unit : {0u, 1u, 2u, 3u, 4u, 6u}) glBindSampler(unit, samplers[unit != 1][0][0]);
   // The DFG table: 16×16 RG floats, bilinear, clamped (as three.js samples its own).
   glGenSamplers(1, &sampler_table);
   glSamplerParameteri(sampler_table, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -517,8 +527,10 @@ Renderer::~Renderer() {
     for (size_t t = 0; t < m.textures.size(); ++t) remove_texture(int(t));
     if (m.program) glDeleteProgram(m.program);
     if (m.depth_program) glDeleteProgram(m.depth_program);
-    if (m.sampler_aniso) glDeleteSamplers(1, &m.sampler_aniso);
-    if (m.sampler_plain) glDeleteSamplers(1, &m.sampler_plain);
+    for (auto& by_s : m.samplers)
+      for (auto& by_t : by_s)
+        for (GLuint& smp : by_t)
+          if (smp) glDeleteSamplers(1, &smp);
     if (m.sampler_table) glDeleteSamplers(1, &m.sampler_table);
     if (m.dfg_texture) glDeleteTextures(1, &m.dfg_texture);
     if (m.fbo) glDeleteFramebuffers(1, &m.fbo);
@@ -540,14 +552,16 @@ const RenderOptions& Renderer::options() const { return impl_->options; }
 int Renderer::add_geometry(const Scene& scene, bool with_textures, int32_t streamed_material) {
   Impl& m = *impl_;
   m.make_current();
-  // Each material's decoded images, uploaded once (as colour or as data).
-  std::vector<int> image_texture(scene.images.size(), -1), data_texture(scene.images.size(), -1);
+  // Each material's decoded images, uploaded once per use (as colour or as data, with the
+  // sampler's wraps).
+  std::map<std::tuple<int32_t, bool, Wrap, Wrap>, int> uploaded;
   auto upload = [&](const TextureRef& ref, bool color) {
     const int32_t i = ref.image;
     if (!with_textures || i < 0 || size_t(i) >= scene.images.size()) return -1;
-    int& slot = (color ? image_texture : data_texture)[size_t(i)];
-    if (slot < 0) slot = add_texture(scene.images[size_t(i)], color);
-    return slot;
+    const Sampler& smp = ref.sampler;
+    auto [at, added] = uploaded.try_emplace({i, color, smp.wrap_s, smp.wrap_t}, -1);
+    if (added) at->second = add_texture(scene.images[size_t(i)], color, smp.wrap_s, smp.wrap_t);
+    return at->second;
   };
   m.make_current();
   GpuGeometry geo;
@@ -664,7 +678,7 @@ int Renderer::add_geometry(const Scene& scene, bool with_textures, int32_t strea
   return int(m.geometries.size() - 1);
 }
 
-int Renderer::add_texture(const Image& image, bool color) {
+int Renderer::add_texture(const Image& image, bool color, Wrap wrap_s, Wrap wrap_t) {
   Impl& m = *impl_;
   if (!image.decoded() || image.rgba.size() < size_t(image.width) * image.height * 4) return -1;
   m.make_current();
@@ -693,7 +707,7 @@ int Renderer::add_texture(const Image& image, bool color) {
   glGenerateMipmap(GL_TEXTURE_2D);
   // Filtering and wrapping come from the sampler objects made in init_gl().
   glBindTexture(GL_TEXTURE_2D, 0);
-  m.textures.push_back({tex, image.width, image.height});
+  m.textures.push_back({tex, image.width, image.height, wrap_s, wrap_t});
   return int(m.textures.size() - 1);
 }
 
@@ -928,6 +942,10 @@ void Renderer::Impl::bind_map(int want, int have, GLint flag, GLenum unit) {
 void Renderer::Impl::bind_unit(GLenum unit, int k) {
   glActiveTexture(unit);
   glBindTexture(GL_TEXTURE_2D, live(k) ? textures[size_t(k)].id : 0);
+  const GLuint index = unit - GL_TEXTURE0;
+  const int ws = live(k) ? wrap_index(textures[size_t(k)].wrap_s) : 0;
+  const int wt = live(k) ? wrap_index(textures[size_t(k)].wrap_t) : 0;
+  glBindSampler(index, samplers[index != 1][ws][wt]);  // unit 1: the plain base colour
 }
 
 std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& sets,

@@ -88,7 +88,8 @@ class Renderer {
   // Uploads the geometry of a scene (every mesh's primitives with positions, normals and uv
   // set 0; every instance's transform; materials' factors). With `with_textures` each
   // primitive also gets its material's decoded images (base colour, normal, metallic-roughness
-  // with any occlusion in its R, emissive; uploaded once per image) and reads the uv set the
+  // with any occlusion in its R, emissive; uploaded once per image and wrap, sampled with the
+  // wraps of the material's sampler) and reads the uv set the
   // base colour names: what `meshmux render` of a multi-material scene needs. Returns a handle.
   // With `streamed_material` ≥ 0 instead (the material the texture levels stream,
   // TextureLevels::material), the primitives whose material does not sample the base colour
@@ -98,8 +99,11 @@ class Renderer {
   int add_geometry(const Scene& scene, bool with_textures = false, int32_t streamed_material = -1);
   // Uploads an RGBA8 texture with a full mip chain. Returns a handle. `color`: the texels are
   // sRGB colours (base colour, emissive), decoded by the GL under physical shading; otherwise
-  // data (normal, occlusion-roughness-metallic), read as stored.
-  int add_texture(const Image& image, bool color = true);
+  // data (normal, occlusion-roughness-metallic), read as stored. `wrap_s`, `wrap_t`: how it is
+  // sampled past its edges (its material's sampler: a kept source image as the atlas may
+  // repeat, atlas/source_atlas.h; charts are clamped).
+  int add_texture(const Image& image, bool color = true, Wrap wrap_s = Wrap::kClampToEdge,
+                  Wrap wrap_t = Wrap::kClampToEdge);
   // Frees what add_* uploaded.
   void remove_geometry(int handle);
   void remove_texture(int handle);

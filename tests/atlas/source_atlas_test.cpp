@@ -5,6 +5,8 @@
 #include <algorithm>
 
 #include "atlas/atlas.h"
+#include "atlas/material_sample.h"
+#include "image/texture_levels.h"
 
 namespace meshmux {
 namespace {
@@ -238,6 +240,7 @@ TEST(SourceAtlas, FullTextureGrowsDownwardForPlainColours) {
 TEST(SourceAtlas, AppendedHalfKeepsTheImagesUvsAndEdge) {
   Scene s = half_used_scene();
   s.meshes[0].primitives[0].uvs = {{{0, 1}, {1, 1}, {1, 0}, {0, 0}}};
+  s.materials[0].base_color.sampler.wrap_t = Wrap::kClampToEdge;  // repeating: the next test
   AtlasReport rep;
   auto out = build_atlas(s, {}, &rep, nullptr);
   ASSERT_TRUE(out.ok()) << out.status().message();
@@ -258,6 +261,93 @@ TEST(SourceAtlas, AppendedHalfKeepsTheImagesUvsAndEdge) {
   auto source = find_source_atlas(s, 4096);
   ASSERT_TRUE(source.has_value());
   EXPECT_EQ(source->flat_y[0], 128 - source->block);
+}
+
+// A label sheet (TextureLinearInterpolationTest): a 16×16 image whose top row is transparent
+// and whose other rows are opaque, sampled over exactly [0, 1]² through the default (REPEAT)
+// sampler, beside a plain colour that needs a second image height. Under REPEAT the
+// original's bilinear filtering and mip levels blend the quad's top edge with the image's
+// bottom rows and its bottom edge with the top rows; an atlas clamped to its edge, its
+// appended half the image's last row repeated, showed a solid line along the top edge (a row
+// the alpha cutoff dropped in the original) and lost the bottom edge's marks: 27.2 dB unlit,
+// 26.1 lit against the original. The atlas must show at the image's edges, at every mip level
+// the plain colour's block stays clean to, what the source's sampler shows there; the further
+// channels (here emissive, from the same image) likewise.
+Scene label_scene() {
+  Scene s = half_used_scene();
+  Image& img = s.images[0];
+  img.width = img.height = 16;
+  img.rgba.clear();
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x)
+      img.rgba.insert(img.rgba.end(), {uint8_t(16 * x), uint8_t(255 - 16 * y), uint8_t(7 * (x ^ y)),
+                                       uint8_t(y == 0 ? 0 : 255)});
+  s.materials[0].emissive.image = 0;
+  s.materials[0].emissive_factor = {1, 1, 1};
+  s.meshes[0].primitives[0].uvs = {{{0, 1}, {1, 1}, {1, 0}, {0, 0}}};
+  return s;
+}
+
+TEST(SourceAtlas, RepeatingSamplerShowsTheOppositeEdgeAcrossTheImagesEdges) {
+  const Scene s = label_scene();
+  auto source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  ASSERT_EQ(source->height, 32);  // the plain colour needs the appended half
+  auto out = build_atlas(s, {}, nullptr, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_EQ(out->materials.size(), 1u);
+  const Material& m = out->materials[0];
+  EXPECT_EQ(m.base_color.sampler.wrap_s, Wrap::kRepeat);
+  EXPECT_EQ(m.base_color.sampler.wrap_t, Wrap::kRepeat);
+  ASSERT_TRUE(m.emissive.present());
+  EXPECT_EQ(m.emissive.sampler.wrap_t, Wrap::kRepeat);
+  const Sampler original = s.materials[0].base_color.sampler;
+  // Source image and atlas image, level by level (box-filtered halvings), sampled at and just
+  // inside the quad's edges (source v, atlas v scaled into the image's part) for every column.
+  auto compare = [&](const Image& src0, const Image& atlas0, const Sampler& at, bool rgb_only,
+                     float tolerance, const char* what) {
+    Image src = src0, atlas = atlas0;
+    for (int level = 0; (1 << level) <= source->block; ++level) {
+      const double texel = 1.0 / src.height;
+      for (double v : {0.0, 0.25 * texel, 0.5 * texel, 1 - 0.5 * texel, 1 - 0.25 * texel, 1.0})
+        for (int x = 0; x < src.width; ++x) {
+          const float u = float((x + 0.3) / src.width);
+          const Vec4 want = sample_image(src, original, {u, float(v)});
+          const Vec4 got =
+              sample_image(atlas, at, {u, float(v * source->part_height / source->height)});
+          for (int c = 0; c < (rgb_only ? 3 : 4); ++c)
+            ASSERT_NEAR((&got.x)[c], (&want.x)[c], tolerance)
+                << what << " level " << level << " v " << v << " column " << x << " channel " << c;
+        }
+      src = downsample_half(src);
+      atlas = downsample_half(atlas);
+    }
+  };
+  compare(s.images[0], out->images[size_t(m.base_color.image)], m.base_color.sampler, false, 1e-5f,
+          "base colour");
+  compare(s.images[0], out->images[size_t(m.emissive.image)], m.emissive.sampler, true, 0.01f,
+          "emissive");
+  // The plain colour's block sits between the rows that continue the image.
+  EXPECT_GE(source->flat_y[0], 16 + source->block);
+  EXPECT_LE(source->flat_y[0] + source->block, 32 - source->block);
+}
+
+// Where the image has room for a plain colour, a repeating axis still samples across the
+// image's edges: the block keeps the margin from the textured faces' copies one period away
+// too (a quad on the image's top half under REPEAT reads its bottom rows at its top edge).
+TEST(SourceAtlas, PlainColourBlockKeepsClearOfTheRepeatedEdge) {
+  Scene s = half_used_scene();
+  s.meshes[0].primitives[0].uvs = {{{0, 0.5f}, {1, 0.5f}, {1, 0}, {0, 0}}};
+  auto source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  EXPECT_EQ(source->height, 64);
+  ASSERT_EQ(source->flat_colors.size(), 1u);
+  EXPECT_LE(source->flat_y[0] + source->block, 64 - 8);  // 8 texels: the margin (kMargin)
+  // Clamped, the rows at the bottom edge are the original's to give away.
+  s.materials[0].base_color.sampler.wrap_t = Wrap::kClampToEdge;
+  source = find_source_atlas(s, 4096);
+  ASSERT_TRUE(source.has_value());
+  EXPECT_EQ(source->flat_y[0] + source->block, 64);
 }
 
 // Larger than the atlas may be: baked (and downsized) by the charts path.

@@ -225,6 +225,45 @@ TEST(Render, TextureOrientationMatchesGltf) {
   EXPECT_NEAR(flat[1], 255, 1);
 }
 
+// A texture is sampled past its edges as its material's sampler says. meshmux keeps a source
+// image as the atlas with its REPEAT sampler (atlas/source_atlas.h): along a quad's edge at
+// uv exactly 0, REPEAT blends the top row with the bottom one where a clamp shows the top row
+// alone (TextureLinearInterpolationTest's labels). The renderer measures the stream's
+// distortion and draws `meshmux render`, so it samples as the viewers do.
+TEST(Render, TextureWrapsAsItsSamplerSays) {
+  RenderOptions o;
+  o.ambient = 0;
+  o.diffuse = 1;
+  o.light_direction = {0, 0, 1};  // from the camera
+  MAKE_RENDERER(r, o);
+  Image im;
+  im.width = im.height = 2;
+  im.rgba = {255, 0, 0,   255, 255, 0, 0,   255,   // top row: red
+             0,   0, 255, 255, 0,   0, 255, 255};  // bottom row: blue
+  const int g = r->add_geometry(single(quad()));   // the quad spans pixels 64..192
+  const RenderImage clamped = r->render(g, r->add_texture(im), head_on(1));
+  const RenderImage repeated =
+      r->render(g, r->add_texture(im, true, Wrap::kRepeat, Wrap::kRepeat), head_on(1));
+  // The quad's top row of pixels (v ≈ 0): red alone clamped, half blue repeated.
+  EXPECT_LT(pixel(clamped, 128, 64)[2], 20);
+  EXPECT_GT(pixel(repeated, 128, 64)[2], 80);
+  // Its middle (v = 0.5, between the rows' centres) is the same either way.
+  EXPECT_NEAR(pixel(clamped, 128, 128)[2], pixel(repeated, 128, 128)[2], 1);
+
+  // A scene drawn with its own textures takes each material's sampler.
+  Scene s = single(quad());
+  s.images.push_back(im);
+  Material m;
+  m.base_color.image = 0;  // the default sampler repeats
+  s.materials.push_back(m);
+  s.meshes[0].primitives[0].material = 0;
+  const RenderImage own = r->render(r->add_geometry(s, true), -1, head_on(1));
+  EXPECT_GT(pixel(own, 128, 64)[2], 80);
+  s.materials[0].base_color.sampler.wrap_t = Wrap::kClampToEdge;
+  const RenderImage own_clamped = r->render(r->add_geometry(s, true), -1, head_on(1));
+  EXPECT_LT(pixel(own_clamped, 128, 64)[2], 20);
+}
+
 TEST(Render, LambertFacingBrighterThanGrazing) {
   RenderOptions o;  // ambient 0.35, diffuse 0.65
   o.light_follows_camera = false;

@@ -9,14 +9,16 @@ import * as THREE from 'three';
 // ---- Textures and material -------------------------------------------------------------------
 
 // Texels used as stored bytes (no colour management), glTF's uv convention (no flip),
-// trilinear + anisotropic filtering, clamped to the edge.
-export function configureTexture(texture, anisotropy) {
+// trilinear + anisotropic filtering, wrapped as `wrap` says ([wrapS, wrapT], three.js
+// constants): the base .glb's atlas sampler, which GLTFLoader gives its map (meshmux keeps a
+// source image's REPEAT there, and the image's edges then continue across), clamped by default.
+export function configureTexture(texture, anisotropy, wrap = [THREE.ClampToEdgeWrapping, THREE.ClampToEdgeWrapping]) {
   texture.colorSpace = THREE.NoColorSpace;
   texture.flipY = false;
   texture.minFilter = THREE.LinearMipmapLinearFilter;
   texture.magFilter = THREE.LinearFilter;
   texture.generateMipmaps = true;
-  texture.wrapS = texture.wrapT = THREE.ClampToEdgeWrapping;
+  [texture.wrapS, texture.wrapT] = wrap;
   texture.anisotropy = anisotropy;
   texture.needsUpdate = true;
   return texture;
@@ -106,8 +108,8 @@ export const CHANNEL_SLOTS = {
 };
 const COLOR_CHANNELS = new Set(['base_color', 'emissive', 'sheen_color']);
 
-export function configureMap(texture, channel, anisotropy) {
-  configureTexture(texture, anisotropy);
+export function configureMap(texture, channel, anisotropy, wrap) {
+  configureTexture(texture, anisotropy, wrap);
   texture.colorSpace = COLOR_CHANNELS.has(channel) ? THREE.SRGBColorSpace : THREE.NoColorSpace;
   return texture;
 }

@@ -119,6 +119,7 @@ export class MeshmuxStream extends EventTarget {
     this._position = 0;  // chunks of the order applied
     this._bytes = 0;
     this._textureSize = [0, 0];
+    this._wrap = undefined;  // the atlas sampler's [wrapS, wrapT] (configureTexture), from the base
     this._trianglesApplied = 0;
     this._applySeconds = 0;
     this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
@@ -344,12 +345,14 @@ export class MeshmuxStream extends EventTarget {
       if (!materialFor.has(source)) {
         if (source.map && !this._map.value && !this._maps.base_color) {
           this._textureSize = [source.map.image?.width || 0, source.map.image?.height || 0];
-          if (!physical) this._map.value = configureTexture(source.map, this._anisotropy());
+          // Every atlas material samples the atlas with one sampler; the levels keep its wraps.
+          this._wrap = [source.map.wrapS, source.map.wrapT];
+          if (!physical) this._map.value = configureTexture(source.map, this._anisotropy(), this._wrap);
         }
         if (physical) {
           for (const [channel, slots] of Object.entries(CHANNEL_SLOTS))
             if (!this._maps[channel] && source[slots[0]])
-              this._maps[channel] = configureMap(source[slots[0]], channel, this._anisotropy());
+              this._maps[channel] = configureMap(source[slots[0]], channel, this._anisotropy(), this._wrap);
           materialFor.set(source, makeStandardMaterial(source, this._maps));
         } else {
           materialFor.set(source, makeMaterial(source, this._map, table.view));
@@ -748,7 +751,7 @@ export class MeshmuxStream extends EventTarget {
       throw e;
     }
     if (this._state === 'disposed') { bitmap.close(); for (const [, b] of kept) b.close(); return; }
-    const texture = configureTexture(textureOf(bitmap), this._anisotropy());
+    const texture = configureTexture(textureOf(bitmap), this._anisotropy(), this._wrap);
     texture.name = `meshmux level ${bitmap.width}x${bitmap.height}`;
     this._ownTextures.add(texture);
     const keptSwaps = this._keptSwaps(kept);
@@ -789,7 +792,7 @@ export class MeshmuxStream extends EventTarget {
     const textures = [];
     for (const [channel, bitmap] of decoded) {
       if (!CHANNEL_SLOTS[channel]) { bitmap.close(); continue; }
-      const texture = configureMap(textureOf(bitmap), channel, this._anisotropy());
+      const texture = configureMap(textureOf(bitmap), channel, this._anisotropy(), this._wrap);
       texture.name = `meshmux ${channel} ${bitmap.width}x${bitmap.height}`;
       this._ownTextures.add(texture);
       textures.push([channel, texture]);
