@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/file_io.h"
+#include "core/text.h"
 
 namespace meshmux {
 
@@ -48,21 +49,6 @@ std::string clean_name(const std::string& s) {
     out += ok ? c : '_';
   }
   return out.empty() ? "model" : out;
-}
-
-// %XX escapes decoded, as the importers read URIs (glTF 2.0 §2.8: URIs are RFC 3986).
-std::string percent_decode(const std::string& s) {
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-      out += char(std::stoi(s.substr(i + 1, 2), nullptr, 16));
-      i += 2;
-    } else {
-      out += s[i];
-    }
-  }
-  return out;
 }
 
 // A .glb's JSON chunk (the first chunk, type "JSON"), or "" when there is none.

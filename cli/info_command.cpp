@@ -27,22 +27,6 @@ bool ends_with_json(const std::string& path) {
   return tail == ".json";
 }
 
-// "%41" → "A": a world's URLs are percent-encoded paths relative to its folder.
-std::string percent_decoded(const std::string& url) {
-  std::string out;
-  for (size_t i = 0; i < url.size(); ++i) {
-    if (url[i] == '%' && i + 2 < url.size() &&
-        std::isxdigit(static_cast<unsigned char>(url[i + 1])) &&
-        std::isxdigit(static_cast<unsigned char>(url[i + 2]))) {
-      out += char(std::stoi(url.substr(i + 1, 2), nullptr, 16));
-      i += 2;
-    } else {
-      out += url[i];
-    }
-  }
-  return out;
-}
-
 // A world.json: validated as the browser validates it, then every package's file looked for
 // beside it (present, and of the size the world says). Problems go to stderr, one line each,
 // and make the exit code kExitInput.
@@ -59,7 +43,7 @@ int info_world(const std::string& path, bool json) {
     const WorldPackage& p = world->packages[i];
     const std::string where = file + ": packages[" + std::to_string(i) + "] '" + p.name + "': ";
     std::error_code ec;
-    const std::filesystem::path on_disk = folder / percent_decoded(p.url);
+    const std::filesystem::path on_disk = folder / percent_decode(p.url);
     const bool present = std::filesystem::is_regular_file(on_disk, ec);
     const uintmax_t size = present ? std::filesystem::file_size(on_disk, ec) : 0;
     if (!present || ec)

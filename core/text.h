@@ -15,4 +15,8 @@ std::string html_escape(const std::string& s);
 // Everything but RFC 3986's unreserved characters percent-encoded: one path segment of a link.
 std::string url_escape(const std::string& s);
 
+// %XX escapes decoded (RFC 3986; glTF 2.0 §2.8 URIs, world.json URLs); a '%' not followed by two
+// hex digits stays as it is.
+std::string percent_decode(const std::string& s);
+
 }  // namespace meshmux

@@ -52,6 +52,7 @@
 
 #include "core/file_io.h"
 #include "core/sanitizers.h"
+#include "core/text.h"
 #include "image/color.h"
 #include "image/decode.h"
 #include "importers/collada_bindings.h"
@@ -74,18 +75,6 @@ std::string one_line(std::string s) {
   std::replace(s.begin(), s.end(), '\r', ' ');
   while (!s.empty() && s.back() == ' ') s.pop_back();
   return s;
-}
-
-// "%20" → " ". Malformed escapes are kept as they are.
-std::string percent_decode(const std::string& s) {
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) {
-    bool escape = s[i] == '%' && i + 2 < s.size() && std::isxdigit(uint8_t(s[i + 1])) &&
-                  std::isxdigit(uint8_t(s[i + 2]));
-    out += escape ? char(std::stoi(s.substr(i + 1, 2), nullptr, 16)) : s[i];
-    if (escape) i += 2;
-  }
-  return out;
 }
 
 Mat4 to_mat4(const aiMatrix4x4& a) {
