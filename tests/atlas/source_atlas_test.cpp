@@ -417,12 +417,20 @@ TEST(SourceAtlas, KeptTexelsKeepTheirMipmappedMinFilter) {
   ASSERT_TRUE(find_source_atlas(two, 4096).has_value());
   EXPECT_EQ(atlas_min_filter(two), 9987);
 
-  // Resampled up to powers of two: other texels, trilinear.
+  // Sides that are not powers of two would be resampled (other texels): NEAREST within a level
+  // then keeps the material as it came, its image and filter (atlas/kept.h); trilinear ones are
+  // resampled into the atlas as before.
   Scene npot = quad_scene(0);
   npot.images[0].width = 3;
   npot.images[0].height = 5;
   npot.images[0].rgba.assign(15 * 4, 200);
   npot.materials[0].base_color.sampler.min_filter = 9986;
+  auto kept = build_atlas(npot, {}, nullptr, nullptr);
+  ASSERT_TRUE(kept.ok()) << kept.status().message();
+  ASSERT_EQ(kept->materials.size(), 1u);
+  EXPECT_EQ(kept->materials[0].base_color.sampler.min_filter, 9986);
+  EXPECT_EQ(kept->images[size_t(kept->materials[0].base_color.image)].width, 3);
+  npot.materials[0].base_color.sampler.min_filter = 9987;
   EXPECT_EQ(atlas_min_filter(npot), 9987);
 
   // Baked into charts (a clamped sampler outside the unit square): trilinear.

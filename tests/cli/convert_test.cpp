@@ -404,39 +404,46 @@ TEST(BadInput, ImageThatFailsToDecodeWarnsAndConverts) {
 }
 
 // Repeated warnings are grouped: one file once gave 35 identical "<lines> skipped" lines. Two of a
-// kind are printed, then one line counting the rest.
+// kind are printed, then one line counting the rest. Here six images an upload lacks, each
+// used by its own material.
 TEST(Cli, RepeatedWarningsAreGrouped) {
-  std::string geometries, nodes;
-  for (int g = 0; g < 6; ++g) {
-    std::string id = "wire" + std::to_string(g);
-    geometries +=
-        "<geometry id=\"" + id + "\"><mesh><source id=\"" + id + "-p\"><float_array id=\"" + id +
-        "-a\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array><technique_common><accessor "
-        "source=\"#" +
-        id +
-        "-a\" count=\"3\" stride=\"3\"><param name=\"X\" type=\"float\"/><param "
-        "name=\"Y\" type=\"float\"/><param name=\"Z\" type=\"float\"/></accessor>"
-        "</technique_common></source><vertices id=\"" +
-        id + "-v\"><input semantic=\"POSITION\" source=\"#" + id +
-        "-p\"/></vertices><triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#" + id +
-        "-v\" offset=\"0\"/><p>0 1 2</p></triangles><lines count=\"" + std::to_string(g + 1) +
-        "\"><input semantic=\"VERTEX\" source=\"#" + id + "-v\" offset=\"0\"/><p>" +
-        std::string(size_t(g + 1), ' ') + "0 1</p></lines>" + "</mesh></geometry>";
-    nodes +=
-        "<node id=\"n" + std::to_string(g) + "\"><instance_geometry url=\"#" + id + "\"/></node>";
+  // One triangle (three vec3 floats, base64) with uvs, drawn by six materials.
+  const std::string positions = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+  const std::string uvs = "AAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/";
+  std::string images, textures, materials, primitives;
+  for (int i = 0; i < 6; ++i) {
+    const std::string n = std::to_string(i), sep = i ? "," : "";
+    images += sep + "{\"uri\": \"missing" + n + ".png\"}";
+    textures += sep + "{\"source\": " + n + "}";
+    materials += sep + "{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": " + n + "}}}";
+    primitives +=
+        sep + "{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1}, \"material\": " + n + "}";
   }
-  std::string dae =
-      "<?xml version=\"1.0\"?><COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" "
-      "version=\"1.4.1\"><asset><up_axis>Y_UP</up_axis></asset><library_geometries>" +
-      geometries + "</library_geometries><library_visual_scenes><visual_scene id=\"s\">" + nodes +
-      "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/>"
-      "</scene></COLLADA>";
+  const std::string gltf =
+      "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], "
+      "\"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [" +
+      primitives +
+      "]}], "
+      "\"materials\": [" +
+      materials + "], \"textures\": [" + textures + "], \"images\": [" + images +
+      "], "
+      "\"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": "
+      "\"VEC3\", "
+      "\"min\": [0, 0, 0], \"max\": [1, 1, 0]}, {\"bufferView\": 1, \"componentType\": 5126, "
+      "\"count\": 3, \"type\": \"VEC2\"}], "
+      "\"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}, {\"buffer\": 1, \"byteLength\": "
+      "24}], "
+      "\"buffers\": [{\"byteLength\": 36, \"uri\": \"data:application/octet-stream;base64," +
+      positions +
+      "\"}, "
+      "{\"byteLength\": 24, \"uri\": \"data:application/octet-stream;base64," +
+      uvs + "\"}]}";
   TempDir dir;
-  testing::write_text(dir.file("wires.dae"), dae);
-  auto r = run_meshmux({"convert", dir.file("wires.dae"), "-o", dir.file("w.glb")});
+  testing::write_text(dir.file("six.gltf"), gltf);
+  auto r = run_meshmux({"convert", dir.file("six.gltf"), "-o", dir.file("w.glb")});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   size_t shown = 0, at = 0;
-  while ((at = r.err.find("<lines> skipped", at)) != std::string::npos) ++shown, ++at;
+  while ((at = r.err.find("could not be loaded", at)) != std::string::npos) ++shown, ++at;
   EXPECT_EQ(shown, 3u) << r.err;  // two printed, and the summary quoting the first
   EXPECT_NE(r.err.find("... and 4 more like"), std::string::npos) << r.err;
 }
