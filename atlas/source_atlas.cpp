@@ -215,6 +215,7 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
   // Pass 2: each textured face inside one unit cell (moved to [0, 1]² where the sampler
   // repeats); with plain colours to place, the texels the faces come near are marked.
   std::vector<uint8_t> used(flat.empty() ? 0 : size_t(w) * size_t(h), 0);
+  float beyond_t = 0;  // the most a face reaches past its cell's far edge in v (repeating)
   for (const Mesh& mesh : scene.meshes)
     for (const Primitive& p : mesh.primitives) {
       if (p.indices.empty() || p.material < 0) continue;
@@ -232,8 +233,17 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
         if ((cell.x != 0 && t.sampler.wrap_s != Wrap::kRepeat) ||
             (cell.y != 0 && t.sampler.wrap_t != Wrap::kRepeat))
           return std::nullopt;
-        for (const Vec2& q : c)
-          if (q.x - cell.x > 1 + kUvSlack || q.y - cell.y > 1 + kUvSlack) return std::nullopt;
+        // Past the cell's far edge only on a repeating axis, by less than a period: the atlas
+        // keeps the sampler's REPEAT there, so the face reads across the edge what the original
+        // reads (a lightmap's faces reaching v = 1.014 were refused and re-baked into a 4096²
+        // atlas at 1 % use, 15 s). An appended half must continue the image that far (below).
+        for (const Vec2& q : c) {
+          const float over_x = q.x - cell.x - 1, over_y = q.y - cell.y - 1;
+          if ((over_x > kUvSlack && (!repeat_s || over_x >= 1)) ||
+              (over_y > kUvSlack && (!repeat_t || over_y >= 1)))
+            return std::nullopt;
+          beyond_t = std::max(beyond_t, over_y);
+        }
         if (flat.empty()) continue;
         // The face, and on a repeating axis its copies one period away: near an edge the
         // original's filtering and mip levels read the texels across it.
@@ -275,6 +285,10 @@ std::optional<SourceAtlas> find_source_atlas(const Scene& scene, int max_size) {
       for (int x = 0; x + block <= w && cells.size() < flat.size(); x += block)
         cells.push_back({x, y});
     if (cells.size() < flat.size()) return std::nullopt;
+    // A face past the image's bottom edge reads the appended half's first rows: the image's top
+    // rows only as far as they are copied.
+    if (beyond_t > kUvSlack && (!repeat || double(beyond_t) * h > block - kMargin))
+      return std::nullopt;
   }
   found->block = block;
   found->flat_colors = flat;

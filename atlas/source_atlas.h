@@ -55,7 +55,10 @@ enum class AtlasChannel { kNormal, kOcclusionRoughnessMetallic, kEmissive, kShee
 //   textured;
 // - each textured face's uvs lie in one unit cell [kx, kx + 1] × [ky, ky + 1] (within 1e-3),
 //   and a cell other than [0, 1]² only on axes whose sampler repeats; the face is then moved to
-//   [0, 1]² (face_uv_cell), where a clamped sampler shows the same texels;
+//   [0, 1]² (face_uv_cell), where a clamped sampler shows the same texels. On an axis every
+//   textured face repeats, a face may reach past its cell's far edge by less than a period (the
+//   atlas keeps REPEAT there; where a half is appended below the image, only as far as its copy
+//   of the image's top rows reaches);
 // - the image is decoded and its sides, rounded up to powers of two, are at most `max_size`
 //   (texture levels halve: other sides are resampled up, image/resize.h, never losing density);
 // - the plain colours find aligned free blocks (4 to 64 texels, 8 texels clear of every
