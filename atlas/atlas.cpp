@@ -954,10 +954,14 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
   // Palette textures become plain colours (atlas/palette.h) where that leaves the scene one
   // real texture the atlas may keep as it is (atlas/source_atlas.h); elsewhere the charts bake
   // them as before.
+  // The source atlas is looked for once, on the scene the atlas is made of.
   std::optional<Scene> plain;
-  if (o.reuse_source_texture && !find_source_atlas(input, o.max_size)) {
-    plain = palette_as_plain_colors(input, &rep.palette_materials);
-    if (plain && !find_source_atlas(*plain, o.max_size)) {
+  std::optional<SourceAtlas> reused;
+  if (o.reuse_source_texture) {
+    reused = find_source_atlas(input, o.max_size);
+    if (!reused) plain = palette_as_plain_colors(input, &rep.palette_materials);
+    if (plain) reused = find_source_atlas(*plain, o.max_size);
+    if (plain && !reused) {
       plain.reset();
       rep.palette_materials = 0;
     }
@@ -980,62 +984,60 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
   std::vector<MeshView> views;
   for (const Mesh& m : scene.meshes) views.emplace_back(m);
   // 0. The source's one texture already is an atlas: keep it and its uvs (no resampling).
-  if (o.reuse_source_texture)
-    if (std::optional<SourceAtlas> source = find_source_atlas(scene, o.max_size)) {
-      rep.reused_source = true;
-      Image atlas = source_atlas_image(scene, *source);
-      rep.size = atlas.width;
-      rep.height = atlas.height;
-      rep.reference_texels = referenced_pixels(scene);
-      rep.utilization = 1;
-      const uint32_t set = source->tex_coord;
-      std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
-      // Per primitive: its plain colour's block, or -1 (textured).
-      std::vector<std::vector<int>> flat(views.size());
-      for (size_t m = 0; m < views.size(); ++m)
-        for (const Primitive& p : views[m].mesh.primitives)
-          flat[m].push_back(flat_color_index(scene, *source, p.material));
-      rep.flat_colors = source->flat_colors.size();
-      for (size_t m = 0; m < views.size(); ++m)
-        corner_uv.push_back(
-            [&mv = views[m], &fl = flat[m], &src = *source, set](uint32_t f, int k) {
-              const uint32_t prim = mv.faces[f].primitive;
-              if (fl[prim] >= 0) return src.flat_uv[size_t(fl[prim])];
-              const std::vector<Vec2>& uv = mv.mesh.primitives[prim].uvs[set];
-              const Vec2 cell =
-                  face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
-              const Vec2 t = uv[mv.corner(f, k)];
-              // The image's part of the atlas (the top rows when a half was appended below).
-              return Vec2{(t.x - cell.x) * float(src.part_width) / float(src.width),
-                          (t.y - cell.y) * float(src.part_height) / float(src.height)};
-            });
-      ChannelImages channels;
-      const float es = need.bake.emissive_scale;
-      if (need.bake.normal)
-        channels.normal = source_atlas_channel(scene, *source, AtlasChannel::kNormal, es);
-      if (need.bake.orm)
-        channels.orm =
-            source_atlas_channel(scene, *source, AtlasChannel::kOcclusionRoughnessMetallic, es);
-      if (need.bake.emissive)
-        channels.emissive = source_atlas_channel(scene, *source, AtlasChannel::kEmissive, es);
-      if (need.bake.sheen)
-        channels.sheen = source_atlas_channel(scene, *source, AtlasChannel::kSheen, es);
-      name_channels(channels);
-      // The source's texels as they are (its sides already powers of two): its sampler's
-      // filtering within a mip level shows them as the original does; its wraps show across
-      // the image's edges what the original shows there.
-      const Image& src_image = scene.images[size_t(source->image)];
-      AtlasSampling sampling;
-      sampling.source_texels =
-          src_image.width == source->part_width && src_image.height == source->part_height;
-      sampling.wrap_s = source->wrap_s;
-      sampling.wrap_t = source->wrap_t;
-      Scene out =
-          assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need, sampling);
-      rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (report) *report = std::move(rep);
-      return out;
-    }
+  if (const std::optional<SourceAtlas>& source = reused) {
+    rep.reused_source = true;
+    Image atlas = source_atlas_image(scene, *source);
+    rep.size = atlas.width;
+    rep.height = atlas.height;
+    rep.reference_texels = referenced_pixels(scene);
+    rep.utilization = 1;
+    const uint32_t set = source->tex_coord;
+    std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
+    // Per primitive: its plain colour's block, or -1 (textured).
+    std::vector<std::vector<int>> flat(views.size());
+    for (size_t m = 0; m < views.size(); ++m)
+      for (const Primitive& p : views[m].mesh.primitives)
+        flat[m].push_back(flat_color_index(scene, *source, p.material));
+    rep.flat_colors = source->flat_colors.size();
+    for (size_t m = 0; m < views.size(); ++m)
+      corner_uv.push_back([&mv = views[m], &fl = flat[m], &src = *source, set](uint32_t f, int k) {
+        const uint32_t prim = mv.faces[f].primitive;
+        if (fl[prim] >= 0) return src.flat_uv[size_t(fl[prim])];
+        const std::vector<Vec2>& uv = mv.mesh.primitives[prim].uvs[set];
+        const Vec2 cell =
+            face_uv_cell(uv[mv.corner(f, 0)], uv[mv.corner(f, 1)], uv[mv.corner(f, 2)]);
+        const Vec2 t = uv[mv.corner(f, k)];
+        // The image's part of the atlas (the top rows when a half was appended below).
+        return Vec2{(t.x - cell.x) * float(src.part_width) / float(src.width),
+                    (t.y - cell.y) * float(src.part_height) / float(src.height)};
+      });
+    ChannelImages channels;
+    const float es = need.bake.emissive_scale;
+    if (need.bake.normal)
+      channels.normal = source_atlas_channel(scene, *source, AtlasChannel::kNormal, es);
+    if (need.bake.orm)
+      channels.orm =
+          source_atlas_channel(scene, *source, AtlasChannel::kOcclusionRoughnessMetallic, es);
+    if (need.bake.emissive)
+      channels.emissive = source_atlas_channel(scene, *source, AtlasChannel::kEmissive, es);
+    if (need.bake.sheen)
+      channels.sheen = source_atlas_channel(scene, *source, AtlasChannel::kSheen, es);
+    name_channels(channels);
+    // The source's texels as they are (its sides already powers of two): its sampler's
+    // filtering within a mip level shows them as the original does; its wraps show across
+    // the image's edges what the original shows there.
+    const Image& src_image = scene.images[size_t(source->image)];
+    AtlasSampling sampling;
+    sampling.source_texels =
+        src_image.width == source->part_width && src_image.height == source->part_height;
+    sampling.wrap_s = source->wrap_s;
+    sampling.wrap_t = source->wrap_t;
+    Scene out =
+        assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need, sampling);
+    rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (report) *report = std::move(rep);
+    return out;
+  }
   // 1. Charts (Terrace et al. §4.2), flattened (§4.3).
   FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
   // 2. Sizes by formula 2.
