@@ -31,6 +31,7 @@
 #include "atlas/material_sample.h"
 #include "atlas/tangent_frame.h"
 #include "core/parallel.h"
+#include "image/fill_empty.h"
 #include "scene/dvec3.h"
 
 namespace meshmux {
@@ -321,19 +322,18 @@ void encode_data(Vec4 c, uint8_t* p) {
   for (int k = 0; k < 4; ++k) p[k] = uint8_t(std::lround(std::clamp(v[k], 0.0f, 1.0f) * 255.0f));
 }
 
-// Ring-by-ring dilation from the filled texels of `rgba` (sRGB bytes; averages are taken in
-// linear light). Each ring's texels are computed from the texels filled before the ring, so the
-// result does not depend on visiting order (which is deterministic anyway). With `per_chart`, a new
-// texel joins the majority chart of its filled 8-neighbours (ties: the smaller index) and averages
-// only that chart's neighbours; otherwise it averages all filled neighbours and keeps chart -1.
-// Stops after `rings` rings (< 0: when nothing is left to fill).
+// The gutters: ring-by-ring dilation from the filled texels of `rgba` (sRGB bytes; averages are
+// taken in linear light). Each ring's texels are computed from the texels filled before the ring,
+// so the result does not depend on visiting order (which is deterministic anyway). A new texel
+// joins the majority chart of its filled 8-neighbours (ties: the smaller index) and averages only
+// that chart's neighbours. Stops after `rings` rings.
 struct Layer {
   std::vector<uint8_t>* rgba;  // w × h RGBA8
   bool srgb;                   // colour (averaged in linear light) or data (averaged as stored)
 };
 
 void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>& chart,
-            std::vector<uint8_t>& filled, int rings, bool per_chart) {
+            std::vector<uint8_t>& filled, int rings) {
   std::vector<uint8_t> queued(filled.size(), 0);
   std::vector<size_t> frontier;
   auto enqueue_neighbours = [&](size_t i) {
@@ -363,7 +363,7 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
   }
   std::vector<std::vector<uint8_t>> new_rgba(layers.size());
   std::vector<int32_t> new_chart;
-  for (int ring = 0; (rings < 0 || ring < rings) && !frontier.empty(); ++ring) {
+  for (int ring = 0; ring < rings && !frontier.empty(); ++ring) {
     for (std::vector<uint8_t>& v : new_rgba) v.assign(frontier.size() * 4, 0);
     new_chart.assign(frontier.size(), -1);
     // Each texel of the ring reads only texels filled before the ring and writes its own slot:
@@ -385,15 +385,13 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
           ++count;
         }
         int32_t who = -1;
-        if (per_chart) {
-          int best = 0;
-          for (int a = 0; a < count; ++a) {
-            int votes = 0;
-            for (int b = 0; b < count; ++b) votes += ids[b] == ids[a];
-            if (votes > best || (votes == best && ids[a] < who)) {
-              best = votes;
-              who = ids[a];
-            }
+        int best = 0;
+        for (int a = 0; a < count; ++a) {
+          int votes = 0;
+          for (int b = 0; b < count; ++b) votes += ids[b] == ids[a];
+          if (votes > best || (votes == best && ids[a] < who)) {
+            best = votes;
+            who = ids[a];
           }
         }
         for (size_t l = 0; l < layers.size(); ++l) {
@@ -401,7 +399,7 @@ void dilate(int w, int h, const std::vector<Layer>& layers, std::vector<int32_t>
           double sum[4] = {0, 0, 0, 0};
           int used = 0;
           for (int a = 0; a < count; ++a) {
-            if (per_chart && ids[a] != who) continue;
+            if (ids[a] != who) continue;
             const uint8_t* q = &rgba[js[a] * 4];
             Linear4 c = layers[l].srgb
                             ? decode(q)
@@ -599,15 +597,18 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   if (emissive) layers.push_back({emissive, true});
   if (sheen) layers.push_back({sheen, true});
   // Gutters.
-  if (options.gutter > 0) dilate(w, h, layers, result.texel_chart, filled, options.gutter, true);
+  if (options.gutter > 0) dilate(w, h, layers, result.texel_chart, filled, options.gutter);
 
   // Translucency of what was baked (charts and their gutters).
   for (size_t i = 0; i < texels && !result.has_alpha; ++i)
     if (filled[i] && img.rgba[i * 4 + 3] < 255) result.has_alpha = true;
-  // The empty space takes the nearest charts' colour and alpha (chart -1), so no mip level
-  // averages a chart with transparent black: at the sizes a model is seen at, a coarse level
-  // is what shows, and black there darkens every chart edge (and thins alpha-masked ones).
-  dilate(w, h, layers, result.texel_chart, filled, -1, false);
+  // The empty space takes the colour and alpha of the charts around it (pull-push; chart -1), so
+  // no mip level averages a chart with transparent black: at the sizes a model is seen at, a
+  // coarse level is what shows, and black there darkens every chart edge (and thins alpha-masked
+  // ones).
+  std::vector<FillLayer> fill;
+  for (const Layer& l : layers) fill.push_back({l.rgba, l.srgb});
+  fill_empty_texels(w, h, filled, fill);
   if (!result.has_alpha)
     for (size_t i = 0; i < texels; ++i) img.rgba[i * 4 + 3] = 255;
   return result;
