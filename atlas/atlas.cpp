@@ -239,10 +239,6 @@ ChannelNeeds channel_needs(const Scene& scene) {
 }
 
 // Step 1: textured charts flattened (split where they will not flatten); flat charts pass.
-struct FlatCharts {
-  ChartSet charts;
-  std::vector<ChartUv> uvs;  // per chart
-};
 FlatCharts flatten_charts(const Scene& scene, const std::vector<MeshView>& views,
                           const ChartSet& seg, const AtlasOptions& o, size_t* split) {
   FlatCharts fc;
@@ -946,9 +942,64 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
 
 namespace {
 
+// Steps 2–4 of build_atlas_core, from the flattened charts.
+Result<Scene> build_from_charts(const Scene& scene, const std::vector<MeshView>& views,
+                                const ChannelNeeds& need, const FlatCharts& fc,
+                                const AtlasOptions& o, AtlasReport rep,
+                                std::chrono::steady_clock::time_point start, AtlasReport* report) {
+  rep.split = fc.split;
+  // 2. Sizes by formula 2.
+  Items items = size_charts(scene, views, fc, o);
+  rep.target_texels = items.target_texels;
+  rep.flat_colors = items.flat_colors;
+  rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
+                                    [](const Chart& c) { return c.textured; }));
+  // 3. Power-of-two-safe packing (§4.4).
+  auto packing = pack_charts(items, fc.uvs, o);
+  if (!packing.ok()) return packing.status();
+  rep.size = packing->packed.size;
+  rep.height = packing->packed.height;
+  rep.reference_texels = items.reference_texels;
+  rep.utilization = packing->utilization;
+  rep.reuse_scale = items.reuse_scale;
+  rep.min_density = 0;
+  for (size_t k = 0; k < items.rects.size(); ++k)
+    if (items.item_native[k]) {
+      const double d =
+          o.density * items.reuse_scale * std::pow(packing->shrink * packing->grow[k], 2.0);
+      rep.min_density = rep.min_density > 0 ? std::min(rep.min_density, d) : d;
+    }
+  // 4. Bake every chart into its cell.
+  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
+  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake, need.bake);
+  rep.texel_chart = std::move(baked.texel_chart);
+  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
+    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
+    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
+  }
+  stretch_figures(fc, &rep);
+  rep.tangent_deviation_deg = tangent_deviation(views, fc);
+  std::vector<std::vector<uint32_t>> face_slot(scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) face_slot[m].resize(views[m].faces.size());
+  for (const Chart& c : fc.charts.charts)
+    for (uint32_t k = 0; k < c.faces.size(); ++k) face_slot[c.mesh][c.faces[k]] = k;
+  std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m)
+    corner_uv.push_back(
+        [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
+  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
+                         std::move(baked.sheen)};
+  name_channels(channels);
+  Scene out =
+      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, {});
+  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (report) *report = rep;
+  return out;
+}
+
 // The atlas of a scene with no tiled material (see build_atlas).
 Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasReport* report,
-                               Warnings* warnings) {
+                               Warnings* warnings, AtlasMemo* memo) {
   auto start = std::chrono::steady_clock::now();
   AtlasReport rep;
   // Palette textures become plain colours (atlas/palette.h) where that leaves the scene one
@@ -1039,60 +1090,21 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
     return out;
   }
   // 1. Charts (Terrace et al. §4.2), flattened (§4.3).
-  FlatCharts fc = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &rep.split);
-  // 2. Sizes by formula 2.
-  Items items = size_charts(scene, views, fc, o);
-  rep.target_texels = items.target_texels;
-  rep.flat_colors = items.flat_colors;
-  rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
-                                    [](const Chart& c) { return c.textured; }));
-  // 3. Power-of-two-safe packing (§4.4).
-  auto packing = pack_charts(items, fc.uvs, o);
-  if (!packing.ok()) return packing.status();
-  rep.size = packing->packed.size;
-  rep.height = packing->packed.height;
-  rep.reference_texels = items.reference_texels;
-  rep.utilization = packing->utilization;
-  rep.reuse_scale = items.reuse_scale;
-  rep.min_density = 0;
-  for (size_t k = 0; k < items.rects.size(); ++k)
-    if (items.item_native[k]) {
-      const double d =
-          o.density * items.reuse_scale * std::pow(packing->shrink * packing->grow[k], 2.0);
-      rep.min_density = rep.min_density > 0 ? std::min(rep.min_density, d) : d;
-    }
-  // 4. Bake every chart into its cell.
-  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
-  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake, need.bake);
-  rep.texel_chart = std::move(baked.texel_chart);
-  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
-    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
-    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
+  std::optional<FlatCharts> made;
+  if (!memo || !memo->charts) {
+    size_t split = 0;
+    made = flatten_charts(scene, views, segment_charts(scene, o.charts), o, &split);
+    made->split = split;
   }
-  stretch_figures(fc, &rep);
-  rep.tangent_deviation_deg = tangent_deviation(views, fc);
-  std::vector<std::vector<uint32_t>> face_slot(scene.meshes.size());
-  for (size_t m = 0; m < scene.meshes.size(); ++m) face_slot[m].resize(views[m].faces.size());
-  for (const Chart& c : fc.charts.charts)
-    for (uint32_t k = 0; k < c.faces.size(); ++k) face_slot[c.mesh][c.faces[k]] = k;
-  std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
-  for (uint32_t m = 0; m < scene.meshes.size(); ++m)
-    corner_uv.push_back(
-        [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
-  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
-                         std::move(baked.sheen)};
-  name_channels(channels);
-  Scene out =
-      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, {});
-  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (report) *report = rep;
-  return out;
+  if (memo && made) memo->charts = std::move(made);
+  return build_from_charts(scene, views, need, memo ? *memo->charts : *made, o, std::move(rep),
+                           start, report);
 }
 
 }  // namespace
 
 Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport* report,
-                          Warnings* warnings) {
+                          Warnings* warnings, AtlasMemo* memo) {
   std::vector<KeptReason> kept = find_kept_materials(scene, o.tiled_periods);
   if (!o.keep_unbakeable)
     for (KeptReason& k : kept)
@@ -1114,7 +1126,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     r.atlas_images = r.reused_source || !r.built ? 0 : atlas_images;
   };
   if (std::all_of(kept.begin(), kept.end(), [](KeptReason k) { return k == KeptReason::kNone; })) {
-    auto out = build_atlas_core(scene, o, report, warnings);
+    auto out = build_atlas_core(scene, o, report, warnings, memo);
     if (out.ok() && report) {
       baked_images(*report, out->images.size());
       report->streamed_material = out->materials.empty() ? -1 : 0;
@@ -1133,7 +1145,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
                            [](const Primitive& p) { return !p.indices.empty(); });
       });
   if (rest) {
-    auto atlased = build_atlas_core(split.rest, o, &rep, warnings);
+    auto atlased = build_atlas_core(split.rest, o, &rep, warnings, memo);
     if (!atlased.ok()) return atlased.status();
     out = atlased.take();
   }

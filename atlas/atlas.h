@@ -33,6 +33,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "atlas/bake.h"
@@ -121,8 +122,25 @@ struct AtlasReport {
   std::vector<PackRect> cell_size;
 };
 
-// `scene` must be clean (clean/clean.h). Errors only for internal failures.
+// The textured charts flattened (split where they would not flatten) and the flat charts: what a
+// build computes before the density matters (Terrace et al. §4.2–4.3).
+struct FlatCharts {
+  ChartSet charts;
+  std::vector<ChartUv> uvs;  // per chart
+  size_t split = 0;          // charts split because they could not be flattened
+};
+
+// What one build hands to the next build of the same scene with the same chart and
+// parameterization options (build_atlas_within_bytes rebuilds at a lower density: segmenting and
+// flattening again would give the same charts, at most of the build's time). Empty at first;
+// filled by the build.
+struct AtlasMemo {
+  std::optional<FlatCharts> charts;
+};
+
+// `scene` must be clean (clean/clean.h). Errors only for internal failures. With `memo`, the
+// charts come from it when it holds them, and go into it when it does not.
 Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& options, AtlasReport* report,
-                          Warnings* warnings);
+                          Warnings* warnings, AtlasMemo* memo = nullptr);
 
 }  // namespace meshmux

@@ -11,7 +11,8 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
                                        int jpeg_quality, AtlasReport* report, Warnings* warnings) {
   AtlasOptions o = options;
   AtlasReport rep;
-  auto atlased = build_atlas(scene, o, &rep, warnings);
+  AtlasMemo memo;  // the charts, segmented and flattened once for every round
+  auto atlased = build_atlas(scene, o, &rep, warnings, &memo);
   std::vector<AtlasBytesRound> rounds;
   for (int round = 0; atlased.ok(); ++round) {
     rep.source_bytes = rep.atlas_bytes = 0;
@@ -28,7 +29,7 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
                          o.density * std::clamp(0.9 * bound / rep.atlas_bytes, 0.01, 0.9));
     rounds.push_back({rep.atlas_bytes, bound, rep.source_bytes, o.density});
     rep = AtlasReport{};
-    atlased = build_atlas(scene, o, &rep, warnings);
+    atlased = build_atlas(scene, o, &rep, warnings, &memo);
   }
   rep.bytes_rounds = std::move(rounds);
   if (report) *report = std::move(rep);

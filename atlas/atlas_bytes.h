@@ -8,7 +8,8 @@
 // content), never below kAtlasMinDensity, and the atlas is built again, at most
 // kAtlasBytesRounds times. Where the floor stops it, density wins and the report says by how
 // much the bound is missed (AtlasReport::atlas_bytes against source_bytes).
-// Cost: one encode of the atlas's images per round, plus each rebuild.
+// Cost: one encode of the atlas's images per round, plus each rebuild's packing and baking (the
+// charts are segmented and flattened once and handed on: AtlasMemo).
 #pragma once
 
 #include "atlas/atlas.h"
