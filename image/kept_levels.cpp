@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
+#include <map>
+#include <optional>
 #include <set>
+#include <tuple>
 
 #include "image/decode.h"
 #include "image/encode.h"
@@ -39,15 +43,27 @@ std::pair<int, int> scaled_sides(const Image& img, double scale) {
   return {side(img.width), side(img.height)};
 }
 
-// `full` reduced to width × height: box halvings while both sides stay at least twice the
-// target's, then one Catmull-Rom resample.
-Image reduce(const Image& full, int width, int height, TexelFilter filter) {
-  Image cur = full;
-  while (cur.width / 2 >= width * 2 && cur.height / 2 >= height * 2)
-    cur = downsample_half(cur, filter);
-  if (cur.width == width && cur.height == height) return cur;
-  return resize_cubic(cur, width, height, filter == TexelFilter::kSrgb);
-}
+// `full`'s 2×2 box halvings, made as the sizes asked for need them (full itself not copied).
+class Halvings {
+ public:
+  Halvings(const Image& full, TexelFilter filter) : full_(full), filter_(filter) {}
+  // `full` reduced to width × height: box halvings while both sides stay at least twice the
+  // target's, then one Catmull-Rom resample.
+  Image reduce(int width, int height) {
+    const Image* cur = &full_;
+    for (size_t k = 0; cur->width / 2 >= width * 2 && cur->height / 2 >= height * 2; ++k) {
+      if (k == chain_.size()) chain_.push_back(downsample_half(*cur, filter_));
+      cur = &chain_[k];
+    }
+    if (cur->width == width && cur->height == height) return *cur;
+    return resize_cubic(*cur, width, height, filter_ == TexelFilter::kSrgb);
+  }
+
+ private:
+  const Image& full_;
+  TexelFilter filter_;
+  std::deque<Image> chain_;  // full's halvings, in order
+};
 
 }  // namespace
 
@@ -96,33 +112,58 @@ std::vector<KeptSource> kept_sources(const Scene& scene, int32_t streamed_materi
   return out;
 }
 
+// A kept image's map at some sides, once encoded: the byte bound's rounds ask for the same maps
+// again (the levels that stay keep their scales).
+using KeptMaps = std::map<std::tuple<int32_t, int, int>, std::vector<uint8_t>>;
+
+// The sides each level's map of `full_sides` has at `scales` (the finest: as it came), or none
+// where the level below's map stands.
+std::vector<std::optional<std::pair<int, int>>> kept_sides(std::pair<int, int> full_sides,
+                                                           const std::vector<double>& scales) {
+  Image probe;  // scaled_sides reads the sides only
+  probe.width = full_sides.first, probe.height = full_sides.second;
+  std::vector<std::optional<std::pair<int, int>>> out;
+  std::pair<int, int> before = {0, 0};
+  for (size_t j = 0; j < scales.size(); ++j) {
+    const std::pair<int, int> sides =
+        j + 1 == scales.size() ? full_sides : scaled_sides(probe, scales[j]);
+    out.push_back(sides == before ? std::nullopt : std::optional(sides));
+    before = sides;
+  }
+  return out;
+}
+
 // Fills levels[j].kept with every source at scales[j] of its size (the finest: as it came), a
-// map only where the size differs from the level below's.
+// map only where the size differs from the level below's. Maps already in `made` are not made
+// again; those made here go into it.
 Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<double>& scales,
-                 TextureLevels& levels, int preview_quality, EncodeCounts* counts) {
+                 TextureLevels& levels, int preview_quality, EncodeCounts* counts, KeptMaps& made) {
   for (TextureLevel& l : levels.levels) l.kept.clear();
   for (const KeptSource& k : sources) {
-    Image decoded;  // only when the scene holds no pixels for it
-    if (!k.source->decoded()) {
+    const std::pair<int, int> full_sides = {k.width, k.height};
+    const auto sides = kept_sides(full_sides, scales);
+    bool missing = false;
+    for (const auto& s : sides)
+      missing |= s && *s != full_sides && !made.count({k.image, s->first, s->second});
+    Image decoded;  // only when a map must be made and the scene holds no pixels for it
+    if (missing && !k.source->decoded()) {
       decoded = *k.source;
       if (!decode_image(decoded)) continue;  // shipped as it is, like an image not JPEG or PNG
     }
     const Image& full = k.source->decoded() ? *k.source : decoded;
-    std::pair<int, int> before = {0, 0};
-    for (size_t j = 0; j < levels.levels.size(); ++j) {
-      const bool finest = j + 1 == levels.levels.size();
-      const std::pair<int, int> sides =
-          finest ? std::pair<int, int>{full.width, full.height} : scaled_sides(full, scales[j]);
-      if (sides == before) continue;  // the level below's map stands
-      before = sides;
+    Halvings halvings(full, k.filter);
+    for (size_t j = 0; j < levels.levels.size() && j < sides.size(); ++j) {
+      if (!sides[j]) continue;  // the level below's map stands
       KeptMap map;
       map.image = k.image;
-      map.width = sides.first, map.height = sides.second;
+      map.width = sides[j]->first, map.height = sides[j]->second;
       map.mime_type = k.source->mime_type;
-      if (sides == std::pair<int, int>{full.width, full.height}) {
+      if (*sides[j] == full_sides) {
         map.encoded = k.source->encoded;
+      } else if (auto it = made.find({k.image, map.width, map.height}); it != made.end()) {
+        map.encoded = it->second;
       } else {
-        Image small = reduce(full, sides.first, sides.second, k.filter);
+        Image small = halvings.reduce(map.width, map.height);
         auto bytes = map.mime_type == "image/jpeg" ? encode_jpeg(small, preview_quality, counts)
                                                    : encode_png(small, counts);
         if (!bytes.ok())
@@ -130,6 +171,7 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
                                    k.source->name + "': " + bytes.status().message(),
                                ErrorKind::kInternal);
         map.encoded = bytes.take();
+        made[{k.image, map.width, map.height}] = map.encoded;
       }
       levels.levels[j].kept.push_back(std::move(map));
     }
@@ -161,7 +203,9 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
       scales.insert(scales.begin(), s);
     }
   }
-  if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts); !st)
+  KeptMaps made;
+  if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts, made);
+      !st)
     return st;
   // The byte bound counts the kept maps as make_texture_levels counts the atlas's: levels
   // between the smallest and the top go, most bytes first, while the pyramid is over it.
@@ -169,7 +213,8 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
              levels, options.max_pyramid_ratio, "the levels and the kept images' maps")) {
     if (*at < inserted) --inserted;
     scales.erase(scales.begin() + std::ptrdiff_t(*at));
-    if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts);
+    if (Status st =
+            fill_kept(sources, scales, levels, options.preview_quality, options.counts, made);
         !st)
       return st;
   }
@@ -177,7 +222,7 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
   // dearer than the kept images save): the atlas's one level carries them as they came.
   if (inserted > 0 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
     levels.levels.erase(levels.levels.begin(), levels.levels.end() - 1);
-    return fill_kept(sources, {1.0}, levels, options.preview_quality, options.counts);
+    return fill_kept(sources, {1.0}, levels, options.preview_quality, options.counts, made);
   }
   return Status::ok();
 }

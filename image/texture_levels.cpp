@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <deque>
 
+#include "core/parallel.h"
 #include "image/color.h"
 #include "image/encode.h"
 
@@ -56,41 +57,53 @@ std::optional<size_t> drop_dearest_middle_level(TextureLevels& levels, double ma
 
 Image downsample_half(const Image& in) { return downsample_half(in, TexelFilter::kSrgb); }
 
+namespace {
+
+// Row y of `out`, the 2×2 box reduction of `in` (see downsample_half).
+void half_row(const Image& in, TexelFilter filter, Image& out, int y) {
+  for (int x = 0; x < out.width; ++x) {
+    float acc[3] = {0, 0, 0};
+    int alpha = 0, n = 0;
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        int sx = std::min(in.width - 1, 2 * x + dx), sy = std::min(in.height - 1, 2 * y + dy);
+        const uint8_t* p = &in.rgba[(size_t(sy) * size_t(in.width) + size_t(sx)) * 4];
+        for (int c = 0; c < 3; ++c)
+          acc[c] += filter == TexelFilter::kSrgb     ? srgb_to_linear(p[c])
+                    : filter == TexelFilter::kNormal ? p[c] / 127.5f - 1.0f
+                                                     : p[c] / 255.0f;
+        alpha += p[3];
+        ++n;
+      }
+    uint8_t* q = &out.rgba[(size_t(y) * size_t(out.width) + size_t(x)) * 4];
+    if (filter == TexelFilter::kSrgb) {
+      for (int c = 0; c < 3; ++c) q[c] = linear_to_srgb(acc[c] / float(n));
+    } else if (filter == TexelFilter::kNormal) {
+      float l = std::sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2]);
+      if (!(l > 1e-6f)) acc[0] = acc[1] = 0, acc[2] = l = 1;
+      for (int c = 0; c < 3; ++c)
+        q[c] = uint8_t(std::lround(std::clamp((acc[c] / l + 1.0f) * 127.5f, 0.0f, 255.0f)));
+    } else {
+      for (int c = 0; c < 3; ++c)
+        q[c] = uint8_t(std::lround(std::clamp(acc[c] / float(n) * 255.0f, 0.0f, 255.0f)));
+    }
+    q[3] = uint8_t((alpha + n / 2) / n);
+  }
+}
+
+}  // namespace
+
 Image downsample_half(const Image& in, TexelFilter filter) {
   Image out;
   out.name = in.name;
   out.width = std::max(1, in.width / 2);
   out.height = std::max(1, in.height / 2);
   out.rgba.resize(size_t(out.width) * size_t(out.height) * 4);
-  for (int y = 0; y < out.height; ++y)
-    for (int x = 0; x < out.width; ++x) {
-      float acc[3] = {0, 0, 0};
-      int alpha = 0, n = 0;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx) {
-          int sx = std::min(in.width - 1, 2 * x + dx), sy = std::min(in.height - 1, 2 * y + dy);
-          const uint8_t* p = &in.rgba[(size_t(sy) * size_t(in.width) + size_t(sx)) * 4];
-          for (int c = 0; c < 3; ++c)
-            acc[c] += filter == TexelFilter::kSrgb     ? srgb_to_linear(p[c])
-                      : filter == TexelFilter::kNormal ? p[c] / 127.5f - 1.0f
-                                                       : p[c] / 255.0f;
-          alpha += p[3];
-          ++n;
-        }
-      uint8_t* q = &out.rgba[(size_t(y) * size_t(out.width) + size_t(x)) * 4];
-      if (filter == TexelFilter::kSrgb) {
-        for (int c = 0; c < 3; ++c) q[c] = linear_to_srgb(acc[c] / float(n));
-      } else if (filter == TexelFilter::kNormal) {
-        float l = std::sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2]);
-        if (!(l > 1e-6f)) acc[0] = acc[1] = 0, acc[2] = l = 1;
-        for (int c = 0; c < 3; ++c)
-          q[c] = uint8_t(std::lround(std::clamp((acc[c] / l + 1.0f) * 127.5f, 0.0f, 255.0f)));
-      } else {
-        for (int c = 0; c < 3; ++c)
-          q[c] = uint8_t(std::lround(std::clamp(acc[c] / float(n) * 255.0f, 0.0f, 255.0f)));
-      }
-      q[3] = uint8_t((alpha + n / 2) / n);
-    }
+  // Rows are independent: split over the threads (each writes its own rows).
+  const size_t rows_per_chunk = std::max<size_t>(1, size_t(65536) / size_t(out.width));
+  parallel_chunks(size_t(out.height), rows_per_chunk, [&](size_t row_begin, size_t row_end) {
+    for (int y = int(row_begin); y < int(row_end); ++y) half_row(in, filter, out, y);
+  });
   return out;
 }
 
