@@ -8,18 +8,28 @@
 namespace meshmux {
 
 Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& options,
-                                       int jpeg_quality, AtlasReport* report, Warnings* warnings) {
+                                       int jpeg_quality, AtlasReport* report, Warnings* warnings,
+                                       EncodeCounts* counts) {
   AtlasOptions o = options;
   AtlasReport rep;
   AtlasMemo memo;  // the charts, segmented and flattened once for every round
   auto atlased = build_atlas(scene, o, &rep, warnings, &memo);
   std::vector<AtlasBytesRound> rounds;
+  struct Encoded {
+    std::vector<uint8_t> bytes;
+    std::string mime_type;
+  };
+  std::vector<Encoded> encoded;  // the last build's atlas images, as the top level encodes them
   for (int round = 0; atlased.ok(); ++round) {
     rep.source_bytes = rep.atlas_bytes = 0;
     for (int32_t i : rep.baked_images)
       rep.source_bytes += double(scene.images[size_t(i)].encoded.size());
-    for (size_t i = 0; i < rep.atlas_images && i < atlased->images.size(); ++i)
-      rep.atlas_bytes += double(encoded_size(atlased->images[i], jpeg_quality, i == 0));
+    encoded.assign(std::min(rep.atlas_images, atlased->images.size()), {});
+    for (size_t i = 0; i < encoded.size(); ++i) {
+      encoded[i].bytes =
+          encode_as_top_level(atlased->images[i], jpeg_quality, i == 0, &encoded[i].mime_type);
+      rep.atlas_bytes += double(encoded[i].bytes.size());
+    }
     const double bound =
         kAtlasBytesBound * rep.source_bytes + kAtlasImageAllowance * double(rep.atlas_images);
     if (!(rep.source_bytes > 0) || rep.atlas_bytes <= bound || round == kAtlasBytesRounds ||
@@ -32,6 +42,14 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
     atlased = build_atlas(scene, o, &rep, warnings, &memo);
   }
   rep.bytes_rounds = std::move(rounds);
+  // The bytes measured are the top level's: handed on (TextureLevelOptions::top_from_encoded).
+  if (atlased.ok())
+    for (size_t i = 0; i < encoded.size(); ++i)
+      if (!encoded[i].bytes.empty()) {
+        atlased->images[i].encoded = std::move(encoded[i].bytes);
+        atlased->images[i].mime_type = encoded[i].mime_type;
+        count(counts, &EncodeCounts::images);
+      }
   if (report) *report = std::move(rep);
   return atlased;
 }

@@ -51,13 +51,21 @@ bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vec
 
 }  // namespace
 
-size_t encoded_size(const Image& image, int quality, bool alpha) {
-  if (!image.decoded()) return 0;
+std::vector<uint8_t> encode_as_top_level(const Image& image, int quality, bool alpha,
+                                         std::string* mime_type) {
+  if (!image.decoded()) return {};
   bool opaque = true;
   for (size_t i = 3; alpha && opaque && i < image.rgba.size(); i += 4)
     opaque = image.rgba[i] == 255;
-  auto bytes = alpha && !opaque ? encode_png(image) : encode_jpeg(image, quality);
-  return bytes.ok() ? bytes->size() : 0;
+  const bool png = alpha && !opaque;
+  auto bytes = png ? encode_png(image) : encode_jpeg(image, quality);
+  if (!bytes.ok()) return {};
+  if (mime_type) *mime_type = png ? "image/png" : "image/jpeg";
+  return bytes.take();
+}
+
+size_t encoded_size(const Image& image, int quality, bool alpha) {
+  return encode_as_top_level(image, quality, alpha, nullptr).size();
 }
 
 Result<std::vector<uint8_t>> encode_png(const Image& image, EncodeCounts* counts) {

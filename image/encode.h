@@ -28,9 +28,14 @@ Result<std::vector<uint8_t>> encode_jpeg(const Image& image, int quality,
 
 namespace meshmux {
 
-// The bytes an image takes as the texture levels' top level encodes it (texture_levels.h): PNG
-// when `alpha` is true and any texel is not opaque, else JPEG at `quality`. A measure for
-// budgets (the atlas's bytes bound), never counted. 0 when not decoded.
+// The image encoded as the texture levels' top level encodes it (texture_levels.h): PNG when
+// `alpha` is true and any texel is not opaque, else JPEG at `quality`; `mime_type` (when given)
+// receives which. Never counted (the atlas's bytes bound measures with it and hands the bytes on
+// to the levels: TextureLevelOptions::top_from_encoded). Empty when not decoded.
+std::vector<uint8_t> encode_as_top_level(const Image& image, int quality, bool alpha,
+                                         std::string* mime_type);
+
+// encode_as_top_level's size: a measure for budgets. 0 when not decoded.
 size_t encoded_size(const Image& image, int quality, bool alpha);
 
 }  // namespace meshmux

@@ -157,16 +157,27 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
           (chain.size() - 1) % step != 0))
     chain.push_back(halve(chain.back()));
   // One level's files: the base colour (PNG with alpha), the channels (JPEG).
+  // The top level's maps as the caller encoded them (TextureLevelOptions::top_from_encoded).
+  auto given = [&](const Image& map, const char* mime, bool top) -> const std::vector<uint8_t>* {
+    return top && o.top_from_encoded && !map.encoded.empty() && map.mime_type == mime ? &map.encoded
+                                                                                      : nullptr;
+  };
   auto encode_level = [&](const Maps& m, int quality, TextureLevel* level) -> Status {
+    const bool top = m[0] == &texture;
     level->width = m[0]->width;
     level->height = m[0]->height;
-    auto bytes = alpha ? encode_png(*m[0], o.counts) : encode_jpeg(*m[0], quality, o.counts);
-    if (!bytes.ok()) return bytes.status().with_prefix(who);
     level->mime_type = alpha ? "image/png" : "image/jpeg";
+    const std::vector<uint8_t>* own = given(*m[0], level->mime_type.c_str(), top);
+    auto bytes = own     ? Result<std::vector<uint8_t>>(*own)
+                 : alpha ? encode_png(*m[0], o.counts)
+                         : encode_jpeg(*m[0], quality, o.counts);
+    if (!bytes.ok()) return bytes.status().with_prefix(who);
     level->encoded = bytes.take();
     level->other_maps.clear();
     for (size_t c = 0; c < channels.size(); ++c) {
-      auto more = encode_jpeg(*m[c + 1], quality, o.counts);
+      const std::vector<uint8_t>* own_map = given(*m[c + 1], "image/jpeg", top);
+      auto more = own_map ? Result<std::vector<uint8_t>>(*own_map)
+                          : encode_jpeg(*m[c + 1], quality, o.counts);
       if (!more.ok()) return more.status().with_prefix(who + ": " + channels[c].channel);
       level->other_maps.push_back({channels[c].channel, "image/jpeg", more.take()});
     }

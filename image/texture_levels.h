@@ -34,6 +34,11 @@ struct TextureLevelOptions {
   // with only the smallest left below the top, it halves until the pyramid fits.
   double max_pyramid_ratio = 1.15;
   EncodeCounts* counts = nullptr;  // observer: every file encoded is counted here (when given)
+  // The top level takes each map's own encoded bytes where it has them in the format the level
+  // writes (an atlas's images, encoded so by its bytes bound: image/encode.h
+  // encode_as_top_level at jpeg_quality) instead of encoding it again. Only for images whose
+  // bytes are that encoding (never a source's own file).
+  bool top_from_encoded = false;
 };
 
 // How a channel's texels average when a level halves.

@@ -56,13 +56,14 @@ Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress
 // `*streamed_material` gets the material whose texture set the texture levels stream (the
 // atlas's, AtlasReport::streamed_material), -1 without an atlas.
 Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
-                         Progress* progress, int32_t* streamed_material) {
+                         Progress* progress, int32_t* streamed_material, bool* baked_encoded) {
   *streamed_material = -1;
+  *baked_encoded = false;
   if (!o.atlas) return scene;
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
   AtlasReport ar;
-  auto atlased =
-      build_atlas_within_bytes(scene, o.atlas_options, o.textures.jpeg_quality, &ar, warnings);
+  auto atlased = build_atlas_within_bytes(scene, o.atlas_options, o.textures.jpeg_quality, &ar,
+                                          warnings, o.textures.counts);
   for (const AtlasBytesRound& r : ar.bytes_rounds)
     report_step(progress, format("atlas: %.0f kB encoded, over %.0f kB for %.0f kB of sources; "
                                  "charts at %.0f%% of their density",
@@ -75,6 +76,8 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
     return scene;
   }
   *streamed_material = ar.streamed_material;
+  // Baked atlas images carry the bytes the bytes bound measured: the top level's own.
+  *baked_encoded = ar.built && !ar.reused_source && ar.atlas_images > 0;
   if (!ar.built) {
     report_step(progress, "atlas: not needed (one material, no texture)");
     return scene;
@@ -180,11 +183,12 @@ std::vector<SceneChannel> scene_channels(const Scene& scene, int32_t material) {
 // Without a stream only the top level is built. The atlas's channels move together: every level
 // carries each at its size.
 Result<TextureLevels> texture_step(Scene& scene, int32_t streamed_material, const ConvertOptions& o,
-                                   bool whole_pyramid, Progress* progress) {
+                                   bool whole_pyramid, bool baked_encoded, Progress* progress) {
   Image* texture = o.atlas ? stream_texture(scene, streamed_material) : nullptr;
   if (!texture) return TextureLevels{};
   TextureLevelOptions to = o.textures;
   if (!whole_pyramid) to.base_size = 1 << 30;  // a base larger than the texture: one level
+  to.top_from_encoded = baked_encoded;
   const std::vector<SceneChannel> sc = scene_channels(scene, streamed_material);
   std::vector<ChannelTexture> channels;
   for (const SceneChannel& c : sc)
@@ -464,13 +468,15 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   input = Scene{};
   // 2. Atlas (and the flattening decision).
   int32_t streamed_material = -1;
-  auto atlased = atlas_step(std::move(scene), o, warnings, progress, &streamed_material);
+  bool baked_encoded = false;  // the atlas's images hold their top level's bytes
+  auto atlased =
+      atlas_step(std::move(scene), o, warnings, progress, &streamed_material, &baked_encoded);
   if (!atlased.ok()) return atlased.status();
   scene = atlased.take();
   // 3. Streamable? Decided now, before the expensive stages.
   out.not_streamed = o.stream && o.report ? unstreamable_reason(scene) : "";
   // 4. Texture levels, encoded once.
-  auto levels = texture_step(scene, streamed_material, o, o.stream, progress);
+  auto levels = texture_step(scene, streamed_material, o, o.stream, baked_encoded, progress);
   if (!levels.ok()) return levels.status();
   out.texture_levels = levels->levels.size();
   // 5. model.glb, full quality; with a stream to make, encoded on a thread of its own while the

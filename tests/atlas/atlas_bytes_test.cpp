@@ -7,6 +7,9 @@
 
 #include <random>
 
+#include "image/encode.h"
+#include "image/texture_levels.h"
+
 namespace meshmux {
 namespace {
 
@@ -70,6 +73,37 @@ TEST(AtlasBytes, OverTheBoundTheDensityGivesWay) {
   const bool floor = rep.bytes_rounds.back().next_density <= kAtlasMinDensity;
   EXPECT_TRUE(met || floor) << rep.atlas_bytes << " B against " << bound << " B";
   EXPECT_LT(rep.atlas_bytes, rep.bytes_rounds[0].atlas_bytes);
+}
+
+// The atlas images' last encoding is the texture levels' top level: each image carries the bytes
+// the bound measured (the same bytes an encode of its pixels gives), the levels take them as
+// their top level instead of encoding the atlas again (a 4096² PNG base colour took a second
+// each time), and every file is counted once: the atlas's images, then the levels below the top.
+TEST(AtlasBytes, MeasuredBytesAreTheTopLevelEncodedOnce) {
+  AtlasReport rep;
+  EncodeCounts counts;
+  auto out = build_atlas_within_bytes(noisy_quads(1000000), {}, 85, &rep, nullptr, &counts);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  ASSERT_GE(rep.atlas_images, 1u);
+  EXPECT_EQ(counts.images, rep.atlas_images);
+  const Image& atlas = out->images[0];
+  ASSERT_FALSE(atlas.encoded.empty());
+  EXPECT_EQ(atlas.encoded, encode_as_top_level(atlas, 85, true, nullptr));
+  TextureLevelOptions to;
+  to.jpeg_quality = 85;
+  to.counts = &counts;
+  to.top_from_encoded = true;
+  auto levels = make_texture_levels(atlas, to);
+  ASSERT_TRUE(levels.ok()) << levels.status().message();
+  ASSERT_GE(levels->levels.size(), 2u);
+  EXPECT_EQ(levels->levels.back().encoded, atlas.encoded);
+  EXPECT_EQ(counts.images, rep.atlas_images + levels->levels.size() - 1)
+      << "the top level was encoded again";
+  // Without the option the top level is encoded from the pixels: the same bytes, one file more.
+  to.top_from_encoded = false;
+  auto again = make_texture_levels(atlas, to);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->levels.back().encoded, atlas.encoded);
 }
 
 }  // namespace
