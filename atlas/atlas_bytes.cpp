@@ -18,7 +18,8 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
     for (int32_t i : rep.baked_images)
       rep.source_bytes += double(scene.images[size_t(i)].encoded.size());
     for (size_t i = 0; i < rep.atlas_images && i < atlased->images.size(); ++i)
-      rep.atlas_bytes += double(encoded_size(atlased->images[i], jpeg_quality, i == 0));
+      rep.atlas_bytes += double(encoded_size(atlased->images[i], jpeg_quality,
+                                             i % std::max<size_t>(rep.page_images, 1) == 0));
     const double bound =
         kAtlasBytesBound * rep.source_bytes + kAtlasImageAllowance * double(rep.atlas_images);
     if (!(rep.source_bytes > 0) || rep.atlas_bytes <= bound || round == kAtlasBytesRounds ||
