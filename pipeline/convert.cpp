@@ -17,6 +17,7 @@
 #include "clean/flatten.h"
 #include "core/parallel.h"
 #include "exporters/draco_encode.h"
+#include "image/encode.h"
 #include "image/kept_levels.h"
 #include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
@@ -51,12 +52,36 @@ Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress
   return out;
 }
 
+// Atlas pages after the first (AtlasReport::pages) encoded as the texture levels encode the
+// first page's top level (image/texture_levels.h: JPEG at the levels' quality, PNG for a base
+// colour with alpha): model.glb embeds them so, and the stream carries them at every level's
+// scale as it carries a kept material's images (image/kept_levels.h), from their pixels (kept).
+Status encode_further_pages(Scene& scene, const AtlasReport& ar, int quality,
+                            EncodeCounts* counts) {
+  for (size_t page = 1; page < ar.pages.size(); ++page)
+    for (size_t k = 0; k < ar.page_images; ++k) {
+      const size_t i = page * ar.page_images + k;
+      if (i >= scene.images.size() || !scene.images[i].decoded()) continue;
+      Image& img = scene.images[i];
+      bool alpha = false;
+      for (size_t t = 3; k == 0 && t < img.rgba.size() && !alpha; t += 4)
+        alpha = img.rgba[t] != 255;
+      auto bytes = alpha ? encode_png(img, counts) : encode_jpeg(img, quality, counts);
+      if (!bytes.ok()) return bytes.status().with_prefix("atlas page " + std::to_string(page + 1));
+      img.encoded = bytes.take();
+      img.mime_type = alpha ? "image/png" : "image/jpeg";
+    }
+  return Status::ok();
+}
+
 // 2. Atlas: one material, one texture (Terrace et al. §4.2–4.4); then the one flattening
 // decision (Azim et al.: below 1.75 instances per submesh, one mesh is one draw call).
 // `*streamed_material` gets the material whose texture set the texture levels stream (the
-// atlas's, AtlasReport::streamed_material), -1 without an atlas.
+// atlas's, AtlasReport::streamed_material), -1 without an atlas; `*atlas_pages` the atlas's
+// pages (AtlasReport::pages).
 Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
-                         Progress* progress, int32_t* streamed_material) {
+                         Progress* progress, int32_t* streamed_material,
+                         std::vector<AtlasPage>* atlas_pages) {
   *streamed_material = -1;
   if (!o.atlas) return scene;
   report_step(progress, "building the atlas (charts, parameterization, packing, baking)");
@@ -105,6 +130,18 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                        ar.kept_materials, ar.tiled_materials, o.atlas_options.tiled_periods,
                        ar.layer_materials, ar.texel_grid_materials));
   Scene out = atlased.take();
+  if (ar.pages.size() > 1) {
+    std::string sizes;
+    for (const AtlasPage& p : ar.pages)
+      sizes +=
+          format("%s%dx%d (%zu charts)", sizes.empty() ? "" : ", ", p.width, p.height, p.charts);
+    report_step(progress,
+                format("atlas: %zu pages (charts at their density past %dx%d): %s", ar.pages.size(),
+                       o.atlas_options.max_size, o.atlas_options.max_size, sizes.c_str()));
+    if (Status st = encode_further_pages(out, ar, o.textures.jpeg_quality, o.counts); !st)
+      return st;
+  }
+  *atlas_pages = ar.pages;
   if (ar.kept_materials > 0)
     if (size_t saved =
             encode_kept_images(out, ar.kept_materials, o.textures.jpeg_quality, o.counts))
@@ -464,7 +501,9 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   input = Scene{};
   // 2. Atlas (and the flattening decision).
   int32_t streamed_material = -1;
-  auto atlased = atlas_step(std::move(scene), o, warnings, progress, &streamed_material);
+  std::vector<AtlasPage> atlas_pages;
+  auto atlased =
+      atlas_step(std::move(scene), o, warnings, progress, &streamed_material, &atlas_pages);
   if (!atlased.ok()) return atlased.status();
   scene = atlased.take();
   // 3. Streamable? Decided now, before the expensive stages.
@@ -499,6 +538,9 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   if (!model.ok()) return model.status();
   out.model_glb = model.take();
   out.output = compute_stats(scene);
+  OutputFigures figures;
+  for (const AtlasPage& p : atlas_pages) figures.atlas_pages.push_back({p.width, p.height});
+  figures.draw_calls = out.output.draw_calls;
   if (!o.stream) return out;
   scene = Scene{};  // the record (ps) holds the geometry from here on
   const LodSelection base =
@@ -556,7 +598,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
   if (!out.not_streamed.empty()) {
     warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
-    out.report_json = report_json(m);
+    out.report_json = report_json(m, nullptr, &figures);
     out.rd_svg = rd_svg(m);
     return out;
   }
@@ -582,7 +624,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
   if (!cmp.ok()) return cmp.status();
   cost_base_as_shipped(*out.multiplexed, cmp->package[1].first);
-  out.report_json = report_json(m, &*cmp);
+  out.report_json = report_json(m, &*cmp, &figures);
   out.rd_svg = rd_svg(m, &*cmp);
   return out;
 }
