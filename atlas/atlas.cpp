@@ -41,6 +41,12 @@ struct ChannelImages {
   Image normal, orm, emissive, sheen;  // empty when not baked
 };
 
+// One atlas page's images: the base colour and the baked channels (every page the same ones).
+struct PageImages {
+  Image atlas;
+  ChannelImages channels;
+};
+
 // Corner positions of a mesh face.
 struct MeshView {
   const Mesh& mesh;
@@ -448,23 +454,29 @@ struct Packing {
   int gutter = 0;            // texels around each textured chart
   double utilization = 0;    // packed texels / atlas texels
 };
+// The textured items' rectangles at factor f of their sizes: each side in texels (at least 1,
+// at most max_size) plus `gutter` texels each side.
+void size_textured_rects(Items& it, const std::vector<ChartUv>& uvs, const AtlasOptions& o,
+                         int gutter, double f) {
+  std::vector<PackRect>& rects = it.rects;
+  for (size_t k = 0; k < rects.size(); ++k) {
+    if (it.item_scale[k] == 0) continue;
+    const ChartUv& u = uvs[it.item_chart[k]];
+    double sc = it.item_scale[k] * f;
+    auto texels = [&](double extent) {
+      double t = std::ceil(extent * sc);
+      return std::isfinite(t) ? int(std::clamp(t, 1.0, double(o.max_size))) : 1;
+    };
+    rects[k].w = texels(u.size.x) + 2 * gutter;
+    rects[k].h = texels(u.size.y) + 2 * gutter;
+  }
+}
+
 Result<Packing> pack_charts(Items& it, const std::vector<ChartUv>& uvs, const AtlasOptions& o) {
   Packing pk;
   int gutter = pk.gutter = std::max(0, o.bake.gutter) + 1;
   std::vector<PackRect>& rects = it.rects;
-  auto rects_for = [&](double f) {
-    for (size_t k = 0; k < rects.size(); ++k) {
-      if (it.item_scale[k] == 0) continue;
-      const ChartUv& u = uvs[it.item_chart[k]];
-      double sc = it.item_scale[k] * f;
-      auto texels = [&](double extent) {
-        double t = std::ceil(extent * sc);
-        return std::isfinite(t) ? int(std::clamp(t, 1.0, double(o.max_size))) : 1;
-      };
-      rects[k].w = texels(u.size.x) + 2 * gutter;
-      rects[k].h = texels(u.size.y) + 2 * gutter;
-    }
-  };
+  auto rects_for = [&](double f) { size_textured_rects(it, uvs, o, gutter, f); };
   // The sizes, by area: W × W/2 then W × W, W a power of two.
   struct Size {
     int w, h;
@@ -581,6 +593,119 @@ AtlasLayout make_layout(const Items& it, const Packing& pk, size_t charts, const
     }
   }
   return layout;
+}
+
+// One atlas page (docs/ARCHITECTURE.md "Atlas pages"): its charts (the scene's chart indices,
+// ascending), their pack items (chart_item and item_chart indexing the page's charts), their
+// packing and layout (indexed by the page's charts), and, once baked, which chart each of its
+// texels holds (the page's chart indices).
+struct Page {
+  std::vector<uint32_t> charts;
+  Items items;
+  Packing packing;
+  AtlasLayout layout;
+  std::vector<int32_t> texel_chart;
+};
+
+// The items of page `page` (item_page) with their charts, renumbered within the page.
+Page page_of_items(const Items& it, const std::vector<int32_t>& item_page, int32_t page) {
+  Page pg;
+  for (uint32_t ci = 0; ci < it.chart_item.size(); ++ci)
+    if (item_page[it.chart_item[ci]] == page) pg.charts.push_back(ci);
+  std::vector<size_t> local_chart(it.chart_item.size(), 0), local_item(it.rects.size(), 0);
+  for (size_t li = 0; li < pg.charts.size(); ++li) local_chart[pg.charts[li]] = li;
+  Items& s = pg.items;
+  s.reuse_scale = it.reuse_scale;
+  s.target_texels = it.target_texels;
+  s.reference_texels = it.reference_texels;
+  for (size_t k = 0; k < it.rects.size(); ++k) {
+    if (item_page[k] != page) continue;
+    local_item[k] = s.rects.size();
+    s.rects.push_back(it.rects[k]);
+    s.item_scale.push_back(it.item_scale[k]);
+    s.item_chart.push_back(local_chart[it.item_chart[k]]);
+    s.item_native.push_back(it.item_native[k]);
+    s.any_textured |= it.item_scale[k] > 0;
+    s.flat_colors += it.item_scale[k] == 0;
+  }
+  for (uint32_t ci : pg.charts) s.chart_item.push_back(local_item[it.chart_item[ci]]);
+  return pg;
+}
+
+// The charts, as FlatCharts, of one page (its charts in page order; face_chart left empty).
+FlatCharts page_charts(const FlatCharts& fc, const Page& pg) {
+  FlatCharts out;
+  for (uint32_t ci : pg.charts) {
+    out.charts.charts.push_back(fc.charts.charts[ci]);
+    out.uvs.push_back(fc.uvs[ci]);
+  }
+  return out;
+}
+
+// The pages (Atlas pages, DESIGN.md "Atlas"): one page as packed when every chart fits one
+// max_size² atlas at its size (or no chart has a native density to keep). Otherwise, rather
+// than shrinking every chart, the items at their sizes (factor 1, flat blocks as at max_size)
+// go, largest first, each to the first max_size² page with room (pack_cells_pages); each page
+// is then packed on its own as a one-page atlas is (its smallest size that holds it).
+Result<std::vector<Page>> plan_pages(const FlatCharts& fc, Items& items, const AtlasOptions& o) {
+  const std::vector<PackRect> sized = items.rects;  // before pack_charts sizes them
+  auto packing = pack_charts(items, fc.uvs, o);
+  if (!packing.ok()) return packing.status();
+  std::vector<Page> pages;
+  const bool native =
+      std::find(items.item_native.begin(), items.item_native.end(), 1) != items.item_native.end();
+  if (native && packing->shrink < 1) {
+    Items native_items = items;
+    native_items.rects = sized;
+    size_textured_rects(native_items, fc.uvs, o, std::max(0, o.bake.gutter) + 1, 1);
+    const int flat = std::max(o.flat_block, o.max_size / 64) + 2 * std::max(0, o.bake.gutter);
+    for (size_t k = 0; k < native_items.rects.size(); ++k)
+      if (native_items.item_scale[k] == 0) native_items.rects[k] = {flat, flat};
+    PagedCells paged = pack_cells_pages(native_items.rects, o.max_size, o.max_size);
+    for (size_t p = 0; p < paged.pages && paged.pages > 1; ++p) {
+      Page pg = page_of_items(items, paged.page, int32_t(p));
+      pg.items.rects.assign(pg.items.rects.size(), PackRect{});
+      auto packed = pack_charts(pg.items, page_charts(fc, pg).uvs, o);
+      if (!packed.ok()) return packed.status();
+      pg.packing = packed.take();
+      pg.layout = make_layout(pg.items, pg.packing, pg.charts.size(), o);
+      pages.push_back(std::move(pg));
+    }
+  }
+  if (pages.empty()) {
+    Page pg;
+    pg.charts.resize(fc.charts.charts.size());
+    std::iota(pg.charts.begin(), pg.charts.end(), 0);
+    pg.items = std::move(items);
+    pg.packing = packing.take();
+    pg.layout = make_layout(pg.items, pg.packing, pg.charts.size(), o);
+    pages.push_back(std::move(pg));
+  }
+  return pages;
+}
+
+// Step 4 on every page: its charts baked into their cells (the same channels on each page).
+std::vector<PageImages> bake_pages(const Scene& scene, const FlatCharts& fc,
+                                   std::vector<Page>& pages, const AtlasOptions& o,
+                                   const ChannelNeeds& need) {
+  std::vector<PageImages> out;
+  for (Page& pg : pages) {
+    BakeResult baked;
+    if (pages.size() == 1) {
+      baked = bake_atlas(scene, fc.charts, fc.uvs, pg.layout, o.bake, need.bake);
+    } else {
+      const FlatCharts sub = page_charts(fc, pg);
+      baked = bake_atlas(scene, sub.charts, sub.uvs, pg.layout, o.bake, need.bake);
+    }
+    pg.texel_chart = std::move(baked.texel_chart);
+    PageImages images;
+    images.atlas = std::move(baked.atlas);
+    images.channels = {std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
+                       std::move(baked.sheen)};
+    name_channels(images.channels);
+    out.push_back(std::move(images));
+  }
+  return out;
 }
 
 // Stretch figures over textured charts (area-weighted mean and maximum).
@@ -815,35 +940,38 @@ Material merged_material(const Scene& scene, const std::vector<MeshView>& views,
   return mat;
 }
 
-// The atlas uv of a chart corner: the chart's parameterization placed by the layout (flat
-// charts: the centre of their block). `face_slot[m][f]`: face f's index in its chart's list.
+// The atlas uv of a chart corner: the chart's parameterization placed by its page's layout (flat
+// charts: the centre of their block). `face_slot[m][f]`: face f's index in its chart's list;
+// `local[ci]`: chart ci's index in its page's layout.
 Vec2 chart_corner_uv(const FlatCharts& fc, const AtlasLayout& layout,
+                     const std::vector<uint32_t>& local,
                      const std::vector<std::vector<uint32_t>>& face_slot, uint32_t m, uint32_t f,
                      int k) {
   const uint32_t ci = fc.charts.face_chart[m][f];
-  if (layout.scale[ci] == 0)
-    return {float((layout.offset[ci].x + layout.block[ci] * 0.5) / layout.size),
-            float((layout.offset[ci].y + layout.block[ci] * 0.5) / layout.rows())};
+  const uint32_t li = local[ci];
+  if (layout.scale[li] == 0)
+    return {float((layout.offset[li].x + layout.block[li] * 0.5) / layout.size),
+            float((layout.offset[li].y + layout.block[li] * 0.5) / layout.rows())};
   Vec2 cu = fc.uvs[ci].corner_uv[3 * size_t(face_slot[m][f]) + size_t(k)];
-  return {float((layout.offset[ci].x + layout.scale[ci] * cu.x) / layout.size),
-          float((layout.offset[ci].y + layout.scale[ci] * cu.y) / layout.rows())};
+  return {float((layout.offset[li].x + layout.scale[li] * cu.x) / layout.size),
+          float((layout.offset[li].y + layout.scale[li] * cu.y) / layout.rows())};
 }
 
-// Step 5b: the faces of mesh m in material group `group` (material index `group` of the output)
+// Step 5b: the faces of mesh m whose output material is `material` (face_material, per face)
 // as one primitive into the atlas: every corner gets its chart's atlas uv, corners welded where
 // position, normal and uv agree exactly.
 // `corner_uv(f, k)`: the atlas uv of face f's corner k.
 Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& corner_uv,
-                const std::vector<int32_t>& prim_group, int32_t group, const GroupKey& key) {
+                const std::vector<int32_t>& face_material, int32_t material, const GroupKey& key) {
   Primitive prim;
-  prim.material = group;
+  prim.material = material;
   prim.flat = key.flat;
   prim.uvs.resize(1);
   bool normals = std::all_of(mv.mesh.primitives.begin(), mv.mesh.primitives.end(),
                              [](const Primitive& p) { return !p.normals.empty(); });
   std::unordered_map<uint64_t, std::vector<uint32_t>> weld;
   for (uint32_t f = 0; f < mv.faces.size(); ++f) {
-    if (prim_group[mv.faces[f].primitive] != group) continue;
+    if (face_material[f] != material) continue;
     const Primitive& src = mv.mesh.primitives[mv.faces[f].primitive];
     uint32_t tri[3];
     for (int k = 0; k < 3; ++k) {
@@ -876,13 +1004,46 @@ Mesh atlas_mesh(const MeshView& mv, const std::function<Vec2(uint32_t, int)>& co
   return mesh;
 }
 
-// 5. The output scene: one primitive per mesh into the atlas, one material per group, one
-// image (decoded pixels only: the texture levels encode it once, JPEG when opaque, PNG with
-// alpha, and model.glb embeds their top level). `corner_uv[m]` gives mesh m's atlas uvs;
-// `sampling`: how the materials sample the atlas (merged_material).
+// The page suffix of an image's or material's name: none on page 0, " page N" (1-based) after.
+std::string page_suffix(size_t page) {
+  return page == 0 ? std::string() : " page " + std::to_string(page + 1);
+}
+
+// The output's materials: one per (page, group) with faces, pages first (page 0's are the
+// scene's first materials), each sampling its page's images (`per_page` images a page, in the
+// same order); `*material_of[p][g]` its index or -1, `*page_material[p]` page p's first.
+std::vector<Material> page_materials(const std::vector<Material>& group_materials,
+                                     const std::vector<std::vector<char>>& present, size_t per_page,
+                                     std::vector<std::vector<int32_t>>* material_of,
+                                     std::vector<int32_t>* page_material) {
+  std::vector<Material> out;
+  material_of->assign(present.size(), std::vector<int32_t>(group_materials.size(), -1));
+  page_material->assign(present.size(), -1);
+  for (size_t p = 0; p < present.size(); ++p)
+    for (size_t g = 0; g < group_materials.size(); ++g) {
+      if (!present[p][g]) continue;
+      Material mat = group_materials[g];
+      for (TextureRef* t : texture_refs(mat))
+        if (t->present()) t->image += int32_t(p * per_page);
+      mat.name += page_suffix(p);
+      (*material_of)[p][g] = int32_t(out.size());
+      if ((*page_material)[p] < 0) (*page_material)[p] = int32_t(out.size());
+      out.push_back(std::move(mat));
+    }
+  return out;
+}
+
+// 5. The output scene: one primitive per mesh into the atlas, one material per group and page
+// (docs/ARCHITECTURE.md "Atlas pages"), each page's images (decoded pixels only: the texture
+// levels encode them once, JPEG when opaque, PNG with alpha, and model.glb embeds their top
+// level). `corner_uv[m]` gives mesh m's atlas uvs (on its face's page); `face_page[m][f]` the
+// page of mesh m's face f (empty: every face on page 0); `sampling`: how the materials sample
+// the atlas (merged_material). `*page_material[p]`: page p's first material.
 Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
-               const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv, Image atlas,
-               ChannelImages channels, const ChannelNeeds& need, const AtlasSampling& sampling) {
+               const std::vector<std::function<Vec2(uint32_t, int)>>& corner_uv,
+               std::vector<PageImages> pages, const std::vector<std::vector<int32_t>>& face_page,
+               const ChannelNeeds& need, const AtlasSampling& sampling,
+               std::vector<int32_t>* page_material) {
   Scene out;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;
@@ -902,31 +1063,59 @@ Scene assemble(const Scene& scene, const std::vector<MeshView>& views,
     for (const Primitive& p : scene.meshes[m].primitives)
       prim_group[m].push_back(
           int32_t(std::find(groups.begin(), groups.end(), group_key(scene, p)) - groups.begin()));
-  // The images: the base colour first, then the baked channels.
-  atlas.name = "atlas";
-  out.images.push_back(std::move(atlas));
+  auto page_of = [&](size_t m, uint32_t f) {
+    return face_page.empty() ? 0 : size_t(face_page[m][f]);
+  };
+  // The images, page by page: the base colour first, then the baked channels.
   ChannelSlots slots;
-  for (auto [image, slot] :
-       {std::pair{&channels.normal, &slots.normal}, std::pair{&channels.orm, &slots.orm},
-        std::pair{&channels.emissive, &slots.emissive}, std::pair{&channels.sheen, &slots.sheen}})
-    if (image->decoded()) {
-      *slot = int32_t(out.images.size());
-      out.images.push_back(std::move(*image));
-    }
+  size_t per_page = 0;
+  for (size_t pg = 0; pg < pages.size(); ++pg) {
+    pages[pg].atlas.name = "atlas" + page_suffix(pg);
+    out.images.push_back(std::move(pages[pg].atlas));
+    ChannelImages& channels = pages[pg].channels;
+    for (auto [image, slot] :
+         {std::pair{&channels.normal, &slots.normal}, std::pair{&channels.orm, &slots.orm},
+          std::pair{&channels.emissive, &slots.emissive}, std::pair{&channels.sheen, &slots.sheen}})
+      if (image->decoded()) {
+        if (pg == 0) *slot = int32_t(out.images.size());
+        image->name += page_suffix(pg);
+        out.images.push_back(std::move(*image));
+      }
+    if (pg == 0) per_page = out.images.size();
+  }
+  // Which groups have faces on which page (one page: every group present).
+  std::vector<std::vector<char>> present(std::max<size_t>(pages.size(), 1),
+                                         std::vector<char>(groups.size(), face_page.empty()));
+  for (size_t m = 0; m < views.size() && !face_page.empty(); ++m)
+    for (uint32_t f = 0; f < views[m].faces.size(); ++f)
+      present[page_of(m, f)][size_t(prim_group[m][views[m].faces[f].primitive])] = 1;
+  std::vector<Material> group_materials;
   for (size_t g = 0; g < groups.size(); ++g)
-    out.materials.push_back(
+    group_materials.push_back(
         merged_material(scene, views, prim_group, int32_t(g), groups[g], need, slots, sampling));
-  // Each mesh splits into one mesh per group it has faces in (one primitive each, so the stream
-  // can refine it); its instances place every part.
+  std::vector<std::vector<int32_t>> material_of;
+  out.materials = page_materials(group_materials, present, per_page, &material_of, page_material);
+  std::vector<int32_t> material_group(out.materials.size(), 0);
+  for (const std::vector<int32_t>& row : material_of)
+    for (size_t g = 0; g < row.size(); ++g)
+      if (row[g] >= 0) material_group[size_t(row[g])] = int32_t(g);
+  // Each mesh splits into one mesh per material it has faces in (one primitive each, so the
+  // stream can refine it); its instances place every part.
   std::vector<std::vector<uint32_t>> parts(scene.meshes.size());
-  for (uint32_t m = 0; m < scene.meshes.size(); ++m)
-    for (size_t g = 0; g < groups.size(); ++g) {
-      Mesh mesh = atlas_mesh(views[m], corner_uv[m], prim_group[m], int32_t(g), groups[g]);
+  for (uint32_t m = 0; m < scene.meshes.size(); ++m) {
+    std::vector<int32_t> face_material(views[m].faces.size());
+    for (uint32_t f = 0; f < face_material.size(); ++f)
+      face_material[f] =
+          material_of[page_of(m, f)][size_t(prim_group[m][views[m].faces[f].primitive])];
+    for (size_t i = 0; i < out.materials.size(); ++i) {
+      Mesh mesh = atlas_mesh(views[m], corner_uv[m], face_material, int32_t(i),
+                             groups[size_t(material_group[i])]);
       if (mesh.primitives[0].indices.empty()) continue;
       if (parts[m].size() > 0) mesh.name += " (" + std::to_string(parts[m].size() + 1) + ")";
       parts[m].push_back(uint32_t(out.meshes.size()));
       out.meshes.push_back(std::move(mesh));
     }
+  }
   for (const Instance& inst : scene.instances) {
     if (inst.mesh >= parts.size()) continue;
     for (uint32_t part : parts[inst.mesh]) {
@@ -954,44 +1143,68 @@ Result<Scene> build_from_charts(const Scene& scene, const std::vector<MeshView>&
   rep.flat_colors = items.flat_colors;
   rep.charts = size_t(std::count_if(fc.charts.charts.begin(), fc.charts.charts.end(),
                                     [](const Chart& c) { return c.textured; }));
-  // 3. Power-of-two-safe packing (§4.4).
-  auto packing = pack_charts(items, fc.uvs, o);
-  if (!packing.ok()) return packing.status();
-  rep.size = packing->packed.size;
-  rep.height = packing->packed.height;
+  // 3. Power-of-two-safe packing (§4.4), on as many pages as native density needs.
+  auto planned = plan_pages(fc, items, o);
+  if (!planned.ok()) return planned.status();
+  std::vector<Page>& pages = *planned;
+  rep.size = pages[0].packing.packed.size;
+  rep.height = pages[0].packing.packed.height;
   rep.reference_texels = items.reference_texels;
-  rep.utilization = packing->utilization;
+  rep.utilization = pages[0].packing.utilization;
   rep.reuse_scale = items.reuse_scale;
   rep.min_density = 0;
-  for (size_t k = 0; k < items.rects.size(); ++k)
-    if (items.item_native[k]) {
-      const double d =
-          o.density * items.reuse_scale * std::pow(packing->shrink * packing->grow[k], 2.0);
-      rep.min_density = rep.min_density > 0 ? std::min(rep.min_density, d) : d;
+  for (const Page& pg : pages)
+    for (size_t k = 0; k < pg.items.rects.size(); ++k)
+      if (pg.items.item_native[k]) {
+        const double d = o.density * pg.items.reuse_scale *
+                         std::pow(pg.packing.shrink * pg.packing.grow[k], 2.0);
+        rep.min_density = rep.min_density > 0 ? std::min(rep.min_density, d) : d;
+      }
+  // 4. Bake every chart into its cell, page by page.
+  const size_t chart_count = fc.charts.charts.size();
+  std::vector<int32_t> chart_page(chart_count, 0);
+  std::vector<uint32_t> local(chart_count, 0);
+  rep.cell_pos.resize(chart_count);
+  rep.cell_size.resize(chart_count);
+  for (size_t pg = 0; pg < pages.size(); ++pg)
+    for (uint32_t li = 0; li < pages[pg].charts.size(); ++li) {
+      const uint32_t ci = pages[pg].charts[li];
+      chart_page[ci] = int32_t(pg);
+      local[ci] = li;
+      const size_t k = pages[pg].items.chart_item[li];
+      rep.cell_pos[ci] = pages[pg].packing.packed.placed[k];
+      rep.cell_size[ci] = pages[pg].packing.packed.cells[k];
     }
-  // 4. Bake every chart into its cell.
-  AtlasLayout layout = make_layout(items, *packing, fc.charts.charts.size(), o);
-  BakeResult baked = bake_atlas(scene, fc.charts, fc.uvs, layout, o.bake, need.bake);
-  rep.texel_chart = std::move(baked.texel_chart);
-  for (size_t i = 0; i < fc.charts.charts.size(); ++i) {
-    rep.cell_pos.push_back(packing->packed.placed[items.chart_item[i]]);
-    rep.cell_size.push_back(packing->packed.cells[items.chart_item[i]]);
-  }
+  std::vector<PageImages> images = bake_pages(scene, fc, pages, o, need);
+  for (const Page& pg : pages)
+    rep.pages.push_back({pg.packing.packed.size, pg.packing.packed.height, pg.charts.size(),
+                         pg.packing.utilization});
+  rep.chart_page = chart_page;
+  for (int32_t& c : pages[0].texel_chart)
+    if (c >= 0) c = int32_t(pages[0].charts[size_t(c)]);
+  rep.texel_chart = std::move(pages[0].texel_chart);
   stretch_figures(fc, &rep);
   rep.tangent_deviation_deg = tangent_deviation(views, fc);
   std::vector<std::vector<uint32_t>> face_slot(scene.meshes.size());
+  std::vector<std::vector<int32_t>> face_page;
   for (size_t m = 0; m < scene.meshes.size(); ++m) face_slot[m].resize(views[m].faces.size());
   for (const Chart& c : fc.charts.charts)
     for (uint32_t k = 0; k < c.faces.size(); ++k) face_slot[c.mesh][c.faces[k]] = k;
+  if (pages.size() > 1)
+    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+      face_page.emplace_back(views[m].faces.size());
+      for (uint32_t f = 0; f < views[m].faces.size(); ++f)
+        face_page[m][f] = chart_page[fc.charts.face_chart[m][f]];
+    }
   std::vector<std::function<Vec2(uint32_t, int)>> corner_uv;
   for (uint32_t m = 0; m < scene.meshes.size(); ++m)
-    corner_uv.push_back(
-        [&, m](uint32_t f, int k) { return chart_corner_uv(fc, layout, face_slot, m, f, k); });
-  ChannelImages channels{std::move(baked.normal), std::move(baked.orm), std::move(baked.emissive),
-                         std::move(baked.sheen)};
-  name_channels(channels);
-  Scene out =
-      assemble(scene, views, corner_uv, std::move(baked.atlas), std::move(channels), need, {});
+    corner_uv.push_back([&, m](uint32_t f, int k) {
+      const AtlasLayout& layout = pages[size_t(chart_page[fc.charts.face_chart[m][f]])].layout;
+      return chart_corner_uv(fc, layout, local, face_slot, m, f, k);
+    });
+  Scene out = assemble(scene, views, corner_uv, std::move(images), face_page, need, {},
+                       &rep.page_materials);
+  rep.page_images = out.images.size() / pages.size();
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report) *report = rep;
   return out;
@@ -1083,8 +1296,13 @@ Result<Scene> build_atlas_core(const Scene& input, const AtlasOptions& o, AtlasR
         src_image.width == source->part_width && src_image.height == source->part_height;
     sampling.wrap_s = source->wrap_s;
     sampling.wrap_t = source->wrap_t;
-    Scene out =
-        assemble(scene, views, corner_uv, std::move(atlas), std::move(channels), need, sampling);
+    std::vector<PageImages> pages(1);
+    pages[0].atlas = std::move(atlas);
+    pages[0].channels = std::move(channels);
+    Scene out = assemble(scene, views, corner_uv, std::move(pages), {}, need, sampling,
+                         &rep.page_materials);
+    rep.pages.push_back({rep.size, rep.height, 0, 1.0});
+    rep.page_images = out.images.size();
     rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (report) *report = std::move(rep);
     return out;

@@ -3,7 +3,11 @@
 // parameterized, each sized to keep the density of the source texels it samples (charts without
 // source texels by formula 2 within T = min(Σ source texture area the faces reference, max_size²)),
 // packed into the smallest W × W or W × W/2 texels that holds them (up to max_size) so no chart
-// crosses a power-of-two boundary, and baked from the source materials; every mesh becomes one
+// crosses a power-of-two boundary, and baked from the source materials. Where they do not fit
+// max_size² at that density, the atlas adds pages instead of shrinking them (DESIGN.md "Atlas":
+// 4096 is the largest side every WebGL2 device reads): the charts, largest first, each go to the
+// first max_size² page with room, each page is packed as one atlas is, and every page is an image
+// set and a material of its own (AtlasReport::pages); every mesh becomes one
 // primitive with one uv set into the atlas and the single material. Instancing is untouched (a
 // shared mesh's charts are baked once). When every face already samples one image inside [0, 1]
 // (atlas/source_atlas.h), that image is the atlas and the source uvs are kept: no charts, no
@@ -66,6 +70,13 @@ struct AtlasOptions {
                                      // texel-grid samplers beside the atlas (atlas/kept.h)
 };
 
+// One page of the atlas (Atlas pages, below).
+struct AtlasPage {
+  int width = 0, height = 0;  // texels
+  size_t charts = 0;          // charts baked into it (0: the source's texture kept)
+  double utilization = 0;     // packed texels / its texels
+};
+
 // One rebuild for the bytes bound (atlas/atlas_bytes.h).
 struct AtlasBytesRound {
   double atlas_bytes = 0;   // the atlas's images encoded, before this rebuild
@@ -114,9 +125,17 @@ struct AtlasReport {
   double atlas_bytes = 0;   // build_atlas_within_bytes: the atlas images encoded
   double source_bytes = 0;  // build_atlas_within_bytes: the baked images' encoded bytes
   std::vector<AtlasBytesRound> bytes_rounds;  // build_atlas_within_bytes: its rebuilds
-  // The layout, for tests and tools: per atlas texel (size × height, row-major) its chart
-  // (gutters included; -1 none), and
-  // per chart its exclusive power-of-two cell (flat charts of one colour share one).
+  // Atlas pages: where the charts at their density do not fit one max_size² atlas, further
+  // pages (each its own image set: base colour and every baked channel, at its own size; the
+  // output's images page by page, `page_images` each) and one material per group and page, the
+  // pages' in page order. size, height and utilization above are page 0's.
+  std::vector<AtlasPage> pages;
+  size_t page_images = 0;
+  std::vector<int32_t> page_materials;  // per page: its first material (page 0's: 0)
+  std::vector<int32_t> chart_page;      // per chart: its page
+  // The layout, for tests and tools (page 0's texels; cells within each chart's page): per atlas
+  // texel (size × height, row-major) its chart (gutters included; -1 none), and per chart its
+  // exclusive power-of-two cell (flat charts of one colour share one).
   std::vector<int32_t> texel_chart;
   std::vector<PackPlacement> cell_pos;
   std::vector<PackRect> cell_size;

@@ -26,8 +26,10 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
       rep.source_bytes += double(scene.images[size_t(i)].encoded.size());
     encoded.assign(std::min(rep.atlas_images, atlased->images.size()), {});
     for (size_t i = 0; i < encoded.size(); ++i) {
+      // Each page's first image is its base colour (PNG where it has alpha).
+      const bool base_colour = i % std::max<size_t>(rep.page_images, 1) == 0;
       encoded[i].bytes =
-          encode_as_top_level(atlased->images[i], jpeg_quality, i == 0, &encoded[i].mime_type);
+          encode_as_top_level(atlased->images[i], jpeg_quality, base_colour, &encoded[i].mime_type);
       rep.atlas_bytes += double(encoded[i].bytes.size());
     }
     const double bound =

@@ -259,40 +259,45 @@ int pow2_at_least(int v) {
 
 // A 2D buddy allocator over aligned power-of-two rectangles: a free rectangle (x, y, w, h)
 // always has x % w == 0 and y % h == 0; splitting halves one side, which keeps that.
+struct FreeCell {
+  int x, y, w, h;
+};
+
+// Places one cell into `free` (best fit: the smallest free rectangle that holds it; ties:
+// top-most, left-most); false, `free` unchanged, when none holds it.
+bool buddy_insert(std::vector<FreeCell>& free, int cw, int ch, PackPlacement* at) {
+  size_t best = SIZE_MAX;
+  for (size_t i = 0; i < free.size(); ++i) {
+    const FreeCell& f = free[i];
+    if (f.w < cw || f.h < ch) continue;
+    if (best == SIZE_MAX) {
+      best = i;
+      continue;
+    }
+    const FreeCell& b = free[best];
+    long long fa = (long long)f.w * f.h, ba = (long long)b.w * b.h;
+    if (fa < ba || (fa == ba && (f.y < b.y || (f.y == b.y && f.x < b.x)))) best = i;
+  }
+  if (best == SIZE_MAX) return false;
+  FreeCell f = free[best];
+  free.erase(free.begin() + long(best));
+  while (f.w > cw) {  // split off the right half
+    f.w /= 2;
+    free.push_back({f.x + f.w, f.y, f.w, f.h});
+  }
+  while (f.h > ch) {  // split off the bottom half
+    f.h /= 2;
+    free.push_back({f.x, f.y + f.h, f.w, f.h});
+  }
+  *at = {f.x, f.y};
+  return true;
+}
+
 bool buddy_pack(const std::vector<PackRect>& cells, const std::vector<size_t>& order, int width,
                 int height, std::vector<PackPlacement>& placed) {
-  struct Free {
-    int x, y, w, h;
-  };
-  std::vector<Free> free{{0, 0, width, height}};
-  for (size_t idx : order) {
-    int cw = cells[idx].w, ch = cells[idx].h;
-    // Best fit: the smallest free rectangle that holds the cell (ties: top-most, left-most).
-    size_t best = SIZE_MAX;
-    for (size_t i = 0; i < free.size(); ++i) {
-      const Free& f = free[i];
-      if (f.w < cw || f.h < ch) continue;
-      if (best == SIZE_MAX) {
-        best = i;
-        continue;
-      }
-      const Free& b = free[best];
-      long long fa = (long long)f.w * f.h, ba = (long long)b.w * b.h;
-      if (fa < ba || (fa == ba && (f.y < b.y || (f.y == b.y && f.x < b.x)))) best = i;
-    }
-    if (best == SIZE_MAX) return false;
-    Free f = free[best];
-    free.erase(free.begin() + long(best));
-    while (f.w > cw) {  // split off the right half
-      f.w /= 2;
-      free.push_back({f.x + f.w, f.y, f.w, f.h});
-    }
-    while (f.h > ch) {  // split off the bottom half
-      f.h /= 2;
-      free.push_back({f.x, f.y + f.h, f.w, f.h});
-    }
-    placed[idx] = {f.x, f.y};
-  }
+  std::vector<FreeCell> free{{0, 0, width, height}};
+  for (size_t idx : order)
+    if (!buddy_insert(free, cells[idx].w, cells[idx].h, &placed[idx])) return false;
   return true;
 }
 
@@ -361,6 +366,27 @@ PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_
   r.size = r.height = max_size;
   r.placed.assign(rects.size(), {});
   return r;
+}
+
+PagedCells pack_cells_pages(const std::vector<PackRect>& rects, int width, int height) {
+  PagedCells out;
+  PackResult r;
+  const CellPlan plan = plan_cells(rects, r);
+  out.page.assign(rects.size(), 0);
+  std::vector<std::vector<FreeCell>> free;
+  for (size_t idx : plan.order) {
+    const PackRect& cell = r.cells[idx];
+    PackPlacement at;
+    size_t p = 0;
+    while (p < free.size() && !buddy_insert(free[p], cell.w, cell.h, &at)) ++p;
+    if (p == free.size()) {  // a new page; a cell larger than a page has one of its own
+      free.push_back({{0, 0, width, height}});
+      if (!buddy_insert(free.back(), cell.w, cell.h, &at)) free.back().clear();
+    }
+    out.page[idx] = int32_t(p);
+  }
+  out.pages = free.size();
+  return out;
 }
 
 }  // namespace meshmux

@@ -7,6 +7,7 @@
 // Deterministic.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -44,6 +45,16 @@ PackResult pack_cells(const std::vector<PackRect>& rects, int min_size, int max_
 // The same cells packed into exactly `width` × `height` texels (powers of two; a rectangle
 // W × W/2 holds aligned cells exactly as the square does). ok = false when they do not fit.
 PackResult pack_cells_into(const std::vector<PackRect>& rects, int width, int height);
+
+// Atlas pages (docs/ARCHITECTURE.md "Atlas pages"): the same cells, largest first, each into the
+// first of `width` × `height` pages whose free space holds it (buddy allocation as pack_cells),
+// a new page when none does (a cell larger than a page gets one of its own). Packing a page's
+// rectangles alone with pack_cells_into at that size places them as they were placed here.
+struct PagedCells {
+  std::vector<int32_t> page;  // per rectangle, input order
+  size_t pages = 0;
+};
+PagedCells pack_cells_pages(const std::vector<PackRect>& rects, int width, int height);
 
 // True when the rectangle does not cross a power-of-two boundary (the property above).
 bool respects_power_of_two(int x, int y, int w, int h);

@@ -92,7 +92,8 @@ std::string mesh_stream_bits_json(const std::vector<std::vector<EncodedMeshPart>
 }
 }  // namespace
 
-std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) {
+std::string report_json(const MultiplexResult& r, const DownloadComparison* vs,
+                        const OutputFigures* output) {
   std::ostringstream out;
   out << "{\n  \"curves\": {\n    \"rd\": ";
   curve(out, r.rd);
@@ -187,8 +188,16 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs) 
   out << "},\n  \"order\": [";
   for (size_t k = 0; k < r.rd.cells.size(); ++k)
     out << (k ? ", " : "") << "[" << r.rd.cells[k].first << ", " << r.rd.cells[k].second << "]";
+  out << "]";
+  if (output) {
+    out << ",\n  \"output\": {\"atlas_pages\": [";
+    for (size_t k = 0; k < output->atlas_pages.size(); ++k)
+      out << (k ? ", " : "") << "[" << output->atlas_pages[k].first << ", "
+          << output->atlas_pages[k].second << "]";
+    out << "], \"draw_calls\": " << output->draw_calls << "}";
+  }
   std::snprintf(buf, sizeof buf,
-                "],\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",
+                ",\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",
                 r.seconds_layers, r.seconds_render, r.seconds_total);
   out << buf;
   return out.str();

@@ -40,7 +40,16 @@ void cost_base_as_shipped(MultiplexResult& r, uint64_t first_picture_bytes);
 // report.json's "curves" and summary as JSON text, and rd.svg plotting the four curves; with
 // `vs`, also the package as received against the download of model.glb ("download" curve,
 // their step areas and whether the stream beats the file).
-std::string report_json(const MultiplexResult& r, const DownloadComparison* vs = nullptr);
+// What the output draws, for report.json's "output": the atlas's pages, width × height each
+// (atlas/atlas.h AtlasReport::pages; empty without an atlas), and model.glb's draw calls
+// (SceneStats::draw_calls: one per primitive per instance).
+struct OutputFigures {
+  std::vector<std::pair<int, int>> atlas_pages;
+  uint64_t draw_calls = 0;
+};
+// With `output`, report.json also holds "output": {"atlas_pages": [[w, h], ...], "draw_calls": n}.
+std::string report_json(const MultiplexResult& r, const DownloadComparison* vs = nullptr,
+                        const OutputFigures* output = nullptr);
 std::string rd_svg(const MultiplexResult& r, const DownloadComparison* vs = nullptr);
 
 }  // namespace meshmux

@@ -17,6 +17,7 @@
 #include "clean/flatten.h"
 #include "core/parallel.h"
 #include "exporters/draco_encode.h"
+#include "image/encode.h"
 #include "image/kept_levels.h"
 #include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
@@ -54,9 +55,12 @@ Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress
 // 2. Atlas: one material, one texture (Terrace et al. §4.2–4.4); then the one flattening
 // decision (Azim et al.: below 1.75 instances per submesh, one mesh is one draw call).
 // `*streamed_material` gets the material whose texture set the texture levels stream (the
-// atlas's, AtlasReport::streamed_material), -1 without an atlas.
+// atlas's, AtlasReport::streamed_material), -1 without an atlas; `*atlas_pages` the atlas's
+// pages (AtlasReport::pages); `*baked_encoded` whether the atlas's images hold their top level's
+// bytes (baked, not the source's own image).
 Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warnings,
-                         Progress* progress, int32_t* streamed_material, bool* baked_encoded) {
+                         Progress* progress, int32_t* streamed_material,
+                         std::vector<AtlasPage>* atlas_pages, bool* baked_encoded) {
   *streamed_material = -1;
   *baked_encoded = false;
   if (!o.atlas) return scene;
@@ -108,6 +112,20 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                        ar.kept_materials, ar.tiled_materials, o.atlas_options.tiled_periods,
                        ar.layer_materials, ar.texel_grid_materials));
   Scene out = atlased.take();
+  if (ar.pages.size() > 1) {
+    std::string sizes;
+    for (const AtlasPage& p : ar.pages)
+      sizes +=
+          format("%s%dx%d (%zu charts)", sizes.empty() ? "" : ", ", p.width, p.height, p.charts);
+    report_step(progress,
+                format("atlas: %zu pages (charts at their density past %dx%d): %s", ar.pages.size(),
+                       o.atlas_options.max_size, o.atlas_options.max_size, sizes.c_str()));
+    // Every page's images carry the bytes the bytes bound measured, encoded as the first page's
+    // top level (build_atlas_within_bytes): model.glb embeds them so, and the stream carries
+    // them at every level's scale as it carries a kept material's images
+    // (image/kept_levels.h), from their pixels.
+  }
+  *atlas_pages = ar.pages;
   if (ar.kept_materials > 0)
     if (size_t saved =
             encode_kept_images(out, ar.kept_materials, o.textures.jpeg_quality, o.counts))
@@ -468,9 +486,10 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   input = Scene{};
   // 2. Atlas (and the flattening decision).
   int32_t streamed_material = -1;
+  std::vector<AtlasPage> atlas_pages;
   bool baked_encoded = false;  // the atlas's images hold their top level's bytes
-  auto atlased =
-      atlas_step(std::move(scene), o, warnings, progress, &streamed_material, &baked_encoded);
+  auto atlased = atlas_step(std::move(scene), o, warnings, progress, &streamed_material,
+                            &atlas_pages, &baked_encoded);
   if (!atlased.ok()) return atlased.status();
   scene = atlased.take();
   // 3. Streamable? Decided now, before the expensive stages.
@@ -505,6 +524,9 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   if (!model.ok()) return model.status();
   out.model_glb = model.take();
   out.output = compute_stats(scene);
+  OutputFigures figures;
+  for (const AtlasPage& p : atlas_pages) figures.atlas_pages.push_back({p.width, p.height});
+  figures.draw_calls = out.output.draw_calls;
   if (!o.stream) return out;
   scene = Scene{};  // the record (ps) holds the geometry from here on
   const LodSelection base =
@@ -562,7 +584,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
   if (!out.not_streamed.empty()) {
     warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
-    out.report_json = report_json(m);
+    out.report_json = report_json(m, nullptr, &figures);
     out.rd_svg = rd_svg(m);
     return out;
   }
@@ -588,7 +610,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
   if (!cmp.ok()) return cmp.status();
   cost_base_as_shipped(*out.multiplexed, cmp->package[1].first);
-  out.report_json = report_json(m, &*cmp);
+  out.report_json = report_json(m, &*cmp, &figures);
   out.rd_svg = rd_svg(m, &*cmp);
   return out;
 }
