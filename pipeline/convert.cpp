@@ -422,10 +422,12 @@ uint64_t first_picture_bytes(uint64_t model_bytes, const ConvertOptions& o) {
 // (thousands of separate parts, kept materials' images at full size, a collapse loop that the
 // link condition stops early), the coarsest levels are taken and the progress says what they
 // hold. A trial encode that fails counts as over the bound; the chosen base is encoded again by
-// the caller, where a failure is reported. Returns the base chosen.
+// the caller, where a failure is reported. `limit`: first_picture_bytes, or less where the
+// package's bound asks for it (convert), `what` names it for the progress line. Returns the base
+// chosen.
 LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const TextureLevels& levels,
-                        const ConvertOptions& o, size_t model_bytes, Progress* progress) {
-  const uint64_t limit = first_picture_bytes(model_bytes, o);
+                        const ConvertOptions& o, size_t model_bytes, uint64_t limit,
+                        const char* what, Progress* progress) {
   const double budget = double(limit);
   if (limit == 0 || selection_triangles(ps, select_full(ps)) < o.simplify.ship_whole_below)
     return base;
@@ -448,9 +450,9 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
       image_bytes += im.encoded.size();
     write_back(coarsest);
     report_step(progress,
-                format("base: over the first picture's %.1f kB even at the coarsest levels: "
+                format("base: over %s %.1f kB even at the coarsest levels: "
                        "%llu triangles, %.1f kB (images %.1f kB) instead of %.1f kB",
-                       budget / 1e3, (unsigned long long)selection_triangles(ps, coarsest),
+                       what, budget / 1e3, (unsigned long long)selection_triangles(ps, coarsest),
                        coarsest_bytes / 1e3, double(image_bytes) / 1e3, base_bytes / 1e3));
     return coarsest;
   }
@@ -468,11 +470,107 @@ LodSelection bound_base(ProgressiveScene& ps, const LodSelection& base, const Te
       hi = mid;
   }
   write_back(best);
-  report_step(progress, format("base: %.1f kB was over the first picture's %.1f kB (model.glb "
+  report_step(progress, format("base: %.1f kB was over %s %.1f kB (model.glb "
                                "%.1f kB): a coarser base of %llu triangles instead",
-                               base_bytes / 1e3, budget / 1e3, double(model_bytes) / 1e3,
+                               base_bytes / 1e3, what, budget / 1e3, double(model_bytes) / 1e3,
                                (unsigned long long)selection_triangles(ps, best)));
   return best;
+}
+
+// Steps 7–10 of convert on the record `ps`: the base under `base_limit` bytes (bound_base; set
+// by the package's bound when `package_bound`, else the first picture's),
+// base.glb, the multiplexer's order (within the package's bound), the package and the report,
+// into `out` (which holds model.glb and the figures so far).
+Status stream_steps(ProgressiveScene& ps, const TextureLevels& levels_ref, const ConvertOptions& o,
+                    uint64_t base_limit, bool package_bound, const SimplifyReport& sr,
+                    const OutputFigures& figures, ConvertOutputs& out, Warnings* warnings,
+                    Progress* progress) {
+  const TextureLevels* levels = &levels_ref;
+  const LodSelection base = bound_base(
+      ps, select_base(ps), *levels, o, out.model_glb.size(), base_limit,
+      package_bound ? "what the package's bound leaves it," : "the first picture's", progress);
+  out.base_triangles = selection_triangles(ps, base);
+  report_step(progress,
+              format("base level: %llu of %llu triangles%s, %llu collapses in %d ms",
+                     (unsigned long long)out.base_triangles, (unsigned long long)sr.input_triangles,
+                     sr.flattened ? " (flattened: few instances per submesh)" : "",
+                     (unsigned long long)sr.collapses, int(sr.seconds * 1000)));
+  // 7. base.glb: the base mesh with texture level 0, Draco-coded.
+  Scene base_scene = level_scene(ps, base, *levels, 0, false);
+  const size_t base_meshes = base_scene.meshes.size();
+  auto base_glb = export_glb_bytes(base_scene, o.gltf, warnings);
+  if (!base_glb.ok()) return base_glb.status();
+  out.base_glb = base_glb.take();
+  if (!o.report) return Status::ok();
+  // 8. Multiplex: renders, the order, the mesh parts encoded once; past the package's bound the
+  // chain of splits ends in the completion. The package's base is built when the bound asks for
+  // its bytes, and handed on to the package.
+  std::optional<std::vector<uint8_t>> ordered_base;
+  const std::vector<MeshStreamBase>* heads = nullptr;  // the multiplexer's, while it runs
+  PackageBound bound;
+  if (o.max_package_ratio > 0) {
+    bound.max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
+    bound.fixed_bytes = [&](const std::vector<MeshStreamBase>& h) -> Result<uint64_t> {
+      heads = &h;
+      auto glb = ordered_base_glb(ps, h, *levels, o, warnings);
+      if (!glb.ok()) return glb.status();
+      const uint64_t stored = std::min(deflate_bytes(*glb).size(), glb->size());
+      ordered_base = glb.take();
+      return stored;
+    };
+    bound.completion =
+        [&](const std::vector<uint32_t>& meshes) -> Result<std::vector<CompletionMesh>> {
+      std::vector<Result<CompletionMesh>> coded(meshes.size(), Status::ok());
+      parallel_chunks(meshes.size(), 1, [&](size_t begin, size_t end) {
+        for (size_t c = begin; c < end; ++c)
+          coded[c] = completion_mesh(ps.meshes[meshes[c]], (*heads)[meshes[c]], meshes[c], o.gltf);
+      });
+      std::vector<CompletionMesh> list;
+      for (Result<CompletionMesh>& c : coded) {
+        if (!c.ok()) return c.status();
+        list.push_back(c.take());
+      }
+      return list;
+    };
+  }
+  auto mx = multiplex_step(ps, *levels, o, bound, warnings, progress);
+  if (!mx.ok()) return mx.status();
+  if (!mx->has_value()) return Status::ok();
+  out.multiplexed = std::move(**mx);
+  const MultiplexResult& m = *out.multiplexed;
+  // 9. The stream package.
+  if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
+  if (!out.not_streamed.empty()) {
+    warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
+    out.report_json = report_json(m, nullptr, &figures);
+    out.rd_svg = rd_svg(m);
+    return Status::ok();
+  }
+  if (m.completion_report.used)
+    report_step(progress,
+                format("completion: after mesh layer %zu of %zu, the full mesh single-rate "
+                       "(%.1f kB for %.1f kB of splits; %s): package planned at %.2f x model.glb "
+                       "(%.2f x with every split)",
+                       m.completion_report.after_layer, m.completion_report.chain_layers - 1,
+                       m.completion_report.bytes / 1e3, m.completion_report.tail_bytes / 1e3,
+                       m.completion_report.why == "bound"
+                           ? "the latest layer within the package's bound"
+                           : "earlier, where its slope beats the next mesh step's",
+                       double(m.completion_report.planned_bytes) / double(out.model_glb.size()),
+                       double(m.completion_report.chain_bytes) / double(out.model_glb.size())));
+  auto package = package_step(ps, m, *levels, o, std::move(ordered_base), warnings);
+  if (!package.ok()) return package.status();
+  out.package = package.take();
+  out.mesh_chunks = m.layer_parts.size() - 1;
+  out.texture_chunks = levels->levels.empty() ? 0 : levels->levels.size() - 1;
+  // 10. The report: the order's curves, costed from the base as it ships, and the package as
+  // received against model.glb.
+  auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
+  if (!cmp.ok()) return cmp.status();
+  cost_base_as_shipped(*out.multiplexed, cmp->package[1].first);
+  out.report_json = report_json(m, &*cmp, &figures);
+  out.rd_svg = rd_svg(m, &*cmp);
+  return Status::ok();
 }
 
 Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warnings* warnings,
@@ -529,90 +627,44 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   figures.draw_calls = out.output.draw_calls;
   if (!o.stream) return out;
   scene = Scene{};  // the record (ps) holds the geometry from here on
-  const LodSelection base =
-      bound_base(ps, select_base(ps), *levels, o, out.model_glb.size(), progress);
-  out.base_triangles = selection_triangles(ps, base);
-  report_step(progress,
-              format("base level: %llu of %llu triangles%s, %llu collapses in %d ms",
-                     (unsigned long long)out.base_triangles, (unsigned long long)sr.input_triangles,
-                     sr.flattened ? " (flattened: few instances per submesh)" : "",
-                     (unsigned long long)sr.collapses, int(sr.seconds * 1000)));
-  // 7. base.glb: the base mesh with texture level 0, Draco-coded.
-  Scene base_scene = level_scene(ps, base, *levels, 0, false);
-  const size_t base_meshes = base_scene.meshes.size();
-  auto base_glb = export_glb_bytes(base_scene, o.gltf, warnings);
-  if (!base_glb.ok()) return base_glb.status();
-  out.base_glb = base_glb.take();
-  if (!o.report) return out;
-  // 8. Multiplex: renders, the order, the mesh parts encoded once; past the package's bound the
-  // chain of splits ends in the completion. The package's base is built when the bound asks for
-  // its bytes, and handed on to the package.
-  std::optional<std::vector<uint8_t>> ordered_base;
-  const std::vector<MeshStreamBase>* heads = nullptr;  // the multiplexer's, while it runs
-  PackageBound bound;
-  if (o.max_package_ratio > 0) {
-    bound.max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
-    bound.fixed_bytes = [&](const std::vector<MeshStreamBase>& h) -> Result<uint64_t> {
-      heads = &h;
-      auto glb = ordered_base_glb(ps, h, *levels, o, warnings);
-      if (!glb.ok()) return glb.status();
-      const uint64_t stored = std::min(deflate_bytes(*glb).size(), glb->size());
-      ordered_base = glb.take();
-      return stored;
-    };
-    bound.completion =
-        [&](const std::vector<uint32_t>& meshes) -> Result<std::vector<CompletionMesh>> {
-      std::vector<Result<CompletionMesh>> coded(meshes.size(), Status::ok());
-      parallel_chunks(meshes.size(), 1, [&](size_t begin, size_t end) {
-        for (size_t c = begin; c < end; ++c)
-          coded[c] = completion_mesh(ps.meshes[meshes[c]], (*heads)[meshes[c]], meshes[c], o.gltf);
-      });
-      std::vector<CompletionMesh> list;
-      for (Result<CompletionMesh>& c : coded) {
-        if (!c.ok()) return c.status();
-        list.push_back(c.take());
-      }
-      return list;
-    };
-  }
-  auto mx = multiplex_step(ps, *levels, o, bound, warnings, progress);
-  if (!mx.ok()) return mx.status();
-  if (!mx->has_value()) return out;
-  out.multiplexed = std::move(**mx);
-  const MultiplexResult& m = *out.multiplexed;
-  // 9. The stream package.
-  if (out.not_streamed.empty()) out.not_streamed = unstreamable_record(ps, base_meshes);
-  if (!out.not_streamed.empty()) {
-    warn(warnings, "package: " + out.not_streamed + "; model.mmxp and the viewer not written");
-    out.report_json = report_json(m, nullptr, &figures);
-    out.rd_svg = rd_svg(m);
-    return out;
-  }
-  if (m.completion_report.used)
+  // 7–10. The base, the order and the package. The package's bound: the completion step keeps it
+  // (multiplex/multiplex.h) down to the full mesh single-rate right after the base, the least a
+  // package holds; where even that is over the bound (or the splits from the base cost less than
+  // it, yet over the bound), the base gives way by the excess, once, as the first picture's bytes
+  // bound it.
+  uint64_t base_limit = first_picture_bytes(out.model_glb.size(), o);
+  for (int attempt = 0;; ++attempt) {
+    Warnings attempt_warnings;
+    ConvertOutputs tried = out;
+    if (Status st = stream_steps(ps, *levels, o, base_limit, attempt > 0, sr, figures, tried,
+                                 &attempt_warnings, progress);
+        !st)
+      return st;
+    const uint64_t max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
+    // (A model shipped whole has no base to give: its package is its base and the table.)
+    const bool over = o.max_package_ratio > 0 && !tried.package.empty() &&
+                      tried.package.size() > max_bytes &&
+                      selection_triangles(ps, select_full(ps)) >= o.simplify.ship_whole_below;
+    if (!over || attempt == 1) {
+      if (over)
+        report_step(progress, format("package: %.2f x model.glb, over its bound even with the "
+                                     "coarsest base the record allows",
+                                     double(tried.package.size()) / double(out.model_glb.size())));
+      for (const std::string& w : attempt_warnings.items()) warn(warnings, w);
+      out = std::move(tried);
+      return out;
+    }
+    // Over by the excess, and half as much again: the base's bytes are a glb's, the package's a
+    // deflated one's.
+    const uint64_t excess = tried.package.size() - max_bytes;
+    const double target =
+        double(std::min<uint64_t>(base_limit, tried.base_glb.size())) - 1.5 * double(excess) - 512;
+    base_limit = uint64_t(std::max(1.0, target));  // 0 would mean no bound
     report_step(progress,
-                format("completion: after mesh layer %zu of %zu, the full mesh single-rate "
-                       "(%.1f kB for %.1f kB of splits; %s): package planned at %.2f x model.glb "
-                       "(%.2f x with every split)",
-                       m.completion_report.after_layer, m.completion_report.chain_layers - 1,
-                       m.completion_report.bytes / 1e3, m.completion_report.tail_bytes / 1e3,
-                       m.completion_report.why == "bound"
-                           ? "the latest layer within the package's bound"
-                           : "earlier, where its slope beats the next mesh step's",
-                       double(m.completion_report.planned_bytes) / double(out.model_glb.size()),
-                       double(m.completion_report.chain_bytes) / double(out.model_glb.size())));
-  auto package = package_step(ps, m, *levels, o, std::move(ordered_base), warnings);
-  if (!package.ok()) return package.status();
-  out.package = package.take();
-  out.mesh_chunks = m.layer_parts.size() - 1;
-  out.texture_chunks = levels->levels.empty() ? 0 : levels->levels.size() - 1;
-  // 10. The report: the order's curves, costed from the base as it ships, and the package as
-  // received against model.glb.
-  auto cmp = download_comparison(out.package, out.model_glb.size(), m.empty_distortion);
-  if (!cmp.ok()) return cmp.status();
-  cost_base_as_shipped(*out.multiplexed, cmp->package[1].first);
-  out.report_json = report_json(m, &*cmp, &figures);
-  out.rd_svg = rd_svg(m, &*cmp);
-  return out;
+                format("package: %.1f kB over its bound (%.2f x model.glb) even where the "
+                       "base's refinements end soonest: the base gives way, to %.1f kB",
+                       double(excess) / 1e3, o.max_package_ratio, double(base_limit) / 1e3));
+  }
 }
 
 }  // namespace meshmux
