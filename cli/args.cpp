@@ -2,6 +2,7 @@
 
 #include <strings.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -57,6 +58,7 @@ const std::vector<Flag> kFlags = [] {
       switch_flag("--no-draco", kConvert | kBatch, true),
       switch_flag("--no-atlas", kConvert | kBatch, true),
       switch_flag("--no-report", kConvert | kBatch, true),
+      {"--display", nullptr, kConvert | kBatch, FlagValue::kText, 0, 0, false, false, true},
       // info.
       switch_flag("--json", kInfo),
       // simplify: exactly one target.
@@ -258,6 +260,22 @@ std::string convert_flags_text() {
     if (f.value != FlagValue::kSwitch) out += " N";
   }
   return out;
+}
+
+bool parse_size(const std::string& text, int* w, int* h) {
+  const size_t x = text.find('x');
+  if (x == std::string::npos || x == 0 || x + 1 >= text.size()) return false;
+  auto whole = [](const std::string& t, int* out) {
+    char* end = nullptr;
+    errno = 0;
+    const long v = std::strtol(t.c_str(), &end, 10);
+    if (errno != 0 || end != t.c_str() + t.size() || !std::isdigit(uint8_t(t[0])) || v < 1 ||
+        v > 8192)
+      return false;
+    *out = int(v);
+    return true;
+  };
+  return whole(text.substr(0, x), w) && whole(text.substr(x + 1), h);
 }
 
 }  // namespace meshmux

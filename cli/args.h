@@ -87,6 +87,9 @@ UploadFlags upload_flags(const ParsedArgs& p);
 // Whether `path` ends in `extension` (".glb"), in any case.
 bool has_extension(const std::string& path, const char* extension);
 
+// "WxH" with whole numbers 1..8192 into *w and *h (--size, --display); false for anything else.
+bool parse_size(const std::string& text, int* w, int* h);
+
 // The convert flags batch hands on, for its --help: "--position-bits N --no-draco ...".
 std::string convert_flags_text();
 

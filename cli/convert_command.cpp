@@ -40,6 +40,10 @@ int cmd_convert(const std::vector<std::string>& args) {
   const std::string in = p->positional[0], out = p->text("--output");
   if (out.empty()) return usage_error(kConvert, "no output given (-o OUT.glb or -o FOLDER)");
   ConvertOptions o = convert_options(*p);
+  if (p->has("--display") &&
+      !parse_size(p->text("--display"), &o.multiplex.display_width, &o.multiplex.display_height))
+    return usage_error(kConvert, "--display needs WxH device pixels, each 1..8192 (got '" +
+                                     p->text("--display") + "')");
   UploadFlags u = upload_flags(*p);
   o.stream = !has_extension(out, ".glb");
   auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);

@@ -65,18 +65,6 @@ bool parse_vec3(const std::string& text, Vec3* out) {
   return true;
 }
 
-bool parse_size(const std::string& text, int* w, int* h) {
-  size_t x = text.find('x');
-  double a = 0, b = 0;
-  if (x == std::string::npos || !parse_number(text.substr(0, x), &a) ||
-      !parse_number(text.substr(x + 1), &b))
-    return false;
-  if (a < 1 || b < 1 || a > 8192 || b > 8192 || a != std::floor(a) || b != std::floor(b))
-    return false;
-  *w = int(a), *h = int(b);
-  return true;
-}
-
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;

@@ -576,6 +576,10 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   const bool forced = (m == 1 || n == 1) && o.forced_view_layers >= 0;
   RenderOptions render = o.render;
   if (forced) render.width = render.height = std::max(16, o.forced_image_size);
+  // Both are framed alike (the bounding sphere spans a fraction of the smaller side).
+  if (o.display_width > 0 && o.display_height > 0)
+    render.display_scale = float(std::min(o.display_width, o.display_height)) /
+                           float(std::max(1, std::min(render.width, render.height)));
   auto renderer = Renderer::create(render);
   if (!renderer.ok()) return renderer.status();
   // Render time counts the texture levels' decoding and upload (it used to be spread over the

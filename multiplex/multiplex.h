@@ -38,6 +38,12 @@ struct MultiplexOptions {
   // pixels, weighs silhouettes more at lower resolution).
   int forced_view_layers = -1;
   int forced_image_size = 128;
+  // The display the order is made for, in device pixels (the table's "display"): the renders
+  // sample textures with a pixel's footprint there (RenderOptions::display_scale: the display's
+  // smaller side over the image's, both framed alike), so texture levels are ranked by what they
+  // change at that size. 0 × 0: the images' own pixels.
+  int display_width = 1920;
+  int display_height = 1080;
   EncodeCounts* counts = nullptr;  // observer: every mesh part encoded is counted here
 };
 

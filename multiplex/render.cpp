@@ -76,7 +76,8 @@
 namespace meshmux {
 namespace {
 
-// Texels per view pixel beyond which a texture's finer mip levels are not uploaded (add_texture).
+// Texels per display pixel (RenderOptions::display_scale) beyond which a texture's finer mip
+// levels are not uploaded (add_texture).
 constexpr int kUploadPerPixel = 4;
 
 // The GL wrap modes (glTF's sampler values are the GL enums), and a Wrap's index among them.
@@ -228,7 +229,8 @@ struct Renderer::Impl {
         u_emissive_map = -1, u_dfg = -1, u_has_normal_map = -1, u_has_orm_map = -1,
         u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1, u_occlusion_strength = -1,
         u_normal_scale = -1, u_emissive = -1, u_environment = -1, u_light_intensity = -1,
-        u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1, u_sheen_roughness = -1;
+        u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1, u_sheen_roughness = -1,
+        u_display_scale = -1, u_anisotropy = -1;
   // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
   // occlusion-roughness-metallic, 4 emissive, 6 sheen colour (anisotropic sampler), 5 the DFG
   // table.
@@ -236,6 +238,11 @@ struct Renderer::Impl {
   GLuint samplers[2][3][3] = {}, sampler_table = 0;
   GLuint dfg_texture = 0;
   float max_anisotropy = 1;
+  // llvmpipe's anisotropic filter takes the footprint from the pixel's own derivatives and
+  // ignores textureGrad's: where the display's footprint differs from the image pixel's
+  // (RenderOptions::display_scale ≠ 1) every unit gets a plain trilinear sampler and the shader
+  // filters anisotropically itself, as GPUs do (samples along the footprint's major axis).
+  bool manual_anisotropy() const { return options.display_scale != 1.0f; }
   std::vector<GpuGeometry> geometries;
   struct Texture {
     GLuint id = 0;  // 0 = freed
@@ -415,6 +422,8 @@ Status Renderer::Impl::init_gl() {
   u_emissive = glGetUniformLocation(program, "u_emissive");
   u_environment = glGetUniformLocation(program, "u_environment");
   u_light_intensity = glGetUniformLocation(program, "u_light_intensity");
+  u_display_scale = glGetUniformLocation(program, "u_display_scale");
+  u_anisotropy = glGetUniformLocation(program, "u_anisotropy");
   u_sheen_map = glGetUniformLocation(program, "u_sheen_map");
   u_has_sheen_map = glGetUniformLocation(program, "u_has_sheen_map");
   u_sheen = glGetUniformLocation(program, "u_sheen");
@@ -436,7 +445,8 @@ Status Renderer::Impl::init_gl() {
                               std::clamp(options.anisotropy, 1.0f, max_anisotropy));
         glGetError();  // tolerate a driver without anisotropic filtering
       }
-  for (GLuint unit : {0u, 1u, 2u, 3u, 4u, 6u}) glBindSampler(unit, samplers[unit != 1][0][0]);
+  for (GLuint unit : {0u, 1u, 2u, 3u, 4u, 6u})
+    glBindSampler(unit, samplers[unit != 1 && !manual_anisotropy()][0][0]);
   // The DFG table: 16×16 RG floats, bilinear, clamped (as three.js samples its own).
   glGenSamplers(1, &sampler_table);
   glSamplerParameteri(sampler_table, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -689,7 +699,8 @@ int Renderer::add_texture(const Image& image, bool color, Wrap wrap_s, Wrap wrap
   // image sizes (even 16× anisotropic filtering picks a coarser level unless a surface is
   // almost edge-on), so they are not uploaded: a 4096² atlas's four channels would otherwise
   // hold 350 MB of driver memory for renders of 256² pixels.
-  const int most = kUploadPerPixel * std::max(m.options.width, m.options.height);
+  const int most = int(std::ceil(double(kUploadPerPixel) * std::max(1.0f, m.options.display_scale) *
+                                 double(std::max(m.options.width, m.options.height))));
   std::optional<Image> reduced;
   while ((reduced ? *reduced : image).width > most || (reduced ? *reduced : image).height > most)
     reduced = downsample_half(reduced ? *reduced : image,
@@ -873,6 +884,10 @@ void Renderer::Impl::use_shading_program(const CameraFrame& frame) {
   glUniform1f(u_diffuse, options.diffuse);
   glUniform1f(u_environment, options.environment);
   glUniform1f(u_light_intensity, options.light_intensity);
+  glUniform1f(u_display_scale, std::max(1e-3f, options.display_scale));
+  glUniform1f(u_anisotropy, manual_anisotropy() ? std::clamp(options.anisotropy, 1.0f,
+                                                             std::min(max_anisotropy, 16.0f))
+                                                : 0.0f);
   glUniform1i(u_texture, 0);
   glUniform1i(u_texture_plain, 1);
   glUniform1i(u_normal_map, 2);
@@ -945,7 +960,8 @@ void Renderer::Impl::bind_unit(GLenum unit, int k) {
   const GLuint index = unit - GL_TEXTURE0;
   const int ws = live(k) ? wrap_index(textures[size_t(k)].wrap_s) : 0;
   const int wt = live(k) ? wrap_index(textures[size_t(k)].wrap_t) : 0;
-  glBindSampler(index, samplers[index != 1][ws][wt]);  // unit 1: the plain base colour
+  // Unit 1: the plain base colour; every unit plain where the shader filters anisotropically.
+  glBindSampler(index, samplers[index != 1 && !manual_anisotropy()][ws][wt]);
 }
 
 std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& sets,

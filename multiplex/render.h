@@ -47,6 +47,12 @@ struct RenderOptions {
   // light_direction (three.js: DirectionalLight.intensity).
   float environment = 0.5f;
   float light_intensity = 1.6f;
+  // Display pixels per image pixel: textures are sampled with the footprint a pixel has on the
+  // display the order is made for (textureGrad with the derivatives divided by this), so the mip
+  // level and anisotropy are those three.js picks there and each image pixel is one sample of the
+  // display's picture (its mean error estimated from 1 / scale² of the display's pixels). 1: the
+  // image's own pixels.
+  float display_scale = 1;
 };
 
 // The options the stream is measured and shown with: physically based shading.

@@ -92,6 +92,8 @@ PackageView package_view(const MultiplexOptions& options) {
   p.light_follows_camera = r.light_follows_camera;
   p.physical = r.shading == Shading::kPhysical;
   p.environment = r.environment, p.light_intensity = r.light_intensity;
+  if (options.display_width > 0 && options.display_height > 0)
+    p.display[0] = options.display_width, p.display[1] = options.display_height;
   return p;
 }
 

@@ -26,8 +26,10 @@
 //      "light_direction": [x, y, z],                 //   when it follows the camera);
 //      "light_follows_camera": true,
 //      "shading": "lambert" | "physical",            //   absent: "lambert";
-//      "environment": e, "light_intensity": i},      //   physical: uniform environment
-//                                                    //   radiance e, the light's intensity i
+//      "environment": e, "light_intensity": i,       //   physical: uniform environment
+//                                                    //   radiance e, the light's intensity i;
+//      "display": [w, h]},                           //   the display the order was made for
+//                                                    //   (device pixels; optional)
 //    "limits": {"max_elements": 268435456,           // 2^28
 //               "max_texture_side": 65536, "max_json_depth": 32},
 //    "base": {"offset": O, "size": S,                // byte range of the base as stored
@@ -193,6 +195,7 @@ struct PackageView {
   bool physical = false;       // "shading": "physical" (else "lambert", also when absent)
   double environment = 0;      // physical: uniform environment radiance
   double light_intensity = 0;  // physical: the directional light's intensity
+  int display[2] = {0, 0};     // the display the order was made for, device pixels (0: not said)
 };
 
 // The distortion of the grid's cells (mesh layers received × texture levels received) seen

@@ -123,6 +123,15 @@ Status read_view(const Json& j, PackageView& v) {
         !(v.light_intensity >= 0 && v.light_intensity <= 1000))
       return fail("view: environment or light intensity out of range");
   }
+  // The display the order was made for (optional).
+  if (auto d = e.find("display"); d != e.end()) {
+    if (!d->is_array() || d->size() != 2 || !(*d)[0].is_number_integer() ||
+        !(*d)[1].is_number_integer())
+      return fail("view: \"display\" must be two integers");
+    const int64_t w = (*d)[0].get<int64_t>(), h = (*d)[1].get<int64_t>();
+    if (w < 1 || h < 1 || w > 65536 || h > 65536) return fail("view: display out of range");
+    v.display[0] = int(w), v.display[1] = int(h);
+  }
   return Status::ok();
 }
 

@@ -192,18 +192,20 @@ double short_float(float f) {
 OrderedJson view_json(const PackageInput& in) {
   const PackageView& v = in.view;
   auto f = [](double x) { return short_float(float(x)); };
-  return {{"fov_y_degrees", f(v.fov_y_degrees)},
-          {"fill", f(v.fill)},
-          {"direction", {f(v.direction[0]), f(v.direction[1]), f(v.direction[2])}},
-          {"clip_margin", f(v.clip_margin)},
-          {"ambient", f(v.ambient)},
-          {"diffuse", f(v.diffuse)},
-          {"light_direction",
-           {f(v.light_direction[0]), f(v.light_direction[1]), f(v.light_direction[2])}},
-          {"light_follows_camera", v.light_follows_camera},
-          {"shading", v.physical ? "physical" : "lambert"},
-          {"environment", f(v.environment)},
-          {"light_intensity", f(v.light_intensity)}};
+  OrderedJson j = {{"fov_y_degrees", f(v.fov_y_degrees)},
+                   {"fill", f(v.fill)},
+                   {"direction", {f(v.direction[0]), f(v.direction[1]), f(v.direction[2])}},
+                   {"clip_margin", f(v.clip_margin)},
+                   {"ambient", f(v.ambient)},
+                   {"diffuse", f(v.diffuse)},
+                   {"light_direction",
+                    {f(v.light_direction[0]), f(v.light_direction[1]), f(v.light_direction[2])}},
+                   {"light_follows_camera", v.light_follows_camera},
+                   {"shading", v.physical ? "physical" : "lambert"},
+                   {"environment", f(v.environment)},
+                   {"light_intensity", f(v.light_intensity)}};
+  if (v.display[0] > 0 && v.display[1] > 0) j["display"] = {v.display[0], v.display[1]};
+  return j;
 }
 
 // The JSON table. Offsets count from the end of the table (the data start), so the table does

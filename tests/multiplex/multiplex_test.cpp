@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstdio>
 
+#include "image/encode.h"
 #include "importers/import.h"
 #include "pipeline/convert.h"
+#include "stream/package.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -68,6 +70,64 @@ TEST(Multiplex, ForcedOrderIsMeasuredCheaply) {
       "sphere: forced order measured with %zu renders of 128^2 (area %.5g), the full "
       "measurement %zu of 256^2 (area %.5g): %.2f%% apart\n",
       x.renders, area_x, y.renders, area_y, 100 * std::fabs(area_x - area_y) / area_y);
+}
+
+// The order is made for a display size: the renders sample textures with a display pixel's
+// footprint. A sphere wearing a 1024² checker of one-texel squares (detail only the top level
+// holds: the levels below are grey) is framed on 1920×1080 at about one texel per display pixel,
+// so its top texture level is plain to see there, while on 640×360 two to four texels fall in
+// each pixel and average to the same grey: the top level changes little. The distortion the top
+// level removes (the full mesh with the level below it against the reference) is measured larger
+// for the large display, and the package's table says which display its order was made for.
+TEST(Multiplex, TopTextureLevelMattersMoreOnALargerDisplay) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene;
+  scene.meshes.emplace_back();
+  scene.meshes[0].primitives.push_back(testing::uv_sphere(60, 120));
+  scene.meshes[0].primitives[0].material = 0;
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Image checker;  // one-texel black and white squares: detail only the top level holds
+  checker.name = "checker";
+  checker.width = checker.height = 1024;
+  for (int y = 0; y < 1024; ++y)
+    for (int x = 0; x < 1024; ++x) {
+      const uint8_t v = (x + y) % 2 ? 255 : 0;
+      checker.rgba.insert(checker.rgba.end(), {v, v, v, 255});
+    }
+  checker.encoded = encode_png(checker).take();  // as an upload's image comes
+  checker.mime_type = "image/png";
+  scene.images.push_back(checker);
+  Material m;
+  m.base_color.image = 0;
+  scene.materials.push_back(m);
+  auto top_level_drop = [&](int w, int h, std::vector<uint8_t>* package) -> double {
+    ConvertOptions o;
+    o.multiplex.display_width = w, o.multiplex.display_height = h;
+    Warnings warnings;
+    auto out = convert(scene, o, &warnings, nullptr);
+    if (!out.ok() || !out->multiplexed) return -1;
+    const MultiplexResult& r = *out->multiplexed;
+    const int n = r.view_table.texture_layers, mm = r.view_table.mesh_layers;
+    if (n < 2) return -2;
+    const std::vector<double>& cell =
+        r.view_table.cells[size_t(mm - 1) * size_t(n) + size_t(n - 2)];
+    double sum = 0;
+    for (double d : cell) sum += d;
+    *package = out->package;
+    return cell.empty() ? -3 : sum / double(cell.size());
+  };
+  std::vector<uint8_t> small_package, large_package;
+  const double small = top_level_drop(640, 360, &small_package);
+  const double large = top_level_drop(1920, 1080, &large_package);
+  ASSERT_GT(small, 0) << "no measurement on 640x360";
+  ASSERT_GT(large, 0) << "no measurement on 1920x1080";
+  std::printf("top texture level's drop: %.4g on 640x360, %.4g on 1920x1080\n", small, large);
+  EXPECT_GT(large, 1.3 * small);
+  auto pkg = read_package(small_package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_EQ(pkg->view.display[0], 640);
+  EXPECT_EQ(pkg->view.display[1], 360);
 }
 
 class MultiplexSharedModel : public ::testing::TestWithParam<const char*> {};

@@ -421,3 +421,81 @@ TEST(Render, RemovedOrInvalidHandlesDrawNothing) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// The display's footprint (RenderOptions::display_scale): a 1000² one-texel checker on a square
+// that spans 128 image pixels is about eight texels to a pixel, so trilinear filtering shows it
+// grey; rendered for a display eight times the image's size, each pixel samples the texture as a
+// display pixel would (about one texel: 1000 texels, so that pixel centres do not all fall on
+// texel corners, where bilinear filtering gives grey too), so the pixels range from black to
+// white: the spread of the image's values is the checker's, not the mip level's grey.
+TEST(Render, DisplayScaleSamplesTexturesAsTheDisplayWould) {
+  auto spread = [](float scale) {
+    RenderOptions o;
+    o.ambient = 1, o.diffuse = 0;
+    o.display_scale = scale;
+    auto r = Renderer::create(o);
+    if (!r.ok()) return -1.0;
+    const int t = (*r)->add_texture(solid_checker(1000));
+    const int g = (*r)->add_geometry(single(quad()));
+    const RenderImage im = (*r)->render(g, t, head_on(1));
+    double sum = 0, sum2 = 0;
+    size_t n = 0;
+    for (int y = 80; y < 176; ++y)
+      for (int x = 80; x < 176; ++x) {
+        const double v = pixel(im, x, y)[0];
+        sum += v, sum2 += v * v, ++n;
+      }
+    const double mean = sum / double(n);
+    return std::sqrt(std::max(0.0, sum2 / double(n) - mean * mean));
+  };
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  const double own = spread(1), display = spread(8);
+  std::printf(
+      "spread of the pixel values: %.1f for the image's own pixels, %.1f for the display's\n", own,
+      display);
+  EXPECT_LT(own, 10) << "the image's own pixels: the mip level's grey";
+  EXPECT_GT(display, 30) << "the display's pixels: the checker's black and white";
+}
+
+// The same with the multiplexer's settings: physical shading, several texture sets per pass and
+// 16× anisotropic filtering, where the checker is minified at the display too (about two texels
+// to a display pixel). llvmpipe's anisotropic filter takes the footprint from the image pixel
+// (it ignores textureGrad's), so there the shader filters anisotropically itself: the display's
+// footprint shows some of the checker, the image pixel's none.
+TEST(Render, DisplayScaleHoldsWithAnisotropicFilteringAndSets) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  auto variance = [](float scale) {
+    RenderOptions o = physical_shading();
+    o.display_scale = scale;
+    auto r = Renderer::create(o);
+    if (!r.ok()) return -1.0;
+    TextureSet set;
+    set.base_color = (*r)->add_texture(solid_checker(1000));
+    const int g = (*r)->add_geometry(single(quad()));
+    const std::vector<RenderImage> ims =
+        (*r)->render(g, std::vector<TextureSet>{set, set}, std::vector<Camera>{head_on(1)});
+    double sum = 0, sum2 = 0;
+    size_t n = 0;
+    for (int y = 80; y < 176; ++y)
+      for (int x = 80; x < 176; ++x) {
+        const double v = pixel(ims[0], x, y)[0];
+        sum += v, sum2 += v * v, ++n;
+      }
+    return sum2 / double(n) - (sum / double(n)) * (sum / double(n));
+  };
+  const double own = variance(1), display = variance(4.2f);
+  std::printf(
+      "variance of the pixel values: %.2f for the image's own pixels, %.2f for the "
+      "display's\n",
+      own, display);
+  EXPECT_LT(own, 1);
+  EXPECT_GT(display, 8);
+}
+
+}  // namespace
+}  // namespace meshmux
