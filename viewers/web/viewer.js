@@ -1,7 +1,8 @@
 // viewer.js — the meshmux viewer page: plays a stream package in a full-window canvas.
 //
 // URL parameters: src (package URL, default "model.mmxp"), order (default "rate-distortion"),
-// budget (fraction 0..1 of the file's bytes, default 1), autoplay (1/0, default 1).
+// budget (fraction 0..1 of the file's bytes, default 1), autoplay (1/0, default 1), adaptive
+// (1/0, default 1: 0 plays the stored order as it is, never re-planned for the camera).
 //
 // Test hooks: document.body.dataset.state ("loading" → "base" → "streaming" → "complete" |
 // "stopped", or "error") and window.meshmuxViewer (stats, view, setView, capture, replay).
@@ -20,6 +21,7 @@ const src = params.get('src') || 'model.mmxp';
 let orderName = params.get('order') || 'rate-distortion';
 let budgetFraction = clamp01(parseFloat(params.get('budget') ?? '1'), 1);
 const autoplay = !['0', 'false', 'no'].includes((params.get('autoplay') || '1').toLowerCase());
+const adaptive = !['0', 'false', 'no'].includes((params.get('adaptive') || '1').toLowerCase());
 
 function clamp01(x, fallback) { return Number.isFinite(x) ? Math.min(1, Math.max(0, x)) : fallback; }
 
@@ -209,7 +211,7 @@ function load(order, fraction, play) {
   // The first load takes over the request index.html started for the package's first bytes.
   const early = window.meshmuxFirstBytes && window.meshmuxFirstBytes.src === src ? window.meshmuxFirstBytes.response : null;
   window.meshmuxFirstBytes = null;
-  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, firstBytes: early });
+  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, adaptive, firstBytes: early });
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');

@@ -2,6 +2,7 @@
 // sample converted and served by `meshmux serve`:
 //   - opened from disk (file://) it says how to serve it instead of "loading" forever;
 //   - ?order=bogus plays the package's own order and says why;
+//   - ?adaptive=0 plays the stored order as it is (the library's adaptive: false; default true);
 //   - sizes are in decimal units, as the command line prints them; the stats are in words;
 //   - a resize (a phone's rotation) re-frames the model until the user moves the camera;
 //   - "Reset view" brings the default camera back; zoom stays within limits.
@@ -57,6 +58,17 @@ try {
   check(bogus.state === 'complete' && bogus.order === 'rate-distortion', `?order=bogus plays rate-distortion (${bogus.state}, ${bogus.order})`);
   check(/"bogus" is not in this package/.test(bogus.message), `and says why: "${bogus.message}"`);
   check(bogus.options.length >= 2, `the order list is filled (${bogus.options.join(', ')})`);
+
+  // ?adaptive=0: the stored order, never re-planned for the camera (bench/rd_client.mjs --stored).
+  check(await page.evaluate(() => window.meshmuxViewer.stream.options.adaptive === true), 'the stream re-plans for the camera by default');
+  await page.goto(url + '?adaptive=0');
+  await settled(page);
+  const stored = await page.evaluate(() => ({ adaptive: window.meshmuxViewer.stream.options.adaptive, state: document.body.dataset.state,
+    followed: window.meshmuxViewer.stats.orderFollowed }));
+  check(stored.adaptive === false && stored.state === 'complete' && stored.followed === 'rate-distortion',
+    `?adaptive=0 plays the stored order (adaptive ${stored.adaptive}, ${stored.state}, ${stored.followed})`);
+  await page.goto(url + '?order=bogus');
+  await settled(page);
 
   // Units and words.
   const panel = await page.evaluate(() => document.getElementById('stats').innerText);
