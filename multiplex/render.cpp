@@ -230,7 +230,7 @@ struct Renderer::Impl {
         u_has_emissive_map = -1, u_metallic = -1, u_roughness = -1, u_occlusion_strength = -1,
         u_normal_scale = -1, u_emissive = -1, u_environment = -1, u_light_intensity = -1,
         u_sheen_map = -1, u_has_sheen_map = -1, u_sheen = -1, u_sheen_roughness = -1,
-        u_display_scale = -1, u_anisotropy = -1;
+        u_display_scale = -1;
   // Texture units: 0 base colour (anisotropic), 1 base colour (plain), 2 normal, 3
   // occlusion-roughness-metallic, 4 emissive, 6 sheen colour (anisotropic sampler), 5 the DFG
   // table.
@@ -238,11 +238,11 @@ struct Renderer::Impl {
   GLuint samplers[2][3][3] = {}, sampler_table = 0;
   GLuint dfg_texture = 0;
   float max_anisotropy = 1;
-  // llvmpipe's anisotropic filter takes the footprint from the pixel's own derivatives and
-  // ignores textureGrad's: where the display's footprint differs from the image pixel's
-  // (RenderOptions::display_scale ≠ 1) every unit gets a plain trilinear sampler and the shader
-  // filters anisotropically itself, as GPUs do (samples along the footprint's major axis).
-  bool manual_anisotropy() const { return options.display_scale != 1.0f; }
+  // Whether the samplers filter anisotropically: not with a display scale (RenderOptions::
+  // display_scale ≠ 1), as llvmpipe's anisotropic filter takes its level of detail from the
+  // pixel's own derivatives, ignoring a bias and explicit gradients alike; there the samplers are
+  // trilinear, the level biased to the display's (isotropic: the footprint's major axis).
+  bool anisotropic() const { return options.display_scale == 1.0f; }
   std::vector<GpuGeometry> geometries;
   struct Texture {
     GLuint id = 0;  // 0 = freed
@@ -423,7 +423,6 @@ Status Renderer::Impl::init_gl() {
   u_environment = glGetUniformLocation(program, "u_environment");
   u_light_intensity = glGetUniformLocation(program, "u_light_intensity");
   u_display_scale = glGetUniformLocation(program, "u_display_scale");
-  u_anisotropy = glGetUniformLocation(program, "u_anisotropy");
   u_sheen_map = glGetUniformLocation(program, "u_sheen_map");
   u_has_sheen_map = glGetUniformLocation(program, "u_has_sheen_map");
   u_sheen = glGetUniformLocation(program, "u_sheen");
@@ -446,7 +445,7 @@ Status Renderer::Impl::init_gl() {
         glGetError();  // tolerate a driver without anisotropic filtering
       }
   for (GLuint unit : {0u, 1u, 2u, 3u, 4u, 6u})
-    glBindSampler(unit, samplers[unit != 1 && !manual_anisotropy()][0][0]);
+    glBindSampler(unit, samplers[unit != 1 && anisotropic()][0][0]);
   // The DFG table: 16×16 RG floats, bilinear, clamped (as three.js samples its own).
   glGenSamplers(1, &sampler_table);
   glSamplerParameteri(sampler_table, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -885,9 +884,6 @@ void Renderer::Impl::use_shading_program(const CameraFrame& frame) {
   glUniform1f(u_environment, options.environment);
   glUniform1f(u_light_intensity, options.light_intensity);
   glUniform1f(u_display_scale, std::max(1e-3f, options.display_scale));
-  glUniform1f(u_anisotropy, manual_anisotropy() ? std::clamp(options.anisotropy, 1.0f,
-                                                             std::min(max_anisotropy, 16.0f))
-                                                : 0.0f);
   glUniform1i(u_texture, 0);
   glUniform1i(u_texture_plain, 1);
   glUniform1i(u_normal_map, 2);
@@ -960,8 +956,8 @@ void Renderer::Impl::bind_unit(GLenum unit, int k) {
   const GLuint index = unit - GL_TEXTURE0;
   const int ws = live(k) ? wrap_index(textures[size_t(k)].wrap_s) : 0;
   const int wt = live(k) ? wrap_index(textures[size_t(k)].wrap_t) : 0;
-  // Unit 1: the plain base colour; every unit plain where the shader filters anisotropically.
-  glBindSampler(index, samplers[index != 1 && !manual_anisotropy()][ws][wt]);
+  // Unit 1: the plain base colour; every unit plain where a display scale biases the level.
+  glBindSampler(index, samplers[index != 1 && anisotropic()][ws][wt]);
 }
 
 std::vector<RenderImage> Renderer::render(int g, const std::vector<TextureSet>& sets,

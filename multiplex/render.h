@@ -48,10 +48,11 @@ struct RenderOptions {
   float environment = 0.5f;
   float light_intensity = 1.6f;
   // Display pixels per image pixel: textures are sampled with the footprint a pixel has on the
-  // display the order is made for (textureGrad with the derivatives divided by this), so the mip
-  // level and anisotropy are those three.js picks there and each image pixel is one sample of the
-  // display's picture (its mean error estimated from 1 / scale² of the display's pixels). 1: the
-  // image's own pixels.
+  // display the order is made for (a level-of-detail bias of −log2(scale)), so the mip level is
+  // the one three.js picks there and each image pixel is one sample of the display's picture (its
+  // mean error estimated from 1 / scale² of the display's pixels). Other than 1, the samplers
+  // are trilinear (llvmpipe's anisotropic filter ignores the bias): isotropic, the footprint's
+  // major axis, where three.js filters up to `anisotropy`. 1: the image's own pixels.
   float display_scale = 1;
 };
 

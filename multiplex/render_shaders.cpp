@@ -75,8 +75,6 @@ uniform bool u_has_sheen_map;
 uniform vec3 u_sheen;  // sheen colour factor (0: no sheen layer)
 uniform float u_sheen_roughness;
 uniform float u_display_scale;  // display pixels per image pixel (RenderOptions::display_scale)
-uniform float u_anisotropy;     // > 0: the shader's own anisotropic filter, at most this many
-                                // samples (the samplers are plain trilinear); 0: the samplers'
 out vec4 o_color;
 
 const float PI = 3.141592653589793;
@@ -129,27 +127,6 @@ vec3 srgb_encode(vec3 c) {
              vec3(lessThanEqual(c, vec3(0.0031308))));
 }
 
-// A texture sampled over the footprint (gx, gy) (uv per display pixel). With u_anisotropy > 0, as
-// a GPU's anisotropic filter does it: the level of detail of the footprint's major axis divided
-// by N = min(ceil(major / minor), u_anisotropy) and N trilinear samples spread along the major
-// axis; otherwise the sampler's own filter.
-vec4 sample_footprint(sampler2D s, vec2 uv, vec2 gx, vec2 gy) {
-  if (u_anisotropy <= 0.0) return textureGrad(s, uv, gx, gy);
-  vec2 size = vec2(textureSize(s, 0));
-  vec2 ax = gx * size, ay = gy * size;
-  float lx = dot(ax, ax), ly = dot(ay, ay);
-  bool x_major = lx >= ly;
-  vec2 major = x_major ? gx : gy, minor = x_major ? gy : gx;
-  float ratio = sqrt(max(lx, ly) / max(min(lx, ly), 1e-20));
-  float n = clamp(ceil(ratio), 1.0, u_anisotropy);
-  vec4 sum = vec4(0.0);
-  for (int i = 0; i < 16; ++i) {
-    if (float(i) >= n) break;
-    sum += textureGrad(s, uv + major * ((float(i) + 0.5) / n - 0.5), major / n, minor);
-  }
-  return sum / n;
-}
-
 void main() {
   // llvmpipe's anisotropic filter blurs and perturbs magnified textures (GPUs filter those
   // bilinearly), so the anisotropic sampler is used only where the pixel footprint spans more
@@ -163,13 +140,16 @@ void main() {
   const bool sampled = u_textured || u_has_normal_map || u_has_orm_map || u_has_emissive_map ||
                        u_has_sheen_map;
   const vec2 uv = sampled ? v_uv : vec2(0.0);
-  // A display pixel's footprint in the textures: the image pixel's, over the display scale (mip
-  // level and anisotropy as at the display's size; taken in uniform control flow).
-  const vec2 gx = dFdx(uv) / u_display_scale, gy = dFdy(uv) / u_display_scale;
+  // A display pixel's footprint in the textures is the image pixel's over the display scale:
+  // the level of detail moves by −log2(scale) (a bias keeps the implicit derivatives, and with
+  // them llvmpipe's fast path and its anisotropic filter, whose ratio a uniform scale leaves as
+  // it is).
+  const float bias = -log2(u_display_scale);
   if (u_textured) {
-    vec2 dx = gx * u_texture_size, dy = gy * u_texture_size;
+    vec2 t = uv * u_texture_size / u_display_scale;
+    vec2 dx = dFdx(t), dy = dFdy(t);
     bool minified = max(dot(dx, dx), dot(dy, dy)) > 1.0;
-    vec4 a = sample_footprint(u_texture, uv, gx, gy), p = textureGrad(u_texture_plain, uv, gx, gy);
+    vec4 a = texture(u_texture, uv, bias), p = texture(u_texture_plain, uv, bias);
     base *= minified ? a : p;
   }
   float face = gl_FrontFacing ? 1.0 : -1.0;
@@ -187,14 +167,10 @@ void main() {
   vec2 st0 = dFdx(uv), st1 = dFdy(uv);
   // Each map at the texture coordinates only where it is present (zero where it is not).
   const vec2 z = vec2(0.0);
-  vec4 normal_texel = sample_footprint(u_normal_map, u_has_normal_map ? uv : z,
-                                  u_has_normal_map ? gx : z, u_has_normal_map ? gy : z);
-  vec4 orm_texel = sample_footprint(u_orm_map, u_has_orm_map ? uv : z, u_has_orm_map ? gx : z,
-                               u_has_orm_map ? gy : z);
-  vec4 emissive_texel = sample_footprint(u_emissive_map, u_has_emissive_map ? uv : z,
-                                    u_has_emissive_map ? gx : z, u_has_emissive_map ? gy : z);
-  vec4 sheen_texel = sample_footprint(u_sheen_map, u_has_sheen_map ? uv : z,
-                                 u_has_sheen_map ? gx : z, u_has_sheen_map ? gy : z);
+  vec4 normal_texel = texture(u_normal_map, u_has_normal_map ? uv : z, bias);
+  vec4 orm_texel = texture(u_orm_map, u_has_orm_map ? uv : z, bias);
+  vec4 emissive_texel = texture(u_emissive_map, u_has_emissive_map ? uv : z, bias);
+  vec4 sheen_texel = texture(u_sheen_map, u_has_sheen_map ? uv : z, bias);
   // Zero vertex normals mark a flat-shaded primitive: three.js's FLAT_SHADED face normal.
   float len = length(v_view_normal);
   vec3 flat_normal = cross(q0, q1);

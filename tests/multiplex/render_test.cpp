@@ -462,10 +462,11 @@ TEST(Render, DisplayScaleSamplesTexturesAsTheDisplayWould) {
 }
 
 // The same with the multiplexer's settings: physical shading, several texture sets per pass and
-// 16× anisotropic filtering, where the checker is minified at the display too (about two texels
-// to a display pixel). llvmpipe's anisotropic filter takes the footprint from the image pixel
-// (it ignores textureGrad's), so there the shader filters anisotropically itself: the display's
-// footprint shows some of the checker, the image pixel's none.
+// 16× anisotropic filtering asked for, where the checker is minified at the display too (about
+// two texels to a display pixel). llvmpipe's anisotropic filter takes its level of detail from
+// the image pixel's derivatives (it ignores a bias and explicit gradients), so with a display
+// scale the samplers are trilinear with the level biased: the display's footprint shows some of
+// the checker, the image pixel's none.
 TEST(Render, DisplayScaleHoldsWithAnisotropicFilteringAndSets) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
