@@ -17,7 +17,8 @@ void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   contexts = VsplitContexts();
   vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
   twin_latest_.clear(), twin_previous_.clear();
-  solid = 0, stamp_value_ = 0;
+  solid = 0, stamp_value_ = 0, moved_floor = 0;
+  moved.clear();
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
 
@@ -48,6 +49,7 @@ void VsplitMesh::move_corner(uint32_t p, int32_t previous, int32_t corner, uint3
   bool before = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&
                 indices[f] != indices[f + 2];
   indices[size_t(corner)] = v;
+  if (uint32_t(corner) < moved_floor) moved.push_back(uint32_t(corner));
   next[size_t(corner)] = head[v];
   head[v] = corner;
   bool after = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&

@@ -120,6 +120,8 @@ class VsplitMesh {
   void reset(uint32_t capacity_vertices, uint32_t capacity_faces);
   uint32_t vertex_count() const { return uint32_t(vertices.size()); }
   uint32_t face_count() const { return uint32_t(indices.size() / 3); }
+  uint32_t capacity_vertices() const { return capacity_vertices_; }
+  uint32_t capacity_faces() const { return capacity_faces_; }
 
   uint32_t add_vertex(const QuantizedVertex& q);  // returns its index
   void add_face(uint32_t a, uint32_t b, uint32_t c);
@@ -161,7 +163,11 @@ class VsplitMesh {
   std::vector<QuantizedVertex> vertices;
   std::vector<uint32_t> indices;
   std::vector<int32_t> head, next;
-  uint64_t solid = 0;       // faces whose three corners differ
+  uint64_t solid = 0;  // faces whose three corners differ
+  // Corners below moved_floor that move_corner moves are appended to `moved` (a client that
+  // mirrors the index buffer copies only those again; the web worker's changes). 0: none.
+  uint32_t moved_floor = 0;
+  std::vector<uint32_t> moved;
   VsplitContexts contexts;  // the coder's, fresh at reset(), carried from part to part
 
  private:
