@@ -1,7 +1,6 @@
 // Compact vertex splits: the stream package's mesh refinement coding (docs/ARCHITECTURE.md
 // "Package"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
-// web client's decoder (viewers/web/stream_decode.js: MeshState, applySplits) mirrors this file
-// operation for operation.
+// web client runs this decoder itself, compiled to WebAssembly (stream/decoder_api.h).
 //
 // Ideas taken from the literature on progressive mesh compression:
 // - Hoppe's progressive meshes (and his "Octaviewer: spherically parameterized progressive
@@ -65,7 +64,6 @@
 #pragma once
 
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include "core/status.h"
@@ -171,8 +169,13 @@ class VsplitMesh {
   VsplitContexts contexts;  // the coder's, fresh at reset(), carried from part to part
 
  private:
-  std::unordered_map<uint64_t, uint32_t> twin_latest_;  // parent position → newest split
-  std::vector<int32_t> twin_previous_;                  // per vertex: the twin before it, or -1
+  // Parent position → newest split there: open addressing with linear probing over a
+  // power-of-two table at most half full (keys are positions + 1; 0 marks an empty slot).
+  std::vector<uint64_t> twin_keys_ = std::vector<uint64_t>(16, 0);
+  std::vector<uint32_t> twin_latest_ = std::vector<uint32_t>(16, 0);
+  size_t twin_count_ = 0;
+  std::vector<int32_t> twin_previous_;   // per vertex: the twin before it, or -1
+  size_t twin_slot(uint64_t key) const;  // key's slot, or the empty one where it would go
   std::vector<uint32_t> stamp_;
   uint32_t stamp_value_ = 0;
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
