@@ -83,7 +83,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // How the distortion was measured: the viewer frames and shades with these (no copies here).
   const v = obj(t.view, 'view');
   const view = {
-    fov: num(v.fov_y_degrees, 'view.fov_y_degrees', 1, 179), fill: num(v.fill, 'view.fill', 1e-3, 1e3),
+    fov: num(v.fov_y_degrees, 'view.fov_y_degrees', 0, 180), fill: num(v.fill, 'view.fill', 1e-3, 1e3),
     direction: vec3(v.direction, 'view.direction'), clipMargin: num(v.clip_margin, 'view.clip_margin', 1e-3, 1e3),
     ambient: num(v.ambient, 'view.ambient', 0, 10), diffuse: num(v.diffuse, 'view.diffuse', 0, 10),
     lightDirection: vec3(v.light_direction, 'view.light_direction'), lightFollowsCamera: v.light_follows_camera !== false,
@@ -91,6 +91,8 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     // packages without the field were measured with the Lambert shading.
     physical: v.shading === 'physical',
   };
+  // As the C++ reader (stream/package_read.cpp read_view): the field of view inside (0, 180).
+  need(view.fov > 0 && view.fov < 180, `view.fov_y_degrees must be in (0, 180) (got ${view.fov})`);
   need(v.shading === undefined || v.shading === 'lambert' || v.shading === 'physical', `view.shading must be "lambert" or "physical" (got ${JSON.stringify(v.shading)})`);
   if (view.physical) {
     view.environment = num(v.environment, 'view.environment', 0, 100);
