@@ -11,7 +11,7 @@ import { fileURLToPath } from 'node:url';
 
 import { validateTable } from '../package_reader.js';
 import { MeshDecoder, loadDecoder } from '../stream_decoder.js';
-import { UV_MAX } from '../stream_format.js';
+import { POSITION_MAX, UV_MAX } from '../stream_format.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const { MeshoptDecoder } = await import(path.join(here, '../../../node_modules/three/examples/jsm/libs/meshopt_decoder.module.js'));
@@ -70,7 +70,7 @@ export function readBase(glb, table) {
     const qp = new Uint16Array(3 * count), qn = new Int8Array(3 * count), qt = new Uint16Array(2 * count);
     const q = d.quantization || { origin: [0, 0, 0], step: 1 }, float = P.accessor.componentType === 5126;
     for (let i = 0; i < 3 * count; i++) {
-      qp[i] = float ? Math.min(16383, Math.max(0, Math.round((P.values[i] - q.origin[i % 3]) / q.step))) : P.values[i];
+      qp[i] = float ? Math.min(POSITION_MAX, Math.max(0, Math.round((P.values[i] - q.origin[i % 3]) / q.step))) : P.values[i];
     }
     // As StreamMesh.setBaseVertices reads what GLTFLoader gives: normalized integers or floats.
     const real = (r, i) => {
