@@ -341,6 +341,23 @@ try {
     fs.rmSync(path.join(out, 'corrupt.mmxp'));
   }
 
+  // Without a worker (option worker: false, as where none can start) the page loads the
+  // WebAssembly decoder itself and ends in the same state.
+  if (bench) {
+    const onPage = await page.evaluate(async () => {
+      const { MeshmuxStream } = await import('./viewer/meshmux.js');
+      const stream = new MeshmuxStream('model.mmxp', { worker: false });
+      await stream.open();
+      await stream.play();
+      const r = { state: stream.state, decoder: stream.stats.decoder, digests: await stream.stateDigests() };
+      stream.dispose();
+      return r;
+    });
+    console.log(`worker: false: ${onPage.state}, decoded on the ${onPage.decoder}`);
+    if (onPage.state !== 'complete' || onPage.decoder !== 'page') fail(`worker: false ended ${onPage.state}, decoded on the ${onPage.decoder}`);
+    if (JSON.stringify(onPage.digests) !== JSON.stringify(expected)) fail(`worker: false digests ${JSON.stringify(onPage.digests)} differ from the encoder's`);
+  }
+
   // 3. A baseline order from the same file.
   const orders = await page.evaluate(() => window.meshmuxViewer.orders?.() ?? null);
   const replay = await load('?order=texture-first', ['complete']);
