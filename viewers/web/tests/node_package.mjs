@@ -16,8 +16,14 @@ import { POSITION_MAX, UV_MAX } from '../stream_format.js';
 const here = path.dirname(fileURLToPath(import.meta.url));
 const { MeshoptDecoder } = await import(path.join(here, '../../../node_modules/three/examples/jsm/libs/meshopt_decoder.module.js'));
 await MeshoptDecoder.ready;
-// The module as the client loads it (node's fetch reads no file: URL, so its bytes).
-export const decoder = await loadDecoder(fs.readFileSync(path.join(here, '../stream_decoder.wasm')));
+// The module as the client loads it (node's fetch reads no file: URL, so its bytes). Built by
+// CMake where the WebAssembly toolchain is (scripts/setup.sh installs it); without it, a skip.
+const wasmFile = path.join(here, '../stream_decoder.wasm');
+if (!fs.existsSync(wasmFile)) {
+  console.error(`SKIPPED: ${wasmFile} is not built (no WebAssembly toolchain: scripts/setup.sh)`);
+  process.exit(77);
+}
+export const decoder = await loadDecoder(fs.readFileSync(wasmFile));
 
 const COMPONENTS = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4 };
 const TYPED = { 5120: Int8Array, 5121: Uint8Array, 5122: Int16Array, 5123: Uint16Array, 5125: Uint32Array, 5126: Float32Array };
