@@ -1,5 +1,6 @@
 // The mesh stream's decoding rate where the web client runs it (the library's Web Worker runs
-// viewers/web/stream_decode.js; node runs the same module here): for each folder written by
+// viewers/web/stream_decoder.js over stream_decoder.wasm, the C++ decoder compiled to
+// WebAssembly; node runs the same module here, V8 as chromium's): for each folder written by
 // `meshmux convert IN -o OUT`, the base's vertices and faces are read from the package's base
 // .glb (viewers/web/tests/node_package.mjs), every mesh chunk is applied in stored order, best of
 // five runs, and the decoded state's digests are checked against report.json's stream_digests
@@ -9,7 +10,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 
-import { applyChunk, freshStates, readPackage } from '../viewers/web/tests/node_package.mjs';
+import { applyChunk, freeStates, freshStates, readPackage } from '../viewers/web/tests/node_package.mjs';
 
 let failed = false;
 console.log('| model | meshes | splits | new triangles | best of 5 (ms) | M triangles/s | digests |');
@@ -23,6 +24,7 @@ for (const out of process.argv.slice(2)) {
   for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
   try {
     for (let run = 0; run < 5; run++) {
+      if (states) freeStates(states);
       states = freshStates(table, bases);
       const t0 = performance.now();
       for (const c of chunks) applyChunk(states, bytes, c);

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes every parser meshmux exposes to uploads (glTF, GLB, COLLADA, the stream package) with
+# Fuzzes every parser meshmux exposes to uploads (glTF, GLB, COLLADA, the stream package, and the
+# web client's WebAssembly decoder API) with
 # libFuzzer under AddressSanitizer + UBSan (clang; build-fuzz/). Seeds are generated here from
 # the built-in sample and small inline documents. Any sanitizer report, crash, timeout (10 s)
 # or RSS over 1 GB fails the run; the per-target executions are printed.
@@ -16,15 +17,20 @@ command -v clang++ >/dev/null || { echo "fuzz: clang++ not installed (apt-get in
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$here}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DMESHMUX_FUZZ=ON -DMESHMUX_TESTS=OFF >/dev/null
-cmake --build "$build" -j "$(nproc)" --target fuzz_gltf fuzz_glb fuzz_collada fuzz_package meshmux >/dev/null
+cmake --build "$build" -j "$(nproc)" --target fuzz_gltf fuzz_glb fuzz_collada fuzz_package \
+  fuzz_decoder_api meshmux >/dev/null
 
 seeds="$build/seeds"
-rm -rf "$seeds" && mkdir -p "$seeds"/{gltf,glb,collada,package}
+rm -rf "$seeds" && mkdir -p "$seeds"/{gltf,glb,collada,package,decoder_api}
 export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1
 "$build/meshmux" sample -o "$seeds/glb/sample.glb" -q
 "$build/meshmux" convert "$seeds/glb/sample.glb" -o "$seeds/out" -q
 cp "$seeds/out/base.glb" "$seeds/glb/base.glb"
 cp "$seeds/out/model.mmxp" "$seeds/package/sample.mmxp"
+# A seed in the decoder API's input layout (tests/fuzz/fuzz_decoder_api.cpp): capacities 8 and 8,
+# a base of three vertices and one face, then a short part to mutate.
+printf '\x08\0\0\0\x08\0\0\0\x03\0\x03\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\x7f\0\0\x7f\0\0\x7f\0\0\0\0\x01\0\0\0\x02\0\0\0\x01\0\x02\0\x06\0\xc0\0\0\0\0\0' \
+  >"$seeds/decoder_api/triangle.bin"
 # One triangle with a data: buffer; the same with an instancing extension and a texture.
 buf=$(printf '\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x01\x00\x02\x00\x00\x00' | base64 -w0)
 cat > "$seeds/gltf/triangle.gltf" <<JSON
@@ -62,7 +68,7 @@ cat > "$seeds/collada/triangle.dae" <<'XML'
 XML
 
 status=0
-for target in ${FUZZ_TARGETS:-gltf glb collada package}; do
+for target in ${FUZZ_TARGETS:-gltf glb collada package decoder_api}; do
   corpus="$build/corpus/$target"
   mkdir -p "$corpus"
   log="$build/fuzz_$target.log"

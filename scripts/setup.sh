@@ -13,7 +13,9 @@ debs=(
   libopenimageio-dev openimageio-tools libturbojpeg0-dev libpng-dev esbuild
   libassimp-dev libpugixml-dev zlib1g-dev libzip-dev
   libgtest-dev libgmock-dev libcpp-httplib-dev
-  clang
+  # clang-14 and lld (wasm-ld) with WASI's libc and libc++ build the web client's stream decoder
+  # (stream/ compiled to WebAssembly: viewers/web/stream_decoder.wasm).
+  clang lld wasi-libc libc++-14-dev-wasm32 libc++abi-14-dev-wasm32 libclang-rt-14-dev-wasm32
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri
   chromium
   slurm-wlm munge

@@ -138,7 +138,8 @@ namespace meshmux {
 // chunks may carry "kept" images (and the base .glb tags its images); 13: a part
 // is one adaptive range-coded stream (stream/range_coder.h; 12: ten byte streams,
 // the chunk's parts deflated together); flat-shaded meshes carry no normals since 12. The web
-// client (viewers/web/package_reader.js, PACKAGE_VERSION) reads exactly this version.
+// client reads exactly this version (PACKAGE_VERSION of viewers/web/stream_format.js, which the
+// build generates from this header: scripts/format_constants.mjs).
 constexpr uint32_t kPackageVersion = 15;
 constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated

@@ -8,10 +8,7 @@
 
 namespace meshmux {
 
-namespace {
-constexpr uint32_t kTop = 1u << 24;
-constexpr uint32_t kProbabilityOne = 1u << kProbabilityBits;
-}  // namespace
+namespace {}  // namespace
 
 UIntContext::UIntContext() {
   for (uint16_t& p : length) p = kProbabilityHalf;
@@ -59,7 +56,7 @@ void RangeEncoder::put_bit(uint16_t& probability, uint32_t bit) {
     range_ -= bound;
     probability = uint16_t(probability - (probability >> kAdaptShift));
   }
-  while (range_ < kTop) {
+  while (range_ < kRangeTop) {
     range_ <<= 8;
     shift_low();
   }
@@ -74,7 +71,7 @@ void RangeEncoder::put_direct(uint32_t value, int bits) {
     bits -= k;
     range_ >>= k;
     low_ += uint64_t((value >> bits) & ((1u << k) - 1)) * range_;
-    while (range_ < kTop) {
+    while (range_ < kRangeTop) {
       range_ <<= 8;
       shift_low();
     }
@@ -115,34 +112,6 @@ RangeDecoder::RangeDecoder(const uint8_t* data, size_t size)
   for (int i = 0; i < kRangeCoderFlushBytes; ++i) code_ = code_ << 8 | next_byte();
 }
 
-uint8_t RangeDecoder::next_byte() {
-  if (at_ == end_) {
-    failed_ = true;
-    return 0;
-  }
-  return *at_++;
-}
-
-uint32_t RangeDecoder::get_bit(uint16_t& probability) {
-  const uint32_t bound = (range_ >> kProbabilityBits) * probability;
-  uint32_t bit;
-  if (code_ < bound) {
-    range_ = bound;
-    probability = uint16_t(probability + ((kProbabilityOne - probability) >> kAdaptShift));
-    bit = 0;
-  } else {
-    code_ -= bound;
-    range_ -= bound;
-    probability = uint16_t(probability - (probability >> kAdaptShift));
-    bit = 1;
-  }
-  while (range_ < kTop) {
-    range_ <<= 8;
-    code_ = code_ << 8 | next_byte();
-  }
-  return bit;
-}
-
 uint32_t RangeDecoder::get_direct(int bits) {
   uint32_t value = 0;
   while (bits > 0) {
@@ -156,7 +125,7 @@ uint32_t RangeDecoder::get_direct(int bits) {
     }
     code_ -= slice * range_;
     value = value << k | slice;
-    while (range_ < kTop) {
+    while (range_ < kRangeTop) {
       range_ <<= 8;
       code_ = code_ << 8 | next_byte();
     }

@@ -11,8 +11,7 @@
 // vertex's ring). With format 13's prediction changes the shared models' mesh streams shrank
 // 5–16% (bench/stream_bytes.sh).
 //
-// The web client (viewers/web/stream_mesh.js: getBit, getDirect, getUint, getTree) mirrors the
-// decoder operation for operation: every quantity is a non-negative integer below 2^32.
+// The web client runs this decoder compiled to WebAssembly (stream/decoder_api.h).
 #pragma once
 
 #include <cstddef>
@@ -23,6 +22,8 @@ namespace meshmux {
 
 constexpr int kProbabilityBits = 11;  // probabilities are p(0)·2^11
 constexpr uint16_t kProbabilityHalf = 1 << (kProbabilityBits - 1);
+constexpr uint32_t kProbabilityOne = 1u << kProbabilityBits;
+constexpr uint32_t kRangeTop = 1u << 24;  // the range is renormalized to stay at or above this
 constexpr int kAdaptShift = 4;            // moved 1/16 of the way per decision
 constexpr int kRangeCoderFlushBytes = 5;  // the encoder's tail; the decoder's head
 constexpr int kDirectPiece = 16;
@@ -86,7 +87,26 @@ class RangeEncoder {
 class RangeDecoder {
  public:
   RangeDecoder(const uint8_t* data, size_t size);
-  uint32_t get_bit(uint16_t& probability);
+  // Inline: the decoder's hot path (every decision of every split goes through it).
+  uint32_t get_bit(uint16_t& probability) {
+    const uint32_t bound = (range_ >> kProbabilityBits) * probability;
+    uint32_t bit;
+    if (code_ < bound) {
+      range_ = bound;
+      probability = uint16_t(probability + ((kProbabilityOne - probability) >> kAdaptShift));
+      bit = 0;
+    } else {
+      code_ -= bound;
+      range_ -= bound;
+      probability = uint16_t(probability - (probability >> kAdaptShift));
+      bit = 1;
+    }
+    while (range_ < kRangeTop) {
+      range_ <<= 8;
+      code_ = code_ << 8 | next_byte();
+    }
+    return bit;
+  }
   uint32_t get_direct(int bits);
   uint32_t get_uint(UIntContext& c, int modelled = 3);
   template <int Bits>
@@ -99,7 +119,13 @@ class RangeDecoder {
   size_t consumed() const { return size_t(at_ - begin_); }
 
  private:
-  uint8_t next_byte();
+  uint8_t next_byte() {
+    if (at_ == end_) {
+      failed_ = true;
+      return 0;
+    }
+    return *at_++;
+  }
   const uint8_t *begin_, *at_, *end_;
   uint32_t range_ = 0xFFFFFFFFu, code_ = 0;
   bool failed_ = false;

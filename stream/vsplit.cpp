@@ -16,8 +16,9 @@ namespace meshmux {
 void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   contexts = VsplitContexts();
   vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
-  twin_latest_.clear(), twin_previous_.clear();
-  solid = 0, stamp_value_ = 0;
+  twin_keys_.assign(16, 0), twin_latest_.assign(16, 0), twin_count_ = 0, twin_previous_.clear();
+  solid = 0, stamp_value_ = 0, moved_floor = 0;
+  moved.clear();
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
 
@@ -48,6 +49,7 @@ void VsplitMesh::move_corner(uint32_t p, int32_t previous, int32_t corner, uint3
   bool before = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&
                 indices[f] != indices[f + 2];
   indices[size_t(corner)] = v;
+  if (uint32_t(corner) < moved_floor) moved.push_back(uint32_t(corner));
   next[size_t(corner)] = head[v];
   head[v] = corner;
   bool after = indices[f] != indices[f + 1] && indices[f + 1] != indices[f + 2] &&
@@ -243,21 +245,43 @@ uint64_t position_key(const QuantizedVertex& q) {
 }
 }  // namespace
 
+size_t VsplitMesh::twin_slot(uint64_t key) const {
+  const size_t mask = twin_keys_.size() - 1;
+  size_t i = size_t((key * 0x9E3779B97F4A7C15ull) >> 32) & mask;
+  while (twin_keys_[i] != 0 && twin_keys_[i] != key) i = (i + 1) & mask;
+  return i;
+}
+
 uint32_t VsplitMesh::twins(uint32_t p, uint32_t* out) const {
-  auto it = twin_latest_.find(position_key(vertices[p]));
+  const size_t slot = twin_slot(position_key(vertices[p]) + 1);
   uint32_t n = 0;
-  for (int32_t u = it == twin_latest_.end() ? -1 : int32_t(it->second); u >= 0 && n < kTwinLimit;
-       u = twin_previous_[size_t(u)])
+  for (int32_t u = twin_keys_[slot] == 0 ? -1 : int32_t(twin_latest_[slot]);
+       u >= 0 && n < kTwinLimit; u = twin_previous_[size_t(u)])
     out[n++] = uint32_t(u);
   return n;
 }
 
 void VsplitMesh::add_twin(uint32_t p, uint32_t v) {
-  auto [it, fresh] = twin_latest_.try_emplace(position_key(vertices[p]), v);
-  if (!fresh) {
-    twin_previous_[v] = int32_t(it->second);
-    it->second = v;
+  const uint64_t key = position_key(vertices[p]) + 1;
+  size_t slot = twin_slot(key);
+  if (twin_keys_[slot] == key) {
+    twin_previous_[v] = int32_t(twin_latest_[slot]);
+    twin_latest_[slot] = v;
+    return;
   }
+  if (2 * (twin_count_ + 1) > twin_keys_.size()) {  // grow to keep it at most half full
+    std::vector<uint64_t> keys(2 * twin_keys_.size(), 0);
+    std::vector<uint32_t> latest(keys.size(), 0);
+    keys.swap(twin_keys_), latest.swap(twin_latest_);
+    for (size_t i = 0; i < keys.size(); ++i) {
+      if (keys[i] == 0) continue;
+      const size_t to = twin_slot(keys[i]);
+      twin_keys_[to] = keys[i], twin_latest_[to] = latest[i];
+    }
+    slot = twin_slot(key);
+  }
+  twin_keys_[slot] = key, twin_latest_[slot] = v;
+  ++twin_count_;
 }
 
 uint32_t state_digest(const VsplitMesh& mesh) {

@@ -1,7 +1,6 @@
 // Compact vertex splits: the stream package's mesh refinement coding (docs/ARCHITECTURE.md
 // "Package"), the state both ends keep and the decoder. The encoder is in mesh_stream.cpp; the
-// web client's decoder (viewers/web/stream_decode.js: MeshState, applySplits) mirrors this file
-// operation for operation.
+// web client runs this decoder itself, compiled to WebAssembly (stream/decoder_api.h).
 //
 // Ideas taken from the literature on progressive mesh compression:
 // - Hoppe's progressive meshes (and his "Octaviewer: spherically parameterized progressive
@@ -65,7 +64,6 @@
 #pragma once
 
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include "core/status.h"
@@ -120,6 +118,8 @@ class VsplitMesh {
   void reset(uint32_t capacity_vertices, uint32_t capacity_faces);
   uint32_t vertex_count() const { return uint32_t(vertices.size()); }
   uint32_t face_count() const { return uint32_t(indices.size() / 3); }
+  uint32_t capacity_vertices() const { return capacity_vertices_; }
+  uint32_t capacity_faces() const { return capacity_faces_; }
 
   uint32_t add_vertex(const QuantizedVertex& q);  // returns its index
   void add_face(uint32_t a, uint32_t b, uint32_t c);
@@ -161,12 +161,21 @@ class VsplitMesh {
   std::vector<QuantizedVertex> vertices;
   std::vector<uint32_t> indices;
   std::vector<int32_t> head, next;
-  uint64_t solid = 0;       // faces whose three corners differ
+  uint64_t solid = 0;  // faces whose three corners differ
+  // Corners below moved_floor that move_corner moves are appended to `moved` (a client that
+  // mirrors the index buffer copies only those again; the web worker's changes). 0: none.
+  uint32_t moved_floor = 0;
+  std::vector<uint32_t> moved;
   VsplitContexts contexts;  // the coder's, fresh at reset(), carried from part to part
 
  private:
-  std::unordered_map<uint64_t, uint32_t> twin_latest_;  // parent position → newest split
-  std::vector<int32_t> twin_previous_;                  // per vertex: the twin before it, or -1
+  // Parent position → newest split there: open addressing with linear probing over a
+  // power-of-two table at most half full (keys are positions + 1; 0 marks an empty slot).
+  std::vector<uint64_t> twin_keys_ = std::vector<uint64_t>(16, 0);
+  std::vector<uint32_t> twin_latest_ = std::vector<uint32_t>(16, 0);
+  size_t twin_count_ = 0;
+  std::vector<int32_t> twin_previous_;   // per vertex: the twin before it, or -1
+  size_t twin_slot(uint64_t key) const;  // key's slot, or the empty one where it would go
   std::vector<uint32_t> stamp_;
   uint32_t stamp_value_ = 0;
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;

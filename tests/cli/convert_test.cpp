@@ -761,15 +761,27 @@ TEST(ConvertFolder, WritesStreamPackage) {
   EXPECT_EQ(pkg->orders[2].name, "texture-first");
   EXPECT_EQ(pkg->orders[3].name, "constant-ratio");
   // The viewer page and the modules it imports sit beside the package.
-  for (const char* f :
-       {"index.html", "viewer/meshmux.js", "viewer/package_reader.js", "viewer/stream_mesh.js",
-        "viewer/stream_decode.js", "viewer/stream_worker.js", "viewer/worker_client.js",
-        "viewer/materials.js", "viewer/lighting.js", "viewer/upload.js", "viewer/gltf_plugins.js",
-        "viewer/viewer.js", "viewer/viewer.css", "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
-        "viewer/" MESHMUX_THREE_FOLDER "/three.core.js", "viewer/" MESHMUX_THREE_FOLDER "/LICENSE",
-        "viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/GLTFLoader.js",
-        "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",
-        "viewer/" MESHMUX_THREE_FOLDER "/addons/controls/OrbitControls.js"})
+  for (const char* f : {"index.html",
+                        "viewer/meshmux.js",
+                        "viewer/package_reader.js",
+                        "viewer/stream_mesh.js",
+                        "viewer/stream_decoder.js",
+                        "viewer/stream_decoder.wasm",
+                        "viewer/stream_format.js",
+                        "viewer/stream_worker.js",
+                        "viewer/worker_client.js",
+                        "viewer/materials.js",
+                        "viewer/lighting.js",
+                        "viewer/upload.js",
+                        "viewer/gltf_plugins.js",
+                        "viewer/viewer.js",
+                        "viewer/viewer.css",
+                        "viewer/" MESHMUX_THREE_FOLDER "/three.module.js",
+                        "viewer/" MESHMUX_THREE_FOLDER "/three.core.js",
+                        "viewer/" MESHMUX_THREE_FOLDER "/LICENSE",
+                        "viewer/" MESHMUX_THREE_FOLDER "/addons/loaders/GLTFLoader.js",
+                        "viewer/" MESHMUX_THREE_FOLDER "/addons/libs/meshopt_decoder.module.js",
+                        "viewer/" MESHMUX_THREE_FOLDER "/addons/controls/OrbitControls.js"})
     EXPECT_TRUE(std::filesystem::is_regular_file(dir.file(std::string("out/") + f))) << f;
   // three.js as the build minified it (scripts/viewer_assets.mjs), beside its gzip and brotli forms
   // for servers to send precompressed.

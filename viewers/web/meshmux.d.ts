@@ -48,8 +48,10 @@ export interface MeshmuxStreamOptions {
    */
   firstBytes?: Promise<Response> | null;
   /**
-   * Decode mesh refinements in a Web Worker (stream_worker.js beside this module; default true).
-   * false, or a page where no worker can start (file://), decodes them on the page.
+   * Decode mesh refinements in a Web Worker (stream_worker.js beside this module; default true),
+   * with the WebAssembly decoder stream_decoder.wasm beside it (serve it as application/wasm).
+   * false, or a page where no worker can start (file://), loads that module on the page and
+   * decodes there.
    */
   worker?: boolean;
   /** A WorkerPool whose shared workers decode for this stream instead of a worker of its own. */

@@ -29,16 +29,17 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { TaskPerMesh, TexturesInWorker } from './gltf_plugins.js';
 import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStandardMaterial } from './materials.js';
-import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, validateTable } from './package_reader.js';
-import { StreamMesh, applyMeshChunk, inflate, textureOf } from './stream_mesh.js';
+import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
+import { PACKAGE_HEADER_BYTES } from './stream_format.js';
+import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
 
-export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate };
+export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, loadDecoder };
 export { addStreamLighting } from './lighting.js';
 export { nextTask, uploadInBands };
-const HEADER_BYTES = 12;
+const HEADER_BYTES = PACKAGE_HEADER_BYTES;
 // Texture maps are decoded as stored (EXIF orientation applied): no colour conversion and no
 // premultiplied alpha (three.js is told each map's colour space).
 const IMAGE_OPTIONS = { imageOrientation: 'from-image', premultiplyAlpha: 'none', colorSpaceConversion: 'none' };
@@ -64,8 +65,9 @@ export class MeshmuxStream extends EventTarget {
   // a request for the package's first PROBE_BYTES bytes, Range: bytes=0-65535, that the page
   // started before this module loaded: index.html does, so the package arrives beside the
   // module graph), worker (default true: mesh refinements are decoded in a Web Worker,
-  // stream_worker.js beside this module, and the page only copies in and uploads what changed;
-  // false, or where no worker can start, decodes them on the page), workers (a WorkerPool whose
+  // stream_worker.js beside this module, by the WebAssembly decoder stream_decoder.wasm beside
+  // it, and the page only copies in and uploads what changed; false, or where no worker can
+  // start, loads that module on the page and decodes there), workers (a WorkerPool whose
   // shared workers decode for this stream instead of one of its own; MeshmuxWorld passes one),
   // limiter (a RequestLimiter shared by several streams: their range requests wait for it, so
   // a page of many packages keeps few in flight; MeshmuxWorld passes one), probeBytes (the
@@ -123,6 +125,8 @@ export class MeshmuxStream extends EventTarget {
     this._trianglesApplied = 0;
     this._applySeconds = 0;
     this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
+    this._decoder = null;  // decoding on the page: the WebAssembly decoder (stream_decoder.js)
+    this._setup = null;    // the worker's setup of the meshes (a Promise), awaited by mesh chunks
     this._workerStart = null;  // the Promise of it while it starts
     this._uploads = null;  // uploadsBeside: the Promise of the last texture level's upload and swap
     this._bounds = null;   // worldBounds() as last computed, and the object's matrix then
@@ -220,15 +224,23 @@ export class MeshmuxStream extends EventTarget {
       this._worker = await worker;
       // Later ranges are fetched by the worker (their bodies stay off the main thread).
       if (this._worker) this._reader.fetchRange = (...a) => this._worker.fetchRange(...a);
+      // No worker: the WebAssembly decoder (stream_decoder.wasm) runs on the page.
+      if (!this._worker && !table.base.whole) {
+        try {
+          this._decoder = await loadDecoder();
+        } catch (e) {
+          throw this._fail(e.message);
+        }
+      }
       await nextTask();  // the base is built in tasks of its own (_buildBase), not in the fetch's
       const build = () => this._buildBase(table, base, draco);
       await (this.options.builds ? this.options.builds.run(build) : build());
+      // The worker takes the bases (its WebAssembly decoder checks them) while the base shows:
+      // the first picture does not wait for the module; the first mesh chunk does (_applyChunk).
       if (this._worker && this.meshes.length) {
-        try {
-          await this._worker.setup(table.meshes, this.meshes);
-        } catch (e) {
-          throw this._fail(`the base cannot be decoded (${e.message})`);
-        }
+        this._setup = this._worker.setup(table.meshes, this.meshes)
+          .catch((e) => { throw this._fail(`the base cannot be decoded (${e.message})`); });
+        this._setup.catch(() => {});  // reported where it is awaited
       }
       this.table = table;
       this.order = order;
@@ -304,7 +316,7 @@ export class MeshmuxStream extends EventTarget {
     if (!table.base.whole) {
       for (const [i, d] of table.meshes.entries()) {
         await slice();
-        const mesh = new StreamMesh(d, i, { local: !this._worker, deferCommit: true });
+        const mesh = new StreamMesh(d, i, { decoder: this._worker ? null : this._decoder, deferCommit: true });
         for (const _ of mesh.commitPieces()) await slice();
         this.meshes.push(mesh);
       }
@@ -703,6 +715,7 @@ export class MeshmuxStream extends EventTarget {
     if (chunk.kind === 'complete') { await this._applyCompletion(index, chunk, payload); return; }
     if (chunk.kind === 'mesh') {
       if (this._worker) {  // decoded in the worker; its own time is the decoding time
+        await this._setup;
         try {
           const { added, seconds } = await this._worker.applyChunk(this.meshes, chunk, payload);
           this._trianglesApplied += added;
@@ -886,7 +899,10 @@ export class MeshmuxStream extends EventTarget {
   // Per package mesh, the digest of the state its decoder holds (stream/vsplit.h state_digest;
   // report.json's "stream_digests" once the stream is complete). For tests and tools.
   async stateDigests() {
-    if (this._worker) return this._worker.digests();
+    if (this._worker) {
+      await this._setup;
+      return this._worker.digests();
+    }
     return this.meshes.map((m) => m.state.digest());
   }
 

@@ -1,21 +1,54 @@
-// package_reader.js — reading a meshmux stream package (model.mmxp, version 14; layout in
-// stream/format.h) over HTTP: byte ranges of one URL (RangeReader) and the validation of
-// the package's JSON table against the file (validateTable). Used by meshmux.js.
+// package_reader.js — reading a meshmux stream package (model.mmxp, version PACKAGE_VERSION;
+// layout in stream/format.h) over HTTP: byte ranges of one URL (RangeReader), the table's and
+// base's inflation (inflate) and the validation of the package's JSON table against the file
+// (validateTable). Used by meshmux.js. The format's constants come from stream_format.js,
+// generated from stream/format.h at build time.
 
-export const PACKAGE_VERSION = 15;
-// The JSON table and the base .glb inflate to at most these (stream/format.h).
-export const MAX_TABLE_BYTES = 64 * 2 ** 20, MAX_BASE_BYTES = 2 ** 31;
-// A kept image's index is below this; a texture side at most the table's limit, and this.
-const MAX_KEPT_IMAGES = 65536, MAX_TEXTURE_SIDE = 65536;
+import {
+  CHANNEL_NAMES, MAX_BASE_BYTES, MAX_KEPT_IMAGES, MAX_TABLE_BYTES, MAX_TEXTURE_SIDE, PACKAGE_VERSION,
+  PART_ELEMENTS_CONSTANT, PART_ELEMENTS_PER_BYTE, RANGE_CODER_FLUSH_BYTES,
+} from './stream_format.js';
+
+export { MAX_BASE_BYTES, MAX_TABLE_BYTES, PACKAGE_VERSION };
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
 // enforces the same number); this only bounds what a hostile table may claim, at what typed
 // arrays of a client's vertices can hold.
 const TYPED_ARRAY_ELEMENTS = 2 ** 30 / VERTEX_BYTES;
-// A part's coded bytes stand for at most this many splits and faces per byte, plus a constant, and
-// hold at least the range coder's 5 (stream/vsplit.h part_size_plausible).
-export const PART_ELEMENTS_PER_BYTE = 256, PART_ELEMENTS_CONSTANT = 4096, PART_MIN_BYTES = 5;
+// A part's coded bytes stand for at most PART_ELEMENTS_PER_BYTE splits and faces per byte, plus
+// PART_ELEMENTS_CONSTANT, and hold at least the range coder's head (stream/vsplit.h
+// part_size_plausible).
+const PART_MIN_BYTES = RANGE_CODER_FLUSH_BYTES;
+
+// Inflates the package's table or base (a zlib stream) with the browser's DecompressionStream, refusing output past
+// `limit` bytes (a zlib bomb) and trailing or missing bytes.
+export async function inflate(bytes, limit, format = 'deflate') {
+  const stream = new DecompressionStream(format);
+  const writer = stream.writable.getWriter();
+  writer.write(bytes).catch(() => {});
+  writer.close().catch(() => {});
+  const reader = stream.readable.getReader();
+  const pieces = [];
+  let total = 0;
+  try {
+    for (;;) {
+      const { done, value } = await reader.read();
+      if (done) break;
+      total += value.length;
+      if (total > limit) throw new Error(`inflates past its limit of ${limit} bytes`);
+      pieces.push(value);
+    }
+  } catch (e) {
+    reader.cancel().catch(() => {});
+    throw new Error(e.message.includes('limit') ? e.message : `not a complete ${format === 'deflate' ? 'zlib' : format} stream (${e.message})`);
+  }
+  if (pieces.length === 1) return pieces[0];
+  const out = new Uint8Array(total);
+  let at = 0;
+  for (const p of pieces) { out.set(p, at); at += p.length; }
+  return out;
+}
 
 // ---- The package table -----------------------------------------------------------------------
 
@@ -50,7 +83,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // How the distortion was measured: the viewer frames and shades with these (no copies here).
   const v = obj(t.view, 'view');
   const view = {
-    fov: num(v.fov_y_degrees, 'view.fov_y_degrees', 1, 179), fill: num(v.fill, 'view.fill', 1e-3, 1e3),
+    fov: num(v.fov_y_degrees, 'view.fov_y_degrees', 0, 180), fill: num(v.fill, 'view.fill', 1e-3, 1e3),
     direction: vec3(v.direction, 'view.direction'), clipMargin: num(v.clip_margin, 'view.clip_margin', 1e-3, 1e3),
     ambient: num(v.ambient, 'view.ambient', 0, 10), diffuse: num(v.diffuse, 'view.diffuse', 0, 10),
     lightDirection: vec3(v.light_direction, 'view.light_direction'), lightFollowsCamera: v.light_follows_camera !== false,
@@ -58,6 +91,8 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     // packages without the field were measured with the Lambert shading.
     physical: v.shading === 'physical',
   };
+  // As the C++ reader (stream/package_read.cpp read_view): the field of view inside (0, 180).
+  need(view.fov > 0 && view.fov < 180, `view.fov_y_degrees must be in (0, 180) (got ${view.fov})`);
   need(v.shading === undefined || v.shading === 'lambert' || v.shading === 'physical', `view.shading must be "lambert" or "physical" (got ${JSON.stringify(v.shading)})`);
   if (view.physical) {
     view.environment = num(v.environment, 'view.environment', 0, 100);
@@ -99,7 +134,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     if (c.kind === 'texture') {
       // Its maps' files one after another, base colour first (one texture step may carry
       // several channels at one size).
-      const CHANNELS = ['base_color', 'normal', 'occlusion_roughness_metallic', 'emissive', 'sheen_color'];
+      const CHANNELS = CHANNEL_NAMES;
       let at = chunk.offset;
       const maps = arr(c.maps, `${w}.maps`).map((m, j) => {
         const mw = `${w}.maps[${j}]`;

@@ -1,19 +1,17 @@
 // stream_mesh.js — the mesh side of a meshmux stream on the page: one growing geometry per
-// package mesh (StreamMesh), decoded either on the page (a MeshState of stream_decode.js sharing
-// the geometry's index buffer) or in a Web Worker (StreamWorker of worker_client.js,
-// stream_worker.js), in which case the page only copies in what each chunk changed and uploads
-// those ranges. Used by meshmux.js.
+// package mesh (StreamMesh), decoded by the WebAssembly decoder (stream_decoder.js) either in a
+// Web Worker (StreamWorker of worker_client.js, stream_worker.js) or, where no worker runs, on
+// the page; either way the page only copies in what each chunk changed and uploads those
+// ranges. Used by meshmux.js.
 
 import * as THREE from 'three';
 
-import { MeshState, inflate, validateFaces } from './stream_decode.js';
+import { MeshDecoder } from './stream_decoder.js';
+import { POSITION_MAX, UV_MAX } from './stream_format.js';
 import { PixelImage, checkParts } from './worker_client.js';
 
-export { inflate };
+export { loadDecoder } from './stream_decoder.js';
 export { HeldBytes, PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
-
-const UV_MAX = 4095;  // uv bits (stream/quantize.h)
-const POSITION_MAX = 16383;  // position bits (stream/quantize.h)
 // Index buffer uploads after a worker's chunk: the corners splits moved are uploaded in blocks
 // of this many corners (64 kB), each dirty block once.
 const INDEX_BLOCK = 16384;
@@ -21,12 +19,13 @@ const INDEX_BLOCK = 16384;
 // ---- One streaming mesh ----------------------------------------------------------------------
 
 // Package mesh m on the page: arrays with the full mesh's capacity and the BufferGeometry that
-// draws them, the counts received so far, and (decoding on the page) the MeshState the vertex
-// splits are coded against. With `{ local: false }` a StreamWorker holds that state and this
-// object only takes in its changes (applyChanges); with `{ deferCommit: true }` the caller
-// commits the buffers' memory itself (commitPieces) before the first chunk.
+// draws them, the counts received so far, and (decoding on the page: `{ decoder }`, a Decoder
+// of stream_decoder.js loadDecoder) the MeshDecoder the vertex splits are coded against.
+// Without a decoder a StreamWorker holds that state and this object only takes in its changes
+// (applyChanges); with `{ deferCommit: true }` the caller commits the buffers' memory itself
+// (commitPieces) before the first chunk. dispose() frees the decoder's state.
 export class StreamMesh {
-  constructor(desc, index, { local = true, deferCommit = false } = {}) {
+  constructor(desc, index, { decoder = null, deferCommit = false } = {}) {
     this.index = index;
     this.capacityVertices = desc.vertices;
     this.capacityFaces = desc.faces;
@@ -47,9 +46,9 @@ export class StreamMesh {
     // The memory is committed at load time rather than page by page while refining: here, or
     // piece by piece by a caller that walks commitPieces() between tasks.
     if (!deferCommit) for (const a of [this.position, this.normal, this.uv, this.indices]) a.fill(0);
-    this.state = local ? new MeshState(desc, index, this.indices) : null;
+    this.state = decoder ? new MeshDecoder(decoder, desc, index) : null;
     this.base = null;  // decoding in a worker: the base's quantized vertices and faces to send it
-    this._dirty = local ? null : new Uint8Array(Math.ceil((3 * F) / INDEX_BLOCK));
+    this._dirty = new Uint8Array(Math.ceil((3 * F) / INDEX_BLOCK));
     const g = this.geometry = new THREE.BufferGeometry();
     g.name = `meshmux_mesh_${index}`;
     const attribute = (array, size) => new THREE.BufferAttribute(array, size).setUsage(THREE.DynamicDrawUsage);
@@ -71,11 +70,6 @@ export class StreamMesh {
       }
     }
   }
-
-  // The decoder's quantized attributes (decoding on the page; for tests and tools).
-  get qp() { return this.state && this.state.qp; }
-  get qn() { return this.state && this.state.qn; }
-  get qt() { return this.state && this.state.qt; }
 
   // Bounds of every vertex the stream will ever hold (in the space positions are kept in):
   // culling never hides refined parts.
@@ -143,18 +137,22 @@ export class StreamMesh {
   }
 
   // Appends base faces (`indices`: a glTF primitive's index array, 3 per face, as the base .glb
-  // decoded them) to the index buffer (and the decoder's corner lists); every corner must name a
-  // vertex already received.
+  // decoded them) to the index buffer and the decoder's state, which checks that every corner
+  // names a vertex received (in a worker: at StreamWorker.setup, which sets `solid`).
   appendIndices(indices) {
     const start = 3 * this.faces;
     if (this.state) {
       this.state.appendFaces(indices);
       this.solid = this.state.solid;
     } else {
-      this.solid += validateFaces(indices, this.index, this.vertices, this.faces, this.capacityFaces);
-      this.indices.set(indices, start);
+      if (start + indices.length > this.indices.length) throw new Error(`mesh ${this.index}: ${(start + indices.length) / 3} faces exceed its capacity ${this.capacityFaces}`);
       this.base.faces.push(Uint32Array.from(indices));
+      for (let i = 0; i + 2 < indices.length; i += 3) {  // the figure shown until the worker's
+        const a = indices[i], b = indices[i + 1], c = indices[i + 2];
+        this.solid += a !== b && b !== c && a !== c ? 1 : 0;
+      }
     }
+    this.indices.set(indices, start);
     this.faces += indices.length / 3;
     this.indexAttribute.addUpdateRange(start, indices.length);
     this.indexAttribute.needsUpdate = true;
@@ -162,23 +160,14 @@ export class StreamMesh {
   }
 
   // Applies one part on the page (its coded bytes d[begin, end)): `splits` vertex splits and
-  // `faces` new faces (stream/vsplit.h, MeshState.applySplits); an Error names the split and
-  // the problem.
+  // `faces` new faces (stream/vsplit.h, in the page's WebAssembly decoder), then takes in what
+  // changed as a worker's changes are; an Error names the split and the problem.
   applySplits(d, begin, end, splits, faces) {
     if (!this.state) throw new Error(`mesh ${this.index}: decoded in a worker, not on the page`);
-    const v0 = this.vertices;
+    const v0 = this.vertices, f0 = this.faces;
+    this.state.beginChanges();
     this.state.applySplits(d, begin, end, splits, faces);
-    const vn = this.state.vertices;
-    this.state.dequantize(v0, vn, this.position, this.normal, this.uv, v0, this.quantized, this.origin, this.step);
-    this.vertices = vn;
-    this.faces = this.state.faces;
-    this.solid = this.state.solid;
-    // What the GPU draws: the new vertices, and the whole index buffer (corners moved anywhere).
-    this._uploadVertices(v0, vn);
-    this.indexAttribute.clearUpdateRanges();
-    this.indexAttribute.addUpdateRange(0, 3 * this.faces);
-    this.indexAttribute.needsUpdate = true;
-    this.geometry.setDrawRange(0, 3 * this.faces);
+    this.applyChanges(this.state.changes(v0, f0, this.quantized, this.origin, this.step));
   }
 
   // Takes in what a worker decoded (StreamWorker.applyChunk): the new vertices' float
@@ -261,7 +250,11 @@ export class StreamMesh {
     this.positionAttribute.needsUpdate = this.normalAttribute.needsUpdate = this.uvAttribute.needsUpdate = true;
   }
 
-  dispose() { this.geometry.dispose(); }
+  dispose() {
+    this.geometry.dispose();
+    if (this.state) this.state.free();
+    this.state = null;
+  }
 }
 
 // Applies one mesh chunk's payload on the page: its parts' coded bytes one after the other,

@@ -1,11 +1,13 @@
 // stream_worker.js — meshmux streams' mesh decoding in a Web Worker (started by StreamWorker
 // or a WorkerPool in worker_client.js), so that the page's main thread only copies in what each
 // chunk changed. It holds, per stream it serves (the `stream` number every request carries; a
-// pool's worker serves several), a MeshState per package mesh (stream_decode.js) and answers
-// (setup, chunk, digests and release in the order asked; fetch and image once their work is
-// done, so they may overtake):
+// pool's worker serves several), a MeshDecoder per package mesh (stream_decoder.js: the C++
+// decoder compiled to WebAssembly, loaded as the worker starts, while the page fetches the
+// base) and answers (setup, chunk, digests and release in the order asked; fetch and image once
+// their work is done, so they may overtake):
 //   setup  {meshes: [{vertices, faces, origin, step, base: {qp, qn, qt, count, quantized,
-//          faces: [Uint32Array]} | null}]} → {}: the meshes with their bases
+//          faces: [Uint32Array]} | null}]} → {solid: [per mesh]}: the meshes with their bases
+//          (the decoder checks every base face)
 //   chunk  {parts: [[mesh, splits, faces, bytes]], payload} → {changes, seconds}: the chunk's
 //          parts applied in order; per mesh touched {mesh, v0, vn, f0, nf, solid, position,
 //          normal, uv (the new vertices' float attributes), appended (the new faces' indices),
@@ -30,7 +32,7 @@
 // Every reply carries the request's id; an Error becomes {type: 'error', id, message}. After
 // an error the states are not used again (the page fails the stream).
 import { fetchRange } from './package_reader.js';
-import { MeshState } from './stream_decode.js';
+import { MeshDecoder, loadDecoder } from './stream_decoder.js';
 
 const streams = new Map();  // stream number → its meshes: [{state, origin, step, quantized}]
 const fetches = new Map();  // request id → the AbortController of its fetch
@@ -47,16 +49,29 @@ function bytesOf(m, field) {
   return range.bytes.subarray(m.offset, m.offset + m.size);
 }
 
-function setup(m) {
-  streams.set(m.stream, m.meshes.map((d, i) => {
-    const state = new MeshState(d, i);
+// The decoder module, loading from the start (its failure is reported by the first setup).
+const decoderReady = loadDecoder();
+decoderReady.catch(() => {});
+
+function release(stream) {
+  for (const entry of streams.get(stream) || []) entry.state.free();
+  streams.delete(stream);
+}
+
+async function setup(m) {
+  const decoder = await decoderReady;
+  release(m.stream);
+  const meshes = [];
+  streams.set(m.stream, meshes);
+  for (const [i, d] of m.meshes.entries()) {
+    const state = new MeshDecoder(decoder, d, i);
+    meshes.push({ state, origin: d.origin, step: d.step, quantized: d.base ? d.base.quantized : true });
     if (d.base) {
       state.setBase(d.base.qp, d.base.qn, d.base.qt, d.base.count);
       for (const f of d.base.faces) state.appendFaces(f);
     }
-    return { state, origin: d.origin, step: d.step, quantized: d.base ? d.base.quantized : true };
-  }));
-  return {};
+  }
+  return { solid: meshes.map((e) => e.state.solid) };
 }
 
 function meshesOf(m) {
@@ -65,9 +80,8 @@ function meshesOf(m) {
   return meshes;
 }
 
-function chunk(m) {
+function chunk(m, payload) {
   const meshes = meshesOf(m);
-  const payload = bytesOf(m, 'payload');
   const t0 = performance.now();
   const touched = new Map();  // mesh → where it stood before this chunk
   let at = 0;
@@ -78,6 +92,7 @@ function chunk(m) {
       entry.state.beginChanges();
       touched.set(mesh, [entry.state.vertices, entry.state.faces]);
     }
+    if (!(at + bytes <= payload.length)) throw new Error(`mesh ${mesh}: its part runs past the chunk's ${payload.length} bytes`);
     entry.state.applySplits(payload, at, at + bytes, splits, faces);
     at += bytes;
   }
@@ -85,18 +100,9 @@ function chunk(m) {
   const changes = [], transfer = [];
   for (const [mesh, [v0, f0]] of touched) {
     const { state, origin, step, quantized } = meshes[mesh];
-    const vn = state.vertices, nf = state.faces, n = vn - v0;
-    const position = new Float32Array(3 * n), normal = new Float32Array(3 * n), uv = new Float32Array(2 * n);
-    state.dequantize(v0, vn, position, normal, uv, 0, quantized, origin, step);
-    const appended = state.indices.slice(3 * f0, 3 * nf);
-    const moved = new Uint32Array(2 * state.movedCount);
-    for (let i = 0; i < state.movedCount; i++) {
-      const c = state.movedCorners[i];
-      moved[2 * i] = c;
-      moved[2 * i + 1] = state.indices[c];
-    }
-    changes.push({ mesh, v0, vn, f0, nf, solid: state.solid, position, normal, uv, appended, moved });
-    transfer.push(position.buffer, normal.buffer, uv.buffer, appended.buffer, moved.buffer);
+    const c = state.changes(v0, f0, quantized, origin, step);
+    changes.push({ mesh, ...c });
+    transfer.push(c.position.buffer, c.normal.buffer, c.uv.buffer, c.appended.buffer, c.moved.buffer);
   }
   return { reply: { changes, seconds }, transfer };
 }
@@ -151,13 +157,22 @@ async function decodeImage(m) {
   return { reply: pixels, transfer: [pixels.pixels.buffer] };
 }
 
+// Setup, chunk, digests and release run in the order asked, one after the other (setup waits for
+// the module); their bytes are taken as they arrive (a later drop does not reach them).
+let ordered = Promise.resolve();
+function inOrder(m, work) {
+  ordered = ordered.then(work).then(
+    ({ reply, transfer = [] }) => self.postMessage({ type: m.type, id: m.id, ...reply }, transfer),
+    (error) => self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) }));
+}
+
 self.onmessage = (e) => {
   const m = e.data;
   try {
-    if (m.type === 'setup') self.postMessage({ type: 'setup', id: m.id, ...setup(m) });
+    if (m.type === 'setup') inOrder(m, async () => ({ reply: await setup(m) }));
     else if (m.type === 'chunk') {
-      const { reply, transfer } = chunk(m);
-      self.postMessage({ type: 'chunk', id: m.id, ...reply }, transfer);
+      const payload = bytesOf(m, 'payload');
+      inOrder(m, () => chunk(m, payload));
     } else if (m.type === 'fetch') {
       const abort = new AbortController();
       fetches.set(m.id, abort);
@@ -189,12 +204,11 @@ self.onmessage = (e) => {
       for (const range of held.values()) count += range.stream === m.stream;
       self.postMessage({ type: 'held', id: m.id, count, ever: heldEver.get(m.stream) || 0 });
     } else if (m.type === 'digests') {
-      self.postMessage({ type: 'digests', id: m.id, digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) });
+      inOrder(m, () => ({ reply: { digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) } }));
     } else if (m.type === 'release') {
-      streams.delete(m.stream);
       heldEver.delete(m.stream);
       for (const [id, range] of held) if (range.stream === m.stream) held.delete(id);
-      self.postMessage({ type: 'release', id: m.id });
+      inOrder(m, () => { release(m.stream); return { reply: {} }; });
     } else throw new Error(`unknown request ${JSON.stringify(m.type)}`);
   } catch (error) {
     self.postMessage({ type: 'error', id: m.id, message: error && error.message ? error.message : String(error) });

@@ -182,8 +182,8 @@ export class StreamWorker {
 
   // Hands the worker the package's meshes (their table entries) with their bases, taken from
   // `meshes` (StreamMesh objects made with { local: false }, their bases set); the bases' copies
-  // are released here.
-  setup(descs, meshes) {
+  // are released here. The worker's decoder checks every base face (an Error names the mesh).
+  async setup(descs, meshes) {
     const bases = meshes.map((m) => m.base);
     const transfer = [];
     for (const b of bases) {
@@ -191,8 +191,11 @@ export class StreamWorker {
       transfer.push(b.qp.buffer, b.qn.buffer, b.qt.buffer, ...b.faces.map((f) => f.buffer));
     }
     meshes.forEach((m) => { m.base = null; });
-    return this._request({ type: 'setup', meshes: descs.map((d, i) => ({
+    const reply = await this._request({ type: 'setup', meshes: descs.map((d, i) => ({
       vertices: d.vertices, faces: d.faces, origin: meshes[i].origin, step: meshes[i].step, base: bases[i] })) }, transfer);
+    // The decoder checked the bases' faces and counted the solid ones.
+    reply.solid.forEach((n, i) => { meshes[i].solid = n; });
+    return {};
   }
 
   // Decodes one mesh chunk in the worker and takes its changes into `meshes`. Resolves with

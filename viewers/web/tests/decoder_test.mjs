@@ -1,5 +1,6 @@
-// The web client's mesh decoder (stream_decode.js, what the library's worker runs) in node, on a
-// package converted here (the built-in sample, or --model FILE):
+// The web client's mesh decoder (stream_decoder.js over stream_decoder.wasm: the C++ decoder
+// compiled to WebAssembly, what the library's worker runs) in node, on a package converted here
+// (the built-in sample, or --model FILE):
 //   1. the whole stream decodes to exactly the encoder's state (report.json's stream_digests);
 //   2. 1,000 copies with a mesh part damaged (bytes flipped, zeroed or swapped, seeded) are each
 //      either refused with an Error naming the mesh, or decode to a state whose every index
@@ -12,7 +13,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 
 import { opt, skip } from './harness.mjs';
-import { applyChunk, freshStates, readPackage } from './node_package.mjs';
+import { applyChunk, freeStates, freshStates, readPackage } from './node_package.mjs';
 
 const meshmux = opt('--meshmux'), work = opt('--work'), copies = Number(opt('--copies', '1000'));
 if (!meshmux || !work) {
@@ -41,6 +42,7 @@ const states = freshStates(table, bases);
 for (const c of chunks) applyChunk(states, bytes, c);
 const expected = JSON.parse(fs.readFileSync(path.join(out, 'report.json'), 'utf8')).stream_digests;
 assert.deepEqual(states.map((s) => s.digest()), expected, 'decoded state digests');
+freeStates(states);
 console.log(`whole stream: ${chunks.length} mesh chunks, ${states.length} meshes, digests equal the encoder's`);
 
 // 2. Damaged copies (xorshift32, seeded: the same copies every run).
@@ -65,10 +67,15 @@ for (let k = 0; k < copies; k++) {
   try {
     for (const c of chunks) applyChunk(s, copy, c);
     decoded++;
-    for (const m of s) for (let i = 0; i < 3 * m.faces; i++) assert.ok(m.indices[i] < m.vertices, `copy ${k}: index past the vertices`);
+    for (const m of s) {
+      const indices = m.indices, vertices = m.vertices;
+      for (let i = 0; i < indices.length; i++) assert.ok(indices[i] < vertices, `copy ${k}: index past the vertices`);
+    }
   } catch (e) {
     assert.ok(e instanceof Error && /^mesh \d+: /.test(e.message), `copy ${k}: ${e && e.stack ? e.stack : e}`);
     refused++;
+  } finally {
+    freeStates(s);
   }
   assert.ok(performance.now() - t0 < 5000, `copy ${k} took ${(performance.now() - t0).toFixed(0)} ms`);
 }

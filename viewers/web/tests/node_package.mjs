@@ -1,21 +1,31 @@
 // A converted package read in node, as the web client reads it (no browser): its validated
 // table and, per package mesh, the base's quantized vertices and faces from the base .glb
 // (EXT_meshopt_compression through three's meshopt decoder, values as GLTFLoader gives them and
-// StreamMesh.setBaseVertices quantizes them), and fresh MeshState objects (the worker's decoder,
-// stream_decode.js) holding those bases. Used by bench/decode_rate.mjs and decoder_test.mjs.
+// StreamMesh.setBaseVertices quantizes them), and fresh MeshDecoder states (the worker's
+// decoder: stream_decoder.js over the WebAssembly module stream_decoder.wasm, loaded here from
+// its file) holding those bases. Used by bench/decode_rate.mjs and decoder_test.mjs.
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
 import { fileURLToPath } from 'node:url';
 
 import { validateTable } from '../package_reader.js';
-import { MeshState } from '../stream_decode.js';
+import { MeshDecoder, loadDecoder } from '../stream_decoder.js';
+import { POSITION_MAX, UV_MAX } from '../stream_format.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const { MeshoptDecoder } = await import(path.join(here, '../../../node_modules/three/examples/jsm/libs/meshopt_decoder.module.js'));
 await MeshoptDecoder.ready;
+// The module as the client loads it (node's fetch reads no file: URL, so its bytes). Built by
+// CMake where the WebAssembly toolchain is (scripts/setup.sh installs it); without it, a skip.
+const wasmFile = path.join(here, '../stream_decoder.wasm');
+if (!fs.existsSync(wasmFile)) {
+  console.error(`SKIPPED: ${wasmFile} is not built (no WebAssembly toolchain: scripts/setup.sh)`);
+  process.exit(77);
+}
+export const decoder = await loadDecoder(fs.readFileSync(wasmFile));
 
-const UV_MAX = 4095, COMPONENTS = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4 };
+const COMPONENTS = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4 };
 const TYPED = { 5120: Int8Array, 5121: Uint8Array, 5122: Int16Array, 5123: Uint16Array, 5125: Uint32Array, 5126: Float32Array };
 
 // A GLB's JSON and binary chunk.
@@ -66,7 +76,7 @@ export function readBase(glb, table) {
     const qp = new Uint16Array(3 * count), qn = new Int8Array(3 * count), qt = new Uint16Array(2 * count);
     const q = d.quantization || { origin: [0, 0, 0], step: 1 }, float = P.accessor.componentType === 5126;
     for (let i = 0; i < 3 * count; i++) {
-      qp[i] = float ? Math.min(16383, Math.max(0, Math.round((P.values[i] - q.origin[i % 3]) / q.step))) : P.values[i];
+      qp[i] = float ? Math.min(POSITION_MAX, Math.max(0, Math.round((P.values[i] - q.origin[i % 3]) / q.step))) : P.values[i];
     }
     // As StreamMesh.setBaseVertices reads what GLTFLoader gives: normalized integers or floats.
     const real = (r, i) => {
@@ -106,13 +116,18 @@ export function readPackage(file) {
   return { bytes, table, bases: readBase(glb, table) };
 }
 
-// One MeshState per package mesh holding its base (what a client holds before any chunk).
+// One MeshDecoder per package mesh holding its base (what a client holds before any chunk);
+// freeStates gives their memory back.
 export function freshStates(table, bases) {
   return table.meshes.map((d, i) => {
-    const s = new MeshState(d, i), b = bases[i];
+    const s = new MeshDecoder(decoder, d, i), b = bases[i];
     if (b) { s.setBase(b.qp, b.qn, b.qt, b.count); for (const f of b.faces) s.appendFaces(f); }
     return s;
   });
+}
+
+export function freeStates(states) {
+  for (const s of states) s.free();
 }
 
 // Applies mesh chunk `c` (from `bytes`, the whole package) to `states`, its parts in order.

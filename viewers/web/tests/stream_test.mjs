@@ -251,14 +251,16 @@ try {
   }
 
   // Refinement speed in steady state: the page's own client code (viewer/meshmux.js) applies
-  // every mesh chunk of the file, already in memory, to fresh meshes, five times; the best
-  // run counts; each part is inflated (DecompressionStream) and its splits applied. Triangles =
-  // new faces, reported beside the vertex splits that bring them.
+  // every mesh chunk of the file, already in memory, to fresh meshes, five times, with the
+  // WebAssembly decoder (stream_decoder.wasm) loaded on the page; the best run counts, the new
+  // vertices' attributes and faces copied into the geometries included. Triangles = new faces,
+  // reported beside the vertex splits that bring them.
   // A package whose base is the whole model (every mesh ships whole, Draco-coded) has no
   // refinement to time or digest.
   const wholeBase = await page.evaluate(() => window.meshmuxViewer?.stream?.table?.base?.whole ?? null);
   const bench = wholeBase ? null : await page.evaluate(async () => {
-    const { StreamMesh, applyMeshChunk, validateTable, inflate } = await import('./viewer/meshmux.js');
+    const { StreamMesh, applyMeshChunk, validateTable, inflate, loadDecoder } = await import('./viewer/meshmux.js');
+    const decoder = await loadDecoder();  // the WebAssembly decoder, here on the page
     const { MeshoptDecoder } = await import('three/addons/libs/meshopt_decoder.module.js');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
     await MeshoptDecoder.ready;
@@ -283,7 +285,7 @@ try {
     });
     for (let run = 0; run < 5; ++run) {
       const meshes = table.meshes.map((d, i) => {
-        const m = new StreamMesh(d, i);
+        const m = new StreamMesh(d, i, { decoder });
         m.setBaseVertices(baseGeometry[i][0]);
         for (const g of baseGeometry[i]) if (g.index) m.appendIndices(g.index.array);
         return m;
@@ -337,6 +339,23 @@ try {
       fail(`a corrupt mesh chunk ${corruptChunk} gave state ${refused.state}, message ${JSON.stringify(refused.message)}`);
     }
     fs.rmSync(path.join(out, 'corrupt.mmxp'));
+  }
+
+  // Without a worker (option worker: false, as where none can start) the page loads the
+  // WebAssembly decoder itself and ends in the same state.
+  if (bench) {
+    const onPage = await page.evaluate(async () => {
+      const { MeshmuxStream } = await import('./viewer/meshmux.js');
+      const stream = new MeshmuxStream('model.mmxp', { worker: false });
+      await stream.open();
+      await stream.play();
+      const r = { state: stream.state, decoder: stream.stats.decoder, digests: await stream.stateDigests() };
+      stream.dispose();
+      return r;
+    });
+    console.log(`worker: false: ${onPage.state}, decoded on the ${onPage.decoder}`);
+    if (onPage.state !== 'complete' || onPage.decoder !== 'page') fail(`worker: false ended ${onPage.state}, decoded on the ${onPage.decoder}`);
+    if (JSON.stringify(onPage.digests) !== JSON.stringify(expected)) fail(`worker: false digests ${JSON.stringify(onPage.digests)} differ from the encoder's`);
   }
 
   // 3. A baseline order from the same file.
