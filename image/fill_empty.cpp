@@ -26,9 +26,10 @@ void for_rows(int h, int w, const std::function<void(int)>& row) {
   });
 }
 
-// The first coarser level, from the image's filled texels.
-Level pull_from_image(int w, int h, const std::vector<uint8_t>& filled,
-                      const std::vector<uint8_t>& rgba, bool srgb) {
+// The coarser level over a w × h grid: each texel the mean of its 2 × 2 children that `add`
+// finds filled (add(i, sum): adds child i's RGBA to sum and returns true, or returns false).
+template <class Add>
+Level pull_level(int w, int h, const Add& add) {
   Level out;
   out.w = (w + 1) / 2, out.h = (h + 1) / 2;
   out.value.assign(size_t(out.w) * size_t(out.h) * 4, 0.0f);
@@ -40,13 +41,7 @@ Level pull_from_image(int w, int h, const std::vector<uint8_t>& filled,
       for (int dy = 0; dy < 2; ++dy)
         for (int dx = 0; dx < 2; ++dx) {
           const int sx = 2 * x + dx, sy = 2 * y + dy;
-          if (sx >= w || sy >= h) continue;
-          const size_t i = size_t(sy) * size_t(w) + size_t(sx);
-          if (!filled[i]) continue;
-          const uint8_t* p = &rgba[i * 4];
-          for (int c = 0; c < 3; ++c) sum[c] += srgb ? srgb_to_linear(p[c]) : p[c] / 255.0f;
-          sum[3] += p[3] / 255.0f;
-          ++n;
+          if (sx < w && sy < h && add(size_t(sy) * size_t(w) + size_t(sx), sum)) ++n;
         }
       if (n == 0) continue;
       const size_t o = size_t(y) * size_t(out.w) + size_t(x);
@@ -57,32 +52,25 @@ Level pull_from_image(int w, int h, const std::vector<uint8_t>& filled,
   return out;
 }
 
+// The first coarser level, from the image's filled texels.
+Level pull_from_image(int w, int h, const std::vector<uint8_t>& filled,
+                      const std::vector<uint8_t>& rgba, bool srgb) {
+  return pull_level(w, h, [&](size_t i, float* sum) {
+    if (!filled[i]) return false;
+    const uint8_t* p = &rgba[i * 4];
+    for (int c = 0; c < 3; ++c) sum[c] += srgb ? srgb_to_linear(p[c]) : p[c] / 255.0f;
+    sum[3] += p[3] / 255.0f;
+    return true;
+  });
+}
+
 // The next coarser level of `in`.
 Level pull(const Level& in) {
-  Level out;
-  out.w = (in.w + 1) / 2, out.h = (in.h + 1) / 2;
-  out.value.assign(size_t(out.w) * size_t(out.h) * 4, 0.0f);
-  out.ok.assign(size_t(out.w) * size_t(out.h), 0);
-  for_rows(out.h, out.w, [&](int y) {
-    for (int x = 0; x < out.w; ++x) {
-      float sum[4] = {0, 0, 0, 0};
-      int n = 0;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx) {
-          const int sx = 2 * x + dx, sy = 2 * y + dy;
-          if (sx >= in.w || sy >= in.h) continue;
-          const size_t i = size_t(sy) * size_t(in.w) + size_t(sx);
-          if (!in.ok[i]) continue;
-          for (int c = 0; c < 4; ++c) sum[c] += in.value[i * 4 + size_t(c)];
-          ++n;
-        }
-      if (n == 0) continue;
-      const size_t o = size_t(y) * size_t(out.w) + size_t(x);
-      for (int c = 0; c < 4; ++c) out.value[o * 4 + size_t(c)] = sum[c] / float(n);
-      out.ok[o] = 1;
-    }
+  return pull_level(in.w, in.h, [&](size_t i, float* sum) {
+    if (!in.ok[i]) return false;
+    for (int c = 0; c < 4; ++c) sum[c] += in.value[i * 4 + size_t(c)];
+    return true;
   });
-  return out;
 }
 
 // Every texel of `fine` that is not ok takes its parent's value in `coarse` (all ok).

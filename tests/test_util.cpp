@@ -91,6 +91,33 @@ std::string shared_model(const std::string& rel) {
   return std::string(MESHMUX_SHARED_DIR) + "/models/" + rel;
 }
 
+Scene quads_with_own_textures(int count, int side) {
+  Scene s;
+  Mesh mesh;
+  for (int k = 0; k < count; ++k) {
+    Image img;
+    img.width = img.height = side;
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x)
+        img.rgba.insert(img.rgba.end(), {uint8_t(40 * k), uint8_t(x * 2), uint8_t(y * 2), 255});
+    s.images.push_back(img);
+    Material m;
+    m.base_color.image = k;
+    s.materials.push_back(m);
+    Primitive p;
+    const float x = 2.0f * float(k);
+    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+    p.normals.assign(4, {0, 0, 1});
+    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+    p.indices = {0, 1, 2, 0, 2, 3};
+    p.material = k;
+    mesh.primitives.push_back(p);
+  }
+  s.meshes.push_back(mesh);
+  s.instances.push_back({0, Mat4::identity(), ""});
+  return s;
+}
+
 Primitive uv_sphere(int rings, int segments, float radius, Vec3 centre) {
   Primitive p;
   p.uvs.resize(1);

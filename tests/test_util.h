@@ -83,6 +83,11 @@ bool renderer_available(std::string* why = nullptr);
 // smooth normals: 2·(rings−1)·segments triangles. The case where a careless collapse cracks.
 Primitive uv_sphere(int rings, int segments, float radius = 1, Vec3 centre = {});
 
+// `count` unit quads side by side, quad k sampling all of its own side² texture (red 40·k, green
+// and blue a gradient, so no texture is a palette and no two share texels: an atlas must bake
+// them), each with its own material, one mesh placed once.
+Scene quads_with_own_textures(int count, int side);
+
 // A GoogleTest-safe name for a parameterized test over a shared model path: the model's folder
 // with anything but letters and digits turned into '_' ("Duck-dae/duck.dae" → "Duck_dae").
 std::string model_test_name(const std::string& relative_path);

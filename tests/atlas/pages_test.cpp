@@ -8,44 +8,16 @@
 
 #include "atlas/atlas.h"
 #include "atlas/pack.h"
+#include "test_util.h"
 
 namespace meshmux {
 namespace {
-
-// `count` unit quads side by side, quad k sampling all of its own side² texture (red 40·k,
-// green and blue a gradient, so no texture is a palette and no two share texels).
-Scene quads_with_own_textures(int count, int side) {
-  Scene s;
-  Mesh mesh;
-  for (int k = 0; k < count; ++k) {
-    Image img;
-    img.width = img.height = side;
-    for (int y = 0; y < side; ++y)
-      for (int x = 0; x < side; ++x)
-        img.rgba.insert(img.rgba.end(), {uint8_t(40 * k), uint8_t(x * 2), uint8_t(y * 2), 255});
-    s.images.push_back(img);
-    Material m;
-    m.base_color.image = k;
-    s.materials.push_back(m);
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
-  }
-  s.meshes.push_back(mesh);
-  s.instances.push_back({0, Mat4::identity(), ""});
-  return s;
-}
 
 // Five 100² textures at native density need five 128² cells (100 texels and the gutters): four
 // fill a 256² page, the fifth starts page 1. Before pages, max_size shrank every chart to ~64%
 // of its source's texels (min_density ≈ 0.4) to squeeze all five into one 256².
 TEST(AtlasPages, ChartsPastMaxSizeGoToAFurtherPageAtNativeDensity) {
-  Scene s = quads_with_own_textures(5, 100);
+  Scene s = testing::quads_with_own_textures(5, 100);
   AtlasOptions o;
   o.max_size = 256;
   AtlasReport rep;
@@ -102,7 +74,7 @@ TEST(AtlasPages, ChartsPastMaxSizeGoToAFurtherPageAtNativeDensity) {
 
 // What fits one max_size² atlas stays one page, as before pages.
 TEST(AtlasPages, ChartsThatFitStayOnePage) {
-  Scene s = quads_with_own_textures(4, 100);
+  Scene s = testing::quads_with_own_textures(4, 100);
   AtlasOptions o;
   o.max_size = 256;
   AtlasReport rep;

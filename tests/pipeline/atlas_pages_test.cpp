@@ -13,41 +13,13 @@
 namespace meshmux {
 namespace {
 
-// Five unit quads, each sampling all of its own 100² texture (no two alike, none a palette).
-Scene five_textured_quads() {
-  Scene s;
-  Mesh mesh;
-  for (int k = 0; k < 5; ++k) {
-    Image img;
-    img.width = img.height = 100;
-    for (int y = 0; y < 100; ++y)
-      for (int x = 0; x < 100; ++x)
-        img.rgba.insert(img.rgba.end(), {uint8_t(40 * k), uint8_t(x * 2), uint8_t(y * 2), 255});
-    s.images.push_back(img);
-    Material m;
-    m.base_color.image = k;
-    s.materials.push_back(m);
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
-  }
-  s.meshes.push_back(mesh);
-  s.instances.push_back({0, Mat4::identity(), ""});
-  return s;
-}
-
 // With max_size 256 the five quads at native density need two pages (four 128² cells fill the
 // first): two materials and two draw calls, and every texture step of the package carries the
 // second page's image at that level's scale (the finest: the page whole).
 TEST(ConvertAtlasPages, SecondPageStreamsWithTheLevels) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene s = five_textured_quads();
+  Scene s = testing::quads_with_own_textures(5, 100);
   ConvertOptions o;
   o.atlas_options.max_size = 256;
   Warnings warnings;
