@@ -91,6 +91,16 @@ std::string shared_model(const std::string& rel) {
   return std::string(MESHMUX_SHARED_DIR) + "/models/" + rel;
 }
 
+Primitive unit_quad(float x, int32_t material) {
+  Primitive p;
+  p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+  p.normals.assign(4, {0, 0, 1});
+  p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+  p.indices = {0, 1, 2, 0, 2, 3};
+  p.material = material;
+  return p;
+}
+
 Scene quads_with_own_textures(int count, int side) {
   Scene s;
   Mesh mesh;
@@ -104,14 +114,7 @@ Scene quads_with_own_textures(int count, int side) {
     Material m;
     m.base_color.image = k;
     s.materials.push_back(m);
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
+    mesh.primitives.push_back(unit_quad(2.0f * float(k), k));
   }
   s.meshes.push_back(mesh);
   s.instances.push_back({0, Mat4::identity(), ""});

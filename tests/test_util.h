@@ -83,6 +83,10 @@ bool renderer_available(std::string* why = nullptr);
 // smooth normals: 2·(rings−1)·segments triangles. The case where a careless collapse cracks.
 Primitive uv_sphere(int rings, int segments, float radius = 1, Vec3 centre = {});
 
+// The unit square [x, x + 1] × [0, 1] at z = 0 facing +z, two triangles, its uvs spanning [0, 1]²
+// (glTF's: v down the image), drawn with `material`.
+Primitive unit_quad(float x, int32_t material);
+
 // `count` unit quads side by side, quad k sampling all of its own side² texture (red 40·k, green
 // and blue a gradient, so no texture is a palette and no two share texels: an atlas must bake
 // them), each with its own material, one mesh placed once.

@@ -9,6 +9,7 @@
 
 #include "image/encode.h"
 #include "image/texture_levels.h"
+#include "test_util.h"
 
 namespace meshmux {
 namespace {
@@ -30,14 +31,7 @@ Scene noisy_quads(size_t file_bytes, int side = 128) {
     Material m;
     m.base_color.image = k;
     s.materials.push_back(m);
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
+    mesh.primitives.push_back(testing::unit_quad(2.0f * float(k), k));
   }
   s.meshes.push_back(mesh);
   s.instances.push_back({0, Mat4::identity(), ""});

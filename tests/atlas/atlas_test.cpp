@@ -608,14 +608,7 @@ Scene two_textured_quads(int first, int second) {
   }
   Mesh mesh;
   for (int k = 0; k < 2; ++k) {
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
+    mesh.primitives.push_back(testing::unit_quad(2.0f * float(k), k));
   }
   s.meshes.push_back(mesh);
   s.instances.push_back({0, Mat4::identity(), ""});
@@ -739,14 +732,7 @@ TEST(AtlasBudget, FlatColoursSurviveToTheSmallestLevel) {
   s.materials = {textured, red};
   Mesh mesh;
   for (int k = 0; k < 2; ++k) {
-    Primitive p;
-    const float x = 2.0f * float(k);
-    p.positions = {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-    p.normals.assign(4, {0, 0, 1});
-    p.uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-    p.indices = {0, 1, 2, 0, 2, 3};
-    p.material = k;
-    mesh.primitives.push_back(p);
+    mesh.primitives.push_back(testing::unit_quad(2.0f * float(k), k));
   }
   s.meshes.push_back(mesh);
   s.instances.push_back({0, Mat4::identity(), ""});
