@@ -2,8 +2,9 @@
 // from the C++ headers that define them, so that the web client copies none by hand: every
 // integer `constexpr <type> kName = <expression>;` of the headers given (expressions of integer
 // literals, casts, earlier names, + - * / << >> and parentheses) becomes `export const NAME`
-// (kPackageVersion → PACKAGE_VERSION), and the channel names' array (kChannelNames) becomes
-// CHANNEL_NAMES. Run by CMake at build time (and again when a header changes); deterministic. A
+// (kPackageVersion → PACKAGE_VERSION), a float or double given as a plain literal
+// (`constexpr double kWorldMaxCoordinate = 1e15;`) the same, and the channel names' array
+// (kChannelNames) becomes CHANNEL_NAMES. Run by CMake at build time (and again when a header changes); deterministic. A
 // constant it cannot evaluate is an error, not skipped: the client must not silently lack one.
 // usage: node scripts/format_constants.mjs OUT.js HEADER.h ...
 import fs from 'node:fs';
@@ -39,7 +40,15 @@ for (const header of headers) {
   lines.push(`// ${name}`);
   for (const m of source.matchAll(/^constexpr\s+([\w:]+)\s+(k[A-Z]\w*)\s*=\s*([^;{]+);/gm)) {
     const [, type, constant, expression] = m;
-    if (/float|double|bool/.test(type)) continue;
+    if (/bool/.test(type)) continue;
+    if (/float|double/.test(type)) {
+      // A real constant as a plain literal (1e15, 0.5f) is written as it is; one computed from
+      // others is the C++ side's own business (none the client needs).
+      const literal = expression.trim().replace(/f$/i, '');
+      if (!/^[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$/i.test(literal)) continue;
+      lines.push(`export const ${jsName(constant)} = ${Number(literal)};`);
+      continue;
+    }
     const value = evaluate(expression.trim(), `${name}: ${constant}`);
     values.set(constant, value);
     if (value > BigInt(Number.MAX_SAFE_INTEGER)) throw new Error(`${name}: ${constant} is past 2^53`);

@@ -5,14 +5,15 @@
 // package; what is off screen gains nothing and waits, what is tiny gains little.
 //
 // world.json: its spec is stream/world_format.h (written by `meshmux batch`, read by
-// `meshmux info` with the same rules); the version and limits below are checked against it by
-// tests/stream/format_test.cpp.
+// `meshmux info` with the same rules); its version and limits come from there, generated into
+// stream_format.js at build time (scripts/format_constants.mjs).
 
+import { WORLD_MAX_BYTES, WORLD_MAX_COORDINATE, WORLD_MAX_PACKAGES, WORLD_MAX_PLACEMENTS, WORLD_VERSION } from './stream_format.js';
 import { layerChunks, surface, viewWeights } from './view_plan.js';
 
-export const WORLD_VERSION = 1;
-export const WORLD_LIMITS = { maxBytes: 16 << 20, maxPackages: 10000, maxPlacements: 100000 };
-const MAX_COORDINATE = 1e15;
+export { WORLD_VERSION };
+export const WORLD_LIMITS = Object.freeze({ maxBytes: WORLD_MAX_BYTES, maxPackages: WORLD_MAX_PACKAGES, maxPlacements: WORLD_MAX_PLACEMENTS });
+const MAX_COORDINATE = WORLD_MAX_COORDINATE;
 
 // Whether a URL stays inside the world's folder: no scheme, no leading '/', no '\', no '..'
 // segment (also percent-encoded, any case), no query or fragment, no space or control character.
