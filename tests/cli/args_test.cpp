@@ -33,6 +33,19 @@ TEST(Args, FlagsBelongToTheirCommands) {
   EXPECT_EQ(two.status().message(), "more than one input given ('a.glb' and 'b.glb')");
 }
 
+// A display size is "WxH" whole device pixels (--display, and render's --size): anything else is
+// refused rather than read as far as it goes ("1920" alone, a zero side, a sign, a fraction).
+TEST(Args, SizesAreWholeWidthTimesHeight) {
+  int w = 0, h = 0;
+  EXPECT_TRUE(parse_size("1920x1080", &w, &h));
+  EXPECT_EQ(w, 1920);
+  EXPECT_EQ(h, 1080);
+  for (const char* bad : {"1920", "0x5", "x5", "5x", "+5x5", "5x5.5", "-5x5", "5x9000", "5 x5", ""})
+    EXPECT_FALSE(parse_size(bad, &w, &h)) << bad;
+  EXPECT_TRUE(parse_args(kConvert, {"in", "-o", "out", "--display", "640x360"}).ok());
+  EXPECT_FALSE(parse_args(kServe, {"dir", "--display", "640x360"}).ok());
+}
+
 // One name, two meanings: --max-memory caps a conversion (any positive MB) or, for batch, each
 // of its conversions (at least 64 MB).
 TEST(Args, SameFlagDifferentRangesPerCommand) {
