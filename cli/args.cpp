@@ -257,7 +257,10 @@ std::string convert_flags_text() {
     if (!f.to_convert) continue;
     out += out.empty() ? "" : " ";
     out += f.name;
-    if (f.value != FlagValue::kSwitch) out += " N";
+    if (f.value == FlagValue::kText)
+      out += " WxH";  // --display, the one text flag handed on
+    else if (f.value != FlagValue::kSwitch)
+      out += " N";
   }
   return out;
 }

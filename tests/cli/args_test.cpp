@@ -44,6 +44,7 @@ TEST(Args, SizesAreWholeWidthTimesHeight) {
     EXPECT_FALSE(parse_size(bad, &w, &h)) << bad;
   EXPECT_TRUE(parse_args(kConvert, {"in", "-o", "out", "--display", "640x360"}).ok());
   EXPECT_FALSE(parse_args(kServe, {"dir", "--display", "640x360"}).ok());
+  EXPECT_NE(convert_flags_text().find("--display WxH"), std::string::npos);
 }
 
 // One name, two meanings: --max-memory caps a conversion (any positive MB) or, for batch, each
