@@ -69,6 +69,15 @@ double mean_red(const RenderImage& im) {
   return n ? s / double(n) : 0;
 }
 
+// Lambert lit from the camera alone (no ambient): a surface facing it shows its texels as stored.
+RenderOptions lit_from_camera() {
+  RenderOptions o;
+  o.ambient = 0;
+  o.diffuse = 1;
+  o.light_direction = {0, 0, 1};  // from the camera
+  return o;
+}
+
 Image solid_checker(int size) {  // 1-texel black/white checkerboard
   Image im;
   im.width = im.height = size;
@@ -182,11 +191,7 @@ TEST(Render, HeadOnSquareCoversAnalyticFraction) {
 }
 
 TEST(Render, TextureOrientationMatchesGltf) {
-  RenderOptions o;
-  o.ambient = 0;
-  o.diffuse = 1;
-  o.light_direction = {0, 0, 1};  // from the camera
-  MAKE_RENDERER(r, o);
+  MAKE_RENDERER(r, lit_from_camera());
   Image im;
   im.width = im.height = 2;
   im.rgba = {255, 0, 0,   255, 0,   255, 0,   255,   // top row: red, green
@@ -231,11 +236,7 @@ TEST(Render, TextureOrientationMatchesGltf) {
 // alone (TextureLinearInterpolationTest's labels). The renderer measures the stream's
 // distortion and draws `meshmux render`, so it samples as the viewers do.
 TEST(Render, TextureWrapsAsItsSamplerSays) {
-  RenderOptions o;
-  o.ambient = 0;
-  o.diffuse = 1;
-  o.light_direction = {0, 0, 1};  // from the camera
-  MAKE_RENDERER(r, o);
+  MAKE_RENDERER(r, lit_from_camera());
   Image im;
   im.width = im.height = 2;
   im.rgba = {255, 0, 0,   255, 255, 0, 0,   255,   // top row: red
