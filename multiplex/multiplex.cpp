@@ -302,31 +302,38 @@ struct CellRenders {
     most_renders = double(cameras.size()) * (double(m) * double(n) + 1);
   }
 
-  // Every cell from every view, each mesh layer once for every view and texture level: one
-  // depth pass per view, the passes pipelined (Renderer::render with sets and cameras). The
-  // full mesh goes first, its last level giving the references. The descent then reads the
-  // stored metrics, exactly what rendering cell by cell gives.
-  void render_grid() {
+  // Every cell of the given rows (mesh layers) from every view, each mesh layer once for every
+  // view and texture level: one depth pass per view, the passes pipelined (Renderer::render
+  // with sets and cameras). The full mesh goes first, its last level giving the references;
+  // `after_references` runs then (the rows may be known only by then). The descent then reads
+  // the stored metrics, exactly what rendering cell by cell gives.
+  void render_grid(const std::function<std::vector<int>()>& after_references) {
+    render_row(m - 1);
+    const std::vector<int> rows = after_references();
+    for (auto it = rows.rbegin(); it != rows.rend(); ++it)
+      if (*it != m - 1) render_row(*it);
+  }
+
+  // Mesh layer i with every texture level, from every view (the last layer: the references).
+  void render_row(int i) {
     const size_t V = cameras.size();
     std::vector<TextureSet> sets;
     for (int j = 0; j < n; ++j) sets.push_back(texture_of(j));
-    for (int i = m - 1; i >= 0; --i) {
-      std::vector<RenderImage> images = gl.render(geometry_of(i), sets, cameras);
-      if (i == m - 1) {
-        for (size_t v = 0; v < V; ++v)
-          reference.push_back(std::move(images[v * size_t(n) + size_t(n - 1)]));
-        r.renders += V;
-      }
-      const std::vector<double> metric =
-          distortions(reference, images, size_t(n), i == m - 1 ? n - 1 : -1);
-      for (int j = 0; j < n; ++j) {
-        if (i == m - 1 && j == n - 1) continue;  // the reference itself: distortion 0
-        std::vector<double>& per_view = measured[size_t(i) * size_t(n) + size_t(j)];
-        for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
-        r.renders += V;
-      }
-      report();
+    std::vector<RenderImage> images = gl.render(geometry_of(i), sets, cameras);
+    if (i == m - 1) {
+      for (size_t v = 0; v < V; ++v)
+        reference.push_back(std::move(images[v * size_t(n) + size_t(n - 1)]));
+      r.renders += V;
     }
+    const std::vector<double> metric =
+        distortions(reference, images, size_t(n), i == m - 1 ? n - 1 : -1);
+    for (int j = 0; j < n; ++j) {
+      if (i == m - 1 && j == n - 1) continue;  // the reference itself: distortion 0
+      std::vector<double>& per_view = measured[size_t(i) * size_t(n) + size_t(j)];
+      for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
+      r.renders += V;
+    }
+    report();
   }
 
   // The references alone; the other cells are rendered as the descent asks for them.
@@ -398,9 +405,11 @@ struct CellRenders {
 // Descent and baselines: the steepest descent over the grid (the order the stream ships), the
 // fixed orders it is compared with, and where a choice exists on a small grid, every cell for
 // the per-view table. The grid's row i is mesh layer rows[i] of the renders (the completion's
-// row draws the full mesh); r.mesh_bytes has one entry per row. Fills r's rd, the baselines'
-// paths, the view table and the cell counts.
-void descend(CellRenders& cells, const std::vector<int>& rows, MultiplexResult& r) {
+// row draws the full mesh); r.mesh_bytes has one entry per row. Fills r's rd, and unless
+// `descent_only` (a descent that only places the completion), the baselines' paths, the view
+// table and the cell counts.
+void descend(CellRenders& cells, const std::vector<int>& rows, MultiplexResult& r,
+             bool descent_only = false) {
   const int m = int(rows.size()), n = cells.n;
   r.view_table.mesh_layers = m;
   r.view_table.texture_layers = n;
@@ -414,6 +423,7 @@ void descend(CellRenders& cells, const std::vector<int>& rows, MultiplexResult& 
   };
   RdCache cache(grid);
   r.rd = steepest_descent(cache);
+  if (descent_only) return;
   r.cells_descent = cache.evaluated();
   r.mesh_first = mesh_first(cache);
   r.texture_first = texture_first(cache);
@@ -434,72 +444,94 @@ uint64_t table_estimate(size_t chunks, size_t views, size_t cells) {
          4 * uint64_t(views) * std::min(cells, kViewTableMaxCells);
 }
 
-// The completion step (stream/format.h "Completion"), planned on the descent over every split
-// (r.rd): when the package with every mesh layer would be over bound.max_bytes, the chain of
-// splits ends after layer k and the completion (every mesh not yet full at k, single-rate)
-// follows. k is the latest layer that keeps the bound, or earlier where the descent's next mesh
-// step has a shallower slope than the completion would from the same state (distortion drop per
-// byte: D(i, j) − D(i + 1, j) over the layer's bytes against D(i, j) − D(full, j) over the
-// completion's; `cell` gives D over the renders' layers). Where no layer keeps the bound, the
-// smaller package of the two. Rewrites r's layer vectors (layers k + 1 … m − 2 dropped, the last
-// layer the completion), its stream digests, completion and report; returns the grid's rows as
-// mesh layers of the renders (the completion's row is the full mesh, m − 1), or every layer
-// when there is no completion.
-Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers,
-                                         const PackageBound& bound,
-                                         const std::vector<std::vector<uint32_t>>& layer_digests,
-                                         const std::function<double(int, int)>& cell,
-                                         MultiplexResult& r) {
+// The completion step (stream/format.h "Completion") by bytes alone, known once the mesh layers
+// are encoded and before any cell but the references is rendered: when the package with every
+// mesh layer would be over bound.max_bytes, the chain of splits ends after layer k and the
+// completion (every mesh not yet full at k, single-rate) follows; k is the latest layer that
+// keeps the bound (where none does, the base, if that makes the package smaller). Fills r's
+// completion report's chain figures and, where unused, why not.
+struct CompletionCut {
+  bool used = false;
+  size_t k = 0;                        // the chain of splits ends after layer k
+  std::vector<uint32_t> refined;       // meshes the chain refines past the base
+  std::vector<CompletionMesh> meshes;  // their completions, in that order
+  uint64_t fixed = 0, textures = 0;    // the package's bytes besides mesh chunks and table
+  std::vector<uint64_t> chain;         // splits up to layer k
+  size_t texture_levels = 0;           // n
+  size_t views = 0;
+  // The completion's bytes after layer k (its meshes not yet full there).
+  uint64_t completion_bytes(const std::vector<LodSelection>& layers, size_t k) const {
+    uint64_t b = 0;
+    for (size_t c = 0; c < refined.size(); ++c)
+      if (layers[k].level[refined[c]] < layers.back().level[refined[c]]) b += meshes[c].data.size();
+    return b;
+  }
+  // The package as planned with the completion after layer k (header and table estimated).
+  uint64_t planned(const std::vector<LodSelection>& layers, size_t k) const {
+    return fixed + textures + chain[k] + completion_bytes(layers, k) +
+           table_estimate(k + 1 + texture_levels - 1, views, (k + 2) * texture_levels);
+  }
+};
+
+Result<CompletionCut> cut_completion(const std::vector<LodSelection>& layers,
+                                     const PackageBound& bound, MultiplexResult& r) {
+  CompletionCut cut;
   const size_t m = layers.size(), n = r.texture_bytes.size();
-  std::vector<int> rows(m, 0);
-  for (size_t i = 0; i < m; ++i) rows[i] = int(i);
-  if (m < 3 || !bound.fixed_bytes || !bound.completion) return rows;
+  if (m < 3 || !bound.fixed_bytes || !bound.completion) return cut;
   auto fixed = bound.fixed_bytes(r.mesh_streams);
   if (!fixed.ok()) return fixed.status().with_prefix("multiplex: completion");
-  uint64_t textures = 0;
-  for (size_t j = 1; j < n; ++j) textures += r.texture_bytes[j];
-  std::vector<uint64_t> chain(m, 0);  // splits up to layer k
-  for (size_t k = 1; k < m; ++k) chain[k] = chain[k - 1] + r.mesh_bytes[k];
+  cut.fixed = *fixed;
+  cut.texture_levels = n;
+  cut.views = r.views;
+  for (size_t j = 1; j < n; ++j) cut.textures += r.texture_bytes[j];
+  cut.chain.assign(m, 0);
+  for (size_t k = 1; k < m; ++k) cut.chain[k] = cut.chain[k - 1] + r.mesh_bytes[k];
   const uint64_t whole =
-      *fixed + textures + chain[m - 1] + table_estimate(m - 1 + n - 1, r.views, m * n);
+      cut.fixed + cut.textures + cut.chain[m - 1] + table_estimate(m - 1 + n - 1, r.views, m * n);
   CompletionReport& cr = r.completion_report;
   cr.chain_layers = m;
   cr.chain_bytes = whole;
-  if (whole <= bound.max_bytes) return rows;
-  std::vector<uint32_t> refined;  // meshes the chain refines past the base
+  if (whole <= bound.max_bytes) return cut;
   for (size_t i = 0; i < layers[0].level.size(); ++i)
-    if (layers[0].level[i] < layers[m - 1].level[i]) refined.push_back(uint32_t(i));
-  auto meshes = bound.completion(refined);
+    if (layers[0].level[i] < layers[m - 1].level[i]) cut.refined.push_back(uint32_t(i));
+  auto meshes = bound.completion(cut.refined);
   if (!meshes.ok()) return meshes.status().with_prefix("multiplex: completion");
-  if (meshes->size() != refined.size())
+  if (meshes->size() != cut.refined.size())
     return Status::error("multiplex: completion: one bitstream per mesh expected",
                          ErrorKind::kInternal);
-  auto not_full = [&](size_t k, size_t c) {
-    return layers[k].level[refined[c]] < layers[m - 1].level[refined[c]];
-  };
-  auto completion_bytes = [&](size_t k) {  // the completion after layer k
-    uint64_t b = 0;
-    for (size_t c = 0; c < refined.size(); ++c)
-      if (not_full(k, c)) b += (*meshes)[c].data.size();
-    return b;
-  };
-  auto planned = [&](size_t k) {
-    return *fixed + textures + chain[k] + completion_bytes(k) +
-           table_estimate(k + 1 + n - 1, r.views, (k + 2) * n);
-  };
+  cut.meshes = meshes.take();
   size_t k = m;  // none yet
   for (size_t c = m - 1; c-- > 0;)
-    if (planned(c) <= bound.max_bytes) {
+    if (cut.planned(layers, c) <= bound.max_bytes) {
       k = c, cr.why = "bound";
       break;
     }
   if (k == m) {  // no layer keeps the bound: the smaller package
-    if (planned(0) >= whole) {
+    if (cut.planned(layers, 0) >= whole) {
       cr.why = "over the bound, and no smaller with it";
-      return rows;
+      return cut;
     }
     k = 0, cr.why = "bound";
   }
+  cut.used = true;
+  cut.k = k;
+  return cut;
+}
+
+// The completion placed (after cut_completion found it needed): at the cut's layer k, or
+// earlier where the descent over every split (r.rd) takes a mesh step whose slope the
+// completion beats from the same state (distortion drop per byte: D(i, j) − D(i + 1, j) over
+// the layer's bytes against D(i, j) − D(full, j) over the completion's; `cell` gives D over the
+// renders' layers). Rewrites r's layer vectors (layers k + 1 … m − 2 dropped, the last layer the
+// completion), its stream digests, completion and report; returns the grid's rows as mesh
+// layers of the renders (the completion's row is the full mesh, m − 1).
+std::vector<int> place_completion(const std::vector<LodSelection>& layers, CompletionCut& cut,
+                                  const std::vector<std::vector<uint32_t>>& layer_digests,
+                                  const std::function<double(int, int)>& cell,
+                                  MultiplexResult& r) {
+  const size_t m = layers.size();
+  CompletionReport& cr = r.completion_report;
+  size_t k = cut.k;
   // The descent's mesh steps before k: the first whose slope the completion beats.
   for (size_t s = 1; s < r.rd.cells.size(); ++s) {
     const auto [i0, j0] = r.rd.cells[s - 1];
@@ -509,7 +541,8 @@ Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers
     const double step =
         (here - r.rd.distortion[s]) / double(std::max<uint64_t>(1, r.mesh_bytes[size_t(i1)]));
     const double full = cell(int(m - 1), j0);
-    const double jump = (here - full) / double(std::max<uint64_t>(1, completion_bytes(size_t(i0))));
+    const double jump = (here - full) / double(std::max<uint64_t>(
+                                            1, cut.completion_bytes(layers, size_t(i0))));
     if (jump > step) {
       k = size_t(i0), cr.why = "slope";
       break;
@@ -517,13 +550,13 @@ Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers
   }
   cr.used = true;
   cr.after_layer = k;
-  cr.bytes = completion_bytes(k);
-  cr.tail_bytes = chain[m - 1] - chain[k];
-  cr.planned_bytes = planned(k);
+  cr.bytes = cut.completion_bytes(layers, k);
+  cr.tail_bytes = cut.chain[m - 1] - cut.chain[k];
+  cr.planned_bytes = cut.planned(layers, k);
   std::vector<uint8_t> payload;
-  for (size_t c = 0; c < refined.size(); ++c)
-    if (not_full(k, c)) {
-      CompletionMesh& cm = (*meshes)[c];
+  for (size_t c = 0; c < cut.refined.size(); ++c)
+    if (layers[k].level[cut.refined[c]] < layers[m - 1].level[cut.refined[c]]) {
+      CompletionMesh& cm = cut.meshes[c];
       payload.insert(payload.end(), cm.data.begin(), cm.data.end());
       r.completion.push_back(std::move(cm));
     }
@@ -540,7 +573,8 @@ Result<std::vector<int>> plan_completion(const std::vector<LodSelection>& layers
   r.layer_triangles.push_back(full_triangles);
   r.layer_levels.push_back(full_levels);
   r.stream_digests = layer_digests[k];
-  rows.resize(k + 1);
+  std::vector<int> rows;
+  for (size_t i = 0; i <= k; ++i) rows.push_back(int(i));
   rows.push_back(int(m - 1));
   return rows;
 }
@@ -589,30 +623,48 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   if (Status s = cells.upload_textures(textures); !s) return s;
   ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
   cells.place_cameras(sphere, full, render, o.views);
-  if (m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells)
-    cells.render_grid();
-  else
+  // Once the layers are encoded, the completion's cut by bytes: the rows past it (but the full
+  // mesh's) are never shipped, so only the descent over every split visits them, lazily.
+  CompletionCut cut;
+  auto encode_and_cut = [&]() -> Status {
+    encoder.wait();
+    if (!encoded) return encoded;
+    if (!bound || bound->max_bytes == 0) return Status::ok();
+    auto c = cut_completion(layers, *bound, r);
+    if (!c.ok()) return c.status();
+    cut = c.take();
+    return Status::ok();
+  };
+  std::vector<int> rows(static_cast<size_t>(m), 0);
+  for (int i = 0; i < m; ++i) rows[size_t(i)] = i;
+  Status encoded_and_cut;
+  if (m == 1 || n == 1 || size_t(m) * size_t(n) <= kViewTableMaxCells) {
+    cells.render_grid([&] {
+      encoded_and_cut = encode_and_cut();
+      if (!encoded_and_cut || !cut.used) return rows;
+      std::vector<int> kept(rows.begin(), rows.begin() + std::ptrdiff_t(cut.k) + 1);
+      kept.push_back(m - 1);
+      return kept;
+    });
+  } else {
     cells.render_references();
+    encoded_and_cut = encode_and_cut();
+  }
+  if (!encoded_and_cut) return encoded_and_cut;
   cells.measure_blank_frames();
   r.view_table.directions = sphere.directions;
   r.view_table.triangles = sphere.triangles;
 
-  encoder.wait();
-  if (!encoded) return encoded;
-  std::vector<int> rows(static_cast<size_t>(m), 0);
-  for (int i = 0; i < m; ++i) rows[size_t(i)] = i;
-  descend(cells, rows, r);  // over every split
-  if (bound && bound->max_bytes > 0) {
+  if (!cut.used) {
+    descend(cells, rows, r);
+  } else {
+    // The descent over every split places the completion; then the order with it, and what it
+    // cost against the chain's (the same views; a cell is measured once, whichever grid asks).
+    descend(cells, rows, r, /*descent_only=*/true);
+    r.completion_report.chain_area = area_under(r.rd);
     auto cell = [&](int i, int j) { return cells.distortion(i, j, nullptr); };
-    auto planned = plan_completion(layers, *bound, layer_digests, cell, r);
-    if (!planned.ok()) return planned.status();
-    if (r.completion_report.used) {
-      // The order with the completion, and what it cost against the chain's (the same views;
-      // its cells are measured once, whichever grid asks).
-      r.completion_report.chain_area = area_under(r.rd);
-      descend(cells, *planned, r);
-      r.completion_report.area = area_under(r.rd);
-    }
+    descend(cells, place_completion(layers, cut, layer_digests, cell, r), r);
+    r.completion_report.area = area_under(r.rd);
   }
   r.seconds_render = since(render_start);
   r.seconds_total = since(start);

@@ -294,6 +294,45 @@ TEST(Convert, PackageOverItsBoundEndsInTheCompletion) {
   EXPECT_EQ(top, 16383.0f);  // the grid spans the mesh's longest side
 }
 
+// The completion's cut is known by bytes before the renders: the mesh layers past it never ship,
+// so only the descent over every split (which places the completion and gives the area it cost)
+// visits them, lazily; the rows that ship are rendered whole for the per-view table. The sphere
+// above, textured (a grid needs texture levels for the descent to leave rows unvisited): fewer
+// images than the chain's every row, and past the cut at most the descent's path.
+TEST(Convert, CompletionRendersOnlyTheRowsItKeeps) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene = sphere_scene();
+  Image img;
+  img.width = img.height = 512;
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x)
+      img.rgba.insert(img.rgba.end(), {uint8_t(x), uint8_t(y), uint8_t((x ^ y) * 7), 255});
+  scene.images.push_back(img);
+  scene.materials.emplace_back();
+  scene.materials[0].base_color.image = 0;
+  scene.meshes[0].primitives[0].material = 0;
+  ConvertOptions o;
+  o.max_package_ratio = 1.1;
+  Warnings warnings;
+  auto bounded = convert(scene, o, &warnings, nullptr);
+  o.max_package_ratio = 0;
+  auto chain = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(bounded.ok()) << bounded.status().message();
+  ASSERT_TRUE(chain.ok()) << chain.status().message();
+  const auto b = nlohmann::json::parse(bounded->report_json);
+  const auto c = nlohmann::json::parse(chain->report_json);
+  ASSERT_TRUE(b["completion"]["used"].get<bool>());
+  const size_t views = b["views"].get<size_t>();
+  const size_t rows = b["completion"]["chain_layers"].get<size_t>();
+  const size_t kept = b["completion"]["after_layer"].get<size_t>() + 2;  // and the full mesh
+  const size_t levels = b["texture_level_bytes"].size();  // one (of 0 bytes) untextured
+  ASSERT_EQ(c["renders"].get<size_t>(), views * (rows * levels));  // every cell, references in
+  // The kept rows whole, and past them at most the descent's path (one cell per row and level).
+  EXPECT_LE(b["renders"].get<size_t>(), views * (kept * levels + (rows - kept) + levels));
+  EXPECT_LT(b["renders"].get<size_t>(), c["renders"].get<size_t>());
+}
+
 // The package's bound caps the base: the full mesh single-rate right after the base is the least a
 // package holds, so where even that is over the bound (here 1.02× model.glb, with a stopping
 // error so small that the base is a few thousand triangles of the sphere: a CAD part's seams or a
