@@ -527,8 +527,7 @@ Result<CompletionCut> cut_completion(const std::vector<LodSelection>& layers,
 // layers of the renders (the completion's row is the full mesh, m − 1).
 std::vector<int> place_completion(const std::vector<LodSelection>& layers, CompletionCut& cut,
                                   const std::vector<std::vector<uint32_t>>& layer_digests,
-                                  const std::function<double(int, int)>& cell,
-                                  MultiplexResult& r) {
+                                  const std::function<double(int, int)>& cell, MultiplexResult& r) {
   const size_t m = layers.size();
   CompletionReport& cr = r.completion_report;
   size_t k = cut.k;
@@ -541,8 +540,8 @@ std::vector<int> place_completion(const std::vector<LodSelection>& layers, Compl
     const double step =
         (here - r.rd.distortion[s]) / double(std::max<uint64_t>(1, r.mesh_bytes[size_t(i1)]));
     const double full = cell(int(m - 1), j0);
-    const double jump = (here - full) / double(std::max<uint64_t>(
-                                            1, cut.completion_bytes(layers, size_t(i0))));
+    const double jump =
+        (here - full) / double(std::max<uint64_t>(1, cut.completion_bytes(layers, size_t(i0))));
     if (jump > step) {
       k = size_t(i0), cr.why = "slope";
       break;

@@ -326,7 +326,7 @@ TEST(Convert, CompletionRendersOnlyTheRowsItKeeps) {
   const size_t views = b["views"].get<size_t>();
   const size_t rows = b["completion"]["chain_layers"].get<size_t>();
   const size_t kept = b["completion"]["after_layer"].get<size_t>() + 2;  // and the full mesh
-  const size_t levels = b["texture_level_bytes"].size();  // one (of 0 bytes) untextured
+  const size_t levels = b["texture_level_bytes"].size();           // one (of 0 bytes) untextured
   ASSERT_EQ(c["renders"].get<size_t>(), views * (rows * levels));  // every cell, references in
   // The kept rows whole, and past them at most the descent's path (one cell per row and level).
   EXPECT_LE(b["renders"].get<size_t>(), views * (kept * levels + (rows - kept) + levels));
