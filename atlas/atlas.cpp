@@ -539,7 +539,7 @@ Result<Scene> build_atlas(const Scene& scene, const AtlasOptions& o, AtlasReport
     out = atlased.take();
   }
   const size_t atlas_images = rest ? out.images.size() : 0;
-  append_scene(out, split.kept);
+  append_scene(out, std::move(split.kept));
   out.lines = scene.lines;
   if (rest) baked_images(rep, atlas_images);
   rep.built = true;

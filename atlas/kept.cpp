@@ -136,11 +136,12 @@ KeptSplit split_kept(const Scene& scene, const std::vector<KeptReason>& kept) {
   return out;
 }
 
-void append_scene(Scene& out, const Scene& extra) {
+void append_scene(Scene& out, Scene extra) {
   const int32_t image_base = int32_t(out.images.size());
   const int32_t material_base = int32_t(out.materials.size());
   const uint32_t mesh_base = uint32_t(out.meshes.size());
-  out.images.insert(out.images.end(), extra.images.begin(), extra.images.end());
+  out.images.insert(out.images.end(), std::make_move_iterator(extra.images.begin()),
+                    std::make_move_iterator(extra.images.end()));
   for (Material m : extra.materials) {
     for (TextureRef* ref : texture_refs(m))
       if (ref->present()) ref->image += image_base;

@@ -53,7 +53,8 @@ KeptSplit split_kept(const Scene& scene, const std::vector<KeptReason>& kept);
 size_t encode_kept_images(Scene& scene, size_t kept_materials, int quality,
                           EncodeCounts* counts = nullptr);
 
-// Appends `extra`'s images, materials, meshes and instances to `out`, indices shifted.
-void append_scene(Scene& out, const Scene& extra);
+// Appends `extra`'s images, materials, meshes and instances to `out`, indices shifted (by value:
+// a caller done with `extra` moves it in, and its images move across uncopied).
+void append_scene(Scene& out, Scene extra);
 
 }  // namespace meshmux

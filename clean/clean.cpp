@@ -256,11 +256,11 @@ void sanitize(Primitive& p) {
 
 }  // namespace
 
-Scene clean(const Scene& in, const CleanOptions& o, CleanReport* report) {
+Scene clean(Scene in, const CleanOptions& o, CleanReport* report) {
   CleanReport r;
   Scene out;
   out.materials = in.materials;
-  out.images = in.images;
+  out.images = std::move(in.images);
   out.lines = in.lines;
   out.source = in.source;
   std::vector<int32_t> mesh_map(in.meshes.size(), -1);

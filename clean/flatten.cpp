@@ -10,8 +10,8 @@ namespace {
 // Flattens the instances for which `take` is true into world space: one mesh per (material,
 // vertex layout), each one primitive with one identity instance (so every part stays a
 // streamable submesh); the other instances keep their meshes, renumbered after them.
-Scene flatten_where(const Scene& in, const std::vector<char>& take) {
-  Scene out = empty_like(in);
+// `out` comes in holding what the scene keeps besides geometry (materials, images...).
+Scene flatten_where(const Scene& in, const std::vector<char>& take, Scene out) {
   std::vector<Primitive> parts;
   std::map<std::tuple<int32_t, bool, size_t, bool, bool>, size_t> slot;
   for (size_t ii = 0; ii < in.instances.size(); ++ii) {
@@ -68,8 +68,21 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take) {
 
 }  // namespace
 
-Scene flatten(const Scene& in) {
-  return flatten_where(in, std::vector<char>(in.instances.size(), 1));
+Scene flatten(Scene in) {
+  std::vector<Image> images = std::move(in.images);
+  in.images.clear();
+  Scene out = flatten_where(in, std::vector<char>(in.instances.size(), 1), empty_like(in));
+  out.images = std::move(images);
+  return out;
+}
+
+Scene flatten_geometry(const Scene& in) {
+  Scene shell;
+  shell.materials = in.materials;
+  shell.lines = in.lines;
+  shell.source = in.source;
+  shell.normalization_scale = in.normalization_scale;
+  return flatten_where(in, std::vector<char>(in.instances.size(), 1), std::move(shell));
 }
 
 double instances_per_submesh(const Scene& scene) {

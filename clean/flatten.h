@@ -10,7 +10,10 @@
 
 namespace meshmux {
 
-Scene flatten(const Scene& scene);
+// By value: a caller done with the scene moves it in, and its images move across uncopied.
+Scene flatten(Scene scene);
+// As flatten, without the images (left empty): for a stage that reads only the geometry.
+Scene flatten_geometry(const Scene& scene);
 
 // Instances per used submesh (Azim et al.'s IPS): instances / meshes with at least one instance.
 double instances_per_submesh(const Scene& scene);

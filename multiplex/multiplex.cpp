@@ -294,7 +294,7 @@ struct CellRenders {
   // One camera per direction of the viewing sphere, each framing the full detail.
   void place_cameras(const ViewingSphere& sphere, const LodSelection& full,
                      const RenderOptions& render, const ViewOptions& views) {
-    Bounds box = scene_bounds(materialize(ps, full));
+    Bounds box = scene_bounds(materialize(ps, full, false, /*with_images=*/false));
     r.bounds = box;
     float aspect = float(render.width) / float(std::max(1, render.height));
     for (Vec3 d : sphere.directions) cameras.push_back(camera_for(d, box, aspect, views));
@@ -379,7 +379,8 @@ struct CellRenders {
   int geometry_of(int i) {
     if (geometry[size_t(i)] < 0)
       geometry[size_t(i)] =
-          gl.add_geometry(materialize(ps, layers[size_t(i)]), false, streamed_material);
+          gl.add_geometry(materialize(ps, layers[size_t(i)], false, /*with_images=*/false),
+                          false, streamed_material);
     return geometry[size_t(i)];
   }
   // Texture level j's maps (an empty set without textures).

@@ -41,9 +41,9 @@ std::string format(const char* fmt, ...) {
 }
 
 // 1. Clean (Terrace et al. §4.1).
-Scene clean_step(const Scene& scene, const ConvertOptions& o, Progress* progress) {
+Scene clean_step(Scene scene, const ConvertOptions& o, Progress* progress) {
   CleanReport r;
-  Scene out = clean(scene, o.clean, &r);
+  Scene out = clean(std::move(scene), o.clean, &r);
   report_step(progress,
               format("cleaned: %llu unique triangles (%llu degenerate, %llu duplicate removed), "
                      "%llu vertices",
@@ -133,7 +133,7 @@ Result<Scene> atlas_step(Scene scene, const ConvertOptions& o, Warnings* warning
                                    "%.0f kB smaller",
                                    double(saved) / 1e3));
   if (should_flatten(out, o.simplify.flatten_below_ips)) {
-    out = flatten(out);
+    out = flatten(std::move(out));
     report_step(progress, format("flattened (fewer than %.2f instances per submesh): one mesh",
                                  o.simplify.flatten_below_ips));
   }
@@ -580,7 +580,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   ConvertOutputs out;
   out.input = compute_stats(input);
   // 1. Clean; the input is not read again.
-  Scene scene = clean_step(input, o, progress);
+  Scene scene = clean_step(std::move(input), o, progress);
   input = Scene{};
   // 2. Atlas (and the flattening decision).
   int32_t streamed_material = -1;

@@ -212,10 +212,11 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
   return s;
 }
 
-Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix) {
+Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix,
+                  bool with_images) {
   Scene out;
   out.materials = ps.scene.materials;
-  out.images = ps.scene.images;
+  if (with_images) out.images = ps.scene.images;
   out.lines = ps.scene.lines;
   out.source = ps.scene.source;
   out.normalization_scale = ps.scene.normalization_scale;

@@ -51,7 +51,9 @@ LodSelection select_error(const ProgressiveScene& ps, float error);
 
 // A plain Scene for a selection: extracted meshes, instances (thinned ones scaled up about their
 // centres to preserve area), materials and images as in ps.scene.
-// `keep_prefix` as in extract_level.
-Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix = false);
+// `keep_prefix` as in extract_level. Without `with_images` the images are left out (geometry
+// drawn without its textures, or a box: a scene's decoded images are its largest part).
+Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix = false,
+                  bool with_images = true);
 
 }  // namespace meshmux

@@ -1315,9 +1315,10 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   r.instances_per_submesh = instances_per_submesh(cleaned);
   ProgressiveScene ps;
   ps.flattened = should_flatten(cleaned, options.flatten_below_ips);
-  const Scene flat = ps.flattened ? flatten(cleaned) : Scene{};
+  const Scene flat = ps.flattened ? flatten_geometry(cleaned) : Scene{};
   const Scene& scene = ps.flattened ? flat : cleaned;  // the geometry the record is made from
   ps.scene = without_vertex_data(scene);
+  if (ps.flattened) ps.scene.images = cleaned.images;  // flatten_geometry left them out
   r.flattened = ps.flattened;
   double norm = scene.normalization_scale > 0 ? scene.normalization_scale : 1.0;
   Mat4 normalize_m = Mat4::scale(norm, norm, norm);
