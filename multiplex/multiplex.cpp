@@ -250,45 +250,69 @@ struct CellRenders {
   }
 
   // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
-  // them, one map at a time. A level's kept images are the last map of each at that level or
-  // below (a level carries one only where its size changes).
+  // them: decoded a few at a time on every core (one per thread, so the decoded texels of at
+  // most that many maps are held besides the renderer's), uploaded one by one in level order.
+  // A level's kept images are the last map of each at that level or below (a level carries one
+  // only where its size changes).
   Status upload_textures(const std::vector<std::vector<LevelMap>>& textures) {
     texture.resize(textures.size());
+    std::vector<std::pair<size_t, const LevelMap*>> maps;  // (level, map) in level order
+    for (size_t j = 0; j < textures.size(); ++j)
+      for (const LevelMap& map : textures[j]) maps.push_back({j, &map});
     std::map<int32_t, int> kept;  // kept image → its handle so far
-    for (size_t j = 0; j < textures.size(); ++j) {
-      for (const LevelMap& map : textures[j]) {
-        Image image;
-        image.name = map.name;
-        image.encoded = *map.encoded;
-        image.mime_type = map.mime_type;
-        if (Status s = decode_image(image); !s) return s.with_prefix("multiplex");
-        if (map.image >= 0) {
-          const Sampler smp = sampler_of(map.image);
-          kept[map.image] =
-              gl.add_texture(image, kept_image_filter(ps.scene, map.image) == TexelFilter::kSrgb,
-                             smp.wrap_s, smp.wrap_t);
-          continue;
+    const size_t batch = size_t(std::max(1, worker_threads()));
+    size_t level = 0;  // the level whose kept images are assigned next
+    for (size_t begin = 0; begin < maps.size(); begin += batch) {
+      const size_t end = std::min(maps.size(), begin + batch);
+      std::vector<Image> images(end - begin);
+      std::vector<Status> status(end - begin);
+      parallel_chunks(end - begin, 1, [&](size_t b, size_t e) {
+        for (size_t k = b; k < e; ++k) {
+          const LevelMap& map = *maps[begin + k].second;
+          images[k].name = map.name;
+          images[k].encoded = *map.encoded;
+          images[k].mime_type = map.mime_type;
+          status[k] = decode_image(images[k]);
         }
-        // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
-        struct Slot {
-          int TextureSet::*field;
-          bool srgb;
-        };
-        static constexpr Slot kSlots[] = {{&TextureSet::base_color, true},
-                                          {&TextureSet::normal, false},
-                                          {&TextureSet::orm, false},
-                                          {&TextureSet::emissive, true},
-                                          {&TextureSet::sheen, true}};
-        static_assert(std::size(kSlots) == kChannelNames.size());
-        if (std::optional<Channel> c = parse_channel(map.channel)) {
-          const Slot& slot = kSlots[size_t(*c)];
-          const Sampler smp = atlas_sampler();
-          texture[j].*slot.field = gl.add_texture(image, slot.srgb, smp.wrap_s, smp.wrap_t);
-        }
+      });
+      for (size_t k = begin; k < end; ++k) {
+        const auto [j, map] = maps[k];
+        for (; level < j; ++level) texture[level].kept.assign(kept.begin(), kept.end());
+        if (!status[k - begin]) return status[k - begin].with_prefix("multiplex");
+        upload_map(*map, images[k - begin], texture[j], kept);
+        images[k - begin] = Image{};
       }
-      texture[j].kept.assign(kept.begin(), kept.end());
     }
+    for (; level < textures.size(); ++level) texture[level].kept.assign(kept.begin(), kept.end());
     return Status::ok();
+  }
+
+  // One decoded map uploaded: a kept image's handle into `kept`, a channel's into its slot.
+  void upload_map(const LevelMap& map, const Image& image, TextureSet& set,
+                  std::map<int32_t, int>& kept) {
+    if (map.image >= 0) {
+      const Sampler smp = sampler_of(map.image);
+      kept[map.image] =
+          gl.add_texture(image, kept_image_filter(ps.scene, map.image) == TexelFilter::kSrgb,
+                         smp.wrap_s, smp.wrap_t);
+      return;
+    }
+    // Each channel's slot in the set and whether its texels are sRGB colour, by Channel.
+    struct Slot {
+      int TextureSet::*field;
+      bool srgb;
+    };
+    static constexpr Slot kSlots[] = {{&TextureSet::base_color, true},
+                                      {&TextureSet::normal, false},
+                                      {&TextureSet::orm, false},
+                                      {&TextureSet::emissive, true},
+                                      {&TextureSet::sheen, true}};
+    static_assert(std::size(kSlots) == kChannelNames.size());
+    if (std::optional<Channel> c = parse_channel(map.channel)) {
+      const Slot& slot = kSlots[size_t(*c)];
+      const Sampler smp = atlas_sampler();
+      set.*slot.field = gl.add_texture(image, slot.srgb, smp.wrap_s, smp.wrap_t);
+    }
   }
 
   // One camera per direction of the viewing sphere, each framing the full detail.
@@ -379,8 +403,8 @@ struct CellRenders {
   int geometry_of(int i) {
     if (geometry[size_t(i)] < 0)
       geometry[size_t(i)] =
-          gl.add_geometry(materialize(ps, layers[size_t(i)], false, /*with_images=*/false),
-                          false, streamed_material);
+          gl.add_geometry(materialize(ps, layers[size_t(i)], false, /*with_images=*/false), false,
+                          streamed_material);
     return geometry[size_t(i)];
   }
   // Texture level j's maps (an empty set without textures).

@@ -250,7 +250,29 @@ Result<TextureLevels> texture_step(Scene& scene, int32_t streamed_material, cons
 // The scene at `sel` showing texture level `level` (when there are levels).
 Scene level_scene(const ProgressiveScene& ps, const LodSelection& sel, const TextureLevels& levels,
                   size_t level, bool keep_prefix) {
-  Scene s = materialize(ps, sel, keep_prefix);
+  // The images the level replaces are not copied (a 4096² atlas's four channels are 256 MB,
+  // and the base's bytes bound asks for a dozen such scenes): every image comes as its header
+  // (name, type, size), then those the level keeps are filled in.
+  Scene s = materialize(ps, sel, keep_prefix, /*with_images=*/false);
+  s.images.resize(ps.scene.images.size());
+  for (size_t i = 0; i < s.images.size(); ++i) {
+    const Image& from = ps.scene.images[i];
+    s.images[i].name = from.name, s.images[i].mime_type = from.mime_type;
+    s.images[i].width = from.width, s.images[i].height = from.height;
+  }
+  std::vector<char> replaced(s.images.size(), 0);
+  if (Image* texture = stream_texture(s, levels.material);
+      texture && level < levels.levels.size()) {
+    replaced[size_t(texture - s.images.data())] = 1;
+    const std::vector<SceneChannel> sc = scene_channels(s, levels.material);
+    for (size_t c = 0; c < sc.size() && c < levels.levels[level].other_maps.size(); ++c)
+      replaced[size_t(sc[c].image)] = 1;
+  }
+  for (size_t j = 0; j <= level && j < levels.levels.size(); ++j)
+    for (const KeptMap& map : levels.levels[j].kept)
+      if (map.image >= 0 && size_t(map.image) < replaced.size()) replaced[size_t(map.image)] = 1;
+  for (size_t i = 0; i < s.images.size(); ++i)
+    if (!replaced[i]) s.images[i] = ps.scene.images[i];
   Image* texture = stream_texture(s, levels.material);
   if (texture && level < levels.levels.size()) {
     const TextureLevel& l = levels.levels[level];
