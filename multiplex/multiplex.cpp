@@ -225,7 +225,27 @@ struct CellRenders {
         m(int(selections.size())),
         n(int(result.texture_bytes.size())),
         geometry(size_t(m), -1),
-        measured(size_t(m) * size_t(n)) {}
+        measured(size_t(m) * size_t(n)),
+        drawn(selections) {
+    for (int i = 0; i < m; ++i) same.push_back(i);
+  }
+
+  // Renders on a cut (MultiplexOptions::cut_renders_above): each layer is drawn no finer than
+  // `cut` (per mesh the coarser of the two levels), where the finer levels' detail is below a
+  // pixel of every view; layers that draw the same selection share their renders and values
+  // (the cells of layer i are those of same[i]).
+  void draw_no_finer_than(const LodSelection& cut) {
+    for (int i = 0; i < m; ++i) {
+      LodSelection& d = drawn[size_t(i)];
+      for (size_t k = 0; k < d.level.size(); ++k) d.level[k] = std::min(d.level[k], cut.level[k]);
+      same[size_t(i)] = i;
+      for (int e = 0; e < i; ++e)
+        if (drawn[size_t(e)].level == d.level && drawn[size_t(e)].instances == d.instances) {
+          same[size_t(i)] = e;
+          break;
+        }
+    }
+  }
 
   // The sampler the streamed material samples its base colour with (every channel of the atlas
   // shares it, atlas/atlas.cpp merged_material); clamped without one.
@@ -332,10 +352,16 @@ struct CellRenders {
   // `after_references` runs then (the rows may be known only by then). The descent then reads
   // the stored metrics, exactly what rendering cell by cell gives.
   void render_grid(const std::function<std::vector<int>()>& after_references) {
-    render_row(m - 1);
+    const int top = same[size_t(m - 1)];
+    render_row(top);
     const std::vector<int> rows = after_references();
+    std::vector<char> done(size_t(m), 0);
+    done[size_t(top)] = 1;
     for (auto it = rows.rbegin(); it != rows.rend(); ++it)
-      if (*it != m - 1) render_row(*it);
+      if (!done[size_t(same[size_t(*it)])]) {
+        done[size_t(same[size_t(*it)])] = 1;
+        render_row(same[size_t(*it)]);
+      }
   }
 
   // Mesh layer i with every texture level, from every view (the last layer: the references).
@@ -344,15 +370,15 @@ struct CellRenders {
     std::vector<TextureSet> sets;
     for (int j = 0; j < n; ++j) sets.push_back(texture_of(j));
     std::vector<RenderImage> images = gl.render(geometry_of(i), sets, cameras);
-    if (i == m - 1) {
+    const bool top = i == same[size_t(m - 1)];
+    if (top) {
       for (size_t v = 0; v < V; ++v)
         reference.push_back(std::move(images[v * size_t(n) + size_t(n - 1)]));
       r.renders += V;
     }
-    const std::vector<double> metric =
-        distortions(reference, images, size_t(n), i == m - 1 ? n - 1 : -1);
+    const std::vector<double> metric = distortions(reference, images, size_t(n), top ? n - 1 : -1);
     for (int j = 0; j < n; ++j) {
-      if (i == m - 1 && j == n - 1) continue;  // the reference itself: distortion 0
+      if (top && j == n - 1) continue;  // the reference itself: distortion 0
       std::vector<double>& per_view = measured[size_t(i) * size_t(n) + size_t(j)];
       for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
       r.renders += V;
@@ -386,7 +412,8 @@ struct CellRenders {
     std::vector<double> scratch;
     std::vector<double>& per_view = per_view_out ? *per_view_out : scratch;
     per_view.assign(cameras.size(), 0.0);
-    if (i == m - 1 && j == n - 1) return 0.0;
+    i = same[size_t(i)];
+    if (i == same[size_t(m - 1)] && j == n - 1) return 0.0;
     std::vector<double>& stored = measured[size_t(i) * size_t(n) + size_t(j)];
     if (stored.empty()) {
       const std::vector<RenderImage> images = gl.render(geometry_of(i), {texture_of(j)}, cameras);
@@ -401,9 +428,10 @@ struct CellRenders {
 
   // Mesh layer i's geometry handle, uploaded on first use.
   int geometry_of(int i) {
+    i = same[size_t(i)];
     if (geometry[size_t(i)] < 0)
       geometry[size_t(i)] =
-          gl.add_geometry(materialize(ps, layers[size_t(i)], false, /*with_images=*/false), false,
+          gl.add_geometry(materialize(ps, drawn[size_t(i)], false, /*with_images=*/false), false,
                           streamed_material);
     return geometry[size_t(i)];
   }
@@ -425,7 +453,26 @@ struct CellRenders {
   std::vector<int> geometry;                  // per mesh layer: its handle, -1 until drawn
   std::vector<std::vector<double>> measured;  // per cell: per view
   std::vector<RenderImage> reference;         // per view
+  std::vector<LodSelection> drawn;            // per mesh layer: what its renders draw
+  std::vector<int> same;  // per mesh layer: the first layer drawing the same selection
 };
+
+// The geometric error a display pixel stands for, in the record's units (fractions of the
+// scene's diagonal: world units × normalization_scale): the world extent of one display pixel
+// (an image pixel over render.display_scale) at the nearest point of the bounding sphere, the
+// smallest over the cameras (each framing the sphere alike, so they agree).
+double pixel_error(const std::vector<Camera>& cameras, const Bounds& box,
+                   const RenderOptions& render, double normalization_scale) {
+  const double radius = 0.5 * double(box.diagonal());
+  const double pixels = double(std::max(1, render.height)) * std::max(1.0f, render.display_scale);
+  double best = INFINITY;
+  for (const Camera& c : cameras) {
+    const double near = std::max(double(length(c.eye - c.target)) - radius, 1e-9);
+    const double tan_half = std::tan(double(c.fov_y_degrees) * 3.14159265358979323846 / 360.0);
+    best = std::min(best, 2 * near * tan_half / pixels);
+  }
+  return best * (normalization_scale > 0 ? normalization_scale : 1.0);
+}
 
 // Descent and baselines: the steepest descent over the grid (the order the stream ships), the
 // fixed orders it is compared with, and where a choice exists on a small grid, every cell for
@@ -647,6 +694,14 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   if (Status s = cells.upload_textures(textures); !s) return s;
   ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
   cells.place_cameras(sphere, full, render, o.views);
+  r.cut_triangles = selection_triangles(ps, full);
+  if (r.cut_triangles > o.cut_renders_above && !cells.cameras.empty()) {
+    const LodSelection cut = select_error(
+        ps, float(pixel_error(cells.cameras, r.bounds, render, ps.scene.normalization_scale)));
+    r.cut_error = cut.error;
+    cells.draw_no_finer_than(cut);
+    r.cut_triangles = selection_triangles(ps, cells.drawn.back());
+  }
   // Once the layers are encoded, the completion's cut by bytes: the rows past it (but the full
   // mesh's) are never shipped, so only the descent over every split visits them, lazily.
   CompletionCut cut;

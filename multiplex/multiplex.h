@@ -44,6 +44,13 @@ struct MultiplexOptions {
   // change at that size. 0 × 0: the images' own pixels.
   int display_width = 1920;
   int display_height = 1080;
+  // Renders on a cut: for a scene of more triangles than this, no render draws a level whose
+  // error is under a display pixel's footprint at the nearest point of the bounding sphere in
+  // any view (the display's pixel: the images' over display_scale); finer levels change nothing
+  // such a pixel shows, and the full mesh of a multi-million-triangle scan cost most of the
+  // renders' time. Layers that then draw the same selection share their cells. Under it, every
+  // layer is drawn as it is (outputs as before the cut existed).
+  uint64_t cut_renders_above = 1'000'000;
   EncodeCounts* counts = nullptr;  // observer: every mesh part encoded is counted here
 };
 
@@ -113,6 +120,11 @@ struct MultiplexResult {
   std::vector<DroppedTextureLevel> texture_levels_dropped;
   std::vector<std::string> texture_channels;  // the maps every texture level carries, in order
   ViewTable view_table;                       // every cell evaluated, per view
+  // Renders on a cut (MultiplexOptions::cut_renders_above): the error a pixel stands for
+  // (fractions of the scene's diagonal) and the triangles of the finest selection drawn; 0 and
+  // the full detail's triangles without a cut.
+  double cut_error = 0;
+  uint64_t cut_triangles = 0;
 };
 
 // `ps` is the progressive record of the atlased scene; `levels` its texture levels, encoded

@@ -115,6 +115,11 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs,
   out << buf;
   std::snprintf(buf, sizeof buf, "\n  \"empty_distortion\": %.6g,", r.empty_distortion);
   out << buf;
+  // Renders on a cut (MultiplexOptions::cut_renders_above): the error a display pixel stands
+  // for and the finest selection's triangles drawn (error 0: the full detail).
+  std::snprintf(buf, sizeof buf, "\n  \"render_cut\": {\"error\": %.6g, \"triangles\": %llu},",
+                r.cut_error, (unsigned long long)r.cut_triangles);
+  out << buf;
   if (!r.bounds.empty()) {
     std::snprintf(buf, sizeof buf, "\n  \"bounds\": [%.9g, %.9g, %.9g, %.9g, %.9g, %.9g],",
                   r.bounds.min.x, r.bounds.min.y, r.bounds.min.z, r.bounds.max.x, r.bounds.max.y,

@@ -72,6 +72,53 @@ TEST(Multiplex, ForcedOrderIsMeasuredCheaply) {
       x.renders, area_x, y.renders, area_y, 100 * std::fabs(area_x - area_y) / area_y);
 }
 
+// Renders on a cut: a smooth sphere's finest levels move its surface by less than a display
+// pixel, so no render needs them. With the cut (forced here at 1,000 triangles; by default it
+// starts at 1M) the renders draw at most the selection whose error a display pixel stands for:
+// fewer triangles, the layers past it share one row of renders (fewer images), the stream's
+// bytes untouched; and what the cut draws looks like the full mesh: the full renders measure the
+// layer just coarser than the cut at under half a CIEDE2000 unit from the full mesh (mean over
+// covered pixels; about 1 is a just-noticeable difference; the silhouette and the shading both
+// count), where the coarsest layer is over 1.
+TEST(Multiplex, RendersDrawNoFinerThanAPixelCut) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene;
+  scene.meshes.emplace_back();
+  scene.meshes[0].primitives.push_back(testing::uv_sphere(100, 200));
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  ConvertOptions cut, full;
+  cut.max_package_ratio = full.max_package_ratio = 0;  // every split ships in both
+  cut.multiplex.cut_renders_above = 1000;
+  full.multiplex.cut_renders_above = UINT64_MAX;
+  Warnings warnings;
+  auto a = convert(scene, cut, &warnings, nullptr);
+  auto b = convert(scene, full, &warnings, nullptr);
+  ASSERT_TRUE(a.ok()) << a.status().message();
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  ASSERT_TRUE(a->multiplexed && b->multiplexed);
+  const MultiplexResult &x = *a->multiplexed, &y = *b->multiplexed;
+  EXPECT_EQ(y.cut_error, 0);
+  EXPECT_EQ(y.cut_triangles, y.layer_triangles.back());
+  EXPECT_GT(x.cut_error, 0);
+  EXPECT_LT(x.cut_triangles, x.layer_triangles.back() / 2);
+  EXPECT_LT(x.renders, y.renders);
+  EXPECT_EQ(x.layer_chunks, y.layer_chunks);
+  // The untextured sphere's order is its layers in turn: row k is step k of the full curve.
+  ASSERT_EQ(y.rd.cells.size(), y.layer_triangles.size());
+  size_t coarser = 0;  // the last layer no finer than the cut
+  while (coarser + 1 < y.layer_triangles.size() &&
+         y.layer_triangles[coarser + 1] <= x.cut_triangles)
+    ++coarser;
+  EXPECT_LT(y.rd.distortion[coarser], 0.5);
+  EXPECT_GT(y.rd.distortion[0], 1.0);
+  std::printf(
+      "sphere: renders on a cut of %llu of %u triangles (error %.2g): %zu images against "
+      "%zu; the full renders measure %u triangles at %.3f dE from the full mesh\n",
+      (unsigned long long)x.cut_triangles, x.layer_triangles.back(), x.cut_error, x.renders,
+      y.renders, y.layer_triangles[coarser], y.rd.distortion[coarser]);
+}
+
 // The order is made for a display size: the renders sample textures with a display pixel's
 // footprint. A sphere wearing a 1024² checker of one-texel squares (detail only the top level
 // holds: the levels below are grey) is framed on 1920×1080 at about one texel per display pixel,
