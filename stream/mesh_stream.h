@@ -110,6 +110,9 @@ class MeshStreamEncoder {
   std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
   std::vector<uint32_t> rank_;   // per pm vertex: its stream index (identity past the parts sent)
   std::vector<uint32_t> order_;  // per stream vertex: its pm vertex
+  // The split forest's ancestry as intervals (pm vertices numbered in depth-first order):
+  // u is o or an ancestor of o exactly when enter_[u] ≤ enter_[o] < enter_[u] + size_[u].
+  std::vector<uint32_t> enter_, size_;
   Status status_;
   std::vector<std::vector<uint32_t>> base_faces_;
   uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
