@@ -220,84 +220,6 @@ struct Candidate {
   }
 };
 
-// The live candidates (each live position's cheapest valid collapse) in (error, u, v) order: a
-// min-heap to take them cheapest first and a max-heap for the dearest (Terrace et al.'s E_max),
-// both with lazy deletion (an entry counts while its position is live under that entry's
-// sequence number). A pass costs O((re-costed + examined) log n); filtering and merging one
-// sorted array cost O(live) per pass instead (at 4M triangles ~700 passes over 2M entries).
-class LiveCandidates {
- public:
-  explicit LiveCandidates(size_t positions) : seq_(positions, 0), live_(positions, 0) {}
-  // Position p's candidate is now c (none when its error is not finite).
-  void set(uint32_t p, const Candidate& c) {
-    drop(p);
-    if (!std::isfinite(c.error)) return;
-    if (max_.size() > 2 * count_ + 4096) compact();
-    live_[p] = 1, ++count_, seq_[p] = ++next_;
-    min_.push_back({c, next_});
-    std::push_heap(min_.begin(), min_.end(), Later{});
-    max_.push_back({c, next_});
-    std::push_heap(max_.begin(), max_.end(), Earlier{});
-  }
-  // Position p has no candidate until set again.
-  void drop(uint32_t p) {
-    if (live_[p]) live_[p] = 0, --count_;
-  }
-  size_t size() const { return count_; }
-  // The dearest live candidate's error (size() > 0).
-  float dearest() {
-    while (!valid(max_.front())) {
-      std::pop_heap(max_.begin(), max_.end(), Earlier{});
-      max_.pop_back();
-    }
-    return max_.front().c.error;
-  }
-  // Takes the cheapest live candidate out of the order (still live: put_back returns it, drop
-  // ends it); false when none is left.
-  bool pop(Candidate* out) {
-    while (!min_.empty()) {
-      const Entry e = min_.front();
-      std::pop_heap(min_.begin(), min_.end(), Later{});
-      min_.pop_back();
-      if (valid(e)) {
-        *out = e.c;
-        return true;
-      }
-    }
-    return false;
-  }
-  void put_back(const Candidate& c) {
-    min_.push_back({c, seq_[c.u]});
-    std::push_heap(min_.begin(), min_.end(), Later{});
-  }
-
- private:
-  struct Entry {
-    Candidate c;
-    uint32_t seq;
-  };
-  struct Later {  // min-heap order: the cheapest on top
-    bool operator()(const Entry& a, const Entry& b) const { return b.c < a.c; }
-  };
-  struct Earlier {  // max-heap order: the dearest on top
-    bool operator()(const Entry& a, const Entry& b) const { return a.c < b.c; }
-  };
-  bool valid(const Entry& e) const { return live_[e.c.u] && seq_[e.c.u] == e.seq; }
-  // Both heaps rebuilt from their live entries (the dead ones deep inside are never popped).
-  void compact() {
-    for (auto* h : {&min_, &max_})
-      h->erase(std::remove_if(h->begin(), h->end(), [&](const Entry& e) { return !valid(e); }),
-               h->end());
-    std::make_heap(min_.begin(), min_.end(), Later{});
-    std::make_heap(max_.begin(), max_.end(), Earlier{});
-  }
-  std::vector<Entry> min_, max_;
-  std::vector<uint32_t> seq_;
-  std::vector<uint8_t> live_;
-  size_t count_ = 0;
-  uint32_t next_ = 0;
-};
-
 // Each position's live faces, in one pooled array: a run of slots per position, moved to the
 // pool's end with twice the room when it outgrows them (a position that collapses onto others
 // gathers their faces). One allocation for all, where a vector per position cost a heap block
@@ -403,10 +325,9 @@ class Simplifier {
     queued_.assign(np, Candidate{INFINITY, 0, 0});
     build_adjacency();
     std::vector<uint32_t> dirty(np), locked_list;
-    LiveCandidates live(np);
-    std::vector<Candidate> front, returned, chosen;
+    std::vector<Candidate> live, fresh, merged, chosen;
     for (uint32_t p = 0; p < np; ++p) dirty[p] = p;
-    std::vector<uint8_t> is_dirty(np, 1), locked(np, 0);
+    std::vector<uint8_t> is_dirty(np, 1), stale(np, 0), locked(np, 0);
     auto mark = [&](uint32_t p) {
       if (!is_dirty[p] && !dead_pos_[p]) is_dirty[p] = 1, dirty.push_back(p);
     };
@@ -416,51 +337,53 @@ class Simplifier {
         Scratch s;
         for (size_t i = begin; i < end; ++i) queued_[dirty[i]] = best_candidate(dirty[i], s);
       });
-      // (2) The live candidates in (error, u, v) order: the re-costed ones replace their
-      // positions' earlier ones (refused or gone: none). The dearest is Terrace et al.'s E_max.
-      for (uint32_t p : dirty) is_dirty[p] = 0, live.set(p, queued_[p]);
+      // (2) The live candidates, kept sorted by (error, u, v) as values: the stale ones out
+      // (re-costed, refused, or their position gone), the re-costed ones merged in. Both
+      // stream through memory, where selecting the cheapest afresh every pass chased
+      // pointers. The dearest is Terrace et al.'s E_max.
+      for (uint32_t p : dirty) stale[p] = 1;
+      size_t kept = 0;
+      for (const Candidate& c : live)
+        if (!stale[c.u]) live[kept++] = c;
+      live.resize(kept);
+      fresh.clear();
+      for (uint32_t p : dirty) {
+        is_dirty[p] = 0;
+        stale[p] = 0;
+        if (std::isfinite(queued_[p].error)) fresh.push_back(queued_[p]);
+      }
       dirty.clear();
-      if (live.size() == 0) break;
+      std::sort(fresh.begin(), fresh.end());
+      merged.resize(live.size() + fresh.size());
+      std::merge(live.begin(), live.end(), fresh.begin(), fresh.end(), merged.begin());
+      live.swap(merged);
+      if (live.empty()) break;
       // The base's stopping rule (record()) reads each collapse's own error as E_current and
       // the pass's dearest candidate as E_max. A pass applies its collapses in spatial order,
       // so the rule may cut inside a pass (at most one pass, 1% of the faces, unevenly over
       // the surface); cutting between passes instead (the pass's cheapest as E_current) took
       // one pass more into the base: 2CylinderEngine's area +3.2% against the greedy's, +0.7%
       // this way.
-      const float pass_max = live.dearest();
+      const float pass_max = live.back().error;
       const size_t goal = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
-      // The error at the pass's expected collapse count: the (goal / 2)-th cheapest.
-      front.clear();
-      const size_t want = std::min(live.size() - 1, goal / 2) + 1;
-      for (Candidate c; front.size() < want && live.pop(&c);) front.push_back(c);
-      const float error_goal = opt_.pass_error_growth * front.back().error;
+      const float error_goal =
+          opt_.pass_error_growth * live[std::min(live.size() - 1, goal / 2)].error;
       // (3) Choose, cheapest first, collapses whose ends no chosen one shares (about two faces
       // each); then apply them in spatial order (position index), where consecutive collapses
-      // read neighbouring memory, re-checking each one's validity on the current mesh. What
-      // was taken out of the order and not chosen goes back.
+      // read neighbouring memory, re-checking each one's validity on the current mesh.
       chosen.clear();
-      returned.clear();
-      size_t k = 0;
-      for (Candidate c; k < front.size() || live.pop(&c);) {
-        if (k < front.size()) c = front[k++];
-        if (2 * chosen.size() >= goal || (c.error > error_goal && 2 * chosen.size() > goal / 6)) {
-          returned.push_back(c);
-          break;
-        }
-        if (locked[c.u] || locked[c.v]) {
-          returned.push_back(c);
-          continue;
-        }
+      for (const Candidate& c : live) {
+        if (2 * chosen.size() >= goal) break;
+        if (c.error > error_goal && 2 * chosen.size() > goal / 6) break;
+        if (locked[c.u] || locked[c.v]) continue;
         for (uint32_t p : {c.u, c.v}) locked[p] = 1, locked_list.push_back(p);
         chosen.push_back(c);
       }
-      for (; k < front.size(); ++k) live.put_back(front[k]);
-      for (const Candidate& c : returned) live.put_back(c);
       std::sort(chosen.begin(), chosen.end(),
                 [](const Candidate& x, const Candidate& y) { return x.u < y.u; });
       for (const Candidate& c : chosen) {
         const size_t faces = collapse(c, c.error, pass_max);
-        live.drop(c.u);  // refused on the current mesh: out until its neighbourhood changes;
+        stale[c.u] = 1;  // refused on the current mesh: out until its neighbourhood changes;
                          // collapsed: gone
         if (faces == 0) continue;
         ++done;
