@@ -284,19 +284,38 @@ std::vector<float> world_triangles(const Scene& scene) {
   return soup;
 }
 
-HausdorffResult hausdorff_soup(const std::vector<float>& a, const std::vector<float>& b,
-                               double diagonal, const HausdorffOptions& options) {
+struct HausdorffReference::Impl {
+  Impl(const std::vector<float>& soup, double diag, const HausdorffOptions& opt)
+      : options(opt),
+        diagonal(diag),
+        samples(sample_surface(soup, opt.samples, opt.seed)),
+        bvh(soup) {}
+  HausdorffOptions options;
+  double diagonal;
+  std::vector<DVec3> samples;
+  Bvh bvh;
+};
+
+HausdorffReference::HausdorffReference(const std::vector<float>& soup, double diagonal,
+                                       const HausdorffOptions& options)
+    : impl_(std::make_unique<Impl>(soup, diagonal, options)) {}
+HausdorffReference::~HausdorffReference() = default;
+HausdorffReference::HausdorffReference(HausdorffReference&&) noexcept = default;
+HausdorffReference& HausdorffReference::operator=(HausdorffReference&&) noexcept = default;
+
+HausdorffResult HausdorffReference::compare(const std::vector<float>& b) const {
+  const Impl& a = *impl_;
   HausdorffResult r;
-  r.diagonal = diagonal;
-  std::vector<DVec3> sa = sample_surface(a, options.samples, options.seed);
-  std::vector<DVec3> sb = sample_surface(b, options.samples, options.seed ^ 0x9e3779b97f4a7c15ULL);
-  if (sa.empty() || sb.empty() || !(diagonal > 0)) {
+  r.diagonal = a.diagonal;
+  std::vector<DVec3> sb =
+      sample_surface(b, a.options.samples, a.options.seed ^ 0x9e3779b97f4a7c15ULL);
+  if (a.samples.empty() || sb.empty() || !(a.diagonal > 0)) {
     r.hausdorff = r.forward = r.backward = r.mean = r.rms = INFINITY;
     return r;
   }
-  Bvh ba(a), bb(b);
-  Directed f = directed(sa, bb), g = directed(sb, ba);
-  double inv = 1.0 / diagonal;
+  Bvh bb(b);
+  Directed f = directed(a.samples, bb), g = directed(sb, a.bvh);
+  double inv = 1.0 / a.diagonal;
   r.forward = f.max * inv;
   r.backward = g.max * inv;
   r.hausdorff = std::max(r.forward, r.backward);
@@ -305,6 +324,11 @@ HausdorffResult hausdorff_soup(const std::vector<float>& a, const std::vector<fl
   r.rms = std::sqrt((f.sum2 + g.sum2) / n) * inv;
   r.valid = true;
   return r;
+}
+
+HausdorffResult hausdorff_soup(const std::vector<float>& a, const std::vector<float>& b,
+                               double diagonal, const HausdorffOptions& options) {
+  return HausdorffReference(a, diagonal, options).compare(b);
 }
 
 HausdorffResult hausdorff(const Scene& reference, const Scene& other,

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "scene/scene.h"
@@ -40,5 +41,24 @@ HausdorffResult hausdorff(const Scene& reference, const Scene& other,
 // The same on triangle soups (9 floats per triangle), distances relative to `diagonal`.
 HausdorffResult hausdorff_soup(const std::vector<float>& a, const std::vector<float>& b,
                                double diagonal, const HausdorffOptions& options = {});
+
+// A reference surface prepared once, for comparing many others against it (the levels of one
+// input): its samples and its search structure are built here and not again per comparison.
+// compare(b) gives exactly hausdorff_soup(a, b, diagonal, options). The soup may be freed once
+// this is built (the structure keeps its own copy).
+class HausdorffReference {
+ public:
+  HausdorffReference(const std::vector<float>& soup, double diagonal,
+                     const HausdorffOptions& options = {});
+  ~HausdorffReference();
+  HausdorffReference(HausdorffReference&&) noexcept;
+  HausdorffReference& operator=(HausdorffReference&&) noexcept;
+
+  HausdorffResult compare(const std::vector<float>& other) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace meshmux::bench

@@ -23,7 +23,6 @@
 // usage: meshmux_bench_simplify [MODELS_DIR] [--samples N] [--only SUBSTRING] [--no-instanced]
 //                               [--gltfpack PATH]
 #include <fcntl.h>
-#include <meshoptimizer.h>
 #include <spawn.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -32,7 +31,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,8 +43,10 @@
 #include <tuple>
 #include <vector>
 
+#include "bench/format.h"
 #include "bench/hausdorff.h"
 #include "bench/instanced_scene.h"
+#include "bench/meshopt_reference.h"
 #include "clean/clean.h"
 #include "clean/flatten.h"
 #include "core/file_io.h"
@@ -64,39 +64,22 @@ extern char** environ;
 
 namespace fs = std::filesystem;
 using namespace meshmux;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::fmt;
+using bench::group;
+using bench::meshopt_run;
+using bench::meshopt_to_count;
+using bench::MeshoptRun;
+using bench::scene_tris;
+using bench::seconds_since;
+using bench::weld_positions;
 
 namespace {
 
 constexpr double kRatio = 0.2;
 
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 // ---------------------------------------------------------------------------------------------
 // Formatting
-
-std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
-std::string fmt(const char* f, ...) {
-  char buf[512];
-  va_list ap;
-  va_start(ap, f);
-  vsnprintf(buf, sizeof buf, f, ap);
-  va_end(ap);
-  return buf;
-}
-
-// 1234567 → "1,234,567".
-std::string group(uint64_t v) {
-  std::string s = std::to_string(v), out;
-  int n = 0;
-  for (size_t i = s.size(); i-- > 0;) {
-    out.insert(out.begin(), s[i]);
-    if (++n % 3 == 0 && i > 0) out.insert(out.begin(), ',');
-  }
-  return out;
-}
 
 std::string rate(double tris, double secs) {
   if (!(secs > 0)) return "-";
@@ -107,110 +90,6 @@ std::string rate(double tris, double secs) {
 std::string hd(const bench::HausdorffResult& h) {
   if (!h.valid) return "n/a";
   return fmt("%.5f", h.hausdorff);
-}
-
-// ---------------------------------------------------------------------------------------------
-// Scenes
-
-uint64_t scene_tris(const Scene& s) { return compute_stats(s).scene_triangles; }
-
-// Keeps only the vertices `indices` use, in order of first use.
-void compact(Primitive& p) {
-  std::vector<uint32_t> remap(p.positions.size(), UINT32_MAX);
-  uint32_t next = 0;
-  for (uint32_t& i : p.indices) {
-    if (remap[i] == UINT32_MAX) remap[i] = next++;
-    i = remap[i];
-  }
-  auto pick = [&](auto& attr) {
-    if (attr.empty()) return;
-    std::remove_reference_t<decltype(attr)> out(next);
-    for (size_t v = 0; v < remap.size(); ++v)
-      if (remap[v] != UINT32_MAX) out[remap[v]] = attr[v];
-    attr.swap(out);
-  };
-  pick(p.positions);
-  pick(p.normals);
-  for (auto& uv : p.uvs) pick(uv);
-  pick(p.colors);
-}
-
-// Welds every primitive's vertices on position alone (uv seams, hard edges and colour
-// boundaries are dropped; the first vertex of each position keeps its attributes).
-Scene weld_positions(const Scene& in) {
-  Scene out = in;
-  for (Mesh& m : out.meshes)
-    for (Primitive& p : m.primitives) {
-      if (p.positions.empty() || p.indices.empty()) continue;
-      std::vector<uint32_t> remap(p.positions.size());
-      size_t n = meshopt_generateVertexRemap(remap.data(), p.indices.data(), p.indices.size(),
-                                             p.positions.data(), p.positions.size(), sizeof(Vec3));
-      meshopt_remapIndexBuffer(p.indices.data(), p.indices.data(), p.indices.size(), remap.data());
-      auto apply = [&](auto& attr) {
-        if (attr.empty()) return;
-        std::remove_reference_t<decltype(attr)> o(n);
-        meshopt_remapVertexBuffer(o.data(), attr.data(), attr.size(), sizeof(attr[0]),
-                                  remap.data());
-        attr.swap(o);
-      };
-      apply(p.positions);
-      apply(p.normals);
-      for (auto& uv : p.uvs) apply(uv);
-      apply(p.colors);
-    }
-  return out;
-}
-
-struct MeshoptRun {
-  Scene scene;         // flattened, simplified, compacted
-  double seconds = 0;  // meshopt_simplify calls only
-  uint64_t triangles = 0;
-  double ratio = 0;  // the per-primitive ratio asked for
-};
-
-// meshopt_simplify on every primitive of a flattened scene, to `ratio` of its indices.
-MeshoptRun meshopt_run(const Scene& flat, double ratio) {
-  MeshoptRun r;
-  r.ratio = ratio;
-  r.scene = flat;
-  for (Mesh& m : r.scene.meshes)
-    for (Primitive& p : m.primitives) {
-      if (p.positions.empty() || p.indices.empty()) continue;
-      size_t target = size_t(std::llround(double(p.indices.size() / 3) * ratio)) * 3;
-      std::vector<uint32_t> out(p.indices.size());
-      auto t0 = Clock::now();
-      size_t n = meshopt_simplify(out.data(), p.indices.data(), p.indices.size(), &p.positions[0].x,
-                                  p.positions.size(), sizeof(Vec3), target, 1.0f, 0, nullptr);
-      r.seconds += seconds_since(t0);
-      out.resize(n);
-      p.indices.swap(out);
-      compact(p);
-      r.triangles += p.indices.size() / 3;
-    }
-  return r;
-}
-
-// meshopt_simplify to (about) `target` scene triangles: the per-primitive ratio is corrected
-// a few times by target / reached, keeping the run closest to the target.
-MeshoptRun meshopt_to_count(const Scene& flat, uint64_t target) {
-  uint64_t total = scene_tris(flat);
-  double ratio = total ? std::min(1.0, double(target) / double(total)) : 1.0;
-  MeshoptRun best;
-  bool have = false;
-  for (int iter = 0; iter < 8; ++iter) {
-    MeshoptRun r = meshopt_run(flat, ratio);
-    uint64_t reached = r.triangles;
-    auto miss = [&](const MeshoptRun& x) { return std::abs(double(x.triangles) - double(target)); };
-    if (!have || miss(r) < miss(best)) {
-      best = std::move(r);
-      have = true;
-    }
-    if (miss(best) <= 0.005 * double(target) || reached == 0) break;
-    double next = std::min(1.0, ratio * double(target) / double(reached));
-    if (std::abs(next - ratio) < 1e-6) break;
-    ratio = next;
-  }
-  return best;
 }
 
 // ---------------------------------------------------------------------------------------------
