@@ -126,6 +126,57 @@ TEST(Multiplex, RendersDrawNoFinerThanAPixelCut) {
 // each pixel and average to the same grey: the top level changes little. The distortion the top
 // level removes (the full mesh with the level below it against the reference) is measured larger
 // for the large display, and the package's table says which display its order was made for.
+// The order follows the display: a sphere wearing a 2048² texture of coarse squares (which the
+// level below the top, 512², holds) under a one-texel checker (which only the top level holds)
+// is framed at about 3.6 top-level texels per pixel of a 640×360 display, where the checker
+// averages away, and at about 1.2 on 1920×1080, where it shows. The top level (1.6 MB) is then
+// worth more per byte on the larger display, and the order takes it before the mesh's last
+// refinements there, one layer earlier than on the smaller one (measured margins: 22% over
+// the next mesh step's gain per byte on 1920×1080, 4% under it on 640×360).
+TEST(Multiplex, AFinerTextureLevelComesEarlierForALargerDisplay) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  Scene scene;
+  scene.meshes.emplace_back();
+  scene.meshes[0].primitives.push_back(testing::uv_sphere(150, 300));
+  scene.meshes[0].primitives[0].material = 0;
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Image texture;
+  texture.name = "squares under a checker";
+  texture.width = texture.height = 2048;
+  for (int y = 0; y < 2048; ++y)
+    for (int x = 0; x < 2048; ++x) {
+      const bool coarse = ((x / 128) + (y / 128)) % 2;
+      const int f = (x + y) % 2 ? 50 : -50;
+      texture.rgba.insert(texture.rgba.end(), {uint8_t((coarse ? 190 : 60) + f), uint8_t(128 + f),
+                                               uint8_t((coarse ? 60 : 190) + f), 255});
+    }
+  texture.encoded = encode_png(texture).take();  // as an upload's image comes
+  texture.mime_type = "image/png";
+  scene.images.push_back(texture);
+  scene.materials.emplace_back();
+  scene.materials[0].base_color.image = 0;
+  // The mesh layers the order sends before the top texture level.
+  auto layers_before_top = [&](int w, int h) -> int {
+    ConvertOptions o;
+    o.multiplex.display_width = w, o.multiplex.display_height = h;
+    Warnings warnings;
+    auto out = convert(scene, o, &warnings, nullptr);
+    if (!out.ok() || !out->multiplexed) return -1;
+    const MultiplexResult& r = *out->multiplexed;
+    const int top = int(r.texture_bytes.size()) - 1;
+    for (const auto& [i, j] : r.rd.cells)
+      if (j == top) return i;
+    return -2;
+  };
+  const int small = layers_before_top(640, 360), large = layers_before_top(1920, 1080);
+  ASSERT_GE(small, 0);
+  ASSERT_GE(large, 0);
+  std::printf("the top texture level after %d mesh layers on 640x360, after %d on 1920x1080\n",
+              small, large);
+  EXPECT_LT(large, small);
+}
+
 TEST(Multiplex, TopTextureLevelMattersMoreOnALargerDisplay) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
