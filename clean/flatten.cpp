@@ -69,20 +69,14 @@ Scene flatten_where(const Scene& in, const std::vector<char>& take, Scene out) {
 }  // namespace
 
 Scene flatten(Scene in) {
-  std::vector<Image> images = std::move(in.images);
-  in.images.clear();
-  Scene out = flatten_where(in, std::vector<char>(in.instances.size(), 1), empty_like(in));
-  out.images = std::move(images);
+  Scene out = flatten_geometry(in);
+  out.images = std::move(in.images);
   return out;
 }
 
 Scene flatten_geometry(const Scene& in) {
-  Scene shell;
-  shell.materials = in.materials;
-  shell.lines = in.lines;
-  shell.source = in.source;
-  shell.normalization_scale = in.normalization_scale;
-  return flatten_where(in, std::vector<char>(in.instances.size(), 1), std::move(shell));
+  return flatten_where(in, std::vector<char>(in.instances.size(), 1),
+                       empty_like(in, /*with_images=*/false));
 }
 
 double instances_per_submesh(const Scene& scene) {

@@ -63,10 +63,10 @@ Bounds mesh_bounds(const Mesh& mesh) {
   return b;
 }
 
-Scene empty_like(const Scene& scene) {
+Scene empty_like(const Scene& scene, bool with_images) {
   Scene out;
   out.materials = scene.materials;
-  out.images = scene.images;
+  if (with_images) out.images = scene.images;
   out.lines = scene.lines;
   out.source = scene.source;
   out.normalization_scale = scene.normalization_scale;

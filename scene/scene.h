@@ -224,9 +224,10 @@ struct SceneStats {
 
 SceneStats compute_stats(const Scene& scene);
 
-// A scene with `scene`'s materials, images, lines, source and normalization scale, and no meshes
-// or instances: where a stage rebuilds the geometry (flattening, the record's reference).
-Scene empty_like(const Scene& scene);
+// A scene with `scene`'s materials, images (unless `with_images` is false: a stage that moves
+// them across or never reads them), lines, source and normalization scale, and no meshes or
+// instances: where a stage rebuilds the geometry (flattening, the record's reference).
+Scene empty_like(const Scene& scene, bool with_images = true);
 
 // Number of instances per mesh.
 std::vector<size_t> instance_counts(const Scene& scene);

@@ -214,12 +214,7 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
 
 Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix,
                   bool with_images) {
-  Scene out;
-  out.materials = ps.scene.materials;
-  if (with_images) out.images = ps.scene.images;
-  out.lines = ps.scene.lines;
-  out.source = ps.scene.source;
-  out.normalization_scale = ps.scene.normalization_scale;
+  Scene out = empty_like(ps.scene, with_images);
   std::vector<int32_t> mesh_map(ps.meshes.size(), -1);
   for (size_t m = 0; m < ps.meshes.size(); ++m) {
     Mesh mesh = extract_level(ps.meshes[m], sel.level[m], keep_prefix);

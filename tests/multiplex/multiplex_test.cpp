@@ -15,6 +15,16 @@
 namespace meshmux {
 namespace {
 
+// One UV sphere of rings × segments, placed once, its primitive drawn with `material`.
+Scene sphere(int rings, int segments, int32_t material = -1) {
+  Scene scene;
+  scene.meshes.emplace_back();
+  scene.meshes[0].primitives.push_back(testing::uv_sphere(rings, segments));
+  scene.meshes[0].primitives[0].material = material;
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  return scene;
+}
+
 // The whole conversion (pipeline/convert); the multiplexer's result rides along in its outputs.
 // No offscreen OpenGL here: convert() succeeds with a warning and no result (kUnavailable).
 Result<MultiplexResult> run(const std::string& model, double* seconds) {
@@ -40,10 +50,7 @@ Result<MultiplexResult> run(const std::string& model, double* seconds) {
 TEST(Multiplex, ForcedOrderIsMeasuredCheaply) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene;
-  scene.meshes.emplace_back();
-  scene.meshes[0].primitives.push_back(testing::uv_sphere(80, 100));
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Scene scene = sphere(80, 100);
   ConvertOptions cheap, full;
   // Every split shipped: where the completion goes depends on the measured slopes, which the
   // cheaper measurement gives otherwise (the package's bound is not what this case is about).
@@ -83,10 +90,7 @@ TEST(Multiplex, ForcedOrderIsMeasuredCheaply) {
 TEST(Multiplex, RendersDrawNoFinerThanAPixelCut) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene;
-  scene.meshes.emplace_back();
-  scene.meshes[0].primitives.push_back(testing::uv_sphere(100, 200));
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Scene scene = sphere(100, 200);
   ConvertOptions cut, full;
   cut.max_package_ratio = full.max_package_ratio = 0;  // every split ships in both
   cut.multiplex.cut_renders_above = 1000;
@@ -136,11 +140,7 @@ TEST(Multiplex, RendersDrawNoFinerThanAPixelCut) {
 TEST(Multiplex, AFinerTextureLevelComesEarlierForALargerDisplay) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene;
-  scene.meshes.emplace_back();
-  scene.meshes[0].primitives.push_back(testing::uv_sphere(150, 300));
-  scene.meshes[0].primitives[0].material = 0;
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Scene scene = sphere(150, 300, 0);
   Image texture;
   texture.name = "squares under a checker";
   texture.width = texture.height = 2048;
@@ -180,11 +180,7 @@ TEST(Multiplex, AFinerTextureLevelComesEarlierForALargerDisplay) {
 TEST(Multiplex, TopTextureLevelMattersMoreOnALargerDisplay) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
-  Scene scene;
-  scene.meshes.emplace_back();
-  scene.meshes[0].primitives.push_back(testing::uv_sphere(60, 120));
-  scene.meshes[0].primitives[0].material = 0;
-  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  Scene scene = sphere(60, 120, 0);
   Image checker;  // one-texel black and white squares: detail only the top level holds
   checker.name = "checker";
   checker.width = checker.height = 1024;

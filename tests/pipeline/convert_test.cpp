@@ -230,6 +230,17 @@ TEST(Convert, BaseOverTheBoundEvenAtTheCoarsestTakesTheCoarsest) {
   EXPECT_LT(out->base_glb.size(), unbounded->base_glb.size() / 4);
 }
 
+// The scene converted with the package bounded at 1.1× model.glb, and with no bound (every
+// split ships).
+std::pair<Result<ConvertOutputs>, Result<ConvertOutputs>> bounded_and_chain(const Scene& scene) {
+  ConvertOptions o;
+  o.max_package_ratio = 1.1;
+  Warnings warnings;
+  auto bounded = convert(scene, o, &warnings, nullptr);
+  o.max_package_ratio = 0;
+  return {std::move(bounded), convert(scene, o, &warnings, nullptr)};
+}
+
 // The completion step: a streamed mesh whose splits would take the package over its bound
 // (here 1.1x model.glb; the splits of a smooth sphere cost about 1.5x Draco's single-rate) ends
 // its mesh chunks in the full mesh sent single-rate: the package stays within the bound,
@@ -240,12 +251,7 @@ TEST(Convert, PackageOverItsBoundEndsInTheCompletion) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   const Scene scene = sphere_scene();
-  ConvertOptions o;
-  o.max_package_ratio = 1.1;
-  Warnings warnings;
-  auto bounded = convert(scene, o, &warnings, nullptr);
-  o.max_package_ratio = 0;
-  auto chain = convert(scene, o, &warnings, nullptr);
+  auto [bounded, chain] = bounded_and_chain(scene);
   ASSERT_TRUE(bounded.ok()) << bounded.status().message();
   ASSERT_TRUE(chain.ok()) << chain.status().message();
   ASSERT_FALSE(bounded->package.empty()) << bounded->not_streamed;
@@ -312,12 +318,7 @@ TEST(Convert, CompletionRendersOnlyTheRowsItKeeps) {
   scene.materials.emplace_back();
   scene.materials[0].base_color.image = 0;
   scene.meshes[0].primitives[0].material = 0;
-  ConvertOptions o;
-  o.max_package_ratio = 1.1;
-  Warnings warnings;
-  auto bounded = convert(scene, o, &warnings, nullptr);
-  o.max_package_ratio = 0;
-  auto chain = convert(scene, o, &warnings, nullptr);
+  auto [bounded, chain] = bounded_and_chain(scene);
   ASSERT_TRUE(bounded.ok()) << bounded.status().message();
   ASSERT_TRUE(chain.ok()) << chain.status().message();
   const auto b = nlohmann::json::parse(bounded->report_json);
