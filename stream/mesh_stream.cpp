@@ -89,7 +89,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   }
   const ProgressiveLevel& b = pm.levels[base_level];
   sim_.reset(nv, nf);
-  orig_.reserve(size_t(nf) * 3);
+  corner_enter_.reserve(size_t(nf) * 3);
   // The base's faces grouped by source primitive (the base .glb writes one glTF primitive per
   // group, in primitive order, with exactly these indices), each group in vertex-cache order,
   // and its vertices in the order those faces first use them: what meshopt's index and vertex
@@ -165,7 +165,8 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
       sim_.add_face(d[0], d[1], d[2]);
       // Slot s of the decoded face holds original corner (s + r) % 3.
       const size_t source = face_of[begin / 3 + f];
-      for (int s = 0; s < 3; ++s) orig_.push_back(pm.indices[source * 3 + size_t((s + r) % 3)]);
+      for (int s = 0; s < 3; ++s)
+        corner_enter_.push_back(enter_[pm.indices[source * 3 + size_t((s + r) % 3)]]);
     }
     base_faces_.push_back(std::move(faces));
     begin = end;
@@ -277,9 +278,10 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     // descends from it (every vertex between them and p is still to come, so the new vertex is
     // their representative exactly then).
     takes.clear();
+    const uint32_t from = enter_[xv], to = from + size_[xv];
     for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)]) {
-      const uint32_t o = enter_[orig_[size_t(c)]];
-      takes.push_back(enter_[xv] <= o && o < enter_[xv] + size_[xv]);
+      const uint32_t o = corner_enter_[size_t(c)];
+      takes.push_back(from <= o && o < to);
     }
     const uint32_t dc = std::min(uint32_t(takes.size()), kFanLimit);
     // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
@@ -351,7 +353,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
         sim_.add_face(v, nf.w, p);
       else
         sim_.add_face(v, p, nf.w);
-      orig_.insert(orig_.end(), nf.orig, nf.orig + 3);
+      for (uint32_t o : nf.orig) corner_enter_.push_back(enter_[o]);
     }
     uint32_t extent_class = 0;
     QuantizedVertex pred = sim_.predict(v, p, &extent_class), q = quantize(xv);
@@ -403,7 +405,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       out.put_uint(x.escape, s[k]);
     }
     sim_.add_face(s[0], s[1], s[2]);
-    for (int k = 0; k < 3; ++k) orig_.push_back(pm_.indices[size_t(f) * 3 + size_t(k)]);
+    for (int k = 0; k < 3; ++k)
+      corner_enter_.push_back(enter_[pm_.indices[size_t(f) * 3 + size_t(k)]]);
   }
   std::vector<uint8_t> plain = out.finish();
   if (!part_size_plausible(plain.size(), vb - va, fb - fa))

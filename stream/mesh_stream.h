@@ -107,7 +107,8 @@ class MeshStreamEncoder {
   bool uvs_ = true;  // the mesh has texture coordinates (else the stream carries none)
   QuantizedVertex quantize(uint32_t pm_vertex) const;  // quantize_vertex, +Z when !normals_
   VsplitMesh sim_;
-  std::vector<uint32_t> orig_;   // per client corner: the full mesh's vertex (pm id) behind it
+  // Per client corner: the full mesh's vertex behind it, as its depth-first position (enter_).
+  std::vector<uint32_t> corner_enter_;
   std::vector<uint32_t> rank_;   // per pm vertex: its stream index (identity past the parts sent)
   std::vector<uint32_t> order_;  // per stream vertex: its pm vertex
   // The split forest's ancestry as intervals (pm vertices numbered in depth-first order):
