@@ -678,6 +678,31 @@ void default_colors(const std::map<std::string, ColladaMaterialInfo>& info, Scen
   }
 }
 
+// A texture bound (bind_vertex_input) to a TEXCOORD set that no mesh drawn with its material
+// has — 3ds Max writes input_set="1" for its first map channel, while the mesh's one TEXCOORD
+// input carries no set — reads the first set instead, as COLLADA viewers show it (three.js's
+// ColladaLoader reads the first set whatever the binding), said once per material. Left
+// alone, the texture had no coordinates: nothing of it could be sampled (an atlas sized such
+// charts by area alone: a 3 kB image became a 4096² atlas at 3% use).
+void first_uv_set_where_missing(Scene& scene, const std::string& stage, Warnings* warnings) {
+  std::vector<uint32_t> most(scene.materials.size(), 0);  // per material: its meshes' most sets
+  std::vector<char> drawn(scene.materials.size(), 0);
+  for (const Mesh& mesh : scene.meshes)
+    for (const Primitive& p : mesh.primitives)
+      if (p.material >= 0 && size_t(p.material) < most.size()) {
+        most[size_t(p.material)] = std::max(most[size_t(p.material)], uint32_t(p.uvs.size()));
+        drawn[size_t(p.material)] = 1;
+      }
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    TextureRef& t = scene.materials[i].base_color;
+    if (!t.present() || !drawn[i] || most[i] == 0 || t.tex_coord < most[i]) continue;
+    warn(warnings, stage + ": material '" + scene.materials[i].name +
+                       "': its texture is bound to uv set " + std::to_string(t.tex_coord) +
+                       ", which its meshes lack; the first set is used");
+    t.tex_coord = 0;
+  }
+}
+
 // COLLADA <lines> as three.js's ColladaLoader draws them (the judge of appearance): one pixel
 // wide, unlit, in their material's colour and opacity (a Lambert or Phong material becomes a
 // LineBasicMaterial of its colour, a constant one stays a MeshBasicMaterial; a material without
@@ -766,6 +791,7 @@ Result<Scene> import_collada(const std::string& path, const ImportOptions& optio
                              ErrorKind::kInput);
     }
     line_colors(parsed->line_materials, scene);
+    first_uv_set_where_missing(scene, stage, warnings);
     Status valid = validate(scene, stage);
     if (!valid) return valid;
     return scene;

@@ -464,6 +464,30 @@ TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
   for (const Primitive& p : scene->meshes[0].primitives) EXPECT_EQ(p.uvs.size(), 1u);
 }
 
+// A texture bound to a uv set the mesh lacks (3ds Max writes input_set="1" for its first map
+// channel while the mesh's one TEXCOORD input has no set) reads the first set, as COLLADA viewers
+// (three.js's ColladaLoader) show it, with a warning naming the material. Left at set 1 the
+// texture had no coordinates: nothing of it could be sampled, and an atlas sized its charts by
+// area alone (a 3 kB image became a 4096² atlas at 3% use).
+TEST(ColladaImport, TextureBoundToAMissingUvSetReadsTheFirstSet) {
+  TempDir dir;
+  testing::write_file(dir.file("t.png"), kRedBluePng);
+  std::string text = textured_document("t.png");
+  for (size_t at; (at = text.find("UV0")) != std::string::npos;) text.replace(at, 3, "CHANNEL1");
+  const std::string bound = "input_semantic=\"TEXCOORD\" input_set=\"0\"";
+  ASSERT_NE(text.find(bound), std::string::npos);
+  text.replace(text.find(bound), bound.size(), "input_semantic=\"TEXCOORD\" input_set=\"1\"");
+  Warnings w;
+  auto scene = import_text(dir, "max.dae", text, &w);
+  ASSERT_TRUE(scene.ok()) << scene.status().message();
+  const Material* tex = find_material(*scene, "tex");
+  ASSERT_TRUE(tex);
+  ASSERT_TRUE(tex->base_color.present());
+  for (const Primitive& p : scene->meshes[0].primitives) ASSERT_EQ(p.uvs.size(), 1u);
+  EXPECT_EQ(tex->base_color.tex_coord, 0u);
+  EXPECT_TRUE(any_contains(w, "material 'tex'", "uv set 1"));
+}
+
 // A <phong> effect's <shininess> sets the roughness (Blinn-Phong exponent n → (2 / (n + 2))^¼, as
 // three.js's loaders map it). Assimp 5.2 reported every shininess as 0, so every COLLADA material
 // came out fully rough and the engine looked flat against three.js.
