@@ -443,6 +443,19 @@ TEST(ColladaImport, ColoursAreDisplayValuesDecodedFromSrgb) {
   EXPECT_NEAR(m->base_color_factor.w, 1.0, 1e-6);
 }
 
+// The textured document with its texture's texcoord named "CHANNEL1" (as 3ds Max names its map
+// channels) and the instance binding that semantic to TEXCOORD set `input_set`.
+std::string channel1_document(const std::string& image, int input_set) {
+  std::string text = textured_document(image);
+  for (size_t at; (at = text.find("UV0")) != std::string::npos;) text.replace(at, 3, "CHANNEL1");
+  const std::string bound = "input_semantic=\"TEXCOORD\" input_set=\"0\"";
+  const std::string to =
+      "input_semantic=\"TEXCOORD\" input_set=\"" + std::to_string(input_set) + "\"";
+  for (size_t at = 0; (at = text.find(bound, at)) != std::string::npos; at += to.size())
+    text.replace(at, bound.size(), to);
+  return text;
+}
+
 // A texture whose texcoord names a semantic ("CHANNEL1") that the instance binds to uv set 0
 // (<bind_vertex_input semantic="CHANNEL1" input_semantic="TEXCOORD" input_set="0"/>) reads
 // uv set 0. Reading set 1 (the digit in the name), which does not exist, baked the atlas one flat
@@ -451,8 +464,7 @@ TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
   const std::vector<uint8_t>& png = kRedBluePng;
   TempDir dir;
   testing::write_file(dir.file("t.png"), png);
-  std::string text = textured_document("t.png");
-  for (size_t at; (at = text.find("UV0")) != std::string::npos;) text.replace(at, 3, "CHANNEL1");
+  const std::string text = channel1_document("t.png", 0);
   ASSERT_NE(text.find("input_semantic=\"TEXCOORD\" input_set=\"0\""), std::string::npos);
   Warnings w;
   auto scene = import_text(dir, "channel.dae", text, &w);
@@ -472,11 +484,8 @@ TEST(ColladaImport, TextureUvSetComesFromBindVertexInput) {
 TEST(ColladaImport, TextureBoundToAMissingUvSetReadsTheFirstSet) {
   TempDir dir;
   testing::write_file(dir.file("t.png"), kRedBluePng);
-  std::string text = textured_document("t.png");
-  for (size_t at; (at = text.find("UV0")) != std::string::npos;) text.replace(at, 3, "CHANNEL1");
-  const std::string bound = "input_semantic=\"TEXCOORD\" input_set=\"0\"";
-  ASSERT_NE(text.find(bound), std::string::npos);
-  text.replace(text.find(bound), bound.size(), "input_semantic=\"TEXCOORD\" input_set=\"1\"");
+  const std::string text = channel1_document("t.png", 1);
+  ASSERT_NE(text.find("input_semantic=\"TEXCOORD\" input_set=\"1\""), std::string::npos);
   Warnings w;
   auto scene = import_text(dir, "max.dae", text, &w);
   ASSERT_TRUE(scene.ok()) << scene.status().message();

@@ -25,6 +25,18 @@ Scene sphere(int rings, int segments, int32_t material = -1) {
   return scene;
 }
 
+// The scene converted with options a and b; their multiplexer results into *x and *y.
+void multiplex_both(const Scene& scene, const ConvertOptions& a, const ConvertOptions& b,
+                    MultiplexResult* x, MultiplexResult* y) {
+  Warnings warnings;
+  auto ra = convert(scene, a, &warnings, nullptr);
+  auto rb = convert(scene, b, &warnings, nullptr);
+  ASSERT_TRUE(ra.ok()) << ra.status().message();
+  ASSERT_TRUE(rb.ok()) << rb.status().message();
+  ASSERT_TRUE(ra->multiplexed && rb->multiplexed);
+  *x = *ra->multiplexed, *y = *rb->multiplexed;
+}
+
 // The whole conversion (pipeline/convert); the multiplexer's result rides along in its outputs.
 // No offscreen OpenGL here: convert() succeeds with a warning and no result (kUnavailable).
 Result<MultiplexResult> run(const std::string& model, double* seconds) {
@@ -57,13 +69,8 @@ TEST(Multiplex, ForcedOrderIsMeasuredCheaply) {
   cheap.max_package_ratio = full.max_package_ratio = 0;
   cheap.multiplex.forced_view_layers = 0;
   cheap.multiplex.forced_image_size = 128;
-  Warnings warnings;
-  auto a = convert(scene, cheap, &warnings, nullptr);
-  auto b = convert(scene, full, &warnings, nullptr);
-  ASSERT_TRUE(a.ok()) << a.status().message();
-  ASSERT_TRUE(b.ok()) << b.status().message();
-  ASSERT_TRUE(a->multiplexed && b->multiplexed);
-  const MultiplexResult &x = *a->multiplexed, &y = *b->multiplexed;
+  MultiplexResult x, y;
+  ASSERT_NO_FATAL_FAILURE(multiplex_both(scene, cheap, full, &x, &y));
   ASSERT_EQ(x.texture_bytes.size(), 1u);
   ASSERT_GT(x.mesh_bytes.size(), 2u);
   EXPECT_EQ(x.views, 4u);
@@ -95,13 +102,8 @@ TEST(Multiplex, RendersDrawNoFinerThanAPixelCut) {
   cut.max_package_ratio = full.max_package_ratio = 0;  // every split ships in both
   cut.multiplex.cut_renders_above = 1000;
   full.multiplex.cut_renders_above = UINT64_MAX;
-  Warnings warnings;
-  auto a = convert(scene, cut, &warnings, nullptr);
-  auto b = convert(scene, full, &warnings, nullptr);
-  ASSERT_TRUE(a.ok()) << a.status().message();
-  ASSERT_TRUE(b.ok()) << b.status().message();
-  ASSERT_TRUE(a->multiplexed && b->multiplexed);
-  const MultiplexResult &x = *a->multiplexed, &y = *b->multiplexed;
+  MultiplexResult x, y;
+  ASSERT_NO_FATAL_FAILURE(multiplex_both(scene, cut, full, &x, &y));
   EXPECT_EQ(y.cut_error, 0);
   EXPECT_EQ(y.cut_triangles, y.layer_triangles.back());
   EXPECT_GT(x.cut_error, 0);
