@@ -217,7 +217,6 @@ struct CellRenders {
               int32_t texture_material, Renderer& renderer, MultiplexResult& result,
               Progress* report_to)
       : ps(scene),
-        layers(selections),
         streamed_material(texture_material),
         gl(renderer),
         r(result),
@@ -440,7 +439,6 @@ struct CellRenders {
   void report() { report_fraction(progress, double(r.renders) / most_renders); }
 
   const ProgressiveScene& ps;
-  const std::vector<LodSelection>& layers;
   const int32_t streamed_material;  // the material the texture levels stream (TextureLevels)
   Renderer& gl;
   MultiplexResult& r;
