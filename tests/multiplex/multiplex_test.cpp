@@ -37,6 +37,24 @@ void multiplex_both(const Scene& scene, const ConvertOptions& a, const ConvertOp
   *x = *ra->multiplexed, *y = *rb->multiplexed;
 }
 
+// `texture` encoded as an upload's image comes (PNG) and added with a material sampling it as
+// its base colour (the scene's first material: sphere(..., 0) draws with it).
+void add_texture_material(Scene& scene, Image texture) {
+  texture.encoded = encode_png(texture).take();
+  texture.mime_type = "image/png";
+  scene.materials.emplace_back();
+  scene.materials.back().base_color.image = int32_t(scene.images.size());
+  scene.images.push_back(std::move(texture));
+}
+
+// The scene converted with its order made for a display of w × h device pixels.
+Result<ConvertOutputs> convert_for_display(const Scene& scene, int w, int h) {
+  ConvertOptions o;
+  o.multiplex.display_width = w, o.multiplex.display_height = h;
+  Warnings warnings;
+  return convert(scene, o, &warnings, nullptr);
+}
+
 // The whole conversion (pipeline/convert); the multiplexer's result rides along in its outputs.
 // No offscreen OpenGL here: convert() succeeds with a warning and no result (kUnavailable).
 Result<MultiplexResult> run(const std::string& model, double* seconds) {
@@ -153,17 +171,10 @@ TEST(Multiplex, AFinerTextureLevelComesEarlierForALargerDisplay) {
       texture.rgba.insert(texture.rgba.end(), {uint8_t((coarse ? 190 : 60) + f), uint8_t(128 + f),
                                                uint8_t((coarse ? 60 : 190) + f), 255});
     }
-  texture.encoded = encode_png(texture).take();  // as an upload's image comes
-  texture.mime_type = "image/png";
-  scene.images.push_back(texture);
-  scene.materials.emplace_back();
-  scene.materials[0].base_color.image = 0;
+  add_texture_material(scene, std::move(texture));
   // The mesh layers the order sends before the top texture level.
   auto layers_before_top = [&](int w, int h) -> int {
-    ConvertOptions o;
-    o.multiplex.display_width = w, o.multiplex.display_height = h;
-    Warnings warnings;
-    auto out = convert(scene, o, &warnings, nullptr);
+    auto out = convert_for_display(scene, w, h);
     if (!out.ok() || !out->multiplexed) return -1;
     const MultiplexResult& r = *out->multiplexed;
     const int top = int(r.texture_bytes.size()) - 1;
@@ -191,17 +202,9 @@ TEST(Multiplex, TopTextureLevelMattersMoreOnALargerDisplay) {
       const uint8_t v = (x + y) % 2 ? 255 : 0;
       checker.rgba.insert(checker.rgba.end(), {v, v, v, 255});
     }
-  checker.encoded = encode_png(checker).take();  // as an upload's image comes
-  checker.mime_type = "image/png";
-  scene.images.push_back(checker);
-  Material m;
-  m.base_color.image = 0;
-  scene.materials.push_back(m);
+  add_texture_material(scene, std::move(checker));
   auto top_level_drop = [&](int w, int h, std::vector<uint8_t>* package) -> double {
-    ConvertOptions o;
-    o.multiplex.display_width = w, o.multiplex.display_height = h;
-    Warnings warnings;
-    auto out = convert(scene, o, &warnings, nullptr);
+    auto out = convert_for_display(scene, w, h);
     if (!out.ok() || !out->multiplexed) return -1;
     const MultiplexResult& r = *out->multiplexed;
     const int n = r.view_table.texture_layers, mm = r.view_table.mesh_layers;
