@@ -396,6 +396,7 @@ bool Simplifier::map_wedges(uint32_t b, uint32_t* faceL, uint32_t* faceR, int* s
 
 Candidate Simplifier::best_candidate(uint32_t a, Scratch& s) const {
   Candidate best{INFINITY, a, a};
+  if (!role_.empty() && role_[a] != kFree) return best;
   load_fan(a, s);
   bool locked;
   bool border = is_border(s, &locked);
@@ -407,6 +408,7 @@ Candidate Simplifier::best_candidate(uint32_t a, Scratch& s) const {
   for (const auto& n : s.nb_a) {
     uint32_t b = n.first;
     if (border && n.second != 1) continue;  // border vertices slide along the border only
+    if (!role_.empty() && role_[b] == kFixed) continue;
     const DVec3& P = u_.pos[b];
     const Quadric& qb = pos_q_[b];
     double w = qa.w + qb.w;

@@ -222,6 +222,21 @@ class Simplifier {
       : u_(unit), opt_(opt), report_(report), original_corners_(unit.corners) {
     init_quadrics(transforms);
   }
+  // A unit whose quadrics were summed already (a block of a bigger unit: block_levels.cpp).
+  Simplifier(Unit& unit, std::vector<Quadric> pos_q, std::vector<Quadric> attr_q,
+             std::vector<double> attr_gd, const SimplifyOptions& opt, SimplifyReport& report)
+      : u_(unit),
+        opt_(opt),
+        report_(report),
+        original_corners_(unit.corners),
+        pos_q_(std::move(pos_q)),
+        attr_q_(std::move(attr_q)),
+        attr_gd_(std::move(attr_gd)) {}
+
+  // What a position may do in a block's loop (role_): neither collapse nor be a target (it
+  // lies outside the block), be a target only (it has a face outside the block: its border is
+  // locked), or both.
+  enum Role : uint8_t { kFixed = 0, kTargetOnly = 1, kFree = 2 };
 
   // Passes of independent collapses under a rising error bound, as meshoptimizer's simplifier
   // works (Kapoulkine, meshoptimizer: edge collapse passes). Each pass (1) re-costs, on every
@@ -238,12 +253,11 @@ class Simplifier {
   // few percent either way). Deterministic: the order is a strict total order and the costing is
   // pure, whatever the thread count.
   // `on_progress` (may be empty) is called with the collapses so far, every few thousand.
+  // It continues from the state the block levels left, when they ran (run_block_levels).
   void run(const std::function<void(uint64_t)>& on_progress = {}) {
     const size_t np = u_.pos.size();
-    uint64_t done = 0, reported = 0;
-    alive_.assign(u_.corners.size() / 3, 1);
-    live_faces_ = alive_.size();
-    dead_pos_.assign(np, 0);
+    uint64_t done = collapses_.size(), reported = done;
+    if (alive_.empty()) begin_state();
     queued_.assign(np, Candidate{INFINITY, 0, 0});
     build_adjacency();
     std::vector<uint32_t> dirty(np), locked_list;
@@ -255,10 +269,14 @@ class Simplifier {
     };
     while (true) {
       // (1) Re-cost what changed.
-      parallel_chunks(dirty.size(), 512, [&](size_t begin, size_t end) {
+      auto recost = [&](size_t begin, size_t end) {
         Scratch s;
         for (size_t i = begin; i < end; ++i) queued_[dirty[i]] = best_candidate(dirty[i], s);
-      });
+      };
+      if (serial_)
+        recost(0, dirty.size());
+      else
+        parallel_chunks(dirty.size(), 512, recost);
       // (2) The live candidates, kept sorted by (error, u, v) as values: the stale ones out
       // (re-costed, refused, or their position gone), the re-costed ones merged in. Both
       // stream through memory, where selecting the cheapest afresh every pass chased
@@ -279,7 +297,7 @@ class Simplifier {
       merged.resize(live.size() + fresh.size());
       std::merge(live.begin(), live.end(), fresh.begin(), fresh.end(), merged.begin());
       live.swap(merged);
-      if (live.empty()) break;
+      if (live.empty() || live_faces_ <= stop_faces_ || live.front().error > stop_error_) break;
       // The base's stopping rule (record()) reads each collapse's own error as E_current and
       // the pass's dearest candidate as E_max. A pass applies its collapses in spatial order,
       // so the rule may cut inside a pass (at most one pass, 1% of the faces, unevenly over
@@ -287,7 +305,8 @@ class Simplifier {
       // one pass more into the base: 2CylinderEngine's area +3.2% against the greedy's, +0.7%
       // this way.
       const float pass_max = live.back().error;
-      const size_t goal = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
+      size_t goal = std::max<size_t>(1, size_t(double(live_faces_) * opt_.pass_fraction));
+      if (stop_faces_ > 0) goal = std::min(goal, live_faces_ - stop_faces_ + 1);
       const float error_goal =
           opt_.pass_error_growth * live[std::min(live.size() - 1, goal / 2)].error;
       // (3) Choose, cheapest first, collapses whose ends no chosen one shares (about two faces
@@ -297,6 +316,7 @@ class Simplifier {
       for (const Candidate& c : live) {
         if (2 * chosen.size() >= goal) break;
         if (c.error > error_goal && 2 * chosen.size() > goal / 6) break;
+        if (c.error > stop_error_) break;
         if (locked[c.u] || locked[c.v]) continue;
         for (uint32_t p : {c.u, c.v}) locked[p] = 1, locked_list.push_back(p);
         chosen.push_back(c);
@@ -321,8 +341,25 @@ class Simplifier {
       if (on_progress && done - reported >= 4096) on_progress(reported = done);
       std::sort(dirty.begin(), dirty.end());
     }
-    release_costing();
+    if (!keep_costing_) release_costing();
   }
+
+  // The first state: every face alive, no position collapsed.
+  void begin_state() {
+    alive_.assign(u_.corners.size() / 3, 1);
+    live_faces_ = alive_.size();
+    dead_pos_.assign(u_.pos.size(), 0);
+  }
+
+  // The block hierarchy of a big unit (block_levels.cpp): levels of blocks simplified on every
+  // core with their borders locked, each under the level's error bound (the median cheapest
+  // collapse) and to at most a quarter of its faces, the blocks shifted between levels so that
+  // one level's borders lie inside the next level's blocks (Ponchio and Dellepiane's batched
+  // multi-triangulation in Nexus; Kapoulkine's clusterlod), until at most `opt_.block_until`
+  // faces are live or a level removes under a tenth of them. run() then finishes the record
+  // on the whole unit. Returns the levels run.
+  size_t run_block_levels(const std::function<void(uint64_t)>& on_progress = {});
+  size_t live_faces() const { return live_faces_; }
 
   // Frees what only the costing reads (quadrics, adjacency, the unit's attributes, positions
   // and current corners: two thirds of the simplifier's memory) before record() allocates the
@@ -342,6 +379,17 @@ class Simplifier {
   OrphanSchedule orphan_schedule() const;
 
  private:
+  struct BlockResult;
+  // One level: the live positions, in the unit's spatial order, cut into runs of
+  // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
+  // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
+  size_t run_block_level(size_t block_positions, bool shifted);
+  // The level's error bound: the median cost of the cheapest collapse of every eighth live
+  // position, so that blocks on flat or dense parts go further than rough ones, as the
+  // whole-unit loop's error order would.
+  float level_error_bound(const std::vector<uint32_t>& live) const;
+  BlockResult simplify_block(const uint32_t* positions, size_t count,
+                             const std::vector<uint32_t>& block_of, uint32_t block, float bound);
   void init_quadrics(const std::vector<Mat4>& transforms);
   void build_adjacency();
   Candidate best_candidate(uint32_t p, Scratch& s) const;
@@ -366,6 +414,11 @@ class Simplifier {
   std::vector<Candidate> queued_;  // per position: its cheapest valid collapse, or error ∞
   FaceLists pos_faces_;            // position → live faces, kept up to date
   Scratch s_;                      // the sequential part's (collapse's) scratch
+  std::vector<uint8_t> role_;      // per position a Role, or empty: all free
+  bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
+  bool keep_costing_ = false;      // run() keeps the quadrics (a block's are handed back)
+  size_t stop_faces_ = 0;          // run() stops once at most this many faces are live
+  float stop_error_ = INFINITY;    // ... or once the cheapest collapse left costs more than this
   // History.
   std::vector<Collapse> collapses_;
   std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order

@@ -331,19 +331,23 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
       if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
       Unit unit = make_unit(scene.meshes[m], options);
       Simplifier s(unit, transforms, options, reports[m]);
-      s.run([&](uint64_t collapses) {
+      auto on_progress = [&](uint64_t collapses) {
         collapsed[m] = collapses;
         if (!progress) return;
         uint64_t done = 0;
         for (const auto& c : collapsed) done += c;
         std::lock_guard<std::mutex> lock(progress_mutex);
         report_fraction(progress, double(done) / double(std::max<uint64_t>(1, total_vertices)));
-      });
+      };
+      if (unit.corners.size() / 3 > options.block_above)
+        reports[m].block_levels = uint32_t(s.run_block_levels(on_progress));
+      s.run(on_progress);
       s.record(scene.meshes[m], m, ps.meshes[m]);
       ps.instance_orders[m] = instance_order(scene, m, box);
     }
   });
   for (const SimplifyReport& x : reports) {
+    r.block_levels = std::max(r.block_levels, x.block_levels);
     r.collapses += x.collapses;
     r.refused_flip += x.refused_flip;
     r.refused_link += x.refused_link;

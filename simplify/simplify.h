@@ -21,6 +21,10 @@
 //   submeshes and the selection can hand triangles to where they are seen most;
 // - a scene with fewer than `flatten_below_ips` instances per submesh is flattened into one
 //   mesh (per material) and simplified as such (Azim et al.: IAS pays off above 1.75);
+// - a submesh of more than `block_above` faces is first simplified as a hierarchy of blocks on
+//   every core (Ponchio and Dellepiane, Nexus; Kapoulkine, clusterlod): spatial blocks with
+//   locked borders, shifted between levels, each under a shared error bound, their collapses
+//   merged by error into the one history; the whole-submesh loop finishes from there;
 // - the whole collapse sequence is recorded: ProgressiveMesh levels from the coarsest reachable
 //   mesh to the full one, with monotone errors, and an InstanceOrder per submesh for thinning.
 // Complexity: O(T log T) per submesh (passes of sorted independent collapses, their costing on
@@ -52,8 +56,12 @@ struct SimplifyOptions {
   float stop_ratio = 0.9f;             // Terrace et al. formula 1 threshold for the base level
   float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left
                                        // costs more than this (fraction of the diagonal)
-  uint64_t ship_whole_below = 10000;   // scenes under this many triangles ship whole (base = full)
-  double ship_whole_fraction = 0.10;   // refinements under this fraction of the mesh: ship whole
+  // Big meshes: a block hierarchy first (simplifier.h run_block_levels), on every core.
+  uint64_t block_above = 1000000;     // a submesh with more faces takes the block levels first
+  uint32_t block_positions = 32768;   // positions per block (about half its faces)
+  uint64_t block_until = 262144;      // block levels run while more faces than this are live
+  uint64_t ship_whole_below = 10000;  // scenes under this many triangles ship whole (base = full)
+  double ship_whole_fraction = 0.10;  // refinements under this fraction of the mesh: ship whole
   // The collapse loop's passes (bench/simplify.sh: at 1% and 1.1 the Hausdorff distances of
   // the shared models at 20% match a true greedy's, geometric mean 0.97 of its; at 5% and 1.5
   // the loop is 1.5x faster and up to 37% worse on some).
@@ -69,6 +77,7 @@ struct SimplifyReport {
   double instances_per_submesh = 0;
   uint64_t input_triangles = 0;  // scene triangles (instances expanded)
   uint64_t collapses = 0;        // over all submeshes
+  uint32_t block_levels = 0;     // block levels run (the most over submeshes; 0: none)
   uint64_t refused_flip = 0, refused_link = 0, refused_wedge = 0, refused_vanish = 0;
   double seconds = 0;  // wall time of build_progressive
 };

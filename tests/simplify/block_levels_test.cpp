@@ -1,0 +1,108 @@
+// The block hierarchy of big meshes (simplify/block_levels.cpp): levels of blocks simplified on
+// every core with locked borders, then the whole-unit loop. The tests lower the size threshold
+// so that a sphere of 16k triangles takes the block path in several levels of many blocks.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <map>
+#include <tuple>
+
+#include "clean/clean.h"
+#include "simplify/lod.h"
+#include "simplify/simplify.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using testing::uv_sphere;
+
+// Blocks of 512 positions over a 16k-triangle sphere: ~16 blocks at the first level, block
+// levels until 2,000 faces are live.
+SimplifyOptions block_options() {
+  SimplifyOptions o;
+  o.block_above = 4000;
+  o.block_positions = 512;
+  o.block_until = 2000;
+  return o;
+}
+
+Scene sphere_scene() {
+  Scene s;
+  Mesh m;
+  m.primitives.push_back(uv_sphere(64, 128));  // a uv seam and two poles
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Mat4::identity(), "sphere"});
+  return clean(s, {});
+}
+
+// Undirected position edges of a level with how many faces use each.
+std::map<std::tuple<float, float, float, float, float, float>, int> edges_of(const Mesh& mesh) {
+  std::map<std::tuple<float, float, float, float, float, float>, int> m;
+  for (const Primitive& p : mesh.primitives)
+    for (size_t t = 0; t < p.indices.size(); t += 3)
+      for (int e = 0; e < 3; ++e) {
+        Vec3 a = p.positions[p.indices[t + e]], b = p.positions[p.indices[t + (e + 1) % 3]];
+        if (std::make_tuple(b.x, b.y, b.z) < std::make_tuple(a.x, a.y, a.z)) std::swap(a, b);
+        ++m[{a.x, a.y, a.z, b.x, b.y, b.z}];
+      }
+  return m;
+}
+
+// The block path runs several levels and its record is a valid progressive mesh: every level
+// closed (no crack where blocks met, no seam opened), manifold, with the triangle count it
+// promises; errors never rise with detail; the full level is the whole input.
+TEST(BlockLevels, RecordIsClosedAndValidAtEveryLevel) {
+  const Scene s = sphere_scene();
+  SimplifyReport report;
+  const ProgressiveMesh pm = build_progressive(s, block_options(), &report).meshes[0];
+  EXPECT_GE(report.block_levels, 2u);
+  EXPECT_EQ(pm.levels.back().triangles, compute_stats(s).unique_triangles);
+  EXPECT_LT(pm.levels.front().triangles, 100u);
+  for (size_t l = 1; l < pm.levels.size(); ++l)
+    ASSERT_LE(pm.levels[l].error, pm.levels[l - 1].error) << "level " << l;
+  const size_t n = pm.levels.size();
+  for (size_t k = 0; k <= 16; ++k) {
+    const size_t l = k * (n - 1) / 16;
+    const Mesh level = extract_level(pm, l);
+    EXPECT_EQ(level.primitives[0].indices.size() / 3, pm.levels[l].triangles) << "level " << l;
+    for (const auto& [edge, faces] : edges_of(level))
+      ASSERT_EQ(faces, 2) << "level " << l << " of " << n << ": an edge with " << faces << " faces";
+  }
+}
+
+// Blocks run on every core; the record must not depend on how many there are.
+TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
+  const Scene s = sphere_scene();
+  auto with_threads = [&](const char* n) {
+    setenv("MESHMUX_THREADS", n, 1);
+    ProgressiveMesh pm = build_progressive(s, block_options()).meshes[0];
+    unsetenv("MESHMUX_THREADS");
+    return pm;
+  };
+  const ProgressiveMesh one = with_threads("1"), three = with_threads("3");
+  EXPECT_EQ(one.indices, three.indices);
+  EXPECT_EQ(one.parent, three.parent);
+  ASSERT_EQ(one.levels.size(), three.levels.size());
+  for (size_t i = 0; i < one.levels.size(); ++i)
+    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+}
+
+// Locked borders cost little: at a quarter and a sixteenth of the triangles the block path's
+// geometric error stays within half again of the whole-unit loop's on the same sphere (a
+// level's error is the largest collapse error not undone, in diagonals).
+TEST(BlockLevels, ErrorStaysNearTheWholeUnitLoop) {
+  const Scene s = sphere_scene();
+  const ProgressiveMesh blocks = build_progressive(s, block_options()).meshes[0];
+  const ProgressiveMesh whole = build_progressive(s, {}).meshes[0];
+  const uint32_t full = whole.levels.back().triangles;
+  for (uint32_t share : {4u, 16u}) {
+    const float e_blocks = blocks.levels[level_for_triangles(blocks, full / share)].error;
+    const float e_whole = whole.levels[level_for_triangles(whole, full / share)].error;
+    EXPECT_GT(e_whole, 0.0f);
+    EXPECT_LE(e_blocks, 1.5f * e_whole) << "1/" << share << " of the triangles";
+  }
+}
+
+}  // namespace
+}  // namespace meshmux
