@@ -24,9 +24,11 @@
 #include <utility>
 
 #include "core/file_io.h"
+#include "core/parallel.h"
 #include "exporters/draco_encode.h"
 #include "exporters/gltf_constants.h"
 #include "exporters/gltf_meshopt.h"
+#include "exporters/split_primitive.h"
 #include "image/encode.h"
 
 namespace meshmux {
@@ -623,6 +625,69 @@ class Exporter {
     return prims;
   }
 
+  // The mesh's kept primitives written with Draco (or plainly, where Draco is off or fails):
+  // a primitive over `split_draco_above` triangles as spatial parts (split_primitive), one
+  // glTF primitive each; the encodes run on every core, the buffers are written in order.
+  json draco_or_plain_primitives(size_t m, const std::vector<size_t>& kept,
+                                 const std::vector<Clean>& cleans, const DracoSettings& ds) {
+    const Mesh& mesh = scene_.meshes[m];
+    struct Piece {
+      size_t k;               // the kept primitive
+      const Primitive* prim;  // its positions and indices (the part's own when split)
+      const Clean* clean;     // its written attributes
+    };
+    std::vector<Piece> pieces;
+    std::vector<std::vector<Primitive>> parts(kept.size());
+    std::vector<std::vector<Clean>> part_cleans(kept.size());
+    const bool draco = opt_.draco && !opt_.meshopt;
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const Primitive& p = mesh.primitives[kept[k]];
+      if (!draco || opt_.split_draco_above == 0 || p.triangle_count() <= opt_.split_draco_above) {
+        pieces.push_back({k, &p, &cleans[k]});
+        continue;
+      }
+      Primitive written = p;  // with the attributes as written
+      written.normals = cleans[k].normals, written.uvs = cleans[k].uvs;
+      written.colors = cleans[k].colors;
+      parts[k] = split_primitive(written, opt_.split_draco_above);
+      for (Primitive& q : parts[k]) {
+        Clean c;
+        c.normals.swap(q.normals), c.uvs.swap(q.uvs), c.colors.swap(q.colors);
+        part_cleans[k].push_back(std::move(c));
+      }
+      for (size_t i = 0; i < parts[k].size(); ++i)
+        pieces.push_back({k, &parts[k][i], &part_cleans[k][i]});
+    }
+    std::vector<std::optional<Result<DracoOutput>>> coded(pieces.size());
+    if (draco)
+      parallel_chunks(pieces.size(), 1, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+          DracoInput in;
+          in.positions = &pieces[i].prim->positions;
+          in.normals = &pieces[i].clean->normals;
+          in.uvs = &pieces[i].clean->uvs;
+          in.colors = &pieces[i].clean->colors;
+          in.indices = &pieces[i].prim->indices;
+          coded[i] = draco_encode(in, ds);
+        }
+      });
+    json prims = json::array();
+    for (size_t i = 0; i < pieces.size(); ++i) {
+      json prim;
+      if (coded[i] && coded[i]->ok())
+        prim = draco_primitive(**coded[i]);
+      else if (coded[i])
+        note("mesh " + std::to_string(m) + " primitive " + std::to_string(kept[pieces[i].k]) +
+             ": draco: " + coded[i]->status().message() + "; written uncompressed");
+      if (prim.is_null()) prim = plain_primitive(*pieces[i].prim, *pieces[i].clean);
+      if (mesh.primitives[kept[pieces[i].k]].material >= 0)
+        prim["material"] = mesh.primitives[kept[pieces[i].k]].material;
+      prims.push_back(std::move(prim));
+      coded[i].reset();
+    }
+    return prims;
+  }
+
   void write_meshes() {
     DracoSettings ds;
     ds.position_bits = opt_.position_bits;
@@ -649,29 +714,13 @@ class Exporter {
       json prims = json::array();
       if (opt_.meshopt && !kept.empty()) prims = meshopt_primitives(m, kept, cleans);
       const bool coded = !prims.empty();  // by meshopt
-      for (size_t k = 0; !coded && k < kept.size(); ++k) {
-        const Primitive& p = mesh.primitives[kept[k]];
-        json prim;
-        if (opt_.draco && !opt_.meshopt) {
-          DracoInput in;
-          in.positions = &p.positions;
-          in.normals = &cleans[k].normals;
-          in.uvs = &cleans[k].uvs;
-          in.colors = &cleans[k].colors;
-          in.indices = &p.indices;
-          auto r = draco_encode(in, ds);
-          if (r.ok())
-            prim = draco_primitive(*r);
-          else
-            note("mesh " + std::to_string(m) + " primitive " + std::to_string(kept[k]) +
-                 ": draco: " + r.status().message() + "; written uncompressed");
-        }
-        if (prim.is_null()) prim = plain_primitive(p, cleans[k]);
-        prims.push_back(std::move(prim));
+      if (coded) {
+        for (size_t k = 0; k < kept.size(); ++k)
+          if (mesh.primitives[kept[k]].material >= 0)
+            prims[k]["material"] = mesh.primitives[kept[k]].material;
+      } else {
+        prims = draco_or_plain_primitives(m, kept, cleans, ds);
       }
-      for (size_t k = 0; k < kept.size(); ++k)
-        if (mesh.primitives[kept[k]].material >= 0)
-          prims[k]["material"] = mesh.primitives[kept[k]].material;
       if (prims.empty()) {
         note("mesh " + std::to_string(m) + " '" + mesh.name + "': no triangles; mesh left out");
         continue;

@@ -32,12 +32,15 @@
 namespace meshmux {
 
 struct GltfExportOptions {
-  bool draco = true;                            // compress meshes with KHR_draco_mesh_compression
-  int position_bits = 14;                       // Draco quantization bits for positions (1-30)
-  int normal_bits = 10;                         // for normals
-  int uv_bits = 12;                             // for texture coordinates
-  int color_bits = 8;                           // for vertex colours
-  int draco_speed = 3;                          // Draco encoder speed 0 (smallest) .. 10 (fastest)
+  bool draco = true;                   // compress meshes with KHR_draco_mesh_compression
+  int position_bits = 14;              // Draco quantization bits for positions (1-30)
+  int normal_bits = 10;                // for normals
+  int uv_bits = 12;                    // for texture coordinates
+  int color_bits = 8;                  // for vertex colours
+  int draco_speed = 3;                 // Draco encoder speed 0 (smallest) .. 10 (fastest)
+  size_t split_draco_above = 1000000;  // Draco: a primitive with more triangles is written as
+                                       // spatial parts of at most this many, one glTF
+                                       // primitive each, encoded on every core; 0 = never
   size_t min_gpu_instances = kMinGpuInstances;  // instances per mesh for EXT_mesh_gpu_instancing
   std::string generator = "meshmux";            // asset.generator
   bool tag_meshes = false;  // mesh.extras = {"meshmux_mesh": Scene mesh index} and image.extras

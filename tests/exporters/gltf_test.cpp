@@ -221,6 +221,41 @@ TEST(GltfExport, FlatPrimitivesAreWrittenWithoutNormals) {
   }
 }
 
+// A scan's one big primitive is written as Draco parts encoded on every core: each part a
+// glTF primitive of the mesh with the same material, the file valid, and read back it is the
+// whole surface (every triangle, the same bounds).
+TEST(GltfExport, BigPrimitiveIsWrittenAsDracoPartsThatReadBackWhole) {
+  Scene s;
+  Mesh m;
+  m.name = "scan";
+  m.primitives.push_back(testing::uv_sphere(40, 80));  // 6,240 triangles
+  m.primitives[0].material = 0;
+  s.meshes.push_back(m);
+  s.materials.push_back(Material{});
+  s.instances.push_back({0, Mat4::identity(), "scan"});
+  GltfExportOptions options;
+  options.split_draco_above = 1000;
+  const std::vector<uint8_t> bytes = export_ok(s, options);
+  const Glb glb = parse_glb(bytes);
+  ASSERT_EQ(glb.doc["meshes"].size(), 1u);
+  const json& prims = glb.doc["meshes"][0]["primitives"];
+  ASSERT_EQ(prims.size(), 7u);
+  for (const json& prim : prims) {
+    EXPECT_TRUE(prim["extensions"].contains("KHR_draco_mesh_compression"));
+    EXPECT_EQ(prim["material"], 0);
+  }
+  expect_valid(bytes, "parts.glb");
+  TempDir dir;
+  testing::write_file(dir.file("parts.glb"), bytes);
+  Warnings warnings;
+  auto back = import_scene(dir.file("parts.glb"), {}, &warnings);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(compute_stats(*back).scene_triangles, 6240u);
+  const Bounds a = scene_bounds(s), b = scene_bounds(*back);
+  EXPECT_NEAR(a.min.x, b.min.x, 1e-3f);
+  EXPECT_NEAR(a.max.y, b.max.y, 1e-3f);
+}
+
 TEST(GltfExport, EmptySceneIsValid) {
   auto bytes = export_ok(Scene{});
   Glb glb = parse_glb(bytes);
