@@ -108,8 +108,8 @@ float Simplifier::level_error_bound(const std::vector<uint32_t>& live) const {
     for (size_t i = begin; i < end; ++i) cost[i] = best_candidate(live[8 * i], s).error;
   });
   if (cost.empty()) return INFINITY;
-  std::nth_element(cost.begin(), cost.begin() + ptrdiff_t(samples / 2), cost.end());
-  return cost[samples / 2];
+  std::nth_element(cost.begin(), cost.begin() + ptrdiff_t(samples * 3 / 4), cost.end());
+  return cost[samples * 3 / 4];
 }
 
 Simplifier::BlockResult Simplifier::simplify_block(const uint32_t* positions, size_t count,

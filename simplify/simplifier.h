@@ -352,8 +352,8 @@ class Simplifier {
   }
 
   // The block hierarchy of a big unit (block_levels.cpp): levels of blocks simplified on every
-  // core with their borders locked, each under the level's error bound (the median cheapest
-  // collapse) and to at most a quarter of its faces, the blocks shifted between levels so that
+  // core with their borders locked, each under the level's error bound (level_error_bound) and
+  // to at most a quarter of its faces, the blocks shifted between levels so that
   // one level's borders lie inside the next level's blocks (Ponchio and Dellepiane's batched
   // multi-triangulation in Nexus; Kapoulkine's clusterlod), until at most `opt_.block_until`
   // faces are live or a level removes under a tenth of them. run() then finishes the record
@@ -384,9 +384,11 @@ class Simplifier {
   // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
   // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
   size_t run_block_level(size_t block_positions, bool shifted);
-  // The level's error bound: the median cost of the cheapest collapse of every eighth live
-  // position, so that blocks on flat or dense parts go further than rough ones, as the
-  // whole-unit loop's error order would.
+  // The level's error bound: the third quartile of the cost of the cheapest collapse of every
+  // eighth live position, so that blocks on flat or dense parts go further than rough ones, as
+  // the whole-unit loop's error order would (at the median, levels removed ~30% of the faces
+  // each, 8 levels on a 4M scan, 7.9 s; at the third quartile ~45%, 5 levels, 6.0 s; Hausdorff
+  // against meshopt_simplify 0.66/0.96/1.04 and 0.64/0.96/1.07 at 25/6/1.5%).
   float level_error_bound(const std::vector<uint32_t>& live) const;
   BlockResult simplify_block(const uint32_t* positions, size_t count,
                              const std::vector<uint32_t>& block_of, uint32_t block, float bound);
