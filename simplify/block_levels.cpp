@@ -13,8 +13,12 @@
 // changes only faces whose corners are all in its block, and the quadrics of positions and
 // wedges of its block, so blocks write disjoint parts of the unit; faces that straddle blocks
 // do not change in the level.
+#include <malloc.h>
+
 #include <algorithm>
+#include <memory>
 #include <queue>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "core/parallel.h"
@@ -28,15 +32,113 @@ struct Simplifier::BlockResult {
   std::vector<std::pair<uint32_t, uint32_t>> maps;
   std::vector<uint32_t> removed_faces;
   SimplifyReport report;
+  // kMakeQuadrics: the quadrics of the block's live positions and of their wedges, in the
+  // unit's numbering (the unit holds none of its own).
+  std::vector<uint32_t> positions, wedges;
+  std::vector<Quadric> pos_q, wedge_q;
+  std::vector<double> wedge_gd;  // wedges × channels × 4
+  std::vector<float> costs;      // kCostsOnly: a sample of the block's cheapest collapses
 };
 
+// The live part of a unit after a level, as a unit of its own (see compact()).
+struct Simplifier::Rest {
+  std::unique_ptr<Unit> unit;
+  std::unique_ptr<Simplifier> s;
+  std::vector<uint32_t> wedge_of;  // rest wedge → unit wedge
+  std::vector<uint32_t> face_of;   // rest face → unit face
+};
+
+// One block as a unit of its own: the block's positions first, then the others its faces
+// reach; wedges as met; every live face with a corner in the block (those with a corner
+// outside stay as they are, but their edges are seen by the link and border tests).
+struct Simplifier::BlockUnit {
+  Unit unit;
+  std::vector<uint32_t> faces, global_pos, global_wedge;  // local → unit numbering
+  std::vector<uint8_t> role, face_owned;  // per local position / face (all corners in block)
+  size_t owned = 0;                       // faces with all corners in the block
+};
+
+Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, size_t count,
+                                                  const std::vector<uint32_t>& block_of,
+                                                  uint32_t block) const {
+  BlockUnit b;
+  for (size_t i = 0; i < count; ++i)
+    for (uint32_t f : pos_faces_[positions[i]]) b.faces.push_back(f);
+  std::sort(b.faces.begin(), b.faces.end());
+  b.faces.erase(std::unique(b.faces.begin(), b.faces.end()), b.faces.end());
+  Unit& sub = b.unit;
+  sub.channels = u_.channels;
+  const size_t k = size_t(u_.channels);
+  std::unordered_map<uint32_t, uint32_t> local_pos, local_wedge;
+  local_pos.reserve(2 * count), local_wedge.reserve(4 * count);
+  for (size_t i = 0; i < count; ++i) {
+    local_pos.emplace(positions[i], uint32_t(i));
+    b.global_pos.push_back(positions[i]);
+    sub.pos.push_back(u_.pos[positions[i]]);
+    b.role.push_back(kFree);
+  }
+  auto position = [&](uint32_t p) {
+    auto [it, added] = local_pos.emplace(p, uint32_t(b.global_pos.size()));
+    if (added) b.global_pos.push_back(p), sub.pos.push_back(u_.pos[p]), b.role.push_back(kFixed);
+    return it->second;
+  };
+  auto wedge = [&](uint32_t w) {
+    auto [it, added] = local_wedge.emplace(w, uint32_t(b.global_wedge.size()));
+    if (!added) return it->second;
+    b.global_wedge.push_back(w);
+    sub.wedge_pos.push_back(position(u_.wedge_pos[w]));
+    sub.wedge_group.push_back(u_.wedge_group[w]);  // compared for equality only
+    if (!u_.wedge_normal.empty()) sub.wedge_normal.push_back(u_.wedge_normal[w]);
+    sub.attr.insert(sub.attr.end(), u_.attr.begin() + ptrdiff_t(w * k),
+                    u_.attr.begin() + ptrdiff_t((w + 1) * k));
+    return it->second;
+  };
+  b.face_owned.assign(b.faces.size(), 1);
+  for (size_t i = 0; i < b.faces.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t w = u_.corners[3 * size_t(b.faces[i]) + size_t(c)];
+      sub.corners.push_back(wedge(w));
+      if (block_of[u_.wedge_pos[w]] != block) b.face_owned[i] = 0;
+    }
+    b.owned += b.face_owned[i];
+  }
+  // A block position with a face outside the block keeps its place (its border is locked).
+  for (size_t i = 0; i < b.faces.size(); ++i)
+    if (!b.face_owned[i])
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t p = sub.wedge_pos[sub.corners[3 * i + size_t(c)]];
+        if (b.role[p] == kFree) b.role[p] = kTargetOnly;
+      }
+  return b;
+}
+
 size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_progress) {
+  if (alive_.empty()) begin_state();
+  build_adjacency();
+  if (transforms_.empty()) return block_levels_from(0, on_progress);
+  // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
+  std::vector<BlockResult> made;
+  run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made);
+  if (on_progress) on_progress(collapses_.size());
+  Rest rest = compact(made);
+  const uint64_t before = collapses_.size();
+  auto rest_progress = [&](uint64_t n) {
+    if (on_progress) on_progress(before + n);
+  };
+  const size_t levels = 1 + rest.s->block_levels_from(1, rest_progress);
+  rest.s->run(rest_progress);
+  absorb(rest);
+  return levels;
+}
+
+size_t Simplifier::block_levels_from(size_t level,
+                                     const std::function<void(uint64_t)>& on_progress) {
   if (alive_.empty()) begin_state();
   build_adjacency();
   size_t levels = 0;
   while (live_faces_ > opt_.block_until) {
     const size_t before = live_faces_;
-    run_block_level(std::max<size_t>(64, opt_.block_positions), levels % 2 == 1);
+    run_block_level(std::max<size_t>(64, opt_.block_positions), (level + levels) % 2 == 1);
     ++levels;
     if (on_progress) on_progress(collapses_.size());
     if (10 * (before - live_faces_) < before) break;  // stuck: the whole-unit loop goes on
@@ -44,7 +146,8 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
   return levels;
 }
 
-size_t Simplifier::run_block_level(size_t block_positions, bool shifted) {
+size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
+                                   std::vector<BlockResult>* quadrics_made) {
   const size_t np = u_.pos.size();
   std::vector<uint32_t> live;
   for (uint32_t p = 0; p < np; ++p)
@@ -58,12 +161,14 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted) {
   std::vector<uint32_t> block_of(np, UINT32_MAX);
   for (uint32_t b = 0; b < blocks; ++b)
     for (size_t i = starts[b]; i < starts[b + 1]; ++i) block_of[live[i]] = b;
-  const float bound = level_error_bound(live);
+  const BlockMode mode = quadrics_made ? kMakeQuadrics : kCopyQuadrics;
+  const float bound =
+      quadrics_made ? sampled_error_bound(live, starts, block_of) : level_error_bound(live);
   std::vector<BlockResult> results(blocks);
   parallel_chunks(blocks, 1, [&](size_t begin, size_t end) {
     for (size_t b = begin; b < end; ++b)
-      results[b] =
-          simplify_block(&live[starts[b]], starts[b + 1] - starts[b], block_of, uint32_t(b), bound);
+      results[b] = simplify_block(&live[starts[b]], starts[b + 1] - starts[b], block_of,
+                                  uint32_t(b), bound, mode);
   });
   // The histories merged by each collapse's error when chosen (its queue_min), each block's
   // own order kept (a collapse may need the ones before it in its block); ties by block.
@@ -89,14 +194,20 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted) {
     ++made;
     if (next[b] < r.collapses.size()) heads.push({r.collapses[next[b]].queue_min, b});
   }
-  for (const BlockResult& r : results) {
+  for (BlockResult& r : results) {
     report_.collapses += r.report.collapses;
     report_.refused_flip += r.report.refused_flip;
     report_.refused_link += r.report.refused_link;
     report_.refused_wedge += r.report.refused_wedge;
     report_.refused_vanish += r.report.refused_vanish;
+    std::vector<Collapse>().swap(r.collapses);
+    std::vector<std::pair<uint32_t, uint32_t>>().swap(r.maps);
+    std::vector<uint32_t>().swap(r.removed_faces);
   }
-  build_adjacency();
+  if (quadrics_made)
+    quadrics_made->swap(results);
+  else
+    build_adjacency();
   return made;
 }
 
@@ -107,113 +218,221 @@ float Simplifier::level_error_bound(const std::vector<uint32_t>& live) const {
     Scratch s;
     for (size_t i = begin; i < end; ++i) cost[i] = best_candidate(live[8 * i], s).error;
   });
+  return third_quartile(cost);
+}
+
+float Simplifier::sampled_error_bound(const std::vector<uint32_t>& live,
+                                      const std::vector<size_t>& starts,
+                                      const std::vector<uint32_t>& block_of) {
+  const size_t blocks = starts.size() - 1, step = std::max<size_t>(1, blocks / 16);
+  std::vector<size_t> sampled;
+  for (size_t b = 0; b < blocks; b += step) sampled.push_back(b);
+  std::vector<BlockResult> results(sampled.size());
+  parallel_chunks(sampled.size(), 1, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      const size_t b = sampled[i];
+      results[i] = simplify_block(&live[starts[b]], starts[b + 1] - starts[b], block_of,
+                                  uint32_t(b), INFINITY, kCostsOnly);
+    }
+  });
+  std::vector<float> cost;
+  for (const BlockResult& r : results) cost.insert(cost.end(), r.costs.begin(), r.costs.end());
+  return third_quartile(cost);
+}
+
+float Simplifier::third_quartile(std::vector<float>& cost) {
   if (cost.empty()) return INFINITY;
-  std::nth_element(cost.begin(), cost.begin() + ptrdiff_t(samples * 3 / 4), cost.end());
-  return cost[samples * 3 / 4];
+  const size_t q = cost.size() * 3 / 4;
+  std::nth_element(cost.begin(), cost.begin() + ptrdiff_t(q), cost.end());
+  return cost[q];
 }
 
 Simplifier::BlockResult Simplifier::simplify_block(const uint32_t* positions, size_t count,
                                                    const std::vector<uint32_t>& block_of,
-                                                   uint32_t block, float bound) {
-  // The block's faces: every live face with a corner in it (those with a corner outside stay
-  // as they are, but their edges are seen by the link and border tests).
-  std::vector<uint32_t> faces;
-  for (size_t i = 0; i < count; ++i)
-    for (uint32_t f : pos_faces_[positions[i]]) faces.push_back(f);
-  std::sort(faces.begin(), faces.end());
-  faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-  // Its unit: the block's positions first, then the others its faces reach; wedges as met.
-  Unit sub;
-  sub.channels = u_.channels;
-  const size_t k = size_t(u_.channels), kg = k * 4;
-  std::unordered_map<uint32_t, uint32_t> local_pos, local_wedge;
-  local_pos.reserve(2 * count), local_wedge.reserve(4 * count);
-  std::vector<uint32_t> global_pos, global_wedge;
-  std::vector<uint8_t> role;
-  for (size_t i = 0; i < count; ++i) {
-    local_pos.emplace(positions[i], uint32_t(i));
-    global_pos.push_back(positions[i]);
-    sub.pos.push_back(u_.pos[positions[i]]);
-    role.push_back(kFree);
-  }
-  auto position = [&](uint32_t p) {
-    auto [it, added] = local_pos.emplace(p, uint32_t(global_pos.size()));
-    if (added) global_pos.push_back(p), sub.pos.push_back(u_.pos[p]), role.push_back(kFixed);
-    return it->second;
-  };
-  auto wedge = [&](uint32_t w) {
-    auto [it, added] = local_wedge.emplace(w, uint32_t(global_wedge.size()));
-    if (!added) return it->second;
-    global_wedge.push_back(w);
-    sub.wedge_pos.push_back(position(u_.wedge_pos[w]));
-    sub.wedge_group.push_back(u_.wedge_group[w]);  // compared for equality only
-    if (!u_.wedge_normal.empty()) sub.wedge_normal.push_back(u_.wedge_normal[w]);
-    sub.attr.insert(sub.attr.end(), u_.attr.begin() + ptrdiff_t(w * k),
-                    u_.attr.begin() + ptrdiff_t((w + 1) * k));
-    return it->second;
-  };
-  size_t owned = 0;
-  std::vector<uint8_t> face_owned(faces.size(), 1);
-  for (size_t i = 0; i < faces.size(); ++i) {
-    const uint32_t f = faces[i];
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t w = u_.corners[3 * size_t(f) + size_t(c)];
-      sub.corners.push_back(wedge(w));
-      if (block_of[u_.wedge_pos[w]] != block) face_owned[i] = 0;
-    }
-    sub.face_prim.push_back(u_.face_prim[f]);
-    owned += face_owned[i];
-  }
-  // A block position with a face outside the block keeps its place (its border is locked).
-  for (size_t i = 0; i < faces.size(); ++i)
-    if (!face_owned[i])
-      for (int c = 0; c < 3; ++c) {
-        const uint32_t p = sub.wedge_pos[sub.corners[3 * i + size_t(c)]];
-        if (role[p] == kFree) role[p] = kTargetOnly;
-      }
-  // The quadrics of the block's positions and their wedges (the others are never read).
-  std::vector<Quadric> pq(global_pos.size()), aq(global_wedge.size());
-  std::vector<double> gd(global_wedge.size() * kg, 0.0);
-  for (size_t i = 0; i < count; ++i) pq[i] = pos_q_[positions[i]];
-  for (size_t w = 0; w < global_wedge.size(); ++w) {
-    if (sub.wedge_pos[w] >= count) continue;
-    aq[w] = attr_q_[global_wedge[w]];
-    std::copy_n(attr_gd_.begin() + ptrdiff_t(global_wedge[w] * kg), kg,
-                gd.begin() + ptrdiff_t(w * kg));
-  }
+                                                   uint32_t block, float bound, BlockMode mode) {
+  BlockUnit b = make_block_unit(positions, count, block_of, block);
+  Unit& sub = b.unit;
+  const size_t kg = size_t(u_.channels) * 4;
   BlockResult out;
-  Simplifier s(sub, std::move(pq), std::move(aq), std::move(gd), opt_, out.report);
-  s.role_ = std::move(role);
+  std::unique_ptr<Simplifier> made;
+  if (mode == kCopyQuadrics) {
+    // The quadrics of the block's positions and their wedges (the others are never read).
+    std::vector<Quadric> pq(b.global_pos.size()), aq(b.global_wedge.size());
+    std::vector<double> gd(b.global_wedge.size() * kg, 0.0);
+    for (size_t i = 0; i < count; ++i) pq[i] = pos_q_[positions[i]];
+    for (size_t w = 0; w < b.global_wedge.size(); ++w) {
+      if (sub.wedge_pos[w] >= count) continue;
+      aq[w] = attr_q_[b.global_wedge[w]];
+      std::copy_n(attr_gd_.begin() + ptrdiff_t(b.global_wedge[w] * kg), kg,
+                  gd.begin() + ptrdiff_t(w * kg));
+    }
+    made = std::make_unique<Simplifier>(sub, std::move(pq), std::move(aq), std::move(gd), opt_,
+                                        out.report);
+  } else {
+    // Made from the block's faces: every face around a block position is one of them, so its
+    // quadrics are the whole unit's (the others' are partial and never read).
+    made = std::make_unique<Simplifier>(sub, transforms_, opt_, out.report, Quadrics::kNowSerial);
+  }
+  Simplifier& s = *made;
+  s.role_ = std::move(b.role);
   s.serial_ = true;
+  if (mode == kCostsOnly) {
+    s.begin_state();
+    s.build_adjacency();
+    Scratch scratch;
+    for (uint32_t p = 0; p < count; p += 8)
+      if (s.role_[p] == kFree) out.costs.push_back(s.best_candidate(p, scratch).error);
+    return out;
+  }
   s.keep_costing_ = true;
-  s.stop_faces_ = faces.size() - owned * 3 / 4;
+  s.stop_faces_ = b.faces.size() - b.owned * 3 / 4;
   s.stop_error_ = bound;
   s.run();
   // Back in the unit's numbering.
   out.collapses = s.collapses_;
   out.maps.reserve(s.maps_.size());
-  for (const auto& [w, t] : s.maps_) out.maps.push_back({global_wedge[w], global_wedge[t]});
+  for (const auto& [w, t] : s.maps_) out.maps.push_back({b.global_wedge[w], b.global_wedge[t]});
   out.removed_faces.reserve(s.removed_faces_.size());
-  for (uint32_t f : s.removed_faces_) out.removed_faces.push_back(faces[f]);
+  for (uint32_t f : s.removed_faces_) out.removed_faces.push_back(b.faces[f]);
   // The state the block leaves, written where only this block writes (see the file comment).
-  for (size_t i = 0; i < faces.size(); ++i) {
-    if (!face_owned[i]) continue;
-    const uint32_t f = faces[i];
+  for (size_t i = 0; i < b.faces.size(); ++i) {
+    if (!b.face_owned[i]) continue;
+    const uint32_t f = b.faces[i];
     alive_[f] = s.alive_[i];
     for (int c = 0; c < 3; ++c)
-      u_.corners[3 * size_t(f) + size_t(c)] = global_wedge[sub.corners[3 * i + size_t(c)]];
+      u_.corners[3 * size_t(f) + size_t(c)] = b.global_wedge[sub.corners[3 * i + size_t(c)]];
+  }
+  for (size_t i = 0; i < count; ++i) dead_pos_[positions[i]] = s.dead_pos_[i];
+  const bool keep_here = mode == kCopyQuadrics;
+  if (!keep_here) {
+    const size_t live =
+        size_t(std::count(s.dead_pos_.begin(), s.dead_pos_.begin() + ptrdiff_t(count), 0));
+    out.positions.reserve(live), out.pos_q.reserve(live);
   }
   for (size_t i = 0; i < count; ++i) {
-    pos_q_[positions[i]] = s.pos_q_[i];
-    dead_pos_[positions[i]] = s.dead_pos_[i];
+    if (keep_here) {
+      pos_q_[positions[i]] = s.pos_q_[i];
+    } else if (!s.dead_pos_[i]) {
+      out.positions.push_back(positions[i]);
+      out.pos_q.push_back(s.pos_q_[i]);
+    }
   }
-  for (size_t w = 0; w < global_wedge.size(); ++w) {
-    if (sub.wedge_pos[w] >= count) continue;
-    attr_q_[global_wedge[w]] = s.attr_q_[w];
-    std::copy_n(s.attr_gd_.begin() + ptrdiff_t(w * kg), kg,
-                attr_gd_.begin() + ptrdiff_t(global_wedge[w] * kg));
+  // Wedges in the unit's order (compact() appends the blocks' lists as they come).
+  std::vector<uint32_t> order(b.global_wedge.size());
+  for (uint32_t w = 0; w < order.size(); ++w) order[w] = w;
+  std::sort(order.begin(), order.end(),
+            [&](uint32_t x, uint32_t y) { return b.global_wedge[x] < b.global_wedge[y]; });
+  if (!keep_here) {  // exact sizes: the level holds every block's lists at once
+    size_t wedges = 0;
+    for (uint32_t w : order) wedges += sub.wedge_pos[w] < count && !s.dead_pos_[sub.wedge_pos[w]];
+    out.wedges.reserve(wedges), out.wedge_q.reserve(wedges), out.wedge_gd.reserve(wedges * kg);
+  }
+  for (uint32_t w : order) {
+    const uint32_t p = sub.wedge_pos[w];
+    if (p >= count) continue;
+    const double* gd = &s.attr_gd_[w * kg];
+    if (keep_here) {
+      attr_q_[b.global_wedge[w]] = s.attr_q_[w];
+      std::copy_n(gd, kg, attr_gd_.begin() + ptrdiff_t(b.global_wedge[w] * kg));
+    } else if (!s.dead_pos_[p]) {
+      out.wedges.push_back(b.global_wedge[w]);
+      out.wedge_q.push_back(s.attr_q_[w]);
+      out.wedge_gd.insert(out.wedge_gd.end(), gd, gd + kg);
+    }
   }
   return out;
+}
+
+Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
+  const size_t np = u_.pos.size(), nw = u_.wedge_pos.size(), nf = alive_.size();
+  const size_t k = size_t(u_.channels), kg = k * 4;
+  Rest r;
+  r.unit = std::make_unique<Unit>();
+  Unit& rest = *r.unit;
+  rest.channels = u_.channels;
+  std::vector<uint32_t> pos_id(np, UINT32_MAX), wedge_id(nw, UINT32_MAX);
+  for (uint32_t f = 0; f < nf; ++f) {
+    if (!alive_[f]) continue;
+    r.face_of.push_back(f);
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t w = u_.corners[3 * size_t(f) + size_t(c)];
+      wedge_id[w] = 0, pos_id[u_.wedge_pos[w]] = 0;
+    }
+  }
+  size_t live_pos = 0, live_wedges = 0;
+  for (uint32_t p = 0; p < np; ++p) live_pos += pos_id[p] == 0;
+  for (uint32_t w = 0; w < nw; ++w) live_wedges += wedge_id[w] == 0;
+  rest.pos.reserve(live_pos), rest.wedge_pos.reserve(live_wedges);
+  rest.wedge_group.reserve(live_wedges), rest.attr.reserve(live_wedges * k);
+  if (!u_.wedge_normal.empty()) rest.wedge_normal.reserve(live_wedges);
+  r.wedge_of.reserve(live_wedges);
+  for (uint32_t p = 0; p < np; ++p)
+    if (pos_id[p] == 0) pos_id[p] = uint32_t(rest.pos.size()), rest.pos.push_back(u_.pos[p]);
+  for (uint32_t w = 0; w < nw; ++w) {
+    if (wedge_id[w] != 0) continue;
+    wedge_id[w] = uint32_t(r.wedge_of.size());
+    r.wedge_of.push_back(w);
+    rest.wedge_pos.push_back(pos_id[u_.wedge_pos[w]]);
+    rest.wedge_group.push_back(u_.wedge_group[w]);
+    if (!u_.wedge_normal.empty()) rest.wedge_normal.push_back(u_.wedge_normal[w]);
+    rest.attr.insert(rest.attr.end(), u_.attr.begin() + ptrdiff_t(w * k),
+                     u_.attr.begin() + ptrdiff_t((w + 1) * k));
+  }
+  rest.corners.reserve(3 * r.face_of.size());
+  for (uint32_t f : r.face_of)
+    for (int c = 0; c < 3; ++c)
+      rest.corners.push_back(wedge_id[u_.corners[3 * size_t(f) + size_t(c)]]);
+  // The quadrics the blocks made: every live position is one block's, with its wedges. The
+  // blocks hold runs of positions in order, and list their wedges in order, so their lists
+  // appended in block order are the rest's order; each is freed once appended, and the
+  // reserved arrays fill as they go (never both whole at once).
+  std::vector<Quadric> pq, aq;
+  std::vector<double> gd;
+  pq.reserve(live_pos), aq.reserve(live_wedges), gd.reserve(live_wedges * kg);
+  size_t freed = 0;
+  for (BlockResult& b : results) {
+    for (size_t i = 0; i < b.positions.size(); ++i)
+      if (pos_id[b.positions[i]] == pq.size()) pq.push_back(b.pos_q[i]);
+    for (size_t i = 0; i < b.wedges.size(); ++i)
+      if (wedge_id[b.wedges[i]] == aq.size()) {
+        aq.push_back(b.wedge_q[i]);
+        gd.insert(gd.end(), b.wedge_gd.begin() + ptrdiff_t(i * kg),
+                  b.wedge_gd.begin() + ptrdiff_t((i + 1) * kg));
+      }
+    b = BlockResult{};
+    // The blocks' lists live in the allocator's arenas, which keep freed pages: handed back
+    // as we go, or the rest's arrays would come on top of them (4M scan: +220 MB at the peak).
+    if (++freed % 8 == 0) malloc_trim(0);
+  }
+  malloc_trim(0);
+  if (pq.size() != live_pos || aq.size() != live_wedges)
+    throw std::logic_error("simplify: block levels: a live position or wedge without quadrics");
+  // The unit keeps only what the record reads.
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  release(u_.attr), release(u_.pos), release(u_.corners), release(u_.wedge_group);
+  release(dead_pos_);  // wedge_normal stays: the record reads whether there are normals
+  pos_faces_.release();
+  r.s = std::make_unique<Simplifier>(rest, std::move(pq), std::move(aq), std::move(gd), opt_,
+                                     report_);
+  return r;
+}
+
+void Simplifier::absorb(const Rest& rest) {
+  const Simplifier& t = *rest.s;
+  for (const Collapse& c0 : t.collapses_) {
+    Collapse c = c0;
+    c.first_map = uint32_t(maps_.size()), c.first_face = uint32_t(removed_faces_.size());
+    for (uint32_t i = 0; i < c0.map_count; ++i) {
+      const auto& [w, target] = t.maps_[c0.first_map + i];
+      maps_.push_back({rest.wedge_of[w], rest.wedge_of[target]});
+    }
+    for (uint32_t i = 0; i < c0.face_count; ++i)
+      removed_faces_.push_back(rest.face_of[t.removed_faces_[c0.first_face + i]]);
+    collapses_.push_back(c);
+  }
+  for (size_t i = 0; i < rest.face_of.size(); ++i) alive_[rest.face_of[i]] = t.alive_[i];
+  live_faces_ = t.live_faces_;
+  finished_ = true;
 }
 
 }  // namespace meshmux::simplify_detail

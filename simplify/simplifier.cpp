@@ -213,12 +213,16 @@ void Simplifier::init_quadrics(const std::vector<Mat4>& transforms) {
   std::vector<double> block_gd(block.size() * kg);
   for (size_t f0 = 0; f0 < nf; f0 += kBlock) {
     const size_t n = std::min(kBlock, nf - f0);
-    parallel_chunks(n, 1024, [&](size_t begin, size_t end) {
+    auto make = [&](size_t begin, size_t end) {
       for (size_t i = begin; i < end; ++i) {
         block[i] = FaceTerms{};
         terms(f0 + i, block[i], &block_gd[i * kg]);
       }
-    });
+    };
+    if (serial_)
+      make(0, n);
+    else
+      parallel_chunks(n, 1024, make);
     for (size_t i = 0; i < n; ++i) {
       const size_t f = f0 + i;
       const FaceTerms& t = block[i];

@@ -217,10 +217,18 @@ using FanFace = Scratch::FanFace;
 
 class Simplifier {
  public:
+  // How the quadrics are made: summed now on every core (a whole unit), summed now on the
+  // calling thread (a block of a bigger unit), or later by the first block level, block by
+  // block, so that the whole unit's quadrics are never held at once (run_block_levels).
+  enum class Quadrics { kNow, kNowSerial, kByBlocks };
   Simplifier(Unit& unit, const std::vector<Mat4>& transforms, const SimplifyOptions& opt,
-             SimplifyReport& report)
+             SimplifyReport& report, Quadrics quadrics = Quadrics::kNow)
       : u_(unit), opt_(opt), report_(report), original_corners_(unit.corners) {
-    init_quadrics(transforms);
+    serial_ = quadrics == Quadrics::kNowSerial;
+    if (quadrics == Quadrics::kByBlocks)
+      transforms_ = transforms;
+    else
+      init_quadrics(transforms);
   }
   // A unit whose quadrics were summed already (a block of a bigger unit: block_levels.cpp).
   Simplifier(Unit& unit, std::vector<Quadric> pos_q, std::vector<Quadric> attr_q,
@@ -255,6 +263,7 @@ class Simplifier {
   // `on_progress` (may be empty) is called with the collapses so far, every few thousand.
   // It continues from the state the block levels left, when they ran (run_block_levels).
   void run(const std::function<void(uint64_t)>& on_progress = {}) {
+    if (finished_) return;  // the block levels' compacted rest ran it (run_block_levels)
     const size_t np = u_.pos.size();
     uint64_t done = collapses_.size(), reported = done;
     if (alive_.empty()) begin_state();
@@ -380,10 +389,32 @@ class Simplifier {
 
  private:
   struct BlockResult;
+  struct BlockUnit;
+  struct Rest;
+  // What a block does with quadrics: copies the unit's, makes its own from its faces (the
+  // unit's are made by blocks: Quadrics::kByBlocks), or only costs a sample of its cheapest
+  // collapses with its own (for the first level's error bound).
+  enum BlockMode { kCopyQuadrics, kMakeQuadrics, kCostsOnly };
+  BlockUnit make_block_unit(const uint32_t* positions, size_t count,
+                            const std::vector<uint32_t>& block_of, uint32_t block) const;
+  // The levels from `level` on (its parity decides the first shift); returns the levels run.
+  size_t block_levels_from(size_t level, const std::function<void(uint64_t)>& on_progress);
+  // The first level's bound, where the unit has no quadrics yet: the third quartile of the
+  // cheapest collapses of every eighth position of one block in sixteen, with its own.
+  float sampled_error_bound(const std::vector<uint32_t>& live, const std::vector<size_t>& starts,
+                            const std::vector<uint32_t>& block_of);
+  static float third_quartile(std::vector<float>& cost);
+  // After a level whose quadrics the blocks made: the live part of the unit as a unit of its
+  // own (positions, wedges and faces renumbered in order, the blocks' quadrics moved in), the
+  // unit's costing arrays freed.
+  Rest compact(std::vector<BlockResult>& results);
+  // The rest's history (and the faces it leaves alive) in the unit's numbering, after ours.
+  void absorb(const Rest& rest);
   // One level: the live positions, in the unit's spatial order, cut into runs of
   // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
   // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
-  size_t run_block_level(size_t block_positions, bool shifted);
+  size_t run_block_level(size_t block_positions, bool shifted,
+                         std::vector<BlockResult>* quadrics_made = nullptr);
   // The level's error bound: the third quartile of the cost of the cheapest collapse of every
   // eighth live position, so that blocks on flat or dense parts go further than rough ones, as
   // the whole-unit loop's error order would (at the median, levels removed ~30% of the faces
@@ -391,7 +422,8 @@ class Simplifier {
   // against meshopt_simplify 0.66/0.96/1.04 and 0.64/0.96/1.07 at 25/6/1.5%).
   float level_error_bound(const std::vector<uint32_t>& live) const;
   BlockResult simplify_block(const uint32_t* positions, size_t count,
-                             const std::vector<uint32_t>& block_of, uint32_t block, float bound);
+                             const std::vector<uint32_t>& block_of, uint32_t block, float bound,
+                             BlockMode mode);
   void init_quadrics(const std::vector<Mat4>& transforms);
   void build_adjacency();
   Candidate best_candidate(uint32_t p, Scratch& s) const;
@@ -418,6 +450,8 @@ class Simplifier {
   Scratch s_;                      // the sequential part's (collapse's) scratch
   std::vector<uint8_t> role_;      // per position a Role, or empty: all free
   bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
+  std::vector<Mat4> transforms_;   // Quadrics::kByBlocks: the instances, for the blocks' quadrics
+  bool finished_ = false;          // the history is complete (run() has nothing left to do)
   bool keep_costing_ = false;      // run() keeps the quadrics (a block's are handed back)
   size_t stop_faces_ = 0;          // run() stops once at most this many faces are live
   float stop_error_ = INFINITY;    // ... or once the cheapest collapse left costs more than this

@@ -330,7 +330,9 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
         if (inst.mesh == m) transforms.push_back(normalize_m * inst.world);
       if (transforms.empty()) transforms.push_back(normalize_m);  // unplaced: its own space
       Unit unit = make_unit(scene.meshes[m], options);
-      Simplifier s(unit, transforms, options, reports[m]);
+      const bool blocks = unit.corners.size() / 3 > options.block_above;
+      Simplifier s(unit, transforms, options, reports[m],
+                   blocks ? Simplifier::Quadrics::kByBlocks : Simplifier::Quadrics::kNow);
       auto on_progress = [&](uint64_t collapses) {
         collapsed[m] = collapses;
         if (!progress) return;
@@ -339,8 +341,7 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
         std::lock_guard<std::mutex> lock(progress_mutex);
         report_fraction(progress, double(done) / double(std::max<uint64_t>(1, total_vertices)));
       };
-      if (unit.corners.size() / 3 > options.block_above)
-        reports[m].block_levels = uint32_t(s.run_block_levels(on_progress));
+      if (blocks) reports[m].block_levels = uint32_t(s.run_block_levels(on_progress));
       s.run(on_progress);
       s.record(scene.meshes[m], m, ps.meshes[m]);
       ps.instance_orders[m] = instance_order(scene, m, box);
