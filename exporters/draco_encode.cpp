@@ -84,8 +84,13 @@ Result<DracoOutput> draco_encode(const DracoInput& in, const DracoSettings& sett
 
     auto bits = [](int b) { return std::clamp(b, 1, 30); };
     draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION,
-                                     bits(settings.position_bits));
+    if (settings.position_range > 0)
+      encoder.SetAttributeExplicitQuantization(draco::GeometryAttribute::POSITION,
+                                               bits(settings.position_bits), 3,
+                                               settings.position_origin, settings.position_range);
+    else
+      encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION,
+                                       bits(settings.position_bits));
     encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, bits(settings.normal_bits));
     encoder.SetAttributeQuantization(draco::GeometryAttribute::TEX_COORD, bits(settings.uv_bits));
     encoder.SetAttributeQuantization(draco::GeometryAttribute::COLOR, bits(settings.color_bits));

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "scene/math.h"
 #include "core/status.h"
+#include "scene/math.h"
 
 namespace meshmux {
 
@@ -27,6 +27,12 @@ struct DracoSettings {
   int uv_bits = 12;
   int color_bits = 8;
   int speed = 3;  // 0..10, used for both encoding and decoding speed
+  // The positions' quantization grid: origin and side of the cube it spans (mesh units); a
+  // side of 0 lets Draco take the positions' own bounds. The parts of one split primitive
+  // share the whole's grid, so their common vertices land on the same points (no crack) at
+  // the whole's precision (no bytes spent on finer grids).
+  float position_origin[3] = {0, 0, 0};
+  float position_range = 0;
 };
 
 // The encoded buffer and what a decoder gets back from it.

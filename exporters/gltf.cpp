@@ -632,9 +632,10 @@ class Exporter {
                                  const std::vector<Clean>& cleans, const DracoSettings& ds) {
     const Mesh& mesh = scene_.meshes[m];
     struct Piece {
-      size_t k;               // the kept primitive
-      const Primitive* prim;  // its positions and indices (the part's own when split)
-      const Clean* clean;     // its written attributes
+      size_t k;                // the kept primitive
+      const Primitive* prim;   // its positions and indices (the part's own when split)
+      const Clean* clean;      // its written attributes
+      DracoSettings settings;  // a part's: the whole's position grid
     };
     std::vector<Piece> pieces;
     std::vector<std::vector<Primitive>> parts(kept.size());
@@ -643,7 +644,7 @@ class Exporter {
     for (size_t k = 0; k < kept.size(); ++k) {
       const Primitive& p = mesh.primitives[kept[k]];
       if (!draco || opt_.split_draco_above == 0 || p.triangle_count() <= opt_.split_draco_above) {
-        pieces.push_back({k, &p, &cleans[k]});
+        pieces.push_back({k, &p, &cleans[k], ds});
         continue;
       }
       Primitive written = p;  // with the attributes as written
@@ -655,8 +656,18 @@ class Exporter {
         c.normals.swap(q.normals), c.uvs.swap(q.uvs), c.colors.swap(q.colors);
         part_cleans[k].push_back(std::move(c));
       }
+      // The whole's grid, as Draco would take it from the whole's bounds.
+      DracoSettings part_ds = ds;
+      Vec3 lo = p.positions[0], hi = p.positions[0];
+      for (const Vec3& v : p.positions) {
+        lo = {std::min(lo.x, v.x), std::min(lo.y, v.y), std::min(lo.z, v.z)};
+        hi = {std::max(hi.x, v.x), std::max(hi.y, v.y), std::max(hi.z, v.z)};
+      }
+      part_ds.position_origin[0] = lo.x, part_ds.position_origin[1] = lo.y;
+      part_ds.position_origin[2] = lo.z;
+      part_ds.position_range = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-30f});
       for (size_t i = 0; i < parts[k].size(); ++i)
-        pieces.push_back({k, &parts[k][i], &part_cleans[k][i]});
+        pieces.push_back({k, &parts[k][i], &part_cleans[k][i], part_ds});
     }
     std::vector<std::optional<Result<DracoOutput>>> coded(pieces.size());
     if (draco)
@@ -668,7 +679,7 @@ class Exporter {
           in.uvs = &pieces[i].clean->uvs;
           in.colors = &pieces[i].clean->colors;
           in.indices = &pieces[i].prim->indices;
-          coded[i] = draco_encode(in, ds);
+          coded[i] = draco_encode(in, pieces[i].settings);
         }
       });
     json prims = json::array();

@@ -21,9 +21,9 @@
 #include <utility>
 #include <vector>
 
+#include "core/status.h"
 #include "scene/math.h"
 #include "stream/quantize.h"
-#include "core/status.h"
 
 namespace meshmux {
 
