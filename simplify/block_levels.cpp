@@ -62,10 +62,15 @@ Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, siz
                                                   const std::vector<uint32_t>& block_of,
                                                   uint32_t block) const {
   BlockUnit b;
-  for (size_t i = 0; i < count; ++i)
-    for (uint32_t f : pos_faces_[positions[i]]) b.faces.push_back(f);
-  std::sort(b.faces.begin(), b.faces.end());
-  b.faces.erase(std::unique(b.faces.begin(), b.faces.end()), b.faces.end());
+  if (pos_faces_.empty()) {  // the first level: its lists (run_block_level)
+    b.faces.assign(block_faces_.begin() + ptrdiff_t(block_face_start_[block]),
+                   block_faces_.begin() + ptrdiff_t(block_face_start_[block + 1]));
+  } else {
+    for (size_t i = 0; i < count; ++i)
+      for (uint32_t f : pos_faces_[positions[i]]) b.faces.push_back(f);
+    std::sort(b.faces.begin(), b.faces.end());
+    b.faces.erase(std::unique(b.faces.begin(), b.faces.end()), b.faces.end());
+  }
   Unit& sub = b.unit;
   sub.channels = u_.channels;
   const size_t k = size_t(u_.channels);
@@ -113,9 +118,8 @@ Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, siz
 }
 
 size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_progress) {
-  if (alive_.empty()) begin_state();
-  build_adjacency();
   if (transforms_.empty()) return block_levels_from(0, on_progress);
+  if (alive_.empty()) begin_state();
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
   std::vector<BlockResult> made;
   run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made);
@@ -150,8 +154,17 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
                                    std::vector<BlockResult>* quadrics_made) {
   const size_t np = u_.pos.size();
   std::vector<uint32_t> live;
-  for (uint32_t p = 0; p < np; ++p)
-    if (!dead_pos_[p] && pos_faces_[p].begin() != pos_faces_[p].end()) live.push_back(p);
+  if (pos_faces_.empty()) {  // no adjacency (the first level): the positions live faces use
+    std::vector<uint8_t> used(np, 0);
+    for (size_t f = 0; f < alive_.size(); ++f)
+      if (alive_[f])
+        for (int c = 0; c < 3; ++c) used[u_.wedge_pos[u_.corners[3 * f + size_t(c)]]] = 1;
+    for (uint32_t p = 0; p < np; ++p)
+      if (used[p] && !dead_pos_[p]) live.push_back(p);
+  } else {
+    for (uint32_t p = 0; p < np; ++p)
+      if (!dead_pos_[p] && pos_faces_[p].begin() != pos_faces_[p].end()) live.push_back(p);
+  }
   std::vector<size_t> starts = {0};
   for (size_t s = shifted ? block_positions / 2 : block_positions; s < live.size();
        s += block_positions)
@@ -161,6 +174,7 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
   std::vector<uint32_t> block_of(np, UINT32_MAX);
   for (uint32_t b = 0; b < blocks; ++b)
     for (size_t i = starts[b]; i < starts[b + 1]; ++i) block_of[live[i]] = b;
+  if (pos_faces_.empty()) block_face_lists(block_of, blocks);
   const BlockMode mode = quadrics_made ? kMakeQuadrics : kCopyQuadrics;
   const float bound =
       quadrics_made ? sampled_error_bound(live, starts, block_of) : level_error_bound(live);
@@ -204,11 +218,33 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     std::vector<std::pair<uint32_t, uint32_t>>().swap(r.maps);
     std::vector<uint32_t>().swap(r.removed_faces);
   }
+  std::vector<uint32_t>().swap(block_faces_), std::vector<size_t>().swap(block_face_start_);
   if (quadrics_made)
     quadrics_made->swap(results);
   else
     build_adjacency();
   return made;
+}
+
+void Simplifier::block_face_lists(const std::vector<uint32_t>& block_of, size_t blocks) {
+  // Each live face is listed in every block one of its corners is in (a counting sort, faces
+  // in order within a block).
+  auto each = [&](const auto& add) {
+    for (size_t f = 0; f < alive_.size(); ++f) {
+      if (!alive_[f]) continue;
+      uint32_t seen[3];
+      for (int c = 0; c < 3; ++c) {
+        seen[c] = block_of[u_.wedge_pos[u_.corners[3 * f + size_t(c)]]];
+        if ((c < 1 || seen[c] != seen[0]) && (c < 2 || seen[c] != seen[1])) add(seen[c], f);
+      }
+    }
+  };
+  block_face_start_.assign(blocks + 1, 0);
+  each([&](uint32_t b, size_t) { ++block_face_start_[b + 1]; });
+  for (size_t b = 0; b < blocks; ++b) block_face_start_[b + 1] += block_face_start_[b];
+  block_faces_.resize(block_face_start_[blocks]);
+  std::vector<size_t> fill(block_face_start_.begin(), block_face_start_.end() - 1);
+  each([&](uint32_t b, size_t f) { block_faces_[fill[b]++] = uint32_t(f); });
 }
 
 float Simplifier::level_error_bound(const std::vector<uint32_t>& live) const {

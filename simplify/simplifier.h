@@ -191,6 +191,7 @@ class FaceLists {
       }
   }
   void clear(uint32_t p) { size_[p] = 0; }
+  bool empty() const { return start_.empty(); }  // not built, or released
   void release() {
     std::vector<uint32_t>().swap(data_), std::vector<uint32_t>().swap(start_);
     std::vector<uint32_t>().swap(size_), std::vector<uint32_t>().swap(cap_);
@@ -404,6 +405,9 @@ class Simplifier {
   float sampled_error_bound(const std::vector<uint32_t>& live, const std::vector<size_t>& starts,
                             const std::vector<uint32_t>& block_of);
   static float third_quartile(std::vector<float>& cost);
+  // The first level's faces per block (block_faces_), where the unit has no adjacency: the
+  // whole unit's lists (~21 bytes per face) are never built.
+  void block_face_lists(const std::vector<uint32_t>& block_of, size_t blocks);
   // After a level whose quadrics the blocks made: the live part of the unit as a unit of its
   // own (positions, wedges and faces renumbered in order, the blocks' quadrics moved in), the
   // unit's costing arrays freed.
@@ -451,10 +455,12 @@ class Simplifier {
   std::vector<uint8_t> role_;      // per position a Role, or empty: all free
   bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
   std::vector<Mat4> transforms_;   // Quadrics::kByBlocks: the instances, for the blocks' quadrics
-  bool finished_ = false;          // the history is complete (run() has nothing left to do)
-  bool keep_costing_ = false;      // run() keeps the quadrics (a block's are handed back)
-  size_t stop_faces_ = 0;          // run() stops once at most this many faces are live
-  float stop_error_ = INFINITY;    // ... or once the cheapest collapse left costs more than this
+  std::vector<uint32_t> block_faces_;     // the first level's faces, by block
+  std::vector<size_t> block_face_start_;  // per block: its first entry in block_faces_
+  bool finished_ = false;                 // the history is complete (run() has nothing left to do)
+  bool keep_costing_ = false;             // run() keeps the quadrics (a block's are handed back)
+  size_t stop_faces_ = 0;                 // run() stops once at most this many faces are live
+  float stop_error_ = INFINITY;  // ... or once the cheapest collapse left costs more than this
   // History.
   std::vector<Collapse> collapses_;
   std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order
