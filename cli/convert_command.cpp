@@ -1,5 +1,6 @@
 // meshmux convert IN -o OUT: the upload opened, the pipeline run (pipeline/convert.h), the
 // outputs written as one transaction (pipeline/outputs.h).
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,9 @@ int cmd_convert(const std::vector<std::string>& args) {
   const std::string in = p->positional[0], out = p->text("--output");
   if (out.empty()) return usage_error(kConvert, "no output given (-o OUT.glb or -o FOLDER)");
   ConvertOptions o = convert_options(*p);
+  // A big mesh's first block level spills beside the output (on its disk, not in memory).
+  o.simplify.spill_dir = std::filesystem::path(out).parent_path().string();
+  if (o.simplify.spill_dir.empty()) o.simplify.spill_dir = ".";
   if (p->has("--display") &&
       !parse_size(p->text("--display"), &o.multiplex.display_width, &o.multiplex.display_height))
     return usage_error(kConvert, "--display needs WxH device pixels, each 1..8192 (got '" +

@@ -13,10 +13,15 @@
 // changes only faces whose corners are all in its block, and the quadrics of positions and
 // wedges of its block, so blocks write disjoint parts of the unit; faces that straddle blocks
 // do not change in the level.
+#include <fcntl.h>
 #include <malloc.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <memory>
+#include <optional>
 #include <queue>
 #include <stdexcept>
 #include <unordered_map>
@@ -38,6 +43,54 @@ struct Simplifier::BlockResult {
   std::vector<Quadric> pos_q, wedge_q;
   std::vector<double> wedge_gd;  // wedges × channels × 4
   std::vector<float> costs;      // kCostsOnly: a sample of the block's cheapest collapses
+  // Where pos_q, wedge_q and wedge_gd wait in the spill file (their sizes: positions' and
+  // wedges'), or empty: held above.
+  std::optional<std::array<uint64_t, 3>> spilled;
+};
+
+// An unnamed file in SimplifyOptions::spill_dir (O_TMPFILE, else a name unlinked at once: it
+// is gone when the run ends, however it ends). Blocks write to it at once; a failed write
+// leaves the data in memory (the file is an economy, not a need).
+class Simplifier::Spill {
+ public:
+  static constexpr uint64_t kFailed = UINT64_MAX;
+  explicit Spill(const std::string& dir) {
+    if (dir.empty()) return;
+    fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+    if (fd_ >= 0) return;
+    std::string name = dir + "/.meshmux-spill-XXXXXX";
+    fd_ = ::mkostemp(name.data(), O_CLOEXEC);
+    if (fd_ >= 0) ::unlink(name.c_str());
+  }
+  ~Spill() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Spill(const Spill&) = delete;
+  Spill& operator=(const Spill&) = delete;
+  bool ok() const { return fd_ >= 0; }
+  uint64_t size() const { return end_; }  // bytes handed out
+  // Writes n bytes at a fresh offset (any thread); the offset, or kFailed.
+  uint64_t put(const void* data, size_t n) {
+    const uint64_t at = end_.fetch_add(n);
+    for (size_t done = 0; done < n;) {
+      const ssize_t w =
+          ::pwrite(fd_, static_cast<const char*>(data) + done, n - done, off_t(at + done));
+      if (w <= 0) return kFailed;
+      done += size_t(w);
+    }
+    return at;
+  }
+  void get(uint64_t at, void* data, size_t n) const {
+    for (size_t done = 0; done < n;) {
+      const ssize_t r = ::pread(fd_, static_cast<char*>(data) + done, n - done, off_t(at + done));
+      if (r <= 0) throw std::runtime_error("simplify: the spill file could not be read back");
+      done += size_t(r);
+    }
+  }
+
+ private:
+  int fd_ = -1;
+  std::atomic<uint64_t> end_{0};
 };
 
 // The live part of a unit after a level, as a unit of its own (see compact()).
@@ -121,10 +174,13 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
   if (transforms_.empty()) return block_levels_from(0, on_progress);
   if (alive_.empty()) begin_state();
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
+  spill_ = std::make_shared<Spill>(opt_.spill_dir);
   std::vector<BlockResult> made;
   run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made);
   if (on_progress) on_progress(collapses_.size());
   Rest rest = compact(made);
+  report_.spilled_bytes = spill_->ok() ? spill_->size() : 0;
+  spill_.reset();
   const uint64_t before = collapses_.size();
   auto rest_progress = [&](uint64_t n) {
     if (on_progress) on_progress(before + n);
@@ -339,7 +395,15 @@ Simplifier::BlockResult Simplifier::simplify_block(const uint32_t* positions, si
       u_.corners[3 * size_t(f) + size_t(c)] = b.global_wedge[sub.corners[3 * i + size_t(c)]];
   }
   for (size_t i = 0; i < count; ++i) dead_pos_[positions[i]] = s.dead_pos_[i];
-  const bool keep_here = mode == kCopyQuadrics;
+  keep_block_quadrics(s, b, positions, count, mode == kCopyQuadrics, out);
+  return out;
+}
+
+void Simplifier::keep_block_quadrics(const Simplifier& s, const BlockUnit& b,
+                                     const uint32_t* positions, size_t count, bool keep_here,
+                                     BlockResult& out) {
+  const Unit& sub = b.unit;
+  const size_t kg = size_t(u_.channels) * 4;
   if (!keep_here) {
     const size_t live =
         size_t(std::count(s.dead_pos_.begin(), s.dead_pos_.begin() + ptrdiff_t(count), 0));
@@ -376,7 +440,15 @@ Simplifier::BlockResult Simplifier::simplify_block(const uint32_t* positions, si
       out.wedge_gd.insert(out.wedge_gd.end(), gd, gd + kg);
     }
   }
-  return out;
+  if (keep_here || !spill_ || !spill_->ok()) return;
+  // To the spill file until compact() reads them back, block by block.
+  const uint64_t a = spill_->put(out.pos_q.data(), out.pos_q.size() * sizeof(Quadric));
+  const uint64_t w = spill_->put(out.wedge_q.data(), out.wedge_q.size() * sizeof(Quadric));
+  const uint64_t g = spill_->put(out.wedge_gd.data(), out.wedge_gd.size() * sizeof(double));
+  if (a == Spill::kFailed || w == Spill::kFailed || g == Spill::kFailed) return;  // kept here
+  out.spilled = {a, w, g};
+  std::vector<Quadric>().swap(out.pos_q), std::vector<Quadric>().swap(out.wedge_q);
+  std::vector<double>().swap(out.wedge_gd);
 }
 
 Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
@@ -418,15 +490,27 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   for (uint32_t f : r.face_of)
     for (int c = 0; c < 3; ++c)
       rest.corners.push_back(wedge_id[u_.corners[3 * size_t(f) + size_t(c)]]);
+  // The unit keeps only what the record reads (before the quadrics come in).
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  release(u_.attr), release(u_.pos), release(u_.corners), release(u_.wedge_group);
+  release(dead_pos_);  // wedge_normal stays: the record reads whether there are normals
+  pos_faces_.release();
   // The quadrics the blocks made: every live position is one block's, with its wedges. The
   // blocks hold runs of positions in order, and list their wedges in order, so their lists
-  // appended in block order are the rest's order; each is freed once appended, and the
-  // reserved arrays fill as they go (never both whole at once).
+  // appended in block order are the rest's order; each is freed once appended (or read back
+  // from the spill file), and the reserved arrays fill as they go (never both whole at once).
   std::vector<Quadric> pq, aq;
   std::vector<double> gd;
   pq.reserve(live_pos), aq.reserve(live_wedges), gd.reserve(live_wedges * kg);
   size_t freed = 0;
   for (BlockResult& b : results) {
+    if (b.spilled) {
+      b.pos_q.resize(b.positions.size()), b.wedge_q.resize(b.wedges.size());
+      b.wedge_gd.resize(b.wedges.size() * kg);
+      spill_->get((*b.spilled)[0], b.pos_q.data(), b.pos_q.size() * sizeof(Quadric));
+      spill_->get((*b.spilled)[1], b.wedge_q.data(), b.wedge_q.size() * sizeof(Quadric));
+      spill_->get((*b.spilled)[2], b.wedge_gd.data(), b.wedge_gd.size() * sizeof(double));
+    }
     for (size_t i = 0; i < b.positions.size(); ++i)
       if (pos_id[b.positions[i]] == pq.size()) pq.push_back(b.pos_q[i]);
     for (size_t i = 0; i < b.wedges.size(); ++i)
@@ -443,11 +527,6 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   malloc_trim(0);
   if (pq.size() != live_pos || aq.size() != live_wedges)
     throw std::logic_error("simplify: block levels: a live position or wedge without quadrics");
-  // The unit keeps only what the record reads.
-  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
-  release(u_.attr), release(u_.pos), release(u_.corners), release(u_.wedge_group);
-  release(dead_pos_);  // wedge_normal stays: the record reads whether there are normals
-  pos_faces_.release();
   r.s = std::make_unique<Simplifier>(rest, std::move(pq), std::move(aq), std::move(gd), opt_,
                                      report_);
   return r;

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -392,6 +393,11 @@ class Simplifier {
   struct BlockResult;
   struct BlockUnit;
   struct Rest;
+  class Spill;
+  // Hands a block's final quadrics back: into the unit's arrays (`keep_here`), or into `out`
+  // (the unit has none: the first level), where they may go on to the spill file.
+  void keep_block_quadrics(const Simplifier& s, const BlockUnit& b, const uint32_t* positions,
+                           size_t count, bool keep_here, BlockResult& out);
   // What a block does with quadrics: copies the unit's, makes its own from its faces (the
   // unit's are made by blocks: Quadrics::kByBlocks), or only costs a sample of its cheapest
   // collapses with its own (for the first level's error bound).
@@ -455,6 +461,7 @@ class Simplifier {
   std::vector<uint8_t> role_;      // per position a Role, or empty: all free
   bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
   std::vector<Mat4> transforms_;   // Quadrics::kByBlocks: the instances, for the blocks' quadrics
+  std::shared_ptr<Spill> spill_;   // the first level's quadrics, written out meanwhile
   std::vector<uint32_t> block_faces_;     // the first level's faces, by block
   std::vector<size_t> block_face_start_;  // per block: its first entry in block_faces_
   bool finished_ = false;                 // the history is complete (run() has nothing left to do)

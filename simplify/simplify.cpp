@@ -345,12 +345,16 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
       };
       if (blocks) reports[m].block_levels = uint32_t(s.run_block_levels(on_progress));
       s.run(on_progress);
+      if (blocks)
+        malloc_trim(0);  // the block levels' freed units back to the OS before the
+                         // record is allocated
       s.record(scene.meshes[m], m, ps.meshes[m]);
       ps.instance_orders[m] = instance_order(scene, m, box);
     }
   });
   for (const SimplifyReport& x : reports) {
     r.block_levels = std::max(r.block_levels, x.block_levels);
+    r.spilled_bytes += x.spilled_bytes;
     r.collapses += x.collapses;
     r.refused_flip += x.refused_flip;
     r.refused_link += x.refused_link;

@@ -33,6 +33,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/progress.h"
@@ -57,9 +58,12 @@ struct SimplifyOptions {
   float base_max_error = 0.005f;       // the base also stops when the cheapest collapse left
                                        // costs more than this (fraction of the diagonal)
   // Big meshes: a block hierarchy first (simplifier.h run_block_levels), on every core.
-  uint64_t block_above = 1000000;     // a submesh with more faces takes the block levels first
-  uint32_t block_positions = 32768;   // positions per block (about half its faces)
-  uint64_t block_until = 262144;      // block levels run while more faces than this are live
+  uint64_t block_above = 1000000;    // a submesh with more faces takes the block levels first
+  uint32_t block_positions = 32768;  // positions per block (about half its faces)
+  uint64_t block_until = 262144;     // block levels run while more faces than this are live
+  std::string spill_dir;  // the first block level's quadrics wait in an unnamed file here (the
+                          // output's folder): ~75 bytes per input face out of memory; empty:
+                          // they stay in memory
   uint64_t ship_whole_below = 10000;  // scenes under this many triangles ship whole (base = full)
   double ship_whole_fraction = 0.10;  // refinements under this fraction of the mesh: ship whole
   // The collapse loop's passes (bench/simplify.sh: at 1% and 1.1 the Hausdorff distances of
@@ -77,6 +81,7 @@ struct SimplifyReport {
   double instances_per_submesh = 0;
   uint64_t input_triangles = 0;  // scene triangles (instances expanded)
   uint64_t collapses = 0;        // over all submeshes
+  uint64_t spilled_bytes = 0;    // written to SimplifyOptions::spill_dir's file (all submeshes)
   uint32_t block_levels = 0;     // block levels run (the most over submeshes; 0: none)
   uint64_t refused_flip = 0, refused_link = 0, refused_wedge = 0, refused_vanish = 0;
   double seconds = 0;  // wall time of build_progressive

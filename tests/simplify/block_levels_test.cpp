@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <tuple>
 
@@ -86,6 +87,24 @@ TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
   ASSERT_EQ(one.levels.size(), three.levels.size());
   for (size_t i = 0; i < one.levels.size(); ++i)
     EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+}
+
+// The first level's quadrics may wait in a file (SimplifyOptions::spill_dir) instead of memory:
+// what comes back is what went out, so the record is the same, and the file leaves no trace.
+TEST(BlockLevels, SpilledQuadricsGiveTheSameRecord) {
+  const Scene s = sphere_scene();
+  testing::TempDir dir;
+  SimplifyOptions spilled = block_options();
+  spilled.spill_dir = dir.path();
+  SimplifyReport report;
+  const ProgressiveMesh a = build_progressive(s, block_options()).meshes[0];
+  const ProgressiveMesh b = build_progressive(s, spilled, &report).meshes[0];
+  EXPECT_GT(report.spilled_bytes, 100000u);  // the quadrics of ~8k positions and wedges
+  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(a.parent, b.parent);
+  ASSERT_EQ(a.levels.size(), b.levels.size());
+  for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 
 // Locked borders cost little: at a quarter and a sixteenth of the triangles the block path's
