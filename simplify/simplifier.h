@@ -225,20 +225,21 @@ class Simplifier {
   enum class Quadrics { kNow, kNowSerial, kByBlocks };
   Simplifier(Unit& unit, const std::vector<Mat4>& transforms, const SimplifyOptions& opt,
              SimplifyReport& report, Quadrics quadrics = Quadrics::kNow)
-      : u_(unit), opt_(opt), report_(report), original_corners_(unit.corners) {
+      : u_(unit), opt_(opt), report_(report) {
     serial_ = quadrics == Quadrics::kNowSerial;
+    if (!serial_) original_corners_ = unit.corners;  // a block's own are never recorded
     if (quadrics == Quadrics::kByBlocks)
       transforms_ = transforms;
     else
       init_quadrics(transforms);
   }
-  // A unit whose quadrics were summed already (a block of a bigger unit: block_levels.cpp).
+  // A unit whose quadrics were summed already (a block of a bigger unit, or the rest of one
+  // after its first level: block_levels.cpp); it is never recorded (record() is the unit's).
   Simplifier(Unit& unit, std::vector<Quadric> pos_q, std::vector<Quadric> attr_q,
              std::vector<double> attr_gd, const SimplifyOptions& opt, SimplifyReport& report)
       : u_(unit),
         opt_(opt),
         report_(report),
-        original_corners_(unit.corners),
         pos_q_(std::move(pos_q)),
         attr_q_(std::move(attr_q)),
         attr_gd_(std::move(attr_gd)) {}
