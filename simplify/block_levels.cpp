@@ -176,7 +176,7 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
   spill_ = std::make_shared<Spill>(opt_.spill_dir);
   std::vector<BlockResult> made;
-  run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made);
+  run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made, on_progress);
   if (on_progress) on_progress(collapses_.size());
   Rest rest = compact(made);
   report_.spilled_bytes = spill_->ok() ? spill_->size() : 0;
@@ -198,7 +198,8 @@ size_t Simplifier::block_levels_from(size_t level,
   size_t levels = 0;
   while (live_faces_ > opt_.block_until) {
     const size_t before = live_faces_;
-    run_block_level(std::max<size_t>(64, opt_.block_positions), (level + levels) % 2 == 1);
+    run_block_level(std::max<size_t>(64, opt_.block_positions), (level + levels) % 2 == 1, nullptr,
+                    on_progress);
     ++levels;
     if (on_progress) on_progress(collapses_.size());
     if (10 * (before - live_faces_) < before) break;  // stuck: the whole-unit loop goes on
@@ -207,7 +208,8 @@ size_t Simplifier::block_levels_from(size_t level,
 }
 
 size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
-                                   std::vector<BlockResult>* quadrics_made) {
+                                   std::vector<BlockResult>* quadrics_made,
+                                   const std::function<void(uint64_t)>& on_progress) {
   const size_t np = u_.pos.size();
   std::vector<uint32_t> live;
   if (pos_faces_.empty()) {  // no adjacency (the first level): the positions live faces use
@@ -235,10 +237,14 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
   const float bound =
       quadrics_made ? sampled_error_bound(live, starts, block_of) : level_error_bound(live);
   std::vector<BlockResult> results(blocks);
+  std::atomic<uint64_t> collapsed{collapses_.size()};
   parallel_chunks(blocks, 1, [&](size_t begin, size_t end) {
-    for (size_t b = begin; b < end; ++b)
+    for (size_t b = begin; b < end; ++b) {
       results[b] = simplify_block(&live[starts[b]], starts[b + 1] - starts[b], block_of,
                                   uint32_t(b), bound, mode);
+      const uint64_t done = collapsed += results[b].collapses.size();
+      if (on_progress) on_progress(done);
+    }
   });
   // The histories merged by each collapse's error when chosen (its queue_min), each block's
   // own order kept (a collapse may need the ones before it in its block); ties by block.

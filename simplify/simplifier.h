@@ -424,8 +424,10 @@ class Simplifier {
   // One level: the live positions, in the unit's spatial order, cut into runs of
   // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
   // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
+  // `on_progress` (may be empty) hears the collapses so far as blocks finish (any thread).
   size_t run_block_level(size_t block_positions, bool shifted,
-                         std::vector<BlockResult>* quadrics_made = nullptr);
+                         std::vector<BlockResult>* quadrics_made = nullptr,
+                         const std::function<void(uint64_t)>& on_progress = {});
   // The level's error bound: the third quartile of the cost of the cheapest collapse of every
   // eighth live position, so that blocks on flat or dense parts go further than rough ones, as
   // the whole-unit loop's error order would (at the median, levels removed ~30% of the faces
