@@ -221,7 +221,9 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   }
   // Each new face appears at the split that first makes its three corners distinct; faces that
   // do not (none in a well-formed record) are sent whole after the splits.
-  std::vector<std::vector<uint32_t>> faces_of(vb - va);
+  // The faces each split brings, as one list in split order (face order within a split): a
+  // list per split cost a heap block each (a 4M-triangle record's last part: ~1M of them).
+  std::vector<uint32_t> split_of(fb - fa, UINT32_MAX), faces_start(vb - va + 1, 0), faces_of;
   std::vector<uint32_t> extras;
   // Two corners' representatives differ at prefix P exactly when P is past the rank of the
   // vertex just below their meeting point on either side (that vertex present, the branches
@@ -253,7 +255,15 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
       extras.push_back(f);
       continue;
     }
-    faces_of[t - va].push_back(f);
+    split_of[f - fa] = t - va;
+    ++faces_start[t - va + 1];
+  }
+  for (uint32_t i = 0; i < vb - va; ++i) faces_start[i + 1] += faces_start[i];
+  faces_of.resize(faces_start[vb - va]);
+  {
+    std::vector<uint32_t> fill(faces_start.begin(), faces_start.end() - 1);
+    for (uint32_t f = fa; f < fb; ++f)
+      if (split_of[f - fa] != UINT32_MAX) faces_of[fill[split_of[f - fa]]++] = f;
   }
   RangeEncoder out;
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
@@ -286,7 +296,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     const uint32_t dc = std::min(uint32_t(takes.size()), kFanLimit);
     // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
     made.clear();
-    for (uint32_t f : faces_of[v - va]) {
+    for (uint32_t i = faces_start[v - va]; i < faces_start[v - va + 1]; ++i) {
+      const uint32_t f = faces_of[i];
       const uint32_t* o = &pm_.indices[size_t(f) * 3];
       uint32_t s[3];
       for (int k = 0; k < 3; ++k) s[k] = rank_[rep(o[k], v + 1)];
