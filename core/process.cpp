@@ -32,7 +32,7 @@ std::string self_executable() {
 
 // Resolves a bare program name on PATH (execv wants a path), as the shell does.
 std::string find_program(const std::string& name) {
-  if (name.find('/') != std::string::npos) return name;
+  if (name.find('/') != std::string::npos) return access(name.c_str(), X_OK) == 0 ? name : "";
   const char* path = std::getenv("PATH");
   std::string dirs = path ? path : "/usr/bin:/bin";
   dirs += ":/usr/sbin:/sbin";

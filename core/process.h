@@ -60,7 +60,7 @@ struct RunOptions {
 Result<CommandOutput> run_command(const std::vector<std::string>& argv, const RunOptions& options);
 
 // The path of `name` on PATH (as the shell finds it), `name` itself when it holds a '/', or ""
-// when it is not found or not executable.
+// when it is not found or not executable (either way).
 std::string find_program(const std::string& name);
 
 // Kills a child's whole process group with SIGKILL (the child and anything it started).

@@ -10,7 +10,7 @@
 
 #include "core/file_io.h"
 #include "core/process.h"
-#include "core/temp_dir.h"
+#include "core/scratch_dir.h"
 
 #if !defined(MESHMUX_BASIS_TRANSCODER_JS) || !defined(MESHMUX_BASIS_TRANSCODER_WASM) || \
     !defined(MESHMUX_KTX2_TRANSCODER_SCRIPT)
@@ -69,7 +69,7 @@ std::string last_line(const std::string& text) {
 }
 
 // Reads image k's answer from the run's folder into `image`.
-Ktx2Decoded take_answer(const TempDir& dir, size_t k, const Ktx2Header& header, Image& image) {
+Ktx2Decoded take_answer(const ScratchDir& dir, size_t k, const Ktx2Header& header, Image& image) {
   Ktx2Decoded out;
   const std::string stem = std::to_string(k);
   auto err = read_whole_file(dir.file(stem + ".err"), 4096);
@@ -196,7 +196,7 @@ Ktx2Transcoded transcode_ktx2_images(const std::vector<Image*>& images,
             "' was not found: install Node.js 18 or later (Debian: apt-get install nodejs) "
             "or name it with MESHMUX_NODE",
         ErrorKind::kUnavailable));
-  auto dir = TempDir::create("ktx2");
+  auto dir = ScratchDir::create("ktx2");
   if (!dir.ok()) return fail_all(dir.status());
   if (Status s = write_ktx2_transcoder(dir->path()); !s) return fail_all(s);
   for (size_t k = 0; k < sent.size(); ++k) {

@@ -9,22 +9,22 @@
 
 namespace meshmux {
 
-class TempDir {
+class ScratchDir {
  public:
   // Creates "<tmp>/meshmux-<what>-XXXXXX". Errors (kOutput) name the folder and the cause.
-  static Result<TempDir> create(const std::string& what);
-  TempDir(TempDir&& other) noexcept;
-  TempDir& operator=(TempDir&& other) noexcept;
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  ~TempDir();  // removes the folder and its contents (errors ignored)
+  static Result<ScratchDir> create(const std::string& what);
+  ScratchDir(ScratchDir&& other) noexcept;
+  ScratchDir& operator=(ScratchDir&& other) noexcept;
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  ~ScratchDir();  // removes the folder and its contents (errors ignored)
 
   const std::string& path() const { return path_; }
   // path() + "/" + name.
   std::string file(const std::string& name) const { return path_ + "/" + name; }
 
  private:
-  TempDir() = default;
+  ScratchDir() = default;
   std::string path_;
 };
 

@@ -1,5 +1,5 @@
-// Private temporary folders (see core/temp_dir.h).
-#include "core/temp_dir.h"
+// Private temporary folders (see core/scratch_dir.h).
+#include "core/scratch_dir.h"
 
 #include <stdlib.h>
 
@@ -10,7 +10,7 @@
 
 namespace meshmux {
 
-Result<TempDir> TempDir::create(const std::string& what) {
+Result<ScratchDir> ScratchDir::create(const std::string& what) {
   const char* env = std::getenv("TMPDIR");
   std::string base = env && *env ? env : "/tmp";
   std::string pattern = base + "/meshmux-" + what + "-XXXXXX";
@@ -20,23 +20,25 @@ Result<TempDir> TempDir::create(const std::string& what) {
     return Status::error(
         "cannot create a temporary folder in " + base + ": " + std::strerror(errno),
         ErrorKind::kOutput);
-  TempDir dir;
+  ScratchDir dir;
   dir.path_ = name.data();
   return dir;
 }
 
-TempDir::TempDir(TempDir&& other) noexcept : path_(std::move(other.path_)) { other.path_.clear(); }
+ScratchDir::ScratchDir(ScratchDir&& other) noexcept : path_(std::move(other.path_)) {
+  other.path_.clear();
+}
 
-TempDir& TempDir::operator=(TempDir&& other) noexcept {
+ScratchDir& ScratchDir::operator=(ScratchDir&& other) noexcept {
   if (this != &other) {
-    this->~TempDir();
+    this->~ScratchDir();
     path_ = std::move(other.path_);
     other.path_.clear();
   }
   return *this;
 }
 
-TempDir::~TempDir() {
+ScratchDir::~ScratchDir() {
   if (path_.empty()) return;
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
