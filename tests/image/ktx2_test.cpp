@@ -17,26 +17,7 @@
 namespace meshmux {
 namespace {
 
-// A header-valid KTX2 (UASTC, `scheme` supercompression unless etc1s) whose level 0 is
-// `data_bytes` of zeros: the smallest file read_ktx2_header accepts, with data no transcoder
-// can read. Fields per the KTX 2.0 specification §3.
-std::vector<uint8_t> ktx2_shell(uint32_t scheme = 0, bool etc1s = false, size_t data_bytes = 64) {
-  std::vector<uint8_t> b = {0xAB, 'K', 'T', 'X', ' ', '2', '0', 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
-  auto put = [&](uint32_t v) {
-    for (int i = 0; i < 4; ++i) b.push_back(uint8_t(v >> (8 * i)));
-  };
-  const uint32_t dfd_offset = 80 + 24, dfd_length = 44;
-  const uint32_t data_offset = dfd_offset + dfd_length;
-  put(0), put(1), put(16), put(16), put(0), put(0), put(1), put(1), put(scheme);  // .. scheme
-  put(dfd_offset), put(dfd_length), put(0), put(0);                               // dfd, kvd
-  put(0), put(0), put(0), put(0);                                                 // sgd
-  put(data_offset), put(0), put(uint32_t(data_bytes)), put(0), put(0), put(0);    // level 0
-  put(dfd_length);                                                                // dfdTotalSize
-  put(0), put(2 | (40u << 16));  // vendor/type, version 2 + block size 40
-  b.push_back(etc1s ? 163 : 166), b.push_back(1), b.push_back(2), b.push_back(0);  // sRGB
-  b.resize(data_offset + data_bytes, 0);
-  return b;
-}
+using testing::ktx2_shell;
 
 std::string header_error(const std::vector<uint8_t>& bytes) {
   auto h = read_ktx2_header(bytes);
