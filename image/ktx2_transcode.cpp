@@ -184,8 +184,10 @@ Ktx2Transcoded transcode_ktx2_images(const std::vector<Image*>& images,
   if (sent.empty()) return result;
   auto fail_all = [&](const Status& why) {
     result.run = why;
-    for (size_t i : sent)
+    for (size_t i : sent) {
       out[i].status = Status::error(images[i]->name + ": " + why.message(), why.kind());
+      out[i].run_failed = true;
+    }
     return result;
   };
   const char* env_node = std::getenv("MESHMUX_NODE");

@@ -45,6 +45,8 @@ struct Ktx2TranscodeOptions {
 struct Ktx2Decoded {
   Status status;            // ok, or why this image was not decoded (names the image)
   bool over_limit = false;  // the failure is only its size over max_pixels
+  bool run_failed = false;  // the failure is the transcoder's run (Ktx2Transcoded::run), not
+                            // this image's own
 };
 
 struct Ktx2Transcoded {

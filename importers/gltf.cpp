@@ -628,14 +628,16 @@ class Importer {
     Ktx2TranscodeOptions options;
     options.max_pixels = std::min(opts_.max_image_pixels, opts_.max_texels);
     Ktx2Transcoded t = transcode_ktx2_images(images, options);
+    size_t run_failed = 0;
     for (size_t k = 0; k < owners.size(); ++k) {
       owners[k]->decoded = t.images[k].status;
       owners[k]->over = t.images[k].over_limit;
-      owners[k]->quiet = !t.run.is_ok() && !t.images[k].status.is_ok() && !t.images[k].over_limit;
+      owners[k]->quiet = t.images[k].run_failed;
+      run_failed += t.images[k].run_failed;
     }
-    if (!t.run.is_ok())
+    if (run_failed > 0)
       warn(warnings_,
-           "gltf: " + file_ + ": " + std::to_string(images.size()) +
+           "gltf: " + file_ + ": " + std::to_string(run_failed) +
                " KTX2 image(s) not decoded, textures using them are dropped: " + t.run.message());
   }
 
