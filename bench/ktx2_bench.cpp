@@ -1,7 +1,8 @@
 // The KTX2 encoder's figures (image/ktx2_encode.h): for each image given, at 1024² and 2048²
 // (cubic-resampled from it), ETC1S (sRGB) and UASTC (linear, Zstandard) encode time, bytes, and
 // PSNR (RGB) of three's transcoder's level 0 against the encoder's input. A figure, not a test.
-// usage: meshmux_bench_ktx2 [--threads N] [--uastc-level L] [--etc1s-quality Q] IMAGE...
+// usage: meshmux_bench_ktx2 [--threads N] [--uastc-level L] [--uastc-rdo LAMBDA]
+//          [--etc1s-quality Q] IMAGE...
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -41,6 +42,8 @@ int main(int argc, char** argv) {
       base.threads = std::atoi(argv[++i]);
     else if (a == "--uastc-level" && i + 1 < argc)
       base.uastc_level = std::atoi(argv[++i]);
+    else if (a == "--uastc-rdo" && i + 1 < argc)
+      base.uastc_rdo = std::atof(argv[++i]);
     else if (a == "--etc1s-quality" && i + 1 < argc)
       base.etc1s_quality = std::atoi(argv[++i]);
     else
@@ -51,8 +54,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", version.status().message().c_str());
     return 77;
   }
-  std::printf("encoder: %s, threads %d (0: all), ETC1S -q %d, UASTC level %d\n", version->c_str(),
-              base.threads, base.etc1s_quality, base.uastc_level);
+  std::printf("encoder: %s, threads %d (0: all), ETC1S -q %d, UASTC level %d, RDO %.2f\n",
+              version->c_str(), base.threads, base.etc1s_quality, base.uastc_level, base.uastc_rdo);
   std::printf(
       "| image | sides | mode | encode s | KTX2 bytes | PSNR dB |\n|---|---|---|---:|---:|---:|\n");
   for (const std::string& f : files) {

@@ -107,6 +107,11 @@ std::vector<std::string> encoder_args(const Encoder& e, const Ktx2EncodeOptions&
   if (o.mode == Ktx2Mode::kUastc) {
     a.insert(a.end(), {"-uastc", "-uastc_level", clamp(o.uastc_level, 0, 4),
                        "-ktx2_zstandard_level", clamp(o.zstd_level, 1, 22)});
+    if (o.uastc_rdo > 0) {
+      char lambda[32];
+      std::snprintf(lambda, sizeof lambda, "%.3f", std::min(o.uastc_rdo, 100.0));
+      a.insert(a.end(), {"-uastc_rdo_l", lambda, "-uastc_rdo_m"});
+    }
   } else {
     a.insert(a.end(),
              {"-q", clamp(o.etc1s_quality, 1, 255), "-comp_level", clamp(o.etc1s_effort, 0, 6)});

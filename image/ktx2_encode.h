@@ -27,6 +27,9 @@ struct Ktx2EncodeOptions {
   int etc1s_effort = 1;     // ETC1S compression level 0–6 (-comp_level): higher = much slower
   int uastc_level = 1;      // UASTC level 0–4 (-uastc_level): 0 fastest, 2 basisu's default
   int zstd_level = 6;       // Zstandard level of UASTC data (-ktx2_zstandard_level)
+  double uastc_rdo = 0;     // UASTC rate-distortion lambda (-uastc_rdo_l; 0: off; 0.5–4 trades
+                            // PSNR for Zstandard bytes), single-threaded (-uastc_rdo_m) as
+                            // basisu's threaded RDO pass is not deterministic
   bool srgb = true;         // colour in sRGB (mipmaps filtered in linear light); false: linear
                             // data (-linear), as normal and ORM maps are
   bool normal_map = false;  // tangent-space normals: basisu's -normal_map tuning (implies linear)
