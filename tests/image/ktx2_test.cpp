@@ -266,6 +266,25 @@ TEST(Ktx2Encode, UastcRoundTripIsAboveItsFloor) {
   EXPECT_GT(psnr(in, back), 42.0);
 }
 
+// Alpha (a cut-out's, a blend's) is carried: ETC1S codes it as a second slice when the image
+// has any alpha below 255, and the transcoder gives it back.
+TEST(Ktx2Encode, AlphaSurvivesTheRoundTrip) {
+  std::string why;
+  if (!have_encoder(&why)) GTEST_SKIP() << why;
+  if (!have_node()) GTEST_SKIP() << "node is not installed (the KTX2 transcoder runs under it)";
+  const Image in = gradient(64, 64, true);
+  Ktx2Encoded e;
+  const Image back = round_trip(in, {}, &e);
+  ASSERT_TRUE(back.decoded());
+  double se = 0;
+  for (size_t k = 3; k < in.rgba.size(); k += 4) {
+    const double d = double(in.rgba[k]) - double(back.rgba[k]);
+    se += d * d;
+  }
+  const double alpha_psnr = 10 * std::log10(255.0 * 255.0 / (se / (in.rgba.size() / 4) + 1e-9));
+  EXPECT_GT(alpha_psnr, 35.0);
+}
+
 // Sides that are not multiples of 4 are resampled up to the next ones (whole 4×4 blocks, which
 // WebGL wants at level 0), and the file says so.
 TEST(Ktx2Encode, SidesRoundUpToMultiplesOfFour) {
