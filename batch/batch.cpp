@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "batch/plan.h"
-#include "batch/process.h"
+#include "core/process.h"
 #include "batch/summary.h"
 #include "batch/world.h"
 #include "core/exit_codes.h"

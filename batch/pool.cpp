@@ -17,7 +17,7 @@
 #include <sstream>
 #include <thread>
 
-#include "batch/process.h"
+#include "core/process.h"
 #include "core/output_transaction.h"
 #include "core/text.h"
 

@@ -15,7 +15,7 @@
 #include <sstream>
 #include <thread>
 
-#include "batch/process.h"
+#include "core/process.h"
 #include "batch/summary.h"
 #include "core/exit_codes.h"
 #include "core/file_io.h"

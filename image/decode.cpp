@@ -1,6 +1,7 @@
 // Image decoding from memory, so glTF's embedded and data-URI images and files on disk take the
-// same path: JPEG through libjpeg-turbo's TurboJPEG API, PNG through libpng, everything else
-// through OpenImageIO (a module loaded on first use, image/oiio_loader.h). The atlas bakes from
+// same path: JPEG through libjpeg-turbo's TurboJPEG API, PNG through libpng, KTX2 through the
+// Basis transcoder in a child process (image/ktx2_transcode.h), everything else through
+// OpenImageIO (a module loaded on first use, image/oiio_loader.h). The atlas bakes from
 // these pixels (Terrace, Cheslack-Postava, Levis and Freedman, "Unsupervised conversion of 3D
 // models for interactive metaverses" §4.3).
 #include "image/decode.h"
@@ -14,6 +15,7 @@
 #include <memory>
 
 #include "core/file_io.h"
+#include "image/ktx2_transcode.h"
 #include "image/oiio_loader.h"
 
 namespace meshmux {
@@ -176,8 +178,13 @@ Status decode_image(Image& image, uint64_t max_pixels, bool* over_limit) {
   if (image.mime_type.empty()) image.mime_type = sniff_image_mime(image.encoded, name);
   std::string format = oiio_format(image.mime_type, name);
   if (format.empty()) return Status::error(name + ": unknown image format", ErrorKind::kInput);
-  if (format == "ktx2")
-    return Status::error(name + ": KTX2 images are not supported", ErrorKind::kInput);
+  if (format == "ktx2") {  // Basis Universal, through the transcoder in a child process
+    Ktx2TranscodeOptions options;
+    options.max_pixels = max_pixels;
+    Ktx2Transcoded t = transcode_ktx2_images({&image}, options);
+    if (over_limit) *over_limit = t.images[0].over_limit;
+    return t.images[0].status;
+  }
 
   // JPEG and PNG (nearly every texture) directly; anything else, or a JPEG/PNG these refuse
   // (CMYK JPEG, a damaged file), through OpenImageIO, loaded on first use (oiio_loader.h).

@@ -1,4 +1,6 @@
-// Image decoding for both importers: JPEG through libjpeg-turbo, PNG through libpng, and TGA,
+// Image decoding for both importers: JPEG through libjpeg-turbo, PNG through libpng, KTX2
+// (Basis Universal) through three.js's transcoder under node (image/ktx2_transcode.h: one child
+// process per call; the glTF importer batches a model's KTX2 images into one), and TGA,
 // WebP, BMP and whatever else the installed OpenImageIO reads through its module (loaded only
 // when such an image is met, image/oiio_loader.h). One path for every image so that glTF and
 // COLLADA textures behave the same.

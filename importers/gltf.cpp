@@ -24,6 +24,7 @@
 #include "core/parallel.h"
 #include "draco/compression/decode.h"
 #include "image/decode.h"
+#include "image/ktx2_transcode.h"
 #include "importers/skinning.h"
 #include "importers/upload.h"
 
@@ -55,6 +56,7 @@ const std::set<std::string> kSupportedRequired = {
     "KHR_materials_iridescence",
     "KHR_materials_sheen",
     "KHR_materials_anisotropy",
+    "KHR_texture_basisu",
 };
 
 constexpr size_t kMaxAccessorCount = size_t(1) << 28;  // 268M elements: far beyond real models
@@ -472,11 +474,6 @@ class Importer {
   Status check_extensions() {
     for (const std::string& e : m_.extensionsRequired) {
       if (kSupportedRequired.count(e)) continue;
-      if (e == "KHR_texture_basisu")
-        return r_.err("",
-                      "required extension KHR_texture_basisu is not supported: its textures "
-                      "are KTX2 / Basis Universal, which meshmux cannot decode (re-export "
-                      "them as PNG, JPEG or WebP)");
       if (e == "EXT_meshopt_compression")
         return r_.err("",
                       "required extension EXT_meshopt_compression is supported in .glb "
@@ -486,13 +483,25 @@ class Importer {
     return Status::ok();
   }
 
-  // The images some texture of some material names (core source and EXT_texture_webp's).
+  // A texture's KHR_texture_basisu source (a KTX2 image), or -1.
+  static int basisu_source(const tinygltf::Texture& tex) {
+    auto it = tex.extensions.find("KHR_texture_basisu");
+    if (it == tex.extensions.end() || !it->second.IsObject() || !it->second.Has("source") ||
+        !it->second.Get("source").IsInt())
+      return -1;
+    return it->second.Get("source").GetNumberAsInt();
+  }
+
+  // The images some texture of some material names (core source, EXT_texture_webp's, and
+  // KHR_texture_basisu's where there is no core source: a KTX2 costs a transcode).
   std::vector<char> referenced_images() const {
     std::vector<char> used(m_.images.size(), 0);
     auto mark_texture = [&](int t) {
       if (t < 0 || size_t(t) >= m_.textures.size()) return;
       const tinygltf::Texture& tex = m_.textures[size_t(t)];
       if (tex.source >= 0 && size_t(tex.source) < used.size()) used[size_t(tex.source)] = 1;
+      const int basisu = basisu_source(tex);
+      if (tex.source < 0 && basisu >= 0 && size_t(basisu) < used.size()) used[size_t(basisu)] = 1;
       auto webp = tex.extensions.find("EXT_texture_webp");
       if (webp != tex.extensions.end() && webp->second.Has("source") &&
           webp->second.Get("source").IsInt()) {
@@ -537,6 +546,8 @@ class Importer {
       Image image;
       Status decoded;
       bool over = false;
+      bool done = false;   // decoded already (KTX2, in one batch before the others)
+      bool quiet = false;  // its failure is the KTX2 transcoder's, warned about once
     };
     std::vector<Pending> pending;
     for (size_t i = 0; i < m_.images.size(); ++i) {
@@ -574,6 +585,7 @@ class Importer {
       if (img.mime_type.empty()) img.mime_type = src.mimeType;
       pending.push_back(std::move(p));
     }
+    if (opts_.decode_images) transcode_ktx2(pending);
     uint64_t texels_left = opts_.max_texels;
     const size_t batch = size_t(std::max(1, worker_threads()));
     for (size_t begin = 0; begin < pending.size(); begin += batch) {
@@ -582,7 +594,8 @@ class Importer {
       if (opts_.decode_images)
         parallel_chunks(end - begin, 1, [&](size_t b, size_t e) {
           for (size_t k = begin + b; k < begin + e; ++k)
-            pending[k].decoded = decode_image(pending[k].image, limit, &pending[k].over);
+            if (!pending[k].done)
+              pending[k].decoded = decode_image(pending[k].image, limit, &pending[k].over);
         });
       for (size_t k = begin; k < end; ++k)
         if (Status s = take_image(pending[k], texels_left); !s) return s;
@@ -590,9 +603,46 @@ class Importer {
     return Status::ok();
   }
 
+  // The KTX2 images among `pending` decoded in one transcoder run (image/ktx2_transcode.h), in
+  // file order within the texels budget (those past it are left over it, for take_image to
+  // refuse by name). A transcoder that cannot run is one warning; the images then fail quietly.
+  template <typename Pending>
+  void transcode_ktx2(std::vector<Pending>& pending) {
+    std::vector<Image*> images;
+    std::vector<Pending*> owners;
+    uint64_t texels = 0;
+    for (Pending& p : pending) {
+      if (p.image.mime_type != "image/ktx2") continue;
+      p.done = true;
+      auto header = read_ktx2_header(p.image.encoded);
+      if (header.ok()) texels += uint64_t(header->width) * uint64_t(header->height);
+      if (header.ok() && texels > opts_.max_texels) {
+        p.over = true;
+        p.decoded = Status::error(p.image.name + ": over the texels budget", ErrorKind::kInput);
+        continue;
+      }
+      images.push_back(&p.image);
+      owners.push_back(&p);
+    }
+    if (images.empty()) return;
+    Ktx2TranscodeOptions options;
+    options.max_pixels = std::min(opts_.max_image_pixels, opts_.max_texels);
+    Ktx2Transcoded t = transcode_ktx2_images(images, options);
+    size_t run_failed = 0;
+    for (size_t k = 0; k < owners.size(); ++k) {
+      owners[k]->decoded = t.images[k].status;
+      owners[k]->over = t.images[k].over_limit;
+      owners[k]->quiet = t.images[k].run_failed;
+      run_failed += t.images[k].run_failed;
+    }
+    if (run_failed > 0)
+      warn(warnings_,
+           "gltf: " + file_ + ": " + std::to_string(run_failed) +
+               " KTX2 image(s) not decoded, textures using them are dropped: " + t.run.message());
+  }
+
   // One image read and decoded (images()), taken in file order: within the texels left, or
-  // an error naming the limit; a KTX2 texture refused by name; another failure dropped with a
-  // warning.
+  // an error naming the limit; another failure dropped with a warning.
   template <typename Pending>
   Status take_image(Pending& p, uint64_t& texels_left) {
     if (opts_.decode_images) {
@@ -605,10 +655,7 @@ class Importer {
                                    std::to_string(opts_.max_texels) +
                                    " texels in all (the limit from the input's size; "
                                    "--max-texels raises it)");
-      if (!s && s.message().find("KTX2") != std::string::npos)  // as KHR_texture_basisu is
-        return r_.err(p.label,
-                      "a KTX2 / Basis Universal texture, which meshmux cannot decode "
-                      "(re-export the textures as PNG, JPEG or WebP)");
+      if (!s && p.quiet) return Status::ok();  // transcode_ktx2 warned once
       if (!s) {
         warn(warnings_, "gltf: " + file_ + ": " + p.label + ": " + s.message() +
                             "; textures using it are dropped");
@@ -622,7 +669,7 @@ class Importer {
   }
 
   // The image a texture shows: EXT_texture_webp's source when it decoded (WebP, which OpenImageIO
-  // reads), else the core source; -1 when neither gives a decoded image.
+  // reads), else the core source, else KHR_texture_basisu's; -1 when none gives a decoded image.
   int texture_source(const tinygltf::Texture& t) const {
     auto usable = [&](int i) {
       return i >= 0 && size_t(i) < m_.images.size() && image_map_[size_t(i)] >= 0;
@@ -631,7 +678,8 @@ class Importer {
     if (webp != t.extensions.end() && webp->second.Has("source") &&
         webp->second.Get("source").IsInt() && usable(webp->second.Get("source").GetNumberAsInt()))
       return webp->second.Get("source").GetNumberAsInt();
-    return usable(t.source) ? t.source : -1;
+    if (usable(t.source)) return t.source;
+    return usable(basisu_source(t)) ? basisu_source(t) : -1;
   }
 
   TextureRef texture(int index, int tex_coord, const tinygltf::ExtensionMap& ext,

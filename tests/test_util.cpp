@@ -206,4 +206,22 @@ bool renderer_available(std::string* why) {
   return reason.empty();
 }
 
+std::vector<uint8_t> ktx2_shell(uint32_t scheme, bool etc1s, size_t data_bytes) {
+  std::vector<uint8_t> b = {0xAB, 'K', 'T', 'X', ' ', '2', '0', 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
+  auto put = [&](uint32_t v) {
+    for (int i = 0; i < 4; ++i) b.push_back(uint8_t(v >> (8 * i)));
+  };
+  const uint32_t dfd_offset = 80 + 24, dfd_length = 44;
+  const uint32_t data_offset = dfd_offset + dfd_length;
+  put(0), put(1), put(16), put(16), put(0), put(0), put(1), put(1), put(scheme);  // .. scheme
+  put(dfd_offset), put(dfd_length), put(0), put(0);                               // dfd, kvd
+  put(0), put(0), put(0), put(0);                                                 // sgd
+  put(data_offset), put(0), put(uint32_t(data_bytes)), put(0), put(0), put(0);    // level 0
+  put(dfd_length);                                                                // dfdTotalSize
+  put(0), put(2 | (40u << 16));  // vendor/type, version 2 + block size 40
+  b.push_back(etc1s ? 163 : 166), b.push_back(1), b.push_back(2), b.push_back(0);  // sRGB
+  b.resize(data_offset + data_bytes, 0);
+  return b;
+}
+
 }  // namespace meshmux::testing

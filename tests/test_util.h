@@ -107,6 +107,11 @@ void write_text(const std::string& path, const std::string& text);
 // errors it reports, or -1 when the validator is not installed; `report` gets its JSON report.
 int gltf_validator_errors(const std::string& path, std::string* report = nullptr);
 
+// A header-valid KTX2 (UASTC with `scheme` supercompression, or ETC1S), 16×16, sRGB, whose level
+// 0 is `data_bytes` zeros: the smallest file image/ktx2_transcode.h's header check accepts, with
+// data no transcoder can read. Fields per the KTX 2.0 specification §3.
+std::vector<uint8_t> ktx2_shell(uint32_t scheme = 0, bool etc1s = false, size_t data_bytes = 64);
+
 }  // namespace meshmux::testing
 
 // A Renderer named `var` made with `opts` (multiplex/render.h), in a test body: the test is

@@ -1,11 +1,13 @@
-// Child processes for `meshmux batch`: a conversion in its own process (its own process group,
-// killed with the batch, output to a log file), and short commands whose output is read back
-// (sbatch, scontrol). POSIX fork/exec; Linux's PR_SET_PDEATHSIG ties a worker's life to the
-// batch's, so `kill -9` of the batch leaves no conversion running.
+// Child processes: a conversion of `meshmux batch` in its own process (its own process group,
+// killed with the batch, output to a log file), and commands whose output is read back (sbatch
+// and scontrol for the batch; node and basisu for the image stage's KTX2 transcoder and encoder,
+// under a time and a memory limit). POSIX fork/exec; Linux's PR_SET_PDEATHSIG ties a child's
+// life to its parent's, so `kill -9` of meshmux leaves no child running.
 #pragma once
 
 #include <sys/types.h>
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -43,6 +45,23 @@ struct CommandOutput {
   std::string output;
 };
 Result<CommandOutput> run_command(const std::vector<std::string>& argv, double timeout_seconds);
+
+// The limits and place of run_command's child.
+struct RunOptions {
+  double timeout_seconds = 60;  // then the child's group is killed and the run is an error
+  uint64_t max_data_bytes = 0;  // RLIMIT_DATA of the child (0: inherited). Data, not address
+                                // space: node's WebAssembly reserves gigabytes it never touches.
+                                // Not applied in sanitizer builds (core/sanitizers.h).
+  std::string working_dir;      // the child's current folder; empty: ours
+  size_t max_output_bytes = size_t(1) << 20;  // output kept (its end); the rest is read and
+                                              // dropped, so a chatty child never blocks
+};
+// As above, with those limits. A child killed by the kernel for memory shows as a signal.
+Result<CommandOutput> run_command(const std::vector<std::string>& argv, const RunOptions& options);
+
+// The path of `name` on PATH (as the shell finds it), `name` itself when it holds a '/', or ""
+// when it is not found or not executable (either way).
+std::string find_program(const std::string& name);
 
 // Kills a child's whole process group with SIGKILL (the child and anything it started).
 void kill_group(pid_t pid);

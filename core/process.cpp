@@ -1,9 +1,10 @@
-// Child processes for meshmux batch (see batch/process.h).
-#include "batch/process.h"
+// Child processes (see core/process.h).
+#include "core/process.h"
 
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,6 +13,8 @@
 #include <cstring>
 #include <filesystem>
 #include <thread>
+
+#include "core/sanitizers.h"
 
 namespace meshmux {
 
@@ -27,11 +30,9 @@ std::string self_executable() {
   return s;
 }
 
-namespace {
-
 // Resolves a bare program name on PATH (execv wants a path), as the shell does.
 std::string find_program(const std::string& name) {
-  if (name.find('/') != std::string::npos) return name;
+  if (name.find('/') != std::string::npos) return access(name.c_str(), X_OK) == 0 ? name : "";
   const char* path = std::getenv("PATH");
   std::string dirs = path ? path : "/usr/bin:/bin";
   dirs += ":/usr/sbin:/sbin";
@@ -46,6 +47,14 @@ std::string find_program(const std::string& name) {
   return "";
 }
 
+namespace {
+
+// What the child sets up between fork and exec (system calls only).
+struct ChildSetup {
+  uint64_t max_data_bytes = 0;  // RLIMIT_DATA; 0: inherited
+  const char* working_dir = nullptr;
+};
+
 // Everything the child needs is prepared before fork: between fork and exec the child only
 // makes system calls (no allocation, no locks), so a batch with threads stays safe.
 struct Prepared {
@@ -56,7 +65,8 @@ struct Prepared {
 extern "C" char** environ;
 
 pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_path,
-                const std::vector<std::pair<std::string, std::string>>& env, int out_fd) {
+                const std::vector<std::pair<std::string, std::string>>& env, int out_fd,
+                const ChildSetup& setup = {}) {
   Prepared p;
   p.strings = args;
   for (std::string& s : p.strings) p.argv.push_back(s.data());
@@ -89,8 +99,13 @@ pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_pat
     dup2(out, 1);
     dup2(out, 2);
   }
+  if (setup.max_data_bytes > 0 && !MESHMUX_SANITIZED) {
+    const rlimit rl{rlim_t(setup.max_data_bytes), rlim_t(setup.max_data_bytes)};
+    setrlimit(RLIMIT_DATA, &rl);
+  }
+  if (setup.working_dir && chdir(setup.working_dir) != 0) _exit(127);
   execve(p.argv[0], p.argv.data(), p.envp.data());
-  const char* msg = "meshmux: batch: could not start the program\n";
+  const char* msg = "meshmux: could not start the program\n";
   (void)!write(2, msg, std::strlen(msg));
   _exit(127);
 }
@@ -98,10 +113,10 @@ pid_t fork_exec(const std::vector<std::string>& args, const std::string& log_pat
 }  // namespace
 
 Result<pid_t> spawn_process(const std::vector<std::string>& argv, const SpawnOptions& options) {
-  if (argv.empty()) return Status::error("batch: nothing to run", ErrorKind::kInternal);
+  if (argv.empty()) return Status::error("process: nothing to run", ErrorKind::kInternal);
   const pid_t pid = fork_exec(argv, options.log_path, options.env, -1);
   if (pid < 0)
-    return Status::error(std::string("batch: cannot start a process: ") + std::strerror(errno),
+    return Status::error(std::string("process: cannot start a process: ") + std::strerror(errno),
                          ErrorKind::kInternal);
   setpgid(pid, pid);  // also from this side, so kill_group works at once
   return pid;
@@ -126,7 +141,13 @@ void kill_group(pid_t pid) {
 }
 
 Result<CommandOutput> run_command(const std::vector<std::string>& argv, double timeout_seconds) {
-  if (argv.empty()) return Status::error("batch: nothing to run", ErrorKind::kInternal);
+  RunOptions options;
+  options.timeout_seconds = timeout_seconds;
+  return run_command(argv, options);
+}
+
+Result<CommandOutput> run_command(const std::vector<std::string>& argv, const RunOptions& options) {
+  if (argv.empty()) return Status::error("process: nothing to run", ErrorKind::kInternal);
   std::vector<std::string> args = argv;
   args[0] = find_program(argv[0]);
   if (args[0].empty())
@@ -134,26 +155,34 @@ Result<CommandOutput> run_command(const std::vector<std::string>& argv, double t
                          ErrorKind::kUnavailable);
   int fds[2];
   if (pipe2(fds, O_CLOEXEC) != 0)
-    return Status::error(std::string("batch: pipe: ") + std::strerror(errno), ErrorKind::kInternal);
-  const pid_t pid = fork_exec(args, "", {}, fds[1]);
+    return Status::error(std::string("process: pipe: ") + std::strerror(errno),
+                         ErrorKind::kInternal);
+  ChildSetup setup;
+  setup.max_data_bytes = options.max_data_bytes;
+  if (!options.working_dir.empty()) setup.working_dir = options.working_dir.c_str();
+  const pid_t pid = fork_exec(args, "", {}, fds[1], setup);
   close(fds[1]);
   if (pid > 0) setpgid(pid, pid);  // so that kill_group reaches it at once
   if (pid < 0) {
     close(fds[0]);
     return Status::error(
-        std::string("batch: cannot start ") + argv[0] + ": " + std::strerror(errno),
+        std::string("process: cannot start ") + argv[0] + ": " + std::strerror(errno),
         ErrorKind::kInternal);
   }
   fcntl(fds[0], F_SETFL, O_NONBLOCK);
   CommandOutput result;
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::milliseconds(int64_t(timeout_seconds * 1000));
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(int64_t(options.timeout_seconds * 1000));
   int status = 0;
   bool done = false, timed_out = false;
   char buf[4096];
   while (true) {
     ssize_t n;
-    while ((n = read(fds[0], buf, sizeof buf)) > 0) result.output.append(buf, size_t(n));
+    while ((n = read(fds[0], buf, sizeof buf)) > 0) {
+      result.output.append(buf, size_t(n));
+      if (result.output.size() > 2 * options.max_output_bytes)  // keep the end
+        result.output.erase(0, result.output.size() - options.max_output_bytes);
+    }
     if (done && n <= 0) break;
     if (!done && waitpid(pid, &status, WNOHANG) == pid) {
       done = true;
@@ -168,9 +197,11 @@ Result<CommandOutput> run_command(const std::vector<std::string>& argv, double t
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   close(fds[0]);
+  if (result.output.size() > options.max_output_bytes)
+    result.output.erase(0, result.output.size() - options.max_output_bytes);
   if (timed_out)
     return Status::error(
-        argv[0] + ": no answer within " + std::to_string(int(timeout_seconds)) + " s",
+        argv[0] + ": no answer within " + std::to_string(int(options.timeout_seconds)) + " s",
         ErrorKind::kUnavailable);
   result.exit = exit_info(status);
   return result;
