@@ -322,7 +322,7 @@ float Simplifier::level_error_bound(const std::vector<uint32_t>& live) const {
 float Simplifier::sampled_error_bound(const std::vector<uint32_t>& live,
                                       const std::vector<size_t>& starts,
                                       const std::vector<uint32_t>& block_of) {
-  const size_t blocks = starts.size() - 1, step = std::max<size_t>(1, blocks / 8);
+  const size_t blocks = starts.size() - 1, step = std::max<size_t>(1, blocks / 16);
   std::vector<size_t> sampled;
   for (size_t b = 0; b < blocks; b += step) sampled.push_back(b);
   std::vector<BlockResult> results(sampled.size());

@@ -408,8 +408,7 @@ class Simplifier {
   // The levels from `level` on (its parity decides the first shift); returns the levels run.
   size_t block_levels_from(size_t level, const std::function<void(uint64_t)>& on_progress);
   // The first level's bound, where the unit has no quadrics yet: the third quartile of the
-  // cheapest collapses of every eighth position of 8–15 blocks spread over the level (every
-  // blocks/8-th), each costed with quadrics of its own.
+  // cheapest collapses of every eighth position of one block in sixteen, with its own.
   float sampled_error_bound(const std::vector<uint32_t>& live, const std::vector<size_t>& starts,
                             const std::vector<uint32_t>& block_of);
   static float third_quartile(std::vector<float>& cost);
