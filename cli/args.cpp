@@ -59,6 +59,7 @@ const std::vector<Flag> kFlags = [] {
       switch_flag("--no-atlas", kConvert | kBatch, true),
       switch_flag("--no-report", kConvert | kBatch, true),
       {"--display", nullptr, kConvert | kBatch, FlagValue::kText, 0, 0, false, false, true},
+      {"--textures", nullptr, kConvert, FlagValue::kText, 0, 0, false, false, false},
       // info.
       switch_flag("--json", kInfo),
       // simplify: exactly one target.

@@ -50,6 +50,17 @@ int cmd_convert(const std::vector<std::string>& args) {
                                      p->text("--display") + "')");
   UploadFlags u = upload_flags(*p);
   o.stream = !has_extension(out, ".glb");
+  if (p->has("--textures")) {
+    const std::string t = p->text("--textures");
+    if (t != "ktx2" && t != "default")
+      return usage_error(kConvert, "--textures needs ktx2 or default (got '" + t + "')");
+    // The stream's texture levels and its player do not read KTX2 yet: one file only.
+    if (t == "ktx2" && o.stream)
+      return usage_error(kConvert,
+                         "--textures ktx2 is written for -o FILE.glb only so far (a stream "
+                         "folder's texture levels are JPEG/PNG/WebP)");
+    o.gltf.ktx2 = t == "ktx2";
+  }
   auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);
   if (!upload.ok()) return print_error(upload.status());
   Warnings warnings;

@@ -28,6 +28,7 @@
 #include "exporters/draco_encode.h"
 #include "exporters/gltf_constants.h"
 #include "exporters/gltf_meshopt.h"
+#include "exporters/ktx2_images.h"
 #include "exporters/split_primitive.h"
 #include "image/encode.h"
 
@@ -41,6 +42,7 @@ using namespace gltf_enum;
 constexpr int kMaxTexCoord = 7;  // highest TEXCOORD_n we are willing to pad a primitive up to
 
 const char* const kDraco = "KHR_draco_mesh_compression";
+const char* const kTextureBasisu = "KHR_texture_basisu";
 const char* const kMeshopt = "EXT_meshopt_compression";
 const char* const kQuantization = "KHR_mesh_quantization";
 const char* const kInstancing = "EXT_mesh_gpu_instancing";
@@ -100,6 +102,11 @@ class Exporter {
       : scene_(scene), opt_(options), warnings_(warnings) {}
 
   Result<std::vector<uint8_t>> run() {
+    if (opt_.ktx2) {
+      auto k = encode_images_ktx2(scene_, image_uses(scene_), opt_.ktx2_options);
+      if (!k.ok()) return k.status().with_prefix("gltf export");
+      ktx2_ = k.take();
+    }
     prepare_images();
     write_materials();
     write_meshes();
@@ -152,7 +159,9 @@ class Exporter {
       std::vector<uint8_t> png;
       const std::vector<uint8_t>* bytes = nullptr;
       std::string mime;
-      if (img.mime_type == "image/png" && is_png(img.encoded)) {
+      if (i < int32_t(ktx2_.size()) && !ktx2_[size_t(i)].empty()) {
+        bytes = &ktx2_[size_t(i)], mime = "image/ktx2";
+      } else if (img.mime_type == "image/png" && is_png(img.encoded)) {
         bytes = &img.encoded, mime = "image/png";
       } else if (img.mime_type == "image/jpeg" && is_jpeg(img.encoded)) {
         bytes = &img.encoded, mime = "image/jpeg";
@@ -172,6 +181,7 @@ class Exporter {
       if (!img.name.empty()) j["name"] = img.name;
       if (opt_.tag_meshes) j["extras"] = {{"meshmux_image", i}};
       image_map_[i] = int(images_.size());
+      image_ktx2_.push_back(mime == "image/ktx2");
       images_.push_back(std::move(j));
     }
   }
@@ -220,7 +230,13 @@ class Exporter {
     if (it != textures_index_.end()) {
       texture = it->second;
     } else {
-      json j = {{"source", image}};
+      json j = json::object();
+      if (image_ktx2_[size_t(image)]) {  // no core source: a KTX2-reading loader is required
+        j["extensions"][kTextureBasisu] = {{"source", image}};
+        used_.insert(kTextureBasisu), required_.insert(kTextureBasisu);
+      } else {
+        j["source"] = image;
+      }
       if (sampler >= 0) j["sampler"] = sampler;
       textures_.push_back(std::move(j));
       texture = textures_index_[key] = int(textures_.size() - 1);
@@ -990,9 +1006,11 @@ class Exporter {
   json samplers_ = json::array(), images_ = json::array();
   std::vector<int> roots_;
   std::set<std::string> used_, required_;
-  std::vector<int> image_map_;         // scene image → glTF image, -1 when not embedded
-  std::vector<int> material_uv_sets_;  // per material: uv sets its textures need
-  std::vector<int> mesh_map_;          // scene mesh → glTF mesh, -1 when left out
+  std::vector<int> image_map_;              // scene image → glTF image, -1 when not embedded
+  std::vector<bool> image_ktx2_;            // per glTF image: written as KTX2 (KHR_texture_basisu)
+  std::vector<std::vector<uint8_t>> ktx2_;  // per scene image: its KTX2 bytes (options.ktx2)
+  std::vector<int> material_uv_sets_;       // per material: uv sets its textures need
+  std::vector<int> mesh_map_;               // scene mesh → glTF mesh, -1 when left out
   // Per scene mesh: the grid its positions were quantized on (meshopt), else none.
   std::vector<std::optional<PositionQuantization>> grids_;
   size_t fallback_bytes_ = 0;  // meshopt: decoded bytes the fallback buffer stands for

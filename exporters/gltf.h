@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "core/encode_counts.h"
+#include "image/ktx2_encode.h"
 #include "scene/scene.h"
 #include "stream/quantize.h"
 
@@ -47,6 +48,9 @@ struct GltfExportOptions {
                             // = {"meshmux_image": Scene image index} (stream package base)
   bool meshopt = false;     // EXT_meshopt_compression + KHR_mesh_quantization, vertex order kept
                             // (stream package base); takes precedence over `draco`
+  bool ktx2 = false;        // images as KTX2 (KHR_texture_basisu, required): ETC1S for colour maps,
+                            // UASTC for normal and data maps (exporters/ktx2_images.h)
+  Ktx2EncodeOptions ktx2_options;  // the encoder's quality settings when `ktx2`
   EncodeCounts* counts = nullptr;  // observer: images encoded here (undecodable-as-is sources)
   std::vector<PositionQuantization>
       position_quantization;  // meshopt: grid per Scene mesh; missing entries are computed

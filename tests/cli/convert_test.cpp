@@ -825,3 +825,26 @@ TEST(ConvertFolder, WritesStreamPackage) {
 
 }  // namespace
 }  // namespace meshmux
+
+namespace meshmux {
+namespace {
+
+// --textures: ktx2 or default; ktx2 only for a single .glb so far (the stream's levels and player
+// do not read KTX2 yet): anything else is one usage line and no output.
+TEST(ConvertTextures, Ktx2IsForOneGlbAndOtherValuesAreRefused) {
+  testing::TempDir dir;
+  const std::string in = dir.file("in.glb");
+  ASSERT_EQ(run_meshmux({"sample", "-o", in}).exit_code, 0);
+  const auto folder = run_meshmux({"convert", in, "-o", dir.file("out"), "--textures", "ktx2"});
+  EXPECT_EQ(folder.exit_code, 1) << folder.err;
+  EXPECT_NE(folder.err.find("--textures ktx2 is written for -o FILE.glb only"), std::string::npos)
+      << folder.err;
+  const auto bogus = run_meshmux({"convert", in, "-o", dir.file("x.glb"), "--textures", "webp2"});
+  EXPECT_EQ(bogus.exit_code, 1) << bogus.err;
+  EXPECT_NE(bogus.err.find("--textures needs ktx2 or default"), std::string::npos) << bogus.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.glb")));
+}
+
+}  // namespace
+}  // namespace meshmux

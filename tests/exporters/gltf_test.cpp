@@ -18,6 +18,7 @@
 
 #include "core/file_io.h"
 #include "image/encode.h"
+#include "image/ktx2_encode.h"
 #include "importers/import.h"
 #include "test_util.h"
 
@@ -270,6 +271,60 @@ TEST(GltfExport, BigPrimitiveIsWrittenAsDracoPartsThatReadBackWhole) {
     return out;
   };
   EXPECT_EQ(points(*back), points(*whole));
+}
+
+// --textures ktx2: the file's images are KTX2 behind KHR_texture_basisu (required: a texture has
+// no core source), valid for Khronos' validator, and read back (through three's transcoder, as
+// a KTX2 upload is) they are the image they were, within ETC1S's loss. A textured cube with a
+// normal map too: colour and data take different modes.
+TEST(GltfExport, Ktx2TexturesAreRequiredBasisuImagesThatReadBack) {
+  if (!ktx2_encoder_version().ok()) GTEST_SKIP() << ktx2_encoder_version().status().message();
+  Scene s = textured_cube_scene();
+  // A smooth base colour (ETC1S keeps one chroma per 4x4 block: a texel checker is its worst
+  // case, not a texture's).
+  Image& colour = s.images[0];
+  colour.width = colour.height = 64;
+  colour.rgba.assign(64 * 64 * 4, 255);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      uint8_t* p = &colour.rgba[size_t(y * 64 + x) * 4];
+      p[0] = uint8_t(40 + 3 * x), p[1] = uint8_t(30 + 2 * y), p[2] = uint8_t(200 - x - y);
+    }
+  colour.encoded.clear(), colour.mime_type.clear();
+  const Image original = colour;
+  Image normal = checker_image(16, true);
+  normal.name = "normal";
+  s.images.push_back(normal);
+  s.materials[0].normal.image = 1;
+  GltfExportOptions options;
+  options.ktx2 = true;
+  const std::vector<uint8_t> bytes = export_ok(s, options);
+  const Glb glb = parse_glb(bytes);
+  EXPECT_TRUE(has(glb.doc["extensionsRequired"], "KHR_texture_basisu"));
+  ASSERT_EQ(glb.doc["images"].size(), 2u);
+  for (const json& image : glb.doc["images"]) EXPECT_EQ(image["mimeType"], "image/ktx2");
+  for (const json& texture : glb.doc["textures"]) {
+    EXPECT_FALSE(texture.contains("source"));
+    EXPECT_TRUE(texture["extensions"]["KHR_texture_basisu"].contains("source"));
+  }
+  expect_valid(bytes, "ktx2.glb");
+  TempDir dir;
+  testing::write_file(dir.file("ktx2.glb"), bytes);
+  Warnings warnings;
+  auto back = import_scene(dir.file("ktx2.glb"), {}, &warnings);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->images.size(), 2u);
+  const Image& read = back->images[size_t(back->materials[0].base_color.image)];
+  ASSERT_TRUE(read.decoded());
+  ASSERT_EQ(read.width, original.width);
+  ASSERT_EQ(read.height, original.height);
+  double se = 0;
+  for (size_t i = 0; i < original.rgba.size(); ++i) {
+    const double d = double(read.rgba[i]) - double(original.rgba[i]);
+    se += d * d;
+  }
+  const double psnr = 10 * std::log10(255.0 * 255.0 / std::max(1e-9, se / original.rgba.size()));
+  EXPECT_GT(psnr, 30.0) << "a smooth 64x64 base colour through ETC1S";
 }
 
 TEST(GltfExport, EmptySceneIsValid) {
