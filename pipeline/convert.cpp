@@ -7,6 +7,8 @@
 // (multiplex); docs/ARCHITECTURE.md "Package" (the stream).
 #include "pipeline/convert.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <cstdarg>
 #include <cstdio>
@@ -649,6 +651,10 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   figures.draw_calls = out.output.draw_calls;
   if (!o.stream) return out;
   scene = Scene{};  // the record (ps) holds the geometry from here on
+  // Its arrays under glibc's (risen) mmap threshold were freed into the heap, which keeps the
+  // pages: handed back before the multiplexer allocates (4M scan: ~360 MB it started above its
+  // record).
+  malloc_trim(0);
   // 7–10. The base, the order and the package. The package's bound: the completion step keeps it
   // (multiplex/multiplex.h) down to the full mesh single-rate right after the base, the least a
   // package holds; where even that is over the bound (or the splits from the base cost less than
