@@ -14,24 +14,10 @@
 #include "image/decode.h"
 #include "image/ktx2_encode.h"
 #include "image/ktx2_transcode.h"
+#include "image/psnr.h"
 #include "image/resize.h"
 
 using namespace meshmux;
-
-namespace {
-
-double psnr(const Image& a, const Image& b) {
-  double se = 0;
-  size_t n = 0;
-  for (size_t k = 0; k < a.rgba.size() && k < b.rgba.size(); ++k) {
-    if (k % 4 == 3) continue;
-    const double d = double(a.rgba[k]) - double(b.rgba[k]);
-    se += d * d, ++n;
-  }
-  return se == 0 ? 99 : 10 * std::log10(255.0 * 255.0 / (se / double(n)));
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   Ktx2EncodeOptions base;
@@ -82,7 +68,7 @@ int main(int argc, char** argv) {
         back.name = f;
         back.encoded = e->bytes;
         Ktx2Transcoded t = transcode_ktx2_images({&back});
-        const double db = t.images[0].status.is_ok() ? psnr(in, back) : -1;
+        const double db = t.images[0].status.is_ok() ? psnr_rgb(in, back) : -1;
         const char* slash = std::strrchr(f.c_str(), '/');
         std::printf("| %s | %d² | %s | %.2f | %zu | %.1f |\n", slash ? slash + 1 : f.c_str(), side,
                     mode == Ktx2Mode::kEtc1s ? "ETC1S" : "UASTC", seconds, e->bytes.size(), db);

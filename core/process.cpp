@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -205,6 +206,14 @@ Result<CommandOutput> run_command(const std::vector<std::string>& argv, const Ru
         ErrorKind::kUnavailable);
   result.exit = exit_info(status);
   return result;
+}
+
+std::string last_output_line(const std::string& output, size_t max_chars) {
+  const size_t end = output.find_last_not_of(" \t\r\n");
+  if (end == std::string::npos) return "";
+  size_t start = output.find_last_of('\n', end);
+  start = start == std::string::npos ? 0 : start + 1;
+  return output.substr(start, std::min(end + 1 - start, max_chars));
 }
 
 }  // namespace meshmux

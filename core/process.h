@@ -63,6 +63,9 @@ Result<CommandOutput> run_command(const std::vector<std::string>& argv, const Ru
 // when it is not found or not executable (either way).
 std::string find_program(const std::string& name);
 
+// The last non-empty line of a child's output, cut to `max_chars` (what an error quotes).
+std::string last_output_line(const std::string& output, size_t max_chars = 300);
+
 // Kills a child's whole process group with SIGKILL (the child and anything it started).
 void kill_group(pid_t pid);
 

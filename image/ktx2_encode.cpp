@@ -74,15 +74,6 @@ Result<Encoder> find_encoder(const Ktx2EncodeOptions& options) {
                        ErrorKind::kUnavailable);
 }
 
-// The last non-empty line of a child's output, cut to 300 characters.
-std::string last_line(const std::string& text) {
-  size_t end = text.find_last_not_of(" \t\r\n");
-  if (end == std::string::npos) return "";
-  size_t start = text.find_last_of('\n', end);
-  start = start == std::string::npos ? 0 : start + 1;
-  return text.substr(start, std::min<size_t>(end + 1 - start, 300));
-}
-
 // An uncompressed 32-bit TGA, top-left origin (image descriptor bit 5), BGRA.
 std::vector<uint8_t> tga_bytes(const Image& image) {
   std::vector<uint8_t> out(18 + image.rgba.size());
@@ -165,11 +156,11 @@ Result<Ktx2Encoded> encode_ktx2(const Image& image, const Ktx2EncodeOptions& opt
   if (!r.ok()) return r.status().with_prefix(what);
   if (r->exit.code != 0)
     return Status::error(
-        what + ": basisu failed with " + r->exit.describe() + ": " + last_line(r->output),
+        what + ": basisu failed with " + r->exit.describe() + ": " + last_output_line(r->output),
         ErrorKind::kInternal);
   auto bytes = read_whole_file(out);
   if (!bytes.ok())
-    return Status::error(what + ": basisu wrote no KTX2 (" + last_line(r->output) + ")",
+    return Status::error(what + ": basisu wrote no KTX2 (" + last_output_line(r->output) + ")",
                          ErrorKind::kInternal);
   Ktx2Encoded encoded;
   encoded.bytes = bytes.take();

@@ -59,15 +59,6 @@ const Embedded kEmbedded[] = {
     {"basis_transcoder.wasm", meshmux_basis_wasm_begin, meshmux_basis_wasm_end},
 };
 
-// The last non-empty line of a child's output, cut to 300 characters.
-std::string last_line(const std::string& text) {
-  size_t end = text.find_last_not_of(" \t\r\n");
-  if (end == std::string::npos) return "";
-  size_t start = text.find_last_of('\n', end);
-  start = start == std::string::npos ? 0 : start + 1;
-  return text.substr(start, std::min<size_t>(end + 1 - start, 300));
-}
-
 // Reads image k's answer from the run's folder into `image`.
 Ktx2Decoded take_answer(const ScratchDir& dir, size_t k, const Ktx2Header& header, Image& image) {
   Ktx2Decoded out;
@@ -75,7 +66,7 @@ Ktx2Decoded take_answer(const ScratchDir& dir, size_t k, const Ktx2Header& heade
   auto err = read_whole_file(dir.file(stem + ".err"), 4096);
   if (err.ok()) {
     std::string why(err->begin(), err->end());
-    out.status = bad(image.name + ": KTX2: " + last_line(why));
+    out.status = bad(image.name + ": KTX2: " + last_output_line(why));
     return out;
   }
   auto rgba = read_whole_file(dir.file(stem + ".rgba"));
@@ -217,7 +208,7 @@ Ktx2Transcoded transcode_ktx2_images(const std::vector<Image*>& images,
                        run);
   if (!r.ok()) return fail_all(r.status().with_prefix("KTX2 transcoder"));
   if (r->exit.code != 0) {
-    const std::string why = last_line(r->output);
+    const std::string why = last_output_line(r->output);
     return fail_all(Status::error("KTX2 transcoder (" + node + ") failed with " +
                                       r->exit.describe() + (why.empty() ? "" : ": " + why),
                                   ErrorKind::kInternal));

@@ -19,6 +19,7 @@
 #include "core/file_io.h"
 #include "image/encode.h"
 #include "image/ktx2_encode.h"
+#include "image/psnr.h"
 #include "importers/import.h"
 #include "test_util.h"
 
@@ -318,12 +319,7 @@ TEST(GltfExport, Ktx2TexturesAreRequiredBasisuImagesThatReadBack) {
   ASSERT_TRUE(read.decoded());
   ASSERT_EQ(read.width, original.width);
   ASSERT_EQ(read.height, original.height);
-  double se = 0;
-  for (size_t i = 0; i < original.rgba.size(); ++i) {
-    const double d = double(read.rgba[i]) - double(original.rgba[i]);
-    se += d * d;
-  }
-  const double psnr = 10 * std::log10(255.0 * 255.0 / std::max(1e-9, se / original.rgba.size()));
+  const double psnr = psnr_rgb(read, original);
   EXPECT_GT(psnr, 30.0) << "a smooth 64x64 base colour through ETC1S";
 }
 

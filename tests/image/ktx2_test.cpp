@@ -14,6 +14,7 @@
 #include "image/decode.h"
 #include "image/ktx2_encode.h"
 #include "image/ktx2_transcode.h"
+#include "image/psnr.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -195,18 +196,6 @@ Image gradient(int w, int h, bool alpha = false) {
   return im;
 }
 
-// PSNR over R, G and B.
-double psnr(const Image& a, const Image& b) {
-  double se = 0;
-  size_t n = 0;
-  for (size_t k = 0; k < a.rgba.size() && k < b.rgba.size(); ++k) {
-    if (k % 4 == 3) continue;
-    const double d = double(a.rgba[k]) - double(b.rgba[k]);
-    se += d * d, ++n;
-  }
-  return se == 0 ? 99 : 10 * std::log10(255.0 * 255.0 / (se / double(n)));
-}
-
 // The encoder where this test looks: the encoder's own lookup (MESHMUX_NODE_MODULES, the tree's
 // node_modules). Tests skip when it is absent, saying what to install.
 bool have_encoder(std::string* why) {
@@ -244,7 +233,7 @@ TEST(Ktx2Encode, Etc1sRoundTripIsAboveItsFloor) {
   EXPECT_TRUE(h->etc1s);
   EXPECT_TRUE(h->srgb);
   EXPECT_EQ(h->levels, 8u);  // 128 → 1: mipmaps inside the file
-  EXPECT_GT(psnr(in, back), 32.0);
+  EXPECT_GT(psnr_rgb(in, back), 32.0);
 }
 
 TEST(Ktx2Encode, UastcRoundTripIsAboveItsFloor) {
@@ -263,7 +252,7 @@ TEST(Ktx2Encode, UastcRoundTripIsAboveItsFloor) {
   EXPECT_FALSE(h->etc1s);
   EXPECT_FALSE(h->srgb);
   EXPECT_EQ(h->supercompression, 2u);  // Zstandard
-  EXPECT_GT(psnr(in, back), 42.0);
+  EXPECT_GT(psnr_rgb(in, back), 42.0);
 }
 
 // Alpha (a cut-out's, a blend's) is carried: ETC1S codes it as a second slice when the image
