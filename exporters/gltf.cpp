@@ -181,7 +181,6 @@ class Exporter {
       if (!img.name.empty()) j["name"] = img.name;
       if (opt_.tag_meshes) j["extras"] = {{"meshmux_image", i}};
       image_map_[i] = int(images_.size());
-      image_ktx2_.push_back(mime == "image/ktx2");
       images_.push_back(std::move(j));
     }
   }
@@ -231,7 +230,8 @@ class Exporter {
       texture = it->second;
     } else {
       json j = json::object();
-      if (image_ktx2_[size_t(image)]) {  // no core source: a KTX2-reading loader is required
+      // A KTX2 image has no core source: a KTX2-reading loader is required.
+      if (images_[size_t(image)]["mimeType"] == "image/ktx2") {
         j["extensions"][kTextureBasisu] = {{"source", image}};
         used_.insert(kTextureBasisu), required_.insert(kTextureBasisu);
       } else {
@@ -1007,7 +1007,6 @@ class Exporter {
   std::vector<int> roots_;
   std::set<std::string> used_, required_;
   std::vector<int> image_map_;              // scene image → glTF image, -1 when not embedded
-  std::vector<bool> image_ktx2_;            // per glTF image: written as KTX2 (KHR_texture_basisu)
   std::vector<std::vector<uint8_t>> ktx2_;  // per scene image: its KTX2 bytes (options.ktx2)
   std::vector<int> material_uv_sets_;       // per material: uv sets its textures need
   std::vector<int> mesh_map_;               // scene mesh → glTF mesh, -1 when left out

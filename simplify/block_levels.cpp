@@ -171,7 +171,6 @@ Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, siz
 }
 
 size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_progress) {
-  if (transforms_.empty()) return block_levels_from(0, on_progress);
   if (alive_.empty()) begin_state();
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
   spill_ = std::make_shared<Spill>(opt_.spill_dir);

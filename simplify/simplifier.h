@@ -369,7 +369,7 @@ class Simplifier {
   // one level's borders lie inside the next level's blocks (Ponchio and Dellepiane's batched
   // multi-triangulation in Nexus; Kapoulkine's clusterlod), until at most `opt_.block_until`
   // faces are live or a level removes under a tenth of them. run() then finishes the record
-  // on the whole unit. Returns the levels run.
+  // on the whole unit. Returns the levels run. Needs a Simplifier made with Quadrics::kByBlocks.
   size_t run_block_levels(const std::function<void(uint64_t)>& on_progress = {});
   size_t live_faces() const { return live_faces_; }
 
