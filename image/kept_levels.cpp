@@ -88,21 +88,24 @@ struct KeptSource {
   const Image* source = nullptr;  // the scene's image: its encoded bytes and mime type
   TexelFilter filter = TexelFilter::kData;
   int width = 0, height = 0;  // as decoded
+  // The source's own bytes are JPEG or PNG, which the finest level carries as they came; else
+  // (pixels made in code, WebP, a transcoded KTX2) every level's map is made, as PNG.
+  bool own_bytes = true;
 };
 
-// The kept images a level can carry: JPEG or PNG, decodable (`streamed_material`'s own images
-// are the levels').
+// The kept images a level can carry: JPEG or PNG, or pixels that can be encoded as PNG
+// (`streamed_material`'s own images are the levels').
 std::vector<KeptSource> kept_sources(const Scene& scene, int32_t streamed_material) {
   std::vector<KeptSource> out;
   for (int32_t i : kept_level_images(scene, streamed_material)) {
     const Image& source = scene.images[size_t(i)];
-    if (source.encoded.empty() ||
-        (source.mime_type != "image/jpeg" && source.mime_type != "image/png"))
-      continue;  // shipped as it is (the exporter re-encodes what it must)
     KeptSource k;
     k.image = i, k.source = &source, k.filter = kept_image_filter(scene, i);
+    k.own_bytes = !source.encoded.empty() &&
+                  (source.mime_type == "image/jpeg" || source.mime_type == "image/png");
     k.width = source.width, k.height = source.height;
-    if (k.width <= 0 || k.height <= 0) {  // never decoded: is it decodable, and how large?
+    if (!source.decoded()) {  // never decoded: is it decodable, and how large?
+      if (source.encoded.empty()) continue;  // no pixels and no bytes: shipped as it is
       Image probe = source;
       if (!decode_image(probe)) continue;
       k.width = probe.width, k.height = probe.height;
@@ -144,11 +147,12 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
     const auto sides = kept_sides(full_sides, scales);
     bool missing = false;
     for (const auto& s : sides)
-      missing |= s && *s != full_sides && !made.count({k.image, s->first, s->second});
+      missing |= s && (*s != full_sides || !k.own_bytes) &&
+                 !made.count({k.image, s->first, s->second});
     Image decoded;  // only when a map must be made and the scene holds no pixels for it
     if (missing && !k.source->decoded()) {
       decoded = *k.source;
-      if (!decode_image(decoded)) continue;  // shipped as it is, like an image not JPEG or PNG
+      if (!decode_image(decoded)) continue;  // shipped as it is, like an image with no pixels
     }
     const Image& full = k.source->decoded() ? *k.source : decoded;
     Halvings halvings(full, k.filter);
@@ -157,8 +161,8 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
       KeptMap map;
       map.image = k.image;
       map.width = sides[j]->first, map.height = sides[j]->second;
-      map.mime_type = k.source->mime_type;
-      if (*sides[j] == full_sides) {
+      map.mime_type = k.own_bytes ? k.source->mime_type : "image/png";
+      if (*sides[j] == full_sides && k.own_bytes) {
         map.encoded = k.source->encoded;
       } else if (auto it = made.find({k.image, map.width, map.height}); it != made.end()) {
         map.encoded = it->second;

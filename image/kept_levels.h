@@ -9,12 +9,16 @@
 // Which images: every image some material samples that the streamed material (material 0, the
 // atlas's, whose base colour the levels are) does not. Scale of level j: its width over the
 // finest level's (levels.back()); an image's side s becomes max(min(s, kKeptMinSide),
-// round(s · scale)). The finest level carries the image's own bytes; a level carries an image
-// only where its size differs from the level below's (level 0, the base's, carries every one).
-// Reduced by 2×2 box halvings (linear light for colour, renormalized for normal maps, as stored
-// for data), then a Catmull-Rom resample to the exact size; encoded as the image came (JPEG at
-// `preview_quality`, or PNG). Images that are not decoded and cannot be decoded stay as they
-// are (no kept maps). O(kept texels) filtering plus encoding.
+// round(s · scale)). The finest level carries the image's own bytes when they are JPEG or PNG; a
+// level carries an image only where its size differs from the level below's (level 0, the
+// base's, carries every one). Reduced by 2×2 box halvings (linear light for colour, renormalized
+// for normal maps, as stored for data), then a Catmull-Rom resample to the exact size; encoded as
+// the image came (JPEG at `preview_quality`, or PNG). An image whose pixels have no JPEG or PNG
+// bytes (made in code, as the importer's anisotropy directions re-expressed for another tangent
+// frame; WebP; a transcoded KTX2) has every level's map made as PNG, the finest included: such an
+// image went into the base at full size, and was PNG-encoded again for every base the bytes
+// bound tried. Images with neither pixels nor decodable bytes stay as they are (no kept maps).
+// O(kept texels) filtering plus encoding.
 #pragma once
 
 #include "image/texture_levels.h"

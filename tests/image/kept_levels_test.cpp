@@ -171,6 +171,42 @@ TEST(KeptLevels, ApplyShowsTheLastMapUpToTheLevel) {
   EXPECT_EQ(s.images[0].width, 256);
 }
 
+// An image that has pixels but no JPEG or PNG bytes (made in code, as the glTF importer's
+// anisotropy directions re-expressed for the uv-derived tangent frame; or WebP) rides with the
+// levels like the others, every map PNG, the finest at its full size. It used to be skipped: the
+// base carried it whole (a lamp's 2048² direction map made its 42 kB base 1.58 MB) and the
+// exporter PNG-encoded it again for every base the bytes bound tried.
+TEST(KeptLevels, PixelsWithoutFileBytesGetPngMapsAtEveryScale) {
+  KeptScene k;
+  k.scene.images[1].encoded.clear();  // pixels only, as made in code
+  k.scene.images[1].mime_type.clear();
+  k.scene.images[2].mime_type = "image/webp";  // bytes a level cannot carry as they came
+  ASSERT_TRUE(add_kept_levels(k.scene, k.levels, kUnbounded).is_ok());
+  const std::vector<std::pair<int, int>> sides1 = {{13, 6}, {50, 25}, {200, 100}};
+  const std::vector<std::pair<int, int>> sides2 = {{4, 4}, {16, 16}, {64, 64}};
+  for (size_t j = 0; j < 3; ++j)
+    for (auto [image, sides] : {std::pair{1, sides1[j]}, std::pair{2, sides2[j]}}) {
+      const KeptMap* m = find(k.levels.levels[j], image);
+      ASSERT_NE(m, nullptr) << j << " " << image;
+      EXPECT_EQ(m->mime_type, "image/png") << j << " " << image;
+      Image d;
+      d.name = "kept";
+      d.encoded = m->encoded;
+      ASSERT_TRUE(decode_image(d).is_ok()) << j << " " << image;
+      EXPECT_EQ(std::make_pair(d.width, d.height), sides) << j << " " << image;
+      const uint8_t green = image == 1 ? 180 : 128;
+      EXPECT_NEAR(d.rgba[(size_t(d.width) * size_t(d.height / 2) + size_t(d.width / 2)) * 4 + 1],
+                  green, 2)
+          << j << " " << image;
+    }
+  // Made once: the base's scene shows the small map, not the full pixels.
+  Scene s = k.scene;
+  apply_kept_level(s, k.levels, 0);
+  EXPECT_EQ(s.images[1].width, 13);
+  EXPECT_EQ(s.images[1].mime_type, "image/png");
+  EXPECT_FALSE(s.images[1].encoded.empty());
+}
+
 // No levels (an untextured atlas, or no stream): nothing to carry.
 TEST(KeptLevels, NoLevelsNoMaps) {
   KeptScene k;
