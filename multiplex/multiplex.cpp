@@ -4,6 +4,8 @@
 // Mesh-layer bytes are the stream's compact vertex splits (stream/mesh_stream.h).
 #include "multiplex/multiplex.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -107,6 +109,10 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
     std::vector<uint32_t> digests;
     for (const MeshStreamEncoder& e : encoders) digests.push_back(state_digest(e.client()));
     layer_digests.push_back(std::move(digests));
+    // Each part's working lists are freed into the allocator's heap, between arrays that stay
+    // (the client state grows part by part): handed back to the OS here, or a 4M-triangle
+    // record's encoding held ~200 MB of freed pages at its end (RSS 732 MB against 536).
+    malloc_trim(0);
   }
   r.stream_digests = layer_digests.back();
   return Status::ok();

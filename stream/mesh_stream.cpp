@@ -89,6 +89,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   }
   const ProgressiveLevel& b = pm.levels[base_level];
   sim_.reset(nv, nf);
+  sim_.reserve_capacities();  // the encoder reaches them: the whole record is coded
   corner_enter_.reserve(size_t(nf) * 3);
   // The base's faces grouped by source primitive (the base .glb writes one glTF primitive per
   // group, in primitive order, with exactly these indices), each group in vertex-cache order,

@@ -22,6 +22,12 @@ void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
 
+void VsplitMesh::reserve_capacities() {
+  vertices.reserve(capacity_vertices_), head.reserve(capacity_vertices_);
+  stamp_.reserve(capacity_vertices_), twin_previous_.reserve(capacity_vertices_);
+  indices.reserve(size_t(capacity_faces_) * 3), next.reserve(size_t(capacity_faces_) * 3);
+}
+
 uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
   vertices.push_back(q);
   head.push_back(-1);

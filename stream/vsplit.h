@@ -116,6 +116,11 @@ class VsplitMesh {
   // Capacities bound what decoding may add (the package table's full counts); memory grows
   // with what is held, not with the capacities.
   void reset(uint32_t capacity_vertices, uint32_t capacity_faces);
+  // Allocates the capacities at once, for a side that knows it will reach them (the encoder
+  // holds the whole record): grown by doubling, a 4M-triangle record's corner lists held up to
+  // twice their size, and both copies while moving (~170 MB over 96 MB). Never on the decoding
+  // side, whose capacities come from the package.
+  void reserve_capacities();
   uint32_t vertex_count() const { return uint32_t(vertices.size()); }
   uint32_t face_count() const { return uint32_t(indices.size() / 3); }
   uint32_t capacity_vertices() const { return capacity_vertices_; }
