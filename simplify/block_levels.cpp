@@ -15,6 +15,7 @@
 // do not change in the level.
 #include <fcntl.h>
 #include <malloc.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -80,6 +81,18 @@ class Simplifier::Spill {
     }
     return at;
   }
+  // The file (a fresh one: nothing put) made `bytes` long, its blocks allocated (a full disk
+  // fails here, not as a fault on a later write), and mapped shared; null where any step fails.
+  std::shared_ptr<MappedPages> map(size_t bytes) {
+    if (fd_ < 0 || bytes == 0 || end_ != 0 || ::posix_fallocate(fd_, 0, off_t(bytes)) != 0)
+      return nullptr;
+    void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, 0);
+    if (base == MAP_FAILED) return nullptr;
+    auto pages = std::make_shared<MappedPages>();
+    pages->base = base, pages->bytes = bytes;
+    end_ = bytes;
+    return pages;
+  }
   void get(uint64_t at, void* data, size_t n) const {
     for (size_t done = 0; done < n;) {
       const ssize_t r = ::pread(fd_, static_cast<char*>(data) + done, n - done, off_t(at + done));
@@ -92,6 +105,14 @@ class Simplifier::Spill {
   int fd_ = -1;
   std::atomic<uint64_t> end_{0};
 };
+
+MappedPages::~MappedPages() {
+  if (base) ::munmap(base, bytes);
+}
+
+void MappedPages::drop() const {
+  if (base) ::madvise(base, bytes, MADV_DONTNEED);
+}
 
 // The live part of a unit after a level, as a unit of its own (see compact()).
 struct Simplifier::Rest {
@@ -185,7 +206,14 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
     if (on_progress) on_progress(before + n);
   };
   const size_t levels = 1 + rest.s->block_levels_from(1, rest_progress);
-  rest.s->run(rest_progress);
+  if (rest.s->mapped_) {  // the whole-unit loop on the live part, its quadrics in memory
+    Rest last = rest.s->compact_live();
+    const uint64_t at = rest.s->collapses_.size();
+    last.s->run([&](uint64_t n) { rest_progress(at + n); });
+    rest.s->absorb(last);
+  } else {
+    rest.s->run(rest_progress);
+  }
   absorb(rest);
   return levels;
 }
@@ -241,6 +269,7 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     for (size_t b = begin; b < end; ++b) {
       results[b] = simplify_block(&live[starts[b]], starts[b + 1] - starts[b], block_of,
                                   uint32_t(b), bound, mode);
+      drop_mapped();  // the block's quadrics are written back
       const uint64_t done = collapsed += results[b].collapses.size();
       if (on_progress) on_progress(done);
     }
@@ -311,10 +340,17 @@ void Simplifier::block_face_lists(const std::vector<uint32_t>& block_of, size_t 
 float Simplifier::level_error_bound(const std::vector<uint32_t>& live) const {
   const size_t samples = (live.size() + 7) / 8;
   std::vector<float> cost(samples, INFINITY);
-  parallel_chunks(samples, 1024, [&](size_t begin, size_t end) {
-    Scratch s;
-    for (size_t i = begin; i < end; ++i) cost[i] = best_candidate(live[8 * i], s).error;
-  });
+  // Mapped quadrics: in runs of about a block's positions, each one's pages dropped after it
+  // (read only here).
+  const size_t run = mapped_ ? 4096 : std::max<size_t>(samples, 1);
+  for (size_t from = 0; from < samples; from += run) {
+    parallel_chunks(std::min(run, samples - from), 1024, [&](size_t begin, size_t end) {
+      Scratch s;
+      for (size_t i = from + begin; i < from + end; ++i)
+        cost[i] = best_candidate(live[8 * i], s).error;
+    });
+    drop_mapped();
+  }
   return third_quartile(cost);
 }
 
@@ -456,14 +492,16 @@ void Simplifier::keep_block_quadrics(const Simplifier& s, const BlockUnit& b,
   std::vector<double>().swap(out.wedge_gd);
 }
 
-Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
+Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
+                                          std::vector<uint32_t>& wedge_id, size_t& live_pos,
+                                          size_t& live_wedges) {
   const size_t np = u_.pos.size(), nw = u_.wedge_pos.size(), nf = alive_.size();
-  const size_t k = size_t(u_.channels), kg = k * 4;
+  const size_t k = size_t(u_.channels);
   Rest r;
   r.unit = std::make_unique<Unit>();
   Unit& rest = *r.unit;
   rest.channels = u_.channels;
-  std::vector<uint32_t> pos_id(np, UINT32_MAX), wedge_id(nw, UINT32_MAX);
+  pos_id.assign(np, UINT32_MAX), wedge_id.assign(nw, UINT32_MAX);
   for (uint32_t f = 0; f < nf; ++f) {
     if (!alive_[f]) continue;
     r.face_of.push_back(f);
@@ -472,7 +510,7 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
       wedge_id[w] = 0, pos_id[u_.wedge_pos[w]] = 0;
     }
   }
-  size_t live_pos = 0, live_wedges = 0;
+  live_pos = 0, live_wedges = 0;
   for (uint32_t p = 0; p < np; ++p) live_pos += pos_id[p] == 0;
   for (uint32_t w = 0; w < nw; ++w) live_wedges += wedge_id[w] == 0;
   rest.pos.reserve(live_pos), rest.wedge_pos.reserve(live_wedges);
@@ -481,7 +519,7 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   r.wedge_of.reserve(live_wedges);
   for (uint32_t p = 0; p < np; ++p)
     if (pos_id[p] == 0) pos_id[p] = uint32_t(rest.pos.size()), rest.pos.push_back(u_.pos[p]);
-  for (uint32_t w = 0; w < nw; ++w) {
+  for (uint32_t w = 0; w < nw; ++w) {  // wedges stay by position (make_unit's spatial order)
     if (wedge_id[w] != 0) continue;
     wedge_id[w] = uint32_t(r.wedge_of.size());
     r.wedge_of.push_back(w);
@@ -498,16 +536,38 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   // The unit keeps only what the record reads (before the quadrics come in).
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   release(u_.attr), release(u_.pos), release(u_.corners), release(u_.wedge_group);
-  release(dead_pos_);  // wedge_normal stays: the record reads whether there are normals
-  pos_faces_.release();
+  release(dead_pos_), release(queued_);  // wedge_normal stays: the record reads whether there
+  pos_faces_.release();                  // are normals
+  return r;
+}
+
+Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
+  const size_t kg = size_t(u_.channels) * 4;
+  std::vector<uint32_t> pos_id, wedge_id;
+  size_t live_pos = 0, live_wedges = 0;
+  Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
+  // The rest's quadrics: pages of a file of their own where there is a spill directory.
+  const size_t pq_bytes = live_pos * sizeof(Quadric), aq_bytes = live_wedges * sizeof(Quadric);
+  std::shared_ptr<MappedPages> pages;
+  if (!opt_.spill_dir.empty())
+    pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + live_wedges * kg * sizeof(double));
+  Store<Quadric> pq, aq;
+  Store<double> gd;
+  if (pages) report_.mapped_bytes += pages->bytes;
+  if (pages) {
+    char* base = static_cast<char*>(pages->base);
+    pq = Store<Quadric>(reinterpret_cast<Quadric*>(base), live_pos);
+    aq = Store<Quadric>(reinterpret_cast<Quadric*>(base + pq_bytes), live_wedges);
+    gd = Store<double>(reinterpret_cast<double*>(base + pq_bytes + aq_bytes), live_wedges * kg);
+  } else {
+    pq.assign(live_pos, Quadric{}), aq.assign(live_wedges, Quadric{});
+    gd.assign(live_wedges * kg, 0.0);
+  }
   // The quadrics the blocks made: every live position is one block's, with its wedges. The
-  // blocks hold runs of positions in order, and list their wedges in order, so their lists
-  // appended in block order are the rest's order; each is freed once appended (or read back
-  // from the spill file), and the reserved arrays fill as they go (never both whole at once).
-  std::vector<Quadric> pq, aq;
-  std::vector<double> gd;
-  pq.reserve(live_pos), aq.reserve(live_wedges), gd.reserve(live_wedges * kg);
-  size_t freed = 0;
+  // blocks hold runs of positions, so each fills a run of the rest's arrays; each block's lists
+  // are freed once placed (or read back from the spill file), and the rest's arrays fill as
+  // they go (never both whole at once).
+  size_t freed = 0, pn = 0, wn = 0;
   for (BlockResult& b : results) {
     if (b.spilled) {
       b.pos_q.resize(b.positions.size()), b.wedge_q.resize(b.wedges.size());
@@ -517,22 +577,53 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
       spill_->get((*b.spilled)[2], b.wedge_gd.data(), b.wedge_gd.size() * sizeof(double));
     }
     for (size_t i = 0; i < b.positions.size(); ++i)
-      if (pos_id[b.positions[i]] == pq.size()) pq.push_back(b.pos_q[i]);
+      if (const uint32_t to = pos_id[b.positions[i]]; to != UINT32_MAX) pq[to] = b.pos_q[i], ++pn;
     for (size_t i = 0; i < b.wedges.size(); ++i)
-      if (wedge_id[b.wedges[i]] == aq.size()) {
-        aq.push_back(b.wedge_q[i]);
-        gd.insert(gd.end(), b.wedge_gd.begin() + ptrdiff_t(i * kg),
-                  b.wedge_gd.begin() + ptrdiff_t((i + 1) * kg));
+      if (const uint32_t to = wedge_id[b.wedges[i]]; to != UINT32_MAX) {
+        aq[to] = b.wedge_q[i];
+        std::copy_n(b.wedge_gd.begin() + ptrdiff_t(i * kg), kg, gd.begin() + size_t(to) * kg);
+        ++wn;
       }
     b = BlockResult{};
     // The blocks' lists live in the allocator's arenas, which keep freed pages: handed back
-    // as we go, or the rest's arrays would come on top of them (4M scan: +220 MB at the peak).
-    if (++freed % 8 == 0) malloc_trim(0);
+    // as we go, or the rest's arrays would come on top of them (4M scan: +220 MB at the peak);
+    // the rest's pages written so far go to the file.
+    if (++freed % 8 == 0) {
+      malloc_trim(0);
+      if (pages) pages->drop();
+    }
   }
   malloc_trim(0);
-  if (pq.size() != live_pos || aq.size() != live_wedges)
+  if (pages) pages->drop();
+  if (pn != live_pos || wn != live_wedges)
     throw std::logic_error("simplify: block levels: a live position or wedge without quadrics");
-  r.s = std::make_unique<Simplifier>(rest, std::move(pq), std::move(aq), std::move(gd), opt_,
+  r.s = std::make_unique<Simplifier>(*r.unit, std::move(pq), std::move(aq), std::move(gd), opt_,
+                                     report_, std::move(pages));
+  return r;
+}
+
+Simplifier::Rest Simplifier::compact_live() {
+  const size_t kg = size_t(u_.channels) * 4;
+  std::vector<uint32_t> pos_id, wedge_id;
+  size_t live_pos = 0, live_wedges = 0;
+  Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
+  std::vector<Quadric> pq(live_pos), aq(live_wedges);
+  std::vector<double> gd(live_wedges * kg);
+  constexpr size_t kRun = 65536;  // the mapped pages read so far dropped after each run
+  for (size_t p = 0; p < pos_id.size(); ++p) {
+    if (pos_id[p] != UINT32_MAX) pq[pos_id[p]] = pos_q_[p];
+    if (p % kRun == kRun - 1) drop_mapped();
+  }
+  for (size_t w = 0; w < wedge_id.size(); ++w) {
+    if (wedge_id[w] != UINT32_MAX) {
+      aq[wedge_id[w]] = attr_q_[w];
+      std::copy_n(attr_gd_.begin() + w * kg, kg, gd.begin() + ptrdiff_t(wedge_id[w] * kg));
+    }
+    if (w % kRun == kRun - 1) drop_mapped();
+  }
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
+  release(pos_q_), release(attr_q_), release(attr_gd_), mapped_.reset();
+  r.s = std::make_unique<Simplifier>(*r.unit, std::move(pq), std::move(aq), std::move(gd), opt_,
                                      report_);
   return r;
 }

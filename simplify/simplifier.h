@@ -21,6 +21,53 @@
 
 namespace meshmux::simplify_detail {
 
+// Pages of a file mapped into memory (block_levels.cpp's spill file): unmapped when the last
+// owner goes. drop() takes them out of this process's memory; their contents stay in the file
+// (the OS's cache of it), read back on the next access. Safe while other threads use them.
+struct MappedPages {
+  void* base = nullptr;
+  size_t bytes = 0;
+  MappedPages() = default;
+  MappedPages(const MappedPages&) = delete;
+  MappedPages& operator=(const MappedPages&) = delete;
+  ~MappedPages();
+  void drop() const;
+};
+
+// An array of plain values, owned (a vector) or a view into mapped pages (whose owner keeps
+// them mapped while the view is used). Indexed as a vector is; copying is not allowed.
+template <typename T>
+class Store {
+ public:
+  Store() = default;
+  Store(std::vector<T> v) : own_(std::move(v)), data_(own_.data()), size_(own_.size()) {}
+  Store(T* view, size_t size) : data_(view), size_(size) {}
+  Store(Store&& o) noexcept { swap(o); }
+  Store& operator=(Store&& o) noexcept {
+    Store(std::move(o)).swap(*this);
+    return *this;
+  }
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+  void assign(size_t n, const T& value) {
+    own_.assign(n, value);
+    data_ = own_.data(), size_ = n;
+  }
+  void swap(Store& o) noexcept {
+    own_.swap(o.own_), std::swap(data_, o.data_), std::swap(size_, o.size_);
+  }
+  T& operator[](size_t i) { return data_[i]; }
+  const T& operator[](size_t i) const { return data_[i]; }
+  size_t size() const { return size_; }
+  T* begin() { return data_; }
+  const T* begin() const { return data_; }
+
+ private:
+  std::vector<T> own_;
+  T* data_ = nullptr;
+  size_t size_ = 0;
+};
+
 // Symmetric 4x4 quadric on homogeneous positions: E(p) = pᵀAp + 2bᵀp + c.
 struct Quadric {
   double a00 = 0, a01 = 0, a02 = 0, a11 = 0, a12 = 0, a22 = 0;
@@ -235,11 +282,14 @@ class Simplifier {
   }
   // A unit whose quadrics were summed already (a block of a bigger unit, or the rest of one
   // after its first level: block_levels.cpp); it is never recorded (record() is the unit's).
-  Simplifier(Unit& unit, std::vector<Quadric> pos_q, std::vector<Quadric> attr_q,
-             std::vector<double> attr_gd, const SimplifyOptions& opt, SimplifyReport& report)
+  // `mapped`: the pages the quadrics are views into, or null (they own their values).
+  Simplifier(Unit& unit, Store<Quadric> pos_q, Store<Quadric> attr_q, Store<double> attr_gd,
+             const SimplifyOptions& opt, SimplifyReport& report,
+             std::shared_ptr<MappedPages> mapped = nullptr)
       : u_(unit),
         opt_(opt),
         report_(report),
+        mapped_(std::move(mapped)),
         pos_q_(std::move(pos_q)),
         attr_q_(std::move(attr_q)),
         attr_gd_(std::move(attr_gd)) {}
@@ -378,7 +428,7 @@ class Simplifier {
   // progressive mesh: at 4M triangles the two together would not fit the memory target.
   void release_costing() {
     auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
-    release(pos_q_), release(attr_q_), release(attr_gd_), release(queued_);
+    release(pos_q_), release(attr_q_), release(attr_gd_), release(queued_), mapped_.reset();
     release(dead_pos_), release(u_.attr), release(u_.pos), release(u_.corners);
     release(u_.wedge_group);
     pos_faces_.release();
@@ -417,8 +467,23 @@ class Simplifier {
   void block_face_lists(const std::vector<uint32_t>& block_of, size_t blocks);
   // After a level whose quadrics the blocks made: the live part of the unit as a unit of its
   // own (positions, wedges and faces renumbered in order, the blocks' quadrics moved in), the
-  // unit's costing arrays freed.
+  // unit's costing arrays freed. With a spill file, the rest's quadrics are pages of a file of
+  // their own, which the levels' blocks map in and drop as they go (a 4M scan's rest: 258 MB
+  // that the whole level held at once otherwise).
   Rest compact(std::vector<BlockResult>& results);
+  // The live part as a unit of its own (compact() and compact_live()): `pos_id` and `wedge_id`
+  // become each live position's and wedge's number in it (UINT32_MAX: dead); the unit's
+  // costing arrays but the quadrics are freed.
+  Rest compact_unit(std::vector<uint32_t>& pos_id, std::vector<uint32_t>& wedge_id,
+                    size_t& live_pos, size_t& live_wedges);
+  // After the levels of a rest whose quadrics are mapped: the live part again, its quadrics
+  // copied into memory (the last levels leave a few hundred thousand faces), so that the
+  // whole-unit loop does not touch every page of the rest's.
+  Rest compact_live();
+  // Drops the mapped quadrics' pages from memory (see MappedPages), when there are any.
+  void drop_mapped() const {
+    if (mapped_) mapped_->drop();
+  }
   // The rest's history (and the faces it leaves alive) in the unit's numbering, after ours.
   void absorb(const Rest& rest);
   // One level: the live positions, in the unit's spatial order, cut into runs of
@@ -452,10 +517,12 @@ class Simplifier {
   const SimplifyOptions& opt_;
   SimplifyReport& report_;
   std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
-  std::vector<Quadric> pos_q_;              // per position
-  std::vector<Quadric> attr_q_;  // per wedge: the position-dependent part of the attribute error
-  std::vector<double> attr_gd_;  // per wedge × channel: G (3) and D (1)
-  std::vector<uint8_t> alive_;   // per face
+  // The pages the quadrics below are views into (a big unit's rest: compact()), or null.
+  std::shared_ptr<MappedPages> mapped_;
+  Store<Quadric> pos_q_;        // per position
+  Store<Quadric> attr_q_;       // per wedge: the position-dependent part of the attribute error
+  Store<double> attr_gd_;       // per wedge × channel: G (3) and D (1)
+  std::vector<uint8_t> alive_;  // per face
   size_t live_faces_ = 0;
   std::vector<uint8_t> dead_pos_;
   std::vector<Candidate> queued_;  // per position: its cheapest valid collapse, or error ∞

@@ -140,72 +140,81 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     normals = normals && !p.normals.empty();
   }
   u.channels = int((normals ? 3 : 0) + 2 * uv_sets + (colors ? 4 : 0));
-  size_t wedges = 0;
-  for (const Primitive& p : mesh.primitives) wedges += p.vertex_count();
-  KeyTable pos_of(wedges);    // position hash → positions
-  KeyTable group_of(wedges);  // class hash → classes
-  std::vector<uint32_t> group_first_wedge;
-  for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
-    const Primitive& p = mesh.primitives[pi];
-    uint32_t first = uint32_t(u.wedge_pos.size());
-    for (size_t v = 0; v < p.vertex_count(); ++v) {
-      Vec3 x = p.positions[v];
-      uint64_t h = position_hash(x);
-      uint32_t pid = pos_of.find(h, [&](uint32_t c) {
-        return u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z;
-      });
-      if (pid == KeyTable::kEmpty) {
-        pid = uint32_t(u.pos.size());
-        u.pos.push_back(to_dvec3(x));
-        pos_of.insert(h, pid);
+  size_t wedges = 0, corners = 0;
+  for (const Primitive& p : mesh.primitives)
+    wedges += p.vertex_count(), corners += p.indices.size();
+  // Sized once: grown by doubling, a 4M-triangle scan's arrays held up to twice their size and
+  // both copies while moving, at the stage's peak (with the tables below).
+  u.wedge_pos.reserve(wedges), u.wedge_prim.reserve(wedges), u.wedge_vertex.reserve(wedges);
+  u.wedge_group.reserve(wedges), u.attr.reserve(wedges * size_t(u.channels));
+  if (normals) u.wedge_normal.reserve(wedges);
+  u.corners.reserve(corners), u.face_prim.reserve(corners / 3);
+  {                             // the tables go before spatial_order's arrays come
+    KeyTable pos_of(wedges);    // position hash → positions
+    KeyTable group_of(wedges);  // class hash → classes
+    std::vector<uint32_t> group_first_wedge;
+    for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+      const Primitive& p = mesh.primitives[pi];
+      uint32_t first = uint32_t(u.wedge_pos.size());
+      for (size_t v = 0; v < p.vertex_count(); ++v) {
+        Vec3 x = p.positions[v];
+        uint64_t h = position_hash(x);
+        uint32_t pid = pos_of.find(h, [&](uint32_t c) {
+          return u.pos[c].x == x.x && u.pos[c].y == x.y && u.pos[c].z == x.z;
+        });
+        if (pid == KeyTable::kEmpty) {
+          pid = uint32_t(u.pos.size());
+          u.pos.push_back(to_dvec3(x));
+          pos_of.insert(h, pid);
+        }
+        uint32_t w = uint32_t(u.wedge_pos.size());
+        u.wedge_pos.push_back(pid);
+        u.wedge_prim.push_back(pi);
+        u.wedge_vertex.push_back(uint32_t(v));
+        if (normals) u.wedge_normal.push_back(p.normals[v]);
+        // Weighted attribute channels.
+        if (normals)
+          for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z})
+            u.attr.push_back(c * opt.normal_weight);
+        for (size_t s = 0; s < uv_sets; ++s) {
+          Vec2 t = s < p.uvs.size() ? p.uvs[s][v] : Vec2{};
+          u.attr.push_back(t.x * opt.uv_weight);
+          u.attr.push_back(t.y * opt.uv_weight);
+        }
+        if (colors) {
+          Vec4 c = p.colors.empty() ? Vec4{1, 1, 1, 1} : p.colors[v];
+          for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
+        }
+        // Class: position, primitive, uv and colour bits (normal excluded).
+        uint64_t g =
+            uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
+        size_t skip = normals ? 3 : 0;
+        size_t k = size_t(u.channels);
+        for (size_t c = skip; c < k; ++c) {
+          const float val = u.attr[size_t(w) * k + c];
+          uint32_t b;
+          std::memcpy(&b, &val, 4);
+          g = (g ^ b) * 0x100000001B3ull;
+        }
+        uint32_t gid = group_of.find(g, [&](uint32_t cand) {
+          uint32_t w0 = group_first_wedge[cand];
+          if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) return false;
+          bool same = true;
+          for (size_t c = skip; c < k && same; ++c)
+            same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
+          return same;
+        });
+        if (gid == KeyTable::kEmpty) {
+          gid = uint32_t(group_first_wedge.size());
+          group_first_wedge.push_back(w);
+          group_of.insert(g, gid);
+        }
+        u.wedge_group.push_back(gid);
       }
-      uint32_t w = uint32_t(u.wedge_pos.size());
-      u.wedge_pos.push_back(pid);
-      u.wedge_prim.push_back(pi);
-      u.wedge_vertex.push_back(uint32_t(v));
-      if (normals) u.wedge_normal.push_back(p.normals[v]);
-      // Weighted attribute channels.
-      if (normals)
-        for (float c : {p.normals[v].x, p.normals[v].y, p.normals[v].z})
-          u.attr.push_back(c * opt.normal_weight);
-      for (size_t s = 0; s < uv_sets; ++s) {
-        Vec2 t = s < p.uvs.size() ? p.uvs[s][v] : Vec2{};
-        u.attr.push_back(t.x * opt.uv_weight);
-        u.attr.push_back(t.y * opt.uv_weight);
+      for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+        for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
+        u.face_prim.push_back(pi);
       }
-      if (colors) {
-        Vec4 c = p.colors.empty() ? Vec4{1, 1, 1, 1} : p.colors[v];
-        for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
-      }
-      // Class: position, primitive, uv and colour bits (normal excluded).
-      uint64_t g =
-          uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
-      size_t skip = normals ? 3 : 0;
-      size_t k = size_t(u.channels);
-      for (size_t c = skip; c < k; ++c) {
-        const float val = u.attr[size_t(w) * k + c];
-        uint32_t b;
-        std::memcpy(&b, &val, 4);
-        g = (g ^ b) * 0x100000001B3ull;
-      }
-      uint32_t gid = group_of.find(g, [&](uint32_t cand) {
-        uint32_t w0 = group_first_wedge[cand];
-        if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) return false;
-        bool same = true;
-        for (size_t c = skip; c < k && same; ++c)
-          same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
-        return same;
-      });
-      if (gid == KeyTable::kEmpty) {
-        gid = uint32_t(group_first_wedge.size());
-        group_first_wedge.push_back(w);
-        group_of.insert(g, gid);
-      }
-      u.wedge_group.push_back(gid);
-    }
-    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-      for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
-      u.face_prim.push_back(pi);
     }
   }
   spatial_order(u);
@@ -355,6 +364,7 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
   for (const SimplifyReport& x : reports) {
     r.block_levels = std::max(r.block_levels, x.block_levels);
     r.spilled_bytes += x.spilled_bytes;
+    r.mapped_bytes += x.mapped_bytes;
     r.collapses += x.collapses;
     r.refused_flip += x.refused_flip;
     r.refused_link += x.refused_link;

@@ -82,6 +82,7 @@ struct SimplifyReport {
   uint64_t input_triangles = 0;  // scene triangles (instances expanded)
   uint64_t collapses = 0;        // over all submeshes
   uint64_t spilled_bytes = 0;    // written to SimplifyOptions::spill_dir's file (all submeshes)
+  uint64_t mapped_bytes = 0;     // the block levels' rest's quadrics, mapped from a file there
   uint32_t block_levels = 0;     // block levels run (the most over submeshes; 0: none)
   uint64_t refused_flip = 0, refused_link = 0, refused_wedge = 0, refused_vanish = 0;
   double seconds = 0;  // wall time of build_progressive

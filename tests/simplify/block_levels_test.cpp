@@ -89,8 +89,10 @@ TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
     EXPECT_EQ(one.levels[i].error, three.levels[i].error);
 }
 
-// The first level's quadrics may wait in a file (SimplifyOptions::spill_dir) instead of memory:
-// what comes back is what went out, so the record is the same, and the file leaves no trace.
+// The first level's quadrics may wait in a file (SimplifyOptions::spill_dir) instead of memory,
+// and the rest's live in pages mapped from another one through its levels, dropped from memory
+// block by block, then copied in for the last loop: what comes back is what went out, so the
+// record is the same, and the files leave no trace.
 TEST(BlockLevels, SpilledQuadricsGiveTheSameRecord) {
   const Scene s = sphere_scene();
   testing::TempDir dir;
@@ -100,6 +102,7 @@ TEST(BlockLevels, SpilledQuadricsGiveTheSameRecord) {
   const ProgressiveMesh a = build_progressive(s, block_options()).meshes[0];
   const ProgressiveMesh b = build_progressive(s, spilled, &report).meshes[0];
   EXPECT_GT(report.spilled_bytes, 100000u);  // the quadrics of ~8k positions and wedges
+  EXPECT_GT(report.mapped_bytes, 50000u);    // the rest's, mapped through its levels
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.parent, b.parent);
   ASSERT_EQ(a.levels.size(), b.levels.size());
