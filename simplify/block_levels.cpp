@@ -206,14 +206,7 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
     if (on_progress) on_progress(before + n);
   };
   const size_t levels = 1 + rest.s->block_levels_from(1, rest_progress);
-  if (rest.s->mapped_) {  // the whole-unit loop on the live part, its quadrics in memory
-    Rest last = rest.s->compact_live();
-    const uint64_t at = rest.s->collapses_.size();
-    last.s->run([&](uint64_t n) { rest_progress(at + n); });
-    rest.s->absorb(last);
-  } else {
-    rest.s->run(rest_progress);
-  }
+  rest.s->finish_levels(rest_progress);
   absorb(rest);
   return levels;
 }
@@ -230,8 +223,35 @@ size_t Simplifier::block_levels_from(size_t level,
     ++levels;
     if (on_progress) on_progress(collapses_.size());
     if (10 * (before - live_faces_) < before) break;  // stuck: the whole-unit loop goes on
+    size_t live_pos = 0;
+    for (uint8_t dead : dead_pos_) live_pos += !dead;
+    if (mapped_ && live_faces_ > opt_.block_until && 2 * live_pos < dead_pos_.size()) {
+      // Mostly dead: a block's live positions would spread over twice the pages. The live
+      // part goes on as a unit of its own, its quadrics in a mapping of their own.
+      Rest next = compact_quadrics(true);
+      const uint64_t at = collapses_.size();
+      auto next_progress = [&](uint64_t n) {
+        if (on_progress) on_progress(at + n);
+      };
+      levels += next.s->block_levels_from(level + levels, next_progress);
+      next.s->finish_levels(next_progress);
+      absorb(next);
+      break;
+    }
   }
   return levels;
+}
+
+void Simplifier::finish_levels(const std::function<void(uint64_t)>& on_progress) {
+  if (finished_) return;
+  if (!mapped_) return run(on_progress);
+  // The whole-unit loop on the live part, its quadrics in memory.
+  Rest last = compact_quadrics(false);
+  const uint64_t at = collapses_.size();
+  last.s->run([&](uint64_t n) {
+    if (on_progress) on_progress(at + n);
+  });
+  absorb(last);
 }
 
 size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
@@ -281,6 +301,7 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
   std::vector<size_t> next(blocks, 0);
   for (uint32_t b = 0; b < blocks; ++b)
     if (!results[b].collapses.empty()) heads.push({results[b].collapses[0].queue_min, b});
+  reserve_history(results);
   size_t made = 0;
   while (!heads.empty()) {
     const uint32_t b = heads.top().second;
@@ -517,8 +538,12 @@ Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
   rest.wedge_group.reserve(live_wedges), rest.attr.reserve(live_wedges * k);
   if (!u_.wedge_normal.empty()) rest.wedge_normal.reserve(live_wedges);
   r.wedge_of.reserve(live_wedges);
+  // The unit keeps only what the record reads (before the quadrics come in), each array let go
+  // as soon as the rest has its part (they would otherwise sit beside the rest's copies).
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   for (uint32_t p = 0; p < np; ++p)
     if (pos_id[p] == 0) pos_id[p] = uint32_t(rest.pos.size()), rest.pos.push_back(u_.pos[p]);
+  release(u_.pos);
   for (uint32_t w = 0; w < nw; ++w) {  // wedges stay by position (make_unit's spatial order)
     if (wedge_id[w] != 0) continue;
     wedge_id[w] = uint32_t(r.wedge_of.size());
@@ -529,15 +554,14 @@ Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
     rest.attr.insert(rest.attr.end(), u_.attr.begin() + ptrdiff_t(w * k),
                      u_.attr.begin() + ptrdiff_t((w + 1) * k));
   }
+  release(u_.attr), release(u_.wedge_group);
   rest.corners.reserve(3 * r.face_of.size());
   for (uint32_t f : r.face_of)
     for (int c = 0; c < 3; ++c)
       rest.corners.push_back(wedge_id[u_.corners[3 * size_t(f) + size_t(c)]]);
-  // The unit keeps only what the record reads (before the quadrics come in).
-  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
-  release(u_.attr), release(u_.pos), release(u_.corners), release(u_.wedge_group);
-  release(dead_pos_), release(queued_);  // wedge_normal stays: the record reads whether there
-  pos_faces_.release();                  // are normals
+  release(u_.corners), release(dead_pos_),
+      release(queued_);  // wedge_normal stays: the record reads whether there
+  pos_faces_.release();  // are normals
   return r;
 }
 
@@ -546,23 +570,10 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   std::vector<uint32_t> pos_id, wedge_id;
   size_t live_pos = 0, live_wedges = 0;
   Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
-  // The rest's quadrics: pages of a file of their own where there is a spill directory.
-  const size_t pq_bytes = live_pos * sizeof(Quadric), aq_bytes = live_wedges * sizeof(Quadric);
   std::shared_ptr<MappedPages> pages;
-  if (!opt_.spill_dir.empty())
-    pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + live_wedges * kg * sizeof(double));
   Store<Quadric> pq, aq;
   Store<double> gd;
-  if (pages) report_.mapped_bytes += pages->bytes;
-  if (pages) {
-    char* base = static_cast<char*>(pages->base);
-    pq = Store<Quadric>(reinterpret_cast<Quadric*>(base), live_pos);
-    aq = Store<Quadric>(reinterpret_cast<Quadric*>(base + pq_bytes), live_wedges);
-    gd = Store<double>(reinterpret_cast<double*>(base + pq_bytes + aq_bytes), live_wedges * kg);
-  } else {
-    pq.assign(live_pos, Quadric{}), aq.assign(live_wedges, Quadric{});
-    gd.assign(live_wedges * kg, 0.0);
-  }
+  rest_quadrics(live_pos, live_wedges, true, pages, pq, aq, gd);
   // The quadrics the blocks made: every live position is one block's, with its wedges. The
   // blocks hold runs of positions, so each fills a run of the rest's arrays; each block's lists
   // are freed once placed (or read back from the spill file), and the rest's arrays fill as
@@ -602,34 +613,74 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
   return r;
 }
 
-Simplifier::Rest Simplifier::compact_live() {
+// The rest's quadrics: pages of a file of their own in the spill directory (`mapped`, when it
+// has room), else memory. `pages` gets the mapping, or null.
+void Simplifier::rest_quadrics(size_t live_pos, size_t live_wedges, bool mapped,
+                               std::shared_ptr<MappedPages>& pages, Store<Quadric>& pq,
+                               Store<Quadric>& aq, Store<double>& gd) {
+  const size_t kg = size_t(u_.channels) * 4;
+  const size_t pq_bytes = live_pos * sizeof(Quadric), aq_bytes = live_wedges * sizeof(Quadric);
+  pages.reset();
+  if (mapped && !opt_.spill_dir.empty())
+    pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + live_wedges * kg * sizeof(double));
+  if (pages) {
+    report_.mapped_bytes += pages->bytes;
+    char* base = static_cast<char*>(pages->base);
+    pq = Store<Quadric>(reinterpret_cast<Quadric*>(base), live_pos);
+    aq = Store<Quadric>(reinterpret_cast<Quadric*>(base + pq_bytes), live_wedges);
+    gd = Store<double>(reinterpret_cast<double*>(base + pq_bytes + aq_bytes), live_wedges * kg);
+  } else {
+    pq.assign(live_pos, Quadric{}), aq.assign(live_wedges, Quadric{});
+    gd.assign(live_wedges * kg, 0.0);
+  }
+}
+
+Simplifier::Rest Simplifier::compact_quadrics(bool mapped) {
   const size_t kg = size_t(u_.channels) * 4;
   std::vector<uint32_t> pos_id, wedge_id;
   size_t live_pos = 0, live_wedges = 0;
   Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
-  std::vector<Quadric> pq(live_pos), aq(live_wedges);
-  std::vector<double> gd(live_wedges * kg);
-  constexpr size_t kRun = 65536;  // the mapped pages read so far dropped after each run
+  std::shared_ptr<MappedPages> pages;
+  Store<Quadric> pq, aq;
+  Store<double> gd;
+  rest_quadrics(live_pos, live_wedges, mapped, pages, pq, aq, gd);
+  constexpr size_t kRun = 65536;  // the mapped pages read and written so far dropped after each
   for (size_t p = 0; p < pos_id.size(); ++p) {
     if (pos_id[p] != UINT32_MAX) pq[pos_id[p]] = pos_q_[p];
     if (p % kRun == kRun - 1) drop_mapped();
   }
+  drop_mapped();
+  if (pages) pages->drop();
   for (size_t w = 0; w < wedge_id.size(); ++w) {
     if (wedge_id[w] != UINT32_MAX) {
       aq[wedge_id[w]] = attr_q_[w];
-      std::copy_n(attr_gd_.begin() + w * kg, kg, gd.begin() + ptrdiff_t(wedge_id[w] * kg));
+      std::copy_n(attr_gd_.begin() + w * kg, kg, gd.begin() + size_t(wedge_id[w]) * kg);
     }
-    if (w % kRun == kRun - 1) drop_mapped();
+    if (w % kRun == kRun - 1) {
+      drop_mapped();
+      if (pages) pages->drop();
+    }
   }
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   release(pos_q_), release(attr_q_), release(attr_gd_), mapped_.reset();
+  if (pages) pages->drop();
   r.s = std::make_unique<Simplifier>(*r.unit, std::move(pq), std::move(aq), std::move(gd), opt_,
-                                     report_);
+                                     report_, std::move(pages));
   return r;
+}
+
+void Simplifier::reserve_history(const std::vector<BlockResult>& results) {
+  size_t collapses = collapses_.size(), maps = maps_.size(), faces = removed_faces_.size();
+  for (const BlockResult& r : results)
+    collapses += r.collapses.size(), maps += r.maps.size(), faces += r.removed_faces.size();
+  collapses_.reserve(collapses), maps_.reserve(maps), removed_faces_.reserve(faces);
 }
 
 void Simplifier::absorb(const Rest& rest) {
   const Simplifier& t = *rest.s;
+  collapses_.reserve(collapses_.size() + t.collapses_.size());
+  maps_.reserve(maps_.size() + t.maps_.size());
+  removed_faces_.reserve(removed_faces_.size() + t.removed_faces_.size());
   for (const Collapse& c0 : t.collapses_) {
     Collapse c = c0;
     c.first_map = uint32_t(maps_.size()), c.first_face = uint32_t(removed_faces_.size());

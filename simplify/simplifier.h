@@ -471,21 +471,32 @@ class Simplifier {
   // their own, which the levels' blocks map in and drop as they go (a 4M scan's rest: 258 MB
   // that the whole level held at once otherwise).
   Rest compact(std::vector<BlockResult>& results);
-  // The live part as a unit of its own (compact() and compact_live()): `pos_id` and `wedge_id`
+  // The live part as a unit of its own (compact() and compact_quadrics()): `pos_id` and `wedge_id`
   // become each live position's and wedge's number in it (UINT32_MAX: dead); the unit's
   // costing arrays but the quadrics are freed.
   Rest compact_unit(std::vector<uint32_t>& pos_id, std::vector<uint32_t>& wedge_id,
                     size_t& live_pos, size_t& live_wedges);
-  // After the levels of a rest whose quadrics are mapped: the live part again, its quadrics
-  // copied into memory (the last levels leave a few hundred thousand faces), so that the
-  // whole-unit loop does not touch every page of the rest's.
-  Rest compact_live();
+  // The live part again, its quadrics copied into a mapping of their own (`mapped`: a rest
+  // whose levels left most positions dead) or into memory (after the levels: a few hundred
+  // thousand faces are left, and the whole-unit loop would touch every page of the rest's).
+  Rest compact_quadrics(bool mapped);
+  // A rest's arrays for its quadrics (compact(), compact_quadrics()).
+  void rest_quadrics(size_t live_pos, size_t live_wedges, bool mapped,
+                     std::shared_ptr<MappedPages>& pages, Store<Quadric>& pq, Store<Quadric>& aq,
+                     Store<double>& gd);
+  // After the levels: the whole-unit loop, on the live part with its quadrics in memory where
+  // they are mapped (compact_quadrics), its history absorbed.
+  void finish_levels(const std::function<void(uint64_t)>& on_progress);
   // Drops the mapped quadrics' pages from memory (see MappedPages), when there are any.
   void drop_mapped() const {
     if (mapped_) mapped_->drop();
   }
   // The rest's history (and the faces it leaves alive) in the unit's numbering, after ours.
   void absorb(const Rest& rest);
+  // The history's arrays sized for the blocks' collapses about to be merged in: grown by
+  // doubling, they kept up to half again of slack into the record's allocation (the stage's
+  // peak at 4M triangles).
+  void reserve_history(const std::vector<BlockResult>& results);
   // One level: the live positions, in the unit's spatial order, cut into runs of
   // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
   // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
