@@ -146,7 +146,7 @@ Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, siz
     b.faces.erase(std::unique(b.faces.begin(), b.faces.end()), b.faces.end());
   }
   Unit& sub = b.unit;
-  sub.channels = u_.channels;
+  sub.channels = u_.channels, sub.normals = u_.normals;
   const size_t k = size_t(u_.channels);
   std::unordered_map<uint32_t, uint32_t> local_pos, local_wedge;
   local_pos.reserve(2 * count), local_wedge.reserve(4 * count);
@@ -521,7 +521,7 @@ Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
   Rest r;
   r.unit = std::make_unique<Unit>();
   Unit& rest = *r.unit;
-  rest.channels = u_.channels;
+  rest.channels = u_.channels, rest.normals = u_.normals;
   pos_id.assign(np, UINT32_MAX), wedge_id.assign(nw, UINT32_MAX);
   for (uint32_t f = 0; f < nf; ++f) {
     if (!alive_[f]) continue;
@@ -554,14 +554,13 @@ Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
     rest.attr.insert(rest.attr.end(), u_.attr.begin() + ptrdiff_t(w * k),
                      u_.attr.begin() + ptrdiff_t((w + 1) * k));
   }
-  release(u_.attr), release(u_.wedge_group);
+  release(u_.attr), release(u_.wedge_group), release(u_.wedge_normal);  // u_.normals stays
   rest.corners.reserve(3 * r.face_of.size());
   for (uint32_t f : r.face_of)
     for (int c = 0; c < 3; ++c)
       rest.corners.push_back(wedge_id[u_.corners[3 * size_t(f) + size_t(c)]]);
-  release(u_.corners), release(dead_pos_),
-      release(queued_);  // wedge_normal stays: the record reads whether there
-  pos_faces_.release();  // are normals
+  release(u_.corners), release(dead_pos_), release(queued_);
+  pos_faces_.release();
   return r;
 }
 

@@ -585,12 +585,13 @@ OrphanSchedule Simplifier::orphan_schedule() const {
   return out;
 }
 
-void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const {
+void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) {
+  auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   size_t nw = u_.wedge_pos.size(), nf = alive_.size();
   // Appearance order of wedges: base wedges (never collapsed and used by a face of the
   // coarsest level, in index order), then per collapse from the last to the first the orphans
   // it made (orphan_schedule), ascending, and its wedges.
-  const OrphanSchedule orphans = orphan_schedule();
+  OrphanSchedule orphans = orphan_schedule();
   const uint32_t m_all = uint32_t(collapses_.size());
   // The orphans per collapse, ascending, as one list (a vector per collapse was 48 MB of empty
   // ones for a 4M-triangle scan, at the stage's peak).
@@ -620,10 +621,14 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (const auto& m : maps_) parent_of[m.first] = m.second;
   for (uint32_t w = 0; w < nw; ++w)
     if (orphans.parent[w] != UINT32_MAX) parent_of[w] = orphans.parent[w];
+  // What is read no more goes as the record's arrays come (at 20M triangles the history and
+  // the record side by side were the conversion's peak).
+  release(orphans.parent), release(orphans.last_state), release(collapsed);
   std::vector<uint32_t> face_order;
   face_order.reserve(nf);
   for (uint32_t f = 0; f < nf; ++f)
     if (alive_[f]) face_order.push_back(f);
+  release(alive_);
   uint32_t base_faces = uint32_t(face_order.size());
   pm.levels.clear();
   pm.levels.push_back({base_vertices, base_faces, base_faces, 0});
@@ -637,6 +642,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
     pm.levels.push_back(
         {uint32_t(order.size()), uint32_t(face_order.size()), uint32_t(face_order.size()), 0});
   }
+  release(orphan_start), release(orphaned), release(maps_), release(removed_faces_);
   // Errors: level r (r collapses undone) keeps collapses [0, m - r): its error is their max.
   size_t m = collapses_.size();
   std::vector<float> prefix_max(m + 1, 0.0f);
@@ -660,6 +666,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
     }
   }
   pm.base_level = m - stop;
+  release(prefix_max), release(collapses_);
 
   // Write vertices in appearance order.
   std::vector<uint32_t> new_index(nw);
@@ -667,7 +674,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   pm.source_mesh = mesh_index;
   pm.positions.resize(nw);
   pm.parent.resize(nw);
-  bool has_normals = !u_.wedge_normal.empty();
+  bool has_normals = u_.normals;
   pm.normals.assign(has_normals ? nw : 0, Vec3{});
   size_t uv_sets = 0;
   bool colors = false;

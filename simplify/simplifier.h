@@ -150,7 +150,8 @@ struct Unit {
   std::vector<uint32_t> wedge_group;   // wedge → (position, non-normal attributes) class
   std::vector<uint32_t> wedge_prim;    // wedge → source primitive
   std::vector<uint32_t> wedge_vertex;  // wedge → its vertex in that primitive
-  std::vector<Vec3> wedge_normal;      // may be empty
+  std::vector<Vec3> wedge_normal;      // may be empty (always, once a unit's costing is over)
+  bool normals = false;                // the wedges have normals (wedge_normal while costing)
   std::vector<float> attr;  // wedge × channels, weighted attribute values (products of floats)
   int channels = 0;
   std::vector<DVec3> pos;         // position → mesh-space point
@@ -430,12 +431,13 @@ class Simplifier {
     auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
     release(pos_q_), release(attr_q_), release(attr_gd_), release(queued_), mapped_.reset();
     release(dead_pos_), release(u_.attr), release(u_.pos), release(u_.corners);
-    release(u_.wedge_group);
+    release(u_.wedge_group), release(u_.wedge_normal);  // u_.normals says whether there were
     pos_faces_.release();
   }
 
-  // Builds the ProgressiveMesh from the collapse history (after run()).
-  void record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm) const;
+  // Builds the ProgressiveMesh from the collapse history (after run()), releasing the history
+  // as it goes: the simplifier has nothing left to record afterwards.
+  void record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& pm);
   // When each never-collapsed wedge is last used and, for those a collapse orphans, the wedge
   // each splits from (OrphanSchedule). O(wedges + faces + collapses).
   OrphanSchedule orphan_schedule() const;

@@ -140,6 +140,7 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     normals = normals && !p.normals.empty();
   }
   u.channels = int((normals ? 3 : 0) + 2 * uv_sets + (colors ? 4 : 0));
+  u.normals = normals;
   size_t wedges = 0, corners = 0;
   for (const Primitive& p : mesh.primitives)
     wedges += p.vertex_count(), corners += p.indices.size();
