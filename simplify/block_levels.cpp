@@ -106,6 +106,24 @@ class Simplifier::Spill {
   std::atomic<uint64_t> end_{0};
 };
 
+void Simplifier::keep_original_corners(const std::vector<uint32_t>& corners, bool spill) {
+  if (spill && !opt_.spill_dir.empty() && !corners.empty()) {
+    auto file = std::make_shared<Spill>(opt_.spill_dir);
+    if (file->ok() && file->put(corners.data(), corners.size() * sizeof(uint32_t)) == 0) {
+      corners_spill_ = std::move(file), corners_count_ = corners.size();
+      return;
+    }
+  }
+  original_corners_ = corners;
+}
+
+void Simplifier::load_original_corners() {
+  if (!corners_spill_) return;
+  original_corners_.resize(corners_count_);
+  corners_spill_->get(0, original_corners_.data(), corners_count_ * sizeof(uint32_t));
+  corners_spill_.reset();
+}
+
 MappedPages::~MappedPages() {
   if (base) ::munmap(base, bytes);
 }

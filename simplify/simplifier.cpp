@@ -591,6 +591,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   // Appearance order of wedges: base wedges (never collapsed and used by a face of the
   // coarsest level, in index order), then per collapse from the last to the first the orphans
   // it made (orphan_schedule), ascending, and its wedges.
+  load_original_corners();
   OrphanSchedule orphans = orphan_schedule();
   const uint32_t m_all = uint32_t(collapses_.size());
   // The orphans per collapse, ascending, as one list (a vector per collapse was 48 MB of empty

@@ -275,7 +275,8 @@ class Simplifier {
              SimplifyReport& report, Quadrics quadrics = Quadrics::kNow)
       : u_(unit), opt_(opt), report_(report) {
     serial_ = quadrics == Quadrics::kNowSerial;
-    if (!serial_) original_corners_ = unit.corners;  // a block's own are never recorded
+    // A block's own are never recorded; a big unit's wait in the spill file until the record.
+    if (!serial_) keep_original_corners(unit.corners, quadrics == Quadrics::kByBlocks);
     if (quadrics == Quadrics::kByBlocks)
       transforms_ = transforms;
     else
@@ -489,6 +490,11 @@ class Simplifier {
   // After the levels: the whole-unit loop, on the live part with its quadrics in memory where
   // they are mapped (compact_quadrics), its history absorbed.
   void finish_levels(const std::function<void(uint64_t)>& on_progress);
+  // The full mesh's corners kept for the record: in the spill file for a big unit (`spill`,
+  // with a spill directory: 240 MB at 20M triangles that no level reads), else in memory.
+  void keep_original_corners(const std::vector<uint32_t>& corners, bool spill);
+  // Reads them back from the spill file (the record's first step); a no-op when held.
+  void load_original_corners();
   // Drops the mapped quadrics' pages from memory (see MappedPages), when there are any.
   void drop_mapped() const {
     if (mapped_) mapped_->drop();
@@ -530,6 +536,9 @@ class Simplifier {
   const SimplifyOptions& opt_;
   SimplifyReport& report_;
   std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
+  // ... or where they wait, for a unit whose block levels run (load_original_corners).
+  std::shared_ptr<Spill> corners_spill_;
+  size_t corners_count_ = 0;
   // The pages the quadrics below are views into (a big unit's rest: compact()), or null.
   std::shared_ptr<MappedPages> mapped_;
   Store<Quadric> pos_q_;        // per position
