@@ -582,15 +582,47 @@ Simplifier::Rest Simplifier::compact_unit(std::vector<uint32_t>& pos_id,
   return r;
 }
 
-Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
-  const size_t kg = size_t(u_.channels) * 4;
+// A rest being made: the live part as a unit of its own, each live position's and wedge's
+// number in it (UINT32_MAX: dead), and its quadrics' arrays, to be filled.
+struct Simplifier::RestDraft {
+  Rest rest;
   std::vector<uint32_t> pos_id, wedge_id;
   size_t live_pos = 0, live_wedges = 0;
-  Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
-  std::shared_ptr<MappedPages> pages;
+  std::shared_ptr<MappedPages> pages;  // the arrays' pages, or null: memory
   Store<Quadric> pq, aq;
   Store<double> gd;
-  rest_quadrics(live_pos, live_wedges, true, pages, pq, aq, gd);
+  // The rest's Simplifier, the arrays moved in.
+  Rest finish(const SimplifyOptions& opt, SimplifyReport& report) {
+    rest.s = std::make_unique<Simplifier>(*rest.unit, std::move(pq), std::move(aq), std::move(gd),
+                                          opt, report, std::move(pages));
+    return std::move(rest);
+  }
+};
+
+Simplifier::RestDraft Simplifier::draft_rest(bool mapped) {
+  RestDraft d;
+  d.rest = compact_unit(d.pos_id, d.wedge_id, d.live_pos, d.live_wedges);
+  const size_t kg = size_t(u_.channels) * 4;
+  const size_t pq_bytes = d.live_pos * sizeof(Quadric);
+  const size_t aq_bytes = d.live_wedges * sizeof(Quadric);
+  if (mapped && !opt_.spill_dir.empty())
+    d.pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + d.live_wedges * kg * sizeof(double));
+  if (d.pages) {
+    report_.mapped_bytes += d.pages->bytes;
+    char* base = static_cast<char*>(d.pages->base);
+    d.pq = Store<Quadric>(reinterpret_cast<Quadric*>(base), d.live_pos);
+    d.aq = Store<Quadric>(reinterpret_cast<Quadric*>(base + pq_bytes), d.live_wedges);
+    d.gd = Store<double>(reinterpret_cast<double*>(base + pq_bytes + aq_bytes), d.live_wedges * kg);
+  } else {
+    d.pq.assign(d.live_pos, Quadric{}), d.aq.assign(d.live_wedges, Quadric{});
+    d.gd.assign(d.live_wedges * kg, 0.0);
+  }
+  return d;
+}
+
+Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
+  const size_t kg = size_t(u_.channels) * 4;
+  RestDraft d = draft_rest(true);
   // The quadrics the blocks made: every live position is one block's, with its wedges. The
   // blocks hold runs of positions, so each fills a run of the rest's arrays; each block's lists
   // are freed once placed (or read back from the spill file), and the rest's arrays fill as
@@ -605,11 +637,12 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
       spill_->get((*b.spilled)[2], b.wedge_gd.data(), b.wedge_gd.size() * sizeof(double));
     }
     for (size_t i = 0; i < b.positions.size(); ++i)
-      if (const uint32_t to = pos_id[b.positions[i]]; to != UINT32_MAX) pq[to] = b.pos_q[i], ++pn;
+      if (const uint32_t to = d.pos_id[b.positions[i]]; to != UINT32_MAX)
+        d.pq[to] = b.pos_q[i], ++pn;
     for (size_t i = 0; i < b.wedges.size(); ++i)
-      if (const uint32_t to = wedge_id[b.wedges[i]]; to != UINT32_MAX) {
-        aq[to] = b.wedge_q[i];
-        std::copy_n(b.wedge_gd.begin() + ptrdiff_t(i * kg), kg, gd.begin() + size_t(to) * kg);
+      if (const uint32_t to = d.wedge_id[b.wedges[i]]; to != UINT32_MAX) {
+        d.aq[to] = b.wedge_q[i];
+        std::copy_n(b.wedge_gd.begin() + ptrdiff_t(i * kg), kg, d.gd.begin() + size_t(to) * kg);
         ++wn;
       }
     b = BlockResult{};
@@ -618,72 +651,40 @@ Simplifier::Rest Simplifier::compact(std::vector<BlockResult>& results) {
     // the rest's pages written so far go to the file.
     if (++freed % 8 == 0) {
       malloc_trim(0);
-      if (pages) pages->drop();
+      if (d.pages) d.pages->drop();
     }
   }
   malloc_trim(0);
-  if (pages) pages->drop();
-  if (pn != live_pos || wn != live_wedges)
+  if (d.pages) d.pages->drop();
+  if (pn != d.live_pos || wn != d.live_wedges)
     throw std::logic_error("simplify: block levels: a live position or wedge without quadrics");
-  r.s = std::make_unique<Simplifier>(*r.unit, std::move(pq), std::move(aq), std::move(gd), opt_,
-                                     report_, std::move(pages));
-  return r;
-}
-
-// The rest's quadrics: pages of a file of their own in the spill directory (`mapped`, when it
-// has room), else memory. `pages` gets the mapping, or null.
-void Simplifier::rest_quadrics(size_t live_pos, size_t live_wedges, bool mapped,
-                               std::shared_ptr<MappedPages>& pages, Store<Quadric>& pq,
-                               Store<Quadric>& aq, Store<double>& gd) {
-  const size_t kg = size_t(u_.channels) * 4;
-  const size_t pq_bytes = live_pos * sizeof(Quadric), aq_bytes = live_wedges * sizeof(Quadric);
-  pages.reset();
-  if (mapped && !opt_.spill_dir.empty())
-    pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + live_wedges * kg * sizeof(double));
-  if (pages) {
-    report_.mapped_bytes += pages->bytes;
-    char* base = static_cast<char*>(pages->base);
-    pq = Store<Quadric>(reinterpret_cast<Quadric*>(base), live_pos);
-    aq = Store<Quadric>(reinterpret_cast<Quadric*>(base + pq_bytes), live_wedges);
-    gd = Store<double>(reinterpret_cast<double*>(base + pq_bytes + aq_bytes), live_wedges * kg);
-  } else {
-    pq.assign(live_pos, Quadric{}), aq.assign(live_wedges, Quadric{});
-    gd.assign(live_wedges * kg, 0.0);
-  }
+  return d.finish(opt_, report_);
 }
 
 Simplifier::Rest Simplifier::compact_quadrics(bool mapped) {
   const size_t kg = size_t(u_.channels) * 4;
-  std::vector<uint32_t> pos_id, wedge_id;
-  size_t live_pos = 0, live_wedges = 0;
-  Rest r = compact_unit(pos_id, wedge_id, live_pos, live_wedges);
-  std::shared_ptr<MappedPages> pages;
-  Store<Quadric> pq, aq;
-  Store<double> gd;
-  rest_quadrics(live_pos, live_wedges, mapped, pages, pq, aq, gd);
-  constexpr size_t kRun = 65536;  // the mapped pages read and written so far dropped after each
-  for (size_t p = 0; p < pos_id.size(); ++p) {
-    if (pos_id[p] != UINT32_MAX) pq[pos_id[p]] = pos_q_[p];
-    if (p % kRun == kRun - 1) drop_mapped();
+  RestDraft d = draft_rest(mapped);
+  auto drop = [&] {  // the pages read and written so far, out of memory
+    drop_mapped();
+    if (d.pages) d.pages->drop();
+  };
+  constexpr size_t kRun = 65536;  // positions or wedges between drops
+  for (size_t p = 0; p < d.pos_id.size(); ++p) {
+    if (d.pos_id[p] != UINT32_MAX) d.pq[d.pos_id[p]] = pos_q_[p];
+    if (p % kRun == kRun - 1) drop();
   }
-  drop_mapped();
-  if (pages) pages->drop();
-  for (size_t w = 0; w < wedge_id.size(); ++w) {
-    if (wedge_id[w] != UINT32_MAX) {
-      aq[wedge_id[w]] = attr_q_[w];
-      std::copy_n(attr_gd_.begin() + w * kg, kg, gd.begin() + size_t(wedge_id[w]) * kg);
+  drop();
+  for (size_t w = 0; w < d.wedge_id.size(); ++w) {
+    if (const uint32_t to = d.wedge_id[w]; to != UINT32_MAX) {
+      d.aq[to] = attr_q_[w];
+      std::copy_n(attr_gd_.begin() + w * kg, kg, d.gd.begin() + size_t(to) * kg);
     }
-    if (w % kRun == kRun - 1) {
-      drop_mapped();
-      if (pages) pages->drop();
-    }
+    if (w % kRun == kRun - 1) drop();
   }
+  drop();
   auto release = [](auto& v) { std::remove_reference_t<decltype(v)>().swap(v); };
   release(pos_q_), release(attr_q_), release(attr_gd_), mapped_.reset();
-  if (pages) pages->drop();
-  r.s = std::make_unique<Simplifier>(*r.unit, std::move(pq), std::move(aq), std::move(gd), opt_,
-                                     report_, std::move(pages));
-  return r;
+  return d.finish(opt_, report_);
 }
 
 void Simplifier::reserve_history(const std::vector<BlockResult>& results) {

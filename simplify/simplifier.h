@@ -483,10 +483,10 @@ class Simplifier {
   // whose levels left most positions dead) or into memory (after the levels: a few hundred
   // thousand faces are left, and the whole-unit loop would touch every page of the rest's).
   Rest compact_quadrics(bool mapped);
-  // A rest's arrays for its quadrics (compact(), compact_quadrics()).
-  void rest_quadrics(size_t live_pos, size_t live_wedges, bool mapped,
-                     std::shared_ptr<MappedPages>& pages, Store<Quadric>& pq, Store<Quadric>& aq,
-                     Store<double>& gd);
+  // A rest's unit and its quadrics' arrays, unfilled: pages of a file of their own in the spill
+  // directory (`mapped`, when it has room), else memory (compact(), compact_quadrics()).
+  struct RestDraft;
+  RestDraft draft_rest(bool mapped);
   // After the levels: the whole-unit loop, on the live part with its quadrics in memory where
   // they are mapped (compact_quadrics), its history absorbed.
   void finish_levels(const std::function<void(uint64_t)>& on_progress);
