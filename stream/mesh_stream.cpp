@@ -279,7 +279,16 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   };
   std::vector<NewFace> made;  // one split's new faces (reused)
   uint32_t previous = 0, previous_mode = 1;
+  // The parents' corner lists are scattered over the client's corner arrays (a big record's
+  // split loop waited on those loads most of its time): the parent a few splits ahead has its
+  // list head fetched early, and the one half as far its first corner's link and vertex.
+  constexpr uint32_t kAhead = 16;
+  auto parent_at = [&](uint32_t v) { return rank_[pm_.parent[order_[v]]]; };
   for (uint32_t v = va; v < vb; ++v) {
+    if (v + kAhead < vb) __builtin_prefetch(&sim_.head[parent_at(v + kAhead)]);
+    if (v + kAhead / 2 < vb)
+      if (const int32_t c = sim_.head[parent_at(v + kAhead / 2)]; c >= 0)
+        __builtin_prefetch(&sim_.next[size_t(c)]), __builtin_prefetch(&corner_enter_[size_t(c)]);
     uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
     field(StreamField::kParent);
     out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
