@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <future>
 #include <iterator>
 #include <map>
 
@@ -89,6 +90,30 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
   }
   r.layer_parts.resize(size_t(m));
   r.layer_chunks.resize(size_t(m));
+  // Each mesh's parts in layer order: the next one's plan (its split order and faces, a walk
+  // of the record) is made on another core while this one is coded (the coding is serial:
+  // it simulates the client part by part). The same parts, in the same order.
+  using Plan = Result<MeshStreamEncoder::PartPlan>;
+  std::vector<std::vector<size_t>> to_come(ps.meshes.size());  // per mesh: its levels ahead
+  for (size_t i = 0; i < ps.meshes.size(); ++i)
+    for (int k = 1, at = int(base.level[i]); k < m; ++k)
+      if (int(layers[size_t(k)].level[i]) != at)
+        to_come[i].push_back(at = int(layers[size_t(k)].level[i]));
+  std::vector<size_t> next_part(ps.meshes.size(), 0);
+  std::vector<std::future<Plan>> planned(ps.meshes.size());
+  const bool ahead = worker_threads() > 1;
+  auto plan_of = [&](size_t i) -> Plan {  // mesh i's next part's plan, the one after begun
+    Plan plan =
+        planned[i].valid() ? planned[i].get() : encoders[i].prepare(to_come[i][next_part[i]]);
+    if (!plan.ok()) return plan;
+    encoders[i].adopt(*plan);
+    if (++next_part[i] < to_come[i].size())
+      planned[i] = std::async(ahead ? std::launch::async : std::launch::deferred,
+                              [&encoder = encoders[i], level = to_come[i][next_part[i]]] {
+                                return encoder.prepare(level);
+                              });
+    return plan;
+  };
   for (int k = 0; k < m; ++k) {
     uint64_t bytes = 0;
     if (k == 0) {
@@ -96,7 +121,9 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
     } else {
       for (size_t i = 0; i < ps.meshes.size(); ++i) {
         if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
-        auto part = encoders[i].next(layers[size_t(k)].level[i]);
+        Plan plan = plan_of(i);
+        if (!plan.ok()) return plan.status().with_prefix("multiplex");
+        auto part = encoders[i].encode(plan.take());
         if (!part.ok()) return part.status().with_prefix("multiplex");
         r.layer_parts[size_t(k)].push_back(part.take());
       }

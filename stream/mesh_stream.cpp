@@ -48,7 +48,12 @@ Status check_mesh(const ProgressiveMesh& pm, uint32_t m) {
 MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
                                      const PositionQuantization& quantization, uint32_t mesh,
                                      size_t base_level, EncodeCounts* counts)
-    : pm_(pm), quantization_(quantization), mesh_(mesh), level_(base_level), counts_(counts) {
+    : pm_(pm),
+      quantization_(quantization),
+      mesh_(mesh),
+      level_(base_level),
+      planned_level_(base_level),
+      counts_(counts) {
   if (Status s = check_mesh(pm, mesh); !s) {
     status_ = s;
     return;
@@ -193,15 +198,22 @@ uint32_t MeshStreamEncoder::rep(uint32_t v, uint32_t prefix) const {
 }
 
 Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
+  auto plan = prepare(level);
+  if (!plan.ok()) return plan.status();
+  adopt(*plan);
+  return encode(plan.take());
+}
+
+Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
   if (!status_) return status_;
-  if (level >= pm_.levels.size() || level < level_)
+  if (level >= pm_.levels.size() || level < planned_level_)
     return internal(mesh_, "level " + std::to_string(level) + " out of order");
-  const ProgressiveLevel &from = pm_.levels[level_], &to = pm_.levels[level];
+  const ProgressiveLevel &from = pm_.levels[planned_level_], &to = pm_.levels[level];
   if (to.vertex_end < from.vertex_end || to.face_end < from.face_end)
     return internal(mesh_, "levels shrink");
   const uint32_t va = from.vertex_end, vb = to.vertex_end, fa = from.face_end, fb = to.face_end;
-  EncodedMeshPart e;
-  e.part = {mesh_, va, vb, fa, fb, 0};
+  PartPlan plan;
+  plan.level = level, plan.va = va, plan.vb = vb, plan.fa = fa, plan.fb = fb;
   // Stream order of this part's splits: by generation (a parent split in this part comes
   // first), then by the parent's stream index.
   std::vector<uint32_t> gen(vb - va, 0);
@@ -213,19 +225,31 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   }
   std::vector<std::vector<uint32_t>> by_gen(generations);
   for (uint32_t x = va; x < vb; ++x) by_gen[gen[x - va]].push_back(x);
+  // The part's own stream indices are the plan's until adopt(): encode() of the part before
+  // may read the stream index of any vertex meanwhile (those past it still their own).
+  std::vector<uint32_t>& ranks = plan.ranks;
+  ranks.resize(vb - va);
+  for (uint32_t x = va; x < vb; ++x) ranks[x - va] = x;
+  auto rank = [&](uint32_t v) { return v >= va && v < vb ? ranks[v - va] : rank_[v]; };
+  auto rep_at = [&](uint32_t v, uint32_t prefix) {
+    while (rank(v) >= prefix) v = pm_.parent[v];
+    return v;
+  };
   uint32_t id = va;
   for (auto& bucket : by_gen) {
-    std::stable_sort(bucket.begin(), bucket.end(), [this](uint32_t a, uint32_t b) {
-      return rank_[pm_.parent[a]] < rank_[pm_.parent[b]];
+    std::stable_sort(bucket.begin(), bucket.end(), [&](uint32_t a, uint32_t b) {
+      return rank(pm_.parent[a]) < rank(pm_.parent[b]);
     });
-    for (uint32_t x : bucket) rank_[x] = id++, order_.push_back(x);
+    for (uint32_t x : bucket) ranks[x - va] = id++, plan.order.push_back(x);
   }
   // Each new face appears at the split that first makes its three corners distinct; faces that
   // do not (none in a well-formed record) are sent whole after the splits.
   // The faces each split brings, as one list in split order (face order within a split): a
   // list per split cost a heap block each (a 4M-triangle record's last part: ~1M of them).
-  std::vector<uint32_t> split_of(fb - fa, UINT32_MAX), faces_start(vb - va + 1, 0), faces_of;
-  std::vector<uint32_t> extras;
+  std::vector<uint32_t> split_of(fb - fa, UINT32_MAX);
+  std::vector<uint32_t>&faces_start = plan.faces_start, &faces_of = plan.faces_of;
+  std::vector<uint32_t>& extras = plan.extras;
+  faces_start.assign(vb - va + 1, 0);
   // Two corners' representatives differ at prefix P exactly when P is past the rank of the
   // vertex just below their meeting point on either side (that vertex present, the branches
   // apart): walking both ancestor chains up to where they meet gives it (UINT32_MAX: the same
@@ -233,16 +257,16 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
   // past the largest of its three pairs'. One walk per pair instead of a binary search of
   // walks (a 4M-triangle record spent 3 s here).
   auto apart = [&](uint32_t a, uint32_t b) -> uint32_t {
-    a = rep(a, vb), b = rep(b, vb);
+    a = rep_at(a, vb), b = rep_at(b, vb);
     if (a == b) return UINT32_MAX;
     uint32_t below = UINT32_MAX;  // the smaller rank of the two sides' last steps
     bool stepped_a = false, stepped_b = false;
     uint32_t last_a = 0, last_b = 0;
     while (a != b) {
-      uint32_t& x = rank_[a] > rank_[b] ? a : b;
+      uint32_t& x = rank(a) > rank(b) ? a : b;
       const uint32_t up = pm_.parent[x];
       if (up == x) return 0;  // a root: the chains never meet
-      (&x == &a ? (stepped_a = true, last_a) : (stepped_b = true, last_b)) = rank_[x];
+      (&x == &a ? (stepped_a = true, last_a) : (stepped_b = true, last_b)) = rank(x);
       x = up;
     }
     if (stepped_a) below = std::min(below, last_a);
@@ -266,6 +290,22 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     for (uint32_t f = fa; f < fb; ++f)
       if (split_of[f - fa] != UINT32_MAX) faces_of[fill[split_of[f - fa]]++] = f;
   }
+  planned_level_ = level;
+  return plan;
+}
+
+void MeshStreamEncoder::adopt(const PartPlan& plan) {
+  for (uint32_t x = plan.va; x < plan.vb; ++x) rank_[x] = plan.ranks[x - plan.va];
+  order_.insert(order_.end(), plan.order.begin(), plan.order.end());
+}
+
+Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
+  if (!status_) return status_;
+  const uint32_t va = plan.va, vb = plan.vb, fa = plan.fa, fb = plan.fb;
+  const std::vector<uint32_t>&faces_start = plan.faces_start, &faces_of = plan.faces_of;
+  std::vector<uint32_t> extras = std::move(plan.extras);  // and faces found malformed below
+  EncodedMeshPart e;
+  e.part = {mesh_, va, vb, fa, fb, 0};
   RangeEncoder out;
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
   auto field = [&](StreamField f) { out.count_bits(&e.field_bits[size_t(f)]); };
@@ -434,7 +474,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::next(size_t level) {
     return internal(mesh_, "a part's splits are more than the format allows for its bytes");
   e.data = std::move(plain);
   e.part.bytes = e.data.size();
-  level_ = level;
+  level_ = plan.level;
   count(counts_, &EncodeCounts::mesh_parts);
   return e;
 }

@@ -89,7 +89,27 @@ class MeshStreamEncoder {
   // The base faces per source primitive (MeshStreamBase::base_primitive_faces).
   const std::vector<std::vector<uint32_t>>& base_faces() const { return base_faces_; }
   // The part from the current level to `level` (≥ the current one); then `level` is current.
+  // prepare(), adopt() and encode().
   Result<EncodedMeshPart> next(size_t level);
+  // A part's splits in stream order and the faces each brings, worked out before they are
+  // coded (ancestry walks over the record only, no client state).
+  struct PartPlan {
+    size_t level = 0;
+    uint32_t va = 0, vb = 0, fa = 0, fb = 0;      // the part's vertices and faces
+    std::vector<uint32_t> faces_start, faces_of;  // per split: its new faces (one list)
+    std::vector<uint32_t> extras;                 // faces sent whole after the splits
+    std::vector<uint32_t> order, ranks;           // its splits' pm vertices in stream order; per pm
+                                                  // vertex of the part, its stream index
+  };
+  // The plan of the part from the last level planned to `level`. Reads the encoder's stream
+  // indices and writes nothing the encoder reads, so it may run on another thread while
+  // encode() codes the part adopted before it. Plans are made in level order, each after the
+  // one before it was adopted.
+  Result<PartPlan> prepare(size_t level);
+  // The plan's stream indices and order made the encoder's (nothing else running).
+  void adopt(const PartPlan& plan);
+  // Codes an adopted plan against the client's state; plans are encoded in the order made.
+  Result<EncodedMeshPart> encode(PartPlan plan);
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
   // Whether the stream carries normals (MeshStreamBase::normals).
@@ -101,7 +121,8 @@ class MeshStreamEncoder {
   const ProgressiveMesh& pm_;
   PositionQuantization quantization_;
   uint32_t mesh_ = 0;
-  size_t level_ = 0;
+  size_t level_ = 0;          // the last level encoded
+  size_t planned_level_ = 0;  // the last level planned (prepare)
   EncodeCounts* counts_ = nullptr;
   bool normals_ = true;
   bool uvs_ = true;  // the mesh has texture coordinates (else the stream carries none)
