@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <optional>
 #include <random>
 
 #include "clean/clean.h"
@@ -126,6 +127,41 @@ TEST(Vsplit, OneLevelPerPartDecodes) {
   size_t n = std::min<size_t>(40, pm.levels.size() - 1 - pm.base_level);
   pm.levels.resize(pm.base_level + n + 1);
   round_trip(pm, int(n));
+}
+
+// The multiplexer plans a part on another thread while the part before is coded: a plan made
+// before the part ahead of it is coded (and adopted only after that) gives the same bytes as
+// next() part by part. Why it matters: a plan that read the encoder's state as the coding
+// changes it, or numbered its splits into the stream order early, would code other splits.
+TEST(Vsplit, PlansMadeAheadCodeTheSameParts) {
+  const ProgressiveMesh pm = sphere_record();
+  const PositionQuantization q = package_quantization(pm);
+  const size_t full = pm.levels.size() - 1, parts = 6;
+  std::vector<size_t> levels;
+  for (size_t k = 1; k <= parts; ++k)
+    levels.push_back(pm.base_level + (full - pm.base_level) * k / parts);
+  MeshStreamEncoder one(pm, q, 0, pm.base_level), ahead(pm, q, 0, pm.base_level);
+  auto plan = ahead.prepare(levels[0]);
+  ASSERT_TRUE(plan.ok());
+  ahead.adopt(*plan);
+  for (size_t k = 0; k < parts; ++k) {
+    // The next plan first, as the multiplexer's thread would make it, then this part's coding.
+    std::optional<Result<MeshStreamEncoder::PartPlan>> next_plan;
+    if (k + 1 < parts) {
+      next_plan.emplace(ahead.prepare(levels[k + 1]));
+      ASSERT_TRUE(next_plan->ok());
+    }
+    auto coded = ahead.encode(plan.take());
+    auto expected = one.next(levels[k]);
+    ASSERT_TRUE(coded.ok() && expected.ok()) << k;
+    EXPECT_EQ(coded->data, expected->data) << "part " << k;
+    EXPECT_EQ(state_digest(ahead.client()), state_digest(one.client())) << "part " << k;
+    if (next_plan) {
+      plan = std::move(*next_plan);
+      ahead.adopt(*plan);
+    }
+  }
+  EXPECT_EQ(ahead.stream_order(), one.stream_order());
 }
 
 // The coding is compact: a smooth sphere's refinements cost well under what the old stream paid
