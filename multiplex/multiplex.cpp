@@ -10,9 +10,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <future>
 #include <iterator>
 #include <map>
+#include <memory>
+#include <optional>
 
 #include "core/parallel.h"
 #include "image/decode.h"
@@ -100,18 +101,19 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
       if (int(layers[size_t(k)].level[i]) != at)
         to_come[i].push_back(at = int(layers[size_t(k)].level[i]));
   std::vector<size_t> next_part(ps.meshes.size(), 0);
-  std::vector<std::future<Plan>> planned(ps.meshes.size());
+  std::vector<std::optional<Plan>> planned(ps.meshes.size());           // made ahead
+  std::vector<std::unique_ptr<Background>> planning(ps.meshes.size());  // making it
   const bool ahead = worker_threads() > 1;
   auto plan_of = [&](size_t i) -> Plan {  // mesh i's next part's plan, the one after begun
-    Plan plan =
-        planned[i].valid() ? planned[i].get() : encoders[i].prepare(to_come[i][next_part[i]]);
+    if (planning[i]) planning[i]->wait(), planning[i].reset();
+    Plan plan = planned[i] ? std::move(*planned[i]) : encoders[i].prepare(to_come[i][next_part[i]]);
+    planned[i].reset();
     if (!plan.ok()) return plan;
     encoders[i].adopt(*plan);
-    if (++next_part[i] < to_come[i].size())
-      planned[i] = std::async(ahead ? std::launch::async : std::launch::deferred,
-                              [&encoder = encoders[i], level = to_come[i][next_part[i]]] {
-                                return encoder.prepare(level);
-                              });
+    if (++next_part[i] < to_come[i].size() && ahead)
+      planning[i] = std::make_unique<Background>([&, i, level = to_come[i][next_part[i]]] {
+        planned[i].emplace(encoders[i].prepare(level));
+      });
     return plan;
   };
   for (int k = 0; k < m; ++k) {
