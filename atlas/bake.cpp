@@ -25,6 +25,7 @@
 #include "atlas/bake.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -237,10 +238,11 @@ class Source {
 
 constexpr double kMargin = 0.5;  // conservative coverage margin, texels
 
-// Pass 1 for one face: every texel whose centre is within kMargin of the triangle and nearer to
-// it than to any face seen so far takes the face (job) as its owner. Returns how many it took.
-size_t cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>& owner,
-                  std::vector<float>& dist) {
+// Pass 1 for one face, in rows [row_begin, row_end): every texel whose centre is within kMargin
+// of the triangle and nearer to it than to any face seen so far takes the face (job) as its
+// owner. Returns how many it took.
+size_t cover_face(const P2 c[3], int32_t job, int w, int row_begin, int row_end,
+                  std::vector<int32_t>& owner, std::vector<float>& dist) {
   double minx = std::min({c[0].x, c[1].x, c[2].x}) - kMargin;
   double maxx = std::max({c[0].x, c[1].x, c[2].x}) + kMargin;
   double miny = std::min({c[0].y, c[1].y, c[2].y}) - kMargin;
@@ -251,8 +253,8 @@ size_t cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>
   // Texels whose centre i + ½ lies in [min, max].
   int x0 = int(std::clamp(std::ceil(minx - 0.5), 0.0, double(w)));
   int x1 = int(std::clamp(std::floor(maxx - 0.5), -1.0, double(w - 1)));
-  int y0 = int(std::clamp(std::ceil(miny - 0.5), 0.0, double(h)));
-  int y1 = int(std::clamp(std::floor(maxy - 0.5), -1.0, double(h - 1)));
+  int y0 = int(std::clamp(std::ceil(miny - 0.5), double(row_begin), double(row_end)));
+  int y1 = int(std::clamp(std::floor(maxy - 0.5), double(row_begin) - 1, double(row_end - 1)));
   for (int y = y0; y <= y1; ++y)
     for (int x = x0; x <= x1; ++x) {
       double bary[3];
@@ -272,11 +274,11 @@ size_t cover_face(const P2 c[3], int32_t job, int w, int h, std::vector<int32_t>
 // of its corners' bounds takes the chart's face nearest to that texel's centre, so the chart
 // has its colour there instead of whatever the fill around it brings. The chart's cell is its
 // own, so no other chart holds that texel.
-void cover_tiny_chart(Source& src, const std::vector<Job>& jobs, size_t first_job, int w, int h,
-                      std::vector<int32_t>& owner, std::vector<float>& dist) {
+void cover_tiny_chart(Source& src, const std::vector<Job>& jobs, size_t first_job, size_t end_job,
+                      int w, int h, std::vector<int32_t>& owner, std::vector<float>& dist) {
   double minx = std::numeric_limits<double>::infinity(), miny = minx;
   double maxx = -minx, maxy = -minx;
-  for (size_t j = first_job; j < jobs.size(); ++j) {
+  for (size_t j = first_job; j < end_job; ++j) {
     src.select(jobs[j]);
     for (int k = 0; k < 3; ++k) {
       const P2 c = src.corners()[k];
@@ -289,7 +291,7 @@ void cover_tiny_chart(Source& src, const std::vector<Job>& jobs, size_t first_jo
   const int x = int(std::clamp(std::floor(0.5 * (minx + maxx)), 0.0, double(w - 1)));
   const int y = int(std::clamp(std::floor(0.5 * (miny + maxy)), 0.0, double(h - 1)));
   const size_t i = size_t(y) * size_t(w) + size_t(x);
-  for (size_t j = first_job; j < jobs.size(); ++j) {
+  for (size_t j = first_job; j < end_job; ++j) {
     src.select(jobs[j]);
     double bary[3];
     const double d = nearest_barycentric(src.corners(), {x + 0.5, y + 0.5}, bary);
@@ -297,6 +299,97 @@ void cover_tiny_chart(Source& src, const std::vector<Job>& jobs, size_t first_jo
     owner[i] = int32_t(j);
     dist[i] = float(d);
   }
+}
+
+// Pass 1's jobs (flat charts and textured faces, chart order) and the job owning each texel.
+struct Coverage {
+  std::vector<Job> jobs;
+  std::vector<int32_t> owner;  // per texel, -1: none
+};
+
+// Jobs [job_begin, job_end) in order over rows [row_begin, row_end): a flat chart takes the
+// texels of its block that no earlier face covers exactly, a face those cover_face gives it.
+// Adds to taken[chart] the texels each chart's faces took.
+void cover_jobs(const std::vector<Job>& jobs, const std::vector<std::array<P2, 3>>& corners,
+                const AtlasLayout& layout, size_t job_begin, size_t job_end, int w, int row_begin,
+                int row_end, std::vector<int32_t>& owner, std::vector<float>& dist,
+                std::vector<size_t>& taken) {
+  for (size_t j = job_begin; j < job_end; ++j) {
+    const Job& job = jobs[j];
+    if (job.k != kFlat) {
+      taken[job.chart] +=
+          cover_face(corners[j].data(), int32_t(j), w, row_begin, row_end, owner, dist);
+      continue;
+    }
+    const Vec2 off = layout.offset[job.chart];
+    const int block = job.chart < layout.block.size() ? layout.block[job.chart] : 0;
+    const int bx = int(std::floor(off.x)), by = int(std::floor(off.y));
+    for (int y = std::max(row_begin, by); y < std::min(row_end, by + block); ++y)
+      for (int x = std::max(0, bx); x < std::min(w, bx + block); ++x) {
+        const size_t i = size_t(y) * size_t(w) + size_t(x);
+        if (!(0.0f < dist[i])) continue;  // inside an earlier chart's face
+        owner[i] = int32_t(j);
+        dist[i] = 0;
+      }
+  }
+}
+
+// Pass 1 of bake_atlas. A texel's owner depends only on the jobs before it in order, so rows are
+// covered in bands on every core, each band visiting every job in order: the same owners as one
+// pass over the whole atlas, whatever the thread count. A textured chart whose faces took no
+// texel (smaller than a texel) is placed by cover_tiny_chart between its own faces and the next
+// chart's, so where one exists the pass is redone chart by chart on one core.
+Coverage cover_texels(Source& src, const ChartSet& charts, const AtlasLayout& layout,
+                      size_t chart_count, int w, int h) {
+  Coverage cov;
+  std::vector<std::array<P2, 3>> corners;  // per job (a flat chart's unused)
+  std::vector<size_t> first_job(chart_count + 1, 0);
+  for (size_t c = 0; c < chart_count; ++c) {
+    first_job[c] = cov.jobs.size();
+    const Chart& chart = charts.charts[c];
+    if (!chart.textured) {
+      cov.jobs.push_back({uint32_t(c), kFlat});
+      corners.push_back({});
+      continue;
+    }
+    for (size_t k = 0; k < chart.faces.size(); ++k) {
+      const Job j{uint32_t(c), uint32_t(k)};
+      if (!src.select(j)) continue;
+      cov.jobs.push_back(j);
+      corners.push_back({src.corners()[0], src.corners()[1], src.corners()[2]});
+    }
+  }
+  first_job[chart_count] = cov.jobs.size();
+  const size_t texels = size_t(w) * size_t(h);
+  cov.owner.assign(texels, -1);
+  std::vector<float> dist(texels, std::numeric_limits<float>::infinity());
+  constexpr size_t kBandRows = 128;
+  const size_t bands = (size_t(h) + kBandRows - 1) / kBandRows;
+  std::vector<std::vector<size_t>> band_taken(bands, std::vector<size_t>(chart_count, 0));
+  parallel_chunks(bands, 1, [&](size_t begin, size_t end) {
+    for (size_t b = begin; b < end; ++b)
+      cover_jobs(cov.jobs, corners, layout, 0, cov.jobs.size(), w, int(b * kBandRows),
+                 int(std::min(size_t(h), (b + 1) * kBandRows)), cov.owner, dist, band_taken[b]);
+  });
+  auto tiny = [&](size_t c, const std::vector<size_t>& taken) {
+    return charts.charts[c].textured && first_job[c + 1] > first_job[c] && taken[c] == 0;
+  };
+  std::vector<size_t> taken(chart_count, 0);
+  for (const std::vector<size_t>& t : band_taken)
+    for (size_t c = 0; c < chart_count; ++c) taken[c] += t[c];
+  bool any_tiny = false;
+  for (size_t c = 0; c < chart_count && !any_tiny; ++c) any_tiny = tiny(c, taken);
+  if (!any_tiny) return cov;
+  std::fill(cov.owner.begin(), cov.owner.end(), -1);
+  std::fill(dist.begin(), dist.end(), std::numeric_limits<float>::infinity());
+  std::fill(taken.begin(), taken.end(), 0);
+  for (size_t c = 0; c < chart_count; ++c) {
+    cover_jobs(cov.jobs, corners, layout, first_job[c], first_job[c + 1], w, 0, h, cov.owner,
+               dist, taken);
+    if (tiny(c, taken))
+      cover_tiny_chart(src, cov.jobs, first_job[c], first_job[c + 1], w, h, cov.owner, dist);
+  }
+  return cov;
 }
 
 const int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
@@ -443,39 +536,9 @@ BakeResult bake_atlas(const Scene& scene, const ChartSet& charts, const std::vec
   Source src(scene, charts, uvs, layout);
 
   // Pass 1: which face (or flat chart) owns each texel.
-  std::vector<Job> jobs;
-  std::vector<int32_t> owner(texels, -1);
-  {
-    std::vector<float> dist(texels, std::numeric_limits<float>::infinity());
-    for (size_t c = 0; c < chart_count; ++c) {
-      const Chart& chart = charts.charts[c];
-      if (!chart.textured) {
-        const Vec2 off = layout.offset[c];
-        const int block = c < layout.block.size() ? layout.block[c] : 0;
-        const int bx = int(std::floor(off.x)), by = int(std::floor(off.y));
-        const int32_t job = int32_t(jobs.size());
-        jobs.push_back({uint32_t(c), kFlat});
-        for (int y = std::max(0, by); y < std::min(h, by + block); ++y)
-          for (int x = std::max(0, bx); x < std::min(w, bx + block); ++x) {
-            size_t i = size_t(y) * size_t(w) + size_t(x);
-            if (!(0.0f < dist[i])) continue;  // inside an earlier chart's face
-            owner[i] = job;
-            dist[i] = 0;
-          }
-        continue;
-      }
-      const size_t first_job = jobs.size();
-      size_t taken = 0;
-      for (size_t k = 0; k < chart.faces.size(); ++k) {
-        Job j{uint32_t(c), uint32_t(k)};
-        if (!src.select(j)) continue;
-        jobs.push_back(j);
-        taken += cover_face(src.corners(), int32_t(jobs.size() - 1), w, h, owner, dist);
-      }
-      if (taken == 0 && jobs.size() > first_job)
-        cover_tiny_chart(src, jobs, first_job, w, h, owner, dist);
-    }
-  }
+  Coverage coverage = cover_texels(src, charts, layout, chart_count, w, h);
+  const std::vector<Job>& jobs = coverage.jobs;
+  std::vector<int32_t>& owner = coverage.owner;
 
   // Pass 2: colours. A texel's samples come from its owner face; with supersampling, each sample
   // takes the nearest of the faces owning the texel or its 8 neighbours within the same chart,

@@ -304,38 +304,38 @@ struct CellRenders {
   }
 
   // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
-  // them: decoded a few at a time on every core (one per thread, so the decoded texels of at
-  // most that many maps are held besides the renderer's), uploaded one by one in level order.
-  // A level's kept images are the last map of each at that level or below (a level carries one
-  // only where its size changes).
+  // them in level order: the next map is decoded on another core while this one is uploaded (the
+  // upload, mipmaps included, runs on the renderer's thread), so the decoded texels of at most
+  // two maps are held besides the renderer's. A level's kept images are the last map of each at
+  // that level or below (a level carries one only where its size changes).
   Status upload_textures(const std::vector<std::vector<LevelMap>>& textures) {
     texture.resize(textures.size());
     std::vector<std::pair<size_t, const LevelMap*>> maps;  // (level, map) in level order
     for (size_t j = 0; j < textures.size(); ++j)
       for (const LevelMap& map : textures[j]) maps.push_back({j, &map});
+    auto decode = [](const LevelMap& map, Image& image) {
+      image.name = map.name;
+      image.encoded = *map.encoded;
+      image.mime_type = map.mime_type;
+      return decode_image(image);
+    };
     std::map<int32_t, int> kept;  // kept image → its handle so far
-    const size_t batch = size_t(std::max(1, worker_threads()));
-    size_t level = 0;  // the level whose kept images are assigned next
-    for (size_t begin = 0; begin < maps.size(); begin += batch) {
-      const size_t end = std::min(maps.size(), begin + batch);
-      std::vector<Image> images(end - begin);
-      std::vector<Status> status(end - begin);
-      parallel_chunks(end - begin, 1, [&](size_t b, size_t e) {
-        for (size_t k = b; k < e; ++k) {
-          const LevelMap& map = *maps[begin + k].second;
-          images[k].name = map.name;
-          images[k].encoded = *map.encoded;
-          images[k].mime_type = map.mime_type;
-          status[k] = decode_image(images[k]);
-        }
-      });
-      for (size_t k = begin; k < end; ++k) {
-        const auto [j, map] = maps[k];
-        for (; level < j; ++level) texture[level].kept.assign(kept.begin(), kept.end());
-        if (!status[k - begin]) return status[k - begin].with_prefix("multiplex");
-        upload_map(*map, images[k - begin], texture[j], kept);
-        images[k - begin] = Image{};
-      }
+    size_t level = 0;             // the level whose kept images are assigned next
+    Image current, next;
+    Status current_status = maps.empty() ? Status::ok() : decode(*maps[0].second, current);
+    for (size_t k = 0; k < maps.size(); ++k) {
+      Status next_status = Status::ok();
+      std::optional<Background> ahead;
+      if (k + 1 < maps.size())
+        ahead.emplace([&] { next_status = decode(*maps[k + 1].second, next); });
+      const auto [j, map] = maps[k];
+      for (; level < j; ++level) texture[level].kept.assign(kept.begin(), kept.end());
+      if (!current_status) return current_status.with_prefix("multiplex");
+      upload_map(*map, current, texture[j], kept);
+      if (ahead) ahead->wait();
+      current = std::move(next);
+      next = Image{};
+      current_status = next_status;
     }
     for (; level < textures.size(); ++level) texture[level].kept.assign(kept.begin(), kept.end());
     return Status::ok();

@@ -166,6 +166,35 @@ TEST(Bake, FlatChartFillsItsBlock) {
     }
 }
 
+// Texels are covered in bands of rows on every core: a textured chart 400 texels tall and a flat
+// chart whose block straddles a band's edge must still own every texel of their rows (a row lost
+// or doubled at a band's edge would show as a seam across the atlas).
+TEST(Bake, ChartsAcrossRowBandsOwnEveryRow) {
+  Scene s = scene_with(checker());
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+  layout.size = 512;
+  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {20, 50}, 100.0, 400);
+  add_chart(cs, uvs, layout, flat_chart({0.5f, 0.25f, 1.0f, 1.0f}), ChartUv{}, {440, 100}, 0.0,
+            64);
+  BakeOptions o;
+  o.gutter = 0;
+  BakeResult r = bake_atlas(s, cs, uvs, layout, o);
+  ASSERT_EQ(r.atlas.height, 512);
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x) {
+      // A texel whose centre is within half a texel of a face is the face's: one ring around
+      // the quad [20, 420] × [50, 450], its corners cut.
+      const double dx = std::max({20.0 - (x + 0.5), 0.0, x + 0.5 - 420.0});
+      const double dy = std::max({50.0 - (y + 0.5), 0.0, y + 0.5 - 450.0});
+      const int want = std::hypot(dx, dy) <= 0.5                        ? 0
+                       : (x >= 440 && x < 504 && y >= 100 && y < 164) ? 1
+                                                                       : -1;
+      ASSERT_EQ(chart_at(r, x, y), want) << x << "," << y;
+    }
+}
+
 // Two flat charts 3 texels apart with 2 gutter rings: the gap fills from both sides, and every
 // gutter texel has exactly the colour of the chart it is assigned to.
 TEST(Bake, GutterTexelsTakeOnlyTheirOwnChartsIdAndColour) {
