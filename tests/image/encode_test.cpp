@@ -57,5 +57,56 @@ TEST(ImageDecode, PngWithAlphaDecodesStraight) {
   EXPECT_EQ(back.rgba, img.rgba);
 }
 
+// PNGs are deflated with the smaller of two strategies (run-length matching where it pays: a
+// baked atlas's flat dilated texels; zlib's default on noisy texels), small ones tried whole,
+// large ones on a sample of strips of rows. Whichever is chosen, every texel comes back as it
+// was, by an independent decoder.
+Image atlas_like(int width, int height, bool noisy) {
+  Image img;
+  img.name = noisy ? "noise" : "atlas";
+  img.width = width;
+  img.height = height;
+  img.rgba.resize(size_t(img.width) * size_t(img.height) * 4);
+  uint32_t state = 12345;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      uint8_t* p = &img.rgba[(size_t(y) * size_t(img.width) + size_t(x)) * 4];
+      state = state * 1664525u + 1013904223u;
+      const bool chart = noisy || (x > 100 && x < 180 && y > 40 && y < 90);
+      p[0] = chart ? uint8_t(state >> 24) : 40;
+      p[1] = chart ? uint8_t(state >> 16) : 90;
+      p[2] = chart ? uint8_t(x ^ y) : 140;
+      p[3] = chart ? uint8_t(128 + (state >> 25)) : 255;
+    }
+  return img;
+}
+
+void expect_lossless_png(const Image& img) {
+  auto png = encode_png(img);
+  ASSERT_TRUE(png.ok()) << png.status().message();
+  int w = 0, h = 0, n = 0;
+  unsigned char* px = stbi_load_from_memory(png->data(), int(png->size()), &w, &h, &n, 4);
+  ASSERT_NE(px, nullptr);
+  ASSERT_EQ(w, img.width);
+  ASSERT_EQ(h, img.height);
+  EXPECT_EQ(std::vector<uint8_t>(px, px + img.rgba.size()), img.rgba);
+  stbi_image_free(px);
+}
+
+// 1024 × 600: sampled (600 rows is not a multiple of the 128-row stride: a short last strip).
+TEST(ImageEncode, LargePngOfAFlatAtlasIsLossless) {
+  const Image img = atlas_like(1024, 600, false);
+  expect_lossless_png(img);
+  // Runs of one texel compress to almost nothing, whichever strategy took them.
+  EXPECT_LT(encode_png(img)->size(), img.rgba.size() / 40);
+}
+
+TEST(ImageEncode, LargePngOfNoiseIsLossless) { expect_lossless_png(atlas_like(1024, 600, true)); }
+
+TEST(ImageEncode, SmallPngsTriedWholeAreLossless) {
+  expect_lossless_png(atlas_like(300, 200, false));
+  expect_lossless_png(atlas_like(300, 200, true));
+}
+
 }  // namespace
 }  // namespace meshmux
