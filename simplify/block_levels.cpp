@@ -13,10 +13,7 @@
 // changes only faces whose corners are all in its block, and the quadrics of positions and
 // wedges of its block, so blocks write disjoint parts of the unit; faces that straddle blocks
 // do not change in the level.
-#include <fcntl.h>
 #include <malloc.h>
-#include <sys/mman.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -49,66 +46,9 @@ struct Simplifier::BlockResult {
   std::optional<std::array<uint64_t, 3>> spilled;
 };
 
-// An unnamed file in SimplifyOptions::spill_dir (O_TMPFILE, else a name unlinked at once: it
-// is gone when the run ends, however it ends). Blocks write to it at once; a failed write
-// leaves the data in memory (the file is an economy, not a need).
-class Simplifier::Spill {
- public:
-  static constexpr uint64_t kFailed = UINT64_MAX;
-  explicit Spill(const std::string& dir) {
-    if (dir.empty()) return;
-    fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-    if (fd_ >= 0) return;
-    std::string name = dir + "/.meshmux-spill-XXXXXX";
-    fd_ = ::mkostemp(name.data(), O_CLOEXEC);
-    if (fd_ >= 0) ::unlink(name.c_str());
-  }
-  ~Spill() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Spill(const Spill&) = delete;
-  Spill& operator=(const Spill&) = delete;
-  bool ok() const { return fd_ >= 0; }
-  uint64_t size() const { return end_; }  // bytes handed out
-  // Writes n bytes at a fresh offset (any thread); the offset, or kFailed.
-  uint64_t put(const void* data, size_t n) {
-    const uint64_t at = end_.fetch_add(n);
-    for (size_t done = 0; done < n;) {
-      const ssize_t w =
-          ::pwrite(fd_, static_cast<const char*>(data) + done, n - done, off_t(at + done));
-      if (w <= 0) return kFailed;
-      done += size_t(w);
-    }
-    return at;
-  }
-  // The file (a fresh one: nothing put) made `bytes` long, its blocks allocated (a full disk
-  // fails here, not as a fault on a later write), and mapped shared; null where any step fails.
-  std::shared_ptr<MappedPages> map(size_t bytes) {
-    if (fd_ < 0 || bytes == 0 || end_ != 0 || ::posix_fallocate(fd_, 0, off_t(bytes)) != 0)
-      return nullptr;
-    void* base = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, 0);
-    if (base == MAP_FAILED) return nullptr;
-    auto pages = std::make_shared<MappedPages>();
-    pages->base = base, pages->bytes = bytes;
-    end_ = bytes;
-    return pages;
-  }
-  void get(uint64_t at, void* data, size_t n) const {
-    for (size_t done = 0; done < n;) {
-      const ssize_t r = ::pread(fd_, static_cast<char*>(data) + done, n - done, off_t(at + done));
-      if (r <= 0) throw std::runtime_error("simplify: the spill file could not be read back");
-      done += size_t(r);
-    }
-  }
-
- private:
-  int fd_ = -1;
-  std::atomic<uint64_t> end_{0};
-};
-
 void Simplifier::keep_original_corners(const std::vector<uint32_t>& corners, bool spill) {
   if (spill && !opt_.spill_dir.empty() && !corners.empty()) {
-    auto file = std::make_shared<Spill>(opt_.spill_dir);
+    auto file = std::make_shared<SpillFile>(opt_.spill_dir);
     if (file->ok() && file->put(corners.data(), corners.size() * sizeof(uint32_t)) == 0) {
       corners_spill_ = std::move(file), corners_count_ = corners.size();
       return;
@@ -122,14 +62,6 @@ void Simplifier::load_original_corners() {
   original_corners_.resize(corners_count_);
   corners_spill_->get(0, original_corners_.data(), corners_count_ * sizeof(uint32_t));
   corners_spill_.reset();
-}
-
-MappedPages::~MappedPages() {
-  if (base) ::munmap(base, bytes);
-}
-
-void MappedPages::drop() const {
-  if (base) ::madvise(base, bytes, MADV_DONTNEED);
 }
 
 // The live part of a unit after a level, as a unit of its own (see compact()).
@@ -212,7 +144,7 @@ Simplifier::BlockUnit Simplifier::make_block_unit(const uint32_t* positions, siz
 size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_progress) {
   if (alive_.empty()) begin_state();
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
-  spill_ = std::make_shared<Spill>(opt_.spill_dir);
+  spill_ = std::make_shared<SpillFile>(opt_.spill_dir);
   std::vector<BlockResult> made;
   run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made, on_progress);
   if (on_progress) on_progress(collapses_.size());
@@ -525,7 +457,7 @@ void Simplifier::keep_block_quadrics(const Simplifier& s, const BlockUnit& b,
   const uint64_t a = spill_->put(out.pos_q.data(), out.pos_q.size() * sizeof(Quadric));
   const uint64_t w = spill_->put(out.wedge_q.data(), out.wedge_q.size() * sizeof(Quadric));
   const uint64_t g = spill_->put(out.wedge_gd.data(), out.wedge_gd.size() * sizeof(double));
-  if (a == Spill::kFailed || w == Spill::kFailed || g == Spill::kFailed) return;  // kept here
+  if (a == SpillFile::kFailed || w == SpillFile::kFailed || g == SpillFile::kFailed) return;  // kept here
   out.spilled = {a, w, g};
   std::vector<Quadric>().swap(out.pos_q), std::vector<Quadric>().swap(out.wedge_q);
   std::vector<double>().swap(out.wedge_gd);
@@ -606,7 +538,7 @@ Simplifier::RestDraft Simplifier::draft_rest(bool mapped) {
   const size_t pq_bytes = d.live_pos * sizeof(Quadric);
   const size_t aq_bytes = d.live_wedges * sizeof(Quadric);
   if (mapped && !opt_.spill_dir.empty())
-    d.pages = Spill(opt_.spill_dir).map(pq_bytes + aq_bytes + d.live_wedges * kg * sizeof(double));
+    d.pages = SpillFile(opt_.spill_dir).map(pq_bytes + aq_bytes + d.live_wedges * kg * sizeof(double));
   if (d.pages) {
     report_.mapped_bytes += d.pages->bytes;
     char* base = static_cast<char*>(d.pages->base);

@@ -14,25 +14,13 @@
 #include <vector>
 
 #include "core/parallel.h"
+#include "core/spill_file.h"
 #include "scene/dvec3.h"
 #include "scene/progressive.h"
 #include "scene/scene.h"
 #include "simplify/simplify.h"
 
 namespace meshmux::simplify_detail {
-
-// Pages of a file mapped into memory (block_levels.cpp's spill file): unmapped when the last
-// owner goes. drop() takes them out of this process's memory; their contents stay in the file
-// (the OS's cache of it), read back on the next access. Safe while other threads use them.
-struct MappedPages {
-  void* base = nullptr;
-  size_t bytes = 0;
-  MappedPages() = default;
-  MappedPages(const MappedPages&) = delete;
-  MappedPages& operator=(const MappedPages&) = delete;
-  ~MappedPages();
-  void drop() const;
-};
 
 // An array of plain values, owned (a vector) or a view into mapped pages (whose owner keeps
 // them mapped while the view is used). Indexed as a vector is; copying is not allowed.
@@ -447,7 +435,6 @@ class Simplifier {
   struct BlockResult;
   struct BlockUnit;
   struct Rest;
-  class Spill;
   // Hands a block's final quadrics back: into the unit's arrays (`keep_here`), or into `out`
   // (the unit has none: the first level), where they may go on to the spill file.
   void keep_block_quadrics(const Simplifier& s, const BlockUnit& b, const uint32_t* positions,
@@ -537,7 +524,7 @@ class Simplifier {
   SimplifyReport& report_;
   std::vector<uint32_t> original_corners_;  // the full mesh's corners, before any remapping
   // ... or where they wait, for a unit whose block levels run (load_original_corners).
-  std::shared_ptr<Spill> corners_spill_;
+  std::shared_ptr<SpillFile> corners_spill_;
   size_t corners_count_ = 0;
   // The pages the quadrics below are views into (a big unit's rest: compact()), or null.
   std::shared_ptr<MappedPages> mapped_;
@@ -553,7 +540,7 @@ class Simplifier {
   std::vector<uint8_t> role_;      // per position a Role, or empty: all free
   bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
   std::vector<Mat4> transforms_;   // Quadrics::kByBlocks: the instances, for the blocks' quadrics
-  std::shared_ptr<Spill> spill_;   // the first level's quadrics, written out meanwhile
+  std::shared_ptr<SpillFile> spill_;   // the first level's quadrics, written out meanwhile
   std::vector<uint32_t> block_faces_;     // the first level's faces, by block
   std::vector<size_t> block_face_start_;  // per block: its first entry in block_faces_
   bool finished_ = false;                 // the history is complete (run() has nothing left to do)
