@@ -29,6 +29,7 @@
 #include <cstring>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <unordered_map>
 
 #include "clean/flatten.h"
@@ -70,6 +71,19 @@ uint64_t morton(const DVec3& p, const DVec3& lo, double scale) {
 // order a pass applies its collapses in (a refusal caused by a neighbour applied earlier) and
 // the rounding of the quadric sums: the same input in another order gives a record of the same
 // quality, not the same bytes.
+// Moves v's items (`width` values each) so that item i lands at dest[i] (a permutation): into a
+// fresh array, the old one freed at once (each array's copy is held alone, not beside the
+// others'). O(items · width).
+template <typename T>
+void permute(std::vector<T>& v, size_t width, const std::vector<uint32_t>& dest) {
+  if (v.empty()) return;
+  std::vector<T> out(v.size());
+  for (size_t i = 0; i < dest.size(); ++i)
+    std::copy_n(v.begin() + std::ptrdiff_t(i * width), width,
+                out.begin() + std::ptrdiff_t(size_t(dest[i]) * width));
+  v.swap(out);
+}
+
 void spatial_order(Unit& u) {
   const size_t np = u.pos.size(), nw = u.wedge_pos.size(), nf = u.face_prim.size();
   const size_t k = size_t(u.channels);
@@ -80,52 +94,103 @@ void spatial_order(Unit& u) {
   }
   const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
   const double scale = extent > 0 && std::isfinite(extent) ? 2097151.0 / extent : 0.0;
-  std::vector<std::pair<uint64_t, uint32_t>> keyed(np);
-  for (uint32_t p = 0; p < np; ++p) keyed[p] = {morton(u.pos[p], lo, scale), p};
-  std::sort(keyed.begin(), keyed.end());
   std::vector<uint32_t> new_pos(np);
-  std::vector<DVec3> pos(np);
-  for (uint32_t i = 0; i < np; ++i) new_pos[keyed[i].second] = i, pos[i] = u.pos[keyed[i].second];
-  u.pos.swap(pos);
+  {
+    std::vector<std::pair<uint64_t, uint32_t>> keyed(np);
+    for (uint32_t p = 0; p < np; ++p) keyed[p] = {morton(u.pos[p], lo, scale), p};
+    std::sort(keyed.begin(), keyed.end());
+    for (uint32_t i = 0; i < np; ++i) new_pos[keyed[i].second] = i;
+  }
+  permute(u.pos, 1, new_pos);
   // Wedges by (new position, old index): a counting sort.
   std::vector<uint32_t> start(np + 1, 0);
   for (uint32_t w = 0; w < nw; ++w) ++start[new_pos[u.wedge_pos[w]] + 1];
   for (size_t p = 0; p < np; ++p) start[p + 1] += start[p];
   std::vector<uint32_t> new_wedge(nw);
   for (uint32_t w = 0; w < nw; ++w) new_wedge[w] = start[new_pos[u.wedge_pos[w]]]++;
-  auto permute = [&](auto& v, size_t width) {
-    if (v.empty()) return;
-    std::remove_reference_t<decltype(v)> out(v.size());
-    for (size_t w = 0; w < nw; ++w)
-      for (size_t c = 0; c < width; ++c) out[new_wedge[w] * width + c] = v[w * width + c];
-    v.swap(out);
-  };
   for (uint32_t& p : u.wedge_pos) p = new_pos[p];
-  permute(u.wedge_pos, 1);
-  permute(u.wedge_group, 1);
-  permute(u.wedge_prim, 1);
-  permute(u.wedge_vertex, 1);
-  permute(u.wedge_normal, 1);
-  permute(u.attr, k);
+  std::vector<uint32_t>().swap(new_pos);
+  permute(u.wedge_pos, 1, new_wedge);
+  permute(u.wedge_group, 1, new_wedge);
+  permute(u.wedge_prim, 1, new_wedge);
+  permute(u.wedge_vertex, 1, new_wedge);
+  permute(u.wedge_normal, 1, new_wedge);
+  permute(u.attr, k, new_wedge);
   // Faces by their smallest new position (a counting sort, stable).
+  for (uint32_t& c : u.corners) c = new_wedge[c];
+  std::vector<uint32_t>().swap(new_wedge);
   std::fill(start.begin(), start.end(), 0);
-  auto face_key = [&](size_t f) {
-    return std::min({u.wedge_pos[new_wedge[u.corners[3 * f]]],
-                     u.wedge_pos[new_wedge[u.corners[3 * f + 1]]],
-                     u.wedge_pos[new_wedge[u.corners[3 * f + 2]]]});
-  };
-  std::vector<uint32_t> fkey(nf);
-  for (size_t f = 0; f < nf; ++f) fkey[f] = face_key(f), ++start[fkey[f] + 1];
-  for (size_t p = 0; p < np; ++p) start[p + 1] += start[p];
-  std::vector<uint32_t> corners(3 * nf), face_prim(nf);
+  std::vector<uint32_t> face_to(nf);  // each face's key, then its place
   for (size_t f = 0; f < nf; ++f) {
-    const uint32_t to = start[fkey[f]]++;
-    for (int c = 0; c < 3; ++c)
-      corners[3 * size_t(to) + size_t(c)] = new_wedge[u.corners[3 * f + size_t(c)]];
-    face_prim[to] = u.face_prim[f];
+    face_to[f] = std::min({u.wedge_pos[u.corners[3 * f]], u.wedge_pos[u.corners[3 * f + 1]],
+                           u.wedge_pos[u.corners[3 * f + 2]]});
+    ++start[face_to[f] + 1];
   }
-  u.corners.swap(corners);
-  u.face_prim.swap(face_prim);
+  for (size_t p = 0; p < np; ++p) start[p + 1] += start[p];
+  for (size_t f = 0; f < nf; ++f) face_to[f] = start[face_to[f]]++;
+  permute(u.corners, 3, face_to);
+  permute(u.face_prim, 1, face_to);
+}
+
+// Each wedge's class (Unit::wedge_group): wedges at one position, of one primitive, whose
+// attributes but the normal are the same values (bit for bit, NaN never), numbered in the order
+// of their first wedge. Found among the earlier wedges at the wedge's own position (a few),
+// through lists of wedges per position: 8 bytes per wedge, where a table keyed by the
+// attributes held 24-48 beside the position table (800 MB for both at 20M triangles).
+void wedge_classes(Unit& u) {
+  const size_t np = u.pos.size(), nw = u.wedge_pos.size(), k = size_t(u.channels);
+  const size_t skip = u.normals ? 3 : 0;
+  std::vector<uint32_t> start(np + 1, 0), at(nw);  // wedges per position, in wedge order
+  for (uint32_t w = 0; w < nw; ++w) ++start[u.wedge_pos[w] + 1];
+  for (size_t p = 0; p < np; ++p) start[p + 1] += start[p];
+  {
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (uint32_t w = 0; w < nw; ++w) at[fill[u.wedge_pos[w]]++] = w;
+  }
+  auto same_value = [](float a, float b) {
+    return a == b && std::memcmp(&a, &b, sizeof(float)) == 0;
+  };
+  auto same_class = [&](uint32_t e, uint32_t w) {
+    bool same = u.wedge_prim[e] == u.wedge_prim[w];
+    for (size_t c = skip; c < k && same; ++c)
+      same = same_value(u.attr[e * k + c], u.attr[w * k + c]);
+    return same;
+  };
+  // First each wedge's first wedge of its class (an earlier one at its position, or itself):
+  // compared with the earlier classes' first wedges, or, where a position has many wedges (a
+  // pole where hundreds of uv seams meet), looked up by their values' hash.
+  constexpr uint32_t kScanned = 32;
+  u.wedge_group.assign(nw, 0);
+  std::vector<uint32_t> firsts;
+  for (size_t p = 0; p < np; ++p) {
+    const uint32_t n = start[p + 1] - start[p];
+    std::optional<KeyTable> by_value;
+    if (n > kScanned) by_value.emplace(n);
+    firsts.clear();
+    for (uint32_t i = start[p]; i < start[p + 1]; ++i) {
+      const uint32_t w = at[i];
+      uint32_t first = KeyTable::kEmpty;
+      if (by_value) {
+        uint64_t h = (uint64_t(u.wedge_prim[w]) + 1) * 0xD6E8FEB86659FD93ull;
+        for (size_t c = skip; c < k; ++c) {
+          uint32_t b;
+          std::memcpy(&b, &u.attr[w * k + c], 4);
+          h = (h ^ b) * 0x100000001B3ull;
+        }
+        first = by_value->find(h, [&](uint32_t e) { return same_class(e, w); });
+        if (first == KeyTable::kEmpty) by_value->insert(h, w);
+      } else {
+        for (size_t j = 0; j < firsts.size() && first == KeyTable::kEmpty; ++j)
+          if (same_class(firsts[j], w)) first = firsts[j];
+        if (first == KeyTable::kEmpty) firsts.push_back(w);
+      }
+      u.wedge_group[w] = first == KeyTable::kEmpty ? w : first;
+    }
+  }
+  // ... then the classes numbered in wedge order (a first wedge comes before its class's others).
+  uint32_t groups = 0;
+  for (uint32_t w = 0; w < nw; ++w)
+    u.wedge_group[w] = u.wedge_group[w] == w ? groups++ : u.wedge_group[u.wedge_group[w]];
 }
 
 // Builds the simplification unit for one mesh: wedges = the primitives' vertices, positions
@@ -150,13 +215,12 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
   u.wedge_group.reserve(wedges), u.attr.reserve(wedges * size_t(u.channels));
   if (normals) u.wedge_normal.reserve(wedges);
   u.corners.reserve(corners), u.face_prim.reserve(corners / 3);
-  {                             // the tables go before spatial_order's arrays come
-    KeyTable pos_of(wedges);    // position hash → positions
-    KeyTable group_of(wedges);  // class hash → classes
-    std::vector<uint32_t> group_first_wedge;
+  u.pos.reserve(wedges);  // at most one position per wedge (grown by doubling: 400 MB at 20M)
+  {  // the table goes before the classes' lists and spatial_order's arrays come
+    KeyTable pos_of(wedges);  // position hash → positions
     for (uint32_t pi = 0; pi < mesh.primitives.size(); ++pi) {
       const Primitive& p = mesh.primitives[pi];
-      uint32_t first = uint32_t(u.wedge_pos.size());
+      const uint32_t first = uint32_t(u.wedge_pos.size());
       for (size_t v = 0; v < p.vertex_count(); ++v) {
         Vec3 x = p.positions[v];
         uint64_t h = position_hash(x);
@@ -168,7 +232,6 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
           u.pos.push_back(to_dvec3(x));
           pos_of.insert(h, pid);
         }
-        uint32_t w = uint32_t(u.wedge_pos.size());
         u.wedge_pos.push_back(pid);
         u.wedge_prim.push_back(pi);
         u.wedge_vertex.push_back(uint32_t(v));
@@ -186,31 +249,6 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
           Vec4 c = p.colors.empty() ? Vec4{1, 1, 1, 1} : p.colors[v];
           for (float ch : {c.x, c.y, c.z, c.w}) u.attr.push_back(ch * opt.color_weight);
         }
-        // Class: position, primitive, uv and colour bits (normal excluded).
-        uint64_t g =
-            uint64_t(pid) * 0x9E3779B97F4A7C15ull ^ (uint64_t(pi) + 1) * 0xD6E8FEB86659FD93ull;
-        size_t skip = normals ? 3 : 0;
-        size_t k = size_t(u.channels);
-        for (size_t c = skip; c < k; ++c) {
-          const float val = u.attr[size_t(w) * k + c];
-          uint32_t b;
-          std::memcpy(&b, &val, 4);
-          g = (g ^ b) * 0x100000001B3ull;
-        }
-        uint32_t gid = group_of.find(g, [&](uint32_t cand) {
-          uint32_t w0 = group_first_wedge[cand];
-          if (u.wedge_pos[w0] != pid || u.wedge_prim[w0] != pi) return false;
-          bool same = true;
-          for (size_t c = skip; c < k && same; ++c)
-            same = u.attr[size_t(w0) * k + c] == u.attr[size_t(w) * k + c];
-          return same;
-        });
-        if (gid == KeyTable::kEmpty) {
-          gid = uint32_t(group_first_wedge.size());
-          group_first_wedge.push_back(w);
-          group_of.insert(g, gid);
-        }
-        u.wedge_group.push_back(gid);
       }
       for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
         for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
@@ -218,6 +256,7 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
       }
     }
   }
+  wedge_classes(u);
   spatial_order(u);
   return u;
 }
