@@ -16,7 +16,7 @@ namespace meshmux {
 void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   contexts = VsplitContexts();
   vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
-  twin_keys_.assign(16, 0), twin_latest_.assign(16, 0), twin_count_ = 0, twin_previous_.clear();
+  twin_slots_.assign(16, 0), twin_count_ = 0, twin_previous_.clear();
   solid = 0, stamp_value_ = 0, moved_floor = 0;
   moved.clear();
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
@@ -26,6 +26,10 @@ void VsplitMesh::reserve_capacities() {
   vertices.reserve(capacity_vertices_), head.reserve(capacity_vertices_);
   stamp_.reserve(capacity_vertices_), twin_previous_.reserve(capacity_vertices_);
   indices.reserve(size_t(capacity_faces_) * 3), next.reserve(size_t(capacity_faces_) * 3);
+  // At most one twin position per vertex: the table never grows (a rehash holds both tables).
+  size_t slots = 16;
+  while (3 * slots < 4 * size_t(capacity_vertices_)) slots *= 2;
+  if (slots > twin_slots_.size()) twin_table_resize(slots);
 }
 
 uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
@@ -251,42 +255,50 @@ uint64_t position_key(const QuantizedVertex& q) {
 }
 }  // namespace
 
-size_t VsplitMesh::twin_slot(uint64_t key) const {
-  const size_t mask = twin_keys_.size() - 1;
-  size_t i = size_t((key * 0x9E3779B97F4A7C15ull) >> 32) & mask;
-  while (twin_keys_[i] != 0 && twin_keys_[i] != key) i = (i + 1) & mask;
+size_t VsplitMesh::twin_slot(const QuantizedVertex& at) const {
+  const size_t mask = twin_slots_.size() - 1;
+  size_t i = size_t((position_key(at) * 0x9E3779B97F4A7C15ull) >> 32) & mask;
+  for (; twin_slots_[i] != 0; i = (i + 1) & mask) {
+    const QuantizedVertex& rep = vertices[size_t(twin_slots_[i] >> 32) - 1];
+    if (rep.p[0] == at.p[0] && rep.p[1] == at.p[1] && rep.p[2] == at.p[2]) break;
+  }
   return i;
 }
 
+void VsplitMesh::twin_table_resize(size_t slots) {
+  std::vector<uint64_t> old(slots, 0);
+  old.swap(twin_slots_);
+  const size_t mask = slots - 1;
+  for (uint64_t s : old) {
+    if (s == 0) continue;
+    size_t i = size_t((position_key(vertices[size_t(s >> 32) - 1]) * 0x9E3779B97F4A7C15ull) >> 32) &
+               mask;
+    while (twin_slots_[i] != 0) i = (i + 1) & mask;  // keys in `old` are distinct
+    twin_slots_[i] = s;
+  }
+}
+
 uint32_t VsplitMesh::twins(uint32_t p, uint32_t* out) const {
-  const size_t slot = twin_slot(position_key(vertices[p]) + 1);
+  const uint64_t s = twin_slots_[twin_slot(vertices[p])];
   uint32_t n = 0;
-  for (int32_t u = twin_keys_[slot] == 0 ? -1 : int32_t(twin_latest_[slot]);
-       u >= 0 && n < kTwinLimit; u = twin_previous_[size_t(u)])
+  for (int32_t u = s == 0 ? -1 : int32_t(uint32_t(s)); u >= 0 && n < kTwinLimit;
+       u = twin_previous_[size_t(u)])
     out[n++] = uint32_t(u);
   return n;
 }
 
 void VsplitMesh::add_twin(uint32_t p, uint32_t v) {
-  const uint64_t key = position_key(vertices[p]) + 1;
-  size_t slot = twin_slot(key);
-  if (twin_keys_[slot] == key) {
-    twin_previous_[v] = int32_t(twin_latest_[slot]);
-    twin_latest_[slot] = v;
+  size_t slot = twin_slot(vertices[p]);
+  if (twin_slots_[slot] != 0) {
+    twin_previous_[v] = int32_t(uint32_t(twin_slots_[slot]));
+    twin_slots_[slot] = (twin_slots_[slot] >> 32) << 32 | v;
     return;
   }
-  if (2 * (twin_count_ + 1) > twin_keys_.size()) {  // grow to keep it at most half full
-    std::vector<uint64_t> keys(2 * twin_keys_.size(), 0);
-    std::vector<uint32_t> latest(keys.size(), 0);
-    keys.swap(twin_keys_), latest.swap(twin_latest_);
-    for (size_t i = 0; i < keys.size(); ++i) {
-      if (keys[i] == 0) continue;
-      const size_t to = twin_slot(keys[i]);
-      twin_keys_[to] = keys[i], twin_latest_[to] = latest[i];
-    }
-    slot = twin_slot(key);
+  if (4 * (twin_count_ + 1) > 3 * twin_slots_.size()) {  // at most three quarters full
+    twin_table_resize(2 * twin_slots_.size());
+    slot = twin_slot(vertices[p]);
   }
-  twin_keys_[slot] = key, twin_latest_[slot] = v;
+  twin_slots_[slot] = (uint64_t(p) + 1) << 32 | v;
   ++twin_count_;
 }
 

@@ -175,12 +175,16 @@ class VsplitMesh {
 
  private:
   // Parent position → newest split there: open addressing with linear probing over a
-  // power-of-two table at most half full (keys are positions + 1; 0 marks an empty slot).
-  std::vector<uint64_t> twin_keys_ = std::vector<uint64_t>(16, 0);
-  std::vector<uint32_t> twin_latest_ = std::vector<uint32_t>(16, 0);
+  // power-of-two table at most three quarters full. A slot holds (rep + 1) << 32 | latest, where
+  // rep is a vertex at the slot's position (vertices never move, so it stands for the key: 8
+  // bytes a slot where the position itself took 12) and latest the newest split there; 0 marks
+  // an empty slot. At 20M triangles the table is the client state's largest after the corners.
+  std::vector<uint64_t> twin_slots_ = std::vector<uint64_t>(16, 0);
   size_t twin_count_ = 0;
-  std::vector<int32_t> twin_previous_;   // per vertex: the twin before it, or -1
-  size_t twin_slot(uint64_t key) const;  // key's slot, or the empty one where it would go
+  std::vector<int32_t> twin_previous_;  // per vertex: the twin before it, or -1
+  // The slot of the position of vertex p, or the empty one where it would go.
+  size_t twin_slot(const QuantizedVertex& at) const;
+  void twin_table_resize(size_t slots);  // rehashes into `slots` (a power of two)
   std::vector<uint32_t> stamp_;
   uint32_t stamp_value_ = 0;
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
