@@ -212,6 +212,74 @@ LodSelection select_triangles(const ProgressiveScene& ps, uint64_t max_triangles
   return s;
 }
 
+namespace {
+
+// The instances a selection places, in materialize's order, each naming its submesh (of ps):
+// thinned ones first (scaled up about their centres to preserve area), then the submeshes kept
+// whole, in scene order. `drawn[m]`: whether submesh m has faces at its level.
+std::vector<Instance> selected_instances(const ProgressiveScene& ps, const LodSelection& sel,
+                                         const std::vector<bool>& drawn) {
+  std::vector<Instance> out;
+  std::vector<uint32_t> n = all_instances(ps);
+  for (size_t m = 0; m < ps.meshes.size(); ++m) {
+    if (!drawn[m]) continue;
+    if (sel.instances[m] >= n[m]) continue;  // all instances: written below in scene order
+    const InstanceOrder& io = ps.instance_orders[m];
+    uint32_t keep = std::min<uint32_t>(sel.instances[m], uint32_t(io.order.size()));
+    double s = keep > 0 ? std::sqrt(double(n[m]) / double(keep)) : 1.0;
+    for (uint32_t i = 0; i < keep; ++i) {
+      Instance inst = ps.scene.instances[io.order[i]];
+      Vec3 c = io.centres[i];
+      inst.world = Mat4::translation(c.x, c.y, c.z) * Mat4::scale(s, s, s) *
+                   Mat4::translation(-c.x, -c.y, -c.z) * inst.world;
+      inst.mesh = uint32_t(m);
+      out.push_back(std::move(inst));
+    }
+  }
+  for (const Instance& src : ps.scene.instances) {
+    if (src.mesh >= ps.meshes.size() || !drawn[src.mesh]) continue;
+    if (sel.instances[src.mesh] < n[src.mesh]) continue;
+    out.push_back(src);
+  }
+  return out;
+}
+
+// The vertices of pm's level that its faces use (non-degenerate at that level), as a mask over
+// the level's prefix: the vertices extract_level keeps.
+std::vector<uint8_t> used_vertices(const ProgressiveMesh& pm, size_t level) {
+  level = std::min(level, pm.levels.size() - 1);
+  const ProgressiveLevel& lv = pm.levels[level];
+  const uint32_t k = lv.vertex_end;
+  auto map = [&](uint32_t v) {
+    while (v >= k) v = pm.parent[v];
+    return v;
+  };
+  std::vector<uint8_t> used(k, 0);
+  for (uint32_t f = 0; f < lv.face_end; ++f) {
+    uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]),
+             c = map(pm.indices[3 * f + 2]);
+    if (a == b || b == c || a == c) continue;
+    used[a] = used[b] = used[c] = 1;
+  }
+  return used;
+}
+
+}  // namespace
+
+Bounds selection_bounds(const ProgressiveScene& ps, const LodSelection& sel) {
+  std::vector<std::vector<uint8_t>> used(ps.meshes.size());
+  std::vector<bool> drawn(ps.meshes.size(), false);
+  for (size_t m = 0; m < ps.meshes.size(); ++m) {
+    used[m] = used_vertices(ps.meshes[m], sel.level[m]);
+    drawn[m] = std::find(used[m].begin(), used[m].end(), 1) != used[m].end();
+  }
+  Bounds b;
+  for (const Instance& inst : selected_instances(ps, sel, drawn))
+    for (size_t v = 0; v < used[inst.mesh].size(); ++v)
+      if (used[inst.mesh][v]) b.add(inst.world.transform_point(ps.meshes[inst.mesh].positions[v]));
+  return b;
+}
+
 Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix,
                   bool with_images) {
   Scene out = empty_like(ps.scene, with_images);
@@ -223,29 +291,10 @@ Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep
     mesh_map[m] = int32_t(out.meshes.size());
     out.meshes.push_back(std::move(mesh));
   }
-  std::vector<uint32_t> n = all_instances(ps);
-  for (size_t m = 0; m < ps.meshes.size(); ++m) {
-    if (mesh_map[m] < 0) continue;
-    if (sel.instances[m] >= n[m]) continue;  // all instances: written below in scene order
-    const InstanceOrder& io = ps.instance_orders[m];
-    uint32_t keep = std::min<uint32_t>(sel.instances[m], uint32_t(io.order.size()));
-    double s = keep > 0 ? std::sqrt(double(n[m]) / double(keep)) : 1.0;
-    for (uint32_t i = 0; i < keep; ++i) {
-      Instance inst = ps.scene.instances[io.order[i]];
-      Vec3 c = io.centres[i];
-      inst.world = Mat4::translation(c.x, c.y, c.z) * Mat4::scale(s, s, s) *
-                   Mat4::translation(-c.x, -c.y, -c.z) * inst.world;
-      inst.mesh = uint32_t(mesh_map[m]);
-      out.instances.push_back(std::move(inst));
-    }
-  }
-  for (const Instance& src : ps.scene.instances) {
-    if (src.mesh >= ps.meshes.size() || mesh_map[src.mesh] < 0) continue;
-    if (sel.instances[src.mesh] < n[src.mesh]) continue;
-    Instance inst = src;
-    inst.mesh = uint32_t(mesh_map[src.mesh]);
-    out.instances.push_back(std::move(inst));
-  }
+  std::vector<bool> drawn(ps.meshes.size());
+  for (size_t m = 0; m < ps.meshes.size(); ++m) drawn[m] = mesh_map[m] >= 0;
+  out.instances = selected_instances(ps, sel, drawn);
+  for (Instance& inst : out.instances) inst.mesh = uint32_t(mesh_map[inst.mesh]);
   return out;
 }
 

@@ -56,4 +56,9 @@ LodSelection select_error(const ProgressiveScene& ps, float error);
 Scene materialize(const ProgressiveScene& ps, const LodSelection& sel, bool keep_prefix = false,
                   bool with_images = true);
 
+// The world-space box of what materialize(ps, sel) draws (scene_bounds of it), without making
+// the scene: the level's used vertices through the selection's instances. O(faces at the level
+// + used vertices × instances); a byte per vertex of the level's prefix besides.
+Bounds selection_bounds(const ProgressiveScene& ps, const LodSelection& sel);
+
 }  // namespace meshmux

@@ -267,6 +267,33 @@ TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
   for (const Instance& i : out.instances) EXPECT_TRUE(kept2.count(i.name)) << i.name;
 }
 
+// The multiplexer frames its views by selection_bounds, which reads the record instead of making
+// the scene (the full detail of a 20M-triangle scan is 640 MB): it must give the box of what
+// materialize draws, at the full detail, at a coarse level, and with thinned instances (scaled
+// up about their centres, so the box grows past the instances' own).
+TEST(Simplify, SelectionBoundsAreTheMaterializedScenesBox) {
+  Primitive tet;
+  tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  tet.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  std::vector<Mat4> places;
+  for (int i = 0; i < 60; ++i)
+    places.push_back(Mat4::translation((i % 8) * 3.0, 0.5 * (i % 3), (i / 8) * 3.0));
+  Scene s = scene_of(tet, places);
+  Mesh sphere;
+  sphere.primitives.push_back(testing::uv_sphere(24, 16));  // a second submesh, refined
+  s.meshes.push_back(sphere);
+  s.instances.push_back({1, Mat4::translation(-4, 2, 1) * Mat4::scale(2, 1, 3), "sphere"});
+  ProgressiveScene ps = build_progressive(s, {});
+  for (const LodSelection& sel : {select_full(ps), select_base(ps), select_triangles(ps, 40)}) {
+    const Bounds want = scene_bounds(materialize(ps, sel, false, false));
+    const Bounds got = selection_bounds(ps, sel);
+    ASSERT_FALSE(want.empty());
+    EXPECT_EQ(got.min, want.min);
+    EXPECT_EQ(got.max, want.max);
+  }
+  EXPECT_LT(select_triangles(ps, 40).instances[0], 60u);  // the thinned case was among them
+}
+
 // The three level lookups of the record: by vertex count, triangle budget and error.
 TEST(Simplify, LevelLookupsByVerticesTrianglesAndError) {
   Scene s = scene_of(uv_sphere(16, 24));
