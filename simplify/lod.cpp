@@ -45,7 +45,8 @@ Mesh extract_level(const ProgressiveMesh& pm, size_t level, bool keep_prefix) {
     uint32_t a = map(pm.indices[3 * f]), b = map(pm.indices[3 * f + 1]),
              c = map(pm.indices[3 * f + 2]);
     if (a == b || b == c || a == c) continue;
-    faces[pm.face_primitive[f]].insert(faces[pm.face_primitive[f]].end(), {a, b, c});
+    std::vector<uint32_t>& to = faces[pm.face_primitive.empty() ? 0 : pm.face_primitive[f]];
+    to.insert(to.end(), {a, b, c});
   }
   std::vector<uint32_t> remap(k, UINT32_MAX);
   std::vector<uint32_t> stamp(keep_prefix ? 0 : k, UINT32_MAX);  // vertex → last primitive using it

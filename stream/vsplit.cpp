@@ -15,16 +15,17 @@ namespace meshmux {
 
 void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   contexts = VsplitContexts();
-  vertices.clear(), indices.clear(), head.clear(), next.clear(), stamp_.clear();
+  vertices.clear(), indices.clear(), head.clear(), next.clear();
+  forget_seen();
   twin_slots_.assign(16, 0), twin_count_ = 0, twin_previous_.clear();
-  solid = 0, stamp_value_ = 0, moved_floor = 0;
+  solid = 0, moved_floor = 0;
   moved.clear();
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
 
 void VsplitMesh::reserve_capacities() {
   vertices.reserve(capacity_vertices_), head.reserve(capacity_vertices_);
-  stamp_.reserve(capacity_vertices_), twin_previous_.reserve(capacity_vertices_);
+  twin_previous_.reserve(capacity_vertices_);
   indices.reserve(size_t(capacity_faces_) * 3), next.reserve(size_t(capacity_faces_) * 3);
   // At most one twin position per vertex: the table never grows (a rehash holds both tables).
   size_t slots = 16;
@@ -35,7 +36,6 @@ void VsplitMesh::reserve_capacities() {
 uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
   vertices.push_back(q);
   head.push_back(-1);
-  stamp_.push_back(0);
   twin_previous_.push_back(-1);
   return uint32_t(vertices.size() - 1);
 }
@@ -67,25 +67,38 @@ void VsplitMesh::move_corner(uint32_t p, int32_t previous, int32_t corner, uint3
   solid += uint64_t(after) - uint64_t(before);
 }
 
-uint32_t VsplitMesh::new_stamp() {
-  if (++stamp_value_ == 0) {  // wrapped: clear and start again
-    std::fill(stamp_.begin(), stamp_.end(), 0);
-    stamp_value_ = 1;
+bool VsplitMesh::first_sight(uint32_t w) {
+  if (2 * (seen_used_.size() + 1) > seen_slots_.size()) {  // grow: rehash what was seen
+    std::vector<uint32_t> seen;
+    for (uint32_t slot : seen_used_) seen.push_back(seen_slots_[slot]);
+    seen_slots_.assign(2 * seen_slots_.size(), UINT32_MAX);
+    seen_used_.clear();
+    for (uint32_t x : seen) first_sight(x);
   }
-  return stamp_value_;
+  const size_t mask = seen_slots_.size() - 1;
+  size_t i = size_t(uint32_t(w * 0x9E3779B1u) >> 7) & mask;
+  for (; seen_slots_[i] != UINT32_MAX; i = (i + 1) & mask)
+    if (seen_slots_[i] == w) return false;
+  seen_slots_[i] = w;
+  seen_used_.push_back(uint32_t(i));
+  return true;
+}
+
+void VsplitMesh::forget_seen() {
+  for (uint32_t slot : seen_used_) seen_slots_[slot] = UINT32_MAX;
+  seen_used_.clear();
 }
 
 void VsplitMesh::ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out) {
   out.clear();
-  uint32_t s = new_stamp();
-  stamp_[p] = stamp_[v] = s;
+  forget_seen();
+  first_sight(p), first_sight(v);
   for (uint32_t centre : {v, p})
     for (int32_t c = head[centre]; c >= 0; c = next[size_t(c)]) {
       size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
       for (size_t k = 1; k <= 2; ++k) {
         uint32_t w = indices[f + (slot + k) % 3];
-        if (stamp_[w] == s) continue;
-        stamp_[w] = s;
+        if (!first_sight(w)) continue;
         out.push_back(w);
         if (out.size() >= limit) return;
       }
@@ -106,14 +119,13 @@ QuantizedVertex VsplitMesh::predict(uint32_t v, uint32_t p, uint32_t* extent_cla
   int64_t sp[3] = {0, 0, 0}, sn[3] = {0, 0, 0}, st[2] = {0, 0};
   uint32_t lo[3] = {65535, 65535, 65535}, hi[3] = {0, 0, 0};
   int64_t n = 0;
-  uint32_t s = new_stamp();
-  stamp_[v] = s;
+  forget_seen();
+  first_sight(v);
   for (int32_t c = head[v]; c >= 0; c = next[size_t(c)]) {
     size_t f = size_t(c) / 3 * 3, slot = size_t(c) - f;
     for (size_t k = 1; k <= 2; ++k) {
       uint32_t w = indices[f + (slot + k) % 3];
-      if (stamp_[w] == s) continue;
-      stamp_[w] = s;
+      if (!first_sight(w)) continue;
       const QuantizedVertex& q = vertices[w];
       for (int i = 0; i < 3; ++i) {
         sp[i] += q.p[i], sn[i] += q.n[i];

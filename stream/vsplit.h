@@ -185,11 +185,15 @@ class VsplitMesh {
   // The slot of the position of vertex p, or the empty one where it would go.
   size_t twin_slot(const QuantizedVertex& at) const;
   void twin_table_resize(size_t slots);  // rehashes into `slots` (a power of two)
-  std::vector<uint32_t> stamp_;
-  uint32_t stamp_value_ = 0;
+  // The vertices one ring() or predict() call has met: a small open-addressing set (a power of
+  // two of slots, at most half full, emptied through the slots it used), where a stamp per
+  // vertex cost 4 bytes of every client's state (40 MB at 20M triangles).
+  std::vector<uint32_t> seen_slots_ = std::vector<uint32_t>(64, UINT32_MAX);
+  std::vector<uint32_t> seen_used_;  // slots filled in this call
+  bool first_sight(uint32_t w);      // adds w; false when it was there already
+  void forget_seen();
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
   friend Status decode_vsplit_part(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t);
-  uint32_t new_stamp();
 };
 
 // The order a new vertex's position axes are coded in (stream/vsplit.h "P"): the two axes
