@@ -148,6 +148,19 @@ TEST(Simplify, SeamsNeverCrack) {
   }
 }
 
+// The same where more wedges meet at one position than the simplifier compares one by one (its
+// classes are looked up by value past 32): the poles of a sphere of 48 segments have 48 wedges
+// each, one per u.
+TEST(Simplify, SeamsNeverCrackWhereManyWedgesMeet) {
+  Scene s = scene_of(uv_sphere(12, 48));
+  ProgressiveScene ps = build_progressive(s, {});
+  const ProgressiveMesh& pm = ps.meshes[0];
+  for (size_t l : sample_levels(pm)) {
+    for (const auto& [edge, count] : edge_counts(extract_level(pm, l)))
+      ASSERT_EQ(count, 2) << "level " << l << " of " << pm.levels.size() << " has an open edge";
+  }
+}
+
 // An open grid keeps exactly its own border at every level: no new boundary edges, and the
 // border does not move inward (boundary vertices slide along it only).
 TEST(Simplify, OpenBoundaryGetsNoNewBorderEdges) {
