@@ -384,8 +384,8 @@ Coverage cover_texels(Source& src, const ChartSet& charts, const AtlasLayout& la
   std::fill(dist.begin(), dist.end(), std::numeric_limits<float>::infinity());
   std::fill(taken.begin(), taken.end(), 0);
   for (size_t c = 0; c < chart_count; ++c) {
-    cover_jobs(cov.jobs, corners, layout, first_job[c], first_job[c + 1], w, 0, h, cov.owner,
-               dist, taken);
+    cover_jobs(cov.jobs, corners, layout, first_job[c], first_job[c + 1], w, 0, h, cov.owner, dist,
+               taken);
     if (tiny(c, taken))
       cover_tiny_chart(src, cov.jobs, first_job[c], first_job[c + 1], w, h, cov.owner, dist);
   }

@@ -457,7 +457,8 @@ void Simplifier::keep_block_quadrics(const Simplifier& s, const BlockUnit& b,
   const uint64_t a = spill_->put(out.pos_q.data(), out.pos_q.size() * sizeof(Quadric));
   const uint64_t w = spill_->put(out.wedge_q.data(), out.wedge_q.size() * sizeof(Quadric));
   const uint64_t g = spill_->put(out.wedge_gd.data(), out.wedge_gd.size() * sizeof(double));
-  if (a == SpillFile::kFailed || w == SpillFile::kFailed || g == SpillFile::kFailed) return;  // kept here
+  if (a == SpillFile::kFailed || w == SpillFile::kFailed || g == SpillFile::kFailed)
+    return;  // kept here
   out.spilled = {a, w, g};
   std::vector<Quadric>().swap(out.pos_q), std::vector<Quadric>().swap(out.wedge_q);
   std::vector<double>().swap(out.wedge_gd);
@@ -538,7 +539,8 @@ Simplifier::RestDraft Simplifier::draft_rest(bool mapped) {
   const size_t pq_bytes = d.live_pos * sizeof(Quadric);
   const size_t aq_bytes = d.live_wedges * sizeof(Quadric);
   if (mapped && !opt_.spill_dir.empty())
-    d.pages = SpillFile(opt_.spill_dir).map(pq_bytes + aq_bytes + d.live_wedges * kg * sizeof(double));
+    d.pages =
+        SpillFile(opt_.spill_dir).map(pq_bytes + aq_bytes + d.live_wedges * kg * sizeof(double));
   if (d.pages) {
     report_.mapped_bytes += d.pages->bytes;
     char* base = static_cast<char*>(d.pages->base);

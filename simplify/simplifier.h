@@ -540,7 +540,7 @@ class Simplifier {
   std::vector<uint8_t> role_;      // per position a Role, or empty: all free
   bool serial_ = false;            // costing on the calling thread (blocks run beside each other)
   std::vector<Mat4> transforms_;   // Quadrics::kByBlocks: the instances, for the blocks' quadrics
-  std::shared_ptr<SpillFile> spill_;   // the first level's quadrics, written out meanwhile
+  std::shared_ptr<SpillFile> spill_;      // the first level's quadrics, written out meanwhile
   std::vector<uint32_t> block_faces_;     // the first level's faces, by block
   std::vector<size_t> block_face_start_;  // per block: its first entry in block_faces_
   bool finished_ = false;                 // the history is complete (run() has nothing left to do)

@@ -283,8 +283,8 @@ void VsplitMesh::twin_table_resize(size_t slots) {
   const size_t mask = slots - 1;
   for (uint64_t s : old) {
     if (s == 0) continue;
-    size_t i = size_t((position_key(vertices[size_t(s >> 32) - 1]) * 0x9E3779B97F4A7C15ull) >> 32) &
-               mask;
+    size_t i =
+        size_t((position_key(vertices[size_t(s >> 32) - 1]) * 0x9E3779B97F4A7C15ull) >> 32) & mask;
     while (twin_slots_[i] != 0) i = (i + 1) & mask;  // keys in `old` are distinct
     twin_slots_[i] = s;
   }

@@ -93,6 +93,22 @@ void add_chart(ChartSet& cs, std::vector<ChartUv>& uvs, AtlasLayout& layout, con
   layout.block.push_back(block);
 }
 
+// A layout `size` wide holding the checker quad's chart (at `quad_at`, scaled, in a block) and a
+// flat chart of one colour (at `flat_at`, in a block).
+struct QuadAndFlat {
+  ChartSet cs;
+  std::vector<ChartUv> uvs;
+  AtlasLayout layout;
+};
+QuadAndFlat quad_and_flat(int size, Vec2 quad_at, double scale, int quad_block, Vec4 flat,
+                          Vec2 flat_at, int flat_block) {
+  QuadAndFlat c;
+  c.layout.size = size;
+  add_chart(c.cs, c.uvs, c.layout, quad_chart(), quad_uv(4), quad_at, scale, quad_block);
+  add_chart(c.cs, c.uvs, c.layout, flat_chart(flat), ChartUv{}, flat_at, 0.0, flat_block);
+  return c;
+}
+
 TEST(Bake, TexturedQuadReproducesTheCheckerTexels) {
   Scene s = scene_with(checker());
   ChartSet cs;
@@ -171,16 +187,11 @@ TEST(Bake, FlatChartFillsItsBlock) {
 // or doubled at a band's edge would show as a seam across the atlas).
 TEST(Bake, ChartsAcrossRowBandsOwnEveryRow) {
   Scene s = scene_with(checker());
-  ChartSet cs;
-  std::vector<ChartUv> uvs;
-  AtlasLayout layout;
-  layout.size = 512;
-  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {20, 50}, 100.0, 400);
-  add_chart(cs, uvs, layout, flat_chart({0.5f, 0.25f, 1.0f, 1.0f}), ChartUv{}, {440, 100}, 0.0,
-            64);
+  QuadAndFlat c =
+      quad_and_flat(512, {20, 50}, 100.0, 400, {0.5f, 0.25f, 1.0f, 1.0f}, {440, 100}, 64);
   BakeOptions o;
   o.gutter = 0;
-  BakeResult r = bake_atlas(s, cs, uvs, layout, o);
+  BakeResult r = bake_atlas(s, c.cs, c.uvs, c.layout, o);
   ASSERT_EQ(r.atlas.height, 512);
   for (int y = 0; y < 512; ++y)
     for (int x = 0; x < 512; ++x) {
@@ -188,9 +199,9 @@ TEST(Bake, ChartsAcrossRowBandsOwnEveryRow) {
       // the quad [20, 420] × [50, 450], its corners cut.
       const double dx = std::max({20.0 - (x + 0.5), 0.0, x + 0.5 - 420.0});
       const double dy = std::max({50.0 - (y + 0.5), 0.0, y + 0.5 - 450.0});
-      const int want = std::hypot(dx, dy) <= 0.5                        ? 0
+      const int want = std::hypot(dx, dy) <= 0.5                      ? 0
                        : (x >= 440 && x < 504 && y >= 100 && y < 164) ? 1
-                                                                       : -1;
+                                                                      : -1;
       ASSERT_EQ(chart_at(r, x, y), want) << x << "," << y;
     }
 }
@@ -405,14 +416,9 @@ TEST(Bake, SupersampleAveragesOverTheTexel) {
 
 TEST(Bake, Deterministic) {
   Scene s = scene_with(checker());
-  ChartSet cs;
-  std::vector<ChartUv> uvs;
-  AtlasLayout layout;
-  layout.size = 32;
-  add_chart(cs, uvs, layout, quad_chart(), quad_uv(4), {1.5f, 2.25f}, 2.5, 12);
-  add_chart(cs, uvs, layout, flat_chart({0.3f, 0.6f, 0.9f, 1}), ChartUv{}, {16, 16}, 0.0, 8);
-  BakeResult a = bake_atlas(s, cs, uvs, layout, {});
-  BakeResult b = bake_atlas(s, cs, uvs, layout, {});
+  QuadAndFlat c = quad_and_flat(32, {1.5f, 2.25f}, 2.5, 12, {0.3f, 0.6f, 0.9f, 1}, {16, 16}, 8);
+  BakeResult a = bake_atlas(s, c.cs, c.uvs, c.layout, {});
+  BakeResult b = bake_atlas(s, c.cs, c.uvs, c.layout, {});
   EXPECT_EQ(a.atlas.rgba, b.atlas.rgba);
   EXPECT_EQ(a.texel_chart, b.texel_chart);
 }
