@@ -313,19 +313,10 @@ struct CellRenders {
     std::vector<std::pair<size_t, const LevelMap*>> maps;  // (level, map) in level order
     for (size_t j = 0; j < textures.size(); ++j)
       for (const LevelMap& map : textures[j]) maps.push_back({j, &map});
-    // A PNG map whose bytes are those of a scene image still decoded (the atlas's top level is
-    // encoded once and handed on) takes that image's texels: PNG is lossless, so decoding it
-    // again would give the same texels (a 4096×2048 RGBA map: ~0.2 s).
-    auto decode = [this](const LevelMap& map, Image& image) {
+    auto decode = [](const LevelMap& map, Image& image) {
       image.name = map.name;
-      image.mime_type = map.mime_type;
-      if (map.mime_type == "image/png")
-        for (const Image& held : ps.scene.images)
-          if (held.decoded() && held.encoded == *map.encoded) {
-            image.width = held.width, image.height = held.height, image.rgba = held.rgba;
-            return Status::ok();
-          }
       image.encoded = *map.encoded;
+      image.mime_type = map.mime_type;
       return decode_image(image);
     };
     std::map<int32_t, int> kept;  // kept image → its handle so far
