@@ -245,12 +245,18 @@ TEST(Simplify, InstanceQuadricMatchesBruteForceForShear) {
     EXPECT_NEAR(fast[size_t(i)], brute[size_t(i)], 1e-5 * (1 + std::abs(brute[size_t(i)]))) << i;
 }
 
-// A submesh never vanishes: a 4-triangle tetrahedron instanced 500 times keeps at least one
-// triangle per submesh at its coarsest, and a tiny target thins instances instead.
-TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
+// The smallest closed mesh: 4 triangles, outward-facing.
+Primitive tetrahedron() {
   Primitive tet;
   tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   tet.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  return tet;
+}
+
+// A submesh never vanishes: a 4-triangle tetrahedron instanced 500 times keeps at least one
+// triangle per submesh at its coarsest, and a tiny target thins instances instead.
+TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
+  const Primitive tet = tetrahedron();
   std::vector<Mat4> places;
   for (int i = 0; i < 500; ++i)
     places.push_back(Mat4::translation((i % 25) * 3.0, 0, (i / 25) * 3.0));
@@ -281,9 +287,7 @@ TEST(Simplify, SubmeshNeverVanishesAndThinningScalesUp) {
 // materialize draws, at the full detail, at a coarse level, and with thinned instances (scaled
 // up about their centres, so the box grows past the instances' own).
 TEST(Simplify, SelectionBoundsAreTheMaterializedScenesBox) {
-  Primitive tet;
-  tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  tet.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  const Primitive tet = tetrahedron();
   std::vector<Mat4> places;
   for (int i = 0; i < 60; ++i)
     places.push_back(Mat4::translation((i % 8) * 3.0, 0.5 * (i % 3), (i / 8) * 3.0));
