@@ -68,12 +68,24 @@ void VsplitMesh::move_corner(uint32_t p, int32_t previous, int32_t corner, uint3
 }
 
 bool VsplitMesh::first_sight(uint32_t w) {
+  if (seen_hashed_) return hash_sight(w);
+  for (uint32_t x : seen_list_)
+    if (x == w) return false;
+  seen_list_.push_back(w);
+  if (seen_list_.size() > kSeenListed) {
+    seen_hashed_ = true;
+    for (uint32_t x : seen_list_) hash_sight(x);
+  }
+  return true;
+}
+
+bool VsplitMesh::hash_sight(uint32_t w) {
   if (2 * (seen_used_.size() + 1) > seen_slots_.size()) {  // grow: rehash what was seen
     std::vector<uint32_t> seen;
     for (uint32_t slot : seen_used_) seen.push_back(seen_slots_[slot]);
     seen_slots_.assign(2 * seen_slots_.size(), UINT32_MAX);
     seen_used_.clear();
-    for (uint32_t x : seen) first_sight(x);
+    for (uint32_t x : seen) hash_sight(x);
   }
   const size_t mask = seen_slots_.size() - 1;
   size_t i = size_t(uint32_t(w * 0x9E3779B1u) >> 7) & mask;
@@ -85,8 +97,11 @@ bool VsplitMesh::first_sight(uint32_t w) {
 }
 
 void VsplitMesh::forget_seen() {
+  seen_list_.clear();
+  if (!seen_hashed_) return;
   for (uint32_t slot : seen_used_) seen_slots_[slot] = UINT32_MAX;
   seen_used_.clear();
+  seen_hashed_ = false;
 }
 
 void VsplitMesh::ring(uint32_t p, uint32_t v, uint32_t limit, std::vector<uint32_t>& out) {

@@ -185,12 +185,17 @@ class VsplitMesh {
   // The slot of the position of vertex p, or the empty one where it would go.
   size_t twin_slot(const QuantizedVertex& at) const;
   void twin_table_resize(size_t slots);  // rehashes into `slots` (a power of two)
-  // The vertices one ring() or predict() call has met: a small open-addressing set (a power of
-  // two of slots, at most half full, emptied through the slots it used), where a stamp per
-  // vertex cost 4 bytes of every client's state (40 MB at 20M triangles).
+  // The vertices one ring() or predict() call has met, where a stamp per vertex cost 4 bytes of
+  // every client's state (40 MB at 20M triangles): a short list searched in turn (a ring has a
+  // dozen), and past kSeenListed an open-addressing set (a power of two of slots, at most half
+  // full, emptied through the slots it used) for the rare vertex of high valence.
+  static constexpr size_t kSeenListed = 24;
+  std::vector<uint32_t> seen_list_;
+  bool seen_hashed_ = false;
   std::vector<uint32_t> seen_slots_ = std::vector<uint32_t>(64, UINT32_MAX);
   std::vector<uint32_t> seen_used_;  // slots filled in this call
   bool first_sight(uint32_t w);      // adds w; false when it was there already
+  bool hash_sight(uint32_t w);       // first_sight in the set
   void forget_seen();
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
   friend Status decode_vsplit_part(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t);
