@@ -30,7 +30,6 @@
 #include <functional>
 #include <mutex>
 #include <optional>
-#include <unordered_map>
 
 #include "clean/flatten.h"
 #include "core/key_table.h"
@@ -210,9 +209,9 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
   for (const Primitive& p : mesh.primitives)
     wedges += p.vertex_count(), corners += p.indices.size();
   // Sized once: grown by doubling, a 4M-triangle scan's arrays held up to twice their size and
-  // both copies while moving, at the stage's peak (with the tables below).
+  // both copies while moving, at the stage's peak (with the table below).
   u.wedge_pos.reserve(wedges), u.wedge_prim.reserve(wedges), u.wedge_vertex.reserve(wedges);
-  u.wedge_group.reserve(wedges), u.attr.reserve(wedges * size_t(u.channels));
+  u.attr.reserve(wedges * size_t(u.channels));
   if (normals) u.wedge_normal.reserve(wedges);
   u.corners.reserve(corners), u.face_prim.reserve(corners / 3);
   u.pos.reserve(wedges);  // at most one position per wedge (grown by doubling: 400 MB at 20M)
