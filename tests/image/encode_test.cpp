@@ -108,5 +108,36 @@ TEST(ImageEncode, SmallPngsTriedWholeAreLossless) {
   expect_lossless_png(atlas_like(300, 200, true));
 }
 
+// The image data is deflated in pieces of rows on every core; the pieces depend on the image
+// alone, so the bytes must not depend on how many threads there are (1024 × 600 RGBA: three
+// pieces, three IDAT chunks).
+TEST(ImageEncode, PngBytesAreTheSameWhateverTheThreadCount) {
+  const Image img = atlas_like(1024, 600, true);
+  auto run = [&](const char* threads) {
+    setenv("MESHMUX_THREADS", threads, 1);
+    auto png = encode_png(img);
+    unsetenv("MESHMUX_THREADS");
+    return png.ok() ? png.take() : std::vector<uint8_t>{};
+  };
+  const std::vector<uint8_t> one = run("1");
+  ASSERT_FALSE(one.empty());
+  EXPECT_EQ(one, run("2"));
+  EXPECT_EQ(one, run("5"));
+}
+
+// Each piece is primed with the filtered rows before it, so a match across a piece's border is
+// still found. Noise rows repeating with a period of two (no row filter removes them; deflate
+// finds each row two rows back), 2048 × 508 RGBA in four pieces: three rows of noise and about
+// four rows' worth of match codes (deflate's 258-byte matches cost ~0.75%), 6.8 rows in all;
+// unprimed, the first two rows of each later piece are stored as noise again: 12.7 rows.
+TEST(ImageEncode, PngPiecesMatchAcrossTheirBorders) {
+  Image img = atlas_like(2048, 508, true);
+  const size_t row = size_t(img.width) * 4;
+  for (int y = 2; y < img.height; ++y)
+    std::copy_n(&img.rgba[size_t(y - 2) * row], row, &img.rgba[size_t(y) * row]);
+  expect_lossless_png(img);
+  EXPECT_LT(encode_png(img)->size(), 8 * row);
+}
+
 }  // namespace
 }  // namespace meshmux
