@@ -18,6 +18,7 @@
 #include "core/parallel.h"
 #include "image/decode.h"
 #include "image/kept_levels.h"
+#include "multiplex/decode_ahead.h"
 #include "multiplex/distortion.h"
 #include "simplify/lod.h"
 #include "stream/mesh_stream.h"
@@ -161,8 +162,8 @@ std::vector<double> distortions(const std::vector<RenderImage>& reference,
 }
 
 // One map of a texture level as the stream carries it: the channel it stands for, a name for
-// errors, and its encoded bytes, decoded when uploaded (one map at a time, so the decoded
-// texels are held once, by the renderer).
+// errors, and its encoded bytes, decoded just ahead of its upload (multiplex/decode_ahead.h: a
+// few maps' texels are held at a time besides the renderer's).
 struct LevelMap {
   std::string channel;  // empty for a kept image
   std::string name;
@@ -170,6 +171,14 @@ struct LevelMap {
   std::string mime_type;
   int32_t image = -1;  // a kept image: the scene's image it stands for
 };
+
+// The maps of every level in level order, as upload_textures takes them.
+std::vector<EncodedItem> level_map_items(const std::vector<std::vector<LevelMap>>& textures) {
+  std::vector<EncodedItem> items;
+  for (const std::vector<LevelMap>& level : textures)
+    for (const LevelMap& map : level) items.push_back({map.name, map.encoded, map.mime_type});
+  return items;
+}
 
 // Mesh layers: scene-wide selections from the base (layer 0) to the full detail (the last),
 // as many as the refinement's bytes call for within the options' bounds.
@@ -303,40 +312,22 @@ struct CellRenders {
     return clamped;
   }
 
-  // Decodes every level's maps (what the client decodes, JPEG losses included) and uploads
-  // them in level order: the next map is decoded on another core while this one is uploaded (the
-  // upload, mipmaps included, runs on the renderer's thread), so the decoded texels of at most
-  // two maps are held besides the renderer's. A level's kept images are the last map of each at
-  // that level or below (a level carries one only where its size changes).
-  Status upload_textures(const std::vector<std::vector<LevelMap>>& textures) {
+  // Uploads every level's maps in level order, as `decoded` (DecodeAhead over level_map_items
+  // of `textures`) hands them over: what the client decodes, JPEG losses included; the upload,
+  // mipmaps included, runs on the renderer's thread. A level's kept images are the last map of
+  // each at that level or below (a level carries one only where its size changes).
+  Status upload_textures(const std::vector<std::vector<LevelMap>>& textures, DecodeAhead& decoded) {
     texture.resize(textures.size());
-    std::vector<std::pair<size_t, const LevelMap*>> maps;  // (level, map) in level order
-    for (size_t j = 0; j < textures.size(); ++j)
-      for (const LevelMap& map : textures[j]) maps.push_back({j, &map});
-    auto decode = [](const LevelMap& map, Image& image) {
-      image.name = map.name;
-      image.encoded = *map.encoded;
-      image.mime_type = map.mime_type;
-      return decode_image(image);
-    };
     std::map<int32_t, int> kept;  // kept image → its handle so far
     size_t level = 0;             // the level whose kept images are assigned next
-    Image current, next;
-    Status current_status = maps.empty() ? Status::ok() : decode(*maps[0].second, current);
-    for (size_t k = 0; k < maps.size(); ++k) {
-      Status next_status = Status::ok();
-      std::optional<Background> ahead;
-      if (k + 1 < maps.size())
-        ahead.emplace([&] { next_status = decode(*maps[k + 1].second, next); });
-      const auto [j, map] = maps[k];
-      for (; level < j; ++level) texture[level].kept.assign(kept.begin(), kept.end());
-      if (!current_status) return current_status.with_prefix("multiplex");
-      upload_map(*map, current, texture[j], kept);
-      if (ahead) ahead->wait();
-      current = std::move(next);
-      next = Image{};
-      current_status = next_status;
-    }
+    size_t k = 0;                 // the map's place in level order
+    for (size_t j = 0; j < textures.size(); ++j)
+      for (const LevelMap& map : textures[j]) {
+        Result<Image> image = decoded.take(k++);
+        for (; level < j; ++level) texture[level].kept.assign(kept.begin(), kept.end());
+        if (!image.ok()) return image.status().with_prefix("multiplex");
+        upload_map(map, *image, texture[j], kept);
+      }
     for (; level < textures.size(); ++level) texture[level].kept.assign(kept.begin(), kept.end());
     return Status::ok();
   }
@@ -704,6 +695,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   });
   const std::vector<std::vector<LevelMap>> textures = texture_layers(levels, r);
   const int n = int(r.texture_bytes.size());
+  // The maps' decoding starts now, beside the renderer's set-up and the uploads.
+  DecodeAhead decoded(level_map_items(textures));
 
   // Renders: the texture levels uploaded, the cameras placed, then the references and, where
   // every cell will be evaluated anyway (a grid of one row or column, whose descent walks it
@@ -724,7 +717,7 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // layers' time and the first renders).
   auto render_start = Clock::now();
   CellRenders cells(ps, layers, levels.material, **renderer, r, progress);
-  if (Status s = cells.upload_textures(textures); !s) return s;
+  if (Status s = cells.upload_textures(textures, decoded); !s) return s;
   ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
   cells.place_cameras(sphere, full, render, o.views);
   r.cut_triangles = selection_triangles(ps, full);
