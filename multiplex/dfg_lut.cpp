@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/parallel.h"
+
 namespace meshmux {
 namespace {
 
@@ -34,21 +36,27 @@ std::vector<float> dfg_lut(int samples) {
   samples = std::max(1, samples);
   std::vector<float> out(size_t(n) * n * 2);
   const double pi = 3.14159265358979323846;
-  for (int j = 0; j < n; ++j)
+  // The Hammersley points' cos φ and u2 are the same for every texel: computed once.
+  std::vector<double> cos_phi(static_cast<size_t>(samples)), u2s(static_cast<size_t>(samples));
+  for (int k = 0; k < samples; ++k) {
+    cos_phi[size_t(k)] = std::cos(2 * pi * ((k + 0.5) / samples));
+    u2s[size_t(k)] = radical_inverse(uint32_t(k));
+  }
+  // Rows on every core: each writes its own texels.
+  parallel_chunks(size_t(n), 1, [&](size_t row, size_t) {
+    const int j = int(row);
     for (int i = 0; i < n; ++i) {
       const double roughness = (i + 0.5) / n, nv = (j + 0.5) / n;
       const double alpha = roughness * roughness, a2 = alpha * alpha;
       const double vx = std::sqrt(1 - nv * nv), vz = nv;  // view direction, N = +z
       double scale = 0, bias = 0;
       for (int k = 0; k < samples; ++k) {
-        const double u1 = (k + 0.5) / samples, u2 = radical_inverse(uint32_t(k));
-        const double phi = 2 * pi * u1;
+        const double u2 = u2s[size_t(k)];
         const double cos_t = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2));
         const double sin_t = std::sqrt(std::max(0.0, 1 - cos_t * cos_t));
-        const double hx = sin_t * std::cos(phi), hy = sin_t * std::sin(phi), hz = cos_t;
+        const double hx = sin_t * cos_phi[size_t(k)], hz = cos_t;  // H's y does not enter
         const double vh = vx * hx + vz * hz;
         const double lz = 2 * vh * hz - vz;  // L = 2 (V·H) H − V, its z is N·L
-        (void)hy;
         const double nl = std::clamp(lz, 0.0, 1.0), nh = std::clamp(hz, 0.0, 1.0);
         if (nl <= 0 || nh <= 0) continue;
         const double vh_c = std::clamp(vh, 0.0, 1.0);
@@ -61,6 +69,7 @@ std::vector<float> dfg_lut(int samples) {
       out[(size_t(j) * n + size_t(i)) * 2 + 0] = float(scale / samples);
       out[(size_t(j) * n + size_t(i)) * 2 + 1] = float(bias / samples);
     }
+  });
   return out;
 }
 
