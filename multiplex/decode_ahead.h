@@ -33,7 +33,7 @@ class DecodeAhead {
   // fewer than `window` (≥ 1) are decoded or being decoded and not yet taken, and the decoded
   // ones waiting hold under `budget` bytes of texels: the texels held are at most the budget
   // plus one image per thread (small maps run far ahead, large ones one or two).
-  explicit DecodeAhead(std::vector<EncodedItem> items, size_t window = 8,
+  explicit DecodeAhead(std::vector<EncodedItem> items, size_t window = 64,
                        size_t budget = size_t(64) << 20);
   // Stops the decoding thread after the image it is on (untaken images are dropped).
   ~DecodeAhead();
