@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/first_equal.h"
 #include "core/key_table.h"
+#include "core/parallel.h"
 #include "scene/position_key.h"
 
 namespace meshmux {
@@ -23,52 +25,85 @@ bool finite_unit(Vec3 n) {
 }
 
 // A vertex's attribute bits (position, normal, uv sets, colour; −0 folded into +0), the words
-// welding compares exactly.
+// welding compares exactly, into `key` (resized to the primitive's word count).
 void vertex_words(const Primitive& p, size_t v, std::vector<uint32_t>& key) {
-  key.clear();
-  auto add3 = [&](Vec3 a) {
-    key.insert(key.end(), {float_bits(a.x), float_bits(a.y), float_bits(a.z)});
-  };
-  add3(p.positions[v]);
-  if (!p.normals.empty()) add3(p.normals[v]);
-  for (const auto& set : p.uvs) key.insert(key.end(), {float_bits(set[v].x), float_bits(set[v].y)});
-  if (!p.colors.empty()) {
-    Vec4 c = p.colors[v];
-    key.insert(key.end(), {float_bits(c.x), float_bits(c.y), float_bits(c.z), float_bits(c.w)});
-  }
+  key.resize(3 + (p.normals.empty() ? 0 : 3) + 2 * p.uvs.size() + (p.colors.empty() ? 0 : 4));
+  uint32_t* w = key.data();
+  auto add = [&](float f) { *w++ = float_bits(f); };
+  add(p.positions[v].x), add(p.positions[v].y), add(p.positions[v].z);
+  if (!p.normals.empty()) add(p.normals[v].x), add(p.normals[v].y), add(p.normals[v].z);
+  for (const auto& set : p.uvs) add(set[v].x), add(set[v].y);
+  if (!p.colors.empty())
+    add(p.colors[v].x), add(p.colors[v].y), add(p.colors[v].z), add(p.colors[v].w);
 }
 
+// Whether vertices a and b have the same attribute bits (vertex_words).
+bool same_vertex(const Primitive& p, size_t a, size_t b) {
+  auto eq2 = [](Vec2 x, Vec2 y) {
+    return float_bits(x.x) == float_bits(y.x) && float_bits(x.y) == float_bits(y.y);
+  };
+  auto eq3 = [](Vec3 x, Vec3 y) {
+    return float_bits(x.x) == float_bits(y.x) && float_bits(x.y) == float_bits(y.y) &&
+           float_bits(x.z) == float_bits(y.z);
+  };
+  if (!eq3(p.positions[a], p.positions[b])) return false;
+  if (!p.normals.empty() && !eq3(p.normals[a], p.normals[b])) return false;
+  for (const auto& set : p.uvs)
+    if (!eq2(set[a], set[b])) return false;
+  if (!p.colors.empty()) {
+    const Vec4 x = p.colors[a], y = p.colors[b];
+    if (!eq2({x.x, x.y}, {y.x, y.y}) || !eq2({x.z, x.w}, {y.z, y.w})) return false;
+  }
+  return true;
+}
+
+// Rows in chunks on every core (each writes only its own items).
+constexpr size_t kChunk = 1 << 16;
+
 // Welds exact duplicates; returns the remapped primitive (indices rewritten). Kept vertices
-// stay in first-occurrence order.
+// stay in first-occurrence order. The first equal vertex of each is found on every core
+// (core/first_equal.h).
 Primitive weld(const Primitive& p) {
   const size_t n = p.positions.size();
-  KeyTable seen(n);
-  std::vector<uint32_t> remap(n), first_of;  // first_of: output vertex → its first input
+  std::vector<uint64_t> hash(n);
+  parallel_chunks(n, kChunk, [&](size_t begin, size_t end) {
+    std::vector<uint32_t> key;
+    for (size_t v = begin; v < end; ++v) {
+      vertex_words(p, v, key);
+      hash[v] = fnv1a(key.data(), key.size());
+    }
+  });
+  const std::vector<uint32_t> first =
+      first_equal(hash, [&](uint32_t a, uint32_t b) { return same_vertex(p, a, b); });
+  std::vector<uint64_t>().swap(hash);
+  std::vector<uint32_t> remap(n), kept;  // kept: output vertex → its input vertex
+  for (size_t v = 0; v < n; ++v) {
+    if (first[v] == v) {
+      remap[v] = uint32_t(kept.size());
+      kept.push_back(uint32_t(v));
+    } else {
+      remap[v] = remap[first[v]];
+    }
+  }
   Primitive out;
   out.material = p.material;
   out.flat = p.flat;
-  out.uvs.resize(p.uvs.size());
-  std::vector<uint32_t> key, other;
-  for (size_t v = 0; v < n; ++v) {
-    vertex_words(p, v, key);
-    const uint64_t h = fnv1a(key.data(), key.size());
-    uint32_t k = seen.find(h, [&](uint32_t cand) {
-      vertex_words(p, first_of[cand], other);
-      return other == key;
+  auto gather = [&](const auto& in, auto& to) {
+    if (in.empty()) return;
+    to.resize(kept.size());
+    parallel_chunks(kept.size(), kChunk, [&](size_t begin, size_t end) {
+      for (size_t k = begin; k < end; ++k) to[k] = in[kept[k]];
     });
-    if (k == KeyTable::kEmpty) {
-      k = uint32_t(first_of.size());
-      first_of.push_back(uint32_t(v));
-      seen.insert(h, k);
-      out.positions.push_back(p.positions[v]);
-      if (!p.normals.empty()) out.normals.push_back(p.normals[v]);
-      for (size_t s = 0; s < p.uvs.size(); ++s) out.uvs[s].push_back(p.uvs[s][v]);
-      if (!p.colors.empty()) out.colors.push_back(p.colors[v]);
-    }
-    remap[v] = k;
-  }
+  };
+  gather(p.positions, out.positions);
+  gather(p.normals, out.normals);
+  out.uvs.resize(p.uvs.size());
+  for (size_t s = 0; s < p.uvs.size(); ++s) gather(p.uvs[s], out.uvs[s]);
+  gather(p.colors, out.colors);
   out.indices.resize(p.indices.size());
-  for (size_t i = 0; i < p.indices.size(); ++i) out.indices[i] = remap[p.indices[i]];
+  parallel_chunks(p.indices.size(), kChunk, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) out.indices[i] = remap[p.indices[i]];
+  });
   return out;
 }
 
@@ -79,40 +114,48 @@ std::array<uint32_t, 3> rotated(uint32_t a, uint32_t b, uint32_t c) {
   return {a, b, c};
 }
 
-// Removes degenerate and duplicate triangles in place; counts them.
+// Removes degenerate and duplicate triangles in place (a duplicate: the same corners in the same
+// rotation order as an earlier kept triangle); counts them. Tests and first equals on every core.
 void filter_triangles(Primitive& p, const CleanOptions& o, CleanReport& r) {
-  // Kept triangles, keyed by their rotated corners.
-  KeyTable seen(o.remove_duplicates ? p.indices.size() / 3 : 0);
-  std::vector<uint32_t> kept;
-  kept.reserve(p.indices.size());
-  for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-    uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
-    if (o.remove_degenerate) {
-      Vec3 pa = p.positions[a], pb = p.positions[b], pc = p.positions[c];
-      bool repeated = a == b || b == c || a == c || pa == pb || pb == pc || pa == pc;
-      Vec3 n = cross(pb - pa, pc - pa);
-      if (repeated || !(dot(n, n) > 0)) {
-        ++r.degenerate_removed;
-        continue;
+  const size_t n = p.indices.size() / 3;
+  std::vector<uint8_t> degenerate(n, 0);
+  std::vector<uint64_t> hash(o.remove_duplicates ? n : 0);
+  parallel_chunks(n, kChunk, [&](size_t begin, size_t end) {
+    for (size_t t = begin; t < end; ++t) {
+      const uint32_t a = p.indices[3 * t], b = p.indices[3 * t + 1], c = p.indices[3 * t + 2];
+      if (o.remove_degenerate) {
+        const Vec3 pa = p.positions[a], pb = p.positions[b], pc = p.positions[c];
+        const bool repeated = a == b || b == c || a == c || pa == pb || pb == pc || pa == pc;
+        const Vec3 nrm = cross(pb - pa, pc - pa);
+        degenerate[t] = repeated || !(dot(nrm, nrm) > 0);
+      }
+      if (o.remove_duplicates) {
+        const std::array<uint32_t, 3> k = rotated(a, b, c);  // winding kept
+        hash[t] = fnv1a(k.data(), 3);
       }
     }
-    if (o.remove_duplicates) {
-      // Rotate so the smallest index leads; winding is preserved.
-      const std::array<uint32_t, 3> k = rotated(a, b, c);
-      const uint64_t h = fnv1a(k.data(), 3);
-      auto same = [&](uint32_t t) {
-        const uint32_t* x = &kept[3 * size_t(t)];
-        return rotated(x[0], x[1], x[2]) == k;
-      };
-      if (seen.find(h, same) != KeyTable::kEmpty) {
-        ++r.duplicates_removed;
-        continue;
-      }
-      seen.insert(h, uint32_t(kept.size() / 3));
+  });
+  std::vector<uint32_t> first;
+  if (o.remove_duplicates)
+    first = first_equal(hash, [&](uint32_t x, uint32_t y) {
+      const uint32_t* i = &p.indices[3 * size_t(x)];
+      const uint32_t* j = &p.indices[3 * size_t(y)];
+      return !degenerate[x] && !degenerate[y] &&
+             rotated(i[0], i[1], i[2]) == rotated(j[0], j[1], j[2]);
+    });
+  std::vector<uint64_t>().swap(hash);
+  size_t kept = 0;
+  for (size_t t = 0; t < n; ++t) {
+    if (degenerate[t]) {
+      ++r.degenerate_removed;
+    } else if (!first.empty() && first[t] != t) {
+      ++r.duplicates_removed;
+    } else {
+      if (kept != t) std::copy_n(&p.indices[3 * t], 3, &p.indices[3 * kept]);
+      ++kept;
     }
-    kept.insert(kept.end(), {a, b, c});
   }
-  p.indices.swap(kept);
+  p.indices.resize(3 * kept);
 }
 
 void drop_unreferenced(Primitive& p) {
@@ -232,26 +275,35 @@ void generate_normals(Primitive& p, float crease_degrees) {
 // generated normals, lit 26 dB), and the triangles go in filter_triangles.
 bool has_broken_normals(const Primitive& p, bool degenerate_removed) {
   if (p.normals.empty()) return false;
-  for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
-    const uint32_t a = p.indices[t], b = p.indices[t + 1], c = p.indices[t + 2];
-    const Vec3 n = cross(p.positions[b] - p.positions[a], p.positions[c] - p.positions[a]);
-    if (degenerate_removed && !(dot(n, n) > 0)) continue;
-    if (!finite_unit(p.normals[a]) || !finite_unit(p.normals[b]) || !finite_unit(p.normals[c]))
-      return true;
-  }
-  return false;
+  const size_t n = p.indices.size() / 3;
+  std::vector<uint8_t> broken((n + kChunk - 1) / kChunk, 0);  // per chunk
+  parallel_chunks(n, kChunk, [&](size_t begin, size_t end) {
+    for (size_t t = begin; t < end && !broken[begin / kChunk]; ++t) {
+      const uint32_t a = p.indices[3 * t], b = p.indices[3 * t + 1], c = p.indices[3 * t + 2];
+      const Vec3 nrm = cross(p.positions[b] - p.positions[a], p.positions[c] - p.positions[a]);
+      if (degenerate_removed && !(dot(nrm, nrm) > 0)) continue;
+      if (!finite_unit(p.normals[a]) || !finite_unit(p.normals[b]) || !finite_unit(p.normals[c]))
+        broken[begin / kChunk] = 1;
+    }
+  });
+  return std::find(broken.begin(), broken.end(), 1) != broken.end();
 }
 
 void sanitize(Primitive& p) {
   for (auto& set : p.uvs)
-    for (Vec2& uv : set) {
-      if (!std::isfinite(uv.x)) uv.x = 0;
-      if (!std::isfinite(uv.y)) uv.y = 0;
+    parallel_chunks(set.size(), kChunk, [&](size_t begin, size_t end) {
+      for (size_t i = begin; i < end; ++i) {
+        if (!std::isfinite(set[i].x)) set[i].x = 0;
+        if (!std::isfinite(set[i].y)) set[i].y = 0;
+      }
+    });
+  auto clamp01 = [](float f) { return std::isfinite(f) ? std::clamp(f, 0.0f, 1.0f) : 1.0f; };
+  parallel_chunks(p.colors.size(), kChunk, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      Vec4& c = p.colors[i];
+      c = {clamp01(c.x), clamp01(c.y), clamp01(c.z), clamp01(c.w)};
     }
-  for (Vec4& c : p.colors) {
-    auto clamp01 = [](float f) { return std::isfinite(f) ? std::clamp(f, 0.0f, 1.0f) : 1.0f; };
-    c = {clamp01(c.x), clamp01(c.y), clamp01(c.z), clamp01(c.w)};
-  }
+  });
 }
 
 }  // namespace
@@ -267,10 +319,10 @@ Scene clean(Scene in, const CleanOptions& o, CleanReport* report) {
   for (size_t m = 0; m < in.meshes.size(); ++m) {
     Mesh mesh;
     mesh.name = in.meshes[m].name;
-    for (const Primitive& src : in.meshes[m].primitives) {
+    for (Primitive& src : in.meshes[m].primitives) {
       r.vertices_in += src.vertex_count();
       r.triangles_in += src.triangle_count();
-      Primitive p = src;
+      Primitive p = std::move(src);  // `in` is ours
       sanitize(p);
       if (o.generate_normals && has_broken_normals(p, o.remove_degenerate)) p.normals.clear();
       if (o.weld) p = weld(p);

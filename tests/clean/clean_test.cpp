@@ -231,5 +231,46 @@ TEST(Clean, IsDeterministic) {
   }
 }
 
+// A triangle soup of 180k corners (every triangle its own three vertices, as COLLADA and STL
+// deliver scans) is welded on every core: the shared grid vertices in the order the triangles
+// first reach them, duplicate triangles gone whatever their rotation, as one serial scan makes
+// them.
+TEST(Clean, LargeSoupWeldsInFirstOccurrenceOrder) {
+  const int g = 100;  // g × g cells, two triangles each
+  Primitive p;
+  auto corner = [&](int x, int y) {
+    p.positions.push_back({float(x), float(y), float((x * 7 + y * 3) % 5) * 0.1f});
+    p.normals.push_back({0, 0, 1});
+    p.indices.push_back(uint32_t(p.indices.size()));
+  };
+  for (int y = 0; y < g; ++y)
+    for (int x = 0; x < g; ++x) {
+      corner(x, y), corner(x + 1, y), corner(x + 1, y + 1);
+      corner(x, y), corner(x + 1, y + 1), corner(x, y + 1);
+    }
+  // Every tenth cell's first triangle again, rotated: a duplicate.
+  for (int c = 0; c < g * g; c += 10) {
+    const int x = c % g, y = c / g;
+    corner(x + 1, y + 1), corner(x, y), corner(x + 1, y);
+  }
+  CleanReport r;
+  const Scene out = clean(one_primitive(p), {}, &r);
+  const Primitive& q = out.meshes[0].primitives[0];
+  EXPECT_EQ(q.vertex_count(), size_t((g + 1) * (g + 1)));
+  EXPECT_EQ(q.triangle_count(), size_t(2 * g * g));
+  EXPECT_EQ(r.duplicates_removed, size_t(g * g / 10));
+  // First-occurrence order: the first cell brings (0,0), (1,0), (1,1), then (0,1); the second
+  // cell (2,0) and (2,1).
+  ASSERT_GE(q.positions.size(), 6u);
+  EXPECT_EQ(q.positions[3].x, 0.0f);
+  EXPECT_EQ(q.positions[3].y, 1.0f);
+  EXPECT_EQ(q.positions[4].x, 2.0f);
+  EXPECT_EQ(q.positions[5].y, 1.0f);
+  for (size_t i = 0; i < q.indices.size(); i += 3) {
+    const Vec3 a = q.positions[q.indices[i]], b = q.positions[q.indices[i + 1]];
+    ASSERT_FALSE(a == b) << "triangle " << i / 3;
+  }
+}
+
 }  // namespace
 }  // namespace meshmux
