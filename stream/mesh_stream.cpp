@@ -95,7 +95,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   const ProgressiveLevel& b = pm.levels[base_level];
   sim_.reset(nv, nf);
   sim_.reserve_capacities();  // the encoder reaches them: the whole record is coded
-  corner_enter_.reserve(size_t(nf) * 3);
+  face_source_.reserve(nf);
   // The base's faces grouped by source primitive (the base .glb writes one glTF primitive per
   // group, in primitive order, with exactly these indices), each group in vertex-cache order,
   // and its vertices in the order those faces first use them: what meshopt's index and vertex
@@ -170,9 +170,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
       }
       sim_.add_face(d[0], d[1], d[2]);
       // Slot s of the decoded face holds original corner (s + r) % 3.
-      const size_t source = face_of[begin / 3 + f];
-      for (int s = 0; s < 3; ++s)
-        corner_enter_.push_back(enter_[pm.indices[source * 3 + size_t((s + r) % 3)]]);
+      face_source_.push_back(face_of[begin / 3 + f] << 2 | uint32_t(r));
     }
     base_faces_.push_back(std::move(faces));
     begin = end;
@@ -315,7 +313,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   std::vector<uint8_t> takes, moved;  // per corner of the parent: taken by the new vertex
   std::vector<uint32_t> ring;
   struct NewFace {
-    uint32_t w, flip, orig[3];
+    uint32_t w, flip, source;  // source: the record's face << 2 | the rotation taking v first
   };
   std::vector<NewFace> made;  // one split's new faces (reused)
   uint32_t previous = 0, previous_mode = 1;
@@ -328,7 +326,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
     if (v + kAhead < vb) __builtin_prefetch(&sim_.head[parent_at(v + kAhead)]);
     if (v + kAhead / 2 < vb)
       if (const int32_t c = sim_.head[parent_at(v + kAhead / 2)]; c >= 0)
-        __builtin_prefetch(&sim_.next[size_t(c)]), __builtin_prefetch(&corner_enter_[size_t(c)]);
+        __builtin_prefetch(&sim_.next[size_t(c)]), __builtin_prefetch(&face_source_[size_t(c) / 3]);
     uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
     field(StreamField::kParent);
     out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
@@ -340,11 +338,11 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
     takes.clear();
     const uint32_t from = enter_[xv], to = from + size_[xv];
     for (int32_t c = sim_.head[p]; c >= 0; c = sim_.next[size_t(c)]) {
-      const uint32_t o = corner_enter_[size_t(c)];
+      const uint32_t o = corner_enter(c);
       takes.push_back(from <= o && o < to);
     }
     const uint32_t dc = std::min(uint32_t(takes.size()), kFanLimit);
-    // The new faces as (v, p, w) or (v, w, p), with the original corners behind each slot.
+    // The new faces as (v, p, w) or (v, w, p), with the record's face behind each.
     made.clear();
     for (uint32_t i = faces_start[v - va]; i < faces_start[v - va + 1]; ++i) {
       const uint32_t f = faces_of[i];
@@ -353,7 +351,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
       for (int k = 0; k < 3; ++k) s[k] = rank_[rep(o[k], v + 1)];
       int j = s[0] == v ? 0 : s[1] == v ? 1 : 2;
       uint32_t s1 = s[(j + 1) % 3], s2 = s[(j + 2) % 3];
-      NewFace nf{0, 0, {o[j], o[(j + 1) % 3], o[(j + 2) % 3]}};
+      NewFace nf{0, 0, f << 2 | uint32_t(j)};
       if (s[j] != v || (s1 != p && s2 != p)) {
         extras.push_back(f);  // not a split face (a malformed record): sent whole
         continue;
@@ -414,7 +412,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
         sim_.add_face(v, nf.w, p);
       else
         sim_.add_face(v, p, nf.w);
-      for (uint32_t o : nf.orig) corner_enter_.push_back(enter_[o]);
+      face_source_.push_back(nf.source);
     }
     uint32_t extent_class = 0;
     QuantizedVertex pred = sim_.predict(v, p, &extent_class), q = quantize(xv);
@@ -466,8 +464,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
       out.put_uint(x.escape, s[k]);
     }
     sim_.add_face(s[0], s[1], s[2]);
-    for (int k = 0; k < 3; ++k)
-      corner_enter_.push_back(enter_[pm_.indices[size_t(f) * 3 + size_t(k)]]);
+    face_source_.push_back(f << 2);
   }
   std::vector<uint8_t> plain = out.finish();
   if (!part_size_plausible(plain.size(), vb - va, fb - fa))
