@@ -691,7 +691,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   // Source attributes per wedge, from its primitive's vertex.
   for (uint32_t i = 0; i < nw; ++i) {
     uint32_t w = order[i];
-    const Primitive& src = mesh.primitives[u_.wedge_prim[w]];
+    const Primitive& src = mesh.primitives[u_.prim_of_wedge(w)];
     const uint32_t v = u_.wedge_vertex[w];
     pm.positions[i] = src.positions[v];
     if (has_normals && !src.normals.empty()) pm.normals[i] = src.normals[v];
@@ -706,7 +706,7 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   for (uint32_t i = 0; i < face_order.size(); ++i) {
     uint32_t f = face_order[i];
     for (int k = 0; k < 3; ++k) pm.indices[3 * i + k] = new_index[original_corners_[3 * f + k]];
-    if (!one_primitive) pm.face_primitive[i] = u_.face_prim[f];
+    if (!one_primitive) pm.face_primitive[i] = u_.prim_of_face(f);
   }
   pm.primitive_material.clear();
   pm.primitive_flat.clear();

@@ -136,7 +136,7 @@ struct Unit {
   // Wedges, concatenated over the mesh's primitives.
   std::vector<uint32_t> wedge_pos;     // wedge → position
   std::vector<uint32_t> wedge_group;   // wedge → (position, non-normal attributes) class
-  std::vector<uint32_t> wedge_prim;    // wedge → source primitive
+  std::vector<uint32_t> wedge_prim;    // wedge → source primitive (empty: all 0, one primitive)
   std::vector<uint32_t> wedge_vertex;  // wedge → its vertex in that primitive
   std::vector<Vec3> wedge_normal;      // may be empty (always, once a unit's costing is over)
   bool normals = false;                // the wedges have normals (wedge_normal while costing)
@@ -144,7 +144,9 @@ struct Unit {
   int channels = 0;
   std::vector<DVec3> pos;         // position → mesh-space point
   std::vector<uint32_t> corners;  // face × 3 wedges (current, remapped as we go)
-  std::vector<uint32_t> face_prim;
+  std::vector<uint32_t> face_prim;  // face → source primitive (empty: all 0, one primitive)
+  uint32_t prim_of_wedge(size_t w) const { return wedge_prim.empty() ? 0 : wedge_prim[w]; }
+  uint32_t prim_of_face(size_t f) const { return face_prim.empty() ? 0 : face_prim[f]; }
 };
 
 // Per-collapse record.

@@ -84,7 +84,7 @@ void permute(std::vector<T>& v, size_t width, const std::vector<uint32_t>& dest)
 }
 
 void spatial_order(Unit& u) {
-  const size_t np = u.pos.size(), nw = u.wedge_pos.size(), nf = u.face_prim.size();
+  const size_t np = u.pos.size(), nw = u.wedge_pos.size(), nf = u.corners.size() / 3;
   const size_t k = size_t(u.channels);
   DVec3 lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
   for (const DVec3& p : u.pos) {
@@ -150,7 +150,7 @@ void wedge_classes(Unit& u) {
     return a == b && std::memcmp(&a, &b, sizeof(float)) == 0;
   };
   auto same_class = [&](uint32_t e, uint32_t w) {
-    bool same = u.wedge_prim[e] == u.wedge_prim[w];
+    bool same = u.prim_of_wedge(e) == u.prim_of_wedge(w);
     for (size_t c = skip; c < k && same; ++c)
       same = same_value(u.attr[e * k + c], u.attr[w * k + c]);
     return same;
@@ -170,7 +170,7 @@ void wedge_classes(Unit& u) {
       const uint32_t w = at[i];
       uint32_t first = KeyTable::kEmpty;
       if (by_value) {
-        uint64_t h = (uint64_t(u.wedge_prim[w]) + 1) * 0xD6E8FEB86659FD93ull;
+        uint64_t h = (uint64_t(u.prim_of_wedge(w)) + 1) * 0xD6E8FEB86659FD93ull;
         for (size_t c = skip; c < k; ++c) {
           uint32_t b;
           std::memcpy(&b, &u.attr[w * k + c], 4);
@@ -210,10 +210,14 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
     wedges += p.vertex_count(), corners += p.indices.size();
   // Sized once: grown by doubling, a 4M-triangle scan's arrays held up to twice their size and
   // both copies while moving, at the stage's peak (with the table below).
-  u.wedge_pos.reserve(wedges), u.wedge_prim.reserve(wedges), u.wedge_vertex.reserve(wedges);
+  // One primitive (a scan, most big meshes) keeps no primitive per wedge and face: 120 MB at
+  // 20M triangles.
+  const bool many = mesh.primitives.size() > 1;
+  u.wedge_pos.reserve(wedges), u.wedge_vertex.reserve(wedges);
+  if (many) u.wedge_prim.reserve(wedges), u.face_prim.reserve(corners / 3);
   u.attr.reserve(wedges * size_t(u.channels));
   if (normals) u.wedge_normal.reserve(wedges);
-  u.corners.reserve(corners), u.face_prim.reserve(corners / 3);
+  u.corners.reserve(corners);
   u.pos.reserve(wedges);  // at most one position per wedge (grown by doubling: 400 MB at 20M)
   {  // the table goes before the classes' lists and spatial_order's arrays come
     KeyTable pos_of(wedges);  // position hash → positions
@@ -232,7 +236,7 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
           pos_of.insert(h, pid);
         }
         u.wedge_pos.push_back(pid);
-        u.wedge_prim.push_back(pi);
+        if (many) u.wedge_prim.push_back(pi);
         u.wedge_vertex.push_back(uint32_t(v));
         if (normals) u.wedge_normal.push_back(p.normals[v]);
         // Weighted attribute channels.
@@ -251,7 +255,7 @@ Unit make_unit(const Mesh& mesh, const SimplifyOptions& opt) {
       }
       for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
         for (int c = 0; c < 3; ++c) u.corners.push_back(first + p.indices[t + size_t(c)]);
-        u.face_prim.push_back(pi);
+        if (many) u.face_prim.push_back(pi);
       }
     }
   }
