@@ -323,7 +323,14 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   constexpr uint32_t kAhead = 16;
   auto parent_at = [&](uint32_t v) { return rank_[pm_.parent[order_[v]]]; };
   for (uint32_t v = va; v < vb; ++v) {
-    if (v + kAhead < vb) __builtin_prefetch(&sim_.head[parent_at(v + kAhead)]);
+    if (v + kAhead < vb) {
+      __builtin_prefetch(&sim_.head[parent_at(v + kAhead)]);
+      // The new vertex's attributes, for quantize() (its record vertex is far from the last's).
+      const uint32_t ahead = order_[v + kAhead];
+      __builtin_prefetch(&pm_.positions[ahead]);
+      if (ahead < pm_.normals.size()) __builtin_prefetch(&pm_.normals[ahead]);
+      if (!pm_.uvs.empty() && ahead < pm_.uvs[0].size()) __builtin_prefetch(&pm_.uvs[0][ahead]);
+    }
     if (v + kAhead / 2 < vb)
       if (const int32_t c = sim_.head[parent_at(v + kAhead / 2)]; c >= 0)
         __builtin_prefetch(&sim_.next[size_t(c)]), __builtin_prefetch(&face_source_[size_t(c) / 3]);
