@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/parallel.h"
 #include "image/color.h"
 
 namespace meshmux {
@@ -56,32 +57,39 @@ Image resize_cubic(const Image& in, int width, int height, bool srgb) {
   out.width = width;
   out.height = height;
   const size_t iw = size_t(in.width), ih = size_t(in.height);
-  // Linear values, 4 per texel.
+  // Linear values, 4 per texel. Each pass in bands of rows on every core (each band writes its
+  // own rows: the same values whatever the thread count).
   std::vector<float> src(iw * ih * 4);
-  for (size_t i = 0; i < src.size(); ++i)
-    src[i] = srgb && i % 4 != 3 ? srgb_to_linear(in.rgba[i]) : in.rgba[i] / 255.0f;
+  parallel_chunks(ih, 16, [&](size_t y0, size_t y1) {
+    for (size_t i = y0 * iw * 4; i < y1 * iw * 4; ++i)
+      src[i] = srgb && i % 4 != 3 ? srgb_to_linear(in.rgba[i]) : in.rgba[i] / 255.0f;
+  });
   const Taps tx = taps(in.width, width), ty = taps(in.height, height);
   std::vector<float> rows(size_t(width) * ih * 4);  // horizontal pass
-  for (size_t y = 0; y < ih; ++y)
-    for (size_t x = 0; x < size_t(width); ++x)
-      for (size_t c = 0; c < 4; ++c) {
-        double v = 0;
-        for (size_t k = 0; k < 4; ++k)
-          v += tx.weight[x * 4 + k] * src[(y * iw + size_t(tx.index[x * 4 + k])) * 4 + c];
-        rows[(y * size_t(width) + x) * 4 + c] = float(v);
-      }
+  parallel_chunks(ih, 16, [&](size_t y0, size_t y1) {
+    for (size_t y = y0; y < y1; ++y)
+      for (size_t x = 0; x < size_t(width); ++x)
+        for (size_t c = 0; c < 4; ++c) {
+          double v = 0;
+          for (size_t k = 0; k < 4; ++k)
+            v += tx.weight[x * 4 + k] * src[(y * iw + size_t(tx.index[x * 4 + k])) * 4 + c];
+          rows[(y * size_t(width) + x) * 4 + c] = float(v);
+        }
+  });
   out.rgba.resize(size_t(width) * size_t(height) * 4);
-  for (size_t y = 0; y < size_t(height); ++y)
-    for (size_t x = 0; x < size_t(width); ++x)
-      for (size_t c = 0; c < 4; ++c) {
-        double v = 0;
-        for (size_t k = 0; k < 4; ++k)
-          v += ty.weight[y * 4 + k] *
-               rows[(size_t(ty.index[y * 4 + k]) * size_t(width) + x) * 4 + c];
-        const float f = float(std::clamp(v, 0.0, 1.0));
-        out.rgba[(y * size_t(width) + x) * 4 + c] =
-            srgb && c != 3 ? linear_to_srgb(f) : uint8_t(std::lround(f * 255.0f));
-      }
+  parallel_chunks(size_t(height), 16, [&](size_t y0, size_t y1) {
+    for (size_t y = y0; y < y1; ++y)
+      for (size_t x = 0; x < size_t(width); ++x)
+        for (size_t c = 0; c < 4; ++c) {
+          double v = 0;
+          for (size_t k = 0; k < 4; ++k)
+            v += ty.weight[y * 4 + k] *
+                 rows[(size_t(ty.index[y * 4 + k]) * size_t(width) + x) * 4 + c];
+          const float f = float(std::clamp(v, 0.0, 1.0));
+          out.rgba[(y * size_t(width) + x) * 4 + c] =
+              srgb && c != 3 ? linear_to_srgb(f) : uint8_t(std::lround(f * 255.0f));
+        }
+  });
   return out;
 }
 
