@@ -89,6 +89,28 @@ TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
     EXPECT_EQ(one.levels[i].error, three.levels[i].error);
 }
 
+// The spilled quadrics are read back and placed into the mapped rest block by block on every
+// core (each block fills its own slots): one thread or three, the same record.
+TEST(BlockLevels, SpilledQuadricsPlacedOnEveryCoreGiveTheSameRecord) {
+  const Scene s = sphere_scene();
+  testing::TempDir dir;
+  SimplifyOptions spilled = block_options();
+  spilled.spill_dir = dir.path();
+  auto with_threads = [&](const char* n) {
+    setenv("MESHMUX_THREADS", n, 1);
+    ProgressiveMesh pm = build_progressive(s, spilled).meshes[0];
+    unsetenv("MESHMUX_THREADS");
+    return pm;
+  };
+  const ProgressiveMesh one = with_threads("1"), three = with_threads("3");
+  EXPECT_EQ(one.indices, three.indices);
+  EXPECT_EQ(one.parent, three.parent);
+  EXPECT_EQ(one.positions.size(), three.positions.size());
+  ASSERT_EQ(one.levels.size(), three.levels.size());
+  for (size_t i = 0; i < one.levels.size(); ++i)
+    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+}
+
 // The first level's quadrics may wait in a file (SimplifyOptions::spill_dir) instead of memory,
 // and the rest's live in pages mapped from another one through its levels, dropped from memory
 // block by block, then copied in for the last loop: what comes back is what went out, so the
