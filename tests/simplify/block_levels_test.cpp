@@ -3,19 +3,21 @@
 // so that a sphere of 16k triangles takes the block path in several levels of many blocks.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <tuple>
 
 #include "clean/clean.h"
 #include "simplify/lod.h"
+#include "simplify/record_checks.h"
 #include "simplify/simplify.h"
 #include "test_util.h"
 
 namespace meshmux {
 namespace {
 
+using testing::expect_same_record;
+using testing::record_on_threads;
 using testing::uv_sphere;
 
 // Blocks of 512 positions over a 16k-triangle sphere: ~16 blocks at the first level, block
@@ -75,18 +77,8 @@ TEST(BlockLevels, RecordIsClosedAndValidAtEveryLevel) {
 // Blocks run on every core; the record must not depend on how many there are.
 TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
   const Scene s = sphere_scene();
-  auto with_threads = [&](const char* n) {
-    setenv("MESHMUX_THREADS", n, 1);
-    ProgressiveMesh pm = build_progressive(s, block_options()).meshes[0];
-    unsetenv("MESHMUX_THREADS");
-    return pm;
-  };
-  const ProgressiveMesh one = with_threads("1"), three = with_threads("3");
-  EXPECT_EQ(one.indices, three.indices);
-  EXPECT_EQ(one.parent, three.parent);
-  ASSERT_EQ(one.levels.size(), three.levels.size());
-  for (size_t i = 0; i < one.levels.size(); ++i)
-    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+  expect_same_record(record_on_threads(s, block_options(), "1"),
+                     record_on_threads(s, block_options(), "3"));
 }
 
 // The spilled quadrics are read back and placed into the mapped rest block by block on every
@@ -96,19 +88,7 @@ TEST(BlockLevels, SpilledQuadricsPlacedOnEveryCoreGiveTheSameRecord) {
   testing::TempDir dir;
   SimplifyOptions spilled = block_options();
   spilled.spill_dir = dir.path();
-  auto with_threads = [&](const char* n) {
-    setenv("MESHMUX_THREADS", n, 1);
-    ProgressiveMesh pm = build_progressive(s, spilled).meshes[0];
-    unsetenv("MESHMUX_THREADS");
-    return pm;
-  };
-  const ProgressiveMesh one = with_threads("1"), three = with_threads("3");
-  EXPECT_EQ(one.indices, three.indices);
-  EXPECT_EQ(one.parent, three.parent);
-  EXPECT_EQ(one.positions.size(), three.positions.size());
-  ASSERT_EQ(one.levels.size(), three.levels.size());
-  for (size_t i = 0; i < one.levels.size(); ++i)
-    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+  expect_same_record(record_on_threads(s, spilled, "1"), record_on_threads(s, spilled, "3"));
 }
 
 // The first level's quadrics may wait in a file (SimplifyOptions::spill_dir) instead of memory,
@@ -125,10 +105,7 @@ TEST(BlockLevels, SpilledQuadricsGiveTheSameRecord) {
   const ProgressiveMesh b = build_progressive(s, spilled, &report).meshes[0];
   EXPECT_GT(report.spilled_bytes, 100000u);  // the quadrics of ~8k positions and wedges
   EXPECT_GT(report.mapped_bytes, 50000u);    // the rest's, mapped through its levels
-  EXPECT_EQ(a.indices, b.indices);
-  EXPECT_EQ(a.parent, b.parent);
-  ASSERT_EQ(a.levels.size(), b.levels.size());
-  for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
+  expect_same_record(a, b);
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
 }
 

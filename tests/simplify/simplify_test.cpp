@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <map>
 #include <random>
 #include <set>
@@ -13,11 +12,14 @@
 #include "clean/clean.h"
 #include "importers/import.h"
 #include "simplify/lod.h"
+#include "simplify/record_checks.h"
 #include "test_util.h"
 
 namespace meshmux {
 namespace {
 
+using testing::expect_same_record;
+using testing::record_on_threads;
 using testing::uv_sphere;
 
 // A cube whose faces are n×n grids with one normal per face (flat shading): every edge and
@@ -457,20 +459,8 @@ TEST(Simplify, IsDeterministic) {
 // (determinism whatever the thread count). The sphere is large enough (16k triangles) for the
 // first passes to re-cost thousands of positions in several chunks on several threads.
 TEST(Simplify, RecordIsTheSameWhateverTheThreadCount) {
-  Scene s = scene_of(uv_sphere(64, 128));
-  auto with_threads = [&](const char* n) {
-    setenv("MESHMUX_THREADS", n, 1);
-    ProgressiveMesh pm = build_progressive(s, {}).meshes[0];
-    unsetenv("MESHMUX_THREADS");
-    return pm;
-  };
-  ProgressiveMesh one = with_threads("1"), three = with_threads("3");
-  EXPECT_EQ(one.indices, three.indices);
-  EXPECT_EQ(one.parent, three.parent);
-  EXPECT_EQ(one.positions.size(), three.positions.size());
-  ASSERT_EQ(one.levels.size(), three.levels.size());
-  for (size_t i = 0; i < one.levels.size(); ++i)
-    EXPECT_EQ(one.levels[i].error, three.levels[i].error);
+  const Scene s = scene_of(uv_sphere(64, 128));
+  expect_same_record(record_on_threads(s, {}, "1"), record_on_threads(s, {}, "3"));
 }
 
 // A scan's vertices and triangles come in no spatial order; the simplifier puts its working

@@ -1,0 +1,31 @@
+// What the simplifier's tests share: a record built on a given number of threads, and two
+// records compared as determinism asks (the same faces, parents, vertices and level errors).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "simplify/simplify.h"
+
+namespace meshmux::testing {
+
+// The record of `s`'s first mesh, built with `o` on `threads` threads (MESHMUX_THREADS).
+inline ProgressiveMesh record_on_threads(const Scene& s, const SimplifyOptions& o,
+                                         const char* threads) {
+  setenv("MESHMUX_THREADS", threads, 1);
+  ProgressiveMesh pm = build_progressive(s, o).meshes[0];
+  unsetenv("MESHMUX_THREADS");
+  return pm;
+}
+
+// The same record: faces, parents, vertex count and every level's error.
+inline void expect_same_record(const ProgressiveMesh& a, const ProgressiveMesh& b) {
+  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(a.parent, b.parent);
+  EXPECT_EQ(a.positions.size(), b.positions.size());
+  ASSERT_EQ(a.levels.size(), b.levels.size());
+  for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
+}
+
+}  // namespace meshmux::testing
