@@ -16,7 +16,6 @@
 #include <optional>
 
 #include "core/parallel.h"
-#include "image/decode.h"
 #include "image/kept_levels.h"
 #include "multiplex/decode_ahead.h"
 #include "multiplex/distortion.h"
