@@ -23,8 +23,8 @@ void parallel_chunks(size_t n, size_t chunk, const std::function<void(size_t, si
   chunk = std::max<size_t>(1, chunk);
   const size_t chunks = (n + chunk - 1) / chunk;
   const size_t threads = std::min<size_t>(size_t(worker_threads()), chunks);
-  if (threads <= 1) {
-    if (n > 0) f(0, n);
+  if (threads <= 1) {  // the same chunks, in order: a caller may size its work by them
+    for (size_t c = 0; c < chunks; ++c) f(c * chunk, std::min(n, (c + 1) * chunk));
     return;
   }
   std::atomic<size_t> next{0};

@@ -15,7 +15,8 @@ namespace meshmux {
 int worker_threads();
 
 // Calls f(begin, end) for consecutive chunks of `chunk` items covering [0, n), on up to
-// worker_threads() threads (the caller's own among them). An exception thrown by f stops the
+// worker_threads() threads (the caller's own among them); the same chunks on one thread as on
+// many. An exception thrown by f stops the
 // remaining chunks and is rethrown here (the first one). O(n / chunk) scheduling.
 void parallel_chunks(size_t n, size_t chunk, const std::function<void(size_t, size_t)>& f);
 

@@ -43,32 +43,32 @@ std::vector<float> dfg_lut(int samples) {
     u2s[size_t(k)] = radical_inverse(uint32_t(k));
   }
   // Rows on every core: each writes its own texels.
-  parallel_chunks(size_t(n), 1, [&](size_t row, size_t) {
-    const int j = int(row);
-    for (int i = 0; i < n; ++i) {
-      const double roughness = (i + 0.5) / n, nv = (j + 0.5) / n;
-      const double alpha = roughness * roughness, a2 = alpha * alpha;
-      const double vx = std::sqrt(1 - nv * nv), vz = nv;  // view direction, N = +z
-      double scale = 0, bias = 0;
-      for (int k = 0; k < samples; ++k) {
-        const double u2 = u2s[size_t(k)];
-        const double cos_t = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2));
-        const double sin_t = std::sqrt(std::max(0.0, 1 - cos_t * cos_t));
-        const double hx = sin_t * cos_phi[size_t(k)], hz = cos_t;  // H's y does not enter
-        const double vh = vx * hx + vz * hz;
-        const double lz = 2 * vh * hz - vz;  // L = 2 (V·H) H − V, its z is N·L
-        const double nl = std::clamp(lz, 0.0, 1.0), nh = std::clamp(hz, 0.0, 1.0);
-        if (nl <= 0 || nh <= 0) continue;
-        const double vh_c = std::clamp(vh, 0.0, 1.0);
-        // f · N·L / pdf with pdf = D · N·H / (4 V·H): the D cancels.
-        const double g_vis = 4 * visibility(alpha, nl, nv) * nl * vh_c / nh;
-        const double fc = std::pow(1 - vh_c, 5);
-        scale += (1 - fc) * g_vis;
-        bias += fc * g_vis;
+  parallel_chunks(size_t(n), 1, [&](size_t row_begin, size_t row_end) {
+    for (int j = int(row_begin); j < int(row_end); ++j)
+      for (int i = 0; i < n; ++i) {
+        const double roughness = (i + 0.5) / n, nv = (j + 0.5) / n;
+        const double alpha = roughness * roughness, a2 = alpha * alpha;
+        const double vx = std::sqrt(1 - nv * nv), vz = nv;  // view direction, N = +z
+        double scale = 0, bias = 0;
+        for (int k = 0; k < samples; ++k) {
+          const double u2 = u2s[size_t(k)];
+          const double cos_t = std::sqrt((1 - u2) / (1 + (a2 - 1) * u2));
+          const double sin_t = std::sqrt(std::max(0.0, 1 - cos_t * cos_t));
+          const double hx = sin_t * cos_phi[size_t(k)], hz = cos_t;  // H's y does not enter
+          const double vh = vx * hx + vz * hz;
+          const double lz = 2 * vh * hz - vz;  // L = 2 (V·H) H − V, its z is N·L
+          const double nl = std::clamp(lz, 0.0, 1.0), nh = std::clamp(hz, 0.0, 1.0);
+          if (nl <= 0 || nh <= 0) continue;
+          const double vh_c = std::clamp(vh, 0.0, 1.0);
+          // f · N·L / pdf with pdf = D · N·H / (4 V·H): the D cancels.
+          const double g_vis = 4 * visibility(alpha, nl, nv) * nl * vh_c / nh;
+          const double fc = std::pow(1 - vh_c, 5);
+          scale += (1 - fc) * g_vis;
+          bias += fc * g_vis;
+        }
+        out[(size_t(j) * n + size_t(i)) * 2 + 0] = float(scale / samples);
+        out[(size_t(j) * n + size_t(i)) * 2 + 1] = float(bias / samples);
       }
-      out[(size_t(j) * n + size_t(i)) * 2 + 0] = float(scale / samples);
-      out[(size_t(j) * n + size_t(i)) * 2 + 1] = float(bias / samples);
-    }
   });
   return out;
 }

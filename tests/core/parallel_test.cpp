@@ -22,6 +22,28 @@ TEST(ParallelChunks, VisitsEveryIndexOnce) {
   for (size_t i = 0; i < seen.size(); ++i) ASSERT_EQ(seen[i].load(), 1) << i;
 }
 
+// Why: a caller may size its work by the chunk it is handed (one row band, one piece of a PNG,
+// one texel row of a table); one thread must hand over the same chunks as many, or such a caller
+// does only its first chunk's work where MESHMUX_THREADS=1 (a renderer's lighting table once
+// computed one row of sixteen there, and the package differed between 1 and 3 threads).
+TEST(ParallelChunks, OneThreadGetsTheSameChunksAsMany) {
+  auto chunks = [](const char* threads) {
+    setenv("MESHMUX_THREADS", threads, 1);
+    std::vector<std::atomic<int>> calls(100);  // per begin
+    parallel_chunks(1000, 10, [&](size_t begin, size_t end) {
+      EXPECT_EQ(end - begin, 10u);
+      ++calls[begin / 10];
+    });
+    unsetenv("MESHMUX_THREADS");
+    std::vector<int> out;
+    for (const auto& c : calls) out.push_back(c.load());
+    return out;
+  };
+  const std::vector<int> one = chunks("1");
+  EXPECT_EQ(one, std::vector<int>(100, 1));
+  EXPECT_EQ(one, chunks("3"));
+}
+
 // Why: an exception in a worker (out of memory in a bake) must reach the caller, not end the
 // process.
 TEST(ParallelChunks, RethrowsAWorkersException) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "image/color.h"
 #include "multiplex/dfg_lut.h"
@@ -58,6 +59,22 @@ RenderOptions headlight() {
 // Head-on (N = V = L) the shading has a closed form: every dot product is 1, the DFG table is
 // read at its (roughness, 1) corner. A grey dielectric of roughness 1 under the headlight and
 // the uniform environment must come out as that form says, sRGB-encoded.
+// The split-sum table is integrated in rows on every core: on one thread every row must still
+// be there (it once held only its first row where MESHMUX_THREADS=1, and every package's renders,
+// so its order, differed between 1 and 3 threads).
+TEST(PhysicalShading, SplitSumTableIsTheSameWhateverTheThreadCount) {
+  auto table = [](const char* threads) {
+    setenv("MESHMUX_THREADS", threads, 1);
+    std::vector<float> lut = dfg_lut(256);
+    unsetenv("MESHMUX_THREADS");
+    return lut;
+  };
+  const std::vector<float> one = table("1");
+  EXPECT_EQ(one, table("3"));
+  // Grazing rows are not empty: the last row's smooth end reflects nearly all.
+  EXPECT_GT(one[(size_t(kDfgLutSize - 1) * kDfgLutSize) * 2], 0.5f);
+}
+
 TEST(PhysicalShading, DielectricHeadOnMatchesTheClosedForm) {
   const RenderOptions o = headlight();
   MAKE_RENDERER(r, o);
