@@ -1,6 +1,7 @@
 #include "multiplex/decode_ahead.h"
 
 #include <algorithm>
+#include <exception>
 #include <utility>
 
 #include "image/decode.h"
@@ -37,7 +38,14 @@ void DecodeAhead::decode(size_t k) {
   image.name = items_[k].name;
   if (items_[k].encoded) image.encoded = *items_[k].encoded;
   image.mime_type = items_[k].mime_type;
-  Status s = decode_image(image);
+  // A throw (out of memory) becomes this image's error: whoever waits for it must wake.
+  Status s = Status::ok();
+  try {
+    s = decode_image(image);
+  } catch (const std::exception& e) {
+    image.rgba.clear();
+    s = Status::error("multiplex: " + items_[k].name + ": " + e.what(), ErrorKind::kInternal);
+  }
   image.encoded.clear();
   image.encoded.shrink_to_fit();
   {
