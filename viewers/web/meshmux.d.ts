@@ -40,8 +40,14 @@ export interface MeshmuxStreamOptions {
   dracoDecoderPath?: string;
   /** The camera the model is seen through: the stored order is re-planned for it before each batch. */
   camera?: Camera | null;
-  /** false keeps the stored order whatever the camera (default true). */
+  /** false keeps the stored order whatever the camera and canvas (default true). */
   adaptive?: boolean;
+  /**
+   * The canvas the model is seen on, [width, height] device pixels: smaller than the package's
+   * display (its table's view.display), the order is re-planned so that texture levels no pixel
+   * of it resolves come last. Default: the renderer's drawing buffer, read at each re-plan.
+   */
+  display?: [number, number] | null;
   /**
    * A request for the package's first PROBE_BYTES bytes (Range: bytes=0-65535) the page made
    * before this module loaded: taken over instead of asking again.
@@ -151,6 +157,10 @@ export class MeshmuxStream extends EventTarget {
   /** Non-fatal findings about the package. */
   readonly notes: string[];
   budgetBytes: number;
+  /** The canvas the order is planned for ([width, height] device pixels), null: the renderer's. */
+  display: [number, number] | null;
+  /** The canvas size used: `display`, else the renderer's drawing buffer, else null. */
+  canvasSize(): [number, number] | null;
   readonly state: MeshmuxState;
   readonly playing: boolean;
   /** uploadsBeside: the Promise of the texture level going up (and those before it), or null. */

@@ -33,7 +33,7 @@ import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate,
 import { PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
-import { planRemaining, sequenceDistortion, viewWeights } from './view_plan.js';
+import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
 
 export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, loadDecoder };
@@ -86,7 +86,11 @@ export class MeshmuxStream extends EventTarget {
   // taken; true: once its maps are decoded the stream goes on, the level's upload and swap
   // running beside the next chunks, levels still shown in order (`uploading` is the Promise of
   // the last one, null when none is left); MeshmuxWorld sets it, so that a package's grant ends
-  // with its bytes decoded and a texture level being uploaded holds no request slot).
+  // with its bytes decoded and a texture level being uploaded holds no request slot), display
+  // ([width, height] in device pixels: the canvas the model is seen on, for which the order is
+  // re-planned when it is smaller than the display the package was ordered for (texture levels
+  // no pixel of it resolves go last, view_plan.js textureAxis); default null: the renderer's
+  // drawing buffer, read at each re-plan; without either, the package's display).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
@@ -94,7 +98,7 @@ export class MeshmuxStream extends EventTarget {
       dracoDecoderPath: DRACO_DECODER_PATH,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
       probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, uploadsBeside: false,
-      ...options };
+      display: null, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -139,6 +143,24 @@ export class MeshmuxStream extends EventTarget {
 
   get budgetBytes() { return this.options.budgetBytes; }
   set budgetBytes(bytes) { this.options.budgetBytes = bytes; }
+  // The canvas the order is planned for ([width, height] device pixels; null: the renderer's).
+  get display() { return this.options.display; }
+  set display(size) { this.options.display = size ? [Number(size[0]), Number(size[1])] : null; }
+
+  // The canvas in device pixels: options.display, else the renderer's drawing buffer, else null.
+  canvasSize() {
+    if (this.options.display) return this.options.display;
+    const r = this.options.renderer;
+    if (!r || typeof r.getDrawingBufferSize !== 'function') return null;
+    const v = r.getDrawingBufferSize(new THREE.Vector2());
+    return v.x > 0 && v.y > 0 ? [v.x, v.y] : null;
+  }
+
+  // Per texture level, where the package's per-view table is read for this canvas (view_plan.js
+  // textureAxis); null when the canvas is not smaller than the package's display.
+  textureAxis() {
+    return this.table ? textureAxis(this.table, displayScale(this.table, this.canvasSize())) : null;
+  }
   get state() { return this._state; }
   get playing() { return this._playing !== null; }
   // uploadsBeside: the Promise of the texture level being uploaded (it resolves once that level
@@ -542,25 +564,32 @@ export class MeshmuxStream extends EventTarget {
     return batch;
   }
 
-  // Re-plans the chunks from position `pos` on for the camera's direction (view_plan.js): only
-  // the stored order is adapted (a baseline chosen by name is played as it is), and only with a
-  // camera and the package's per-view table.
+  // Re-plans the chunks from position `pos` on for the camera's direction and the canvas
+  // (view_plan.js): only the stored order is adapted (a baseline chosen by name is played as it
+  // is), and only with the package's per-view table and a camera or a canvas smaller than the
+  // package's display (without a camera: from the package's default view direction).
   _replan(pos) {
     const camera = this.options.camera, vt = this.table.view_table;
-    if (!this.options.adaptive || !camera || !vt || this.order !== this.table.orders[0] || pos >= this._sequence.length) return;
-    const centre = this.worldBounds().getCenter(new THREE.Vector3());
-    const eye = camera.getWorldPosition(new THREE.Vector3());
-    const direction = eye.sub(centre);
-    this.object.updateWorldMatrix(true, false);
-    direction.transformDirection(new THREE.Matrix4().copy(this.object.matrixWorld).invert());
-    // Planned already at this position from within a degree of this direction: kept (a world
-    // asks every package before each of its requests).
-    const last = this._planned;
-    if (last && last.pos === pos && last.direction.dot(direction) > REPLAN_COS) return;
-    this._planned = { pos, direction };
+    if (!this.options.adaptive || !vt || this.order !== this.table.orders[0] || pos >= this._sequence.length) return;
+    const axis = this.textureAxis();
+    if (!camera && !axis) return;
+    let direction;
+    if (camera) {
+      const centre = this.worldBounds().getCenter(new THREE.Vector3());
+      direction = camera.getWorldPosition(new THREE.Vector3()).sub(centre);
+      this.object.updateWorldMatrix(true, false);
+      direction.transformDirection(new THREE.Matrix4().copy(this.object.matrixWorld).invert());
+    } else {
+      direction = new THREE.Vector3().fromArray(this.table.view.direction).normalize();
+    }
+    // Planned already at this position from within a degree of this direction, for the same
+    // canvas: kept (a world asks every package before each of its requests).
+    const last = this._planned, key = axis ? axis.join(',') : '';
+    if (last && last.pos === pos && last.axis === key && last.direction.dot(direction) > REPLAN_COS) return;
+    this._planned = { pos, direction, axis: key };
     const applied = new Set(this._sequence.slice(0, pos));
     const stored = this.order.chunks.filter((c) => !applied.has(c));
-    const plan = planRemaining(this.table, viewWeights(vt, direction.toArray()), applied, stored);
+    const plan = planRemaining(this.table, viewWeights(vt, direction.toArray()), applied, stored, axis);
     this._sequence = this._sequence.slice(0, pos).concat(plan.sequence);
     this._sequenceDistortion = sequenceDistortion(this.table, this._sequence);
     const adaptedBefore = this._followed === 'view-adapted';

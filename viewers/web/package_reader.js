@@ -94,6 +94,12 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // As the C++ reader (stream/package_read.cpp read_view): the field of view inside (0, 180).
   need(view.fov > 0 && view.fov < 180, `view.fov_y_degrees must be in (0, 180) (got ${view.fov})`);
   need(v.shading === undefined || v.shading === 'lambert' || v.shading === 'physical', `view.shading must be "lambert" or "physical" (got ${JSON.stringify(v.shading)})`);
+  // Optional, as the C++ reader: the display the order was made for, two integers in [1, 65536].
+  if (v.display !== undefined) {
+    need(Array.isArray(v.display) && v.display.length === 2, 'view: "display" must be two integers');
+    view.display = v.display.map((x, i) => int(x, `view.display[${i}]`, 65536));
+    need(view.display.every((x) => x >= 1), 'view: display out of range');
+  }
   if (view.physical) {
     view.environment = num(v.environment, 'view.environment', 0, 100);
     view.lightIntensity = num(v.light_intensity, 'view.light_intensity', 0, 1000);

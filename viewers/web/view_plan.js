@@ -13,6 +13,16 @@
 //
 // Moves: the k-th mesh chunk of the stored order is mesh layer k + 1, the k-th texture chunk
 // texture level k + 1 (the stored order moves one layer at a time, each axis in order).
+//
+// The canvas: the table was measured for a display (the table's view.display, device pixels;
+// the renders sample textures with that display's pixel footprint). On a canvas whose smaller
+// side is a fraction s < 1 of the display's, mip selection needs 1/s fewer texels per side: the
+// picture with texture level j there is the display's picture with the level 1/s times wider,
+// drawn smaller. So the client reads the table's texture axis at that wider level
+// (displayScale / textureAxis below; log-linear between levels, the top level where the wider
+// one does not exist): levels no pixel of the canvas resolves gain nothing there and go after
+// everything that can be seen (kept for zooming in). A canvas as large as the display or larger
+// reads the table as it is.
 
 // Per-view weights (summing to 1) for a direction from the model's centre (any length).
 export function viewWeights(viewTable, direction) {
@@ -48,13 +58,55 @@ function dot(a, b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 function cross(a, b) { return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]; }
 
 // The interpolated surface: per cell (i × texture_layers + j) the weighted distortion, or NaN
-// where the table has no measure.
-export function surface(viewTable, weights) {
-  return viewTable.distortion.map((cell) => {
+// where the table has no measure. With `axis` (textureAxis: per texture level, the fractional
+// level of the table it reads), the texture axis is read there: the surface for a canvas.
+export function surface(viewTable, weights, axis = null) {
+  const D = viewTable.distortion.map((cell) => {
     if (!cell) return NaN;
     let s = 0;
     for (let v = 0; v < cell.length; v++) s += weights[v] * cell[v];
     return s;
+  });
+  if (!axis) return D;
+  const n = viewTable.texture_layers, out = new Array(D.length);
+  for (let i = 0; i < viewTable.mesh_layers; i++)
+    for (let j = 0; j < n; j++) {
+      const x = Math.min(n - 1, Math.max(j, axis[j])), lo = Math.floor(x), hi = Math.min(n - 1, lo + 1), f = x - lo;
+      out[i * n + j] = f > 0 ? (1 - f) * D[i * n + lo] + f * D[i * n + hi] : D[i * n + lo];
+    }
+  return out;
+}
+
+// The canvas against the table's display: the ratio of their smaller sides (device pixels),
+// at most 1; 1 where either is unknown.
+export function displayScale(table, canvas) {
+  const d = table && table.view && table.view.display;
+  if (!d || !canvas) return 1;
+  const have = Math.min(canvas[0], canvas[1]), made = Math.min(d[0], d[1]);
+  return have > 0 && made > 0 ? Math.min(1, have / made) : 1;
+}
+
+// Per texture level j (0: the base's, then each texture chunk's), the fractional level of the
+// table whose picture on the display is level j's on a canvas `scale` (displayScale) of it:
+// the level 1/scale times wider, log-linear between the levels' widths, the top level past
+// them; null where the table needs no re-reading (scale 1, no texture levels). The base's
+// width is not in the table: one step of the chain below the first level's.
+export function textureAxis(table, scale) {
+  const vt = table.view_table;
+  if (!vt || !(scale < 1) || vt.texture_layers < 2) return null;
+  const widths = layerChunks(table).texture.map((c) => Math.max(1, table.chunks[c].width || 1));
+  if (widths.length + 1 !== vt.texture_layers) return null;
+  const step = widths.length > 1 && widths[1] > widths[0] ? widths[1] / widths[0] : 2;
+  const logs = [Math.log2(widths[0] / step), ...widths.map(Math.log2)], top = logs.length - 1;
+  return logs.map((l, j) => {
+    const want = l - Math.log2(scale);
+    let x = j;
+    for (let k = j; k < top; k++) {
+      if (want >= logs[k + 1]) { x = k + 1; continue; }
+      if (logs[k + 1] > logs[k] && want > logs[k]) x = k + (want - logs[k]) / (logs[k + 1] - logs[k]);
+      break;
+    }
+    return x;
   });
 }
 
@@ -90,12 +142,13 @@ export function pathArea(table, D, layers, i, j, sequence) {
 
 // The remaining chunks for the view whose weights are given, after `applied` chunks (the
 // sequence's prefix): { sequence, adapted } — the steepest descent on the interpolated surface
-// when its area is below the stored order's remainder (`stored`, the chunks not yet applied in
-// the order being followed), else `stored` itself.
-export function planRemaining(table, weights, applied, stored) {
+// (read for the canvas when `axis` is given: textureAxis) when its area is below the stored
+// order's remainder (`stored`, the chunks not yet applied in the order being followed), else
+// `stored` itself.
+export function planRemaining(table, weights, applied, stored, axis = null) {
   const vt = table.view_table;
   if (!vt) return { sequence: stored, adapted: false };
-  const layers = layerChunks(table), D = surface(vt, weights), n = vt.texture_layers;
+  const layers = layerChunks(table), D = surface(vt, weights, axis), n = vt.texture_layers;
   let [i, j] = stateOf(layers, applied);
   const i0 = i, j0 = j, plan = [];
   while (i < layers.mesh.length || j < layers.texture.length) {

@@ -2,10 +2,12 @@
 //
 // URL parameters: src (package URL, default "model.mmxp"), order (default "rate-distortion"),
 // budget (fraction 0..1 of the file's bytes, default 1), autoplay (1/0, default 1), adaptive
-// (1/0, default 1: 0 plays the stored order as it is, never re-planned for the camera).
+// (1/0, default 1: 0 plays the stored order as it is, never re-planned for the camera or the
+// canvas), display (WxH device pixels: the canvas size the order is re-planned for, default the
+// page's own canvas; a capture of another size is judged with it).
 //
 // Test hooks: document.body.dataset.state ("loading" → "base" → "streaming" → "complete" |
-// "stopped", or "error") and window.meshmuxViewer (stats, view, setView, capture, replay).
+// "stopped", or "error") and window.meshmuxViewer (stats, view, setView, capture, replay, setDisplay).
 // Rendering happens on demand only: after applied chunks, camera changes and resizes.
 
 import * as THREE from 'three';
@@ -22,6 +24,13 @@ let orderName = params.get('order') || 'rate-distortion';
 let budgetFraction = clamp01(parseFloat(params.get('budget') ?? '1'), 1);
 const autoplay = !['0', 'false', 'no'].includes((params.get('autoplay') || '1').toLowerCase());
 const adaptive = !['0', 'false', 'no'].includes((params.get('adaptive') || '1').toLowerCase());
+
+// The display to plan for: null (the canvas) unless ?display=WxH names two positive integers.
+let display = displayParam(params.get('display'));
+function displayParam(text) {
+  const m = /^(\d{1,5})x(\d{1,5})$/.exec(text || '');
+  return m && +m[1] > 0 && +m[2] > 0 ? [+m[1], +m[2]] : null;
+}
 
 function clamp01(x, fallback) { return Number.isFinite(x) ? Math.min(1, Math.max(0, x)) : fallback; }
 
@@ -211,7 +220,7 @@ function load(order, fraction, play) {
   // The first load takes over the request index.html started for the package's first bytes.
   const early = window.meshmuxFirstBytes && window.meshmuxFirstBytes.src === src ? window.meshmuxFirstBytes.response : null;
   window.meshmuxFirstBytes = null;
-  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, adaptive, firstBytes: early });
+  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, adaptive, display, firstBytes: early });
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');
@@ -391,6 +400,9 @@ window.meshmuxViewer = {
   orders: () => (stream && stream.table ? stream.table.orders.map((o) => o.name) : []),
   view, setView, capture, replay,
   render: renderNow,
+  // The display the order is re-planned for from the next chunk on ([w, h] device pixels, or
+  // null: the canvas); a replay keeps it.
+  setDisplay(size) { display = size ? [Number(size[0]), Number(size[1])] : null; if (stream) stream.display = display; },
 };
 
 // Errors that escape anyway are shown rather than left in the console.

@@ -264,7 +264,7 @@ export class MeshmuxWorld extends EventTarget {
       const cost = this._cost(p, [next]);
       if (!this._fits(used, cost)) continue;
       const views = this._views(p);
-      const gain = chunkGain(p.stream.table, next.applied, next.index, views, next) / Math.max(1, next.chunk.size);
+      const gain = chunkGain(p.stream.table, next.applied, next.index, views, next, p.stream.textureAxis()) / Math.max(1, next.chunk.size);
       if (!(gain > 0)) { offscreen = true; continue; }
       offers.push({ p, next, views, gain });
     }
@@ -306,7 +306,7 @@ export class MeshmuxWorld extends EventTarget {
     for (const c of stream.nextChunks(64).slice(1)) {
       if (c.chunk.offset !== end || bytes + c.chunk.size > stream.options.chunkBatchBytes) break;
       if (!this._fits(used, this._cost(p, [...chunks, c]))) break;
-      const gain = chunkGain(stream.table, c.applied, c.index, views, c) / Math.max(1, c.chunk.size);
+      const gain = chunkGain(stream.table, c.applied, c.index, views, c, stream.textureAxis()) / Math.max(1, c.chunk.size);
       if (!(gain > 0) || gain < floor) break;
       chunks.push(c);
       end += c.chunk.size;

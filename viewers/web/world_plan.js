@@ -120,7 +120,8 @@ export function packageDirection(bounds, matrix, eye) {
 // D(after)) on the package's per-view surface, plus a hair per visible placement so that a chunk
 // on screen whose measured drop is nil still comes (last). Without a per-view table, the stored
 // order's view-independent distortions (`fallback`: before and after) times the total share.
-export function chunkGain(table, applied, next, placements, fallback) {
+// `axis` (view_plan.js textureAxis, optional): the surface read for the canvas.
+export function chunkGain(table, applied, next, placements, fallback, axis = null) {
   const vt = table.view_table;
   let total = 0;
   if (!vt) {
@@ -134,7 +135,7 @@ export function chunkGain(table, applied, next, placements, fallback) {
   const after = table.chunks[next].kind !== 'texture' ? [i + 1, j] : [i, j + 1];
   for (const p of placements) {
     if (!(p.share > 0)) continue;
-    const D = surface(vt, p.weights);
+    const D = surface(vt, p.weights, axis);
     const before = D[i * n + j], then = D[after[0] * n + after[1]];
     const drop = Number.isFinite(before) && Number.isFinite(then) ? before - then
       : Math.max(0, fallback.before - fallback.after);

@@ -2,7 +2,7 @@
 // descent for a view, and the promise that an adapted order never does worse than the stored
 // one for the view it was planned for.
 import assert from 'node:assert/strict';
-import { layerChunks, pathArea, planRemaining, surface, viewWeights } from '../view_plan.js';
+import { displayScale, layerChunks, pathArea, planRemaining, surface, textureAxis, viewWeights } from '../view_plan.js';
 
 // An octahedron of views (6 directions, 8 triangles) over a 3 × 3 grid: chunks 0, 1 mesh
 // layers, 2, 3 texture levels, stored order mesh, mesh, texture, texture (chunk index order).
@@ -56,4 +56,37 @@ assert.deepEqual(planRemaining(around, viewWeights(around.view_table, [1, 0, 0])
 const blocked = { ...table, view_table: { ...table.view_table, distortion: distortion.map((c, k) => (k === 1 || k === 3 ? null : c)) } };
 assert.deepEqual(planRemaining(blocked, viewWeights(blocked.view_table, [1, 0, 0]), new Set(), stored),
   { sequence: stored, adapted: false });
+// The canvas. A package ordered for 1920×1080 with texture levels 512², 1024², 2048² (the
+// base's 256²): the mesh layers gain 5, 3, 1 and the levels 4, 2, 1.5 per 100 bytes, so the
+// stored order sends the top level before the last mesh layer. On a 640×360 canvas (a third of
+// the display's rows) the 2048² level is what 6144² would be on the display: nothing any pixel
+// resolves, so it must come after every mesh layer; the 1024² level reads the table 58.5 % of
+// the way from 2048² to the top (3072² on the display).
+const meshGain = [5, 3, 1], textureGain = [4, 2, 1.5];
+const sum = (a, from) => a.slice(from).reduce((x, y) => x + y, 0);
+const sized = {
+  view: { display: [1920, 1080] },
+  chunks: [...meshGain.map(() => ({ kind: 'mesh', size: 100 })),
+    ...[512, 1024, 2048].map((w) => ({ kind: 'texture', size: 100, width: w, height: w }))],
+  orders: [{ name: 'rate-distortion', chunks: [0, 3, 1, 4, 5, 2] }],
+  view_table: { directions: [[0, 0, 1]], triangles: [], mesh_layers: 4, texture_layers: 4, distortion: [] },
+};
+for (let i = 0; i < 4; i++) for (let j = 0; j < 4; j++) sized.view_table.distortion.push([sum(meshGain, i) + sum(textureGain, j)]);
+assert.equal(displayScale(sized, [1920, 1080]), 1);
+assert.equal(displayScale(sized, [3840, 2160]), 1, 'a larger canvas reads the table as it is');
+assert.equal(displayScale(sized, null), 1);
+assert.ok(Math.abs(displayScale(sized, [640, 360]) - 1 / 3) < 1e-12);
+assert.equal(textureAxis(sized, 1), null);
+const axis = textureAxis(sized, 1 / 3), third = Math.log2(3);
+[1 + third - 1, 1 + third, 3, 3].forEach((x, j) => assert.ok(Math.abs(axis[j] - x) < 1e-9, `level ${j} reads ${axis[j]}, not ${x}`));
+const one = [1], sizedStored = sized.orders[0].chunks;
+assert.deepEqual(planRemaining(sized, one, new Set(), sizedStored), { sequence: sizedStored, adapted: false },
+  'on the display it was ordered for, the stored order stands');
+const small = planRemaining(sized, one, new Set(), sizedStored, axis);
+assert.equal(small.adapted, true);
+assert.equal(small.sequence.at(-1), 5, `on 640×360 the 2048² level comes last (${small.sequence})`);
+assert.ok(small.sequence.indexOf(5) > small.sequence.indexOf(2), 'after every mesh layer');
+// Read for the canvas, a level past what the canvas resolves gains nothing.
+const Ds = surface(sized.view_table, one, axis);
+for (let i = 0; i < 4; i++) assert.equal(Ds[i * 4 + 2], Ds[i * 4 + 3]);
 console.log('view_plan: ok');
