@@ -92,7 +92,8 @@ struct MultiplexResult {
   // the parts that take the meshes from the layer before to it (layer 0, the base: none).
   std::vector<MeshStreamBase> mesh_streams;
   std::vector<std::vector<EncodedMeshPart>> layer_parts;
-  // Per mesh layer, its chunk's payload: the parts' bytes in order (mesh_chunk_payload);
+  // Per mesh layer, its chunk's payload: the parts' bytes in order (mesh_chunk_payload; the
+  // parts above keep their sizes and bit counts, their bytes move here, held once);
   // mesh_bytes[k] is its size (layer 0: the base's bytes, no payload).
   std::vector<std::vector<uint8_t>> layer_chunks;
   // Per mesh: state_digest of a client after every part shipped (with a completion, the state

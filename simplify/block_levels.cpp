@@ -253,10 +253,15 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     if (!results[b].collapses.empty()) heads.push({results[b].collapses[0].queue_min, b});
   reserve_history(results);
   size_t made = 0;
+  // A block's lists are freed once its last collapse is merged, and the freed pages handed back
+  // every kTrimBytes: the history grows as the blocks' lists shrink, where holding both to the
+  // end was the conversion's peak (a 20M-triangle scan's first level: ~300 MB twice).
+  constexpr size_t kTrimBytes = size_t(32) << 20;
+  size_t freed = 0;
   while (!heads.empty()) {
     const uint32_t b = heads.top().second;
     heads.pop();
-    const BlockResult& r = results[b];
+    BlockResult& r = results[b];
     Collapse c = r.collapses[next[b]++];
     const uint32_t first_map = uint32_t(maps_.size()), first_face = uint32_t(removed_faces_.size());
     maps_.insert(maps_.end(), r.maps.begin() + c.first_map,
@@ -267,7 +272,16 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     c.first_map = first_map, c.first_face = first_face;
     collapses_.push_back(c);
     ++made;
-    if (next[b] < r.collapses.size()) heads.push({r.collapses[next[b]].queue_min, b});
+    if (next[b] < r.collapses.size()) {
+      heads.push({r.collapses[next[b]].queue_min, b});
+      continue;
+    }
+    freed += r.collapses.capacity() * sizeof(Collapse) +
+             r.maps.capacity() * sizeof(r.maps[0]) + r.removed_faces.capacity() * sizeof(uint32_t);
+    std::vector<Collapse>().swap(r.collapses);
+    std::vector<std::pair<uint32_t, uint32_t>>().swap(r.maps);
+    std::vector<uint32_t>().swap(r.removed_faces);
+    if (freed >= kTrimBytes) malloc_trim(0), freed = 0;
   }
   for (BlockResult& r : results) {
     report_.collapses += r.report.collapses;

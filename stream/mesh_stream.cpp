@@ -292,9 +292,11 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
   return plan;
 }
 
-void MeshStreamEncoder::adopt(const PartPlan& plan) {
+void MeshStreamEncoder::adopt(PartPlan& plan) {
   for (uint32_t x = plan.va; x < plan.vb; ++x) rank_[x] = plan.ranks[x - plan.va];
   order_.insert(order_.end(), plan.order.begin(), plan.order.end());
+  std::vector<uint32_t>().swap(plan.ranks);
+  std::vector<uint32_t>().swap(plan.order);
 }
 
 Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {

@@ -41,7 +41,7 @@ struct EncodedMeshPart {
   // Per StreamField, the information its decisions carried (RangeEncoder::count_bits): where
   // the part's bits go. Their sum is the bytes' bits less the coder's flush and rounding.
   std::array<double, kStreamFields> field_bits{};
-  uint64_t bytes() const { return data.size(); }
+  uint64_t bytes() const { return part.bytes; }  // its coded size (data may have moved on)
 };
 
 // One mesh of a completion chunk (stream/format.h "Completion"): its full detail single-rate,
@@ -106,8 +106,10 @@ class MeshStreamEncoder {
   // encode() codes the part adopted before it. Plans are made in level order, each after the
   // one before it was adopted.
   Result<PartPlan> prepare(size_t level);
-  // The plan's stream indices and order made the encoder's (nothing else running).
-  void adopt(const PartPlan& plan);
+  // The plan's stream indices and order made the encoder's (nothing else running); the plan
+  // keeps what encode() reads (its faces), its ranks and order are released (8 bytes a split,
+  // held beside the client's state at a big record's peak).
+  void adopt(PartPlan& plan);
   // Codes an adopted plan against the client's state; plans are encoded in the order made.
   Result<EncodedMeshPart> encode(PartPlan plan);
   size_t level() const { return level_; }
