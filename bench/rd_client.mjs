@@ -14,7 +14,9 @@
 //   - byte counts: --points N (default 16) from the base (header, table, base .glb and base faces:
 //     the bytes the viewer holds before the first chunk) to the package's size, spaced
 //     geometrically (--spacing log, default) or evenly (--spacing linear); the same counts for
-//     every order. At count b the stream has applied every chunk of its order that fits in b
+//     every order. --spacing chunks: instead, every byte count at which a chunk of some stored
+//     order completes (and model.glb's size), so that each order's picture is constant between
+//     consecutive counts and its area is exact (a step integral, below); --points is ignored. At count b the stream has applied every chunk of its order that fits in b
 //     (MeshmuxStream's budgetBytes, played again from where it stopped: no hook was needed).
 //   - frames: the viewer's capture(W, H): W×H device pixels (pixel ratio 1) rendered offscreen,
 //     cleared to transparent black, no multisampling (the page's own setting). The page's
@@ -23,11 +25,13 @@
 //   - distortion of a frame against the final one, as meshmux measures its own renders
 //     (multiplex/distortion.cpp): over the pixels either frame covers (alpha > 0), an uncovered
 //     pixel counting as black, (a) the MSE per RGB channel (0..255; its PSNR) and (b) the mean
-//     CIEDE2000 (the measure the package table's distortions are in). Pixels neither covers are
+//     CIEDE2000 (the package table's distortions are in one of them: its view.metric, "mse" in
+//     today's packages, CIEDE2000 in those before the field). Pixels neither covers are
 //     left out, as bench/fidelity.mjs does; a frame with nothing drawn scores the final frame's
 //     covered pixels against black.
 //   - area: the trapezoid integral of a distortion over bytes (linear axis) from the base to the
-//     package's size, divided by that span: the mean distortion a viewer sees while the bytes
+//     package's size (--spacing chunks: the step integral, each frame held until the next count,
+//     as the viewer holds it until the next chunk), divided by that span: the mean distortion a viewer sees while the bytes
 //     arrive. LOWER IS BETTER. Averaged over the views; the MSE table also gives the PSNR of the
 //     averaged area (10·log10(255²/area)) for reading.
 //   - predicted vs measured drop per step (rate-distortion order): between consecutive byte
@@ -41,9 +45,10 @@
 // −20° (elevation); and the default direction at 0.6 of the distance (closer: the bounding
 // sphere overflows the frame, texture detail is magnified). Near/far follow the page's rule
 // (distance ∓ clip margin × radius).
-// The viewer re-plans the rate-distortion order for its camera when the package has a per-view
-// table (view_plan.js); so does this bench by default, one play per view, as a user at that view
-// would get it; --stored plays the stored sequence for every view (the page's ?adaptive=0). The
+// The viewer re-plans the rate-distortion order for its camera and its canvas when the package
+// has a per-view table (view_plan.js); so does this bench by default, one play per view and
+// display (the page told the display it is captured at: ?display / setDisplay), as a user at
+// that view with that canvas would get it; --stored plays the stored sequence for every view (the page's ?adaptive=0). The
 // baselines are never re-planned: one play serves every view.
 // Frames are cached by (view, display, set of chunks applied): the scene is the same whichever
 // order brought those chunks (mesh chunks keep their relative order in every order; a texture
@@ -52,7 +57,7 @@
 //
 // usage: node bench/rd_client.mjs [--meshmux BIN] --only NAME[,NAME] [--models DIR] [--corpus DIR]
 //          [--packages DIR [DIR ...]] [--work DIR] [--display 640x360,1920x1080] [--views 6]
-//          [--points 16] [--spacing log|linear] [--stored] [--no-cache] [--reuse]
+//          [--points 16] [--spacing log|linear|chunks] [--stored] [--no-cache] [--reuse]
 //          [--json FILE] [--md FILE] [--chromium /usr/bin/chromium] [--dump]
 //   --only: names of ../shared/models folders (converted from their main file) or of
 //   ../shared/corpus models.tsv rows (converted as uploads: FOLDER --main MAIN), into WORK/NAME
@@ -176,7 +181,16 @@ function viewsAround(v) {
 }
 
 // `pointCount` byte counts from `base` to `total` (log: geometric; linear: even), rounded.
-function bytePoints(base, total) {
+function bytePoints(base, total, table, glbBytes) {
+  if (spacing === 'chunks') {
+    const ends = new Set([base, total]);
+    for (const order of table.orders) {
+      let at = base;
+      for (const c of order.chunks) ends.add(at += table.chunks[c].size);
+    }
+    if (glbBytes != null && glbBytes > base && glbBytes < total) ends.add(glbBytes);
+    return [...ends].filter((b) => b >= base && b <= total).sort((a, b) => a - b);
+  }
   const out = [];
   for (let k = 0; k < pointCount; k++) {
     const t = k / (pointCount - 1);
@@ -255,10 +269,12 @@ function png(w, h, rgba) {
     chunk('IEND', Buffer.alloc(0))]);
 }
 
-// The trapezoid integral of ys over xs, divided by the span of xs.
+// The trapezoid integral of ys over xs (--spacing chunks: the step integral, ys[k] held until
+// xs[k + 1]), divided by the span of xs.
 function meanArea(xs, ys) {
   let a = 0;
-  for (let k = 0; k + 1 < xs.length; k++) a += 0.5 * (ys[k] + ys[k + 1]) * (xs[k + 1] - xs[k]);
+  for (let k = 0; k + 1 < xs.length; k++)
+    a += (spacing === 'chunks' ? ys[k] : 0.5 * (ys[k] + ys[k + 1])) * (xs[k + 1] - xs[k]);
   return xs.at(-1) > xs[0] ? a / (xs.at(-1) - xs[0]) : ys[0];
 }
 
@@ -340,6 +356,8 @@ class Client {
   constructor(page) { this.page = page; this.captureSeconds = {}; this.captures = {}; }
   call(name, arg) { return this.page.evaluate(pageCalls[name], arg); }
   setView(v) { return this.page.evaluate((x) => { window.meshmuxViewer.setView(x); }, v); }
+  // The display the client plans for (the capture's size; null: the page's canvas).
+  setDisplay(d) { return this.page.evaluate((x) => { window.meshmuxViewer.setDisplay(x); }, d ? [d.w, d.h] : null); }
   async replay(order) { await this.page.evaluate((o) => window.meshmuxViewer.replay(o, 0).then(() => null), order); }
   async shot(d) {
     const t0 = performance.now();
@@ -409,17 +427,24 @@ async function measure(name, dir, context) {
     let points = null, baseBytes = null, playSeconds = 0, rendered = 0, reused = 0;
     for (const order of orders) {
       const perView = !stored && order === orders[0] && !!table.view_table;
-      const groups = perView ? views.map((_, v) => [v]) : [views.map((_, v) => v)];
+      // Re-planned: one play per view and display (the client plans for its camera and canvas);
+      // a baseline: one play for all.
+      const groups = perView ? views.flatMap((_, v) => displays.map((d) => ({ group: [v], shown: [d] })))
+        : [{ group: views.map((_, v) => v), shown: displays }];
       curves[order] = {};
-      for (const group of groups) {
+      for (const { group, shown } of groups) {
         await client.setView(views[group[0]]);
+        await client.setDisplay(perView ? shown[0] : null);
         const tp = performance.now();
         await client.replay(order);
         playSeconds += seconds(tp);
         const base = await client.call('state');
         if (base.order !== order) throw new Error(`asked for order ${order}, the viewer plays ${base.order}`);
-        if (!points) { baseBytes = base.bytesReceived; points = bytePoints(baseBytes, packageBytes); }
-        for (const v of group) curves[order][v] = Object.fromEntries(displays.map((d) => [d.name, { mse: [], de: [], bytes: [], distortion: [], chunks: [], followed: [] }]));
+        if (!points) { baseBytes = base.bytesReceived; points = bytePoints(baseBytes, packageBytes, table, glbBytes); }
+        for (const v of group) {
+          curves[order][v] = curves[order][v] || {};
+          for (const d of shown) curves[order][v][d.name] = { mse: [], de: [], bytes: [], distortion: [], chunks: [], followed: [] };
+        }
         for (const b of points) {
           const tq = performance.now();
           await client.call('playTo', b);
@@ -428,7 +453,7 @@ async function measure(name, dir, context) {
           if (!['stopped', 'complete'].includes(st.state)) throw new Error(`order ${order} at ${b} bytes: state ${st.state} ${st.error || ''}`);
           for (const v of group) {
             if (group.length > 1) await client.setView(views[v]);
-            for (const d of displays) {
+            for (const d of shown) {
               const key = st.applied && useCache ? keyOf(v, d, st.applied) : null;
               let m = key != null ? cache.get(key) : undefined;
               if (m === undefined) {
@@ -442,7 +467,7 @@ async function measure(name, dir, context) {
             }
           }
         }
-        log(`${name}: ${order}${perView ? ` (view ${group[0]})` : ''} done, ${rendered} frames rendered, ${reused} reused`);
+        log(`${name}: ${order}${perView ? ` (view ${group[0]}, ${shown[0].name})` : ''} done, ${rendered} frames rendered, ${reused} reused`);
       }
     }
     return summarize({ name, dir, table, packageBytes, glbBytes, baseBytes, points, views, orders, curves, plain,
@@ -523,16 +548,16 @@ function markdown(results) {
     `elevation ±20°, 0.6× distance: the first ${viewCount}); ${pointCount} byte counts (${spacing}) from the base to the package; ` +
     `rate-distortion ${stored ? 'as stored (--stored)' : 're-planned for each view as the viewer does (when the package has a per-view table)'}. ` +
     'Each frame against the client\'s final frame (same view and size) over the pixels either covers (alpha > 0; uncovered = black), ' +
-    'as meshmux measures its renders. Area = that distortion integrated over bytes (trapezoids) from the base to the package size, ' +
+    `as meshmux measures its renders. Area = that distortion integrated over bytes (${spacing === 'chunks' ? 'steps: every count where a chunk of some order completes' : 'trapezoids'}) from the base to the package size, ` +
     'divided by the span, averaged over the views: **lower is better**. Plain download: nothing below model.glb\'s size, ' +
     'model.glb (GLTFLoader + DRACOLoader defaults, the viewer\'s lights) from it.', '',
     '## Areas: MSE per RGB channel (in parentheses the PSNR of the area)', '',
     ...areasTable(results, 'mse', area), '',
-    '## Areas: mean CIEDE2000 (the measure of the package table)', '',
+    '## Areas: mean CIEDE2000', '',
     ...areasTable(results, 'de', (x) => (Number.isFinite(x) ? x.toFixed(3) : '—')), '',
     '## Predicted vs measured drop per step (rate-distortion order)', '',
     'Per step between consecutive byte counts where some chunk arrived: the drop of the package table\'s distortion ' +
-    '(mean CIEDE2000 of meshmux\'s renders; the stream\'s stats.distortion along the sequence played) against the drop measured ' +
+    '(meshmux\'s renders in the table\'s measure, view.metric: MSE, or CIEDE2000 in older packages; the stream\'s stats.distortion along the sequence played) against the drop measured ' +
     'in the client\'s frames (mean CIEDE2000, and MSE), both averaged over the views; Spearman\'s ρ over those steps.', '',
     `| model | ${displays.map((d) => `ρ ΔE ${d.name} | ρ MSE ${d.name} | steps`).join(' | ')} |`,
     `|---|${displays.map(() => '---:|---:|---:').join('|')}|`];
@@ -544,7 +569,7 @@ function markdown(results) {
     if (r.error) continue;
     for (const d of displays) {
       lines.push('', `### ${r.name}, ${d.name}`, '',
-        '| bytes | chunks applied (mean over views) | predicted drop (ΔE) | measured drop (ΔE) | measured ΔE before → after | measured drop (MSE) | PSNR before → after |',
+        '| bytes | chunks applied (mean over views) | predicted drop (table\'s measure) | measured drop (ΔE) | measured ΔE before → after | measured drop (MSE) | PSNR before → after |',
         '|---|---|---:|---:|---|---:|---|');
       for (const x of r.steps[d.name].steps.filter((y) => y.arrived)) {
         lines.push(`| ${kb(x.from)} → ${kb(x.to)} | ${x.chunks.map((c) => c.toFixed(1)).join(' → ')} | ${x.predicted.toFixed(3)} | ` +

@@ -150,13 +150,18 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
 
 // The metric of images[v * sets + k] against reference[v], for every view v and set k but
 // `skip` (-1: none), on every core: while it runs, llvmpipe's threads have nothing to draw.
+double metric_of(const Distortion& d, DistortionMetric m) {
+  return m == DistortionMetric::kMse ? d.mse : d.ciede2000;
+}
+
 std::vector<double> distortions(const std::vector<RenderImage>& reference,
-                                const std::vector<RenderImage>& images, size_t sets, int skip) {
+                                const std::vector<RenderImage>& images, size_t sets, int skip,
+                                DistortionMetric metric) {
   std::vector<double> out(images.size(), 0.0);
   parallel_chunks(images.size(), 1, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k)
       if (int(k % sets) != skip)
-        out[k] = measure_distortion(reference[k / sets], images[k]).ciede2000;
+        out[k] = metric_of(measure_distortion(reference[k / sets], images[k]), metric);
   });
   return out;
 }
@@ -259,7 +264,7 @@ std::vector<std::vector<LevelMap>> texture_layers(const TextureLevels& levels, M
 struct CellRenders {
   CellRenders(const ProgressiveScene& scene, const std::vector<LodSelection>& selections,
               int32_t texture_material, Renderer& renderer, MultiplexResult& result,
-              Progress* report_to)
+              Progress* report_to, DistortionMetric measure)
       : ps(scene),
         streamed_material(texture_material),
         gl(renderer),
@@ -269,7 +274,8 @@ struct CellRenders {
         n(int(result.texture_bytes.size())),
         geometry(size_t(m), -1),
         measured(size_t(m) * size_t(n)),
-        drawn(selections) {
+        drawn(selections),
+        metric(measure) {
     for (int i = 0; i < m; ++i) same.push_back(i);
   }
 
@@ -401,11 +407,12 @@ struct CellRenders {
         reference.push_back(std::move(images[v * size_t(n) + size_t(n - 1)]));
       r.renders += V;
     }
-    const std::vector<double> metric = distortions(reference, images, size_t(n), top ? n - 1 : -1);
+    const std::vector<double> values =
+        distortions(reference, images, size_t(n), top ? n - 1 : -1, metric);
     for (int j = 0; j < n; ++j) {
       if (top && j == n - 1) continue;  // the reference itself: distortion 0
       std::vector<double>& per_view = measured[size_t(i) * size_t(n) + size_t(j)];
-      for (size_t v = 0; v < V; ++v) per_view.push_back(metric[v * size_t(n) + size_t(j)]);
+      for (size_t v = 0; v < V; ++v) per_view.push_back(values[v * size_t(n) + size_t(j)]);
       r.renders += V;
     }
     report();
@@ -426,7 +433,8 @@ struct CellRenders {
       blank.height = ref.height;
       blank.rgba.assign(ref.rgba.size(), 0);
       blank.coverage.assign(ref.coverage.size(), 0);
-      r.empty_distortion += measure_distortion(ref, blank).ciede2000 / double(reference.size());
+      r.empty_distortion +=
+          metric_of(measure_distortion(ref, blank), metric) / double(reference.size());
     }
   }
 
@@ -442,7 +450,7 @@ struct CellRenders {
     std::vector<double>& stored = measured[size_t(i) * size_t(n) + size_t(j)];
     if (stored.empty()) {
       const std::vector<RenderImage> images = gl.render(geometry_of(i), {texture_of(j)}, cameras);
-      stored = distortions(reference, images, 1, -1);
+      stored = distortions(reference, images, 1, -1, metric);
       r.renders += V;
       report();
     }
@@ -478,6 +486,7 @@ struct CellRenders {
   std::vector<std::vector<double>> measured;  // per cell: per view
   std::vector<RenderImage> reference;         // per view
   std::vector<LodSelection> drawn;            // per mesh layer: what its renders draw
+  DistortionMetric metric;                    // what a cell's distortion is
   std::vector<int> same;  // per mesh layer: the first layer drawing the same selection
 };
 
@@ -716,7 +725,8 @@ Result<MultiplexResult> multiplex(const ProgressiveScene& ps, const TextureLevel
   // Render time counts the texture levels' decoding and upload (it used to be spread over the
   // layers' time and the first renders).
   auto render_start = Clock::now();
-  CellRenders cells(ps, layers, levels.material, **renderer, r, progress);
+  r.metric = metric_name(o.metric);
+  CellRenders cells(ps, layers, levels.material, **renderer, r, progress, o.metric);
   if (Status s = cells.upload_textures(textures, decoded); !s) return s;
   ViewingSphere sphere = viewing_sphere(forced ? o.forced_view_layers : o.view_layers);
   cells.place_cameras(sphere, full, render, o.views);

@@ -23,8 +23,19 @@
 
 namespace meshmux {
 
+// What a render's distortion against the full-quality one is (multiplex/distortion.h), over the
+// pixels either covers: the mean squared error per RGB channel, or the mean CIEDE2000.
+enum class DistortionMetric { kMse, kCiede2000 };
+inline const char* metric_name(DistortionMetric m) {
+  return m == DistortionMetric::kMse ? "mse" : "ciede2000";
+}
+
 struct MultiplexOptions {
   int view_layers = 1;                        // viewing sphere subdivision: 1 → 10 views
+  // The order's measure. MSE (PSNR's), the measure the client's frames judge the order by
+  // (bench/rd_client.mjs) and the fidelity harness judges appearance by: CIEDE2000 ranked texture
+  // levels above mesh layers whose silhouettes the client's PSNR weighs more.
+  DistortionMetric metric = DistortionMetric::kMse;
   RenderOptions render = physical_shading();  // image size and shading (256², physical)
   ViewOptions views{};                        // framing
   int min_mesh_layers = 4;           // the refinements are cut into this many batches at least
@@ -104,7 +115,7 @@ struct MultiplexResult {
   std::vector<CompletionMesh> completion;
   CompletionReport completion_report;
   RdPath rd, mesh_first, texture_first, constant_ratio;
-  std::string metric = "ciede2000";  // mean CIEDE2000 over covered pixels, averaged over views
+  std::string metric;  // the measure (metric_name), over covered pixels, averaged over views
   size_t views = 0;
   size_t renders = 0;          // images rendered (cells evaluated × views, plus references)
   size_t cells_descent = 0;    // cells the steepest descent alone evaluated (lazily)

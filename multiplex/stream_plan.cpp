@@ -94,6 +94,7 @@ PackageView package_view(const MultiplexOptions& options) {
   p.environment = r.environment, p.light_intensity = r.light_intensity;
   if (options.display_width > 0 && options.display_height > 0)
     p.display[0] = options.display_width, p.display[1] = options.display_height;
+  p.mse = options.metric == DistortionMetric::kMse;
   return p;
 }
 

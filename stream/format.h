@@ -28,8 +28,12 @@
 //      "shading": "lambert" | "physical",            //   absent: "lambert";
 //      "environment": e, "light_intensity": i,       //   physical: uniform environment
 //                                                    //   radiance e, the light's intensity i;
-//      "display": [w, h]},                           //   the display the order was made for
+//      "display": [w, h],                            //   the display the order was made for
 //                                                    //   (device pixels; optional)
+//      "metric": "mse" | "ciede2000"},               //   what every distortion is: the mean
+//                                                    //   squared error per RGB channel over
+//                                                    //   the covered pixels, or their mean
+//                                                    //   CIEDE2000 (absent: "ciede2000")
 //    "limits": {"max_elements": 268435456,           // 2^28
 //               "max_texture_side": 65536, "max_json_depth": 32},
 //    "base": {"offset": O, "size": S,                // byte range of the base as stored
@@ -197,6 +201,9 @@ struct PackageView {
   double environment = 0;      // physical: uniform environment radiance
   double light_intensity = 0;  // physical: the directional light's intensity
   int display[2] = {0, 0};     // the display the order was made for, device pixels (0: not said)
+  // The distortion's measure ("metric"): the mean squared error per RGB channel (0..255) over the
+  // covered pixels, or the mean CIEDE2000 there (also when absent: packages before the field).
+  bool mse = false;
 };
 
 // The distortion of the grid's cells (mesh layers received × texture levels received) seen

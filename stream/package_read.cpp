@@ -132,6 +132,12 @@ Status read_view(const Json& j, PackageView& v) {
     if (w < 1 || h < 1 || w > 65536 || h > 65536) return fail("view: display out of range");
     v.display[0] = int(w), v.display[1] = int(h);
   }
+  // The distortion's measure (optional: packages before it measured CIEDE2000).
+  if (auto m = e.find("metric"); m != e.end()) {
+    if (!m->is_string() || (m->get<std::string>() != "mse" && m->get<std::string>() != "ciede2000"))
+      return fail("view: \"metric\" must be \"mse\" or \"ciede2000\"");
+    v.mse = m->get<std::string>() == "mse";
+  }
   return Status::ok();
 }
 

@@ -205,6 +205,7 @@ OrderedJson view_json(const PackageInput& in) {
                    {"environment", f(v.environment)},
                    {"light_intensity", f(v.light_intensity)}};
   if (v.display[0] > 0 && v.display[1] > 0) j["display"] = {v.display[0], v.display[1]};
+  j["metric"] = v.mse ? "mse" : "ciede2000";
   return j;
 }
 

@@ -126,6 +126,10 @@ export interface MeshmuxStats {
 
 /** The view and shading the package's order was measured with (the table's "view"). */
 export interface MeshmuxView {
+  /** What the table's distortions are: mean squared error per RGB channel, or mean CIEDE2000. */
+  metric: 'mse' | 'ciede2000';
+  /** The display the order was made for ([width, height] device pixels), when the table says. */
+  display?: [number, number];
   physical: boolean;
   environment: number;
   lightIntensity: number;

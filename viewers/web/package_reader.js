@@ -100,6 +100,9 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     view.display = v.display.map((x, i) => int(x, `view.display[${i}]`, 65536));
     need(view.display.every((x) => x >= 1), 'view: display out of range');
   }
+  // Optional, as the C++ reader: what the distortions are ("mse" or "ciede2000", the default).
+  need(v.metric === undefined || v.metric === 'mse' || v.metric === 'ciede2000', `view.metric must be "mse" or "ciede2000" (got ${JSON.stringify(v.metric)})`);
+  view.metric = v.metric === 'mse' ? 'mse' : 'ciede2000';
   if (view.physical) {
     view.environment = num(v.environment, 'view.environment', 0, 100);
     view.lightIntensity = num(v.light_intensity, 'view.light_intensity', 0, 1000);

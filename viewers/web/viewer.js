@@ -32,6 +32,14 @@ function displayParam(text) {
   return m && +m[1] > 0 && +m[2] > 0 ? [+m[1], +m[2]] : null;
 }
 
+// The package's distortion in its measure (the table's view.metric): the mean squared error as
+// PSNR (dB; "final" at 0), CIEDE2000 as ΔE.
+function formatDistortion(d, metric) {
+  if (!Number.isFinite(d)) return '–';
+  if (metric !== 'mse') return `ΔE ${d.toFixed(2)}`;
+  return d > 0 ? `PSNR ${(10 * Math.log10((255 * 255) / d)).toFixed(1)} dB` : 'final';
+}
+
 function clamp01(x, fallback) { return Number.isFinite(x) ? Math.min(1, Math.max(0, x)) : fallback; }
 
 // ---- Page elements -------------------------------------------------------------------------
@@ -182,7 +190,7 @@ function updatePanel() {
   ui.bytes.textContent = `${formatBytes(s.bytesReceived)} / ${formatBytes(total)} (${(100 * share).toFixed(0)}%)`;
   ui.triangles.textContent = s.triangles.toLocaleString('en-US');
   ui.texture.textContent = s.textureWidth ? `${s.textureWidth}×${s.textureHeight}` : 'none';
-  ui.distortion.textContent = Number.isFinite(s.distortion) ? `ΔE ${s.distortion.toFixed(2)}` : '–';
+  ui.distortion.textContent = formatDistortion(s.distortion, stream && stream.table ? stream.table.view.metric : null);
   ui.chunks.textContent = `${s.chunksApplied} of ${s.chunkCount}`;
   ui.followed.textContent = s.orderFollowed === 'view-adapted' ? 'adapted to this view' : s.orderFollowed;
   ui.speed.textContent = s.applySeconds > 0
