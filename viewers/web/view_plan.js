@@ -21,8 +21,8 @@
 // drawn smaller. So the client reads the table's texture axis at that wider level
 // (displayScale / textureAxis below; log-linear between levels, the top level where the wider
 // one does not exist): levels no pixel of the canvas resolves gain nothing there and go after
-// everything that can be seen (kept for zooming in). A canvas as large as the display or larger
-// reads the table as it is.
+// everything that can be seen (kept for zooming in; planRemaining puts them after every mesh
+// layer whatever the slopes). A canvas as large as the display or larger reads the table as it is.
 
 // Per-view weights (summing to 1) for a direction from the model's centre (any length).
 export function viewWeights(viewTable, direction) {
@@ -149,6 +149,13 @@ export function planRemaining(table, weights, applied, stored, axis = null) {
   const vt = table.view_table;
   if (!vt) return { sequence: stored, adapted: false };
   const layers = layerChunks(table), D = surface(vt, weights, axis), n = vt.texture_layers;
+  // The stored remainder with the levels the canvas cannot resolve after every mesh layer: what
+  // a plan must beat, and what is played when none does.
+  const kept = deferUnresolved(layers, stored, axis, n);
+  if (kept !== stored) {
+    const plan = planRemaining(table, weights, applied, kept, axis);
+    return { sequence: plan.sequence, adapted: true };
+  }
   let [i, j] = stateOf(layers, applied);
   const i0 = i, j0 = j, plan = [];
   while (i < layers.mesh.length || j < layers.texture.length) {
@@ -159,7 +166,11 @@ export function planRemaining(table, weights, applied, stored, axis = null) {
       const slope = (here - next) / Math.max(1, table.chunks[c].size);
       if (Number.isFinite(slope) && slope > best) { best = slope; pick = 'mesh'; }
     }
-    if (j < layers.texture.length) {
+    // A level the canvas cannot resolve (the one before it already reads the table's top level)
+    // waits until every mesh layer is in, whatever the measured slopes say (zero for it; a
+    // last mesh layer's may be below zero by a hair of noise).
+    const unresolved = axis && j < layers.texture.length && axis[j] >= n - 1 - 1e-9;
+    if (j < layers.texture.length && (!unresolved || i >= layers.mesh.length)) {
       const c = layers.texture[j], next = D[i * n + j + 1];
       const slope = (here - next) / Math.max(1, table.chunks[c].size);
       if (Number.isFinite(slope) && slope > best) { best = slope; pick = 'texture'; }
@@ -171,6 +182,18 @@ export function planRemaining(table, weights, applied, stored, axis = null) {
   const storedArea = pathArea(table, D, layers, i0, j0, stored);
   const same = plan.length === stored.length && plan.every((c, k) => c === stored[k]);
   return adaptedArea < storedArea && !same ? { sequence: plan, adapted: true } : { sequence: stored, adapted: false };
+}
+
+// `sequence` with the texture chunks of levels the canvas cannot resolve (axis: the one before
+// them already reads the table's top level) moved after its last mesh chunk, in their order;
+// `sequence` itself when none has to move.
+function deferUnresolved(layers, sequence, axis, n) {
+  if (!axis) return sequence;
+  const level = new Map(layers.texture.map((c, k) => [c, k]));  // chunk → the state it leaves
+  const late = (c) => level.has(c) && axis[level.get(c)] >= n - 1 - 1e-9;
+  const lastMesh = sequence.reduce((at, c, k) => (level.has(c) ? at : k), -1);
+  if (!sequence.some((c, k) => late(c) && k < lastMesh)) return sequence;
+  return [...sequence.filter((c) => !late(c)), ...sequence.filter(late)];
 }
 
 // The view-independent distortion (the mean over views) after each chunk of `sequence`, from

@@ -1,11 +1,14 @@
-// The order follows the canvas (issue "the order judged where users see it", deliverable 3), in
-// Debian's headless chromium through the viewer page: one package, ordered for the default
-// display (1920×1080), on a textured sphere built here whose 2048² texture holds a one-texel
-// checker over coarse squares — detail that only the top texture level holds and that only a
-// large canvas resolves. Played in a 1920×1080 window, the top level comes before the last mesh
-// layer (the stored order); in a 640×360 window the client re-reads the package's per-view table
-// for its canvas (view_plan.js textureAxis) and the top level comes after every mesh layer. The
-// same package, the same camera: only the canvas differs.
+// The order follows the canvas, in Debian's headless chromium through the viewer page: one
+// package, ordered for the default display (1920×1080), on a textured sphere built here whose
+// 2048² texture holds checkers at every octave, the one-texel one only in the top level. Played
+// in a 1920×1080 window, the top level comes before the last mesh layer; in a 480×270 window the
+// client re-reads the package's per-view table for its canvas (view_plan.js textureAxis) and the
+// top level comes after every mesh layer. The same package, the same camera: only the canvas
+// differs. Why 480×270 and not 640×360: the converter keeps the level a quarter of the top's side
+// below it (the middle one does not pay for its bytes), and on a 640×360 canvas that 512² level
+// under-resolves the sphere (256 texels across the visible half for 288 pixels), so the top level
+// still shows there (the client reads it at 21 % of its display gain); at 480×270 (216 pixels) the
+// 512² level is all the canvas can show.
 //
 // usage: node display_test.mjs --meshmux BIN --work DIR [--chromium PATH]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium: said on stderr).
@@ -13,21 +16,10 @@ import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
-import { launch, opt, serve, skip } from './harness.mjs';
+import { browserTestArgs, checks, launch, serve } from './harness.mjs';
 
-const meshmux = opt('--meshmux');
-const work = opt('--work');
-const chromiumPath = opt('--chromium', '/usr/bin/chromium');
-if (!meshmux || !work) {
-  console.error('usage: node display_test.mjs --meshmux BIN --work DIR');
-  process.exit(2);
-}
-if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
-const failures = [];
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures.push(what);
-}
+const { meshmux, work, chromiumPath } = browserTestArgs('display_test.mjs');
+const { check, failures } = checks();
 
 // ---- The model --------------------------------------------------------------------------------
 
@@ -110,11 +102,15 @@ fs.rmSync(work, { recursive: true, force: true });
 fs.mkdirSync(work, { recursive: true });
 const input = path.join(work, 'input');
 fs.mkdirSync(input);
-// Coarse squares of 128 texels under a one-texel checker of ±50 (as Multiplex.
-// AFinerTextureLevelComesEarlierForALargerDisplay): the smaller levels keep the squares only.
+// Checkers at every octave from one texel to 128 (±12 each around grey, a different phase per
+// channel): each level of the pyramid holds the octaves as fine as its texels, so every level pays
+// for itself and none is dropped, and the top level alone holds the one-texel octave.
 fs.writeFileSync(path.join(input, 'checker.png'), png(2048, 2048, (x, y, out, o) => {
-  const coarse = ((x >> 7) + (y >> 7)) % 2, f = (x + y) % 2 ? 50 : -50;
-  out[o] = (coarse ? 190 : 60) + f; out[o + 1] = 128 + f; out[o + 2] = (coarse ? 60 : 190) + f;
+  for (let ch = 0; ch < 3; ch++) {
+    let v = 128;
+    for (let k = 0; k < 8; k++) v += (((x >> k) + (y >> k) + ch * (k & 1)) & 1) ? 12 : -12;
+    out[o + ch] = v;
+  }
 }));
 const model = sphereGltf(150, 300, 'checker.png');
 fs.writeFileSync(path.join(input, 'sphere.bin'), model.bin);
@@ -150,23 +146,23 @@ try {
   check(large.meshes >= 3, `the order has mesh layers to interleave (${large.meshes})`);
   check(large.top < large.lastMesh, `on 1920×1080 the top texture level comes before the last mesh layer (at ${large.top}, last mesh at ${large.lastMesh})`);
 
-  await page.setViewportSize({ width: 640, height: 360 });
+  await page.setViewportSize({ width: 480, height: 270 });
   await page.evaluate(() => window.meshmuxViewer.replay().then(() => null));
   await settled(page);
   const small = await played(page);
-  console.log(`640×360 window: ${small.kinds} (followed ${small.followed}, canvas ${small.canvas})`);
-  check(small.state === 'complete', `the 640×360 play completes (${small.state})`);
-  check(String(small.canvas) === '640,360', `the stream plans for its canvas (${small.canvas})`);
-  check(small.top > small.lastMesh, `on 640×360 the top texture level comes after every mesh layer (at ${small.top}, last mesh at ${small.lastMesh})`);
+  console.log(`480×270 window: ${small.kinds} (followed ${small.followed}, canvas ${small.canvas})`);
+  check(small.state === 'complete', `the 480×270 play completes (${small.state})`);
+  check(String(small.canvas) === '480,270', `the stream plans for its canvas (${small.canvas})`);
+  check(small.top > small.lastMesh, `on 480×270 the top texture level comes after every mesh layer (at ${small.top}, last mesh at ${small.lastMesh})`);
   check(small.followed === 'view-adapted', `the order was re-planned for the canvas (${small.followed})`);
 
   // ?display= plans for a display other than the canvas (bench/rd_client.mjs captures at sizes the
-  // window is not): the 640×360 window planning for 1920×1080 plays the stored order again.
+  // window is not): the 480×270 window planning for 1920×1080 orders as the 1920×1080 window did.
   await page.goto(url + '?display=1920x1080');
   await settled(page);
   const asked = await played(page);
   check(asked.top < asked.lastMesh && String(asked.canvas) === '1920,1080',
-    `?display=1920x1080 in a 640×360 window plans for 1920×1080 (top at ${asked.top}, last mesh at ${asked.lastMesh})`);
+    `?display=1920x1080 in a 480×270 window plans for 1920×1080 (top at ${asked.top}, last mesh at ${asked.lastMesh})`);
 } finally {
   await closeBrowser();
   server.kill();

@@ -18,6 +18,28 @@ export function skip(message) {
   process.exit(77);
 }
 
+// A browser test's arguments: --meshmux BIN --work DIR [--chromium PATH]; a usage line (exit 2)
+// when one is missing, a skip (77) when chromium is not installed. { meshmux, work, chromiumPath }.
+export function browserTestArgs(script) {
+  const meshmux = opt('--meshmux'), work = opt('--work'), chromiumPath = opt('--chromium', '/usr/bin/chromium');
+  if (!meshmux || !work) {
+    console.error(`usage: node ${script} --meshmux BIN --work DIR [--chromium PATH]`);
+    process.exit(2);
+  }
+  if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
+  return { meshmux, work, chromiumPath };
+}
+
+// Checks that print "ok" or "FAIL" and remember the failures: { check(ok, what), failures }.
+export function checks() {
+  const failures = [];
+  const check = (ok, what) => {
+    console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+    if (!ok) failures.push(what);
+  };
+  return { check, failures };
+}
+
 // `meshmux serve DIR` on port 0; resolves { server, url } once it printed its URL.
 export async function serve(meshmux, dir) {
   const server = spawn(meshmux, ['serve', dir, '--port', '0', '-q'], { stdio: ['ignore', 'pipe', 'pipe'] });

@@ -12,21 +12,10 @@
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
-import { launch, opt, serve, skip } from './harness.mjs';
+import { browserTestArgs, checks, launch, serve } from './harness.mjs';
 
-const meshmux = opt('--meshmux');
-const work = opt('--work');
-const chromiumPath = opt('--chromium', '/usr/bin/chromium');
-if (!meshmux || !work) {
-  console.error('usage: node page_test.mjs --meshmux BIN --work DIR');
-  process.exit(2);
-}
-if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed (apt-get install chromium)`);
-const failures = [];
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures.push(what);
-}
+const { meshmux, work, chromiumPath } = browserTestArgs('page_test.mjs');
+const { check, failures } = checks();
 
 fs.rmSync(work, { recursive: true, force: true });
 fs.mkdirSync(work, { recursive: true });
