@@ -184,12 +184,16 @@ TEST(ImageDecode, DamagedPngAndJpegAreErrorsNamingTheImage) {
 TEST(ImageDecode, OverLimitPngIsRefusedByItsHeader) {
   auto png = oiio_encode("png", 300, 200, 3, 8, pattern(300, 200, 3, 8));
   Image img = from_bytes("big.png", png);
+  // Whether the header alone refused it shows as the OpenImageIO module still unloaded, which
+  // only a process where no earlier test loaded it can see (ctest runs each test alone; a run of
+  // the whole binary in one process has loaded it for the TGA tests before).
+  const bool loaded_before = oiio_module_loaded();
   bool over = false;
   Status s = decode_image(img, 1000, &over);
   EXPECT_FALSE(s.is_ok());
   EXPECT_TRUE(over);
   EXPECT_NE(s.message().find("300x200"), std::string::npos) << s.message();
-  EXPECT_FALSE(oiio_module_loaded());
+  if (!loaded_before) EXPECT_FALSE(oiio_module_loaded());
 }
 
 }  // namespace
