@@ -61,7 +61,7 @@ assert.deepEqual(planRemaining(blocked, viewWeights(blocked.view_table, [1, 0, 0
 // stored order sends the top level before the last mesh layer. On a 640×360 canvas (a third of
 // the display's rows) the 2048² level is what 6144² would be on the display: nothing any pixel
 // resolves, so it must come after every mesh layer; the 1024² level reads the table 58.5 % of
-// the way from 2048² to the top (3072² on the display).
+// the way from 2048² to the top (3072² on the display); the base's level reads itself.
 const meshGain = [5, 3, 1], textureGain = [4, 2, 1.5];
 const sum = (a, from) => a.slice(from).reduce((x, y) => x + y, 0);
 const sized = {
@@ -78,7 +78,7 @@ assert.equal(displayScale(sized, null), 1);
 assert.ok(Math.abs(displayScale(sized, [640, 360]) - 1 / 3) < 1e-12);
 assert.equal(textureAxis(sized, 1), null);
 const axis = textureAxis(sized, 1 / 3), third = Math.log2(3);
-[1 + third - 1, 1 + third, 3, 3].forEach((x, j) => assert.ok(Math.abs(axis[j] - x) < 1e-9, `level ${j} reads ${axis[j]}, not ${x}`));
+[0, 1 + third, 3, 3].forEach((x, j) => assert.ok(Math.abs(axis[j] - x) < 1e-9, `level ${j} reads ${axis[j]}, not ${x}`));
 const one = [1], sizedStored = sized.orders[0].chunks;
 assert.deepEqual(planRemaining(sized, one, new Set(), sizedStored), { sequence: sizedStored, adapted: false },
   'on the display it was ordered for, the stored order stands');
