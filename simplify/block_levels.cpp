@@ -283,15 +283,12 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     std::vector<uint32_t>().swap(r.removed_faces);
     if (freed >= kTrimBytes) malloc_trim(0), freed = 0;
   }
-  for (BlockResult& r : results) {
+  for (const BlockResult& r : results) {
     report_.collapses += r.report.collapses;
     report_.refused_flip += r.report.refused_flip;
     report_.refused_link += r.report.refused_link;
     report_.refused_wedge += r.report.refused_wedge;
     report_.refused_vanish += r.report.refused_vanish;
-    std::vector<Collapse>().swap(r.collapses);
-    std::vector<std::pair<uint32_t, uint32_t>>().swap(r.maps);
-    std::vector<uint32_t>().swap(r.removed_faces);
   }
   std::vector<uint32_t>().swap(block_faces_), std::vector<size_t>().swap(block_face_start_);
   if (quadrics_made)
