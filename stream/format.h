@@ -92,7 +92,8 @@
 //                  "triangles": [[i, j, k], ...],   // the viewing mesh: indices into directions
 //                  "mesh_layers": M,                // mesh chunks + 1 (layer 0: the base)
 //                  "texture_layers": T,             // texture chunks + 1 (level 0: the base's)
-//                  "distortion": [[d, ...] | null, ...]}  // M × T cells, one d per direction
+//                  "distortion": [[d, ...] | null, ...],  // M × T cells, one d per direction
+//                  "texture_widths": [w, ...]}      // optional: T widths, level 0's (the base's) first
 // clang-format on
 // Cells are row-major: cell i × T + j is the state after i mesh chunks and j texture chunks (the
 // k-th mesh chunk of the stored order is mesh layer k + 1, the k-th texture chunk texture level
@@ -100,7 +101,8 @@
 // decimals. The web reader (viewers/web/package_reader.js) accepts a missing or null table, else
 // requires M and T to equal the mesh and texture chunks + 1, 1 to 4096 directions of 3 finite
 // numbers, triangles of 3 integer indices below the directions' count, and exactly M × T cells,
-// each null or one finite number per direction. The C++ reader (package_read.cpp) skips it.
+// each null or one finite number per direction, and texture_widths (when present) T integers
+// from 1 to the texture side limit, not decreasing. The C++ reader (package_read.cpp) skips it.
 //
 // The mesh stream (Hoppe's shared vertex buffer, made streamable). A client holds per mesh
 // a vertex buffer that is only appended to and an index buffer of every face received so far.

@@ -321,6 +321,13 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                        {"mesh_layers", vt->mesh_layers},
                        {"texture_layers", vt->texture_layers},
                        {"distortion", std::move(cells)}};
+    // Each texture level's width, the base's first: a client re-reading the texture axis for a
+    // smaller canvas needs the base's, which no chunk carries.
+    if (in.textures && in.textures->levels.size() == size_t(vt->texture_layers)) {
+      OrderedJson widths = OrderedJson::array();
+      for (const TextureLevel& l : in.textures->levels) widths.push_back(l.width);
+      j["view_table"]["texture_widths"] = std::move(widths);
+    }
   }
   return j.dump();
 }

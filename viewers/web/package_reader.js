@@ -277,6 +277,15 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       return c.slice();
     });
     viewTable = { directions, triangles, mesh_layers: meshLayers, texture_layers: textureLayers, distortion };
+    if (v.texture_widths !== undefined) {
+      const widths = arr(v.texture_widths, 'view_table.texture_widths');
+      need(widths.length === textureLayers, `view_table.texture_widths has ${widths.length} widths, not ${textureLayers}`);
+      viewTable.texture_widths = widths.map((w, i) => {
+        const x = int(w, `view_table.texture_widths[${i}]`, maxSide);
+        need(x >= 1 && (i === 0 || x >= widths[i - 1]), `view_table.texture_widths[${i}] must be at least 1 and not below the level before`);
+        return x;
+      });
+    }
   }
 
   // Not fatal: a complete stream should end on the full mesh sizes.

@@ -89,20 +89,21 @@ export function displayScale(table, canvas) {
 // Per texture level j (0: the base's, then each texture chunk's), the fractional level of the
 // table whose picture on the display is level j's on a canvas `scale` (displayScale) of it:
 // the level 1/scale times wider, log-linear between the levels' widths, the top level past
-// them; null where the table needs no re-reading (scale 1, no texture levels). The base level
-// reads itself (its width is not in the table; it is the first picture's, under-resolved).
+// them; null where the table needs no re-reading (scale 1, no texture levels). The widths are
+// the table's texture_widths (the base's first). An older table has none and its chunks give
+// every width but the base's: there the base reads itself (guessing it one step below the first
+// level made a one-level package's only level look unresolvable on a small canvas, where the
+// base was four times smaller still).
 export function textureAxis(table, scale) {
   const vt = table.view_table;
   if (!vt || !(scale < 1) || vt.texture_layers < 2) return null;
-  const widths = layerChunks(table).texture.map((c) => Math.max(1, table.chunks[c].width || 1));
-  if (widths.length + 1 !== vt.texture_layers) return null;
-  const step = widths.length > 1 && widths[1] > widths[0] ? widths[1] / widths[0] : 2;
-  const logs = [Math.log2(widths[0] / step), ...widths.map(Math.log2)], top = logs.length - 1;
+  const known = Array.isArray(vt.texture_widths) && vt.texture_widths.length === vt.texture_layers;
+  const widths = known ? vt.texture_widths.map((w) => Math.max(1, w))
+    : [0, ...layerChunks(table).texture.map((c) => Math.max(1, table.chunks[c].width || 1))];
+  if (widths.length !== vt.texture_layers) return null;
+  const logs = widths.map((w) => Math.log2(Math.max(1, w))), top = logs.length - 1;
   return logs.map((l, j) => {
-    // The base's texture is sized to the first picture's bytes, far below what any canvas
-    // resolves, and its width is not in the table: it reads itself (guessing it one step below
-    // the first level made a one-level package's only level look unresolvable on a small canvas).
-    if (j === 0) return 0;
+    if (j === 0 && !known) return 0;
     const want = l - Math.log2(scale);
     let x = j;
     for (let k = j; k < top; k++) {

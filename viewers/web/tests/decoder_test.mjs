@@ -37,6 +37,13 @@ assert.ok(bases, 'the sample streams mesh refinements');
 const chunks = table.chunks.filter((c) => c.kind === 'mesh' && c.parts.length);
 assert.ok(chunks.length > 0);
 
+// The view table carries every texture level's width, the base's first (what a client re-reading
+// the table for a smaller canvas needs and no chunk holds), as report.json lists them.
+if (table.view_table) {
+  const shipped = JSON.parse(fs.readFileSync(path.join(out, 'report.json'), 'utf8')).texture_levels.shipped;
+  assert.deepEqual(table.view_table.texture_widths, shipped.map((l) => l.width), 'view_table.texture_widths');
+}
+
 // 1. The whole stream, to the encoder's state.
 const states = freshStates(table, bases);
 for (const c of chunks) applyChunk(states, bytes, c);

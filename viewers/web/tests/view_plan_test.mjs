@@ -86,6 +86,20 @@ const small = planRemaining(sized, one, new Set(), sizedStored, axis);
 assert.equal(small.adapted, true);
 assert.equal(small.sequence.at(-1), 5, `on 640×360 the 2048² level comes last (${small.sequence})`);
 assert.ok(small.sequence.indexOf(5) > small.sequence.indexOf(2), 'after every mesh layer');
+// With the base's width in the table (texture_widths, the base's 256² first), the base reads
+// the table where 768² would stand: 58.5 % of the way from 512² to 1024², no longer itself.
+const widthed = { ...sized, view_table: { ...sized.view_table, texture_widths: [256, 512, 1024, 2048] } };
+[1 + third - 1, 1 + third, 3, 3].forEach((x, j) => assert.ok(Math.abs(textureAxis(widthed, 1 / 3)[j] - x) < 1e-9,
+  `with widths, level ${j} reads ${textureAxis(widthed, 1 / 3)[j]}, not ${x}`));
+// A package of one texture level (SpecularTest: base 128², level 512²): on a third of the display
+// the base reads 384², 79 % of the way to the level, so the level keeps a fifth of its display
+// gain there; without the base's width (an older table) the base reads itself and the level all of it.
+const oneLevel = { view: { display: [1920, 1080] }, chunks: [{ kind: 'mesh', size: 100 }, { kind: 'texture', size: 100, width: 512, height: 512 }],
+  orders: [{ name: 'rate-distortion', chunks: [0, 1] }],
+  view_table: { directions: [[0, 0, 1]], triangles: [], mesh_layers: 2, texture_layers: 2, distortion: [[2], [1], [1], [0]] } };
+assert.deepEqual(textureAxis(oneLevel, 1 / 3), [0, 1]);
+const oneAxis = textureAxis({ ...oneLevel, view_table: { ...oneLevel.view_table, texture_widths: [128, 512] } }, 1 / 3);
+assert.ok(Math.abs(oneAxis[0] - third / 2) < 1e-9 && oneAxis[1] === 1, `one level with widths reads ${oneAxis}`);
 // Read for the canvas, a level past what the canvas resolves gains nothing.
 const Ds = surface(sized.view_table, one, axis);
 for (let i = 0; i < 4; i++) assert.equal(Ds[i * 4 + 2], Ds[i * 4 + 3]);
