@@ -54,12 +54,9 @@ int cmd_convert(const std::vector<std::string>& args) {
     const std::string t = p->text("--textures");
     if (t != "ktx2" && t != "default")
       return usage_error(kConvert, "--textures needs ktx2 or default (got '" + t + "')");
-    // The stream's texture levels and its player do not read KTX2 yet: model.glb (and base.glb
-    // without a stream) only.
-    if (t == "ktx2" && o.stream && !p->has("--no-report"))
-      return usage_error(kConvert,
-                         "--textures ktx2 is written for -o FILE.glb and --no-report folders only "
-                         "so far (a stream's texture levels are JPEG/PNG/WebP)");
+    // Every texture level (atlas, kept maps) KTX2 as made by the levels, every other image by
+    // the exporter; model.glb and base.glb carry the same files.
+    o.textures.ktx2 = t == "ktx2";
     o.gltf.ktx2 = t == "ktx2";
   }
   auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);

@@ -79,6 +79,11 @@ bool is_jpeg(const std::vector<uint8_t>& b) {
   return b.size() >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF;
 }
 
+bool is_ktx2(const std::vector<uint8_t>& b) {  // KTX 2.0 §3.1: the file identifier
+  static const uint8_t id[12] = {0xAB, 'K', 'T', 'X', ' ', '2', '0', 0xBB, '\r', '\n', 0x1A, '\n'};
+  return b.size() >= 12 && std::memcmp(b.data(), id, 12) == 0;
+}
+
 // Everything about an instance's transform the node writer needs.
 struct Placement {
   Mat4 world;  // affine part of the instance transform
@@ -161,6 +166,8 @@ class Exporter {
       std::string mime;
       if (i < int32_t(ktx2_.size()) && !ktx2_[size_t(i)].empty()) {
         bytes = &ktx2_[size_t(i)], mime = "image/ktx2";
+      } else if (img.mime_type == "image/ktx2" && is_ktx2(img.encoded)) {
+        bytes = &img.encoded, mime = "image/ktx2";  // as it came, or as the levels made it
       } else if (img.mime_type == "image/png" && is_png(img.encoded)) {
         bytes = &img.encoded, mime = "image/png";
       } else if (img.mime_type == "image/jpeg" && is_jpeg(img.encoded)) {

@@ -35,7 +35,8 @@ Result<std::vector<std::vector<uint8_t>>> encode_images_ktx2(const Scene& scene,
                                                              const Ktx2EncodeOptions& base) {
   std::vector<size_t> todo;
   for (size_t i = 0; i < scene.images.size() && i < uses.size(); ++i)
-    if (uses[i] != ImageUse::kNone) todo.push_back(i);
+    if (uses[i] != ImageUse::kNone && scene.images[i].mime_type != "image/ktx2")
+      todo.push_back(i);  // a KTX2 image is written as it is
   std::vector<std::vector<uint8_t>> out(scene.images.size());
   std::vector<Status> errors(todo.size(), Status::ok());
   // Side by side, one encoder thread each; a lone image takes every core.

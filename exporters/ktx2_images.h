@@ -21,11 +21,12 @@ enum class ImageUse : uint8_t { kNone, kColour, kNormal, kData };
 // kNone where no material samples it.
 std::vector<ImageUse> image_uses(const Scene& scene);
 
-// KTX2 bytes for every image whose use is not kNone (empty entries elsewhere). Images that hold
-// only their encoded bytes are decoded first (a copy: the scene is not changed). `base` gives
-// the encoder's quality settings; mode, colour space and thread count are chosen here (images
-// encoded side by side use one encoder thread each). Errors: the encoder's (a missing one names
-// its npm package), an image that cannot be decoded (naming it). Deterministic.
+// KTX2 bytes for every image whose use is not kNone and that is not KTX2 already (empty entries
+// elsewhere: a KTX2 image, as uploaded or as the texture levels made it, is written as it is).
+// Images that hold only their encoded bytes are decoded first (a copy: the scene is not changed).
+// `base` gives the encoder's quality settings; mode, colour space and thread count are chosen here
+// (images encoded side by side use one encoder thread each). Errors: the encoder's (a missing one
+// names its npm package), an image that cannot be decoded (naming it). Deterministic.
 Result<std::vector<std::vector<uint8_t>>> encode_images_ktx2(const Scene& scene,
                                                              const std::vector<ImageUse>& uses,
                                                              const Ktx2EncodeOptions& base = {});

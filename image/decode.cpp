@@ -43,6 +43,7 @@ std::string oiio_format(const std::string& mime, const std::string& name) {
   if (mime == "image/x-tga") return "targa";
   if (mime == "image/vnd.radiance") return "hdr";
   if (mime == "image/x-exr") return "openexr";
+  if (mime == "image/ktx2") return "ktx2";
   std::string ext = lower_extension(name);
   if (ext == "tga") return "targa";
   return ext;

@@ -88,23 +88,25 @@ struct KeptSource {
   const Image* source = nullptr;  // the scene's image: its encoded bytes and mime type
   TexelFilter filter = TexelFilter::kData;
   int width = 0, height = 0;  // as decoded
-  // The source's own bytes are JPEG or PNG, which the finest level carries as they came; else
-  // (pixels made in code, WebP, a transcoded KTX2) every level's map is made, as PNG.
+  // The source's own bytes are JPEG or PNG (KTX2 when the levels are KTX2), which the finest
+  // level carries as they came; else (pixels made in code, WebP, a transcoded KTX2) every
+  // level's map is made, as PNG (KTX2).
   bool own_bytes = true;
 };
 
-// The kept images a level can carry: JPEG or PNG, or pixels that can be encoded as PNG
-// (`streamed_material`'s own images are the levels').
-std::vector<KeptSource> kept_sources(const Scene& scene, int32_t streamed_material) {
+// The kept images a level can carry: JPEG or PNG (KTX2 when `ktx2`), or pixels that can be
+// encoded as PNG (KTX2) (`streamed_material`'s own images are the levels').
+std::vector<KeptSource> kept_sources(const Scene& scene, int32_t streamed_material, bool ktx2) {
   std::vector<KeptSource> out;
   for (int32_t i : kept_level_images(scene, streamed_material)) {
     const Image& source = scene.images[size_t(i)];
     KeptSource k;
     k.image = i, k.source = &source, k.filter = kept_image_filter(scene, i);
     k.own_bytes = !source.encoded.empty() &&
-                  (source.mime_type == "image/jpeg" || source.mime_type == "image/png");
+                  (ktx2 ? source.mime_type == "image/ktx2"
+                        : source.mime_type == "image/jpeg" || source.mime_type == "image/png");
     k.width = source.width, k.height = source.height;
-    if (!source.decoded()) {  // never decoded: is it decodable, and how large?
+    if (!source.decoded()) {                 // never decoded: is it decodable, and how large?
       if (source.encoded.empty()) continue;  // no pixels and no bytes: shipped as it is
       Image probe = source;
       if (!decode_image(probe)) continue;
@@ -136,19 +138,27 @@ std::vector<std::optional<std::pair<int, int>>> kept_sides(std::pair<int, int> f
   return out;
 }
 
+// One kept map as KTX2 (encode_level_ktx2, every core), its file's bytes.
+Result<std::vector<uint8_t>> kept_ktx2(const Image& small, TexelFilter filter,
+                                       const TextureLevelOptions& options) {
+  auto r = encode_level_ktx2(small, filter, options.ktx2_options);
+  if (!r.ok()) return r.status();
+  return std::move(r->bytes);
+}
+
 // Fills levels[j].kept with every source at scales[j] of its size (the finest: as it came), a
 // map only where the size differs from the level below's. Maps already in `made` are not made
 // again; those made here go into it.
 Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<double>& scales,
-                 TextureLevels& levels, int preview_quality, EncodeCounts* counts, KeptMaps& made) {
+                 TextureLevels& levels, const TextureLevelOptions& options, KeptMaps& made) {
   for (TextureLevel& l : levels.levels) l.kept.clear();
   for (const KeptSource& k : sources) {
     const std::pair<int, int> full_sides = {k.width, k.height};
     const auto sides = kept_sides(full_sides, scales);
     bool missing = false;
     for (const auto& s : sides)
-      missing |= s && (*s != full_sides || !k.own_bytes) &&
-                 !made.count({k.image, s->first, s->second});
+      missing |=
+          s && (*s != full_sides || !k.own_bytes) && !made.count({k.image, s->first, s->second});
     Image decoded;  // only when a map must be made and the scene holds no pixels for it
     if (missing && !k.source->decoded()) {
       decoded = *k.source;
@@ -161,21 +171,28 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
       KeptMap map;
       map.image = k.image;
       map.width = sides[j]->first, map.height = sides[j]->second;
-      map.mime_type = k.own_bytes ? k.source->mime_type : "image/png";
+      map.mime_type = k.own_bytes ? k.source->mime_type : options.ktx2 ? "image/ktx2" : "image/png";
+      const std::tuple<int32_t, int, int> key = {k.image, map.width, map.height};
       if (*sides[j] == full_sides && k.own_bytes) {
         map.encoded = k.source->encoded;
-      } else if (auto it = made.find({k.image, map.width, map.height}); it != made.end()) {
+      } else if (auto it = made.find(key); it != made.end()) {
         map.encoded = it->second;
       } else {
         Image small = halvings.reduce(map.width, map.height);
-        auto bytes = map.mime_type == "image/jpeg" ? encode_jpeg(small, preview_quality, counts)
-                                                   : encode_png(small, counts);
+        auto bytes = map.mime_type == "image/jpeg"
+                         ? encode_jpeg(small, options.preview_quality, options.counts)
+                     : map.mime_type == "image/png" ? encode_png(small, options.counts)
+                                                    : kept_ktx2(small, k.filter, options);
         if (!bytes.ok())
           return Status::error("texture levels: kept image " + std::to_string(k.image) + " '" +
                                    k.source->name + "': " + bytes.status().message(),
                                ErrorKind::kInternal);
         map.encoded = bytes.take();
-        made[{k.image, map.width, map.height}] = map.encoded;
+        made[key] = map.encoded;
+      }
+      if (map.mime_type == "image/ktx2") {  // sides rounded up to multiples of 4 (ktx2_sides)
+        const std::pair<int, int> s = ktx2_sides(map.width, map.height);
+        map.width = s.first, map.height = s.second;
       }
       levels.levels[j].kept.push_back(std::move(map));
     }
@@ -188,7 +205,7 @@ Status fill_kept(const std::vector<KeptSource>& sources, const std::vector<doubl
 Status add_kept_levels(const Scene& scene, TextureLevels& levels,
                        const TextureLevelOptions& options) {
   if (levels.levels.empty()) return Status::ok();
-  const std::vector<KeptSource> sources = kept_sources(scene, levels.material);
+  const std::vector<KeptSource> sources = kept_sources(scene, levels.material, options.ktx2);
   if (sources.empty()) return Status::ok();
   const double top = double(std::max(1, levels.levels.back().width));
   std::vector<double> scales;
@@ -208,25 +225,20 @@ Status add_kept_levels(const Scene& scene, TextureLevels& levels,
     }
   }
   KeptMaps made;
-  if (Status st = fill_kept(sources, scales, levels, options.preview_quality, options.counts, made);
-      !st)
-    return st;
+  if (Status st = fill_kept(sources, scales, levels, options, made); !st) return st;
   // The byte bound counts the kept maps as make_texture_levels counts the atlas's: levels
   // between the smallest and the top go, most bytes first, while the pyramid is over it.
   while (const std::optional<size_t> at = drop_dearest_middle_level(
              levels, options.max_pyramid_ratio, "the levels and the kept images' maps")) {
     if (*at < inserted) --inserted;
     scales.erase(scales.begin() + std::ptrdiff_t(*at));
-    if (Status st =
-            fill_kept(sources, scales, levels, options.preview_quality, options.counts, made);
-        !st)
-      return st;
+    if (Status st = fill_kept(sources, scales, levels, options, made); !st) return st;
   }
   // A level made for the kept images alone that costs more than the bound (the atlas resent is
   // dearer than the kept images save): the atlas's one level carries them as they came.
   if (inserted > 0 && pyramid_ratio(levels) > options.max_pyramid_ratio) {
     levels.levels.erase(levels.levels.begin(), levels.levels.end() - 1);
-    return fill_kept(sources, {1.0}, levels, options.preview_quality, options.counts, made);
+    return fill_kept(sources, {1.0}, levels, options, made);
   }
   return Status::ok();
 }

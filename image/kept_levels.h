@@ -13,7 +13,9 @@
 // level carries an image only where its size differs from the level below's (level 0, the
 // base's, carries every one). Reduced by 2×2 box halvings (linear light for colour, renormalized
 // for normal maps, as stored for data), then a Catmull-Rom resample to the exact size; encoded as
-// the image came (JPEG at `preview_quality`, or PNG). An image whose pixels have no JPEG or PNG
+// the image came (JPEG at `preview_quality`, or PNG; with KTX2 levels, TextureLevelOptions::ktx2,
+// every map is KTX2 in its texels' mode, a KTX2 upload's finest as it came, the sides rounded up
+// to multiples of 4). An image whose pixels have no JPEG or PNG
 // bytes (made in code, as the importer's anisotropy directions re-expressed for another tangent
 // frame; WebP; a transcoded KTX2) has every level's map made as PNG, the finest included: such an
 // image went into the base at full size, and was PNG-encoded again for every base the bytes

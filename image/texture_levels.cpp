@@ -107,6 +107,15 @@ Image downsample_half(const Image& in, TexelFilter filter) {
   return out;
 }
 
+Result<Ktx2Encoded> encode_level_ktx2(const Image& map, TexelFilter filter,
+                                      const Ktx2EncodeOptions& base) {
+  Ktx2EncodeOptions k = base;
+  k.mode = filter == TexelFilter::kSrgb ? Ktx2Mode::kEtc1s : Ktx2Mode::kUastc;
+  k.srgb = filter == TexelFilter::kSrgb;
+  k.normal_map = filter == TexelFilter::kNormal;
+  return encode_ktx2(map, k);
+}
+
 Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLevelOptions& o,
                                           const std::vector<ChannelTexture>& channels) {
   std::string who =
@@ -162,6 +171,22 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
     return top && o.top_from_encoded && !map.encoded.empty() && map.mime_type == mime ? &map.encoded
                                                                                       : nullptr;
   };
+  // A level's map `map` (0: the base colour, c + 1: channel c) as KTX2, one encoder thread
+  // each when several run side by side. The level's sides become the file's (multiples of 4).
+  auto encode_job_ktx2 = [&](TexelFilter filter, const Image& image, size_t map, size_t jobs,
+                             TextureLevel& level) -> Status {
+    Ktx2EncodeOptions k = o.ktx2_options;
+    if (jobs > 1) k.threads = 1;
+    auto r = encode_level_ktx2(image, filter, k);
+    if (!r.ok()) return r.status();
+    if (map == 0) {
+      level.encoded = std::move(r->bytes);
+      level.width = r->width, level.height = r->height;
+    } else {
+      level.other_maps[map - 1] = {channels[map - 1].channel, "image/ktx2", std::move(r->bytes)};
+    }
+    return Status::ok();
+  };
   // Levels' maps encoded as independent jobs on every core (each writes its own file; the
   // first error in level and map order is the one returned).
   struct Job {
@@ -178,7 +203,7 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
       const Maps& m = *which[l].first;
       level->width = m[0]->width;
       level->height = m[0]->height;
-      level->mime_type = alpha ? "image/png" : "image/jpeg";
+      level->mime_type = o.ktx2 ? "image/ktx2" : alpha ? "image/png" : "image/jpeg";
       level->other_maps.assign(channels.size(), {});
       for (size_t k = 0; k <= channels.size(); ++k) jobs.push_back({&m, which[l].second, level, k});
     }
@@ -189,6 +214,13 @@ Result<TextureLevels> make_texture_levels(const Image& texture, const TextureLev
         const Maps& m = *job.maps;
         const bool top = m[0] == &texture;
         const Image& map = *m[job.map];
+        if (o.ktx2) {
+          status[j] =
+              encode_job_ktx2(job.map == 0 ? TexelFilter::kSrgb : channels[job.map - 1].filter, map,
+                              job.map, jobs.size(), *job.level);
+          if (!status[j]) status[j] = status[j].with_prefix(who);
+          continue;
+        }
         if (job.map == 0) {
           const std::vector<uint8_t>* own = given(map, job.level->mime_type.c_str(), top);
           auto bytes = own     ? Result<std::vector<uint8_t>>(*own)

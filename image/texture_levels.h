@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/encode_counts.h"
+#include "image/ktx2_encode.h"
 #include "scene/scene.h"
 #include "scene/texture_levels.h"
 
@@ -39,6 +40,12 @@ struct TextureLevelOptions {
   // encode_as_top_level at jpeg_quality) instead of encoding it again. Only for images whose
   // bytes are that encoding (never a source's own file).
   bool top_from_encoded = false;
+  // Every map of every level (and the kept maps: image/kept_levels.h) as KTX2 (Basis Universal,
+  // glTF's KHR_texture_basisu; mime "image/ktx2") instead of JPEG/PNG: ETC1S in sRGB for colour,
+  // UASTC with Zstandard for normal and data maps (encode_level_ktx2). The byte bounds above
+  // then count KTX2 bytes.
+  bool ktx2 = false;
+  Ktx2EncodeOptions ktx2_options;  // the encoder's quality settings when `ktx2`
 };
 
 // How a channel's texels average when a level halves.
@@ -55,6 +62,12 @@ struct ChannelTexture {
   const Image* image = nullptr;
   TexelFilter filter = TexelFilter::kData;
 };
+
+// One map encoded as KTX2 in the mode its texels ask: kSrgb → ETC1S in sRGB, kNormal → UASTC
+// tuned for normals, kData → UASTC linear (mode, colour space and normal tuning of `base` are
+// replaced; its qualities, threads and limits kept). Errors: encode_ktx2's.
+Result<Ktx2Encoded> encode_level_ktx2(const Image& map, TexelFilter filter,
+                                      const Ktx2EncodeOptions& base);
 
 // Requires a decoded image whose width and height are powers of two (and channels of its size).
 // Errors name the image. The channels move with the base colour: each level carries every

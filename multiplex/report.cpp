@@ -199,7 +199,17 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs,
     for (size_t k = 0; k < output->atlas_pages.size(); ++k)
       out << (k ? ", " : "") << "[" << output->atlas_pages[k].first << ", "
           << output->atlas_pages[k].second << "]";
-    out << "], \"draw_calls\": " << output->draw_calls << "}";
+    out << "], \"draw_calls\": " << output->draw_calls;
+    if (!output->texture_encoder.empty()) {
+      std::string text;  // a JSON string: quotes and backslashes escaped, controls dropped
+      for (char c : output->texture_encoder)
+        if (c == '"' || c == '\\')
+          text += '\\', text += c;
+        else if (static_cast<unsigned char>(c) >= 0x20)
+          text += c;
+      out << ", \"texture_encoder\": \"" << text << "\"";
+    }
+    out << "}";
   }
   std::snprintf(buf, sizeof buf,
                 ",\n  \"seconds\": {\"layers\": %.3f, \"render\": %.3f, \"total\": %.3f}\n}\n",

@@ -46,8 +46,10 @@ void cost_base_as_shipped(MultiplexResult& r, uint64_t first_picture_bytes);
 struct OutputFigures {
   std::vector<std::pair<int, int>> atlas_pages;
   uint64_t draw_calls = 0;
+  std::string texture_encoder;  // the KTX2 encoder's version when the textures are KTX2, else ""
 };
-// With `output`, report.json also holds "output": {"atlas_pages": [[w, h], ...], "draw_calls": n}.
+// With `output`, report.json also holds "output": {"atlas_pages": [[w, h], ...], "draw_calls": n}
+// (and "texture_encoder": "..." when set).
 std::string report_json(const MultiplexResult& r, const DownloadComparison* vs = nullptr,
                         const OutputFigures* output = nullptr);
 std::string rd_svg(const MultiplexResult& r, const DownloadComparison* vs = nullptr);

@@ -21,6 +21,7 @@
 #include "exporters/draco_encode.h"
 #include "image/encode.h"
 #include "image/kept_levels.h"
+#include "image/ktx2_encode.h"
 #include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
 #include "simplify/lod.h"
@@ -219,6 +220,8 @@ Result<TextureLevels> texture_step(Scene& scene, int32_t streamed_material, cons
   // The kept materials' images go with the levels, each at its level's scale.
   if (whole_pyramid)
     if (Status st = add_kept_levels(scene, *levels, to); !st) return st;
+  // With KTX2 levels model.glb carries the kept images as the top level does (KTX2 too).
+  if (whole_pyramid && to.ktx2) apply_kept_level(scene, *levels, levels->levels.size() - 1);
   // From here on the levels stand for the atlas's images: their pixels are released (a 4096²
   // atlas's four channels are 256 MB, which every later copy of the scene would repeat).
   texture->encoded = levels->levels.back().encoded;
@@ -649,6 +652,11 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   OutputFigures figures;
   for (const AtlasPage& p : atlas_pages) figures.atlas_pages.push_back({p.width, p.height});
   figures.draw_calls = out.output.draw_calls;
+  if (o.textures.ktx2) {
+    auto version = ktx2_encoder_version(o.textures.ktx2_options);
+    if (!version.ok()) return version.status();
+    figures.texture_encoder = version.take();
+  }
   if (!o.stream) return out;
   scene = Scene{};  // the record (ps) holds the geometry from here on
   // Its arrays under glibc's (risen) mmap threshold were freed into the heap, which keeps the

@@ -119,8 +119,9 @@
 // is its parts' bytes in order, n bytes each; each part is the range-coded compact vertex splits
 // taking the mesh from vertex a to b and face c to e (stream/vsplit.h; the splits' order is the
 // stream's vertex order, so stream vertex i need not be the progressive mesh's vertex i). A texture
-// chunk is the complete JPEG or PNG files of that level's maps, one per channel, then its kept
-// images (image/kept_levels.h: the base carries each at the base level's scale, a level only
+// chunk is the complete JPEG, PNG or KTX2 files of that level's maps (is_map_mime: with KTX2
+// levels the base .glb's images are KTX2 too, behind KHR_texture_basisu), one per channel, then its
+// kept images (image/kept_levels.h: the base carries each at the base level's scale, a level only
 // where the size changes, the finest level as the image came).
 //
 // Orders: chunks are stored in the first order's sequence ("rate-distortion", 0..n-1); every
@@ -172,6 +173,12 @@ inline std::optional<Channel> parse_channel(const std::string& name) {
 }
 inline bool is_texture_channel(const std::string& name) { return parse_channel(name).has_value(); }
 inline const char* const kBaseColorChannel = kChannelNames[0];
+
+// The files a texture chunk's maps and kept images may be: JPEG, PNG, or KTX2 (Basis Universal,
+// glTF's KHR_texture_basisu: `convert --textures ktx2`, the GPU decodes it without RGBA).
+inline bool is_map_mime(const std::string& mime) {
+  return mime == "image/jpeg" || mime == "image/png" || mime == "image/ktx2";
+}
 
 // One step of the multiplexed order: a chunk of the package.
 struct StreamStep {

@@ -284,8 +284,7 @@ Status read_kept(const Json& j, PackageChunk& c, uint64_t& at, const std::string
       return fail(kw + ": \"mime\" missing or not a string");
     PackageMap m;
     m.mime = mime->get<std::string>();
-    if (m.mime != "image/jpeg" && m.mime != "image/png")
-      return fail(kw + ": mime type is neither JPEG nor PNG");
+    if (!is_map_mime(m.mime)) return fail(kw + ": mime type is not JPEG, PNG or KTX2");
     uint64_t image = 0;
     if (!(s = get_uint(e, "image", kMaxKeptImages - 1, image, kw))) return s;
     m.image = int32_t(image);
@@ -348,8 +347,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
         return fail(mw + ": base_color must come first, once");
       for (const PackageMap& before : c.maps)
         if (before.channel == m.channel) return fail(mw + ": channel " + m.channel + " twice");
-      if (m.mime != "image/jpeg" && m.mime != "image/png")
-        return fail(mw + ": mime type is neither JPEG nor PNG");
+      if (!is_map_mime(m.mime)) return fail(mw + ": mime type is not JPEG, PNG or KTX2");
       if (!(s = map_range(e, c, at, m, mw))) return s;
       c.maps.push_back(std::move(m));
     }

@@ -42,14 +42,14 @@ Status check_texture_level(const TextureLevel& t, const std::string& where) {
       uint64_t(t.height) > kMaxTextureSide)
     return fail(where + "texture level " + std::to_string(t.width) + "x" +
                 std::to_string(t.height) + " is empty or has a bad size");
-  if (t.mime_type != "image/jpeg" && t.mime_type != "image/png")
-    return fail(where + "texture level mime type \"" + t.mime_type + "\" is neither JPEG nor PNG");
+  if (!is_map_mime(t.mime_type))
+    return fail(where + "texture level mime type \"" + t.mime_type + "\" is not JPEG, PNG or KTX2");
   for (const TextureMap& m : t.other_maps) {
     if (!is_texture_channel(m.channel) || m.channel == kBaseColorChannel)
       return fail(where + "texture level map channel \"" + m.channel +
                   "\" is not a further channel");
-    if (m.encoded.empty() || (m.mime_type != "image/jpeg" && m.mime_type != "image/png"))
-      return fail(where + "texture level " + m.channel + " map is empty or neither JPEG nor PNG");
+    if (m.encoded.empty() || !is_map_mime(m.mime_type))
+      return fail(where + "texture level " + m.channel + " map is empty or not JPEG, PNG or KTX2");
   }
   for (size_t i = 0; i < t.kept.size(); ++i) {
     const KeptMap& k = t.kept[i];
@@ -60,9 +60,9 @@ Status check_texture_level(const TextureLevel& t, const std::string& where) {
         uint64_t(k.width) > kMaxTextureSide || uint64_t(k.height) > kMaxTextureSide)
       return fail(where + "texture level kept image " + std::to_string(k.image) +
                   ": bad index or size");
-    if (k.encoded.empty() || (k.mime_type != "image/jpeg" && k.mime_type != "image/png"))
+    if (k.encoded.empty() || !is_map_mime(k.mime_type))
       return fail(where + "texture level kept image " + std::to_string(k.image) +
-                  " is empty or neither JPEG nor PNG");
+                  " is empty or not JPEG, PNG or KTX2");
   }
   return Status::ok();
 }

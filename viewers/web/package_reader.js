@@ -150,7 +150,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
         obj(m, mw);
         need(CHANNELS.includes(m.channel), `${mw}.channel ${JSON.stringify(m.channel)} is not one of ${CHANNELS.join(', ')}`);
         need((j === 0) === (m.channel === 'base_color'), `${mw}: base_color must come first, once`);
-        need(/^image\/(jpeg|png)$/.test(m.mime), `${mw}.mime ${JSON.stringify(m.mime)} is not image/jpeg or image/png`);
+        need(/^image\/(jpeg|png|ktx2)$/.test(m.mime), `${mw}.mime ${JSON.stringify(m.mime)} is not image/jpeg, image/png or image/ktx2`);
         const size = int(m.size, `${mw}.size`);
         need(size > 0 && at + size <= chunk.offset + chunk.size, `${mw}: ${size} bytes do not fit the chunk`);
         const map = { channel: m.channel, mime: m.mime, offset: at, size };
@@ -162,7 +162,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       const kept = (c.kept === undefined ? [] : arr(c.kept, `${w}.kept`)).map((k, j) => {
         const kw = `${w}.kept[${j}]`;
         obj(k, kw);
-        need(/^image\/(jpeg|png)$/.test(k.mime), `${kw}.mime ${JSON.stringify(k.mime)} is not image/jpeg or image/png`);
+        need(/^image\/(jpeg|png|ktx2)$/.test(k.mime), `${kw}.mime ${JSON.stringify(k.mime)} is not image/jpeg, image/png or image/ktx2`);
         const size = int(k.size, `${kw}.size`);
         need(size > 0 && at + size <= chunk.offset + chunk.size, `${kw}: ${size} bytes do not fit the chunk`);
         const map = { image: int(k.image, `${kw}.image`, MAX_KEPT_IMAGES - 1), width: int(k.width, `${kw}.width`, maxSide),
