@@ -15,9 +15,14 @@ import * as THREE from 'three';
 export function configureTexture(texture, anisotropy, wrap = [THREE.ClampToEdgeWrapping, THREE.ClampToEdgeWrapping]) {
   texture.colorSpace = THREE.NoColorSpace;
   texture.flipY = false;
-  texture.minFilter = THREE.LinearMipmapLinearFilter;
   texture.magFilter = THREE.LinearFilter;
-  texture.generateMipmaps = true;
+  if (texture.isCompressedTexture) {  // KTX2: its mipmaps come inside the file (three cannot make them)
+    texture.generateMipmaps = false;
+    texture.minFilter = texture.mipmaps.length > 1 ? THREE.LinearMipmapLinearFilter : THREE.LinearFilter;
+  } else {
+    texture.minFilter = THREE.LinearMipmapLinearFilter;
+    texture.generateMipmaps = true;
+  }
   [texture.wrapS, texture.wrapT] = wrap;
   texture.anisotropy = anisotropy;
   texture.needsUpdate = true;

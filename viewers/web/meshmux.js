@@ -32,6 +32,7 @@ import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStanda
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
 import { PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
+import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, texelGpuBytes, usesBasisu } from './ktx2.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
@@ -46,6 +47,9 @@ const IMAGE_OPTIONS = { imageOrientation: 'from-image', premultiplyAlpha: 'none'
 // Where three's Draco glTF decoder files are by default: beside this module, as `meshmux
 // convert` and `meshmux batch` lay them out.
 export const DRACO_DECODER_PATH = new URL('./three/addons/libs/draco/gltf/', import.meta.url).href;
+// Where three's Basis Universal transcoder is (basis_transcoder.js and .wasm): KTX2 texture
+// levels (convert --textures ktx2) are transcoded by it in KTX2Loader's workers.
+export const BASIS_TRANSCODER_PATH = new URL('./three/addons/libs/basis/', import.meta.url).href;
 export const PROBE_BYTES = 65536;  // the first request: header, table and often the base too
 
 // A stream re-plans for the camera once its direction turned by more than a degree (view_plan.js).
@@ -90,12 +94,17 @@ export class MeshmuxStream extends EventTarget {
   // ([width, height] in device pixels: the canvas the model is seen on, for which the order is
   // re-planned when it is smaller than the display the package was ordered for (texture levels
   // no pixel of it resolves go last, view_plan.js textureAxis); default null: the renderer's
-  // drawing buffer, read at each re-plan; without either, the package's display).
+  // drawing buffer, read at each re-plan; without either, the package's display),
+  // basisTranscoderPath (where three's basis/ transcoder files are: KTX2 texture levels are
+  // transcoded by KTX2Loader in its workers to what the GPU reads, BC7/BC1 on desktops,
+  // ASTC/ETC on phones, RGBA where none, and uploaded compressed; default: beside this module),
+  // ktx2Loader (a function giving a Promise of a three KTX2Loader, support detected, shared by
+  // many streams; called only for a package with KTX2 textures; MeshmuxWorld passes one).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
     this.options = { order: 'rate-distortion', budgetBytes: Infinity, chunkBatchBytes: 256 * 1024, renderer: null,
-      dracoDecoderPath: DRACO_DECODER_PATH,
+      dracoDecoderPath: DRACO_DECODER_PATH, basisTranscoderPath: BASIS_TRANSCODER_PATH, ktx2Loader: null,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
       probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, uploadsBeside: false,
       display: null, ...options };
@@ -135,6 +144,10 @@ export class MeshmuxStream extends EventTarget {
     this._uploads = null;  // uploadsBeside: the Promise of the last texture level's upload and swap
     this._bounds = null;   // worldBounds() as last computed, and the object's matrix then
     this._planned = null;  // the position and view direction the order was last re-planned at
+    this._ktx2 = null;     // the Promise of the KTX2Loader (ktx2Loader()), once one was needed
+    this._ktx2Config = null;  // its workerConfig (the formats the GPU reads), once known
+    this._levelGpuBytes = 0;  // GPU bytes of the last texture level applied (its maps and kept maps)
+    this._gpuBytes = null;    // gpuBytes() as last computed (null: textures changed since)
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -186,7 +199,7 @@ export class MeshmuxStream extends EventTarget {
       bytesReceived: this._bytes, bytesTotal: this._reader.size,
       chunksApplied: this._position, chunkCount: this.table ? this.table.chunks.length : 0,
       triangles, vertices, textureWidth: this._textureSize[0], textureHeight: this._textureSize[1],
-      keptTexels: this.keptTexels(),
+      keptTexels: this.keptTexels(), gpuBytes: this.gpuBytes(), levelGpuBytes: this._levelGpuBytes,
       distortion: this._position > 0 ? this._sequenceDistortion[this._position - 1] : this.table ? this.table.base.distortion : NaN,
       order: this.order ? this.order.name : this.options.order,
       // The order being followed: the chosen one, or "view-adapted" once re-planned for the camera.
@@ -296,6 +309,25 @@ export class MeshmuxStream extends EventTarget {
     return new DRACOLoader().setDecoderPath(this.options.dracoDecoderPath).preload();
   }
 
+  // three's KTX2Loader: options.ktx2Loader()'s, else the page's one for the transcoder folder
+  // (ktx2.js sharedKtx2Loader: support detected for the renderer, or the GPU a canvas of its own
+  // reports). Never disposed here. One Promise per stream.
+  ktx2Loader() {
+    if (this._ktx2) return this._ktx2;
+    this._ktx2 = (async () => {
+      let loader;
+      if (this.options.ktx2Loader) {
+        loader = await this.options.ktx2Loader();
+      } else {
+        const { KTX2Loader } = await import('three/addons/loaders/KTX2Loader.js');
+        loader = sharedKtx2Loader(KTX2Loader, this.options.basisTranscoderPath, this.options.renderer);
+      }
+      this._ktx2Config = loader.workerConfig;
+      return loader;
+    })();
+    return this._ktx2;
+  }
+
   async _buildBase(table, stored, dracoLoader = null) {
     let bytes = stored;
     if (table.base.deflated) {
@@ -321,6 +353,7 @@ export class MeshmuxStream extends EventTarget {
         draco = await (dracoLoader || this._dracoLoader());
         loader.setDRACOLoader(draco);
       }
+      if (usesBasisu(bytes)) loader.setKTX2Loader(await this.ktx2Loader());  // KTX2 images
       gltf = await loader.parseAsync(glb, '');
       await nextTask();
     } catch (e) {
@@ -353,7 +386,8 @@ export class MeshmuxStream extends EventTarget {
     const json = gltf.parser.json;
     const imageOf = (i) => {
       const t = json.materials?.[i]?.pbrMetallicRoughness?.baseColorTexture;
-      return t ? json.textures?.[t.index]?.source : undefined;
+      const texture = t ? json.textures?.[t.index] : undefined;  // a KTX2 image: the extension's source
+      return texture ? texture.source ?? texture.extensions?.KHR_texture_basisu?.source : undefined;
     };
     const streamImage = imageOf(0);
     const streamed = (material) => {
@@ -446,6 +480,7 @@ export class MeshmuxStream extends EventTarget {
       material.dispose();
     }
     this.materials = [...materialFor.values()];
+    this._gpuBytes = null;
     // The materials the texture levels refine (kept ones keep their own textures).
     this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
     await slice();
@@ -476,6 +511,34 @@ export class MeshmuxStream extends EventTarget {
     }
   }
 
+  // GPU bytes of every texture the stream's materials show (each once: ktx2.js gpuBytesOf), as
+  // three.js holds them once uploaded. Recomputed only after textures changed.
+  gpuBytes() {
+    if (this._gpuBytes !== null) return this._gpuBytes;
+    const seen = new Set();
+    let n = 0;
+    for (const m of this.materials)
+      for (const v of Object.values(m)) {
+        if (!v || !v.isTexture || seen.has(v.source)) continue;
+        seen.add(v.source);
+        n += gpuBytesOf(v);
+      }
+    for (const v of [this._map.value, ...Object.values(this._maps)])
+      if (v && !seen.has(v.source)) { seen.add(v.source); n += gpuBytesOf(v); }
+    return (this._gpuBytes = n);
+  }
+
+  // GPU bytes texture chunk `index` shows once applied: its maps and kept images at their sizes
+  // (ktx2.js texelGpuBytes: KTX2 maps as the GPU here reads them once transcoded).
+  chunkGpuBytes(index) {
+    const c = this.table.chunks[index], config = this._ktx2Config;
+    if (c.kind !== 'texture') return 0;
+    let n = 0;
+    for (const m of c.maps) n += c.width * c.height * texelGpuBytes(m.mime, config);
+    for (const k of c.kept || []) n += k.width * k.height * texelGpuBytes(k.mime, config);
+    return Math.round(n);
+  }
+
   // Texels of the kept images as shown (image k alone, or all of them).
   keptTexels(k) {
     const of = (e) => { const t = e.textures.values().next().value, i = t && t.image; return i ? (i.width || 0) * (i.height || 0) : 0; };
@@ -495,8 +558,13 @@ export class MeshmuxStream extends EventTarget {
       if (!e) { bitmap.close(); continue; }
       const replaced = new Map();
       for (const old of e.textures) {
-        const t = (bitmap instanceof PixelImage ? new THREE.DataTexture() : new THREE.Texture()).copy(old);
-        t.source = new THREE.TextureSource(bitmap);
+        let t;
+        if (bitmap instanceof Ktx2Image) {
+          t = compressedLike(bitmap.texture, old);
+        } else {
+          t = (bitmap instanceof PixelImage ? new THREE.DataTexture() : new THREE.Texture()).copy(old);
+          t.source = new THREE.TextureSource(bitmap);
+        }
         t.name = `meshmux kept ${k} ${bitmap.width}x${bitmap.height}`;
         t.needsUpdate = true;
         replaced.set(old, t);
@@ -517,6 +585,7 @@ export class MeshmuxStream extends EventTarget {
       e.textures = new Set(replaced.values());
       e.own = bitmap;
     }
+    this._gpuBytes = null;
   }
 
   // The world-space box of all the stream will draw: each mesh's package bounds through each
@@ -803,6 +872,7 @@ export class MeshmuxStream extends EventTarget {
       this._map.value = texture;
       this._textureSize = [bitmap.width, bitmap.height];
       this._swapKept(keptSwaps);
+      this._levelGpuBytes = this.chunkGpuBytes(index);
     });
   }
 
@@ -854,6 +924,7 @@ export class MeshmuxStream extends EventTarget {
         if (channel === 'base_color') this._textureSize = [bitmap.width, bitmap.height];
       }
       this._swapKept(keptSwaps);
+      this._levelGpuBytes = this.chunkGpuBytes(index);
     });
   }
 
@@ -899,8 +970,21 @@ export class MeshmuxStream extends EventTarget {
   // chromium is tens of milliseconds per 2048² map), then as a PixelImage where its bytes can be
   // read exactly there (uploadInBands sends a band's rows at the band's cost), else on the page.
   _decodeImage(bytes, mime) {
+    if (mime === 'image/ktx2') return this._transcode(bytes);
     if (this._worker) return this._worker.decodeImage(bytes, mime, IMAGE_OPTIONS, true);
     return createImageBitmap(new Blob([bytes], { type: mime }), IMAGE_OPTIONS);
+  }
+
+  // One KTX2 map transcoded by three's KTX2Loader in its workers (the bytes held by the stream's
+  // worker copied to the page once, then handed over), as a Ktx2Image: its CompressedTexture,
+  // sides and close().
+  async _transcode(bytes) {
+    const loader = await this.ktx2Loader();
+    const page = this._worker ? await this._worker.pageBytes(bytes) : bytes;
+    const whole = page.byteOffset === 0 && page.byteLength === page.buffer.byteLength;
+    const buffer = whole ? page.buffer : page.slice().buffer;
+    const texture = await new Promise((resolve, reject) => loader.parse(buffer, resolve, reject));
+    return new Ktx2Image(texture);
   }
 
   // A texture level of ours to the GPU in bands (uploadInBands); false, with the level's
@@ -917,7 +1001,9 @@ export class MeshmuxStream extends EventTarget {
   _releaseTexture(texture) {
     if (!texture) return;
     texture.dispose();
-    if (this._ownTextures.delete(texture)) texture.image.close();  // an ImageBitmap of ours
+    this._gpuBytes = null;
+    // An ImageBitmap of ours (a compressed texture's image is only its sides).
+    if (this._ownTextures.delete(texture) && typeof texture.image.close === 'function') texture.image.close();
   }
 
   // Aborts fetching; play() then resolves with state 'stopped'.
@@ -957,5 +1043,6 @@ export class MeshmuxStream extends EventTarget {
     this.meshes = [];
     this.materials = [];
     this._streamedMaterials = [];
+    this._gpuBytes = null;
   }
 }

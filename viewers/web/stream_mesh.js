@@ -274,6 +274,7 @@ export async function applyMeshChunk(meshes, chunk, payload) {
 // A texture of a decoded map: an ImageBitmap's, or a PixelImage's (a DataTexture: three.js
 // uploads its bytes), the image itself the texture's source (its close() lets it go).
 export function textureOf(image) {
+  if (image && image.isKtx2Image) return image.texture;  // transcoded: KTX2Loader's CompressedTexture
   if (!(image instanceof PixelImage)) return new THREE.Texture(image);
   const texture = new THREE.DataTexture();
   texture.source = new THREE.TextureSource(image);

@@ -17,11 +17,18 @@
 // quiet machine. There, decoding on the page (worker: false), the longest task was 44 ms on the
 // bunny and 54 ms on the helmet; in the worker 4.5 ms on the bunny, while the helmet's 2048² maps
 // still cost 27-72 ms each as their ImageBitmaps arrive from the worker.
+// With --convert-args the conversion takes those arguments ("--textures ktx2": KTX2 levels);
+// with --expect-ktx2 every texture the finished stream shows must be compressed (transcoded by
+// three's KTX2Loader, not RGBA) and its GPU bytes at most a quarter of the same textures as RGBA8
+// with mipmaps. With --library-renderer the library's stream gets a WebGLRenderer of its own
+// (an offscreen canvas, never drawn): its texture levels go to the GPU inside the traced tasks,
+// and KTX2 maps are transcoded to what that GPU reads.
 // Prints the figures (PSNR, coverage, refinement speed in triangles/s) and writes them to
 // WORK/browser_result.json.
 //
 // usage: node stream_test.mjs --meshmux BIN (--model FILE | --sample) --work DIR
-//        [--chromium /usr/bin/chromium] [--min-psnr 30] [--budget 0.1]
+//        [--chromium /usr/bin/chromium] [--min-psnr 30] [--budget 0.1] [--convert-args "..."]
+//        [--expect-ktx2] [--library-renderer]
 // Exit: 0 pass, 1 fail, 77 skipped (no chromium / model missing: said on stderr).
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
@@ -38,6 +45,8 @@ const chromiumPath = opt('--chromium', '/usr/bin/chromium');
 const minPsnr = Number(opt('--min-psnr', '30'));
 const budget = Number(opt('--budget', '0.1'));  // fraction of the package for the early check
 const maxStall = Number(opt('--max-stall', '100'));  // ms a main-thread task may run while the library streams
+const convertArgs = opt('--convert-args', '').split(' ').filter(Boolean);
+const expectKtx2 = args.includes('--expect-ktx2'), libraryRenderer = args.includes('--library-renderer');
 const size = 512;
 
 function fail(message) {
@@ -96,7 +105,7 @@ if (sample) {
   input = path.join(work, 'sample.glb');
   run(meshmux, ['sample', '-o', input, '-q']);
 }
-run(meshmux, ['convert', input, '-o', out, '-q']);
+run(meshmux, ['convert', input, '-o', out, '-q', ...convertArgs]);
 for (const f of ['index.html', 'model.mmxp', 'model.glb', 'viewer/meshmux.js']) {
   if (!fs.existsSync(path.join(out, f))) throw new Error(`convert did not write ${f}`);
 }
@@ -182,11 +191,13 @@ try {
   // chromium traces its main thread; the longest task run there meanwhile (the browser's own
   // measure, as DevTools shows it: ThreadControllerImpl::RunTask on CrRendererMain), and the
   // long tasks (≥ 50 ms) PerformanceObserver saw.
-  await page.evaluate(async () => {
+  await page.evaluate(async (withRenderer) => {
     const { MeshmuxStream } = await import('./viewer/meshmux.js');
-    window.__libraryStream = new MeshmuxStream('model.mmxp');
+    const THREE = await import('three');
+    const renderer = withRenderer ? new THREE.WebGLRenderer({ canvas: document.createElement('canvas') }) : null;
+    window.__libraryStream = new MeshmuxStream('model.mmxp', { renderer });
     await window.__libraryStream.open();
-  });
+  }, libraryRenderer);
   const cdp = await context.newCDPSession(page);
   const traceEvents = [];
   cdp.on('Tracing.dataCollected', (d) => traceEvents.push(...d.value));
@@ -213,6 +224,30 @@ try {
   stall.longest = tasks.reduce((most, e) => Math.max(most, e.dur / 1000), 0);
   stall.over16 = tasks.filter((e) => e.dur > 16000).length;
   const final = compare(await capture('viewer'), await reference('reference'));
+  // The textures the finished stream shows: compressed or not, and their GPU bytes against the
+  // same textures as RGBA8 with mipmaps.
+  const gpu = await page.evaluate(() => {
+    const stream = window.meshmuxViewer.stream, seen = new Set();
+    let rgba = 0, compressed = 0, all = 0;
+    for (const m of stream.materials)
+      for (const v of Object.values(m)) {
+        if (!v || !v.isTexture || seen.has(v.source)) continue;
+        seen.add(v.source);
+        all++;
+        compressed += v.isCompressedTexture ? 1 : 0;
+        rgba += Math.round(4 * v.image.width * v.image.height * 4 / 3);
+      }
+    return { textures: all, compressed, gpuBytes: stream.stats.gpuBytes, rgbaBytes: rgba };
+  });
+  result.gpu = gpu;
+  console.log(`textures shown: ${gpu.textures}, ${gpu.compressed} compressed; GPU ${(gpu.gpuBytes / 1e6).toFixed(2)} MB ` +
+    `(as RGBA8 ${(gpu.rgbaBytes / 1e6).toFixed(2)} MB: ${(gpu.rgbaBytes / Math.max(1, gpu.gpuBytes)).toFixed(2)}× lower)`);
+  if (expectKtx2) {
+    if (!gpu.textures || gpu.compressed !== gpu.textures) fail(`${gpu.textures - gpu.compressed} of ${gpu.textures} textures shown are not compressed`);
+    // 4× at most for 1-byte block formats (BC7, ASTC 4×4): their 2×2 and 1×1 mips each take a whole
+    // 16-byte block, 27 bytes a map over the exact quarter.
+    if (!(gpu.rgbaBytes >= 3.999 * gpu.gpuBytes)) fail(`GPU bytes ${gpu.gpuBytes} not 4× under RGBA8's ${gpu.rgbaBytes}`);
+  }
   const speed = full.applySeconds > 0 ? full.trianglesApplied / full.applySeconds : 0;
   result.full = { bytes: full.bytesReceived, triangles: full.triangles, texture: full.textureWidth,
     chunks: full.chunksApplied, psnr: final.psnr, covered: final.coveredA, coveredReference: final.coveredB,
@@ -274,7 +309,11 @@ try {
     // The base vertices' quantized values, which the splits are predicted from.
     const stored = bytes.slice(table.base.offset, table.base.offset + table.base.size);
     const glb = (table.base.deflated ? (await inflate(stored, table.base.glbSize)).slice() : stored).buffer;
-    const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parseAsync(glb, '');
+    const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
+    // A KTX2 base's images: the viewer's stream's KTX2Loader (one per page).
+    if (window.meshmuxViewer.stream.table.chunks.some((c) => (c.maps || []).some((m) => m.mime === 'image/ktx2')))
+      loader.setKTX2Loader(await window.meshmuxViewer.stream.ktx2Loader());
+    const gltf = await loader.parseAsync(glb, '');
     // Per mesh, its primitives' geometries in primitive order (the first node drawing it).
     const baseGeometry = [], done = new Set();
     gltf.scene.traverse((o) => {
