@@ -59,6 +59,12 @@ export function usesBasisu(glb) {
   return new TextDecoder().decode(glb.subarray(20, 20 + length)).includes('"KHR_texture_basisu"');
 }
 
+// The image a glTF texture definition shows: its source, or for a KTX2 image (no core source)
+// the KHR_texture_basisu extension's; undefined for none.
+export function textureSource(texture) {
+  return texture ? texture.source ?? texture.extensions?.KHR_texture_basisu?.source : undefined;
+}
+
 // GPU bytes a texture holds: a compressed texture's mip levels as stored, else 4 bytes a texel
 // (RGBA8) and a third more with mipmaps. 0 for a texture with no image.
 export function gpuBytesOf(texture) {

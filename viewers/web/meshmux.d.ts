@@ -38,6 +38,10 @@ export interface MeshmuxStreamOptions {
    * examples/jsm/libs/draco/gltf/ as served by your site.
    */
   dracoDecoderPath?: string;
+  /** Where three's basis/ transcoder files are (KTX2 texture levels); default: beside meshmux.js. */
+  basisTranscoderPath?: string;
+  /** A function giving a Promise of a three KTX2Loader, support detected, shared by many streams. */
+  ktx2Loader?: (() => Promise<unknown>) | null;
   /** The camera the model is seen through: the stored order is re-planned for it before each batch. */
   camera?: Camera | null;
   /** false keeps the stored order whatever the camera and canvas (default true). */
@@ -111,6 +115,10 @@ export interface MeshmuxStats {
   textureHeight: number;
   /** Texels of the images of materials kept beside the atlas, as shown (texture levels bring them up). */
   keptTexels: number;
+  /** GPU bytes of every texture shown (RGBA8 with mipmaps, or a KTX2 level's block format). */
+  gpuBytes: number;
+  /** GPU bytes of the last texture level applied (its maps and kept maps). */
+  levelGpuBytes: number;
   /** The distortion the package expects at this point (CIEDE2000, lower is better). */
   distortion: number;
   order: string;
@@ -181,6 +189,12 @@ export class MeshmuxStream extends EventTarget {
   /** Per package mesh, the digest of the decoded state (report.json's stream_digests when complete). */
   /** Texels of the kept materials' image `image` (the base .glb's extras.meshmux_image) as shown, or of all of them; 0 for one no material shows. */
   keptTexels(image?: number): number;
+  /** GPU bytes of every texture shown. */
+  gpuBytes(): number;
+  /** GPU bytes texture chunk `index` shows once applied (0 for other chunks). */
+  chunkGpuBytes(index: number): number;
+  /** three's KTX2Loader this stream transcodes KTX2 maps with (the page's one, or options.ktx2Loader's). */
+  ktx2Loader(): Promise<unknown>;
   stateDigests(): Promise<number[]>;
   /** The world-space bounds of what is shown. */
   worldBounds(target?: Box3): Box3;

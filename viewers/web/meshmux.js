@@ -32,7 +32,7 @@ import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStanda
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
 import { PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
-import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, texelGpuBytes, usesBasisu } from './ktx2.js';
+import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
@@ -386,8 +386,7 @@ export class MeshmuxStream extends EventTarget {
     const json = gltf.parser.json;
     const imageOf = (i) => {
       const t = json.materials?.[i]?.pbrMetallicRoughness?.baseColorTexture;
-      const texture = t ? json.textures?.[t.index] : undefined;  // a KTX2 image: the extension's source
-      return texture ? texture.source ?? texture.extensions?.KHR_texture_basisu?.source : undefined;
+      return textureSource(t ? json.textures?.[t.index] : undefined);
     };
     const streamImage = imageOf(0);
     const streamed = (material) => {
@@ -497,7 +496,7 @@ export class MeshmuxStream extends EventTarget {
     const json = parser.json, imageOfSource = new Map();
     for (const [o, ref] of parser.associations) {
       if (!o || !o.isTexture || !ref || ref.textures === undefined) continue;
-      const k = json.images?.[json.textures?.[ref.textures]?.source]?.extras?.meshmux_image;
+      const k = json.images?.[textureSource(json.textures?.[ref.textures])]?.extras?.meshmux_image;
       if (Number.isInteger(k)) imageOfSource.set(o.source, k);
     }
     for (const m of materials) {

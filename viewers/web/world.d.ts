@@ -8,7 +8,12 @@ export interface WorldPackage {
   headBytes: number;
 }
 export interface WorldPlacement { package: number; matrix: number[]; }
-export interface WorldBudget { triangles: number; texels: number; }
+export interface WorldBudget {
+  triangles: number;
+  texels: number;
+  /** GPU bytes of the textures shown (RGBA8 with mipmaps for JPEG/PNG, the block format for KTX2); unchecked when absent. */
+  gpuBytes?: number;
+}
 
 export interface MeshmuxWorldOptions {
   renderer?: WebGLRenderer | null;
@@ -48,6 +53,8 @@ export interface MeshmuxWorldStats {
   vertices: number;
   /** Texels shown over the packages: texture levels and kept materials' images. */
   texels: number;
+  /** GPU bytes of the textures shown over the packages (MeshmuxStream stats.gpuBytes). */
+  gpuBytes: number;
   trianglesApplied: number;
   /** Seconds spent decoding and applying mesh refinements, over the packages. */
   applySeconds: number;

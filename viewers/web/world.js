@@ -40,14 +40,18 @@ export { validateWorld, screenShare, chunkGain };
 // Default memory budgets by device class: phones and tablets, then desktops.
 export function defaultBudget() {
   const mobile = typeof navigator !== 'undefined' && /Mobi|Android|iPhone|iPad/i.test(navigator.userAgent || '');
-  return mobile ? { triangles: 4e6, texels: 64 * 2 ** 20 } : { triangles: 20e6, texels: 256 * 2 ** 20 };
+  // gpuBytes: what the textures shown hold on the GPU (MeshmuxStream stats.gpuBytes: RGBA8 with
+  // mipmaps for JPEG/PNG levels, the block format for KTX2 ones, a quarter of that or less), so
+  // KTX2 packages fit four times the texels of JPEG ones.
+  return mobile ? { triangles: 4e6, texels: 64 * 2 ** 20, gpuBytes: 256 * 2 ** 20 }
+    : { triangles: 20e6, texels: 256 * 2 ** 20, gpuBytes: 1024 * 2 ** 20 };
 }
 
 export class MeshmuxWorld extends EventTarget {
   // options: renderer (THREE.WebGLRenderer), camera (the THREE.Camera the world is seen through:
   // required for play()), maxRequests (range requests in flight over all packages, default 6),
   // concurrent (packages with a grant at once, default 6: each grant is one range request, so
-  // fewer would leave the link idle between requests), budget ({triangles, texels}; default by
+  // fewer would leave the link idle between requests), budget ({triangles, texels, gpuBytes}; default by
   // device class, defaultBudget()), allowExternalUrls (package URLs outside the world's folder:
   // trusted worlds only), worker (decode in Web Workers, as MeshmuxStream; default true: a
   // pool of `workers` workers shared by the packages, default the cores but one, 1 to 4),
@@ -84,7 +88,7 @@ export class MeshmuxWorld extends EventTarget {
   get state() { return this._state; }
 
   get stats() {
-    let bytesReceived = 0, bytesTotal = 0, chunksApplied = 0, chunkCount = 0, triangles = 0, texels = 0;
+    let bytesReceived = 0, bytesTotal = 0, chunksApplied = 0, chunkCount = 0, triangles = 0, texels = 0, gpuBytes = 0;
     let vertices = 0, trianglesApplied = 0, applySeconds = 0, decoder = 'worker';
     const failed = [];
     for (const p of this.packages) {
@@ -97,13 +101,14 @@ export class MeshmuxWorld extends EventTarget {
       chunkCount += s.chunkCount;
       triangles += s.triangles * p.placements.length;
       texels += s.textureWidth * s.textureHeight + (s.keptTexels || 0);
+      gpuBytes += s.gpuBytes || 0;
       vertices += s.vertices;
       trianglesApplied += s.trianglesApplied;
       applySeconds += s.applySeconds;
       if (s.decoder === 'page') decoder = 'page';
     }
     return { packages: this.packages.length, failed, bytesReceived, bytesTotal, chunksApplied, chunkCount,
-      triangles, vertices, texels, trianglesApplied, applySeconds, decoder, budget: { ...this.options.budget }, requestsPeak: this.limiter.peak, state: this._state };
+      triangles, vertices, texels, gpuBytes, trianglesApplied, applySeconds, decoder, budget: { ...this.options.budget }, requestsPeak: this.limiter.peak, state: this._state };
   }
 
   _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
@@ -274,25 +279,28 @@ export class MeshmuxWorld extends EventTarget {
 
   // What granting `chunks` of package p adds to what is drawn: triangles over its placements
   // (each mesh as often as the base draws it), and the texels its largest texture level adds
-  // over the one shown, with its kept images' over theirs.
+  // over the one shown, with its kept images' over theirs; and the GPU bytes that level's maps
+  // hold over the level shown's (MeshmuxStream chunkGpuBytes).
   _cost(p, chunks) {
     const s = p.stream.stats, shown = s.textureWidth * s.textureHeight;
     const instances = p.stream.meshes.map((m) => m.instances);
-    let triangles = 0, texels = 0;
+    let triangles = 0, texels = 0, gpuBytes = 0;
     const kept = new Map();  // kept image → the most texels a granted level gives it
     for (const c of chunks) {
       const k = chunkCost(p.stream.table, c.index, instances);
       triangles += k.triangles * p.placements.length;
       texels = Math.max(texels, k.texels - shown);
+      gpuBytes = Math.max(gpuBytes, p.stream.chunkGpuBytes(c.index) - s.levelGpuBytes);
       for (const m of p.stream.table.chunks[c.index].kept || []) kept.set(m.image, Math.max(kept.get(m.image) || 0, m.width * m.height));
     }
     for (const [image, n] of kept) texels += Math.max(0, n - p.stream.keptTexels(image));
-    return { triangles, texels };
+    return { triangles, texels, gpuBytes };
   }
 
   _fits(used, cost) {
     const b = this.options.budget;
-    return used.triangles + cost.triangles <= b.triangles && used.texels + cost.texels <= b.texels;
+    return used.triangles + cost.triangles <= b.triangles && used.texels + cost.texels <= b.texels &&
+      (!(b.gpuBytes >= 0) || used.gpuBytes + cost.gpuBytes <= b.gpuBytes);
   }
 
   // The grant for an offer: its chunk, and after it the package's next ones while they follow
@@ -337,8 +345,8 @@ export class MeshmuxWorld extends EventTarget {
     // What is shown, plus what the chunks on their way will add (the budget counts both).
     const used = () => {
       const u = this.stats;
-      for (const c of inFlight.values()) u.triangles += c.triangles, u.texels += c.texels;
-      for (const c of uploads.values()) u.texels += c.texels;
+      for (const c of inFlight.values()) u.triangles += c.triangles, u.texels += c.texels, u.gpuBytes += c.gpuBytes;
+      for (const c of uploads.values()) u.texels += c.texels, u.gpuBytes += c.gpuBytes;
       return u;
     };
     const ended = (p, cost) => {
@@ -346,9 +354,10 @@ export class MeshmuxWorld extends EventTarget {
       inFlight.delete(p);
       const pending = p.stream.uploading;
       if (!pending || cost.texels <= 0) return;
-      const texels = Math.max(cost.texels, uploads.has(p) ? uploads.get(p).texels : 0);  // both over what is shown
+      const before = uploads.get(p);  // both over what is shown
+      const texels = Math.max(cost.texels, before ? before.texels : 0), gpuBytes = Math.max(cost.gpuBytes, before ? before.gpuBytes : 0);
       const done = pending.then(() => { if (uploads.get(p) && uploads.get(p).done === done) uploads.delete(p); });
-      uploads.set(p, { texels, done });
+      uploads.set(p, { texels, gpuBytes, done });
     };
     for (;;) {
       if (this._stop) break;
