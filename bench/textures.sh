@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
 # GPU textures (issue "GPU textures: KTX2"): per textured model of ../shared/models, the default
-# path (JPEG/PNG as the sources have them) against `--textures ktx2` (KTX2: ETC1S for colour,
-# UASTC for normal and data maps), both as `meshmux convert IN -o X.glb`:
+# path (JPEG/PNG) against `--textures ktx2` (KTX2: ETC1S for colour, UASTC+zstd for normal and
+# data maps), both converted as stream folders (`meshmux convert IN -o DIR`):
 #   conversion seconds (wall, each alone) and the ratio ktx2 / default;
-#   texture bytes on the wire (the glb's images, by format) and the whole glb;
-#   GPU bytes: every image with a full mip chain (×4/3), RGBA8 (4 B/px) for JPEG/PNG as three.js
-#     uploads them, 1 B/px for KTX2 (what three's KTX2Loader transcodes to on a desktop GPU with
-#     BPTC: BC7; ETC1S to BC1 where BC7 is missing would be 0.5 B/px for opaque maps);
+#   texture bytes on the wire: the package's texture levels (report.json texture_level_bytes: the
+#     base's level and every texture chunk) and model.glb's images;
+#   GPU bytes: what the three.js client holds for the finished stream's textures (stats.gpuBytes:
+#     RGBA8 with mipmaps for JPEG/PNG, the block format KTX2Loader transcodes to on this chromium,
+#     BC7) and the page's longest main-thread task of the library while the levels arrive, with a
+#     renderer uploading them (bench/texture_tasks.mjs, the median of 3 plays);
 #   appearance: the fidelity harness (bench/fidelity.mjs, three.js in chromium; its conversion is
 #     a --no-report folder, with --convert-args "--textures ktx2" for the second) judged against the
-#     original: unlit and lit PSNR of model.glb, met = unlit ≥ 30, lit ≥ 28.
-# Not measured here: the main thread's longest task while maps arrive (the client does not read
-# KTX2 streams yet). Run it alone: the seconds are this machine's.
+#     original: unlit and lit PSNR of model.glb, met = unlit >= 30, lit >= 28.
+# The corpus's appearance with KTX2: bench/sweep.sh --convert-args "--textures ktx2".
+# Run it alone: the seconds and milliseconds are this machine's.
 # usage: bench/textures.sh [BUILD_DIR] [--only A,B] [--work DIR]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -43,7 +45,8 @@ for dir in "$models"/*/; do
     [ "$kind" = ktx2 ] && args=(--textures ktx2)
     echo "textures: $name: $kind" >&2
     start=$(date +%s.%N)
-    if "$meshmux" convert "$file" -o "$work/$kind/$name.glb" -q "${args[@]}" 2>"$work/$kind/$name.err"; then
+    rm -rf "${work:?}/$kind/$name"
+    if "$meshmux" convert "$file" -o "$work/$kind/$name" -q "${args[@]}" 2>"$work/$kind/$name.err"; then
       seconds=$(echo "$(date +%s.%N) - $start" | bc)
     else
       seconds=failed
@@ -53,6 +56,13 @@ for dir in "$models"/*/; do
 done
 names=$(cut -f1 "$manifest" | sort -u | paste -sd, -)
 [ -n "$names" ] || { echo "textures: no textured model" >&2; exit 1; }
+for kind in default ktx2; do
+  dirs=$(awk -F'\t' -v k="$kind" -v w="$work" '$2 == k && $3 != "failed" {print w "/" k "/" $1}' "$manifest" | paste -sd, -)
+  echo "textures: the client's GPU bytes and main thread, $kind" >&2
+  [ -z "$dirs" ] || node "$here/bench/texture_tasks.mjs" --meshmux "$meshmux" --dirs "$dirs" \
+    --json "$work/tasks-$kind.json" >"$work/tasks-$kind.log" 2>&1 ||
+    echo "textures: texture_tasks ($kind) exited $? (see $work/tasks-$kind.log)" >&2
+done
 for kind in default ktx2; do
   args=()
   [ "$kind" = ktx2 ] && args=(--convert-args "--textures ktx2")

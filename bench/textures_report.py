@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The table of bench/textures.sh: per model, the default path against --textures ktx2 (conversion
-seconds, texture bytes, GPU bytes, appearance). Reads WORK/models.tsv, WORK/{default,ktx2}/NAME.glb
-and WORK/fid-{default,ktx2}.json; prints markdown."""
+seconds, texture bytes, GPU bytes, the page's longest library task, appearance). Reads
+WORK/models.tsv, the folders WORK/{default,ktx2}/NAME/ (report.json, model.glb),
+WORK/tasks-{default,ktx2}.json and WORK/fid-{default,ktx2}.json; prints markdown."""
 import json
 import os
 import struct
@@ -70,6 +71,24 @@ def fidelity(path):
         return {}
 
 
+def tasks(path):
+    """Per folder name: texture_tasks.mjs's row (gpuBytes, libraryLongest, ...)."""
+    try:
+        with open(path) as f:
+            return {os.path.basename(r['dir'].rstrip('/')): r for r in json.load(f)}
+    except (OSError, ValueError, KeyError):
+        return {}
+
+
+def level_bytes(folder):
+    """The package's texture levels' bytes (the base's level and every texture chunk), or None."""
+    try:
+        with open(os.path.join(folder, 'report.json')) as f:
+            return sum(json.load(f).get('texture_level_bytes', []))
+    except (OSError, ValueError):
+        return None
+
+
 def main():
     work = sys.argv[1]
     seconds = {}
@@ -77,12 +96,15 @@ def main():
         for line in f:
             name, kind, s = line.rstrip('\n').split('\t')
             seconds[(name, kind)] = s
-    fid = {k: fidelity(os.path.join(work, f'fid-{k}.json')) for k in ('default', 'ktx2')}
+    kinds = ('default', 'ktx2')
+    fid = {k: fidelity(os.path.join(work, f'fid-{k}.json')) for k in kinds}
+    tk = {k: tasks(os.path.join(work, f'tasks-{k}.json')) for k in kinds}
     names = sorted({n for n, _ in seconds})
-    print('| model | convert s default → ktx2 (×) | texture bytes default → ktx2 | glb bytes default → ktx2 '
-          '| GPU bytes default → ktx2 (÷) | unlit dB default → ktx2 | lit dB default → ktx2 | met default / ktx2 |')
-    print('|---|---:|---:|---:|---:|---:|---:|---|')
-    mb = lambda v: f'{v / 1e6:.2f} MB'
+    print('| model | convert s default → ktx2 (×) | stream texture bytes default → ktx2 | model.glb images default → ktx2 '
+          '| client GPU bytes default → ktx2 (÷) | longest library task ms default → ktx2 '
+          '| unlit dB default → ktx2 | lit dB default → ktx2 | met default / ktx2 |')
+    print('|---|---:|---:|---:|---:|---:|---:|---:|---|')
+    mb = lambda v: f'{v / 1e6:.2f} MB' if isinstance(v, (int, float)) else '–'
     for n in names:
         sd, sk = seconds.get((n, 'default')), seconds.get((n, 'ktx2'))
         cells = []
@@ -90,13 +112,20 @@ def main():
             cells.append(f'{float(sd):.2f} → {float(sk):.2f} ({float(sk) / max(1e-9, float(sd)):.1f}×)')
         except (TypeError, ValueError):
             cells.append(f'{sd} → {sk}')
-        paths = [os.path.join(work, k, n + '.glb') for k in ('default', 'ktx2')]
-        if all(os.path.exists(p) for p in paths):
-            (wd, _, gd, td), (wk, _, gk, tk) = textures(paths[0]), textures(paths[1])
-            cells += [f'{mb(wd)} → {mb(wk)}', f'{mb(td)} → {mb(tk)}',
-                      f'{mb(gd)} → {mb(gk)} ({gd / max(1.0, gk):.1f})']
+        folders = [os.path.join(work, k, n) for k in kinds]
+        lb = [level_bytes(f) for f in folders]
+        cells.append(f'{mb(lb[0])} → {mb(lb[1])}')
+        glbs = [os.path.join(f, 'model.glb') for f in folders]
+        if all(os.path.exists(p) for p in glbs):
+            cells.append(f'{mb(textures(glbs[0])[0])} → {mb(textures(glbs[1])[0])}')
         else:
-            cells += ['–', '–', '–']
+            cells.append('–')
+        td, tq = tk['default'].get(n, {}), tk['ktx2'].get(n, {})
+        gd, gq = td.get('gpuBytes'), tq.get('gpuBytes')
+        ratio = f' ({gd / gq:.2f})' if gd and gq else ''
+        cells.append(f'{mb(gd)} → {mb(gq)}{ratio}')
+        ms = lambda r: f'{r["libraryLongest"]:.1f}' if isinstance(r.get('libraryLongest'), (int, float)) else '–'
+        cells.append(f'{ms(td)} → {ms(tq)}')
         rd, rk = fid['default'].get(n, {}), fid['ktx2'].get(n, {})
         f = lambda r, k: f'{r[k]:.1f}' if isinstance(r.get(k), (int, float)) else '–'
         cells += [f'{f(rd, "unlit")} → {f(rk, "unlit")}', f'{f(rd, "lit")} → {f(rk, "lit")}',

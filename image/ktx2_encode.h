@@ -25,7 +25,8 @@ struct Ktx2EncodeOptions {
   Ktx2Mode mode = Ktx2Mode::kEtc1s;
   int etc1s_quality = 128;  // ETC1S codebook quality 1–255 (basisu -q): higher = larger, better
   int etc1s_effort = 1;     // ETC1S compression level 0–6 (-comp_level): higher = much slower
-  int uastc_level = 1;      // UASTC level 0–4 (-uastc_level): 0 fastest, 2 basisu's default
+  int uastc_level = 0;      // UASTC level 0–4 (-uastc_level): 0 fastest, 2 basisu's default;
+                            // 0: a 2048² map in 1.3 s on one core, 57.1 dB (level 1: 6.3 s, 57.7)
   int zstd_level = 6;       // Zstandard level of UASTC data (-ktx2_zstandard_level)
   double uastc_rdo = 0;     // UASTC rate-distortion lambda (-uastc_rdo_l; 0: off; 0.5–4 trades
                             // PSNR for Zstandard bytes), single-threaded (-uastc_rdo_m) as
