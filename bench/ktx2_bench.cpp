@@ -2,7 +2,7 @@
 // (cubic-resampled from it), ETC1S (sRGB) and UASTC (linear, Zstandard) encode time, bytes, and
 // PSNR (RGB) of three's transcoder's level 0 against the encoder's input. A figure, not a test.
 // usage: meshmux_bench_ktx2 [--threads N] [--uastc-level L] [--uastc-rdo LAMBDA]
-//          [--etc1s-quality Q] IMAGE...
+//          [--etc1s-quality Q] [--etc1s-effort E] IMAGE...
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
       base.uastc_rdo = std::atof(argv[++i]);
     else if (a == "--etc1s-quality" && i + 1 < argc)
       base.etc1s_quality = std::atoi(argv[++i]);
+    else if (a == "--etc1s-effort" && i + 1 < argc)
+      base.etc1s_effort = std::atoi(argv[++i]);
     else
       files.push_back(a);
   }
