@@ -326,7 +326,10 @@ const pageCalls = {
     const { DRACOLoader } = await import(addons + 'loaders/DRACOLoader.js');
     const { MeshoptDecoder } = await import(addons + 'libs/meshopt_decoder.module.js');
     const draco = new DRACOLoader().setDecoderPath(addons + 'libs/draco/gltf/');
-    const gltf = await new GLTFLoader().setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder).loadAsync(url);
+    // KTX2 images (--textures ktx2, or a kept material's KTX2 upload): the stream's KTX2Loader,
+    // the page's one.
+    const gltf = await new GLTFLoader().setDRACOLoader(draco).setMeshoptDecoder(MeshoptDecoder)
+      .setKTX2Loader(await window.meshmuxViewer.stream.ktx2Loader()).loadAsync(url);
     draco.dispose();
     const glb = gltf.scene || gltf.scenes[0], lights = [];
     glb.traverse((o) => { if (o.isLight) lights.push(o); });
@@ -550,7 +553,7 @@ function markdown(results) {
     'Each frame against the client\'s final frame (same view and size) over the pixels either covers (alpha > 0; uncovered = black), ' +
     `as meshmux measures its renders. Area = that distortion integrated over bytes (${spacing === 'chunks' ? 'steps: every count where a chunk of some order completes' : 'trapezoids'}) from the base to the package size, ` +
     'divided by the span, averaged over the views: **lower is better**. Plain download: nothing below model.glb\'s size, ' +
-    'model.glb (GLTFLoader + DRACOLoader defaults, the viewer\'s lights) from it.', '',
+    'model.glb (GLTFLoader + DRACOLoader defaults, KTX2Loader, the viewer\'s lights) from it.', '',
     '## Areas: MSE per RGB channel (in parentheses the PSNR of the area)', '',
     ...areasTable(results, 'mse', area), '',
     '## Areas: mean CIEDE2000', '',
