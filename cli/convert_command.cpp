@@ -52,12 +52,13 @@ int cmd_convert(const std::vector<std::string>& args) {
   o.stream = !has_extension(out, ".glb");
   if (p->has("--textures")) {
     const std::string t = p->text("--textures");
-    if (t != "ktx2" && t != "default")
-      return usage_error(kConvert, "--textures needs ktx2 or default (got '" + t + "')");
+    if (t != "ktx2" && t != "ktx2-uastc" && t != "default")
+      return usage_error(kConvert,
+                         "--textures needs ktx2, ktx2-uastc or default (got '" + t + "')");
     // Every texture level (atlas, kept maps) KTX2 as made by the levels, every other image by
     // the exporter; model.glb and base.glb carry the same files.
-    o.textures.ktx2 = t == "ktx2";
-    o.gltf.ktx2 = t == "ktx2";
+    o.textures.ktx2 = o.gltf.ktx2 = t != "default";
+    o.textures.ktx2_options.colour_uastc = o.gltf.ktx2_options.colour_uastc = t == "ktx2-uastc";
   }
   auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);
   if (!upload.ok()) return print_error(upload.status());

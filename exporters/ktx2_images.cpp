@@ -58,7 +58,8 @@ Result<std::vector<std::vector<uint8_t>>> encode_images_ktx2(const Scene& scene,
       }
       Ktx2EncodeOptions o = base;
       o.threads = threads;
-      o.mode = uses[i] == ImageUse::kColour ? Ktx2Mode::kEtc1s : Ktx2Mode::kUastc;
+      o.mode =
+          uses[i] == ImageUse::kColour && !base.colour_uastc ? Ktx2Mode::kEtc1s : Ktx2Mode::kUastc;
       o.srgb = uses[i] == ImageUse::kColour;
       o.normal_map = uses[i] == ImageUse::kNormal;
       auto r = encode_ktx2(*img, o);

@@ -109,7 +109,15 @@ std::vector<std::string> encoder_args(const Encoder& e, const Ktx2EncodeOptions&
   }
   if (o.normal_map) a.push_back("-normal_map");
   if (!o.srgb || o.normal_map) a.push_back("-linear");
-  if (o.mipmaps) a.push_back("-mipmap");
+  // Mipmaps as the atlas is built for (its charts' gutters survive every power-of-two 2×2
+  // reduction: texture_levels.h) and as three.js makes them for JPEG/PNG levels: a box filter with
+  // clamped borders. basisu's default, a Kaiser kernel wrapping around the image, bled each chart
+  // into its neighbours at the coarse levels (a corpus model's red stripes smeared: 54 → 25 dB).
+  // Normal maps are renormalized after filtering, as the levels' own reductions are.
+  if (o.mipmaps) {
+    a.insert(a.end(), {"-mipmap", "-mip_filter", "box", "-mip_clamp"});
+    if (o.normal_map) a.push_back("-mip_renorm");
+  }
   if (o.threads > 0) a.insert(a.end(), {"-max_threads", std::to_string(o.threads)});
   return a;
 }

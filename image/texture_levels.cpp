@@ -110,7 +110,7 @@ Image downsample_half(const Image& in, TexelFilter filter) {
 Result<Ktx2Encoded> encode_level_ktx2(const Image& map, TexelFilter filter,
                                       const Ktx2EncodeOptions& base) {
   Ktx2EncodeOptions k = base;
-  k.mode = filter == TexelFilter::kSrgb ? Ktx2Mode::kEtc1s : Ktx2Mode::kUastc;
+  k.mode = filter == TexelFilter::kSrgb && !base.colour_uastc ? Ktx2Mode::kEtc1s : Ktx2Mode::kUastc;
   k.srgb = filter == TexelFilter::kSrgb;
   k.normal_map = filter == TexelFilter::kNormal;
   return encode_ktx2(map, k);

@@ -63,7 +63,8 @@ struct ChannelTexture {
   TexelFilter filter = TexelFilter::kData;
 };
 
-// One map encoded as KTX2 in the mode its texels ask: kSrgb → ETC1S in sRGB, kNormal → UASTC
+// One map encoded as KTX2 in the mode its texels ask: kSrgb → ETC1S in sRGB (UASTC in sRGB with
+// base.colour_uastc), kNormal → UASTC
 // tuned for normals, kData → UASTC linear (mode, colour space and normal tuning of `base` are
 // replaced; its qualities, threads and limits kept). Errors: encode_ktx2's.
 Result<Ktx2Encoded> encode_level_ktx2(const Image& map, TexelFilter filter,

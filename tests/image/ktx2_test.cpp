@@ -406,5 +406,28 @@ TEST(Ktx2Levels, EveryMapOfEveryLevelIsKtx2InItsMode) {
   EXPECT_GT(psnr_rgb(colour, top), 32.0);
 }
 
+// --textures ktx2-uastc (Ktx2EncodeOptions::colour_uastc): the colour map is UASTC too, still
+// marked sRGB, and comes back far closer to its pixels than ETC1S does.
+TEST(Ktx2Levels, ColourInUastcWhenAsked) {
+  std::string why;
+  if (!have_encoder(&why)) GTEST_SKIP() << why;
+  if (!have_node()) GTEST_SKIP() << "node is not installed (the KTX2 transcoder runs under it)";
+  const Image colour = gradient(128, 128);
+  Ktx2EncodeOptions o;
+  o.colour_uastc = true;
+  auto k = encode_level_ktx2(colour, TexelFilter::kSrgb, o);
+  ASSERT_TRUE(k.ok()) << k.status().message();
+  auto h = read_ktx2_header(k->bytes);
+  ASSERT_TRUE(h.ok()) << h.status().message();
+  EXPECT_FALSE(h->etc1s);
+  EXPECT_TRUE(h->srgb);
+  Image back;
+  back.name = "uastc colour";
+  back.mime_type = "image/ktx2";
+  back.encoded = k->bytes;
+  ASSERT_TRUE(decode_image(back).is_ok());
+  EXPECT_GT(psnr_rgb(colour, back), 40.0);
+}
+
 }  // namespace
 }  // namespace meshmux
