@@ -44,14 +44,8 @@ async function playOnce(context, url) {
     performance.mark('bench-start');
     await s.play();
     performance.mark('bench-loaded');
-    const seen = new Set();
-    let rgba = 0;
-    for (const m of s.materials)
-      for (const v of Object.values(m)) {
-        if (!v || !v.isTexture || seen.has(v.source)) continue;
-        seen.add(v.source);
-        rgba += Math.round(4 * v.image.width * v.image.height * 4 / 3);
-      }
+    const { shownTextures } = await import('./viewer/ktx2.js');
+    const rgba = shownTextures(s.materials).reduce((n, v) => n + Math.round(4 * v.image.width * v.image.height * 4 / 3), 0);
     const out = { ...s.stats, rgbaBytes: rgba };
     s.dispose();
     return out;

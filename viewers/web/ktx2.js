@@ -65,6 +65,15 @@ export function textureSource(texture) {
   return texture ? texture.source ?? texture.extensions?.KHR_texture_basisu?.source : undefined;
 }
 
+// Every texture the materials show, each once (by its source: copies sharing pixels count once).
+export function shownTextures(materials, more = []) {
+  const seen = new Set(), out = [];
+  const add = (v) => { if (v && v.isTexture && !seen.has(v.source)) { seen.add(v.source); out.push(v); } };
+  for (const m of materials) for (const v of Object.values(m)) add(v);
+  for (const v of more) add(v);
+  return out;
+}
+
 // GPU bytes a texture holds: a compressed texture's mip levels as stored, else 4 bytes a texel
 // (RGBA8) and a third more with mipmaps. 0 for a texture with no image.
 export function gpuBytesOf(texture) {

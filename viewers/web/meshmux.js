@@ -32,7 +32,7 @@ import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStanda
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
 import { PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
-import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
+import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, shownTextures, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
@@ -514,17 +514,8 @@ export class MeshmuxStream extends EventTarget {
   // three.js holds them once uploaded. Recomputed only after textures changed.
   gpuBytes() {
     if (this._gpuBytes !== null) return this._gpuBytes;
-    const seen = new Set();
-    let n = 0;
-    for (const m of this.materials)
-      for (const v of Object.values(m)) {
-        if (!v || !v.isTexture || seen.has(v.source)) continue;
-        seen.add(v.source);
-        n += gpuBytesOf(v);
-      }
-    for (const v of [this._map.value, ...Object.values(this._maps)])
-      if (v && !seen.has(v.source)) { seen.add(v.source); n += gpuBytesOf(v); }
-    return (this._gpuBytes = n);
+    const textures = shownTextures(this.materials, [this._map.value, ...Object.values(this._maps)]);
+    return (this._gpuBytes = textures.reduce((n, t) => n + gpuBytesOf(t), 0));
   }
 
   // GPU bytes texture chunk `index` shows once applied: its maps and kept images at their sizes

@@ -194,25 +194,44 @@ async function uploadCompressedInBands(renderer, texture, bandBytes, alive, grow
     gl.compressedTexSubImage2D(gl.TEXTURE_2D, level, 0, y, width, height, format, data);
     gl.bindTexture(gl.TEXTURE_2D, before);
   };
+  // Each band waits for room among the bands the GPU has not taken (fences, as uploadInBands):
+  // calls return at once, and bands sent faster than the GPU process decodes them (a software
+  // driver turns BC7 into texels) filled the transfer buffer until a call waited inside a task.
+  const fenced = typeof gl.fenceSync === 'function', most = bandBytes * grow;
+  const sendBand = async (bytes, job) => {
+    await nextTask();
+    const room = fenced ? await roomForBand(gl, bytes, BANDS_IN_FLIGHT * most, 500) : null;
+    if (!alive()) {
+      if (room) room.cancel();
+      return false;
+    }
+    try {
+      job();
+    } finally {
+      if (room) room.sent();
+    }
+    return true;
+  };
   let band = bandBytes;
   for (let level = 0; level < mipmaps.length; level++) {
     const { width, height, data } = mipmaps[level];
     const blockRows = Math.ceil(height / 4), rowBytes = data.byteLength / blockRows;
     if (data.byteLength <= band && level > 0) {  // this level and every smaller one: one task
-      await nextTask();
-      if (!alive()) return false;
-      for (let k = level; k < mipmaps.length; k++) send(k, 0, mipmaps[k].width, mipmaps[k].height, mipmaps[k].data);
-      return true;
+      const rest = mipmaps.slice(level);
+      return sendBand(rest.reduce((n, m) => n + m.data.byteLength, 0),
+        () => rest.forEach((m, k) => send(level + k, 0, m.width, m.height, m.data)));
     }
     for (let row = 0; row < blockRows;) {
-      await nextTask();
-      if (!alive()) return false;
       const rows = Math.max(1, Math.min(blockRows - row, Math.floor(band / rowBytes)));
-      const t0 = performance.now();
-      send(level, 4 * row, width, Math.min(height - 4 * row, 4 * rows), data.subarray(row * rowBytes, (row + rows) * rowBytes));
-      const ms = performance.now() - t0;
+      let ms = 0;
+      const sent = await sendBand(rows * rowBytes, () => {
+        const t0 = performance.now();
+        send(level, 4 * row, width, Math.min(height - 4 * row, 4 * rows), data.subarray(row * rowBytes, (row + rows) * rowBytes));
+        ms = performance.now() - t0;
+      });
+      if (!sent) return false;
       row += rows;
-      band = ms < 4 ? Math.min(bandBytes * grow, 2 * band) : ms > 8 ? Math.max(bandBytes, band / 2) : band;
+      band = ms < 4 ? Math.min(most, 2 * band) : ms > 8 ? Math.max(bandBytes, band / 2) : band;
     }
   }
   return true;

@@ -226,18 +226,11 @@ try {
   const final = compare(await capture('viewer'), await reference('reference'));
   // The textures the finished stream shows: compressed or not, and their GPU bytes against the
   // same textures as RGBA8 with mipmaps.
-  const gpu = await page.evaluate(() => {
-    const stream = window.meshmuxViewer.stream, seen = new Set();
-    let rgba = 0, compressed = 0, all = 0;
-    for (const m of stream.materials)
-      for (const v of Object.values(m)) {
-        if (!v || !v.isTexture || seen.has(v.source)) continue;
-        seen.add(v.source);
-        all++;
-        compressed += v.isCompressedTexture ? 1 : 0;
-        rgba += Math.round(4 * v.image.width * v.image.height * 4 / 3);
-      }
-    return { textures: all, compressed, gpuBytes: stream.stats.gpuBytes, rgbaBytes: rgba };
+  const gpu = await page.evaluate(async () => {
+    const { shownTextures } = await import('./viewer/ktx2.js');
+    const stream = window.meshmuxViewer.stream, shown = shownTextures(stream.materials);
+    return { textures: shown.length, compressed: shown.filter((v) => v.isCompressedTexture).length, gpuBytes: stream.stats.gpuBytes,
+      rgbaBytes: shown.reduce((n, v) => n + Math.round(4 * v.image.width * v.image.height * 4 / 3), 0) };
   });
   result.gpu = gpu;
   console.log(`textures shown: ${gpu.textures}, ${gpu.compressed} compressed; GPU ${(gpu.gpuBytes / 1e6).toFixed(2)} MB ` +
