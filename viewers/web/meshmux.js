@@ -99,7 +99,8 @@ export class MeshmuxStream extends EventTarget {
   // transcoded by KTX2Loader in its workers to what the GPU reads, BC7/BC1 on desktops,
   // ASTC/ETC on phones, RGBA where none, and uploaded compressed; default: beside this module),
   // ktx2Loader (a function giving a Promise of a three KTX2Loader, support detected, shared by
-  // many streams; called only for a package with KTX2 textures; MeshmuxWorld passes one).
+  // many streams; called only for a package with KTX2 textures; without it every stream of the
+  // page shares one, ktx2.js sharedKtx2Loader).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
