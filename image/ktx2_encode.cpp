@@ -96,7 +96,8 @@ std::vector<std::string> encoder_args(const Encoder& e, const Ktx2EncodeOptions&
   auto clamp = [](int v, int lo, int hi) { return std::to_string(std::min(hi, std::max(lo, v))); };
   std::vector<std::string> a = {e.path, "-ktx2"};
   if (o.mode == Ktx2Mode::kUastc) {
-    a.insert(a.end(), {"-uastc", "-uastc_level", clamp(o.uastc_level, 0, 4),
+    const int level = o.normal_map ? o.uastc_normal_level : o.uastc_level;
+    a.insert(a.end(), {"-uastc", "-uastc_level", clamp(level, 0, 4),
                        "-ktx2_zstandard_level", clamp(o.zstd_level, 1, 22)});
     if (o.uastc_rdo > 0) {
       char lambda[32];
@@ -113,11 +114,9 @@ std::vector<std::string> encoder_args(const Encoder& e, const Ktx2EncodeOptions&
   // reduction: texture_levels.h) and as three.js makes them for JPEG/PNG levels: a box filter with
   // clamped borders. basisu's default, a Kaiser kernel wrapping around the image, bled each chart
   // into its neighbours at the coarse levels (a corpus model's red stripes smeared: 54 → 25 dB).
-  // Normal maps are renormalized after filtering, as the levels' own reductions are.
-  if (o.mipmaps) {
-    a.insert(a.end(), {"-mipmap", "-mip_filter", "box", "-mip_clamp"});
-    if (o.normal_map) a.push_back("-mip_renorm");
-  }
+  // Normal maps are averaged as three.js's generateMipmap averages them (not renormalized: the
+  // shading normalizes; renormalized mips moved the normals of the original's small bumps).
+  if (o.mipmaps) a.insert(a.end(), {"-mipmap", "-mip_filter", "box", "-mip_clamp"});
   if (o.threads > 0) a.insert(a.end(), {"-max_threads", std::to_string(o.threads)});
   return a;
 }
