@@ -13,9 +13,17 @@
 //   seconds are the simplify calls of the run compared;
 // - the symmetric Hausdorff distance of each to the cleaned input (bench/hausdorff.h), relative
 //   to the input's bounding-box diagonal, --samples points on each surface.
+// With --global, the same record is also built without the block levels (today's global
+// simplifier: the whole-unit loop alone) and measured at the same counts: the block-built
+// levels against it (the target: ≤ 1.1×). --block-above N lowers the block levels' size
+// threshold (simplify.h block_above) so that a smaller real scan takes them, --block-positions N
+// their size. When the record
+// has a block hierarchy, its DAG (simplify/block_dag.h) is built and described: blocks per
+// level, dependencies, the seconds it took.
 // Prints a markdown table; --json FILE writes the same figures as JSON.
 //
 // usage: meshmux_bench_scale MODEL [--fractions F,F,...] [--samples N] [--json FILE]
+//                            [--global] [--block-above N] [--block-positions N]
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -34,6 +42,7 @@
 #include "clean/flatten.h"
 #include "importers/import.h"
 #include "scene/scene.h"
+#include "simplify/block_dag.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 
@@ -52,6 +61,9 @@ struct Config {
   std::vector<double> fractions = {0.25, 0.06, 0.015};
   HausdorffOptions hopt;
   std::string json;
+  bool global = false;      // also the record without block levels
+  uint64_t block_above = 0;  // 0: SimplifyOptions' default
+  uint64_t block_positions = 0;  // 0: SimplifyOptions' default
   bool help = false;
 };
 
@@ -59,12 +71,16 @@ void print_usage(FILE* to) {
   std::fprintf(
       to,
       "usage: meshmux_bench_scale MODEL [--fractions F,F,...] [--samples N] [--json FILE]\n"
+      "                           [--global] [--block-above N] [--block-positions N]\n"
       "Imports and cleans MODEL, builds meshmux's progressive record and, at each fraction of\n"
       "the input triangles (default 0.25,0.06,0.015), measures the symmetric Hausdorff distance\n"
       "(relative to the bounding-box diagonal) of meshmux's level and of meshopt_simplify at the\n"
       "same triangle count to the cleaned input. --samples: points sampled on each surface\n"
       "(default %zu; lower bounds the cost on huge meshes). Prints a markdown table; --json\n"
-      "FILE writes the same as JSON.\n",
+      "FILE writes the same as JSON. --global: also the record built without block levels\n"
+      "(the whole-unit simplifier alone), measured at the same counts. --block-above N: the\n"
+      "block levels' size threshold in triangles, --block-positions N the positions per block\n"
+      "(defaults: the converter's).\n",
       HausdorffOptions{}.samples);
 }
 
@@ -105,6 +121,15 @@ Result<Config> parse_args(int argc, char** argv) {
       cfg.hopt.samples = size_t(n);
     } else if (a == "--json" && has_value) {
       cfg.json = argv[++i];
+    } else if (a == "--global") {
+      cfg.global = true;
+    } else if ((a == "--block-above" || a == "--block-positions") && has_value) {
+      std::string v = argv[++i];
+      char* end = nullptr;
+      unsigned long long n = std::strtoull(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n == 0 || n > UINT32_MAX)
+        return Status::error(a + ": '" + v + "' is not a positive integer", ErrorKind::kInput);
+      (a == "--block-above" ? cfg.block_above : cfg.block_positions) = n;
     } else if (!a.empty() && a[0] != '-' && cfg.model.empty()) {
       cfg.model = a;
     } else {
@@ -119,8 +144,19 @@ Result<Config> parse_args(int argc, char** argv) {
 // ---------------------------------------------------------------------------------------------
 // Measuring
 
+// The record's block hierarchy, when it has one (its largest mesh's).
+struct DagFigures {
+  size_t blocks = 0, levels = 0, deps = 0, max_deps = 0;
+  std::vector<size_t> per_level;  // blocks per block level, finest first (the root last)
+  double seconds = 0;
+  std::string error;  // block_dag's, when it failed
+};
+
 struct Input {
   ProgressiveScene record;
+  std::optional<ProgressiveScene> global;  // --global: without block levels
+  double global_s = 0;
+  DagFigures dag;
   Scene flat;  // the cleaned scene flattened: meshopt_simplify's input
   std::optional<HausdorffReference> reference;
   uint64_t triangles = 0;
@@ -128,6 +164,33 @@ struct Input {
   double import_s = 0, clean_s = 0, record_s = 0, reference_s = 0;
   bool flattened = false;  // build_progressive took the flatten path
 };
+
+DagFigures dag_figures(const ProgressiveScene& ps) {
+  DagFigures d;
+  const ProgressiveMesh* big = nullptr;
+  for (const ProgressiveMesh& pm : ps.meshes)
+    if (!pm.blocks.empty() && (!big || pm.face_count() > big->face_count())) big = &pm;
+  if (!big) return d;
+  auto t0 = Clock::now();
+  Result<BlockDag> dag = block_dag(*big);
+  d.seconds = seconds_since(t0);
+  if (!dag) {
+    d.error = dag.status().message();
+    return d;
+  }
+  d.blocks = dag->nodes.size();
+  for (size_t b = 0; b < d.blocks; ++b) {
+    const size_t level = big->blocks[b].level;
+    if (d.per_level.size() <= level) d.per_level.resize(level + 1, 0);
+    ++d.per_level[level];
+    d.deps += dag->nodes[b].deps.size();
+    d.max_deps = std::max(d.max_deps, dag->nodes[b].deps.size());
+  }
+  d.levels = d.per_level.size();
+  std::fprintf(stderr, "scale: block DAG: %zu blocks, %zu dependencies, in %.2f s\n", d.blocks,
+               d.deps, d.seconds);
+  return d;
+}
 
 Result<Input> prepare(const Config& cfg) {
   Input in;
@@ -152,10 +215,23 @@ Result<Input> prepare(const Config& cfg) {
   in.reference_s = seconds_since(t0);
   t0 = Clock::now();
   SimplifyReport rep;
-  in.record = build_progressive(cleaned, SimplifyOptions{}, &rep);
+  SimplifyOptions sopt;
+  if (cfg.block_above) sopt.block_above = cfg.block_above;
+  if (cfg.block_positions) sopt.block_positions = uint32_t(cfg.block_positions);
+  in.record = build_progressive(cleaned, sopt, &rep);
   in.record_s = seconds_since(t0);
   in.flattened = rep.flattened;
-  std::fprintf(stderr, "scale: progressive record in %.2f s\n", in.record_s);
+  std::fprintf(stderr, "scale: progressive record in %.2f s (%u block levels)\n", in.record_s,
+               rep.block_levels);
+  in.dag = dag_figures(in.record);
+  if (cfg.global) {
+    t0 = Clock::now();
+    SimplifyOptions whole;
+    whole.block_above = UINT64_MAX;
+    in.global = build_progressive(cleaned, whole);
+    in.global_s = seconds_since(t0);
+    std::fprintf(stderr, "scale: record without block levels in %.2f s\n", in.global_s);
+  }
   in.flat = flatten(std::move(cleaned));
   return in;
 }
@@ -165,6 +241,8 @@ struct Row {
   uint64_t target = 0;
   uint64_t mm_tris = 0, mo_tris = 0;
   HausdorffResult mm_h, mo_h;
+  uint64_t gl_tris = 0;  // --global: the record without block levels at the same count
+  HausdorffResult gl_h;
   double select_s = 0, mo_s = 0;
   bool mo_position_only = false;
 };
@@ -193,6 +271,11 @@ Row measure(const Input& in, std::optional<Scene>* welded, double fraction) {
   r.mm_tris = scene_tris(level);
   r.mm_h = in.reference->compare(world_triangles(level));
   level = Scene();
+  if (in.global) {
+    Scene g = materialize(*in.global, select_triangles(*in.global, r.target), false, false);
+    r.gl_tris = scene_tris(g);
+    r.gl_h = in.reference->compare(world_triangles(g));
+  }
   MeshoptRun mo = meshopt_at(in.flat, welded, r.mm_tris, &r.mo_position_only);
   r.mo_tris = mo.triangles;
   r.mo_s = mo.seconds;
@@ -205,6 +288,12 @@ Row measure(const Input& in, std::optional<Scene>* welded, double fraction) {
 
 // ---------------------------------------------------------------------------------------------
 // Output
+
+// meshmux / its record without block levels, or nullopt (no --global, invalid, exact).
+std::optional<double> global_ratio(const Row& r) {
+  if (!r.mm_h.valid || !r.gl_h.valid || r.gl_h.hausdorff <= kExact) return std::nullopt;
+  return r.mm_h.hausdorff / r.gl_h.hausdorff;
+}
 
 // meshmux / meshopt, or nullopt when either is invalid or meshopt's is exact.
 std::optional<double> ratio(const Row& r) {
@@ -238,6 +327,31 @@ void print_table(const Config& cfg, const Input& in, const std::vector<Row>& row
                 group(r.mm_tris).c_str(), hd_text(r.mm_h).c_str(), group(r.mo_tris).c_str(),
                 r.mo_position_only ? " (position-only)" : "", hd_text(r.mo_h).c_str(),
                 ratio_text(r).c_str(), in.record_s, r.select_s, r.mo_s);
+  if (in.global) {
+    std::printf(
+        "\nBlock-built levels against the record without block levels (the whole-unit "
+        "simplifier alone, %.2f s; target ≤ 1.1×):\n\n"
+        "| fraction | block-built triangles | Hausdorff | whole-unit triangles | Hausdorff | ratio "
+        "|\n|---:|---:|---:|---:|---:|---:|\n",
+        in.global_s);
+    for (const Row& r : rows) {
+      const std::optional<double> q = global_ratio(r);
+      std::printf("| %.4g | %s | %s | %s | %s | %s |\n", r.fraction, group(r.mm_tris).c_str(),
+                  hd_text(r.mm_h).c_str(), group(r.gl_tris).c_str(), hd_text(r.gl_h).c_str(),
+                  q ? fmt("%.2f", *q).c_str() : "n/a");
+    }
+  }
+  if (!in.dag.error.empty()) {
+    std::printf("\nBlock DAG: FAILED: %s\n", in.dag.error.c_str());
+  } else if (in.dag.blocks) {
+    std::string per;
+    for (size_t l = 0; l < in.dag.per_level.size(); ++l)
+      per += (l ? ", " : "") + std::to_string(in.dag.per_level[l]);
+    std::printf(
+        "\nBlock DAG: %zu blocks (per level, finest first, the root last: %s), %zu dependencies "
+        "(at most %zu a block), built in %.2f s\n",
+        in.dag.blocks, per.c_str(), in.dag.deps, in.dag.max_deps, in.dag.seconds);
+  }
 }
 
 nlohmann::json hausdorff_json(const HausdorffResult& h) {
@@ -259,7 +373,14 @@ Status write_json(const Config& cfg, const Input& in, const std::vector<Row>& ro
                        {{"import", in.import_s},
                         {"clean", in.clean_s},
                         {"hausdorff_reference", in.reference_s},
-                        {"record", in.record_s}}}};
+                        {"record", in.record_s},
+                        {"record_without_blocks", in.global_s},
+                        {"block_dag", in.dag.seconds}}}};
+  j["block_dag"] = {{"blocks", in.dag.blocks},
+                    {"blocks_per_level", in.dag.per_level},
+                    {"dependencies", in.dag.deps},
+                    {"max_dependencies", in.dag.max_deps},
+                    {"error", in.dag.error}};
   j["fractions"] = nlohmann::json::array();
   for (const Row& r : rows) {
     std::optional<double> q = ratio(r);
@@ -275,6 +396,13 @@ Status write_json(const Config& cfg, const Input& in, const std::vector<Row>& ro
                                 {"position_only", r.mo_position_only},
                                 {"h", hausdorff_json(r.mo_h)}}},
                               {"ratio", q ? nlohmann::json(*q) : nlohmann::json(nullptr)}});
+    if (in.global) {
+      std::optional<double> g = global_ratio(r);
+      j["fractions"].back()["whole_unit"] = {
+          {"triangles", r.gl_tris},
+          {"h", hausdorff_json(r.gl_h)},
+          {"ratio", g ? nlohmann::json(*g) : nlohmann::json(nullptr)}};
+    }
   }
   std::ofstream out(cfg.json);
   out << j.dump(2) << "\n";

@@ -31,6 +31,17 @@ struct ProgressiveLevel {
                             // undone, in units of the scene's bounding-box diagonal; 0 = full
 };
 
+// One block of a big mesh's block hierarchy (simplify's block levels, after Ponchio and
+// Dellepiane's Nexus and Kapoulkine's clusterlod): the collapses one spatial block of one level
+// made with its border locked, or (blocks[0], the root) those of the whole-unit loop that
+// finished the record. Undoing a block's collapses refines its region from its coarser state.
+struct ProgressiveBlock {
+  uint16_t level = 0;  // block level: 0 the finest (the first run), then coarser; the root's is
+                       // one past the last block level
+  uint32_t block = 0;  // the block's index in its level (the levels' spatial order); 0 for the root
+  float error = 0;     // the largest error of its collapses (units of the scene's diagonal)
+};
+
 struct ProgressiveMesh {
   uint32_t source_mesh = 0;              // index of the Mesh in the conditioned Scene
   std::vector<Vec3> positions;           // per vertex, appearance order, mesh space
@@ -49,6 +60,12 @@ struct ProgressiveMesh {
   // (levels.back(), error 0). Errors never increase from one level to the next.
   std::vector<ProgressiveLevel> levels;
   size_t base_level = 0;  // the level chosen by the stopping rule (Terrace et al. formula 1)
+  // The block hierarchy, when the mesh took the block levels (simplify.h block_above); both empty
+  // otherwise (one block). level_block[r - 1] is the block of the collapse level r undoes (r ≥ 1),
+  // an index into blocks; blocks[0] is the root (the whole-unit loop). At most 65,535 blocks: a
+  // level that would pass it is one block (simplify/block_levels.cpp).
+  std::vector<uint16_t> level_block;
+  std::vector<ProgressiveBlock> blocks;
 
   size_t face_count() const { return indices.size() / 3; }
   size_t vertex_count() const { return positions.size(); }

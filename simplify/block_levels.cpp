@@ -146,7 +146,7 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
   // Quadrics by blocks: the first level makes them; the rest goes on as a unit of its own.
   spill_ = std::make_shared<SpillFile>(opt_.spill_dir);
   std::vector<BlockResult> made;
-  run_block_level(std::max<size_t>(64, opt_.block_positions), false, &made, on_progress);
+  run_block_level(std::max<size_t>(64, opt_.block_positions), 0, &made, on_progress);
   if (on_progress) on_progress(collapses_.size());
   Rest rest = compact(made);
   report_.spilled_bytes = spill_->ok() ? spill_->size() : 0;
@@ -155,6 +155,7 @@ size_t Simplifier::run_block_levels(const std::function<void(uint64_t)>& on_prog
   auto rest_progress = [&](uint64_t n) {
     if (on_progress) on_progress(before + n);
   };
+  hand_blocks(*rest.s);
   const size_t levels = 1 + rest.s->block_levels_from(1, rest_progress);
   rest.s->finish_levels(rest_progress);
   absorb(rest);
@@ -168,7 +169,7 @@ size_t Simplifier::block_levels_from(size_t level,
   size_t levels = 0;
   while (live_faces_ > opt_.block_until) {
     const size_t before = live_faces_;
-    run_block_level(std::max<size_t>(64, opt_.block_positions), (level + levels) % 2 == 1, nullptr,
+    run_block_level(std::max<size_t>(64, opt_.block_positions), level + levels, nullptr,
                     on_progress);
     ++levels;
     if (on_progress) on_progress(collapses_.size());
@@ -179,6 +180,7 @@ size_t Simplifier::block_levels_from(size_t level,
       // Mostly dead: a block's live positions would spread over twice the pages. The live
       // part goes on as a unit of its own, its quadrics in a mapping of their own.
       Rest next = compact_quadrics(true);
+      hand_blocks(*next.s);
       const uint64_t at = collapses_.size();
       auto next_progress = [&](uint64_t n) {
         if (on_progress) on_progress(at + n);
@@ -197,6 +199,7 @@ void Simplifier::finish_levels(const std::function<void(uint64_t)>& on_progress)
   if (!mapped_) return run(on_progress);
   // The whole-unit loop on the live part, its quadrics in memory.
   Rest last = compact_quadrics(false);
+  hand_blocks(*last.s);
   const uint64_t at = collapses_.size();
   last.s->run([&](uint64_t n) {
     if (on_progress) on_progress(at + n);
@@ -204,7 +207,7 @@ void Simplifier::finish_levels(const std::function<void(uint64_t)>& on_progress)
   absorb(last);
 }
 
-size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
+size_t Simplifier::run_block_level(size_t block_positions, size_t level,
                                    std::vector<BlockResult>* quadrics_made,
                                    const std::function<void(uint64_t)>& on_progress) {
   const size_t np = u_.pos.size();
@@ -221,6 +224,7 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
       if (!dead_pos_[p] && pos_faces_[p].begin() != pos_faces_[p].end()) live.push_back(p);
   }
   std::vector<size_t> starts = {0};
+  const bool shifted = level % 2 == 1;
   for (size_t s = shifted ? block_positions / 2 : block_positions; s < live.size();
        s += block_positions)
     starts.push_back(s);
@@ -252,6 +256,17 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
   for (uint32_t b = 0; b < blocks; ++b)
     if (!results[b].collapses.empty()) heads.push({results[b].collapses[0].queue_min, b});
   reserve_history(results);
+  // The level's blocks in the hierarchy, one block id each (one for the whole level where
+  // ids would pass 16 bits: the level is then one block, still a valid one, as its collapses
+  // are contiguous in the history).
+  // (Past 65,535 ids at all, the level joins the last block: consecutive levels are
+  // contiguous in the history too.)
+  const bool one_id = blocks_.size() + blocks > 0xFFFF;
+  if (blocks_.size() < 0xFFFF)
+    for (uint32_t b = 0; b < (one_id ? 1 : blocks); ++b)
+      blocks_.push_back({uint16_t(std::min<size_t>(level, 0xFFFE)), b, 0.0f});
+  const size_t first_id = one_id ? blocks_.size() - 1 : blocks_.size() - blocks;
+  collapse_block_.resize(collapses_.size(), 0);
   size_t made = 0;
   // A block's lists are freed once its last collapse is merged, and the freed pages handed back
   // every kTrimBytes: the history grows as the blocks' lists shrink, where holding both to the
@@ -271,6 +286,9 @@ size_t Simplifier::run_block_level(size_t block_positions, bool shifted,
     live_faces_ -= c.face_count;
     c.first_map = first_map, c.first_face = first_face;
     collapses_.push_back(c);
+    const size_t id = first_id + (one_id ? 0 : b);
+    collapse_block_.push_back(uint16_t(id));
+    blocks_[id].error = std::max(blocks_[id].error, c.error);
     ++made;
     if (next[b] < r.collapses.size()) {
       heads.push({r.collapses[next[b]].queue_min, b});
@@ -647,8 +665,20 @@ void Simplifier::reserve_history(const std::vector<BlockResult>& results) {
   collapses_.reserve(collapses), maps_.reserve(maps), removed_faces_.reserve(faces);
 }
 
-void Simplifier::absorb(const Rest& rest) {
-  const Simplifier& t = *rest.s;
+void Simplifier::hand_blocks(Simplifier& rest) {
+  rest.blocks_ = std::move(blocks_);
+  rest.collapse_block_.clear();
+}
+
+void Simplifier::absorb(Rest& rest) {
+  Simplifier& t = *rest.s;
+  blocks_ = std::move(t.blocks_);
+  if (!t.collapse_block_.empty()) {
+    collapse_block_.resize(collapses_.size(), 0);
+    collapse_block_.insert(collapse_block_.end(), t.collapse_block_.begin(),
+                           t.collapse_block_.end());
+  }
+  std::vector<uint16_t>().swap(t.collapse_block_);
   collapses_.reserve(collapses_.size() + t.collapses_.size());
   maps_.reserve(maps_.size() + t.maps_.size());
   removed_faces_.reserve(removed_faces_.size() + t.removed_faces_.size());

@@ -647,6 +647,19 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
         {uint32_t(order.size()), uint32_t(face_order.size()), uint32_t(face_order.size()), 0});
   }
   release(orphan_start), release(orphaned), release(maps_), release(removed_faces_);
+  // The block hierarchy: level r undoes collapse m - r.
+  pm.level_block.clear(), pm.blocks.clear();
+  if (blocks_.size() > 1) {
+    collapse_block_.resize(collapses_.size(), 0);
+    for (size_t i = 0; i < collapses_.size(); ++i)
+      if (collapse_block_[i] == 0) blocks_[0].error = std::max(blocks_[0].error, collapses_[i].error);
+    uint16_t top = 0;
+    for (const ProgressiveBlock& b : blocks_) top = std::max(top, b.level);
+    blocks_[0].level = uint16_t(std::min(top + 1, 0xFFFF));
+    pm.level_block.assign(collapse_block_.rbegin(), collapse_block_.rend());
+    pm.blocks = std::move(blocks_);
+  }
+  release(collapse_block_), release(blocks_);
   // Errors: level r (r collapses undone) keeps collapses [0, m - r): its error is their max.
   size_t m = collapses_.size();
   std::vector<float> prefix_max(m + 1, 0.0f);

@@ -488,17 +488,21 @@ class Simplifier {
   void drop_mapped() const {
     if (mapped_) mapped_->drop();
   }
-  // The rest's history (and the faces it leaves alive) in the unit's numbering, after ours.
-  void absorb(const Rest& rest);
+  // The block hierarchy so far goes to a rest about to run more levels (absorb takes it back).
+  void hand_blocks(Simplifier& rest);
+  // The rest's history (and the faces it leaves alive) in the unit's numbering, after ours,
+  // with its blocks.
+  void absorb(Rest& rest);
   // The history's arrays sized for the blocks' collapses about to be merged in: grown by
   // doubling, they kept up to half again of slack into the record's allocation (the stage's
   // peak at 4M triangles).
   void reserve_history(const std::vector<BlockResult>& results);
   // One level: the live positions, in the unit's spatial order, cut into runs of
-  // `block_positions` (the first one half as long when `shifted`); each run's faces simplified
-  // by a Simplifier of their own; their histories merged by error. Returns the collapses made.
+  // `block_positions` (the first one half as long on odd levels); each run's faces simplified
+  // by a Simplifier of their own; their histories merged by error, each collapse tagged with its
+  // block (blocks_, collapse_block_). Returns the collapses made.
   // `on_progress` (may be empty) hears the collapses so far as blocks finish (any thread).
-  size_t run_block_level(size_t block_positions, bool shifted,
+  size_t run_block_level(size_t block_positions, size_t level,
                          std::vector<BlockResult>* quadrics_made = nullptr,
                          const std::function<void(uint64_t)>& on_progress = {});
   // The level's error bound: the third quartile of the cost of the cheapest collapse of every
@@ -553,6 +557,11 @@ class Simplifier {
   std::vector<Collapse> collapses_;
   std::vector<std::pair<uint32_t, uint32_t>> maps_;  // all (wedge, parent) pairs in order
   std::vector<uint32_t> removed_faces_;
+  // The block hierarchy (ProgressiveMesh::blocks): blocks_[0] is the root; collapse_block_[i]
+  // is collapse i's block, where collapses past its end are the root's (the whole-unit loop).
+  // Handed to a rest and back (absorb) with the history.
+  std::vector<ProgressiveBlock> blocks_ = std::vector<ProgressiveBlock>(1);
+  std::vector<uint16_t> collapse_block_;
 };
 
 }  // namespace meshmux::simplify_detail

@@ -19,13 +19,20 @@ inline ProgressiveMesh record_on_threads(const Scene& s, const SimplifyOptions& 
   return pm;
 }
 
-// The same record: faces, parents, vertex count and every level's error.
+// The same record: faces, parents, vertex count, every level's error and block.
 inline void expect_same_record(const ProgressiveMesh& a, const ProgressiveMesh& b) {
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.parent, b.parent);
   EXPECT_EQ(a.positions.size(), b.positions.size());
   ASSERT_EQ(a.levels.size(), b.levels.size());
   for (size_t i = 0; i < a.levels.size(); ++i) EXPECT_EQ(a.levels[i].error, b.levels[i].error);
+  EXPECT_EQ(a.level_block, b.level_block);
+  ASSERT_EQ(a.blocks.size(), b.blocks.size());
+  for (size_t i = 0; i < a.blocks.size(); ++i) {
+    EXPECT_EQ(a.blocks[i].level, b.blocks[i].level) << "block " << i;
+    EXPECT_EQ(a.blocks[i].block, b.blocks[i].block) << "block " << i;
+    EXPECT_EQ(a.blocks[i].error, b.blocks[i].error) << "block " << i;
+  }
 }
 
 }  // namespace meshmux::testing

@@ -1,0 +1,285 @@
+// The block hierarchy's DAG: see block_dag.h (Ponchio and Dellepiane, Nexus; Hoppe,
+// view-dependent refinement).
+#include "simplify/block_dag.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <unordered_map>
+
+namespace meshmux {
+
+namespace {
+
+constexpr uint16_t kNone = 0xFFFF;
+
+void include(BlockNode& n, const Vec3& p) {
+  n.box_min = {std::min(n.box_min.x, p.x), std::min(n.box_min.y, p.y), std::min(n.box_min.z, p.z)};
+  n.box_max = {std::max(n.box_max.x, p.x), std::max(n.box_max.y, p.y), std::max(n.box_max.z, p.z)};
+}
+
+// A position's bits, for the twin chains (the decoder keys them by position).
+struct PositionKey {
+  uint32_t x, y, z;
+  bool operator==(const PositionKey& o) const { return x == o.x && y == o.y && z == o.z; }
+};
+struct PositionHash {
+  size_t operator()(const PositionKey& k) const {
+    return size_t(k.x) * 73856093u ^ size_t(k.y) * 19349663u ^ size_t(k.z) * 83492791u;
+  }
+};
+PositionKey key_of(const Vec3& p) {
+  PositionKey k;
+  std::memcpy(&k.x, &p.x, 4), std::memcpy(&k.y, &p.y, 4), std::memcpy(&k.z, &p.z, 4);
+  return k;
+}
+
+// Kahn's order of the blocks (ascending ids among the ready ones), or empty on a cycle.
+std::vector<uint16_t> topological_order(const std::vector<std::vector<uint16_t>>& deps) {
+  const size_t n = deps.size();
+  std::vector<std::vector<uint16_t>> users(n);
+  std::vector<uint32_t> waiting(n, 0);
+  for (size_t x = 0; x < n; ++x)
+    for (uint16_t d : deps[x]) users[d].push_back(uint16_t(x)), ++waiting[x];
+  std::vector<uint16_t> ready, order;
+  for (size_t x = n; x-- > 0;)
+    if (waiting[x] == 0) ready.push_back(uint16_t(x));
+  while (!ready.empty()) {
+    std::sort(ready.begin(), ready.end(), std::greater<uint16_t>());
+    const uint16_t x = ready.back();
+    ready.pop_back();
+    order.push_back(x);
+    for (uint16_t u : users[x])
+      if (--waiting[u] == 0) ready.push_back(u);
+  }
+  if (order.size() != n) order.clear();
+  return order;
+}
+
+// Drops each dependency reachable through another (bitsets of reachability in topological
+// order); left as found past kReduceLimit blocks (the bitsets would grow as the square).
+constexpr size_t kReduceLimit = 8192;
+void reduce(std::vector<std::vector<uint16_t>>& deps, const std::vector<uint16_t>& order) {
+  const size_t n = deps.size();
+  if (n > kReduceLimit) return;
+  const size_t words = (n + 63) / 64;
+  std::vector<uint64_t> reach(n * words, 0);  // reach[x]: blocks x depends on, transitively
+  for (uint16_t x : order) {
+    uint64_t* rx = &reach[size_t(x) * words];
+    for (uint16_t d : deps[x]) {
+      const uint64_t* rd = &reach[size_t(d) * words];
+      for (size_t w = 0; w < words; ++w) rx[w] |= rd[w];
+    }
+    std::vector<uint16_t> kept;
+    for (uint16_t d : deps[x]) {
+      bool through = false;
+      for (uint16_t e : deps[x])
+        if (e != d && (reach[size_t(e) * words + d / 64] >> (d % 64) & 1)) through = true;
+      if (!through) kept.push_back(d);
+    }
+    for (uint16_t d : deps[x]) rx[d / 64] |= uint64_t(1) << (d % 64);
+    deps[x] = std::move(kept);
+  }
+}
+
+}  // namespace
+
+BlockReplay::BlockReplay(const ProgressiveMesh& pm) : pm_(pm) {
+  const size_t nv = pm.vertex_count(), nf = pm.face_count();
+  present_.assign(nv, 0), appeared_.assign(nf, 0);
+  cur_.assign(3 * nf, 0), next_.assign(3 * nf, -1), head_.assign(nv, -1);
+  mark_face_.assign(nf, 0), mark_list_.assign(nv, 0);
+  const ProgressiveLevel& first = pm.levels.front();
+  for (uint32_t v = 0; v < first.vertex_end; ++v) present_[v] = 1;
+  for (uint32_t f = 0; f < first.face_end; ++f) {
+    appeared_[f] = 1;
+    for (int k = 0; k < 3; ++k) {
+      const size_t c = 3 * size_t(f) + size_t(k);
+      const uint32_t x = mapped(pm.indices[c]);
+      cur_[c] = x, next_[c] = head_[x], head_[x] = int32_t(c);
+    }
+  }
+}
+
+uint32_t BlockReplay::mapped(uint32_t v) const {
+  while (!present_[v] && pm_.parent[v] < v) v = pm_.parent[v];
+  return v;
+}
+
+std::vector<uint32_t>& BlockReplay::twins_at(uint32_t p) {
+  std::array<uint32_t, 3> key;
+  std::memcpy(key.data(), &pm_.positions[p], 12);
+  return twins_[key];
+}
+
+void BlockReplay::sign_list(uint32_t v) {
+  for (int32_t c = head_[v]; c >= 0; c = next_[size_t(c)]) {
+    const size_t f = size_t(c) / 3;
+    sign(uint64_t(c));
+    for (int k = 0; k < 3; ++k) sign(cur_[3 * f + size_t(k)]);
+  }
+  sign(~0ull);
+}
+
+std::vector<uint32_t> BlockReplay::corner_list(uint32_t v) const {
+  std::vector<uint32_t> out;
+  for (int32_t c = head_[v]; c >= 0; c = next_[size_t(c)]) out.push_back(uint32_t(c));
+  return out;
+}
+
+Status BlockReplay::apply_level(size_t r) {
+  lists_touched.clear(), faces_written.clear(), faces_read.clear(), parents.clear();
+  signature = signatures ? 14695981039346656037ull : 0;
+  auto fail = [&](const std::string& what) {
+    return Status::error("block replay: level " + std::to_string(r) + ": " + what,
+                         ErrorKind::kInternal);
+  };
+  if (r == 0 || r >= pm_.levels.size()) return fail("no such level");
+  const ProgressiveLevel &before = pm_.levels[r - 1], &after = pm_.levels[r];
+  std::vector<uint32_t> faces;  // met, in order (marks: 1 read, 2 written)
+  auto list = [&](uint32_t v) {
+    if (!mark_list_[v]) mark_list_[v] = 1, lists_touched.push_back(v);
+  };
+  auto face = [&](uint32_t f, uint8_t how) {
+    if (!mark_face_[f]) faces.push_back(f);
+    mark_face_[f] = std::max(mark_face_[f], how);
+  };
+  for (uint32_t v = before.vertex_end; v < after.vertex_end; ++v) {
+    const uint32_t p = pm_.parent[v];
+    if (p >= v || !present_[p] || present_[v])
+      return fail("vertex " + std::to_string(v) + ": its parent " + std::to_string(p) +
+                  " is not present");
+    present_[v] = 1;
+    list(p), list(v), parents.push_back(p);
+    if (signatures) {
+      sign(p), sign_list(p);
+      std::vector<uint32_t>& twins = twins_at(p);
+      for (size_t i = twins.size(); i-- > 0 && twins.size() - i <= 4;) sign(twins[i]);
+      twins.push_back(v);
+    }
+    int32_t previous = -1;
+    for (int32_t c = head_[p]; c >= 0;) {
+      const int32_t following = next_[size_t(c)];
+      face(uint32_t(c) / 3, 1);
+      if (mapped(pm_.indices[size_t(c)]) == v) {
+        (previous < 0 ? head_[p] : next_[size_t(previous)]) = following;
+        next_[size_t(c)] = head_[v], head_[v] = c, cur_[size_t(c)] = v;
+        face(uint32_t(c) / 3, 2);
+      } else {
+        previous = c;
+      }
+      c = following;
+    }
+  }
+  for (uint32_t f = before.face_end; f < after.face_end; ++f) {
+    if (appeared_[f]) return fail("face " + std::to_string(f) + " appeared before");
+    appeared_[f] = 1;
+    for (int k = 0; k < 3; ++k) {
+      const size_t c = 3 * size_t(f) + size_t(k);
+      const uint32_t x = mapped(pm_.indices[c]);
+      if (!present_[x]) return fail("face " + std::to_string(f) + ": no present corner");
+      cur_[c] = x, next_[c] = head_[x], head_[x] = int32_t(c);
+      list(x);
+    }
+    if (cur_[3 * size_t(f)] == cur_[3 * size_t(f) + 1] ||
+        cur_[3 * size_t(f) + 1] == cur_[3 * size_t(f) + 2] ||
+        cur_[3 * size_t(f)] == cur_[3 * size_t(f) + 2])
+      return fail("face " + std::to_string(f) + " is degenerate");
+    face(f, 2);
+  }
+  // The ring and predictors read every face around the new vertices once they are made.
+  for (uint32_t v = before.vertex_end; v < after.vertex_end; ++v) {
+    for (int32_t c = head_[v]; c >= 0; c = next_[size_t(c)]) face(uint32_t(c) / 3, 1);
+    if (signatures) sign_list(v), sign_list(pm_.parent[v]);
+  }
+  for (uint32_t f : faces) {
+    (mark_face_[f] == 2 ? faces_written : faces_read).push_back(f);
+    mark_face_[f] = 0;
+  }
+  for (uint32_t v : lists_touched) mark_list_[v] = 0;
+  return Status::ok();
+}
+
+Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
+  const size_t blocks = pm.blocks.size();
+  auto fail = [](const std::string& what) {
+    return Status::error("block dag: " + what, ErrorKind::kInternal);
+  };
+  if (blocks == 0 || pm.level_block.size() + 1 != pm.levels.size() || blocks > kNone)
+    return fail("the record has no block hierarchy");
+  BlockDag dag;
+  dag.nodes.resize(blocks);
+  for (size_t b = 0; b < blocks; ++b) {
+    dag.nodes[b].error = pm.blocks[b].error;
+    dag.nodes[b].box_min = {INFINITY, INFINITY, INFINITY};
+    dag.nodes[b].box_max = {-INFINITY, -INFINITY, -INFINITY};
+  }
+  std::vector<std::vector<uint16_t>> deps(blocks);
+  std::vector<uint16_t> list_last(pm.vertex_count(), kNone), writer(pm.face_count(), kNone);
+  std::vector<std::array<uint16_t, 3>> readers(pm.face_count(), {kNone, kNone, kNone});
+  std::unordered_map<PositionKey, uint16_t, PositionHash> twin_last;
+  BlockReplay replay(pm);
+  for (size_t r = 1; r < pm.levels.size(); ++r) {
+    const uint16_t x = pm.level_block[r - 1];
+    if (x >= blocks) return fail("level " + std::to_string(r) + ": no block " + std::to_string(x));
+    if (Status s = replay.apply_level(r); !s) return s;
+    BlockNode& node = dag.nodes[x];
+    if (node.levels++ == 0) node.first_level = uint32_t(r);
+    node.vertices += pm.levels[r].vertex_end - pm.levels[r - 1].vertex_end;
+    node.faces += pm.levels[r].face_end - pm.levels[r - 1].face_end;
+    auto depend = [&](uint16_t y) {
+      if (y != kNone && y != x) deps[x].push_back(y);
+    };
+    auto include_face = [&](uint32_t f) {
+      for (uint32_t c : replay.corners(f)) include(node, pm.positions[c]);
+    };
+    for (uint32_t v : replay.lists_touched) {
+      depend(list_last[v]), list_last[v] = x;
+      include(node, pm.positions[v]);
+    }
+    for (uint32_t p : replay.parents) {
+      uint16_t& last = twin_last.try_emplace(key_of(pm.positions[p]), kNone).first->second;
+      depend(last), last = x;
+    }
+    for (uint32_t f : replay.faces_read) {
+      depend(writer[f]);
+      include_face(f);
+      std::array<uint16_t, 3>& rd = readers[f];
+      if (std::find(rd.begin(), rd.end(), x) != rd.end()) continue;
+      auto slot = std::find(rd.begin(), rd.end(), kNone);
+      if (slot == rd.end()) {
+        // Readers of coarser levels give way: this block then depends on them, so a later
+        // writer that depends on it is ordered after them too.
+        for (uint16_t& y : rd)
+          if (pm.blocks[y].level != pm.blocks[x].level) depend(y), y = kNone;
+        slot = std::find(rd.begin(), rd.end(), kNone);
+        if (slot == rd.end()) {  // cannot happen: a level has ≤ 3 readers of a face
+          for (uint16_t& y : rd) depend(y), y = kNone;
+          slot = rd.begin();
+        }
+      }
+      *slot = x;
+    }
+    for (uint32_t f : replay.faces_written) {
+      depend(writer[f]);
+      for (uint16_t& y : readers[f]) depend(y), y = kNone;
+      writer[f] = x;
+      include_face(f);
+    }
+  }
+  for (auto& d : deps) {
+    std::sort(d.begin(), d.end());
+    d.erase(std::unique(d.begin(), d.end()), d.end());
+  }
+  const std::vector<uint16_t> order = topological_order(deps);
+  if (order.empty()) return fail("the blocks' dependencies form a cycle");
+  reduce(deps, order);
+  for (size_t b = 0; b < blocks; ++b) {
+    dag.nodes[b].deps = std::move(deps[b]);
+    if (dag.nodes[b].levels == 0) dag.nodes[b].box_min = dag.nodes[b].box_max = Vec3{};
+  }
+  return dag;
+}
+
+}  // namespace meshmux

@@ -1,0 +1,301 @@
+// The block hierarchy's DAG (simplify/block_dag.h): a record built through the block levels is
+// a DAG of blocks, and any dependency-closed set of blocks, applied in any order the
+// dependencies allow, gives one client state. The tests lower the size threshold so that a
+// bumpy sphere of ~36k triangles (a rough, scan-like surface, closed, with a uv seam) takes the
+// block path in several levels of many blocks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include "clean/clean.h"
+#include "simplify/block_dag.h"
+#include "simplify/simplify.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+using testing::uv_sphere;
+
+// Blocks of 512 positions: ~36 blocks at the first level, levels until 2,000 faces are live.
+SimplifyOptions block_options() {
+  SimplifyOptions o;
+  o.block_above = 4000;
+  o.block_positions = 512;
+  o.block_until = 2000;
+  return o;
+}
+
+// A sphere with noise along its normals (a hash of the grid cell, a tenth of an edge): the
+// surface a scan gives, where no collapse is free and blocks stop at their error bound.
+Scene bumpy_sphere() {
+  Primitive p = uv_sphere(96, 192);
+  for (Vec3& v : p.positions) {
+    const int64_t h = int64_t(std::lround(v.x * 997)) * 73856093 ^
+                      int64_t(std::lround(v.y * 997)) * 19349663 ^
+                      int64_t(std::lround(v.z * 997)) * 83492791;
+    const float bump = 1.0f + 0.003f * float((h >> 3) % 11) / 10.0f;
+    v = {v.x * bump, v.y * bump, v.z * bump};
+  }
+  Scene s;
+  Mesh m;
+  m.primitives.push_back(p);
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Mat4::identity(), "bumpy"});
+  return clean(s, {});
+}
+
+const ProgressiveMesh& record() {
+  static const ProgressiveMesh pm = build_progressive(bumpy_sphere(), block_options()).meshes[0];
+  return pm;
+}
+
+const BlockDag& dag() {
+  static const BlockDag d = [] {
+    Result<BlockDag> r = block_dag(record());
+    EXPECT_TRUE(r.ok()) << r.status().message();
+    return r.ok() ? *r : BlockDag{};
+  }();
+  return d;
+}
+
+// A random dependency-closed set of blocks (the root always; another block with probability
+// one half once all its dependencies are in) and a random order of it that respects them.
+std::vector<uint16_t> closed_subset_order(std::mt19937& rng, double keep) {
+  const BlockDag& d = dag();
+  const size_t n = d.nodes.size();
+  std::vector<int> state(n, 0);  // 0 undecided, 1 in, 2 out
+  std::vector<uint16_t> order;
+  bool progress = true;
+  while (progress) {
+    progress = false;
+    std::vector<uint16_t> ready;
+    for (size_t b = 0; b < n; ++b) {
+      if (state[b] != 0) continue;
+      bool deps_in = true, dep_out = false;
+      for (uint16_t y : d.nodes[b].deps) deps_in &= state[y] == 1, dep_out |= state[y] == 2;
+      if (dep_out) state[b] = 2, progress = true;
+      if (deps_in) ready.push_back(uint16_t(b));
+    }
+    std::shuffle(ready.begin(), ready.end(), rng);
+    for (uint16_t b : ready) {
+      const bool in = b == 0 || std::bernoulli_distribution(keep)(rng);
+      state[b] = in ? 1 : 2;
+      if (in) order.push_back(b);
+      progress = true;
+      break;  // one at a time: the next choice sees it
+    }
+  }
+  return order;
+}
+
+// Per level, the neighbourhood its splits read in the record's own order (every level applied
+// in turn): BlockReplay::signature.
+const std::vector<uint64_t>& record_order_signatures() {
+  static const std::vector<uint64_t> sig = [] {
+    const ProgressiveMesh& pm = record();
+    std::vector<uint64_t> out(pm.levels.size(), 0);
+    BlockReplay replay(pm);
+    replay.signatures = true;
+    for (size_t r = 1; r < pm.levels.size(); ++r) {
+      EXPECT_TRUE(replay.apply_level(r).is_ok());
+      out[r] = replay.signature;
+    }
+    return out;
+  }();
+  return sig;
+}
+
+// Applies the blocks in `order`, each block's levels in record order; with `check`, each level's
+// splits must read what they read in the record's order.
+Status apply_blocks(BlockReplay& replay, const std::vector<uint16_t>& order, bool check = false) {
+  const ProgressiveMesh& pm = record();
+  replay.signatures = check;
+  for (uint16_t b : order)
+    for (size_t r = 1; r < pm.levels.size(); ++r) {
+      if (pm.level_block[r - 1] != b) continue;
+      if (Status s = replay.apply_level(r); !s) return s;
+      if (check && replay.signature != record_order_signatures()[r])
+        return Status::error("level " + std::to_string(r) + " (block " + std::to_string(b) +
+                                 ") read another neighbourhood than in the record's order",
+                             ErrorKind::kInternal);
+    }
+  return Status::ok();
+}
+
+// Another order of the same set that respects the dependencies: repeatedly the ready block of
+// the highest id (the first order took them at random).
+std::vector<uint16_t> other_order(const std::vector<uint16_t>& order) {
+  const BlockDag& d = dag();
+  std::set<uint16_t> left(order.begin(), order.end()), done;
+  std::vector<uint16_t> out;
+  while (!left.empty()) {
+    for (auto it = left.rbegin(); it != left.rend(); ++it) {
+      bool ready = true;
+      for (uint16_t y : d.nodes[*it].deps) ready &= done.count(y) > 0;
+      if (!ready) continue;
+      out.push_back(*it), done.insert(*it), left.erase(*it);
+      break;
+    }
+  }
+  return out;
+}
+
+// The record took the block path: many blocks over several levels, every level's collapse in a
+// block, the root coarsest.
+TEST(BlockDag, RecordCarriesTheBlockOfEveryLevel) {
+  const ProgressiveMesh& pm = record();
+  ASSERT_GT(pm.blocks.size(), 16u);
+  ASSERT_EQ(pm.level_block.size() + 1, pm.levels.size());
+  std::set<uint16_t> levels;
+  for (const ProgressiveBlock& b : pm.blocks) levels.insert(b.level);
+  EXPECT_GE(levels.size(), 3u);  // two block levels at least, and the root's
+  for (size_t b = 1; b < pm.blocks.size(); ++b) EXPECT_LT(pm.blocks[b].level, pm.blocks[0].level);
+  for (uint16_t b : pm.level_block) ASSERT_LT(b, pm.blocks.size());
+  // The root's collapses are the coarsest: the record's first levels.
+  EXPECT_EQ(pm.level_block.front(), 0u);
+}
+
+// A mesh under the threshold keeps no hierarchy (its record is today's single chain).
+TEST(BlockDag, MeshUnderTheThresholdHasNoBlocks) {
+  SimplifyOptions o = block_options();
+  o.block_above = 1000000;
+  const ProgressiveMesh pm = build_progressive(bumpy_sphere(), o).meshes[0];
+  EXPECT_TRUE(pm.blocks.empty());
+  EXPECT_TRUE(pm.level_block.empty());
+  EXPECT_FALSE(block_dag(pm).ok());
+}
+
+// The dependencies point to coarser blocks only; blocks of one level never depend on each
+// other (their locked borders keep them apart); every block reaches the root.
+TEST(BlockDag, DependenciesGoToCoarserLevelsAndReachTheRoot) {
+  const ProgressiveMesh& pm = record();
+  const BlockDag& d = dag();
+  ASSERT_EQ(d.nodes.size(), pm.blocks.size());
+  EXPECT_TRUE(d.nodes[0].deps.empty());
+  size_t with_deps = 0;
+  for (size_t b = 1; b < d.nodes.size(); ++b) {
+    if (d.nodes[b].levels == 0) continue;
+    ++with_deps;
+    ASSERT_FALSE(d.nodes[b].deps.empty()) << "block " << b;
+    for (uint16_t y : d.nodes[b].deps)
+      EXPECT_GT(pm.blocks[y].level, pm.blocks[b].level) << "block " << b << " on " << y;
+    // Reaches the root through its dependencies.
+    std::vector<uint16_t> stack = {uint16_t(b)};
+    std::set<uint16_t> seen;
+    while (!stack.empty()) {
+      const uint16_t x = stack.back();
+      stack.pop_back();
+      if (!seen.insert(x).second) continue;
+      for (uint16_t y : d.nodes[x].deps) stack.push_back(y);
+    }
+    EXPECT_TRUE(seen.count(0)) << "block " << b;
+    // A finite box around its vertices.
+    EXPECT_LE(d.nodes[b].box_min.x, d.nodes[b].box_max.x);
+    EXPECT_TRUE(std::isfinite(d.nodes[b].box_max.z));
+  }
+  EXPECT_GT(with_deps, 16u);
+}
+
+// Undirected position edges of the appeared faces, with how many faces use each.
+std::map<std::tuple<float, float, float, float, float, float>, int> edges(
+    const BlockReplay& replay) {
+  const ProgressiveMesh& pm = record();
+  std::map<std::tuple<float, float, float, float, float, float>, int> m;
+  for (uint32_t f = 0; f < pm.face_count(); ++f) {
+    if (!replay.appeared(f)) continue;
+    const auto c = replay.corners(f);
+    for (int e = 0; e < 3; ++e) {
+      Vec3 a = pm.positions[c[e]], b = pm.positions[c[(e + 1) % 3]];
+      if (std::make_tuple(b.x, b.y, b.z) < std::make_tuple(a.x, a.y, a.z)) std::swap(a, b);
+      ++m[{a.x, a.y, a.z, b.x, b.y, b.z}];
+    }
+  }
+  return m;
+}
+
+// The property the client's view-dependent refinement rests on: in a dependency-closed set of
+// blocks applied in two different orders, every split reads the neighbourhood it read in the
+// record's own order (what its coding refers to), both give the same state (every face's
+// corners, every vertex's corner list in the same order), that state is the record's parent
+// mapping (the faces not yet appeared are degenerate under it), and the surface stays closed.
+TEST(BlockDag, ClosedSetsGiveOneStateWhateverTheOrder) {
+  const ProgressiveMesh& pm = record();
+  ASSERT_FALSE(dag().nodes.empty());
+  std::mt19937 rng(7);
+  for (double keep : {0.8, 0.9, 0.95, 0.97, 0.99}) {
+    const std::vector<uint16_t> first = closed_subset_order(rng, keep), second = other_order(first);
+    ASSERT_EQ(first.size(), second.size());
+    BlockReplay a(pm), b(pm);
+    const Status sa = apply_blocks(a, first, true), sb = apply_blocks(b, second, true);
+    ASSERT_TRUE(sa.is_ok()) << sa.message();
+    ASSERT_TRUE(sb.is_ok()) << sb.message();
+    size_t appeared = 0;
+    for (uint32_t f = 0; f < pm.face_count(); ++f) {
+      ASSERT_EQ(a.appeared(f), b.appeared(f)) << "face " << f;
+      if (!a.appeared(f)) {
+        const uint32_t x = a.mapped(pm.indices[3 * f]), y = a.mapped(pm.indices[3 * f + 1]),
+                       z = a.mapped(pm.indices[3 * f + 2]);
+        ASSERT_TRUE(x == y || y == z || x == z) << "face " << f << " not appeared yet whole";
+        continue;
+      }
+      ++appeared;
+      ASSERT_EQ(a.corners(f), b.corners(f)) << "face " << f;
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(a.corners(f)[k], a.mapped(pm.indices[3 * f + k]));
+    }
+    for (uint32_t v = 0; v < pm.vertex_count(); ++v) {
+      ASSERT_EQ(a.present(v), b.present(v)) << "vertex " << v;
+      if (!a.present(v)) continue;
+      ASSERT_EQ(a.corner_list(v), b.corner_list(v)) << "vertex " << v;
+    }
+    for (const auto& [edge, faces] : edges(a)) ASSERT_EQ(faces, 2) << "keep " << keep;
+    EXPECT_GT(appeared, 0u);
+  }
+}
+
+// Every block applied (in a dependency order other than the record's) gives the full mesh.
+TEST(BlockDag, AllBlocksInAnotherOrderGiveTheFullMesh) {
+  const ProgressiveMesh& pm = record();
+  std::vector<uint16_t> all;
+  for (size_t b = 0; b < pm.blocks.size(); ++b) all.push_back(uint16_t(b));
+  BlockReplay replay(pm);
+  ASSERT_TRUE(apply_blocks(replay, other_order(all)).is_ok());
+  for (uint32_t f = 0; f < pm.face_count(); ++f) {
+    ASSERT_TRUE(replay.appeared(f));
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(replay.corners(f)[k], pm.indices[3 * f + k]);
+  }
+}
+
+// A block applied without a dependency that made one of its parents is refused by the replay
+// (the dependencies are not decoration: they carry the parents).
+TEST(BlockDag, BlockWithoutItsParentsDependencyIsRefused) {
+  const ProgressiveMesh& pm = record();
+  const BlockDag& d = dag();
+  // A block with a vertex whose parent another non-root block made.
+  std::vector<uint16_t> block_of_vertex(pm.vertex_count(), 0);
+  for (size_t r = 1; r < pm.levels.size(); ++r)
+    for (uint32_t v = pm.levels[r - 1].vertex_end; v < pm.levels[r].vertex_end; ++v)
+      block_of_vertex[v] = pm.level_block[r - 1];
+  for (size_t x = 1; x < d.nodes.size(); ++x) {
+    for (uint32_t v = 0; v < pm.vertex_count(); ++v) {
+      const uint16_t y = block_of_vertex[pm.parent[v]];
+      if (block_of_vertex[v] != x || y == 0 || y == x) continue;
+      // Apply the root and every block x depends on but y (and what depends on y), then x.
+      std::vector<uint16_t> order = {0};
+      BlockReplay replay(pm);
+      ASSERT_TRUE(apply_blocks(replay, order).is_ok());
+      const Status s = apply_blocks(replay, {uint16_t(x)});
+      EXPECT_FALSE(s.is_ok()) << "block " << x << " applied without block " << y;
+      EXPECT_NE(s.message().find("is not present"), std::string::npos) << s.message();
+      return;
+    }
+  }
+  FAIL() << "no block splits from a vertex another block made";
+}
+
+}  // namespace
+}  // namespace meshmux
