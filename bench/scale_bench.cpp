@@ -61,8 +61,8 @@ struct Config {
   std::vector<double> fractions = {0.25, 0.06, 0.015};
   HausdorffOptions hopt;
   std::string json;
-  bool global = false;      // also the record without block levels
-  uint64_t block_above = 0;  // 0: SimplifyOptions' default
+  bool global = false;           // also the record without block levels
+  uint64_t block_above = 0;      // 0: SimplifyOptions' default
   uint64_t block_positions = 0;  // 0: SimplifyOptions' default
   bool help = false;
 };

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <set>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 
 namespace meshmux {
@@ -280,6 +282,90 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
     if (dag.nodes[b].levels == 0) dag.nodes[b].box_min = dag.nodes[b].box_max = Vec3{};
   }
   return dag;
+}
+
+namespace {
+
+// Moves the items of `v` (each `stride` values) to their new places: out[to[i]] = v[i].
+template <typename T>
+void permute(std::vector<T>& v, const std::vector<uint32_t>& to, size_t stride) {
+  if (v.empty()) return;
+  std::vector<T> out(v.size());
+  for (size_t i = 0; i < to.size(); ++i)
+    for (size_t k = 0; k < stride; ++k) out[size_t(to[i]) * stride + k] = v[i * stride + k];
+  v.swap(out);
+}
+
+}  // namespace
+
+Status order_by_blocks(ProgressiveMesh& pm, const BlockDag& dag) {
+  auto fail = [](const std::string& what) {
+    return Status::error("block order: " + what, ErrorKind::kInternal);
+  };
+  const size_t levels = pm.levels.size(), blocks = pm.blocks.size();
+  if (blocks == 0 || dag.nodes.size() != blocks || pm.level_block.size() + 1 != levels)
+    return fail("the DAG does not fit the record");
+  for (size_t b = 0; b < blocks; ++b)
+    for (uint16_t d : dag.nodes[b].deps)
+      if (d >= blocks || pm.blocks[d].level <= pm.blocks[b].level)
+        return fail("block " + std::to_string(b) + " depends on block " + std::to_string(d) +
+                    ", not a coarser one");
+  // The new order of the levels 1..m: by block (the root's level is the highest), then as
+  // recorded.
+  std::vector<uint32_t> order(levels - 1);
+  for (size_t r = 1; r < levels; ++r) order[r - 1] = uint32_t(r);
+  auto rank = [&](uint32_t r) {
+    const ProgressiveBlock& b = pm.blocks[pm.level_block[r - 1]];
+    return std::make_tuple(-int(b.level), b.block, r);
+  };
+  std::stable_sort(order.begin(), order.end(),
+                   [&](uint32_t a, uint32_t b) { return rank(a) < rank(b); });
+  // Where each vertex and face goes.
+  const ProgressiveLevel first = pm.levels.front();
+  std::vector<uint32_t> vertex_to(pm.vertex_count()), face_to(pm.face_count());
+  for (uint32_t v = 0; v < first.vertex_end; ++v) vertex_to[v] = v;
+  for (uint32_t f = 0; f < first.face_end; ++f) face_to[f] = f;
+  uint32_t nv = first.vertex_end, nf = first.face_end;
+  std::vector<ProgressiveLevel> out_levels = {first};
+  std::vector<uint16_t> out_block;
+  for (uint32_t r : order) {
+    const ProgressiveLevel &a = pm.levels[r - 1], &b = pm.levels[r];
+    for (uint32_t v = a.vertex_end; v < b.vertex_end; ++v) vertex_to[v] = nv++;
+    for (uint32_t f = a.face_end; f < b.face_end; ++f) face_to[f] = nf++;
+    out_levels.push_back({nv, nf, nf, 0});
+    out_block.push_back(pm.level_block[r - 1]);
+  }
+  // Errors: the largest error of the blocks with a level still to apply.
+  std::vector<uint32_t> left(blocks, 0);
+  for (uint16_t b : out_block) ++left[b];
+  std::multiset<float> open;
+  for (size_t b = 0; b < blocks; ++b)
+    if (left[b]) open.insert(pm.blocks[b].error);
+  for (size_t r = 0; r < out_levels.size(); ++r) {
+    out_levels[r].error = open.empty() ? 0.0f : *open.rbegin();
+    if (r + 1 < out_levels.size() && --left[out_block[r]] == 0)
+      open.erase(open.find(pm.blocks[out_block[r]].error));
+  }
+  // The root's levels are the record's first ones, in place: their errors stay exact.
+  size_t root_levels = 0;
+  while (root_levels < out_block.size() && out_block[root_levels] == 0) ++root_levels;
+  for (size_t r = 0; r <= root_levels; ++r) out_levels[r].error = pm.levels[r].error;
+  // The base: where it was while the root holds it.
+  const size_t base = std::min(pm.base_level, root_levels);
+  // The arrays renumbered.
+  for (uint32_t& p : pm.parent) p = vertex_to[p];
+  for (uint32_t& i : pm.indices) i = vertex_to[i];
+  permute(pm.parent, vertex_to, 1);
+  permute(pm.positions, vertex_to, 1);
+  permute(pm.normals, vertex_to, 1);
+  for (std::vector<Vec2>& uv : pm.uvs) permute(uv, vertex_to, 1);
+  permute(pm.colors, vertex_to, 1);
+  permute(pm.indices, face_to, 3);
+  permute(pm.face_primitive, face_to, 1);
+  pm.levels = std::move(out_levels);
+  pm.level_block = std::move(out_block);
+  pm.base_level = base;
+  return Status::ok();
 }
 
 }  // namespace meshmux

@@ -55,6 +55,20 @@ struct BlockDag {
 // O(faces × the corners walked per split + levels); memory ~36 bytes per face.
 Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 
+// Renumbers a record with a block hierarchy so that each block's levels are contiguous: the
+// root's first, then the blocks from the coarsest level to the finest (by index within a
+// level), each block's levels in their record order. Every dependency points to a coarser
+// level, so this is a topological order of `dag`, and every split keeps its parent, its faces
+// and the neighbourhood it reads (block_dag.h): the same progressive mesh, its vertices and
+// faces renumbered. The root's levels keep their errors; past them, a level's error becomes the
+// largest error of the blocks not yet fully applied (ProgressiveBlock::error: never below the
+// true one, never increasing with detail);
+// the base level stays where it was when the root holds it, else it becomes the root's last
+// level. A block that is a chunk of the stream is then one run of vertices and faces. Fails
+// (kInternal) when `dag` does not fit `pm` or a dependency is not coarser.
+// O(V + F + levels); memory: one copy of each per-vertex and per-face array at a time.
+Status order_by_blocks(ProgressiveMesh& pm, const BlockDag& dag);
+
 // A client state of a record, refined level by level in any order the caller chooses: the
 // replay block_dag() makes, for tests and analysis. Starts at the coarsest level (levels[0]).
 class BlockReplay {

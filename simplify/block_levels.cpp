@@ -294,8 +294,8 @@ size_t Simplifier::run_block_level(size_t block_positions, size_t level,
       heads.push({r.collapses[next[b]].queue_min, b});
       continue;
     }
-    freed += r.collapses.capacity() * sizeof(Collapse) +
-             r.maps.capacity() * sizeof(r.maps[0]) + r.removed_faces.capacity() * sizeof(uint32_t);
+    freed += r.collapses.capacity() * sizeof(Collapse) + r.maps.capacity() * sizeof(r.maps[0]) +
+             r.removed_faces.capacity() * sizeof(uint32_t);
     std::vector<Collapse>().swap(r.collapses);
     std::vector<std::pair<uint32_t, uint32_t>>().swap(r.maps);
     std::vector<uint32_t>().swap(r.removed_faces);

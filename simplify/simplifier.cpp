@@ -652,7 +652,8 @@ void Simplifier::record(const Mesh& mesh, uint32_t mesh_index, ProgressiveMesh& 
   if (blocks_.size() > 1) {
     collapse_block_.resize(collapses_.size(), 0);
     for (size_t i = 0; i < collapses_.size(); ++i)
-      if (collapse_block_[i] == 0) blocks_[0].error = std::max(blocks_[0].error, collapses_[i].error);
+      if (collapse_block_[i] == 0)
+        blocks_[0].error = std::max(blocks_[0].error, collapses_[i].error);
     uint16_t top = 0;
     for (const ProgressiveBlock& b : blocks_) top = std::max(top, b.level);
     blocks_[0].level = uint16_t(std::min(top + 1, 0xFFFF));

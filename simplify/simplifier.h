@@ -142,8 +142,8 @@ struct Unit {
   bool normals = false;                // the wedges have normals (wedge_normal while costing)
   std::vector<float> attr;  // wedge × channels, weighted attribute values (products of floats)
   int channels = 0;
-  std::vector<DVec3> pos;         // position → mesh-space point
-  std::vector<uint32_t> corners;  // face × 3 wedges (current, remapped as we go)
+  std::vector<DVec3> pos;           // position → mesh-space point
+  std::vector<uint32_t> corners;    // face × 3 wedges (current, remapped as we go)
   std::vector<uint32_t> face_prim;  // face → source primitive (empty: all 0, one primitive)
   uint32_t prim_of_wedge(size_t w) const { return wedge_prim.empty() ? 0 : wedge_prim[w]; }
   uint32_t prim_of_face(size_t f) const { return face_prim.empty() ? 0 : face_prim[f]; }

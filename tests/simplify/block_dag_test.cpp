@@ -3,6 +3,8 @@
 // dependencies allow, gives one client state. The tests lower the size threshold so that a
 // bumpy sphere of ~36k triangles (a rough, scan-like surface, closed, with a uv seam) takes the
 // block path in several levels of many blocks.
+#include "simplify/block_dag.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +14,7 @@
 #include <tuple>
 
 #include "clean/clean.h"
-#include "simplify/block_dag.h"
+#include "simplify/lod.h"
 #include "simplify/simplify.h"
 #include "test_util.h"
 
@@ -49,24 +51,54 @@ Scene bumpy_sphere() {
   return clean(s, {});
 }
 
-const ProgressiveMesh& record() {
-  static const ProgressiveMesh pm = build_progressive(bumpy_sphere(), block_options()).meshes[0];
-  return pm;
+// A record with its DAG, and per level the neighbourhood its splits read in the record's own
+// order (every level applied in turn): BlockReplay::signature.
+struct Hierarchy {
+  ProgressiveMesh pm;
+  BlockDag dag;
+  std::vector<uint64_t> signatures;
+};
+
+void complete(Hierarchy& h) {
+  Result<BlockDag> r = block_dag(h.pm);
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  if (r.ok()) h.dag = *r;
+  h.signatures.assign(h.pm.levels.size(), 0);
+  BlockReplay replay(h.pm);
+  replay.signatures = true;
+  for (size_t l = 1; l < h.pm.levels.size(); ++l) {
+    EXPECT_TRUE(replay.apply_level(l).is_ok());
+    h.signatures[l] = replay.signature;
+  }
 }
 
-const BlockDag& dag() {
-  static const BlockDag d = [] {
-    Result<BlockDag> r = block_dag(record());
-    EXPECT_TRUE(r.ok()) << r.status().message();
-    return r.ok() ? *r : BlockDag{};
+// The record as built.
+const Hierarchy& recorded() {
+  static const Hierarchy h = [] {
+    Hierarchy out{build_progressive(bumpy_sphere(), block_options()).meshes[0], {}, {}};
+    complete(out);
+    return out;
   }();
-  return d;
+  return h;
+}
+const ProgressiveMesh& record() { return recorded().pm; }
+const BlockDag& dag() { return recorded().dag; }
+
+// The record renumbered block by block (order_by_blocks).
+const Hierarchy& ordered() {
+  static const Hierarchy h = [] {
+    Hierarchy out{record(), {}, {}};
+    EXPECT_TRUE(order_by_blocks(out.pm, dag()).is_ok());
+    complete(out);
+    return out;
+  }();
+  return h;
 }
 
 // A random dependency-closed set of blocks (the root always; another block with probability
 // one half once all its dependencies are in) and a random order of it that respects them.
-std::vector<uint16_t> closed_subset_order(std::mt19937& rng, double keep) {
-  const BlockDag& d = dag();
+std::vector<uint16_t> closed_subset_order(const Hierarchy& h, std::mt19937& rng, double keep) {
+  const BlockDag& d = h.dag;
   const size_t n = d.nodes.size();
   std::vector<int> state(n, 0);  // 0 undecided, 1 in, 2 out
   std::vector<uint16_t> order;
@@ -93,33 +125,17 @@ std::vector<uint16_t> closed_subset_order(std::mt19937& rng, double keep) {
   return order;
 }
 
-// Per level, the neighbourhood its splits read in the record's own order (every level applied
-// in turn): BlockReplay::signature.
-const std::vector<uint64_t>& record_order_signatures() {
-  static const std::vector<uint64_t> sig = [] {
-    const ProgressiveMesh& pm = record();
-    std::vector<uint64_t> out(pm.levels.size(), 0);
-    BlockReplay replay(pm);
-    replay.signatures = true;
-    for (size_t r = 1; r < pm.levels.size(); ++r) {
-      EXPECT_TRUE(replay.apply_level(r).is_ok());
-      out[r] = replay.signature;
-    }
-    return out;
-  }();
-  return sig;
-}
-
 // Applies the blocks in `order`, each block's levels in record order; with `check`, each level's
 // splits must read what they read in the record's order.
-Status apply_blocks(BlockReplay& replay, const std::vector<uint16_t>& order, bool check = false) {
-  const ProgressiveMesh& pm = record();
+Status apply_blocks(BlockReplay& replay, const std::vector<uint16_t>& order,
+                    const Hierarchy& h = recorded(), bool check = false) {
+  const ProgressiveMesh& pm = h.pm;
   replay.signatures = check;
   for (uint16_t b : order)
     for (size_t r = 1; r < pm.levels.size(); ++r) {
       if (pm.level_block[r - 1] != b) continue;
       if (Status s = replay.apply_level(r); !s) return s;
-      if (check && replay.signature != record_order_signatures()[r])
+      if (check && replay.signature != h.signatures[r])
         return Status::error("level " + std::to_string(r) + " (block " + std::to_string(b) +
                                  ") read another neighbourhood than in the record's order",
                              ErrorKind::kInternal);
@@ -129,8 +145,9 @@ Status apply_blocks(BlockReplay& replay, const std::vector<uint16_t>& order, boo
 
 // Another order of the same set that respects the dependencies: repeatedly the ready block of
 // the highest id (the first order took them at random).
-std::vector<uint16_t> other_order(const std::vector<uint16_t>& order) {
-  const BlockDag& d = dag();
+std::vector<uint16_t> other_order(const std::vector<uint16_t>& order,
+                                  const Hierarchy& h = recorded()) {
+  const BlockDag& d = h.dag;
   std::set<uint16_t> left(order.begin(), order.end()), done;
   std::vector<uint16_t> out;
   while (!left.empty()) {
@@ -203,8 +220,7 @@ TEST(BlockDag, DependenciesGoToCoarserLevelsAndReachTheRoot) {
 
 // Undirected position edges of the appeared faces, with how many faces use each.
 std::map<std::tuple<float, float, float, float, float, float>, int> edges(
-    const BlockReplay& replay) {
-  const ProgressiveMesh& pm = record();
+    const BlockReplay& replay, const ProgressiveMesh& pm) {
   std::map<std::tuple<float, float, float, float, float, float>, int> m;
   for (uint32_t f = 0; f < pm.face_count(); ++f) {
     if (!replay.appeared(f)) continue;
@@ -223,15 +239,16 @@ std::map<std::tuple<float, float, float, float, float, float>, int> edges(
 // record's own order (what its coding refers to), both give the same state (every face's
 // corners, every vertex's corner list in the same order), that state is the record's parent
 // mapping (the faces not yet appeared are degenerate under it), and the surface stays closed.
-TEST(BlockDag, ClosedSetsGiveOneStateWhateverTheOrder) {
-  const ProgressiveMesh& pm = record();
-  ASSERT_FALSE(dag().nodes.empty());
+void expect_one_state_whatever_the_order(const Hierarchy& h) {
+  const ProgressiveMesh& pm = h.pm;
+  ASSERT_FALSE(h.dag.nodes.empty());
   std::mt19937 rng(7);
   for (double keep : {0.8, 0.9, 0.95, 0.97, 0.99}) {
-    const std::vector<uint16_t> first = closed_subset_order(rng, keep), second = other_order(first);
+    const std::vector<uint16_t> first = closed_subset_order(h, rng, keep),
+                                second = other_order(first, h);
     ASSERT_EQ(first.size(), second.size());
     BlockReplay a(pm), b(pm);
-    const Status sa = apply_blocks(a, first, true), sb = apply_blocks(b, second, true);
+    const Status sa = apply_blocks(a, first, h, true), sb = apply_blocks(b, second, h, true);
     ASSERT_TRUE(sa.is_ok()) << sa.message();
     ASSERT_TRUE(sb.is_ok()) << sb.message();
     size_t appeared = 0;
@@ -252,9 +269,12 @@ TEST(BlockDag, ClosedSetsGiveOneStateWhateverTheOrder) {
       if (!a.present(v)) continue;
       ASSERT_EQ(a.corner_list(v), b.corner_list(v)) << "vertex " << v;
     }
-    for (const auto& [edge, faces] : edges(a)) ASSERT_EQ(faces, 2) << "keep " << keep;
+    for (const auto& [edge, faces] : edges(a, pm)) ASSERT_EQ(faces, 2) << "keep " << keep;
     EXPECT_GT(appeared, 0u);
   }
+}
+TEST(BlockDag, ClosedSetsGiveOneStateWhateverTheOrder) {
+  expect_one_state_whatever_the_order(recorded());
 }
 
 // Every block applied (in a dependency order other than the record's) gives the full mesh.
@@ -295,6 +315,96 @@ TEST(BlockDag, BlockWithoutItsParentsDependencyIsRefused) {
     }
   }
   FAIL() << "no block splits from a vertex another block made";
+}
+
+// Each block becomes one run of levels (a chunk of the stream is then one range of vertices and
+// faces), the root's first and in place, the base where it was.
+TEST(BlockOrder, EveryBlockIsOneRunOfLevels) {
+  const ProgressiveMesh &pm = record(), &o = ordered().pm;
+  ASSERT_EQ(o.level_block.size(), pm.level_block.size());
+  std::set<uint16_t> closed;
+  for (size_t i = 0; i < o.level_block.size(); ++i) {
+    const uint16_t b = o.level_block[i];
+    if (i > 0 && o.level_block[i - 1] != b) closed.insert(o.level_block[i - 1]);
+    ASSERT_FALSE(closed.count(b)) << "block " << b << " comes back at level " << i + 1;
+  }
+  std::map<uint16_t, size_t> before, after;
+  for (uint16_t b : pm.level_block) ++before[b];
+  for (uint16_t b : o.level_block) ++after[b];
+  EXPECT_EQ(before, after);
+  EXPECT_EQ(o.level_block.front(), 0u);
+  EXPECT_EQ(o.base_level, pm.base_level);
+  for (size_t r = 0; r <= pm.base_level; ++r)
+    EXPECT_EQ(o.levels[r].vertex_end, pm.levels[r].vertex_end) << "level " << r;
+}
+
+// Sorted position triples of a record's faces at full detail.
+std::vector<std::array<float, 9>> full_faces(const ProgressiveMesh& pm) {
+  std::vector<std::array<float, 9>> out;
+  for (size_t f = 0; f < pm.face_count(); ++f) {
+    std::array<float, 9> t{};
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = pm.positions[pm.indices[3 * f + size_t(k)]];
+      t[3 * k] = p.x, t[3 * k + 1] = p.y, t[3 * k + 2] = p.z;
+    }
+    out.push_back(t);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The same progressive mesh renumbered: parents before children, the full mesh the same faces,
+// every prefix level closed and manifold with the triangles it promises, errors never rising
+// with detail.
+TEST(BlockOrder, OrderedRecordIsAValidProgressiveMesh) {
+  const ProgressiveMesh &pm = record(), &o = ordered().pm;
+  for (uint32_t v = 0; v < o.vertex_count(); ++v) ASSERT_LE(o.parent[v], v) << "vertex " << v;
+  EXPECT_EQ(full_faces(o), full_faces(pm));
+  for (size_t l = 1; l < o.levels.size(); ++l)
+    ASSERT_LE(o.levels[l].error, o.levels[l - 1].error) << "level " << l;
+  EXPECT_EQ(o.levels.back().error, 0.0f);
+  const size_t n = o.levels.size();
+  for (size_t k = 0; k <= 16; ++k) {
+    const size_t l = k * (n - 1) / 16;
+    const Mesh level = extract_level(o, l);
+    EXPECT_EQ(level.primitives[0].indices.size() / 3, o.levels[l].triangles) << "level " << l;
+    std::map<std::tuple<float, float, float, float, float, float>, int> edges;
+    const Primitive& p = level.primitives[0];
+    for (size_t t = 0; t < p.indices.size(); t += 3)
+      for (int e = 0; e < 3; ++e) {
+        Vec3 a = p.positions[p.indices[t + size_t(e)]],
+             b = p.positions[p.indices[t + (size_t(e) + 1) % 3]];
+        if (std::make_tuple(b.x, b.y, b.z) < std::make_tuple(a.x, a.y, a.z)) std::swap(a, b);
+        ++edges[{a.x, a.y, a.z, b.x, b.y, b.z}];
+      }
+    for (const auto& [edge, faces] : edges) ASSERT_EQ(faces, 2) << "level " << l;
+  }
+}
+
+// The renumbered record is a block hierarchy as the recorded one is: the same blocks with the
+// same vertices and faces, and closed sets giving one state whatever the order. (Its
+// dependencies may differ where a face's readers gave way in another order, both sound.)
+TEST(BlockOrder, OrderedRecordGivesOneStateWhateverTheOrder) {
+  const BlockDag &a = dag(), &b = ordered().dag;
+  ASSERT_EQ(a.nodes.size(), b.nodes.size());
+  for (size_t x = 0; x < a.nodes.size(); ++x) {
+    EXPECT_EQ(a.nodes[x].vertices, b.nodes[x].vertices) << "block " << x;
+    EXPECT_EQ(a.nodes[x].faces, b.nodes[x].faces) << "block " << x;
+  }
+  expect_one_state_whatever_the_order(ordered());
+}
+
+// A DAG that does not fit the record is refused, naming the problem.
+TEST(BlockOrder, DagOfAnotherRecordIsRefused) {
+  ProgressiveMesh pm = record();
+  BlockDag wrong = dag();
+  wrong.nodes.pop_back();
+  const Status s = order_by_blocks(pm, wrong);
+  EXPECT_FALSE(s.is_ok());
+  EXPECT_NE(s.message().find("does not fit"), std::string::npos) << s.message();
+  BlockDag upward = dag();
+  upward.nodes[0].deps = {1};  // the root on a finer block
+  EXPECT_NE(order_by_blocks(pm, upward).message().find("not a coarser one"), std::string::npos);
 }
 
 }  // namespace
