@@ -307,6 +307,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   EncodedMeshPart e;
   e.part = {mesh_, va, vb, fa, fb, 0};
   RangeEncoder out;
+  if (block_parts_) sim_.contexts = VsplitContexts();
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
   auto field = [&](StreamField f) { out.count_bits(&e.field_bits[size_t(f)]); };
   field(StreamField::kOther);

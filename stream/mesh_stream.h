@@ -112,6 +112,11 @@ class MeshStreamEncoder {
   void adopt(PartPlan& plan);
   // Codes an adopted plan against the client's state; plans are encoded in the order made.
   Result<EncodedMeshPart> encode(PartPlan plan);
+  // Block parts (a big mesh's block hierarchy, decode_vsplit_block_part): every part from now
+  // on starts with fresh contexts, so a client may apply it without the parts before it that
+  // it does not depend on. The caller makes each part one block's levels (or a run of them) of a
+  // record ordered by blocks (simplify/block_dag.h order_by_blocks).
+  void set_block_parts(bool on) { block_parts_ = on; }
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
   // Whether the stream carries normals (MeshStreamBase::normals).
@@ -127,7 +132,8 @@ class MeshStreamEncoder {
   size_t planned_level_ = 0;  // the last level planned (prepare)
   EncodeCounts* counts_ = nullptr;
   bool normals_ = true;
-  bool uvs_ = true;  // the mesh has texture coordinates (else the stream carries none)
+  bool uvs_ = true;           // the mesh has texture coordinates (else the stream carries none)
+  bool block_parts_ = false;  // set_block_parts
   QuantizedVertex quantize(uint32_t pm_vertex) const;  // quantize_vertex, +Z when !normals_
   VsplitMesh sim_;
   // Per client face: the record's face it is, << 2 | the rotation it was added in (its slot s

@@ -18,6 +18,7 @@ void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   vertices.clear(), indices.clear(), head.clear(), next.clear();
   forget_seen();
   twin_slots_.assign(16, 0), twin_count_ = 0, twin_previous_.clear();
+  holes_.clear();
   solid = 0, moved_floor = 0;
   moved.clear();
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
@@ -38,6 +39,16 @@ uint32_t VsplitMesh::add_vertex(const QuantizedVertex& q) {
   head.push_back(-1);
   twin_previous_.push_back(-1);
   return uint32_t(vertices.size() - 1);
+}
+
+void VsplitMesh::add_vertex_at(uint32_t index, const QuantizedVertex& q) {
+  if (index >= vertices.size()) {
+    if (holes_.empty()) holes_.assign(vertices.size(), 0);
+    vertices.resize(size_t(index) + 1), head.resize(size_t(index) + 1, -1);
+    twin_previous_.resize(size_t(index) + 1, -1), holes_.resize(size_t(index) + 1, 1);
+  }
+  vertices[index] = q, head[index] = -1, twin_previous_[index] = -1;
+  if (!holes_.empty()) holes_[index] = 0;
 }
 
 void VsplitMesh::add_face(uint32_t a, uint32_t b, uint32_t c) {
@@ -352,15 +363,38 @@ bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces) {
          splits + faces <= kPartElementsPerByte * bytes + kPartElementsConstant;
 }
 
+Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t placed,
+                     uint32_t splits, uint32_t faces);
+
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces) {
+  return decode_vsplit(mesh, data, size, UINT32_MAX, splits, faces);
+}
+
+Status decode_vsplit_block_part(VsplitMesh& mesh, const uint8_t* data, size_t size,
+                                uint32_t vertex_begin, uint32_t splits, uint32_t faces) {
+  if (vertex_begin == UINT32_MAX)
+    return Status::error("block part at vertex 2^32 - 1", ErrorKind::kInput);
+  mesh.contexts = VsplitContexts();
+  return decode_vsplit(mesh, data, size, vertex_begin, splits, faces);
+}
+
+// Both decoders: `placed` is the first vertex's stream number (a block part), or UINT32_MAX
+// (appended: a part in stream order).
+Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t placed,
+                     uint32_t splits, uint32_t faces) {
   if (!part_size_plausible(size, splits, faces))
     return Status::error(std::to_string(size) + " bytes cannot hold " + std::to_string(splits) +
                              " splits and " + std::to_string(faces) + " faces",
                          ErrorKind::kInput);
-  if (uint64_t(mesh.vertex_count()) + splits > mesh.capacity_vertices_ ||
+  const uint64_t first = placed == UINT32_MAX ? mesh.vertex_count() : placed;
+  if (first + splits > mesh.capacity_vertices_ ||
       uint64_t(mesh.face_count()) + faces > mesh.capacity_faces_)
     return Status::error("more vertices or faces than the mesh holds", ErrorKind::kInput);
+  if (placed != UINT32_MAX)
+    for (uint64_t v = first; v < first + splits; ++v)
+      if (mesh.has_vertex(uint32_t(v)))
+        return Status::error("vertex " + std::to_string(v) + " is held already", ErrorKind::kInput);
   RangeDecoder in(data, size);
   VsplitContexts& x = mesh.contexts;
   const bool normals = in.get_direct(1) != 0, uvs = in.get_direct(1) != 0;
@@ -374,15 +408,23 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
   for (uint32_t i = 0; i < splits; ++i) {
     if (in.failed()) return fail(i, "the part's bytes end early");
     int64_t parent = int64_t(previous) + unzigzag(in.get_uint(x.parent));
-    if (parent < 0 || parent >= int64_t(mesh.vertex_count()))
-      return fail(i, "parent " + std::to_string(parent) + " of " +
-                         std::to_string(mesh.vertex_count()) + " vertices");
+    if (parent < 0 || parent >= int64_t(mesh.vertex_count()) || !mesh.has_vertex(uint32_t(parent)))
+      return fail(
+          i, "parent " + std::to_string(parent) + " of " + std::to_string(mesh.vertex_count()) +
+                 " vertices" +
+                 (parent >= 0 && parent < int64_t(mesh.vertex_count()) ? ", not held" : ""));
     const uint32_t p = uint32_t(parent);
     previous = p;
     const bool fan_mode = in.get_bit(x.mode[previous_mode]) != 0;
     previous_mode = fan_mode;
     uint32_t k = 2, vl = 0, vr = 0;
-    const uint32_t v = mesh.add_vertex(QuantizedVertex{});
+    uint32_t v;
+    if (placed == UINT32_MAX) {
+      v = mesh.add_vertex(QuantizedVertex{});
+    } else {
+      v = uint32_t(first) + i;
+      mesh.add_vertex_at(v, QuantizedVertex{});
+    }
     if (fan_mode) {  // the arguments' contexts by the parent's corner count, at most kFanLimit
       uint32_t dc = 0;
       for (int32_t c = mesh.head[p]; c >= 0 && dc < kFanLimit; c = mesh.next[size_t(c)]) ++dc;
@@ -425,7 +467,8 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
         w = ring[index];
       } else if (index == ring.size()) {
         w = in.get_uint(x.escape);
-        if (w >= v || w == p) return fail(i, "face names vertex " + std::to_string(w));
+        if (w >= v || w == p || !mesh.has_vertex(w))
+          return fail(i, "face names vertex " + std::to_string(w));
       } else {
         return fail(
             i, "ring position " + std::to_string(index) + " of " + std::to_string(ring.size()));
@@ -486,7 +529,7 @@ Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, ui
   for (uint32_t f = 0; f < extra; ++f) {
     uint32_t a = in.get_uint(x.escape), b = in.get_uint(x.escape), c = in.get_uint(x.escape);
     if (in.failed()) return Status::error("extra faces cut short", ErrorKind::kInput);
-    if (a >= mesh.vertex_count() || b >= mesh.vertex_count() || c >= mesh.vertex_count())
+    if (!mesh.has_vertex(a) || !mesh.has_vertex(b) || !mesh.has_vertex(c))
       return Status::error("extra face " + std::to_string(f) + " names a vertex not received",
                            ErrorKind::kInput);
     mesh.add_face(a, b, c);

@@ -127,6 +127,14 @@ class VsplitMesh {
   uint32_t capacity_faces() const { return capacity_faces_; }
 
   uint32_t add_vertex(const QuantizedVertex& q);  // returns its index
+  // Block parts (decode_vsplit_block_part): vertex `index` placed where the stream numbers it,
+  // the indices between the last one and it left as holes until their blocks arrive. Needs
+  // index ≥ vertex_count() or a hole there.
+  void add_vertex_at(uint32_t index, const QuantizedVertex& q);
+  // Whether vertex v is held (below vertex_count() and not a hole).
+  bool has_vertex(uint32_t v) const {
+    return v < vertices.size() && (holes_.empty() || !holes_[v]);
+  }
   void add_face(uint32_t a, uint32_t b, uint32_t c);
   // Moves corner `corner` (in p's list, after `previous`, or at its head when previous < 0) to
   // the head of v's list.
@@ -198,7 +206,9 @@ class VsplitMesh {
   bool hash_sight(uint32_t w);       // first_sight in the set
   void forget_seen();
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
-  friend Status decode_vsplit_part(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t);
+  std::vector<uint8_t> holes_;  // per vertex: 1 where a block's vertex has not arrived; empty:
+                                // none ever (parts applied in stream order)
+  friend Status decode_vsplit(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t, uint32_t);
 };
 
 // The order a new vertex's position axes are coded in (stream/vsplit.h "P"): the two axes
@@ -222,6 +232,17 @@ bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces);
 // part_size_plausible. On error the mesh is left in an unspecified but valid state.
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces);
+
+// A block part (the stream of a big mesh's block hierarchy, simplify/block_dag.h): the splits
+// of one block, which a client applies once the blocks it depends on are, in any order among
+// the others. Its coding is decode_vsplit_part's with two differences: the contexts start
+// fresh with the part (they do not carry over from whatever part came before), and its
+// vertices are placed at their stream numbers [vertex_begin, vertex_begin + splits) rather than
+// appended, so a parent, a face's vertex or an extra face names a vertex by the stream's number
+// whatever blocks the client holds (each must be held: one missing means a dependency was not
+// applied). Faces are appended. Errors as decode_vsplit_part's.
+Status decode_vsplit_block_part(VsplitMesh& mesh, const uint8_t* data, size_t size,
+                                uint32_t vertex_begin, uint32_t splits, uint32_t faces);
 
 // FNV-1a (32-bit) over a client state: per vertex its position (3 little-endian u16), normal
 // (3 i8) and uv (2 little-endian u16), then every index (little-endian u32). What a client that

@@ -144,6 +144,23 @@ Primitive uv_sphere(int rings, int segments, float radius, Vec3 centre) {
   return p;
 }
 
+Scene bumpy_sphere(int rings, int segments) {
+  Primitive p = uv_sphere(rings, segments);
+  for (Vec3& v : p.positions) {
+    const int64_t h = int64_t(std::lround(v.x * 997)) * 73856093 ^
+                      int64_t(std::lround(v.y * 997)) * 19349663 ^
+                      int64_t(std::lround(v.z * 997)) * 83492791;
+    const float bump = 1.0f + 0.003f * float((h >> 3) % 11) / 10.0f;
+    v = {v.x * bump, v.y * bump, v.z * bump};
+  }
+  Scene s;
+  Mesh m;
+  m.primitives.push_back(p);
+  s.meshes.push_back(m);
+  s.instances.push_back({0, Mat4::identity(), "bumpy"});
+  return s;
+}
+
 std::string model_test_name(const std::string& relative_path) {
   std::string n = relative_path.substr(0, relative_path.find('/'));
   for (char& c : n)

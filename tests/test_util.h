@@ -82,6 +82,10 @@ bool renderer_available(std::string* why = nullptr);
 // meridian (the seam column repeats the first one's positions exactly, with other uvs) and
 // smooth normals: 2·(rings−1)·segments triangles. The case where a careless collapse cracks.
 Primitive uv_sphere(int rings, int segments, float radius = 1, Vec3 centre = {});
+// A uv sphere with noise along its normals (a hash of each position, up to 0.3% of the
+// radius): the rough surface a scan gives, where no collapse is free. Closed, with a uv seam.
+// One mesh, one instance, not cleaned.
+Scene bumpy_sphere(int rings, int segments);
 
 // The unit square [x, x + 1] × [0, 1] at z = 0 facing +z, two triangles, its uvs spanning [0, 1]²
 // (glTF's: v down the image), drawn with `material`.

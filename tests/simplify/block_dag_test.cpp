@@ -32,24 +32,8 @@ SimplifyOptions block_options() {
   return o;
 }
 
-// A sphere with noise along its normals (a hash of the grid cell, a tenth of an edge): the
-// surface a scan gives, where no collapse is free and blocks stop at their error bound.
-Scene bumpy_sphere() {
-  Primitive p = uv_sphere(96, 192);
-  for (Vec3& v : p.positions) {
-    const int64_t h = int64_t(std::lround(v.x * 997)) * 73856093 ^
-                      int64_t(std::lround(v.y * 997)) * 19349663 ^
-                      int64_t(std::lround(v.z * 997)) * 83492791;
-    const float bump = 1.0f + 0.003f * float((h >> 3) % 11) / 10.0f;
-    v = {v.x * bump, v.y * bump, v.z * bump};
-  }
-  Scene s;
-  Mesh m;
-  m.primitives.push_back(p);
-  s.meshes.push_back(m);
-  s.instances.push_back({0, Mat4::identity(), "bumpy"});
-  return clean(s, {});
-}
+// A scan-like bumpy sphere (test_util.h), cleaned.
+Scene bumpy_sphere() { return clean(testing::bumpy_sphere(96, 192), {}); }
 
 // A record with its DAG, and per level the neighbourhood its splits read in the record's own
 // order (every level applied in turn): BlockReplay::signature.

@@ -1,0 +1,217 @@
+// Block parts (stream/vsplit.h decode_vsplit_block_part, MeshStreamEncoder::set_block_parts):
+// a block-built record, ordered by blocks, coded one part per block with fresh contexts; a
+// client that applies any dependency-closed set of blocks, in any order the dependencies allow,
+// decodes every part and holds exactly the state the record gives for that set. The record is
+// a scan-like bumpy sphere forced into ~120 blocks over several levels (simplify/block_dag.h).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <random>
+#include <set>
+
+#include "clean/clean.h"
+#include "simplify/block_dag.h"
+#include "simplify/simplify.h"
+#include "stream/mesh_stream.h"
+#include "stream/vsplit.h"
+#include "test_util.h"
+
+namespace meshmux {
+namespace {
+
+// The record, its DAG, the encoder's base state, and the parts with the block of each.
+struct Coded {
+  ProgressiveMesh pm;
+  BlockDag dag;
+  VsplitMesh base, full;       // the client at the base, and once every part is applied
+  std::vector<uint32_t> rank;  // per record vertex: its stream number
+  std::vector<EncodedMeshPart> parts;
+  std::vector<uint16_t> part_block;
+  uint64_t chained_bytes = 0;  // the same parts with contexts carried over (today's coding)
+};
+
+// The parts of `pm` from its base, one per block run; block parts or chained contexts.
+std::vector<EncodedMeshPart> encode_parts(const ProgressiveMesh& pm, bool block_parts,
+                                          std::vector<uint16_t>* part_block, VsplitMesh* base,
+                                          VsplitMesh* full, std::vector<uint32_t>* rank) {
+  MeshStreamEncoder enc(pm, package_quantization(pm), 0, pm.base_level);
+  EXPECT_TRUE(enc.status().is_ok()) << enc.status().message();
+  enc.set_block_parts(block_parts);
+  if (base) *base = enc.client();
+  std::vector<EncodedMeshPart> parts;
+  for (size_t r = pm.base_level + 1; r < pm.levels.size(); ++r) {
+    const uint16_t b = pm.level_block[r - 1];
+    if (r + 1 < pm.levels.size() && pm.level_block[r] == b) continue;  // the run goes on
+    Result<EncodedMeshPart> part = enc.next(r);
+    EXPECT_TRUE(part.ok()) << part.status().message();
+    if (!part.ok()) break;
+    parts.push_back(part.take());
+    if (part_block) part_block->push_back(b);
+  }
+  if (full) *full = enc.client();
+  if (rank) {
+    rank->assign(pm.vertex_count(), 0);
+    for (uint32_t s = 0; s < enc.stream_order().size(); ++s) (*rank)[enc.stream_order()[s]] = s;
+  }
+  return parts;
+}
+
+const Coded& coded() {
+  static const Coded c = [] {
+    SimplifyOptions o;
+    o.block_above = 4000, o.block_positions = 512, o.block_until = 2000;
+    Coded out;
+    out.pm = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), o).meshes[0];
+    Result<BlockDag> dag = block_dag(out.pm);
+    EXPECT_TRUE(dag.ok()) << dag.status().message();
+    if (!dag.ok()) return out;
+    EXPECT_TRUE(order_by_blocks(out.pm, *dag).is_ok());
+    dag = block_dag(out.pm);  // of the ordered record
+    EXPECT_TRUE(dag.ok());
+    out.dag = *dag;
+    out.parts = encode_parts(out.pm, true, &out.part_block, &out.base, &out.full, &out.rank);
+    for (const EncodedMeshPart& p : encode_parts(out.pm, false, nullptr, nullptr, nullptr, nullptr))
+      out.chained_bytes += p.bytes();
+    return out;
+  }();
+  return c;
+}
+
+// A random dependency-closed set of blocks holding the root, in a random order that respects
+// the dependencies.
+std::vector<uint16_t> closed_set(std::mt19937& rng, double keep) {
+  const BlockDag& d = coded().dag;
+  std::vector<int> state(d.nodes.size(), 0);  // 0 undecided, 1 in, 2 out
+  std::vector<uint16_t> order;
+  for (bool progress = true; progress;) {
+    progress = false;
+    std::vector<uint16_t> ready;
+    for (size_t b = 0; b < d.nodes.size(); ++b) {
+      if (state[b] != 0) continue;
+      bool in = true, out = false;
+      for (uint16_t y : d.nodes[b].deps) in &= state[y] == 1, out |= state[y] == 2;
+      if (out) state[b] = 2, progress = true;
+      if (in) ready.push_back(uint16_t(b));
+    }
+    if (ready.empty()) break;
+    const uint16_t b = ready[std::uniform_int_distribution<size_t>(0, ready.size() - 1)(rng)];
+    state[b] = b == 0 || std::bernoulli_distribution(keep)(rng) ? 1 : 2;
+    if (state[b] == 1) order.push_back(b);
+    progress = true;
+  }
+  return order;
+}
+
+// The client: the base, then each block's parts decoded in `order`.
+Result<VsplitMesh> decode_blocks(const std::vector<uint16_t>& order) {
+  const Coded& c = coded();
+  VsplitMesh m = c.base;
+  for (uint16_t b : order)
+    for (size_t i = 0; i < c.parts.size(); ++i) {
+      if (c.part_block[i] != b) continue;
+      const PackagePart& p = c.parts[i].part;
+      const std::vector<uint8_t>& d = c.parts[i].data;
+      if (Status s =
+              decode_vsplit_block_part(m, d.data(), d.size(), p.vertex_begin,
+                                       p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
+          !s)
+        return s.with_prefix("block " + std::to_string(b));
+    }
+  return m;
+}
+
+// What the record says a client holding `blocks` draws: the base's faces and those of the
+// blocks' levels, each corner at its nearest held ancestor, in stream numbers; sorted, each face
+// turned to start at its smallest corner.
+std::vector<std::array<uint32_t, 3>> expected_faces(const std::set<uint16_t>& blocks) {
+  const Coded& c = coded();
+  const ProgressiveMesh& pm = c.pm;
+  std::vector<uint8_t> held(pm.vertex_count(), 0), shown(pm.face_count(), 0);
+  const ProgressiveLevel& base = pm.levels[pm.base_level];
+  for (uint32_t v = 0; v < base.vertex_end; ++v) held[v] = 1;
+  for (uint32_t f = 0; f < base.face_end; ++f) shown[f] = 1;
+  for (size_t i = 0; i < c.parts.size(); ++i) {
+    if (!blocks.count(c.part_block[i])) continue;
+    const PackagePart& p = c.parts[i].part;
+    for (uint32_t s = p.vertex_begin; s < p.vertex_end; ++s) held[s] = 1;  // a part's record and
+    for (uint32_t f = p.face_begin; f < p.face_end; ++f) shown[f] = 1;     // stream ranges agree
+  }
+  std::vector<uint32_t> indices;
+  for (uint32_t f = 0; f < pm.face_count(); ++f) {
+    if (!shown[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      uint32_t v = pm.indices[3 * size_t(f) + size_t(k)];
+      while (!held[v]) v = pm.parent[v];
+      indices.push_back(c.rank[v]);
+    }
+  }
+  return testing::sorted_faces(indices);
+}
+
+// Every part decodes on the base in stream order to exactly the encoder's state (the block
+// parts are a valid stream), and fresh contexts cost little against carried ones.
+TEST(BlockParts, StreamOrderDecodesToTheEncodersState) {
+  const Coded& c = coded();
+  ASSERT_GT(c.parts.size(), 16u);
+  std::vector<uint16_t> all;
+  for (uint16_t b : c.part_block)
+    if (all.empty() || all.back() != b) all.push_back(b);
+  Result<VsplitMesh> m = decode_blocks(all);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_EQ(state_digest(*m), state_digest(c.full));
+  uint64_t bytes = 0;
+  for (const EncodedMeshPart& p : c.parts) bytes += p.bytes();
+  EXPECT_LE(double(bytes), 1.10 * double(c.chained_bytes))
+      << bytes << " bytes in block parts, " << c.chained_bytes << " chained";
+}
+
+// The property a client's view-dependent refinement rests on: any dependency-closed set of
+// blocks, applied in a random order the dependencies allow, decodes (every split finds what
+// its coding names) to the vertices the encoder coded at their stream numbers and exactly the
+// faces the record gives for that set.
+TEST(BlockParts, ClosedSetsInAnyOrderDecodeToTheRecordsState) {
+  const Coded& c = coded();
+  std::mt19937 rng(11);
+  for (double keep : {0.5, 0.8, 0.9, 0.95, 1.0}) {
+    const std::vector<uint16_t> order = closed_set(rng, keep);
+    Result<VsplitMesh> m = decode_blocks(order);
+    ASSERT_TRUE(m.ok()) << "keep " << keep << ": " << m.status().message();
+    size_t held = 0;
+    for (uint32_t v = 0; v < m->vertex_count(); ++v) {
+      if (!m->has_vertex(v)) continue;
+      ++held;
+      ASSERT_TRUE(m->vertices[v] == c.full.vertices[v]) << "vertex " << v;
+    }
+    EXPECT_EQ(testing::sorted_faces(m->indices),
+              expected_faces(std::set<uint16_t>(order.begin(), order.end())))
+        << "keep " << keep << ", " << order.size() << " blocks";
+    EXPECT_GT(held, c.base.vertex_count());
+  }
+}
+
+// A block whose dependency is missing is refused by name, not decoded into a wrong state.
+TEST(BlockParts, BlockWithoutItsDependencyIsRefused) {
+  const Coded& c = coded();
+  for (size_t x = 1; x < c.dag.nodes.size(); ++x) {
+    const std::vector<uint16_t>& deps = c.dag.nodes[x].deps;
+    if (deps.size() != 1 || deps[0] == 0) continue;
+    // The root, then x without its one dependency.
+    Result<VsplitMesh> m = decode_blocks({0, uint16_t(x)});
+    ASSERT_FALSE(m.ok()) << "block " << x << " decoded without block " << deps[0];
+    EXPECT_NE(m.status().message().find("block " + std::to_string(x)), std::string::npos)
+        << m.status().message();
+    return;
+  }
+  GTEST_SKIP() << "no block with a single non-root dependency";
+}
+
+// A part decoded twice is refused (its vertices are held already).
+TEST(BlockParts, PartAppliedTwiceIsRefused) {
+  Result<VsplitMesh> m = decode_blocks({0, 0});
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.status().message().find("held already"), std::string::npos) << m.status().message();
+}
+
+}  // namespace
+}  // namespace meshmux
