@@ -172,7 +172,12 @@ DagFigures dag_figures(const ProgressiveScene& ps) {
     if (!pm.blocks.empty() && (!big || pm.face_count() > big->face_count())) big = &pm;
   if (!big) return d;
   auto t0 = Clock::now();
-  Result<BlockDag> dag = block_dag(*big);
+  ProgressiveMesh ordered = *big;  // the DAG the converter's package carries
+  if (Status s = order_by_blocks(ordered); !s) {
+    d.error = s.message();
+    return d;
+  }
+  Result<BlockDag> dag = block_dag(ordered);
   d.seconds = seconds_since(t0);
   if (!dag) {
     d.error = dag.status().message();
@@ -180,7 +185,7 @@ DagFigures dag_figures(const ProgressiveScene& ps) {
   }
   d.blocks = dag->nodes.size();
   for (size_t b = 0; b < d.blocks; ++b) {
-    const size_t level = big->blocks[b].level;
+    const size_t level = ordered.blocks[b].level;
     if (d.per_level.size() <= level) d.per_level.resize(level + 1, 0);
     ++d.per_level[level];
     d.deps += dag->nodes[b].deps.size();
@@ -216,6 +221,9 @@ Result<Input> prepare(const Config& cfg) {
   t0 = Clock::now();
   SimplifyReport rep;
   SimplifyOptions sopt;
+  // The levels merged by error: a prefix is then a uniform cut (ordered by blocks, as the
+  // converter streams them, a prefix refines whole blocks in turn).
+  sopt.order_blocks = false;
   if (cfg.block_above) sopt.block_above = cfg.block_above;
   if (cfg.block_positions) sopt.block_positions = uint32_t(cfg.block_positions);
   in.record = build_progressive(cleaned, sopt, &rep);

@@ -62,6 +62,15 @@ uint64_t layer_bytes(const ProgressiveScene& ps, const LodSelection* previous,
   return total;
 }
 
+// The level that ends the block run holding `level` (a block mesh's parts are whole blocks:
+// stream/format.h "Blocks"), or `level` itself for a chain or at a run's end.
+size_t block_run_end(const ProgressiveMesh& pm, size_t level) {
+  if (pm.blocks.empty() || level == 0) return level;
+  while (level + 1 < pm.levels.size() && pm.level_block[level] == pm.level_block[level - 1])
+    ++level;
+  return level;
+}
+
 // Encodes the mesh layers once (stream/mesh_stream.h): layer 0 is the base (its encoded
 // vertices and faces stand for the base's bytes); each further layer's parts are what the
 // package's mesh chunk holds. Fills r's mesh_streams, layer_parts, layer_chunks, mesh_bytes,
@@ -87,6 +96,7 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
     head.quantization = package_quantization(pm);
     head.base_order = encoders.back().stream_order();
     head.base_primitive_faces = encoders.back().base_faces();
+    head.blocks = encoders.back().stream_blocks();
     r.mesh_streams.push_back(std::move(head));
   }
   r.layer_parts.resize(size_t(m));
@@ -96,10 +106,15 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
   // it simulates the client part by part). The same parts, in the same order.
   using Plan = Result<MeshStreamEncoder::PartPlan>;
   std::vector<std::vector<size_t>> to_come(ps.meshes.size());  // per mesh: its levels ahead
+  // A block mesh's parts are one block run each (the runs a layer holds, in turn).
   for (size_t i = 0; i < ps.meshes.size(); ++i)
-    for (int k = 1, at = int(base.level[i]); k < m; ++k)
-      if (int(layers[size_t(k)].level[i]) != at)
-        to_come[i].push_back(at = int(layers[size_t(k)].level[i]));
+    for (size_t k = 1, at = base.level[i]; k < size_t(m); ++k)
+      while (layers[k].level[i] > at) {
+        at = ps.meshes[i].blocks.empty()
+                 ? layers[k].level[i]
+                 : std::min(layers[k].level[i], block_run_end(ps.meshes[i], at + 1));
+        to_come[i].push_back(at);
+      }
   std::vector<size_t> next_part(ps.meshes.size(), 0);
   std::vector<std::optional<Plan>> planned(ps.meshes.size());           // made ahead
   std::vector<std::unique_ptr<Background>> planning(ps.meshes.size());  // making it
@@ -121,14 +136,14 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
     if (k == 0) {
       bytes = layer_bytes(ps, nullptr, layers[0]);
     } else {
-      for (size_t i = 0; i < ps.meshes.size(); ++i) {
-        if (layers[size_t(k)].level[i] == encoders[i].level()) continue;
-        Plan plan = plan_of(i);
-        if (!plan.ok()) return plan.status().with_prefix("multiplex");
-        auto part = encoders[i].encode(plan.take());
-        if (!part.ok()) return part.status().with_prefix("multiplex");
-        r.layer_parts[size_t(k)].push_back(part.take());
-      }
+      for (size_t i = 0; i < ps.meshes.size(); ++i)
+        while (layers[size_t(k)].level[i] > encoders[i].level()) {
+          Plan plan = plan_of(i);
+          if (!plan.ok()) return plan.status().with_prefix("multiplex");
+          auto part = encoders[i].encode(plan.take());
+          if (!part.ok()) return part.status().with_prefix("multiplex");
+          r.layer_parts[size_t(k)].push_back(part.take());
+        }
       r.layer_chunks[size_t(k)] = mesh_chunk_payload(r.layer_parts[size_t(k)]);
       for (EncodedMeshPart& part : r.layer_parts[size_t(k)]) std::vector<uint8_t>().swap(part.data);
       bytes = r.layer_chunks[size_t(k)].size();
@@ -210,6 +225,7 @@ std::vector<LodSelection> mesh_layers(const ProgressiveScene& ps, const LodSelec
                                                    std::pow(ratio, double(k) / double(m - 1)))));
     for (size_t i = 0; i < s.level.size(); ++i) {
       s.level[i] = std::max(s.level[i], layers.back().level[i]);  // refinements only add
+      s.level[i] = block_run_end(ps.meshes[i], s.level[i]);
       s.instances[i] = full.instances[i];
     }
     layers.push_back(s);
@@ -583,6 +599,9 @@ Result<CompletionCut> cut_completion(const std::vector<LodSelection>& layers,
   CompletionCut cut;
   const size_t m = layers.size(), n = r.texture_bytes.size();
   if (m < 3 || !bound.fixed_bytes || !bound.completion) return cut;
+  // A block hierarchy's parts are what a client refines by view: never replaced whole.
+  for (const MeshStreamBase& b : r.mesh_streams)
+    if (!b.blocks.empty()) return cut;
   auto fixed = bound.fixed_bytes(r.mesh_streams);
   if (!fixed.ok()) return fixed.status().with_prefix("multiplex: completion");
   cut.fixed = *fixed;

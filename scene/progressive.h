@@ -40,6 +40,10 @@ struct ProgressiveBlock {
                        // one past the last block level
   uint32_t block = 0;  // the block's index in its level (the levels' spatial order); 0 for the root
   float error = 0;     // the largest error of its collapses (units of the scene's diagonal)
+  // Once the record is ordered by blocks (simplify/block_dag.h): the blocks to apply first
+  // (ascending, each an earlier block) and the mesh-space bounds of what it refines.
+  std::vector<uint16_t> deps;
+  Vec3 box_min{}, box_max{};
 };
 
 struct ProgressiveMesh {

@@ -21,20 +21,20 @@ void include(BlockNode& n, const Vec3& p) {
   n.box_max = {std::max(n.box_max.x, p.x), std::max(n.box_max.y, p.y), std::max(n.box_max.z, p.z)};
 }
 
-// A position's bits, for the twin chains (the decoder keys them by position).
-struct PositionKey {
-  uint32_t x, y, z;
-  bool operator==(const PositionKey& o) const { return x == o.x && y == o.y && z == o.z; }
-};
-struct PositionHash {
-  size_t operator()(const PositionKey& k) const {
-    return size_t(k.x) * 73856093u ^ size_t(k.y) * 19349663u ^ size_t(k.z) * 83492791u;
-  }
-};
-PositionKey key_of(const Vec3& p) {
-  PositionKey k;
-  std::memcpy(&k.x, &p.x, 4), std::memcpy(&k.y, &p.y, 4), std::memcpy(&k.z, &p.z, 4);
-  return k;
+// Per vertex, a number shared by exactly the vertices at the same position (its bits): the
+// twin chains' keys (the decoder keys them by position). A sort of the vertices by position.
+std::vector<uint32_t> position_ids(const std::vector<Vec3>& positions) {
+  auto bits = [&](uint32_t v) {
+    std::array<uint32_t, 3> k;
+    std::memcpy(k.data(), &positions[v], 12);
+    return k;
+  };
+  std::vector<uint32_t> order(positions.size()), id(positions.size(), 0);
+  for (uint32_t v = 0; v < order.size(); ++v) order[v] = v;
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return bits(a) < bits(b); });
+  for (size_t i = 1; i < order.size(); ++i)
+    id[order[i]] = id[order[i - 1]] + (bits(order[i]) != bits(order[i - 1]) ? 1 : 0);
+  return id;
 }
 
 // Kahn's order of the blocks (ascending ids among the ready ones), or empty on a cycle.
@@ -89,6 +89,22 @@ void reduce(std::vector<std::vector<uint16_t>>& deps, const std::vector<uint16_t
 
 BlockReplay::BlockReplay(const ProgressiveMesh& pm) : pm_(pm) {
   const size_t nv = pm.vertex_count(), nf = pm.face_count();
+  // Ancestry as intervals (depth-first numbering; parents precede children).
+  size_.assign(nv, 1), enter_.assign(nv, 0);
+  for (size_t v = nv; v-- > 0;)
+    if (pm.parent[v] < v) size_[pm.parent[v]] += size_[v];
+  {
+    std::vector<uint32_t> next_free(nv, 0);
+    uint32_t roots = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      const uint32_t up = pm.parent[v];
+      if (up >= v)
+        enter_[v] = roots, roots += size_[v];
+      else
+        enter_[v] = next_free[up], next_free[up] += size_[v];
+      next_free[v] = enter_[v] + 1;
+    }
+  }
   present_.assign(nv, 0), appeared_.assign(nf, 0);
   cur_.assign(3 * nf, 0), next_.assign(3 * nf, -1), head_.assign(nv, -1);
   mark_face_.assign(nf, 0), mark_list_.assign(nv, 0);
@@ -164,7 +180,8 @@ Status BlockReplay::apply_level(size_t r) {
     for (int32_t c = head_[p]; c >= 0;) {
       const int32_t following = next_[size_t(c)];
       face(uint32_t(c) / 3, 1);
-      if (mapped(pm_.indices[size_t(c)]) == v) {
+      const uint32_t o = enter_[pm_.indices[size_t(c)]];
+      if (enter_[v] <= o && o < enter_[v] + size_[v]) {  // descends from v: v stands for it now
         (previous < 0 ? head_[p] : next_[size_t(previous)]) = following;
         next_[size_t(c)] = head_[v], head_[v] = c, cur_[size_t(c)] = v;
         face(uint32_t(c) / 3, 2);
@@ -220,7 +237,8 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
   std::vector<std::vector<uint16_t>> deps(blocks);
   std::vector<uint16_t> list_last(pm.vertex_count(), kNone), writer(pm.face_count(), kNone);
   std::vector<std::array<uint16_t, 3>> readers(pm.face_count(), {kNone, kNone, kNone});
-  std::unordered_map<PositionKey, uint16_t, PositionHash> twin_last;
+  const std::vector<uint32_t> position_id = position_ids(pm.positions);
+  std::vector<uint16_t> twin_last(pm.vertex_count(), kNone);  // per position id
   BlockReplay replay(pm);
   for (size_t r = 1; r < pm.levels.size(); ++r) {
     const uint16_t x = pm.level_block[r - 1];
@@ -241,7 +259,7 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
       include(node, pm.positions[v]);
     }
     for (uint32_t p : replay.parents) {
-      uint16_t& last = twin_last.try_emplace(key_of(pm.positions[p]), kNone).first->second;
+      uint16_t& last = twin_last[position_id[p]];
       depend(last), last = x;
     }
     for (uint32_t f : replay.faces_read) {
@@ -298,18 +316,20 @@ void permute(std::vector<T>& v, const std::vector<uint32_t>& to, size_t stride) 
 
 }  // namespace
 
-Status order_by_blocks(ProgressiveMesh& pm, const BlockDag& dag) {
+// The root's pieces: each ends at the first level past kRootGrowth times the triangles it
+// started from, and at least kRootPieceMin triangles on (order_by_blocks).
+constexpr double kRootGrowth = 1.25;  // finer than the stream's layers grow (~1.8× at 4M)
+constexpr uint32_t kRootPieceMin = 1024;
+
+Status order_by_blocks(ProgressiveMesh& pm) {
   auto fail = [](const std::string& what) {
     return Status::error("block order: " + what, ErrorKind::kInternal);
   };
   const size_t levels = pm.levels.size(), blocks = pm.blocks.size();
-  if (blocks == 0 || dag.nodes.size() != blocks || pm.level_block.size() + 1 != levels)
-    return fail("the DAG does not fit the record");
-  for (size_t b = 0; b < blocks; ++b)
-    for (uint16_t d : dag.nodes[b].deps)
-      if (d >= blocks || pm.blocks[d].level <= pm.blocks[b].level)
-        return fail("block " + std::to_string(b) + " depends on block " + std::to_string(d) +
-                    ", not a coarser one");
+  if (blocks == 0 || pm.level_block.size() + 1 != levels)
+    return fail("the record has no block hierarchy");
+  for (uint16_t b : pm.level_block)
+    if (b >= blocks) return fail("a level's block " + std::to_string(b) + " does not exist");
   // The new order of the levels 1..m: by block (the root's level is the highest), then as
   // recorded.
   std::vector<uint32_t> order(levels - 1);
@@ -363,8 +383,36 @@ Status order_by_blocks(ProgressiveMesh& pm, const BlockDag& dag) {
   permute(pm.indices, face_to, 3);
   permute(pm.face_primitive, face_to, 1);
   pm.levels = std::move(out_levels);
-  pm.level_block = std::move(out_block);
   pm.base_level = base;
+  // The root (one global chain, every block's ancestor) in pieces of growing triangles from the
+  // coarsest level, each a block of its own after the one before it: a stream's parts are whole
+  // blocks, and the root whole would be one part from the base to a quarter of a million faces.
+  std::vector<ProgressiveBlock> kept;
+  {
+    uint32_t start = std::max<uint32_t>(pm.levels[0].triangles, 1);
+    for (size_t r = 1; r <= root_levels; ++r) {
+      if (kept.empty() || (r > 1 && pm.levels[r - 1].triangles >= kRootGrowth * double(start) &&
+                           pm.levels[r - 1].triangles - start >= kRootPieceMin)) {
+        if (!kept.empty()) start = pm.levels[r - 1].triangles;
+        ProgressiveBlock piece = pm.blocks[0];
+        piece.block = uint32_t(kept.size());
+        piece.error = pm.levels[r - 1].error;  // the largest collapse it undoes and after
+        kept.push_back(piece);
+      }
+      if (kept.size() >= 0xFFFF - blocks) return fail("the root in too many pieces");
+      out_block[r - 1] = uint16_t(kept.size() - 1);
+    }
+  }
+  // The other blocks renumbered in the order their runs come; blocks that made no collapse are
+  // dropped.
+  std::vector<uint16_t> renumber(blocks, kNone);
+  for (size_t i = root_levels; i < out_block.size(); ++i) {
+    uint16_t& b = out_block[i];
+    if (renumber[b] == kNone) renumber[b] = uint16_t(kept.size()), kept.push_back(pm.blocks[b]);
+    b = renumber[b];
+  }
+  pm.blocks = std::move(kept);
+  pm.level_block = std::move(out_block);
   return Status::ok();
 }
 

@@ -57,17 +57,22 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 
 // Renumbers a record with a block hierarchy so that each block's levels are contiguous: the
 // root's first, then the blocks from the coarsest level to the finest (by index within a
-// level), each block's levels in their record order. Every dependency points to a coarser
-// level, so this is a topological order of `dag`, and every split keeps its parent, its faces
-// and the neighbourhood it reads (block_dag.h): the same progressive mesh, its vertices and
-// faces renumbered. The root's levels keep their errors; past them, a level's error becomes the
-// largest error of the blocks not yet fully applied (ProgressiveBlock::error: never below the
-// true one, never increasing with detail);
-// the base level stays where it was when the root holds it, else it becomes the root's last
-// level. A block that is a chunk of the stream is then one run of vertices and faces. Fails
-// (kInternal) when `dag` does not fit `pm` or a dependency is not coarser.
-// O(V + F + levels); memory: one copy of each per-vertex and per-face array at a time.
-Status order_by_blocks(ProgressiveMesh& pm, const BlockDag& dag);
+// level), each block's levels in their record order. A block depends only on coarser ones
+// (block_dag.h: its locked borders keep a level's blocks apart), so this is a topological order
+// of the DAG, and every split keeps its parent, its faces and the neighbourhood it reads: the
+// same progressive mesh, its vertices and faces renumbered (block_dag() of the result, or a
+// stream's decoding, fails where that would not hold). The root's levels keep their errors;
+// past them, a level's error becomes the largest error of the blocks not yet fully applied
+// (ProgressiveBlock::error: never below the true one, never increasing with detail); the base
+// level stays where it was when the root holds it, else it becomes the root's last level. The
+// root (the whole-unit loop's chain) becomes pieces of a quarter more triangles each from the
+// coarsest level (at least 1,024 triangles each), blocks of their own in a chain; the other blocks
+// are renumbered in the order their runs come after them (coarser before finer, so every dependency
+// is an earlier block), those that made no collapse dropped. A block that is a
+// part of the stream is then one run of vertices and faces. Fails (kInternal)
+// when the record has no block hierarchy or its level blocks do not fit it.
+// O(V + F + levels log levels); memory: one copy of each per-vertex and per-face array at a time.
+Status order_by_blocks(ProgressiveMesh& pm);
 
 // A client state of a record, refined level by level in any order the caller chooses: the
 // replay block_dag() makes, for tests and analysis. Starts at the coarsest level (levels[0]).
@@ -105,6 +110,9 @@ class BlockReplay {
   std::vector<uint32_t> cur_;
   std::vector<int32_t> head_, next_;
   std::vector<uint8_t> mark_face_, mark_list_;  // scratch: met in this level
+  // The split forest's ancestry as intervals: u is o or an ancestor of o exactly when
+  // enter_[u] ≤ enter_[o] < enter_[u] + size_[u] (the stream encoder's test).
+  std::vector<uint32_t> enter_, size_;
   // With signatures: per parent position's bits, the vertices split there, oldest first.
   std::map<std::array<uint32_t, 3>, std::vector<uint32_t>> twins_;
   std::vector<uint32_t>& twins_at(uint32_t p);

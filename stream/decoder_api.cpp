@@ -111,6 +111,14 @@ int mmx_apply_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t spl
   return s ? 0 : fail(s.message());
 }
 
+MMX_EXPORT(mmx_apply_block_part)
+int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t vertex_begin,
+                         uint32_t splits, uint32_t faces) {
+  meshmux::Status s =
+      meshmux::decode_vsplit_block_part(mesh->state, data, size, vertex_begin, splits, faces);
+  return s ? 0 : fail(s.message());
+}
+
 MMX_EXPORT(mmx_vertices) uint32_t mmx_vertices(const MmxMesh* mesh) {
   return mesh->state.vertex_count();
 }

@@ -47,6 +47,10 @@ void mmx_begin_changes(MmxMesh* mesh);
 // faces (stream/vsplit.h decode_vsplit_part).
 int mmx_apply_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t splits,
                    uint32_t faces);
+// Applies one block part (stream/format.h "Blocks"; stream/vsplit.h decode_vsplit_block_part):
+// fresh contexts, its `splits` vertices placed at stream numbers vertex_begin on.
+int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t vertex_begin,
+                         uint32_t splits, uint32_t faces);
 
 uint32_t mmx_vertices(const MmxMesh* mesh);
 uint32_t mmx_faces(const MmxMesh* mesh);

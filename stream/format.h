@@ -46,12 +46,15 @@
 //                "bounds": [minx, miny, minz, maxx, maxy, maxz],   // of every position, mesh
 //                                                                  // units (floats, shortest
 //                                                                  // decimals)
-//                "quantization": {"origin": [x, y, z], "step": s}  // the position grid
+//                "quantization": {"origin": [x, y, z], "step": s}, // the position grid
+//                "blocks": [[l, e, [x0, y0, z0, x1, y1, z1],       // optional (version 16),
+//                            [k, ...]], ...]                       // see "Blocks"
 //               }, ...],
 //    "texture": {"width": W, "height": H} | null,    // full texture size
 //    "chunks": [
 //      {"kind": "mesh", "offset": o, "size": s, "distortion": d,
-//       "parts": [[m, b, e, n], ...]},               // see "Parts" below
+//       "parts": [[m, b, e, n], ...]},               // see "Parts" below ([m, b, e, n, k]: a
+//                                                    // block's, see "Blocks")
 //      {"kind": "complete", "offset": o, "size": s, "distortion": d,
 //       "meshes": [[m, v, f, n], ...]},              // see "Completion" below
 //      {"kind": "texture", "offset": o, "size": s, "distortion": d,
@@ -69,6 +72,27 @@
 // Parts: [m, b, e, n] takes mesh m to vertex b and face e in n coded bytes (the parts' bytes sum
 // to the chunk's size), from where m stands (its base, then the parts before in file order):
 // vertex a, face c.
+// Blocks (version 16; a mesh whose record is a block hierarchy, simplify/block_dag.h: big meshes
+// built as spatial blocks simplified with locked borders, after Ponchio and Dellepiane's Nexus):
+// the mesh's refinements are one part per block. Block k is [l, e, box, deps]: its level l in
+// the hierarchy (0 the finest; the root's pieces, the first blocks, the coarsest), the largest
+// geometric error e its refinement removes (units of the scene's bounding diagonal), the bounds
+// of what it refines on the mesh's position grid (integers: minimum floored, maximum ceiled),
+// and the blocks it depends on. Its part [m, b, e, n, k] takes the mesh's vertices a..b-1 and
+// faces c..e-1, where a and c are where block k - 1 ends (block 0: the base's counts); a block
+// that no part names sends nothing (it ends where it begins: wholly in the base), and the last
+// block ends at the mesh's counts. A client may apply block k's part once the blocks in its deps
+// are applied (each an earlier block: the list order is a topological order, so no cycle can
+// be written), whatever other blocks it holds: its vertices take their stream numbers a..b-1
+// (stream/vsplit.h decode_vsplit_block_part: fresh contexts, vertices placed, not appended). In
+// stored order the parts come in block order, so a client playing the chunks in order applies
+// them as a chain. A package holds version 16 only when a mesh has blocks (15 otherwise, byte
+// for byte as before); no completion follows block parts. Readers check: deps strictly ascending
+// integers below the block's own index (a dependency on itself or a later block: a cycle; past
+// the list: a missing block), the box's integers within 16 bits and min ≤ max, the error finite
+// and ≥ 0, each block in at most one part, the parts' ends not decreasing in block order and
+// the last block ending at the mesh's counts, and every part after the parts of the blocks it
+// depends on.
 // Completion (optional, at most one, after every mesh chunk in every order): the full mesh sent
 // single-rate where the vertex splits' tail would cost more (the package's bound, or a tail
 // dearer than the full mesh). [m, v, f, n]: mesh m's full detail as a Draco bitstream of n
@@ -148,6 +172,8 @@ namespace meshmux {
 // client reads exactly this version (PACKAGE_VERSION of viewers/web/stream_format.js, which the
 // build generates from this header: scripts/format_constants.mjs).
 constexpr uint32_t kPackageVersion = 15;
+// 16: a mesh may be a block hierarchy ("blocks", parts naming their block); written only then.
+constexpr uint32_t kBlockPackageVersion = 16;
 constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated
@@ -179,6 +205,18 @@ inline const char* const kBaseColorChannel = kChannelNames[0];
 inline bool is_map_mime(const std::string& mime) {
   return mime == "image/jpeg" || mime == "image/png" || mime == "image/ktx2";
 }
+
+// One block of a mesh's block hierarchy as the package table has it (the mesh's "blocks").
+struct StreamBlock {
+  uint32_t level = 0;  // 0: the finest blocks; the root's pieces (the first blocks) the coarsest
+  double error = 0;    // the geometric error its refinement removes (diagonal units)
+  uint16_t box[6] = {0, 0, 0, 0, 0, 0};  // bounds of what it refines, on the mesh's position
+                                         // grid (stream/quantize.h): min (floored), max (ceiled)
+  std::vector<uint32_t> deps;  // blocks to apply first, ascending, each below this block's index
+  // Its vertices' and faces' stream numbers (not written: the reader derives them from the
+  // parts, as stream/format.h "Blocks" says).
+  uint32_t vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
+};
 
 // One step of the multiplexed order: a chunk of the package.
 struct StreamStep {

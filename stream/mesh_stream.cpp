@@ -53,6 +53,7 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
       mesh_(mesh),
       level_(base_level),
       planned_level_(base_level),
+      level_at_start_(base_level),
       counts_(counts) {
   if (Status s = check_mesh(pm, mesh); !s) {
     status_ = s;
@@ -71,6 +72,12 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
     }
   normals_ = stream_carries_normals(pm);
   uvs_ = !pm.uvs.empty();
+  block_parts_ = !pm.blocks.empty();
+  if (block_parts_ &&
+      (pm.level_block.size() + 1 != pm.levels.size() || pm.blocks.size() > 0xFFFF)) {
+    status_ = internal(mesh, "the block hierarchy does not fit the record");
+    return;
+  }
   rank_.resize(nv);
   for (uint32_t v = 0; v < nv; ++v) rank_[v] = v;
   // Ancestry intervals: parents precede children (checked above), so subtree sizes sum from
@@ -210,6 +217,13 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
   if (to.vertex_end < from.vertex_end || to.face_end < from.face_end)
     return internal(mesh_, "levels shrink");
   const uint32_t va = from.vertex_end, vb = to.vertex_end, fa = from.face_end, fb = to.face_end;
+  if (block_parts_)
+    for (size_t r = planned_level_ + 1; r < level; ++r)
+      if (pm_.level_block[r - 1] != pm_.level_block[level - 1])
+        return internal(mesh_, "a part from level " + std::to_string(planned_level_) + " to " +
+                                   std::to_string(level) + " spans blocks " +
+                                   std::to_string(pm_.level_block[r - 1]) + " and " +
+                                   std::to_string(pm_.level_block[level - 1]));
   PartPlan plan;
   plan.level = level, plan.va = va, plan.vb = vb, plan.fa = fa, plan.fb = fb;
   // Stream order of this part's splits: by generation (a parent split in this part comes
@@ -305,7 +319,8 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   const std::vector<uint32_t>&faces_start = plan.faces_start, &faces_of = plan.faces_of;
   std::vector<uint32_t> extras = std::move(plan.extras);  // and faces found malformed below
   EncodedMeshPart e;
-  e.part = {mesh_, va, vb, fa, fb, 0};
+  e.part = {mesh_, va, vb, fa, fb, 0, -1};
+  if (block_parts_ && plan.level > 0) e.part.block = int32_t(pm_.level_block[plan.level - 1]);
   RangeEncoder out;
   if (block_parts_) sim_.contexts = VsplitContexts();
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
@@ -484,6 +499,47 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   level_ = plan.level;
   count(counts_, &EncodeCounts::mesh_parts);
   return e;
+}
+
+std::vector<StreamBlock> MeshStreamEncoder::stream_blocks() const {
+  std::vector<StreamBlock> out;
+  const size_t base = level_at_start_, levels = pm_.levels.size();
+  if (pm_.blocks.empty() || base + 1 >= levels) return out;  // a chain, or the base is whole
+  out.resize(pm_.blocks.size());
+  // Each block's run of levels (the record is ordered by blocks, numbered in run order); the
+  // root's from the base on (its coarser levels are in the base); a block wholly in the base
+  // sends nothing, where the one before it ends.
+  std::vector<uint8_t> seen(out.size(), 0);
+  for (size_t r = base + 1; r < levels; ++r) {
+    StreamBlock& x = out[pm_.level_block[r - 1]];
+    if (!seen[pm_.level_block[r - 1]]) {
+      seen[pm_.level_block[r - 1]] = 1;
+      x.vertex_begin = pm_.levels[r - 1].vertex_end, x.face_begin = pm_.levels[r - 1].face_end;
+    }
+    x.vertex_end = pm_.levels[r].vertex_end, x.face_end = pm_.levels[r].face_end;
+  }
+  uint32_t vertex_at = pm_.levels[base].vertex_end, face_at = pm_.levels[base].face_end;
+  for (size_t k = 0; k < out.size(); ++k) {
+    StreamBlock& x = out[k];
+    if (!seen[k]) x.vertex_begin = x.vertex_end = vertex_at, x.face_begin = x.face_end = face_at;
+    vertex_at = x.vertex_end, face_at = x.face_end;
+    const ProgressiveBlock& pb = pm_.blocks[k];
+    x.level = pb.level, x.error = pb.error;
+    // On the grid, floored and ceiled (a box of nothing: empty at the origin).
+    const Vec3 lo = pb.box_min, hi = pb.box_max;
+    const float min[3] = {lo.x, lo.y, lo.z}, max[3] = {hi.x, hi.y, hi.z};
+    const float origin[3] = {quantization_.origin.x, quantization_.origin.y,
+                             quantization_.origin.z};
+    for (int i = 0; i < 3; ++i) {
+      const double a = std::floor((double(min[i]) - origin[i]) / quantization_.step),
+                   z = std::ceil((double(max[i]) - origin[i]) / quantization_.step);
+      x.box[i] = uint16_t(std::isfinite(a) ? std::clamp(a, 0.0, double(kPositionMax)) : 0.0);
+      x.box[3 + i] = uint16_t(
+          std::isfinite(z) ? std::clamp(z, double(x.box[i]), double(kPositionMax)) : x.box[i]);
+    }
+    x.deps.assign(pb.deps.begin(), pb.deps.end());
+  }
+  return out;
 }
 
 std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts) {

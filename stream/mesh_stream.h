@@ -24,6 +24,7 @@ namespace meshmux {
 struct PackagePart {
   uint32_t mesh = 0, vertex_begin = 0, vertex_end = 0, face_begin = 0, face_end = 0;
   uint64_t bytes = 0;
+  int32_t block = -1;  // a block part (stream/format.h "Blocks"): the mesh's block it is; -1 none
 };
 // What a part's bits code (stream/vsplit.h, in decoding order): Z, M, the fan or mask with
 // the face codes, W, P, N, T, and the header with the extra faces.
@@ -69,6 +70,9 @@ struct MeshStreamBase {
   // vertex indices: the base .glb's primitives hold exactly these index lists, in this order,
   // and the client's base faces are their concatenation as meshopt decodes them.
   std::vector<std::vector<uint32_t>> base_primitive_faces;
+  // A block hierarchy (stream/format.h "Blocks"): per block its level, error, box, dependencies
+  // and stream ranges; empty for a chain.
+  std::vector<StreamBlock> blocks;
 };
 
 // Encodes one progressive mesh's stream from a base level on, part by part, as compact vertex
@@ -112,11 +116,17 @@ class MeshStreamEncoder {
   void adopt(PartPlan& plan);
   // Codes an adopted plan against the client's state; plans are encoded in the order made.
   Result<EncodedMeshPart> encode(PartPlan plan);
-  // Block parts (a big mesh's block hierarchy, decode_vsplit_block_part): every part from now
-  // on starts with fresh contexts, so a client may apply it without the parts before it that
-  // it does not depend on. The caller makes each part one block's levels (or a run of them) of a
-  // record ordered by blocks (simplify/block_dag.h order_by_blocks).
+  // Block parts (a big mesh's block hierarchy, decode_vsplit_block_part): every part starts
+  // with fresh contexts, so a client may apply it without the parts before it that it does not
+  // depend on, and names its block (PackagePart::block). On from the start for a record with a
+  // block hierarchy (ordered by blocks: simplify/block_dag.h order_by_blocks), where each part
+  // must then be the levels of one block (prepare() fails otherwise); off gives the chain's
+  // coding of the same parts (contexts carried over), for comparison.
   void set_block_parts(bool on) { block_parts_ = on; }
+  bool block_parts() const { return block_parts_; }
+  // The blocks' stream ranges and the rest of the table's entry (StreamBlock), from the record's
+  // block hierarchy and the base this encoder starts at; empty for a chain.
+  std::vector<StreamBlock> stream_blocks() const;
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
   // Whether the stream carries normals (MeshStreamBase::normals).
@@ -128,8 +138,9 @@ class MeshStreamEncoder {
   const ProgressiveMesh& pm_;
   PositionQuantization quantization_;
   uint32_t mesh_ = 0;
-  size_t level_ = 0;          // the last level encoded
-  size_t planned_level_ = 0;  // the last level planned (prepare)
+  size_t level_ = 0;           // the last level encoded
+  size_t planned_level_ = 0;   // the last level planned (prepare)
+  size_t level_at_start_ = 0;  // the base level
   EncodeCounts* counts_ = nullptr;
   bool normals_ = true;
   bool uvs_ = true;           // the mesh has texture coordinates (else the stream carries none)

@@ -71,6 +71,7 @@ struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;
   float bounds[6] = {0, 0, 0, 0, 0, 0};
   double origin[3] = {0, 0, 0}, step = 1;  // the position grid (stream/quantize.h)
+  std::vector<StreamBlock> blocks;         // a block hierarchy (version 16), else empty
 };
 struct PackageOrder {
   std::string name;
@@ -98,8 +99,9 @@ Result<std::vector<uint8_t>> package_base_glb(const std::vector<uint8_t>& bytes,
                                               const Package& pkg);
 
 // Applies part `part` of a mesh chunk to `mesh` (the state decode_base started for its mesh,
-// with every earlier part applied): checks the part against the table and the state, then
-// decodes its vertex splits (stream/vsplit.h).
+// with every earlier part applied; for a block part, with the blocks it depends on applied, in
+// any order): checks the part against the table and the state, then decodes its vertex splits
+// (stream/vsplit.h).
 Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
                    const PackageChunk& chunk, size_t part, VsplitMesh& mesh);
 // Mesh `mesh`'s client state after the base, from what the base .glb holds of it: its

@@ -191,16 +191,23 @@ Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
 }
 
 // A part is [mesh, vertex_end, face_end, bytes]; it starts where its mesh stands (`held`: per
-// mesh the vertices and faces of the base and the parts before it), which it then advances.
+// mesh the vertices and faces of the base and the parts before it), which it then advances. A
+// block mesh's part is [mesh, vertex_end, face_end, bytes, block]: it is block's range, sent
+// once (`sent`: per mesh, per block), after the blocks it depends on.
 Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t file_size,
-                 std::vector<std::pair<uint32_t, uint32_t>>& held, PackagePart& p,
+                 std::vector<std::pair<uint32_t, uint32_t>>& held,
+                 std::vector<std::vector<uint8_t>>& sent, PackagePart& p,
                  const std::string& where) {
-  if (!j.is_array() || j.size() != 4)
-    return fail(where + " is not [mesh, vertex_end, face_end, bytes]");
-  uint64_t v[4];
+  const bool blocky = j.is_array() && !j.empty() && j[0].is_number_unsigned() &&
+                      j[0].get<uint64_t>() < meshes.size() &&
+                      !meshes[j[0].get<uint64_t>()].blocks.empty();
+  if (!j.is_array() || j.size() != (blocky ? 5u : 4u))
+    return fail(where + (blocky ? " is not [mesh, vertex_end, face_end, bytes, block]"
+                                : " is not [mesh, vertex_end, face_end, bytes]"));
+  uint64_t v[5];
   // n is coded bytes: within the file.
-  const uint64_t max[4] = {kMaxCount, kMaxCount, kMaxCount, file_size};
-  for (size_t i = 0; i < 4; ++i) {
+  const uint64_t max[5] = {kMaxCount, kMaxCount, kMaxCount, file_size, 0xFFFF};
+  for (size_t i = 0; i < j.size(); ++i) {
     if (!j[i].is_number_unsigned() && !(j[i].is_number_integer() && j[i].get<int64_t>() >= 0))
       return fail(where + ": entry " + std::to_string(i) + " is not an unsigned integer");
     v[i] = j[i].get<uint64_t>();
@@ -213,8 +220,121 @@ Status read_part(const Json& j, const std::vector<PackageMesh>& meshes, uint64_t
   p.mesh = uint32_t(v[0]);
   p.vertex_begin = held[p.mesh].first, p.face_begin = held[p.mesh].second;
   p.vertex_end = uint32_t(v[1]), p.face_end = uint32_t(v[2]), p.bytes = v[3];
+  if (blocky) {
+    const std::vector<StreamBlock>& blocks = meshes[p.mesh].blocks;
+    if (v[4] >= blocks.size())
+      return fail(where + ": block " + std::to_string(v[4]) + " of " +
+                  std::to_string(blocks.size()));
+    const StreamBlock& b = blocks[v[4]];
+    p.block = int32_t(v[4]);
+    p.vertex_begin = b.vertex_begin, p.face_begin = b.face_begin;
+    if (p.vertex_end != b.vertex_end || p.face_end != b.face_end)
+      return fail(where + ": block " + std::to_string(v[4]) + " ends at vertex " +
+                  std::to_string(b.vertex_end) + ", face " + std::to_string(b.face_end));
+    std::vector<uint8_t>& got = sent[p.mesh];
+    if (got[v[4]]) return fail(where + ": block " + std::to_string(v[4]) + " sent twice");
+    for (uint32_t d : b.deps)
+      if (!got[d] && (blocks[d].vertex_end > blocks[d].vertex_begin ||
+                      blocks[d].face_end > blocks[d].face_begin))
+        return fail(where + ": block " + std::to_string(v[4]) + " before block " +
+                    std::to_string(d) + ", which it depends on");
+    got[v[4]] = 1;
+  }
   if (Status s = check_part(p, meshes, where); !s) return s;
-  held[p.mesh] = {p.vertex_end, p.face_end};
+  if (!blocky) held[p.mesh] = {p.vertex_end, p.face_end};
+  return Status::ok();
+}
+
+// A mesh's "blocks" (stream/format.h "Blocks"): [level, error, box, deps] each, dependencies on
+// earlier blocks only (no cycle can be read), the box on the grid and the error finite. Their
+// ranges come from the parts (block_ranges).
+Status read_blocks(const Json& list, PackageMesh& pm, const std::string& where) {
+  if (!list.is_array() || list.empty() || list.size() > 0xFFFF)
+    return fail(where + ": \"blocks\" is not an array of 1 to 65535 blocks");
+  Status s;
+  for (size_t k = 0; k < list.size(); ++k) {
+    const Json& e = list[k];
+    const std::string bw = where + ": block " + std::to_string(k);
+    if (!e.is_array() || e.size() != 4) return fail(bw + " is not [level, error, box, deps]");
+    StreamBlock b;
+    if (!e[0].is_number_unsigned() || e[0].get<uint64_t>() > 0xFFFF)
+      return fail(bw + ": level is not an integer up to 65535");
+    b.level = uint32_t(e[0].get<uint64_t>());
+    if (!(s = get_finite(e[1], b.error, bw + ": error"))) return s;
+    if (!(b.error >= 0)) return fail(bw + ": error is negative");
+    const Json& box = e[2];
+    if (!box.is_array() || box.size() != 6) return fail(bw + ": box is not 6 integers");
+    for (size_t i = 0; i < 6; ++i) {
+      if (!box[i].is_number_unsigned() || box[i].get<uint64_t>() > 0xFFFF)
+        return fail(bw + ": box is not 6 integers on the position grid");
+      b.box[i] = uint16_t(box[i].get<uint64_t>());
+    }
+    for (int i = 0; i < 3; ++i)
+      if (b.box[i] > b.box[i + 3]) return fail(bw + ": box minimum above maximum");
+    const Json& deps = e[3];
+    if (!deps.is_array()) return fail(bw + ": deps is not an array");
+    for (const Json& d : deps) {
+      if (!d.is_number_unsigned()) return fail(bw + ": a dependency is not a block index");
+      const uint64_t x = d.get<uint64_t>();
+      if (x >= list.size())
+        return fail(bw + ": depends on block " + std::to_string(x) + ", which is missing");
+      if (x >= k)
+        return fail(bw + ": depends on block " + std::to_string(x) +
+                    ", not an earlier one (a dependency cycle)");
+      if (!b.deps.empty() && x <= b.deps.back())
+        return fail(bw + ": dependencies not strictly ascending");
+      b.deps.push_back(uint32_t(x));
+    }
+    pm.blocks.push_back(std::move(b));
+  }
+  return Status::ok();
+}
+
+// The blocks' ranges from the parts that name them (stream/format.h "Blocks"): each begins
+// where the one before it ends (the first at the base), ends where its part does (or where it
+// begins, named by none), the last at the mesh's end. A pass over the table's chunks before
+// they are read (malformed entries are skipped here: the chunks' reading names them).
+Status block_ranges(const Json& chunks, Package& pkg) {
+  std::vector<std::vector<std::pair<uint64_t, uint64_t>>> ends(pkg.meshes.size());
+  for (size_t m = 0; m < pkg.meshes.size(); ++m)
+    ends[m].assign(pkg.meshes[m].blocks.size(), {UINT64_MAX, UINT64_MAX});
+  if (chunks.is_array())
+    for (const Json& c : chunks) {
+      if (!c.is_object()) continue;
+      auto parts = c.find("parts");
+      if (parts == c.end() || !parts->is_array()) continue;
+      for (const Json& p : *parts) {
+        if (!p.is_array() || p.size() != 5) continue;
+        bool ints = true;
+        for (const Json& x : p) ints = ints && x.is_number_unsigned();
+        if (!ints) continue;
+        const uint64_t m = p[0].get<uint64_t>(), k = p[4].get<uint64_t>();
+        if (m < ends.size() && k < ends[m].size() && ends[m][k].first == UINT64_MAX)
+          ends[m][k] = {p[1].get<uint64_t>(), p[2].get<uint64_t>()};
+      }
+    }
+  for (size_t m = 0; m < pkg.meshes.size(); ++m) {
+    PackageMesh& pm = pkg.meshes[m];
+    if (pm.blocks.empty()) continue;
+    uint64_t vertex_at = pm.base_vertices, face_at = pm.base_faces;
+    for (size_t k = 0; k < pm.blocks.size(); ++k) {
+      StreamBlock& b = pm.blocks[k];
+      const auto [v, f] = ends[m][k];
+      b.vertex_begin = uint32_t(vertex_at), b.face_begin = uint32_t(face_at);
+      if (v != UINT64_MAX) {
+        if (v < vertex_at || f < face_at || v > pm.vertices || f > pm.faces)
+          return fail("mesh " + std::to_string(m) + ": block " + std::to_string(k) +
+                      " ends at vertex " + std::to_string(v) + ", face " + std::to_string(f) +
+                      ", before it begins or past the mesh");
+        vertex_at = v, face_at = f;
+      }
+      b.vertex_end = uint32_t(vertex_at), b.face_end = uint32_t(face_at);
+    }
+    if (vertex_at != pm.vertices || face_at != pm.faces)
+      return fail("mesh " + std::to_string(m) + ": the blocks end at vertex " +
+                  std::to_string(vertex_at) + ", face " + std::to_string(face_at) +
+                  ", not at the mesh's end");
+  }
   return Status::ok();
 }
 
@@ -301,7 +421,8 @@ Status read_kept(const Json& j, PackageChunk& c, uint64_t& at, const std::string
 // `file_size`: the bytes after the data start; offsets are relative to it, and made absolute
 // (+ data_start) on the way.
 Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_t data_start,
-                  std::vector<std::pair<uint32_t, uint32_t>>& held, PackageChunk& c,
+                  std::vector<std::pair<uint32_t, uint32_t>>& held,
+                  std::vector<std::vector<uint8_t>>& sent, PackageChunk& c,
                   const std::string& where) {
   if (!j.is_object()) return fail(where + " is not an object");
   auto kind = j.find("kind");
@@ -364,7 +485,7 @@ Status read_chunk(const Json& j, const Package& pkg, uint64_t file_size, uint64_
   uint64_t sum = 0;
   for (size_t i = 0; i < parts->size(); ++i) {
     PackagePart p;
-    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, held, p,
+    if (!(s = read_part((*parts)[i], pkg.meshes, file_size, held, sent, p,
                         where + " part " + std::to_string(i))))
       return s;
     sum += p.bytes;  // each ≤ the file size: no overflow
@@ -416,6 +537,12 @@ Status read_meshes(const Json& j, Package& pkg) {
     if (step == q->end()) return fail(where + ": quantization \"step\" missing");
     if (!(s = get_finite(*step, pm.step, where + ": quantization step"))) return s;
     if (!(pm.step > 0)) return fail(where + ": quantization step is not positive");
+    if (auto blocks = e.find("blocks"); blocks != e.end()) {
+      if (pkg.version < kBlockPackageVersion)
+        return fail(where + ": \"blocks\" in a version " + std::to_string(pkg.version) +
+                    " package");
+      if (!(s = read_blocks(*blocks, pm, where))) return s;
+    }
     pkg.meshes.push_back(pm);
   }
 
@@ -479,7 +606,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     return fail("not a meshmux package (magic is not \"MMXP\")");
   Package pkg;
   pkg.version = get_u32(bytes, 4);
-  if (pkg.version != kPackageVersion)
+  if (pkg.version != kPackageVersion && pkg.version != kBlockPackageVersion)
     return fail("version " + std::to_string(pkg.version) + " not supported");
   uint64_t file_size = bytes.size(), json_size = get_u32(bytes, 8);
   if (json_size > file_size - kPackageHeaderBytes)
@@ -539,13 +666,18 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
 
   auto chunks = j.find("chunks");
   if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
+  if (!(s = block_ranges(*chunks, pkg))) return s;
   std::vector<std::pair<uint32_t, uint32_t>> held;  // per mesh: vertices, faces so far
-  for (const PackageMesh& m : pkg.meshes) held.push_back({m.base_vertices, m.base_faces});
+  std::vector<std::vector<uint8_t>> sent;           // per block mesh, per block: its part read
+  for (const PackageMesh& m : pkg.meshes) {
+    held.push_back({m.base_vertices, m.base_faces});
+    sent.emplace_back(m.blocks.size(), 0);
+  }
   bool completed = false;  // the completion was read: no mesh chunk may follow
   for (size_t i = 0; i < chunks->size(); ++i) {
     std::string where = "chunk " + std::to_string(i);
     PackageChunk c;
-    if (!(s = read_chunk((*chunks)[i], pkg, data_size, data_start, held, c, where))) return s;
+    if (!(s = read_chunk((*chunks)[i], pkg, data_size, data_start, held, sent, c, where))) return s;
     if (c.offset < end)
       return fail(where + ": offset " + std::to_string(c.offset) +
                   " overlaps the base or the chunk before");
@@ -560,6 +692,14 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
     pkg.chunks.push_back(std::move(c));
   }
 
+  // Every block that sends anything is sent.
+  for (size_t m = 0; m < pkg.meshes.size(); ++m)
+    for (size_t k = 0; k < pkg.meshes[m].blocks.size(); ++k) {
+      const StreamBlock& b = pkg.meshes[m].blocks[k];
+      if (!sent[m][k] && (b.vertex_end > b.vertex_begin || b.face_end > b.face_begin))
+        return fail("mesh " + std::to_string(m) + ": block " + std::to_string(k) +
+                    " is in no part");
+    }
   if (!(s = read_orders(j, pkg))) return s;
   return pkg;
 }
@@ -602,6 +742,21 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
   where += " part " + std::to_string(part);
   const PackagePart& p = chunk.parts[part];
   if (Status s = check_part(p, package.meshes, where); !s) return s;
+  if (p.block >= 0) {  // a block part: its dependencies held, its own vertices not yet
+    const std::vector<StreamBlock>& blocks = package.meshes[p.mesh].blocks;
+    if (size_t(p.block) >= blocks.size())
+      return fail(where + ": block " + std::to_string(p.block) + " out of range");
+    for (uint32_t d : blocks[size_t(p.block)].deps)
+      if (d < blocks.size() && blocks[d].vertex_end > blocks[d].vertex_begin &&
+          !mesh.has_vertex(blocks[d].vertex_begin))
+        return fail(where + ": block " + std::to_string(p.block) + " needs block " +
+                    std::to_string(d) + ", not applied");
+    Status s = decode_vsplit_block_part(mesh, bytes.data() + chunk.offset + offset, size_t(p.bytes),
+                                        p.vertex_begin, p.vertex_end - p.vertex_begin,
+                                        p.face_end - p.face_begin);
+    if (!s) return fail(where + ": " + s.message());
+    return Status::ok();
+  }
   if (p.vertex_begin != mesh.vertex_count() || p.face_begin != mesh.face_count())
     return fail(where + ": starts at vertex " + std::to_string(p.vertex_begin) + ", face " +
                 std::to_string(p.face_begin) + "; " + std::to_string(mesh.vertex_count()) +

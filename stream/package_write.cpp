@@ -209,6 +209,14 @@ OrderedJson view_json(const PackageInput& in) {
   return j;
 }
 
+// 16 when a mesh is a block hierarchy (stream/format.h "Blocks"), else 15: a chain's package
+// stays byte for byte what it was.
+uint32_t package_version(const PackageInput& in) {
+  for (const MeshStreamBase& m : in.meshes)
+    if (!m.blocks.empty()) return kBlockPackageVersion;
+  return kPackageVersion;
+}
+
 // The JSON table. Offsets count from the end of the table (the data start), so the table does
 // not depend on its own compressed length. `base_stored`: the base's bytes as stored.
 std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
@@ -216,7 +224,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                        bool base_deflated) {
   const uint64_t data_start = 0;
   OrderedJson j;
-  j["version"] = kPackageVersion;
+  j["version"] = package_version(in);
   j["view"] = view_json(in);
   j["limits"] = {{"max_elements", kMaxStreamElements},
                  {"max_texture_side", kMaxTextureSide},
@@ -239,6 +247,15 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     const PositionQuantization& q = b.quantization;
     e["quantization"] = {{"origin", {double(q.origin.x), double(q.origin.y), double(q.origin.z)}},
                          {"step", q.step}};
+    if (!b.blocks.empty()) {
+      OrderedJson blocks = OrderedJson::array();
+      for (const StreamBlock& x : b.blocks)
+        blocks.push_back({x.level,
+                          short_float(float(x.error)),
+                          {x.box[0], x.box[1], x.box[2], x.box[3], x.box[4], x.box[5]},
+                          x.deps});
+      e["blocks"] = std::move(blocks);
+    }
     ms.push_back(std::move(e));
   }
   j["meshes"] = std::move(ms);
@@ -262,7 +279,10 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     } else if (c.kind == StreamStep::kMesh) {
       OrderedJson parts = OrderedJson::array();
       for (const PackagePart& p : c.parts)
-        parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
+        if (p.block >= 0)
+          parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes, p.block});
+        else
+          parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
       e["parts"] = std::move(parts);
     } else {
       e["width"] = c.texture->width, e["height"] = c.texture->height;
@@ -361,7 +381,7 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   out.reserve(size_t(total));
   out.resize(kPackageHeaderBytes);
   std::memcpy(out.data(), "MMXP", 4);
-  put_u32(out, 4, kPackageVersion);
+  put_u32(out, 4, package_version(in));
   put_u32(out, 8, uint32_t(table.size()));
   out.insert(out.end(), table.begin(), table.end());
   out.insert(out.end(), base.begin(), base.end());

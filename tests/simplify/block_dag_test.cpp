@@ -29,6 +29,7 @@ SimplifyOptions block_options() {
   o.block_above = 4000;
   o.block_positions = 512;
   o.block_until = 2000;
+  o.order_blocks = false;  // as merged by error: order_by_blocks is tested below
   return o;
 }
 
@@ -72,7 +73,7 @@ const BlockDag& dag() { return recorded().dag; }
 const Hierarchy& ordered() {
   static const Hierarchy h = [] {
     Hierarchy out{record(), {}, {}};
-    EXPECT_TRUE(order_by_blocks(out.pm, dag()).is_ok());
+    EXPECT_TRUE(order_by_blocks(out.pm).is_ok());
     complete(out);
     return out;
   }();
@@ -99,7 +100,8 @@ std::vector<uint16_t> closed_subset_order(const Hierarchy& h, std::mt19937& rng,
     }
     std::shuffle(ready.begin(), ready.end(), rng);
     for (uint16_t b : ready) {
-      const bool in = b == 0 || std::bernoulli_distribution(keep)(rng);
+      const bool in = h.pm.blocks[b].level == h.pm.blocks[0].level ||  // the root (its pieces)
+                      std::bernoulli_distribution(keep)(rng);
       state[b] = in ? 1 : 2;
       if (in) order.push_back(b);
       progress = true;
@@ -312,10 +314,21 @@ TEST(BlockOrder, EveryBlockIsOneRunOfLevels) {
     if (i > 0 && o.level_block[i - 1] != b) closed.insert(o.level_block[i - 1]);
     ASSERT_FALSE(closed.count(b)) << "block " << b << " comes back at level " << i + 1;
   }
-  std::map<uint16_t, size_t> before, after;
-  for (uint16_t b : pm.level_block) ++before[b];
-  for (uint16_t b : o.level_block) ++after[b];
+  // The same blocks (by level and index in it) with the same levels, renumbered in run order;
+  // the root (the top level) in pieces of growing triangles, each at least 1,024 on.
+  const uint16_t top = pm.blocks[0].level;
+  std::map<std::pair<uint16_t, uint32_t>, size_t> before, after;
+  for (uint16_t b : pm.level_block)
+    ++before[{pm.blocks[b].level, pm.blocks[b].level == top ? 0 : pm.blocks[b].block}];
+  for (uint16_t b : o.level_block)
+    ++after[{o.blocks[b].level, o.blocks[b].level == top ? 0 : o.blocks[b].block}];
   EXPECT_EQ(before, after);
+  size_t pieces = 0;
+  while (pieces < o.blocks.size() && o.blocks[pieces].level == top) ++pieces;
+  EXPECT_GE(pieces, 3u);
+  for (size_t k = pieces; k < o.blocks.size(); ++k) EXPECT_LT(o.blocks[k].level, top);
+  for (size_t i = 1; i < o.level_block.size(); ++i)
+    ASSERT_LE(o.level_block[i - 1], o.level_block[i]) << "level " << i + 1;
   EXPECT_EQ(o.level_block.front(), 0u);
   EXPECT_EQ(o.base_level, pm.base_level);
   for (size_t r = 0; r <= pm.base_level; ++r)
@@ -369,26 +382,35 @@ TEST(BlockOrder, OrderedRecordIsAValidProgressiveMesh) {
 // same vertices and faces, and closed sets giving one state whatever the order. (Its
 // dependencies may differ where a face's readers gave way in another order, both sound.)
 TEST(BlockOrder, OrderedRecordGivesOneStateWhateverTheOrder) {
+  const ProgressiveMesh &pm = record(), &o = ordered().pm;
   const BlockDag &a = dag(), &b = ordered().dag;
-  ASSERT_EQ(a.nodes.size(), b.nodes.size());
-  for (size_t x = 0; x < a.nodes.size(); ++x) {
-    EXPECT_EQ(a.nodes[x].vertices, b.nodes[x].vertices) << "block " << x;
-    EXPECT_EQ(a.nodes[x].faces, b.nodes[x].faces) << "block " << x;
+  // Every block but the root's pieces as it was; the pieces together the root.
+  const uint16_t top = pm.blocks[0].level;
+  std::map<std::pair<uint16_t, uint32_t>, std::pair<uint32_t, uint32_t>> sizes, got;
+  for (size_t x = 0; x < a.nodes.size(); ++x)
+    if (a.nodes[x].levels)
+      sizes[{pm.blocks[x].level, pm.blocks[x].level == top ? 0 : pm.blocks[x].block}] = {
+          a.nodes[x].vertices, a.nodes[x].faces};
+  for (size_t x = 0; x < b.nodes.size(); ++x) {
+    auto& g = got[{o.blocks[x].level, o.blocks[x].level == top ? 0 : o.blocks[x].block}];
+    g.first += b.nodes[x].vertices, g.second += b.nodes[x].faces;
+    for (uint16_t d : b.nodes[x].deps) EXPECT_LT(d, x) << "block " << x;  // earlier blocks only
+    if (x == 0 || o.blocks[x].level != top) continue;  // a root piece follows the one before
+    EXPECT_EQ(b.nodes[x].deps, std::vector<uint16_t>{uint16_t(x - 1)}) << "block " << x;
   }
+  EXPECT_EQ(got, sizes);
   expect_one_state_whatever_the_order(ordered());
 }
 
-// A DAG that does not fit the record is refused, naming the problem.
-TEST(BlockOrder, DagOfAnotherRecordIsRefused) {
+// A record without a hierarchy, or whose levels name a block it does not have, is refused.
+TEST(BlockOrder, RecordWithoutFittingBlocksIsRefused) {
   ProgressiveMesh pm = record();
-  BlockDag wrong = dag();
-  wrong.nodes.pop_back();
-  const Status s = order_by_blocks(pm, wrong);
-  EXPECT_FALSE(s.is_ok());
-  EXPECT_NE(s.message().find("does not fit"), std::string::npos) << s.message();
-  BlockDag upward = dag();
-  upward.nodes[0].deps = {1};  // the root on a finer block
-  EXPECT_NE(order_by_blocks(pm, upward).message().find("not a coarser one"), std::string::npos);
+  pm.level_block.pop_back();
+  const Status s = order_by_blocks(pm);
+  EXPECT_NE(s.message().find("no block hierarchy"), std::string::npos) << s.message();
+  pm = record();
+  pm.level_block[pm.level_block.size() / 2] = uint16_t(pm.blocks.size());
+  EXPECT_NE(order_by_blocks(pm).message().find("does not exist"), std::string::npos);
 }
 
 }  // namespace

@@ -30,7 +30,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 import { TaskPerMesh, TexturesInWorker } from './gltf_plugins.js';
 import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStandardMaterial } from './materials.js';
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
-import { PACKAGE_HEADER_BYTES } from './stream_format.js';
+import { BLOCK_PACKAGE_VERSION, PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
 import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, shownTextures, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
@@ -230,7 +230,9 @@ export class MeshmuxStream extends EventTarget {
       if (magic !== 'MMXP') throw this._fail(`not a meshmux package (magic ${JSON.stringify(magic)}, expected "MMXP")`);
       const view = new DataView(head.buffer, head.byteOffset, HEADER_BYTES);
       const version = view.getUint32(4, true), dataStart = HEADER_BYTES + view.getUint32(8, true);
-      if (version !== PACKAGE_VERSION) throw this._fail(`package version ${version} is not supported (this client reads version ${PACKAGE_VERSION})`);
+      if (version !== PACKAGE_VERSION && version !== BLOCK_PACKAGE_VERSION) {
+        throw this._fail(`package version ${version} is not supported (this client reads versions ${PACKAGE_VERSION} and ${BLOCK_PACKAGE_VERSION})`);
+      }
       if (dataStart > this._reader.size) throw this._fail(`the JSON table runs past the end of the file (${this._reader.size} bytes)`);
       const deflated = head.length >= dataStart ? head.subarray(HEADER_BYTES, dataStart) : await this._reader.read(HEADER_BYTES, dataStart, signal);
       let raw;

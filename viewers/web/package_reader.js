@@ -5,11 +5,11 @@
 // generated from stream/format.h at build time.
 
 import {
-  CHANNEL_NAMES, MAX_BASE_BYTES, MAX_KEPT_IMAGES, MAX_TABLE_BYTES, MAX_TEXTURE_SIDE, PACKAGE_VERSION,
+  BLOCK_PACKAGE_VERSION, CHANNEL_NAMES, MAX_BASE_BYTES, MAX_KEPT_IMAGES, MAX_TABLE_BYTES, MAX_TEXTURE_SIDE, PACKAGE_VERSION,
   PART_ELEMENTS_CONSTANT, PART_ELEMENTS_PER_BYTE, RANGE_CODER_FLUSH_BYTES,
 } from './stream_format.js';
 
-export { MAX_BASE_BYTES, MAX_TABLE_BYTES, PACKAGE_VERSION };
+export { BLOCK_PACKAGE_VERSION, MAX_BASE_BYTES, MAX_TABLE_BYTES, PACKAGE_VERSION };
 // Bytes a client keeps per vertex (float position, normal, uv; quantized copies; corner list).
 const VERTEX_BYTES = 48;
 // The per-mesh element cap comes from the table's "limits" (written by the C++ writer, which
@@ -74,7 +74,8 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   };
 
   obj(t, 'the table');
-  need(t.version === PACKAGE_VERSION, `table version ${JSON.stringify(t.version)}, expected ${PACKAGE_VERSION}`);
+  need(t.version === PACKAGE_VERSION || t.version === BLOCK_PACKAGE_VERSION,
+    `table version ${JSON.stringify(t.version)}, expected ${PACKAGE_VERSION} or ${BLOCK_PACKAGE_VERSION}`);
   const num = (v, what, lo = -Infinity, hi = Infinity) => {
     need(Number.isFinite(v) && v >= lo && v <= hi, `${what} must be a number in [${lo}, ${hi}] (got ${JSON.stringify(v)})`);
     return v;
@@ -129,13 +130,69 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     };
     need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
     d.quantization = { origin: vec3(d.quantization.origin, `${w}.quantization.origin`), step: num(d.quantization.step, `${w}.quantization.step`, Number.MIN_VALUE) };
+    d.blocks = m.blocks === undefined ? [] : readBlocks(m.blocks, d, w);
     return d;
   });
+  // A mesh's block hierarchy (stream/format.h "Blocks"): [level, error, box, deps] each, the
+  // dependencies on earlier blocks only (a later or the same block would be a cycle), the box on
+  // the position grid, the error finite; the ranges come from the parts (blockRanges below).
+  function readBlocks(list, d, w) {
+    need(t.version === BLOCK_PACKAGE_VERSION, `${w}.blocks in a version ${t.version} package`);
+    arr(list, `${w}.blocks`);
+    need(list.length > 0 && list.length <= 65535, `${w}.blocks must hold 1 to 65535 blocks`);
+    return list.map((b, k) => {
+      const bw = `${w}.blocks[${k}]`;
+      need(Array.isArray(b) && b.length === 4, `${bw} must be [level, error, box, deps]`);
+      const box = arr(b[2], `${bw}[2] (box)`);
+      need(box.length === 6 && box.every((x) => Number.isSafeInteger(x) && x >= 0 && x <= 65535)
+        && box[0] <= box[3] && box[1] <= box[4] && box[2] <= box[5], `${bw}: box must be 6 grid integers, minimum then maximum`);
+      const deps = arr(b[3], `${bw}[3] (deps)`).map((x, i) => int(x, `${bw}.deps[${i}]`));
+      deps.forEach((x, i) => {
+        need(x < list.length, `${bw}: depends on block ${x}, which is missing`);
+        need(x < k, `${bw}: depends on block ${x}, not an earlier one (a dependency cycle)`);
+        need(i === 0 || x > deps[i - 1], `${bw}: dependencies must be strictly ascending`);
+      });
+      return { level: int(b[0], `${bw}[0] (level)`, 65535), error: num(b[1], `${bw}[1] (error)`, 0), box, deps,
+        vertex_begin: 0, vertex_end: 0, face_begin: 0, face_end: 0 };
+    });
+  }
+  // The blocks' ranges from the parts naming them: each begins where the one before it ends
+  // (the first at the base) and ends where its part does (or where it begins, named by none);
+  // the last ends at the mesh's end.
+  function blockRanges(chunkList) {
+    const ends = meshes.map((m) => m.blocks.map(() => null));
+    for (const c of Array.isArray(chunkList) ? chunkList : []) {
+      for (const p of c && Array.isArray(c.parts) ? c.parts : []) {
+        if (!Array.isArray(p) || p.length !== 5 || !p.every(Number.isSafeInteger)) continue;
+        const e = ends[p[0]];
+        if (e && p[4] >= 0 && p[4] < e.length && e[p[4]] === null) e[p[4]] = [p[1], p[2]];
+      }
+    }
+    meshes.forEach((m, i) => {
+      if (m.blocks.length === 0) return;
+      let vertexAt = m.base_vertices, faceAt = m.base_faces;
+      m.blocks.forEach((b, k) => {
+        b.vertex_begin = vertexAt;
+        b.face_begin = faceAt;
+        const e = ends[i][k];
+        if (e) {
+          need(e[0] >= vertexAt && e[1] >= faceAt && e[0] <= m.vertices && e[1] <= m.faces,
+            `meshes[${i}].blocks[${k}] ends at vertex ${e[0]}, face ${e[1]}, before it begins or past the mesh`);
+          [vertexAt, faceAt] = e;
+        }
+        b.vertex_end = vertexAt;
+        b.face_end = faceAt;
+      });
+      need(vertexAt === m.vertices && faceAt === m.faces, `meshes[${i}].blocks end at vertex ${vertexAt}, face ${faceAt}, not at the mesh's end`);
+    });
+  }
   const texture = t.texture == null ? null
     : { width: int(obj(t.texture, 'texture').width, 'texture.width'), height: int(t.texture.height, 'texture.height') };
 
   // Chunks, with the parts simulated in stream order: each continues where its mesh stands.
+  blockRanges(t.chunks);
   const held = meshes.map((m) => ({ vertices: m.base_vertices, faces: m.base_faces }));
+  const sent = meshes.map((m) => new Uint8Array(m.blocks.length));  // per block mesh: its parts read
   let completed = false;  // the completion was read: no mesh chunk may follow
   const chunks = arr(t.chunks, 'chunks').map((c, i) => {
     const w = `chunks[${i}]`;
@@ -204,20 +261,39 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     }
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
-      // [mesh, vertex_end, face_end, bytes], starting where its mesh stands.
+      // [mesh, vertex_end, face_end, bytes], starting where its mesh stands; a block mesh's
+      // [mesh, vertex_end, face_end, bytes, block], its block's range, after its dependencies.
       const pw = `${w}.parts[${j}]`;
-      need(Array.isArray(p) && p.length === 4, `${pw} must be [mesh, vertex_end, face_end, bytes]`);
+      need(Array.isArray(p) && p.length >= 4, `${pw} must be [mesh, vertex_end, face_end, bytes]`);
       const mesh = int(p[0], `${pw}[0] (mesh)`, meshes.length - 1), m = meshes[mesh], h = held[mesh];
+      const blocky = m.blocks.length > 0;
+      need(p.length === (blocky ? 5 : 4), blocky ? `${pw} must be [mesh, vertex_end, face_end, bytes, block]`
+        : `${pw} must be [mesh, vertex_end, face_end, bytes]`);
       const part = { mesh, vertex_begin: h.vertices, vertex_end: int(p[1], `${pw}[1] (vertex_end)`),
-        face_begin: h.faces, face_end: int(p[2], `${pw}[2] (face_end)`), bytes: int(p[3], `${pw}[3] (bytes)`) };
+        face_begin: h.faces, face_end: int(p[2], `${pw}[2] (face_end)`), bytes: int(p[3], `${pw}[3] (bytes)`), block: -1 };
+      if (blocky) {
+        const k = int(p[4], `${pw}[4] (block)`, m.blocks.length - 1), b = m.blocks[k];
+        need(part.vertex_end === b.vertex_end && part.face_end === b.face_end,
+          `${pw}: block ${k} ends at vertex ${b.vertex_end}, face ${b.face_end}`);
+        need(!sent[mesh][k], `${pw}: block ${k} sent twice`);
+        for (const x of b.deps) {
+          const y = m.blocks[x];
+          need(sent[mesh][x] || (y.vertex_end === y.vertex_begin && y.face_end === y.face_begin),
+            `${pw}: block ${k} before block ${x}, which it depends on`);
+        }
+        sent[mesh][k] = 1;
+        part.block = k;
+        part.vertex_begin = b.vertex_begin;
+        part.face_begin = b.face_begin;
+      }
       need(part.vertex_end >= part.vertex_begin && part.vertex_end <= m.vertices, `${pw}: vertex_end ${part.vertex_end} outside [${part.vertex_begin}, ${m.vertices}]`);
       need(part.face_end >= part.face_begin && part.face_end <= m.faces, `${pw}: face_end ${part.face_end} outside [${part.face_begin}, ${m.faces}]`);
       const nv = part.vertex_end - part.vertex_begin, nf = part.face_end - part.face_begin;
       // Coded: the range coder's head, and no more splits and faces than its bytes can carry.
       need(part.bytes >= PART_MIN_BYTES && nv + nf <= PART_ELEMENTS_PER_BYTE * part.bytes + PART_ELEMENTS_CONSTANT,
         `${pw}: ${part.bytes} bytes cannot hold ${nv} splits and ${nf} faces`);
-      h.vertices = part.vertex_end;
-      h.faces = part.face_end;
+      h.vertices = Math.max(h.vertices, part.vertex_end);
+      h.faces = Math.max(h.faces, part.face_end);
       bytes += part.bytes;
       return part;
     });
@@ -226,6 +302,8 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     return chunk;
   });
   const n = chunks.length;
+  meshes.forEach((m, i) => m.blocks.forEach((b, k) => need(sent[i][k] || (b.vertex_end === b.vertex_begin && b.face_end === b.face_begin),
+    `meshes[${i}].blocks[${k}] is in no part`)));
 
   // Orders: permutations of the chunks that keep the mesh chunks' relative order.
   const orders = (t.orders === undefined ? [{ name: 'rate-distortion', chunks: chunks.map((_, i) => i) }] : arr(t.orders, 'orders')).map((o, k) => {

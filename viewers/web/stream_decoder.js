@@ -145,6 +145,13 @@ export class MeshDecoder {
     this._check(this._call(() => this.decoder.x.mmx_apply_part(this.handle, at, end - begin, splits, faces)));
   }
 
+  // Applies one block part (stream/format.h "Blocks"): its contexts fresh, its `splits` vertices
+  // placed at stream numbers vertexBegin on.
+  applyBlockSplits(d, begin, end, vertexBegin, splits, faces) {
+    const at = this.decoder.input(d.subarray(begin, end));
+    this._check(this._call(() => this.decoder.x.mmx_apply_block_part(this.handle, at, end - begin, vertexBegin, splits, faces)));
+  }
+
   // What changed since vertex v0 and face f0 (the counts at beginChanges): {v0, vn, f0, nf,
   // solid, position, normal, uv (the new vertices' float attributes: positions as the grid's
   // integers when `quantized`, else origin + q·step), appended (the new faces' indices), moved

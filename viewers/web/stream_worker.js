@@ -8,8 +8,9 @@
 //   setup  {meshes: [{vertices, faces, origin, step, base: {qp, qn, qt, count, quantized,
 //          faces: [Uint32Array]} | null}]} → {solid: [per mesh]}: the meshes with their bases
 //          (the decoder checks every base face)
-//   chunk  {parts: [[mesh, splits, faces, bytes]], payload} → {changes, seconds}: the chunk's
-//          parts applied in order; per mesh touched {mesh, v0, vn, f0, nf, solid, position,
+//   chunk  {parts: [[mesh, splits, faces, bytes, vertexBegin]], payload} → {changes, seconds}:
+//          the chunk's parts applied in order (vertexBegin ≥ 0: a block part, stream/format.h
+//          "Blocks", its vertices placed from that stream number on); per mesh touched {mesh, v0, vn, f0, nf, solid, position,
 //          normal, uv (the new vertices' float attributes), appended (the new faces' indices),
 //          moved ([corner, vertex] pairs: corners of earlier faces the splits moved)}
 //   digests {} → {digests}: per mesh, stream/vsplit.h state_digest of what it holds (none
@@ -85,7 +86,7 @@ function chunk(m, payload) {
   const t0 = performance.now();
   const touched = new Map();  // mesh → where it stood before this chunk
   let at = 0;
-  for (const [mesh, splits, faces, bytes] of m.parts) {
+  for (const [mesh, splits, faces, bytes, vertexBegin = -1] of m.parts) {
     const entry = meshes[mesh];
     if (!entry) throw new Error(`mesh chunk: part of mesh ${mesh}, the package has ${meshes.length}`);
     if (!touched.has(mesh)) {
@@ -93,7 +94,8 @@ function chunk(m, payload) {
       touched.set(mesh, [entry.state.vertices, entry.state.faces]);
     }
     if (!(at + bytes <= payload.length)) throw new Error(`mesh ${mesh}: its part runs past the chunk's ${payload.length} bytes`);
-    entry.state.applySplits(payload, at, at + bytes, splits, faces);
+    if (vertexBegin >= 0) entry.state.applyBlockSplits(payload, at, at + bytes, vertexBegin, splits, faces);
+    else entry.state.applySplits(payload, at, at + bytes, splits, faces);
     at += bytes;
   }
   const seconds = (performance.now() - t0) / 1000;

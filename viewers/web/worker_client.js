@@ -203,7 +203,9 @@ export class StreamWorker {
   // `payload`: the chunk's bytes, or HeldBytes of this worker's.
   async applyChunk(meshes, chunk, payload) {
     checkParts(meshes, chunk, payload);
-    const parts = chunk.parts.map((p) => [p.mesh, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin, p.bytes]);
+    // A block part (stream/format.h "Blocks") carries its first vertex's stream number.
+    const parts = chunk.parts.map((p) => [p.mesh, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin, p.bytes,
+      p.block >= 0 ? p.vertex_begin : -1]);
     const reply = await this._request(...this._bytesMessage({ type: 'chunk', parts }, 'payload', payload));
     let added = 0;
     for (const c of reply.changes) {

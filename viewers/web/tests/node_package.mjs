@@ -134,7 +134,9 @@ export function freeStates(states) {
 export function applyChunk(states, bytes, c) {
   let at = c.offset;
   for (const p of c.parts) {
-    states[p.mesh].applySplits(bytes, at, at + p.bytes, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
+    // A block part (stream/format.h "Blocks"): its vertices placed at their stream numbers.
+    if (p.block >= 0) states[p.mesh].applyBlockSplits(bytes, at, at + p.bytes, p.vertex_begin, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
+    else states[p.mesh].applySplits(bytes, at, at + p.bytes, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
     at += p.bytes;
   }
 }
