@@ -170,6 +170,30 @@ std::string report_json(const MultiplexResult& r, const DownloadComparison* vs,
   for (size_t k = 0; k < r.stream_digests.size(); ++k)
     out << (k ? ", " : "") << r.stream_digests[k];
   out << "],\n  \"mesh_stream_bits\": " << mesh_stream_bits_json(r.layer_parts);
+  // A block hierarchy's parts (stream/format.h "Blocks"): per block part, the mesh layer that
+  // ships it, its coded bytes, its level, the error it removes and how many blocks it needs.
+  // (The order's distortion is measured per mesh layer, not per block.)
+  bool blocks = false;
+  for (const MeshStreamBase& m : r.mesh_streams) blocks = blocks || !m.blocks.empty();
+  if (blocks) {
+    out << ",\n  \"blocks\": [";
+    bool first = true;
+    for (size_t k = 0; k < r.layer_parts.size(); ++k)
+      for (const EncodedMeshPart& part : r.layer_parts[k]) {
+        if (part.part.block < 0 || part.part.mesh >= r.mesh_streams.size()) continue;
+        const std::vector<StreamBlock>& list = r.mesh_streams[part.part.mesh].blocks;
+        if (size_t(part.part.block) >= list.size()) continue;
+        const StreamBlock& b = list[size_t(part.part.block)];
+        std::snprintf(buf, sizeof buf,
+                      "%s\n    {\"mesh\": %u, \"block\": %d, \"layer\": %zu, \"bytes\": %llu, "
+                      "\"level\": %u, \"error\": %.6g, \"deps\": %zu}",
+                      first ? "" : ",", part.part.mesh, part.part.block, k,
+                      (unsigned long long)part.bytes(), b.level, b.error, b.deps.size());
+        out << buf;
+        first = false;
+      }
+    out << "\n  ]";
+  }
   out << ",\n  \"texture_level_bytes\": [";
   for (size_t k = 0; k < r.texture_bytes.size(); ++k) out << (k ? ", " : "") << r.texture_bytes[k];
   out << "],\n  \"texture_levels\": {\"shipped\": [";

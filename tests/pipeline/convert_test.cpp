@@ -606,5 +606,44 @@ TEST(Convert, KeptImagesComeWithTheTextureLevels) {
   EXPECT_GE(model_texels, 256u * 256u) << "model.glb keeps it whole";
 }
 
+// A mesh over the block threshold (lowered here: a scan-like bumpy sphere of 36k triangles in
+// ~120 blocks) streams as a block hierarchy: a version 16 package whose every part names its
+// block, and report.json lists each block part with the mesh layer that ships it, its bytes
+// (summing to that layer's), its level and error.
+TEST(Convert, BlockMeshReportsItsBlocks) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  ConvertOptions o;
+  o.simplify.block_above = 4000, o.simplify.block_positions = 512, o.simplify.block_until = 2000;
+  Warnings warnings;
+  auto out = convert(testing::bumpy_sphere(96, 192), o, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_EQ(pkg->version, kBlockPackageVersion);
+  ASSERT_GT(pkg->meshes[0].blocks.size(), 16u);
+  size_t parts = 0;
+  for (const PackageChunk& c : pkg->chunks)
+    for (const PackagePart& p : c.parts) {
+      EXPECT_GE(p.block, 0);
+      ++parts;
+    }
+  const auto report = nlohmann::json::parse(out->report_json);
+  ASSERT_TRUE(report.contains("blocks"));
+  const auto& blocks = report["blocks"];
+  EXPECT_EQ(blocks.size(), parts);
+  std::vector<uint64_t> layer_bytes(report["mesh_layer_bytes"].size(), 0);
+  size_t layer = 0;
+  for (const auto& b : blocks) {
+    ASSERT_GE(b["layer"].get<size_t>(), layer);  // in stored order
+    layer = b["layer"].get<size_t>();
+    ASSERT_LT(layer, layer_bytes.size());
+    layer_bytes[layer] += b["bytes"].get<uint64_t>();
+    EXPECT_GE(b["error"].get<double>(), 0.0);
+  }
+  for (size_t k = 1; k < layer_bytes.size(); ++k)
+    EXPECT_EQ(layer_bytes[k], report["mesh_layer_bytes"][k].get<uint64_t>()) << "layer " << k;
+}
+
 }  // namespace
 }  // namespace meshmux
