@@ -221,9 +221,8 @@ Result<Input> prepare(const Config& cfg) {
   t0 = Clock::now();
   SimplifyReport rep;
   SimplifyOptions sopt;
-  // The levels merged by error: a prefix is then a uniform cut (ordered by blocks, as the
-  // converter streams them, a prefix refines whole blocks in turn).
-  sopt.order_blocks = false;
+  // build_progressive's record keeps the levels merged by error: a prefix is a uniform cut (the
+  // converter then orders it by blocks for the stream: dag_figures below).
   if (cfg.block_above) sopt.block_above = cfg.block_above;
   if (cfg.block_positions) sopt.block_positions = uint32_t(cfg.block_positions);
   in.record = build_progressive(cleaned, sopt, &rep);

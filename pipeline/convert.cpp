@@ -10,6 +10,7 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdarg>
 #include <cstdio>
 #include <optional>
@@ -24,6 +25,7 @@
 #include "image/ktx2_encode.h"
 #include "multiplex/report.h"
 #include "multiplex/stream_plan.h"
+#include "simplify/block_dag.h"
 #include "simplify/lod.h"
 #include "stream/deflate.h"
 #include "stream/package.h"
@@ -663,12 +665,34 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
   // pages: handed back before the multiplexer allocates (4M scan: ~360 MB it started above its
   // record).
   malloc_trim(0);
+  // A big mesh's block hierarchy ordered by blocks with its DAG: what the stream's block parts
+  // need (stream/format.h "Blocks").
+  {
+    size_t blocks = 0;
+    for (const ProgressiveMesh& pm : ps.meshes) blocks += pm.blocks.size();
+    if (blocks) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (Status st = order_block_records(ps); !st) return st;
+      size_t parts = 0;
+      for (const ProgressiveMesh& pm : ps.meshes) parts += pm.blocks.size();
+      report_step(
+          progress,
+          format("block hierarchy: %zu blocks, ordered with their dependencies in %.1f s", parts,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()));
+      malloc_trim(0);
+    }
+  }
   // 7–10. The base, the order and the package. The package's bound: the completion step keeps it
   // (multiplex/multiplex.h) down to the full mesh single-rate right after the base, the least a
   // package holds; where even that is over the bound (or the splits from the base cost less than
   // it, yet over the bound), the base gives way by the excess, once, as the first picture's bytes
   // bound it.
   uint64_t base_limit = first_picture_bytes(out.model_glb.size(), o);
+  bool blocks = false;
+  for (const ProgressiveMesh& pm : ps.meshes) blocks = blocks || !pm.blocks.empty();
+  const double ratio = blocks && o.max_package_ratio > 0
+                           ? std::max(o.max_package_ratio, o.max_block_package_ratio)
+                           : o.max_package_ratio;
   for (int attempt = 0;; ++attempt) {
     Warnings attempt_warnings;
     ConvertOutputs tried = out;
@@ -676,10 +700,9 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
                                  &attempt_warnings, progress);
         !st)
       return st;
-    const uint64_t max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
+    const uint64_t max_bytes = uint64_t(ratio * double(out.model_glb.size()));
     // (A model shipped whole has no base to give: its package is its base and the table.)
-    const bool over = o.max_package_ratio > 0 && !tried.package.empty() &&
-                      tried.package.size() > max_bytes &&
+    const bool over = ratio > 0 && !tried.package.empty() && tried.package.size() > max_bytes &&
                       selection_triangles(ps, select_full(ps)) >= o.simplify.ship_whole_below;
     if (!over || attempt == 1) {
       if (over)
@@ -699,7 +722,7 @@ Result<ConvertOutputs> convert(Scene input, const ConvertOptions& options, Warni
     report_step(progress,
                 format("package: %.1f kB over its bound (%.2f x model.glb) even where the "
                        "base's refinements end soonest: the base gives way, to %.1f kB",
-                       double(excess) / 1e3, o.max_package_ratio, double(base_limit) / 1e3));
+                       double(excess) / 1e3, ratio, double(base_limit) / 1e3));
   }
 }
 

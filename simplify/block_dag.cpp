@@ -87,7 +87,8 @@ void reduce(std::vector<std::vector<uint16_t>>& deps, const std::vector<uint16_t
 
 }  // namespace
 
-BlockReplay::BlockReplay(const ProgressiveMesh& pm) : pm_(pm) {
+BlockReplay::BlockReplay(const ProgressiveMesh& pm, bool keep_corners)
+    : pm_(pm), keep_corners_(keep_corners) {
   const size_t nv = pm.vertex_count(), nf = pm.face_count();
   // Ancestry as intervals (depth-first numbering; parents precede children).
   size_.assign(nv, 1), enter_.assign(nv, 0);
@@ -106,7 +107,8 @@ BlockReplay::BlockReplay(const ProgressiveMesh& pm) : pm_(pm) {
     }
   }
   present_.assign(nv, 0), appeared_.assign(nf, 0);
-  cur_.assign(3 * nf, 0), next_.assign(3 * nf, -1), head_.assign(nv, -1);
+  if (keep_corners_) cur_.assign(3 * nf, 0);
+  next_.assign(3 * nf, -1), head_.assign(nv, -1);
   mark_face_.assign(nf, 0), mark_list_.assign(nv, 0);
   const ProgressiveLevel& first = pm.levels.front();
   for (uint32_t v = 0; v < first.vertex_end; ++v) present_[v] = 1;
@@ -115,7 +117,8 @@ BlockReplay::BlockReplay(const ProgressiveMesh& pm) : pm_(pm) {
     for (int k = 0; k < 3; ++k) {
       const size_t c = 3 * size_t(f) + size_t(k);
       const uint32_t x = mapped(pm.indices[c]);
-      cur_[c] = x, next_[c] = head_[x], head_[x] = int32_t(c);
+      if (keep_corners_) cur_[c] = x;
+      next_[c] = head_[x], head_[x] = int32_t(c);
     }
   }
 }
@@ -155,7 +158,8 @@ Status BlockReplay::apply_level(size_t r) {
   };
   if (r == 0 || r >= pm_.levels.size()) return fail("no such level");
   const ProgressiveLevel &before = pm_.levels[r - 1], &after = pm_.levels[r];
-  std::vector<uint32_t> faces;  // met, in order (marks: 1 read, 2 written)
+  std::vector<uint32_t>& faces = met_;  // met, in order (marks: 1 read, 2 written)
+  faces.clear();
   auto list = [&](uint32_t v) {
     if (!mark_list_[v]) mark_list_[v] = 1, lists_touched.push_back(v);
   };
@@ -170,7 +174,7 @@ Status BlockReplay::apply_level(size_t r) {
                   " is not present");
     present_[v] = 1;
     list(p), list(v), parents.push_back(p);
-    if (signatures) {
+    if (signatures && keep_corners_) {
       sign(p), sign_list(p);
       std::vector<uint32_t>& twins = twins_at(p);
       for (size_t i = twins.size(); i-- > 0 && twins.size() - i <= 4;) sign(twins[i]);
@@ -183,7 +187,8 @@ Status BlockReplay::apply_level(size_t r) {
       const uint32_t o = enter_[pm_.indices[size_t(c)]];
       if (enter_[v] <= o && o < enter_[v] + size_[v]) {  // descends from v: v stands for it now
         (previous < 0 ? head_[p] : next_[size_t(previous)]) = following;
-        next_[size_t(c)] = head_[v], head_[v] = c, cur_[size_t(c)] = v;
+        next_[size_t(c)] = head_[v], head_[v] = c;
+        if (keep_corners_) cur_[size_t(c)] = v;
         face(uint32_t(c) / 3, 2);
       } else {
         previous = c;
@@ -194,23 +199,24 @@ Status BlockReplay::apply_level(size_t r) {
   for (uint32_t f = before.face_end; f < after.face_end; ++f) {
     if (appeared_[f]) return fail("face " + std::to_string(f) + " appeared before");
     appeared_[f] = 1;
+    uint32_t held[3];
     for (int k = 0; k < 3; ++k) {
       const size_t c = 3 * size_t(f) + size_t(k);
       const uint32_t x = mapped(pm_.indices[c]);
       if (!present_[x]) return fail("face " + std::to_string(f) + ": no present corner");
-      cur_[c] = x, next_[c] = head_[x], head_[x] = int32_t(c);
+      held[k] = x;
+      if (keep_corners_) cur_[c] = x;
+      next_[c] = head_[x], head_[x] = int32_t(c);
       list(x);
     }
-    if (cur_[3 * size_t(f)] == cur_[3 * size_t(f) + 1] ||
-        cur_[3 * size_t(f) + 1] == cur_[3 * size_t(f) + 2] ||
-        cur_[3 * size_t(f)] == cur_[3 * size_t(f) + 2])
+    if (held[0] == held[1] || held[1] == held[2] || held[0] == held[2])
       return fail("face " + std::to_string(f) + " is degenerate");
     face(f, 2);
   }
   // The ring and predictors read every face around the new vertices once they are made.
   for (uint32_t v = before.vertex_end; v < after.vertex_end; ++v) {
     for (int32_t c = head_[v]; c >= 0; c = next_[size_t(c)]) face(uint32_t(c) / 3, 1);
-    if (signatures) sign_list(v), sign_list(pm_.parent[v]);
+    if (signatures && keep_corners_) sign_list(v), sign_list(pm_.parent[v]);
   }
   for (uint32_t f : faces) {
     (mark_face_[f] == 2 ? faces_written : faces_read).push_back(f);
@@ -239,7 +245,7 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
   std::vector<std::array<uint16_t, 3>> readers(pm.face_count(), {kNone, kNone, kNone});
   const std::vector<uint32_t> position_id = position_ids(pm.positions);
   std::vector<uint16_t> twin_last(pm.vertex_count(), kNone);  // per position id
-  BlockReplay replay(pm);
+  BlockReplay replay(pm, /*keep_corners=*/false);
   for (size_t r = 1; r < pm.levels.size(); ++r) {
     const uint16_t x = pm.level_block[r - 1];
     if (x >= blocks) return fail("level " + std::to_string(r) + ": no block " + std::to_string(x));
@@ -251,9 +257,6 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
     auto depend = [&](uint16_t y) {
       if (y != kNone && y != x) deps[x].push_back(y);
     };
-    auto include_face = [&](uint32_t f) {
-      for (uint32_t c : replay.corners(f)) include(node, pm.positions[c]);
-    };
     for (uint32_t v : replay.lists_touched) {
       depend(list_last[v]), list_last[v] = x;
       include(node, pm.positions[v]);
@@ -264,7 +267,6 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
     }
     for (uint32_t f : replay.faces_read) {
       depend(writer[f]);
-      include_face(f);
       std::array<uint16_t, 3>& rd = readers[f];
       if (std::find(rd.begin(), rd.end(), x) != rd.end()) continue;
       auto slot = std::find(rd.begin(), rd.end(), kNone);
@@ -285,7 +287,6 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
       depend(writer[f]);
       for (uint16_t& y : readers[f]) depend(y), y = kNone;
       writer[f] = x;
-      include_face(f);
     }
   }
   for (auto& d : deps) {
@@ -304,14 +305,28 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
 
 namespace {
 
-// Moves the items of `v` (each `stride` values) to their new places: out[to[i]] = v[i].
+// Moves the items of `v` (each `stride` values) to their new places, v[to[i]] = old v[i], in
+// place: each cycle of the permutation followed once (a bit per item marks those placed), where
+// a copy of the array held it twice (a 20M-triangle record's indices: 240 MB more at the
+// conversion's peak).
 template <typename T>
-void permute(std::vector<T>& v, const std::vector<uint32_t>& to, size_t stride) {
+void permute(std::vector<T>& v, const std::vector<uint32_t>& to, size_t stride,
+             std::vector<bool>& placed) {
   if (v.empty()) return;
-  std::vector<T> out(v.size());
-  for (size_t i = 0; i < to.size(); ++i)
-    for (size_t k = 0; k < stride; ++k) out[size_t(to[i]) * stride + k] = v[i * stride + k];
-  v.swap(out);
+  placed.assign(to.size(), false);
+  std::array<T, 3> carry{}, next{};
+  for (size_t start = 0; start < to.size(); ++start) {
+    if (placed[start]) continue;
+    for (size_t k = 0; k < stride; ++k) carry[k] = v[start * stride + k];
+    for (size_t i = start; !placed[i];) {
+      placed[i] = true;
+      const size_t j = to[i];
+      for (size_t k = 0; k < stride; ++k) next[k] = v[j * stride + k];
+      for (size_t k = 0; k < stride; ++k) v[j * stride + k] = carry[k];
+      carry = next;
+      i = j;
+    }
+  }
 }
 
 }  // namespace
@@ -375,13 +390,14 @@ Status order_by_blocks(ProgressiveMesh& pm) {
   // The arrays renumbered.
   for (uint32_t& p : pm.parent) p = vertex_to[p];
   for (uint32_t& i : pm.indices) i = vertex_to[i];
-  permute(pm.parent, vertex_to, 1);
-  permute(pm.positions, vertex_to, 1);
-  permute(pm.normals, vertex_to, 1);
-  for (std::vector<Vec2>& uv : pm.uvs) permute(uv, vertex_to, 1);
-  permute(pm.colors, vertex_to, 1);
-  permute(pm.indices, face_to, 3);
-  permute(pm.face_primitive, face_to, 1);
+  std::vector<bool> placed;
+  permute(pm.parent, vertex_to, 1, placed);
+  permute(pm.positions, vertex_to, 1, placed);
+  permute(pm.normals, vertex_to, 1, placed);
+  for (std::vector<Vec2>& uv : pm.uvs) permute(uv, vertex_to, 1, placed);
+  permute(pm.colors, vertex_to, 1, placed);
+  permute(pm.indices, face_to, 3, placed);
+  permute(pm.face_primitive, face_to, 1, placed);
   pm.levels = std::move(out_levels);
   pm.base_level = base;
   // The root (one global chain, every block's ancestor) in pieces of growing triangles from the
@@ -413,6 +429,28 @@ Status order_by_blocks(ProgressiveMesh& pm) {
   }
   pm.blocks = std::move(kept);
   pm.level_block = std::move(out_block);
+  return Status::ok();
+}
+
+Status order_block_records(ProgressiveScene& ps) {
+  for (size_t m = 0; m < ps.meshes.size(); ++m) {
+    ProgressiveMesh& pm = ps.meshes[m];
+    if (pm.blocks.empty()) continue;
+    const std::string where = "simplify: mesh " + std::to_string(m) + ": ";
+    if (Status s = order_by_blocks(pm); !s) return s.with_prefix(where.substr(0, where.size() - 2));
+    Result<BlockDag> dag = block_dag(pm);
+    if (!dag) return dag.status().with_prefix(where.substr(0, where.size() - 2));
+    for (size_t b = 0; b < pm.blocks.size(); ++b) {
+      BlockNode& node = dag->nodes[b];
+      for (uint16_t d : node.deps)
+        if (d >= b)
+          return Status::error(where + "block " + std::to_string(b) + " depends on a later block " +
+                                   std::to_string(d),
+                               ErrorKind::kInternal);
+      pm.blocks[b].deps = std::move(node.deps);
+      pm.blocks[b].box_min = node.box_min, pm.blocks[b].box_max = node.box_max;
+    }
+  }
   return Status::ok();
 }
 

@@ -36,8 +36,8 @@ namespace meshmux {
 struct BlockNode {
   std::vector<uint16_t> deps;  // blocks to apply before this one, ascending, transitively
                                // reduced (none of them reachable through another)
-  Vec3 box_min{}, box_max{};   // bounds of what it refines: its vertices and every vertex of
-                               // the faces it reads or writes (mesh space)
+  Vec3 box_min{}, box_max{};   // bounds of what it refines: its vertices and the vertices
+                               // whose corner lists it touches (mesh space)
   float error = 0;             // ProgressiveBlock::error
   uint32_t levels = 0;         // record levels (collapses undone) in the block
   uint32_t vertices = 0;       // vertices it adds
@@ -52,7 +52,8 @@ struct BlockDag {
 // The DAG of a record with a block hierarchy (pm.blocks non-empty): one replay of every level in
 // record order. Errors (kInternal) name the block when the record's own order is not a
 // topological order of what it found (a cycle: blocks of one level that touched the same list).
-// O(faces × the corners walked per split + levels); memory ~36 bytes per face.
+// O(faces × the corners walked per split + levels); memory ~22 bytes per face and ~26 per vertex
+// beside the record. A block's box: the positions of the vertices whose lists it touches.
 Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 
 // Renumbers a record with a block hierarchy so that each block's levels are contiguous: the
@@ -71,21 +72,32 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 // is an earlier block), those that made no collapse dropped. A block that is a
 // part of the stream is then one run of vertices and faces. Fails (kInternal)
 // when the record has no block hierarchy or its level blocks do not fit it.
-// O(V + F + levels log levels); memory: one copy of each per-vertex and per-face array at a time.
+// O(V + F + levels log levels); memory: the new places of every vertex and face (12 bytes a
+// face), the arrays permuted in place.
 Status order_by_blocks(ProgressiveMesh& pm);
+
+// What the stream needs of every block-built record of `ps` (pm.blocks non-empty; others are
+// left as they are): order_by_blocks, then block_dag, each block's dependencies and box kept in
+// pm.blocks. The pipeline calls it once the scene the record was made from is freed (at 20M
+// triangles the DAG's replay beside that scene would be the conversion's peak). Errors
+// (kInternal) name the mesh: a record that is not a block hierarchy the DAG can be made of.
+Status order_block_records(ProgressiveScene& ps);
 
 // A client state of a record, refined level by level in any order the caller chooses: the
 // replay block_dag() makes, for tests and analysis. Starts at the coarsest level (levels[0]).
 class BlockReplay {
  public:
-  explicit BlockReplay(const ProgressiveMesh& pm);
+  // `keep_corners`: hold every face's current corners (corners(), signatures); without them
+  // (block_dag's replay) 12 bytes a face less.
+  explicit BlockReplay(const ProgressiveMesh& pm, bool keep_corners = true);
   // Applies record level r (1 ≤ r < levels): its vertices then its faces. Fails (kInternal,
   // naming the level and vertex) when a parent is not present or a new face is degenerate:
   // what a set that is not dependency-closed gives.
   Status apply_level(size_t r);
   bool present(uint32_t v) const { return present_[v] != 0; }
   bool appeared(uint32_t f) const { return appeared_[f] != 0; }
-  // Face f's corners as held (its full-mesh corners mapped as the splits moved them).
+  // Face f's corners as held (its full-mesh corners mapped as the splits moved them); needs
+  // keep_corners.
   std::array<uint32_t, 3> corners(uint32_t f) const {
     return {cur_[3 * size_t(f)], cur_[3 * size_t(f) + 1], cur_[3 * size_t(f) + 2]};
   }
@@ -100,7 +112,7 @@ class BlockReplay {
   // over each split's parent, the parent's list before and both lists after (each corner with
   // its face's three corners, in list order) and the twins split earlier at the parent's
   // position (newest first). Equal signatures for a level in two states: its splits read the
-  // same things. Off: 0.
+  // same things. Off (or without keep_corners): 0.
   bool signatures = false;
   uint64_t signature = 0;
 
@@ -110,6 +122,8 @@ class BlockReplay {
   std::vector<uint32_t> cur_;
   std::vector<int32_t> head_, next_;
   std::vector<uint8_t> mark_face_, mark_list_;  // scratch: met in this level
+  std::vector<uint32_t> met_;                   // scratch: the faces met in this level
+  bool keep_corners_ = true;
   // The split forest's ancestry as intervals: u is o or an ancestor of o exactly when
   // enter_[u] ≤ enter_[o] < enter_[u] + size_[u] (the stream encoder's test).
   std::vector<uint32_t> enter_, size_;

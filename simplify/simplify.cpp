@@ -37,7 +37,6 @@
 #include "core/parallel.h"
 #include "scene/dvec3.h"
 #include "scene/position_key.h"
-#include "simplify/block_dag.h"
 #include "simplify/simplifier.h"
 
 namespace meshmux {
@@ -351,27 +350,6 @@ Scene without_vertex_data(const Scene& scene) {
   return out;
 }
 
-namespace {
-
-// A block-built record ordered by blocks, with each block's dependencies and box (block_dag.h):
-// what the stream's block parts need. The record made the blocks, so neither step can fail.
-void order_blocks(ProgressiveMesh& pm) {
-  if (Status st = order_by_blocks(pm); !st) throw std::logic_error(st.message());
-  Result<BlockDag> dag = block_dag(pm);
-  if (!dag) throw std::logic_error(dag.status().message());
-  for (size_t b = 0; b < pm.blocks.size(); ++b) {
-    BlockNode& node = dag->nodes[b];
-    for (uint16_t d : node.deps)
-      if (d >= b)
-        throw std::logic_error("simplify: block " + std::to_string(b) +
-                               " depends on a later block " + std::to_string(d));
-    pm.blocks[b].deps = std::move(node.deps);
-    pm.blocks[b].box_min = node.box_min, pm.blocks[b].box_max = node.box_max;
-  }
-}
-
-}  // namespace
-
 ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& options,
                                    SimplifyReport* report, Progress* progress) {
   auto start = std::chrono::steady_clock::now();
@@ -424,7 +402,6 @@ ProgressiveScene build_progressive(const Scene& cleaned, const SimplifyOptions& 
         malloc_trim(0);  // the block levels' freed units back to the OS before the
                          // record is allocated
       s.record(scene.meshes[m], m, ps.meshes[m]);
-      if (!ps.meshes[m].blocks.empty() && options.order_blocks) order_blocks(ps.meshes[m]);
       ps.instance_orders[m] = instance_order(scene, m, box);
     }
   });

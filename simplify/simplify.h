@@ -61,12 +61,9 @@ struct SimplifyOptions {
   uint64_t block_above = 1000000;    // a submesh with more faces takes the block levels first
   uint32_t block_positions = 32768;  // positions per block (about half its faces)
   uint64_t block_until = 262144;     // block levels run while more faces than this are live
-  bool order_blocks = true;  // a block-built record is renumbered block by block (block_dag.h
-                             // order_by_blocks: each block one part of the stream); false keeps
-                             // the levels merged by error (for tests of the ordering)
-  std::string spill_dir;     // the first block level's quadrics wait in an unnamed file here (the
-                             // output's folder): ~75 bytes per input face out of memory; empty:
-                             // they stay in memory
+  std::string spill_dir;  // the first block level's quadrics wait in an unnamed file here (the
+                          // output's folder): ~75 bytes per input face out of memory; empty:
+                          // they stay in memory
   uint64_t ship_whole_below = 10000;  // scenes under this many triangles ship whole (base = full)
   double ship_whole_fraction = 0.10;  // refinements under this fraction of the mesh: ship whole
   // The collapse loop's passes (bench/simplify.sh: at 1% and 1.1 the Hausdorff distances of

@@ -29,7 +29,6 @@ SimplifyOptions block_options() {
   o.block_above = 4000;
   o.block_positions = 512;
   o.block_until = 2000;
-  o.order_blocks = false;  // as merged by error: order_by_blocks is tested below
   return o;
 }
 

@@ -27,7 +27,6 @@ SimplifyOptions block_options() {
   o.block_above = 4000;
   o.block_positions = 512;
   o.block_until = 2000;
-  o.order_blocks = false;  // levels merged by error: uniform cuts, what the errors below compare
   return o;
 }
 

@@ -14,6 +14,7 @@
 
 #include "clean/clean.h"
 #include "multiplex/stream_plan.h"
+#include "simplify/block_dag.h"
 #include "simplify/lod.h"
 #include "simplify/simplify.h"
 #include "stream/deflate.h"
@@ -41,6 +42,7 @@ const Fixture& fixture() {
     SimplifyOptions so;
     so.block_above = 4000, so.block_positions = 512, so.block_until = 2000;
     f->ps = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), so);
+    EXPECT_TRUE(order_block_records(f->ps).is_ok());  // as the converter orders it
     const ProgressiveMesh& pm = f->ps.meshes[0];
     const size_t base = pm.base_level;
     MeshStreamEncoder encoder(pm, package_quantization(pm), 0, base);

@@ -60,9 +60,11 @@ std::vector<EncodedMeshPart> encode_parts(const ProgressiveMesh& pm, bool block_
 const Coded& coded() {
   static const Coded c = [] {
     SimplifyOptions o;
-    o.block_above = 4000, o.block_positions = 512, o.block_until = 2000;  // ordered by blocks
+    o.block_above = 4000, o.block_positions = 512, o.block_until = 2000;
     Coded out;
-    out.pm = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), o).meshes[0];
+    ProgressiveScene ps = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), o);
+    EXPECT_TRUE(order_block_records(ps).is_ok());  // as the converter orders it
+    out.pm = std::move(ps.meshes[0]);
     Result<BlockDag> dag = block_dag(out.pm);  // of the record as the converter orders it
     EXPECT_TRUE(dag.ok()) << dag.status().message();
     if (!dag.ok()) return out;
