@@ -15,6 +15,7 @@
 
 #include "clean/clean.h"
 #include "simplify/lod.h"
+#include "simplify/record_checks.h"
 #include "simplify/simplify.h"
 #include "test_util.h"
 
@@ -23,14 +24,8 @@ namespace {
 
 using testing::uv_sphere;
 
-// Blocks of 512 positions: ~36 blocks at the first level, levels until 2,000 faces are live.
-SimplifyOptions block_options() {
-  SimplifyOptions o;
-  o.block_above = 4000;
-  o.block_positions = 512;
-  o.block_until = 2000;
-  return o;
-}
+// Blocks of 512 positions (record_checks.h): tens of blocks at the first level.
+SimplifyOptions block_options() { return testing::small_block_options(); }
 
 // A scan-like bumpy sphere (test_util.h), cleaned.
 Scene bumpy_sphere() { return clean(testing::bumpy_sphere(96, 192), {}); }

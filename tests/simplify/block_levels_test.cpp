@@ -20,15 +20,8 @@ using testing::expect_same_record;
 using testing::record_on_threads;
 using testing::uv_sphere;
 
-// Blocks of 512 positions over a 16k-triangle sphere: ~16 blocks at the first level, block
-// levels until 2,000 faces are live.
-SimplifyOptions block_options() {
-  SimplifyOptions o;
-  o.block_above = 4000;
-  o.block_positions = 512;
-  o.block_until = 2000;
-  return o;
-}
+// Blocks of 512 positions (record_checks.h): tens of blocks at the first level.
+SimplifyOptions block_options() { return testing::small_block_options(); }
 
 Scene sphere_scene() {
   Scene s;

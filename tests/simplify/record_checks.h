@@ -10,6 +10,16 @@
 
 namespace meshmux::testing {
 
+// Block levels forced on small test meshes: a mesh over 4,000 faces takes them, in blocks of 512
+// positions (tens of blocks at the first level), until 2,000 faces are live.
+inline SimplifyOptions small_block_options() {
+  SimplifyOptions o;
+  o.block_above = 4000;
+  o.block_positions = 512;
+  o.block_until = 2000;
+  return o;
+}
+
 // The record of `s`'s first mesh, built with `o` on `threads` threads (MESHMUX_THREADS).
 inline ProgressiveMesh record_on_threads(const Scene& s, const SimplifyOptions& o,
                                          const char* threads) {

@@ -16,6 +16,7 @@
 #include "multiplex/stream_plan.h"
 #include "simplify/block_dag.h"
 #include "simplify/lod.h"
+#include "simplify/record_checks.h"
 #include "simplify/simplify.h"
 #include "stream/deflate.h"
 #include "stream/mesh_stream.h"
@@ -39,8 +40,7 @@ struct Fixture {
 const Fixture& fixture() {
   static Fixture* f = [] {
     auto* f = new Fixture;
-    SimplifyOptions so;
-    so.block_above = 4000, so.block_positions = 512, so.block_until = 2000;
+    const SimplifyOptions so = testing::small_block_options();
     f->ps = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), so);
     EXPECT_TRUE(order_block_records(f->ps).is_ok());  // as the converter orders it
     const ProgressiveMesh& pm = f->ps.meshes[0];

@@ -12,6 +12,7 @@
 
 #include "clean/clean.h"
 #include "simplify/block_dag.h"
+#include "simplify/record_checks.h"
 #include "simplify/simplify.h"
 #include "stream/mesh_stream.h"
 #include "stream/vsplit.h"
@@ -59,8 +60,7 @@ std::vector<EncodedMeshPart> encode_parts(const ProgressiveMesh& pm, bool block_
 
 const Coded& coded() {
   static const Coded c = [] {
-    SimplifyOptions o;
-    o.block_above = 4000, o.block_positions = 512, o.block_until = 2000;
+    const SimplifyOptions o = testing::small_block_options();
     Coded out;
     ProgressiveScene ps = build_progressive(clean(testing::bumpy_sphere(96, 192), {}), o);
     EXPECT_TRUE(order_block_records(ps).is_ok());  // as the converter orders it
