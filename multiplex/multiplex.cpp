@@ -599,9 +599,6 @@ Result<CompletionCut> cut_completion(const std::vector<LodSelection>& layers,
   CompletionCut cut;
   const size_t m = layers.size(), n = r.texture_bytes.size();
   if (m < 3 || !bound.fixed_bytes || !bound.completion) return cut;
-  // A block hierarchy's parts are what a client refines by view: never replaced whole.
-  for (const MeshStreamBase& b : r.mesh_streams)
-    if (!b.blocks.empty()) return cut;
   auto fixed = bound.fixed_bytes(r.mesh_streams);
   if (!fixed.ok()) return fixed.status().with_prefix("multiplex: completion");
   cut.fixed = *fixed;

@@ -538,7 +538,11 @@ Status stream_steps(ProgressiveScene& ps, const TextureLevels& levels_ref, const
   const std::vector<MeshStreamBase>* heads = nullptr;  // the multiplexer's, while it runs
   PackageBound bound;
   if (o.max_package_ratio > 0) {
-    bound.max_bytes = uint64_t(o.max_package_ratio * double(out.model_glb.size()));
+    bool blocks = false;  // block parts are bounded at the larger of the two ratios
+    for (const ProgressiveMesh& pm : ps.meshes) blocks = blocks || !pm.blocks.empty();
+    bound.max_bytes =
+        uint64_t(std::max(o.max_package_ratio, blocks ? o.max_block_package_ratio : 0.0) *
+                 double(out.model_glb.size()));
     bound.fixed_bytes = [&](const std::vector<MeshStreamBase>& h) -> Result<uint64_t> {
       heads = &h;
       auto glb = ordered_base_glb(ps, h, *levels, o, warnings);

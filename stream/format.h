@@ -87,12 +87,14 @@
 // (stream/vsplit.h decode_vsplit_block_part: fresh contexts, vertices placed, not appended). In
 // stored order the parts come in block order, so a client playing the chunks in order applies
 // them as a chain. A package holds version 16 only when a mesh has blocks (15 otherwise, byte
-// for byte as before); no completion follows block parts. Readers check: deps strictly ascending
+// for byte as before). A completion may end a block mesh's parts, as it ends a chain's (where
+// the parts would pass the package's bound): the blocks after it are sent by no part, and the
+// last block sent need not end at the mesh's counts. Readers check: deps strictly ascending
 // integers below the block's own index (a dependency on itself or a later block: a cycle; past
 // the list: a missing block), the box's integers within 16 bits and min ≤ max, the error finite
 // and ≥ 0, each block in at most one part, the parts' ends not decreasing in block order and
-// the last block ending at the mesh's counts, and every part after the parts of the blocks it
-// depends on.
+// the last block ending at the mesh's counts (without a completion), and every part after the
+// parts of the blocks it depends on.
 // Completion (optional, at most one, after every mesh chunk in every order): the full mesh sent
 // single-rate where the vertex splits' tail would cost more (the package's bound, or a tail
 // dearer than the full mesh). [m, v, f, n]: mesh m's full detail as a Draco bitstream of n

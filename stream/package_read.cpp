@@ -292,15 +292,24 @@ Status read_blocks(const Json& list, PackageMesh& pm, const std::string& where) 
 
 // The blocks' ranges from the parts that name them (stream/format.h "Blocks"): each begins
 // where the one before it ends (the first at the base), ends where its part does (or where it
-// begins, named by none), the last at the mesh's end. A pass over the table's chunks before
-// they are read (malformed entries are skipped here: the chunks' reading names them).
+// begins, named by none), the last at the mesh's end unless a completion ends its splits. A pass
+// over the table's chunks before they are read (malformed entries are skipped here: the chunks'
+// reading names them).
 Status block_ranges(const Json& chunks, Package& pkg) {
   std::vector<std::vector<std::pair<uint64_t, uint64_t>>> ends(pkg.meshes.size());
+  std::vector<uint8_t> completed(pkg.meshes.size(), 0);  // a completion ends the mesh's splits
   for (size_t m = 0; m < pkg.meshes.size(); ++m)
     ends[m].assign(pkg.meshes[m].blocks.size(), {UINT64_MAX, UINT64_MAX});
   if (chunks.is_array())
     for (const Json& c : chunks) {
       if (!c.is_object()) continue;
+      auto meshes = c.find("meshes"), kind = c.find("kind");
+      if (kind != c.end() && kind->is_string() && *kind == "complete" && meshes != c.end() &&
+          meshes->is_array())
+        for (const Json& e : *meshes)
+          if (e.is_array() && !e.empty() && e[0].is_number_unsigned() &&
+              e[0].get<uint64_t>() < completed.size())
+            completed[e[0].get<uint64_t>()] = 1;
       auto parts = c.find("parts");
       if (parts == c.end() || !parts->is_array()) continue;
       for (const Json& p : *parts) {
@@ -330,7 +339,7 @@ Status block_ranges(const Json& chunks, Package& pkg) {
       }
       b.vertex_end = uint32_t(vertex_at), b.face_end = uint32_t(face_at);
     }
-    if (vertex_at != pm.vertices || face_at != pm.faces)
+    if (!completed[m] && (vertex_at != pm.vertices || face_at != pm.faces))
       return fail("mesh " + std::to_string(m) + ": the blocks end at vertex " +
                   std::to_string(vertex_at) + ", face " + std::to_string(face_at) +
                   ", not at the mesh's end");

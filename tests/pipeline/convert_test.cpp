@@ -615,6 +615,7 @@ TEST(Convert, BlockMeshReportsItsBlocks) {
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   ConvertOptions o;
   o.simplify.block_above = 4000, o.simplify.block_positions = 512, o.simplify.block_until = 2000;
+  o.max_package_ratio = 0;  // every split sent (small blocks cost more than the bound allows)
   Warnings warnings;
   auto out = convert(testing::bumpy_sphere(96, 192), o, &warnings, nullptr);
   ASSERT_TRUE(out.ok()) << out.status().message();
@@ -643,6 +644,37 @@ TEST(Convert, BlockMeshReportsItsBlocks) {
   }
   for (size_t k = 1; k < layer_bytes.size(); ++k)
     EXPECT_EQ(layer_bytes[k], report["mesh_layer_bytes"][k].get<uint64_t>()) << "layer " << k;
+}
+
+// A block mesh whose parts would pass the package's bound ends them in the completion, as a
+// chain does (a sphere's smooth splits cost more than Draco's single-rate): the blocks after it
+// are sent by no part, and the package reads back.
+TEST(Convert, BlockMeshMayEndInTheCompletion) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  ConvertOptions o;
+  o.simplify.block_above = 4000, o.simplify.block_positions = 512, o.simplify.block_until = 2000;
+  o.max_package_ratio = 1.2, o.max_block_package_ratio = 1.2;  // the splits pass it
+  Warnings warnings;
+  Scene scene;
+  Mesh mesh;
+  mesh.primitives.push_back(testing::uv_sphere(96, 192));
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({0, Mat4::identity(), "sphere"});
+  auto out = convert(scene, o, &warnings, nullptr);
+  ASSERT_TRUE(out.ok()) << out.status().message();
+  auto pkg = read_package(out->package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  EXPECT_EQ(pkg->version, kBlockPackageVersion);
+  ASSERT_TRUE(nlohmann::json::parse(out->report_json)["completion"]["used"].get<bool>());
+  size_t sent = 0, complete = 0;
+  for (const PackageChunk& c : pkg->chunks) {
+    complete += c.kind == StreamStep::kComplete;
+    if (c.kind == StreamStep::kMesh) sent += c.parts.size();
+  }
+  EXPECT_EQ(complete, 1u);
+  EXPECT_GT(sent, 0u);
+  EXPECT_LT(sent, pkg->meshes[0].blocks.size());  // the blocks after the completion: none
 }
 
 }  // namespace

@@ -158,10 +158,14 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   }
   // The blocks' ranges from the parts naming them: each begins where the one before it ends
   // (the first at the base) and ends where its part does (or where it begins, named by none);
-  // the last ends at the mesh's end.
+  // the last ends at the mesh's end unless a completion ends its splits.
   function blockRanges(chunkList) {
     const ends = meshes.map((m) => m.blocks.map(() => null));
+    const completed = meshes.map(() => false);  // a completion ends the mesh's splits
     for (const c of Array.isArray(chunkList) ? chunkList : []) {
+      if (c && c.kind === 'complete' && Array.isArray(c.meshes)) {
+        for (const e of c.meshes) if (Array.isArray(e) && Number.isSafeInteger(e[0]) && e[0] >= 0 && e[0] < meshes.length) completed[e[0]] = true;
+      }
       for (const p of c && Array.isArray(c.parts) ? c.parts : []) {
         if (!Array.isArray(p) || p.length !== 5 || !p.every(Number.isSafeInteger)) continue;
         const e = ends[p[0]];
@@ -183,7 +187,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
         b.vertex_end = vertexAt;
         b.face_end = faceAt;
       });
-      need(vertexAt === m.vertices && faceAt === m.faces, `meshes[${i}].blocks end at vertex ${vertexAt}, face ${faceAt}, not at the mesh's end`);
+      need(completed[i] || (vertexAt === m.vertices && faceAt === m.faces), `meshes[${i}].blocks end at vertex ${vertexAt}, face ${faceAt}, not at the mesh's end`);
     });
   }
   const texture = t.texture == null ? null
