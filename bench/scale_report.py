@@ -89,6 +89,14 @@ def collect(work, name, path, kind, size):
     if c.get("package") and c.get("model_glb"):
         c["package_over_model"] = c["package"] / c["model_glb"]
     row["hausdorff"] = read_json(os.path.join(work, name + ".scale.json"))
+    # A real scan under the size threshold: its block-built comparison from a run forced into
+    # blocks (scale.sh), its meshopt comparison from the default record above.
+    forced = read_json(os.path.join(work, name + ".blocks.scale.json"))
+    if forced and row["hausdorff"]:
+        for e in row["hausdorff"].get("fractions", []):
+            for x in forced.get("fractions", []):
+                if abs(x["fraction"] - e["fraction"]) < 1e-9 and x.get("whole_unit"):
+                    e["whole_unit"] = dict(x["whole_unit"], block_built=x["meshmux"])
     return row
 
 
@@ -132,12 +140,13 @@ def targets(rows):
                         "measured": e["ratio"], "shown": shown,
                         "limit": f"≤ {HAUSDORFF_LIMIT}× meshopt's", "met": met})
             w = e.get("whole_unit")
-            if w and w.get("h") and e["meshmux"]["h"]:
+            b = (w or {}).get("block_built", e["meshmux"])
+            if w and w.get("h") and b["h"]:
                 q = w.get("ratio")
                 out.append({"input": r["name"], "target": f"Hausdorff at {f:g}, block-built vs "
-                            f'whole-unit record ({e["meshmux"]["triangles"]:,} / {w["triangles"]:,} tris)',
+                            f'whole-unit record ({b["triangles"]:,} / {w["triangles"]:,} tris)',
                             "measured": q,
-                            "shown": f'{e["meshmux"]["h"]["hausdorff"]:.5f} / {w["h"]["hausdorff"]:.5f}'
+                            "shown": f'{b["h"]["hausdorff"]:.5f} / {w["h"]["hausdorff"]:.5f}'
                             + (f" = {q:.2f}" if q is not None else " (exact)"),
                             "limit": f"≤ {HAUSDORFF_LIMIT}× the whole-unit record's",
                             "met": q is None or q <= HAUSDORFF_LIMIT})
