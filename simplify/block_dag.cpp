@@ -254,8 +254,8 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
     if (node.levels++ == 0) node.first_level = uint32_t(r);
     node.vertices += pm.levels[r].vertex_end - pm.levels[r - 1].vertex_end;
     node.faces += pm.levels[r].face_end - pm.levels[r - 1].face_end;
-    auto depend = [&](uint16_t y) {
-      if (y != kNone && y != x) deps[x].push_back(y);
+    auto depend = [&](uint16_t y) {  // repeats in a row dropped (most are): sorted out below
+      if (y != kNone && y != x && (deps[x].empty() || deps[x].back() != y)) deps[x].push_back(y);
     };
     for (uint32_t v : replay.lists_touched) {
       depend(list_last[v]), list_last[v] = x;
@@ -305,28 +305,22 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm) {
 
 namespace {
 
-// Moves the items of `v` (each `stride` values) to their new places, v[to[i]] = old v[i], in
-// place: each cycle of the permutation followed once (a bit per item marks those placed), where
-// a copy of the array held it twice (a 20M-triangle record's indices: 240 MB more at the
-// conversion's peak).
+// v's items in their new order: the first `kept` as they are, then each run (old first item,
+// count) in turn. Out of place, one array at a time, each copy sequential: a level's vertices and
+// faces move as runs, where following the permutation's cycles item by item wrote all over the
+// array (a 20M-triangle record: seconds of cache misses); the copy held beside the record is at
+// most the faces' indices (12 bytes a face), below what the DAG's replay holds after it.
 template <typename T>
-void permute(std::vector<T>& v, const std::vector<uint32_t>& to, size_t stride,
-             std::vector<bool>& placed) {
+void gather_runs(std::vector<T>& v, size_t kept,
+                 const std::vector<std::pair<uint32_t, uint32_t>>& runs, size_t stride) {
   if (v.empty()) return;
-  placed.assign(to.size(), false);
-  std::array<T, 3> carry{}, next{};
-  for (size_t start = 0; start < to.size(); ++start) {
-    if (placed[start]) continue;
-    for (size_t k = 0; k < stride; ++k) carry[k] = v[start * stride + k];
-    for (size_t i = start; !placed[i];) {
-      placed[i] = true;
-      const size_t j = to[i];
-      for (size_t k = 0; k < stride; ++k) next[k] = v[j * stride + k];
-      for (size_t k = 0; k < stride; ++k) v[j * stride + k] = carry[k];
-      carry = next;
-      i = j;
-    }
-  }
+  std::vector<T> out;
+  out.reserve(v.size());
+  out.insert(out.end(), v.begin(), v.begin() + long(kept * stride));
+  for (const auto& [first, count] : runs)
+    out.insert(out.end(), v.begin() + long(size_t(first) * stride),
+               v.begin() + long((size_t(first) + count) * stride));
+  v.swap(out);
 }
 
 }  // namespace
@@ -363,8 +357,11 @@ Status order_by_blocks(ProgressiveMesh& pm) {
   uint32_t nv = first.vertex_end, nf = first.face_end;
   std::vector<ProgressiveLevel> out_levels = {first};
   std::vector<uint16_t> out_block;
+  std::vector<std::pair<uint32_t, uint32_t>> vertex_runs, face_runs;  // (old first, count)
   for (uint32_t r : order) {
     const ProgressiveLevel &a = pm.levels[r - 1], &b = pm.levels[r];
+    vertex_runs.push_back({a.vertex_end, b.vertex_end - a.vertex_end});
+    face_runs.push_back({a.face_end, b.face_end - a.face_end});
     for (uint32_t v = a.vertex_end; v < b.vertex_end; ++v) vertex_to[v] = nv++;
     for (uint32_t f = a.face_end; f < b.face_end; ++f) face_to[f] = nf++;
     out_levels.push_back({nv, nf, nf, 0});
@@ -390,14 +387,14 @@ Status order_by_blocks(ProgressiveMesh& pm) {
   // The arrays renumbered.
   for (uint32_t& p : pm.parent) p = vertex_to[p];
   for (uint32_t& i : pm.indices) i = vertex_to[i];
-  std::vector<bool> placed;
-  permute(pm.parent, vertex_to, 1, placed);
-  permute(pm.positions, vertex_to, 1, placed);
-  permute(pm.normals, vertex_to, 1, placed);
-  for (std::vector<Vec2>& uv : pm.uvs) permute(uv, vertex_to, 1, placed);
-  permute(pm.colors, vertex_to, 1, placed);
-  permute(pm.indices, face_to, 3, placed);
-  permute(pm.face_primitive, face_to, 1, placed);
+  std::vector<uint32_t>().swap(vertex_to), std::vector<uint32_t>().swap(face_to);
+  gather_runs(pm.parent, first.vertex_end, vertex_runs, 1);
+  gather_runs(pm.positions, first.vertex_end, vertex_runs, 1);
+  gather_runs(pm.normals, first.vertex_end, vertex_runs, 1);
+  for (std::vector<Vec2>& uv : pm.uvs) gather_runs(uv, first.vertex_end, vertex_runs, 1);
+  gather_runs(pm.colors, first.vertex_end, vertex_runs, 1);
+  gather_runs(pm.indices, first.face_end, face_runs, 3);
+  gather_runs(pm.face_primitive, first.face_end, face_runs, 1);
   pm.levels = std::move(out_levels);
   pm.base_level = base;
   // The root (one global chain, every block's ancestor) in pieces of growing triangles from the

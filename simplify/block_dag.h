@@ -73,7 +73,7 @@ Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 // part of the stream is then one run of vertices and faces. Fails (kInternal)
 // when the record has no block hierarchy or its level blocks do not fit it.
 // O(V + F + levels log levels); memory: the new places of every vertex and face (12 bytes a
-// face), the arrays permuted in place.
+// face), then each array copied once in its new order (one at a time).
 Status order_by_blocks(ProgressiveMesh& pm);
 
 // What the stream needs of every block-built record of `ps` (pm.blocks non-empty; others are
