@@ -8,7 +8,6 @@
 #include <set>
 #include <string>
 #include <tuple>
-#include <unordered_map>
 
 namespace meshmux {
 
@@ -433,16 +432,16 @@ Status order_block_records(ProgressiveScene& ps) {
   for (size_t m = 0; m < ps.meshes.size(); ++m) {
     ProgressiveMesh& pm = ps.meshes[m];
     if (pm.blocks.empty()) continue;
-    const std::string where = "simplify: mesh " + std::to_string(m) + ": ";
-    if (Status s = order_by_blocks(pm); !s) return s.with_prefix(where.substr(0, where.size() - 2));
+    const std::string where = "simplify: mesh " + std::to_string(m);
+    if (Status s = order_by_blocks(pm); !s) return s.with_prefix(where);
     Result<BlockDag> dag = block_dag(pm);
-    if (!dag) return dag.status().with_prefix(where.substr(0, where.size() - 2));
+    if (!dag) return dag.status().with_prefix(where);
     for (size_t b = 0; b < pm.blocks.size(); ++b) {
       BlockNode& node = dag->nodes[b];
       for (uint16_t d : node.deps)
         if (d >= b)
-          return Status::error(where + "block " + std::to_string(b) + " depends on a later block " +
-                                   std::to_string(d),
+          return Status::error(where + ": block " + std::to_string(b) +
+                                   " depends on a later block " + std::to_string(d),
                                ErrorKind::kInternal);
       pm.blocks[b].deps = std::move(node.deps);
       pm.blocks[b].box_min = node.box_min, pm.blocks[b].box_max = node.box_max;
