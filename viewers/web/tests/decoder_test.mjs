@@ -4,14 +4,18 @@
 //   1. the whole stream decodes to exactly the encoder's state (report.json's stream_digests);
 //   2. 1,000 copies with a mesh part damaged (bytes flipped, zeroed or swapped, seeded) are each
 //      either refused with an Error naming the mesh, or decode to a state whose every index
-//      names a vertex held; nothing else is thrown and nothing runs away (each copy under 5 s).
+//      names a vertex held; nothing else is thrown and nothing runs away (each copy under 5 s);
+//   3. a block package's table with a damaged hierarchy (a cycle, a missing block, a box that is
+//      not a number, ...) is refused by the reader's validation, naming the block.
 // usage: node decoder_test.mjs --meshmux BIN --work DIR [--model FILE] [--copies 1000]
 // Exit: 0 pass, 1 fail, 77 skipped (no renderer: convert wrote no package).
 import assert from 'node:assert/strict';
 import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
+import zlib from 'node:zlib';
 
+import { validateTable } from '../package_reader.js';
 import { opt, skip } from './harness.mjs';
 import { applyChunk, freeStates, freshStates, readPackage } from './node_package.mjs';
 
@@ -87,4 +91,29 @@ for (let k = 0; k < copies; k++) {
   assert.ok(performance.now() - t0 < 5000, `copy ${k} took ${(performance.now() - t0).toFixed(0)} ms`);
 }
 console.log(`${copies} damaged copies: ${refused} refused with an Error naming the mesh, ${decoded} decoded to a valid state`);
+
+// 3. A block package (stream/format.h "Blocks"): damaged hierarchies in its table refused by the
+// web reader's validation, naming the block, before anything is used.
+if (table.meshes.some((m) => m.blocks.length > 0)) {
+  const J = new DataView(bytes.buffer).getUint32(8, true), dataStart = 12 + J;
+  const raw = JSON.parse(zlib.inflateSync(bytes.subarray(12, dataStart)).toString('utf8'));
+  const n = raw.meshes[0].blocks.length, k = Math.floor(n / 2);
+  const partOf = (t, b) => t.chunks.flatMap((c) => c.parts || []).find((p) => p[4] === b);
+  const cases = [
+    ['a dependency cycle', (t) => { t.meshes[0].blocks[k][3] = [n - 1]; }, `blocks[${k}]: depends on block ${n - 1}, not an earlier one (a dependency cycle)`],
+    ['a block on itself', (t) => { t.meshes[0].blocks[k][3] = [k]; }, 'not an earlier one'],
+    ['a missing block', (t) => { t.meshes[0].blocks[k][3] = [0, n]; }, `blocks[${k}]: depends on block ${n}, which is missing`],
+    ['a box of NaN (null)', (t) => { t.meshes[0].blocks[k][2][2] = null; }, `blocks[${k}]: box`],
+    ['an infinite error', (t) => { t.meshes[0].blocks[k][1] = 'inf'; }, `blocks[${k}][1] (error)`],
+    ['a part ending before its block', (t) => { const p = partOf(t, k); if (p) { p[1] = 0; p[2] = 0; } }, `blocks[${k}] ends at vertex 0`],
+    ['blocks in a version 15 table', (t) => { t.version = 15; }, 'blocks in a version 15 package'],
+  ];
+  for (const [what, edit, expect] of cases) {
+    const t = JSON.parse(JSON.stringify(raw));
+    edit(t);
+    assert.throws(() => validateTable(t, { fileSize: bytes.length, dataStart, fail: (m) => new Error(m) }),
+      (e) => e instanceof Error && e.message.includes(expect), `${what}: not refused with "${expect}"`);
+  }
+  console.log(`block table: ${cases.length} damaged hierarchies refused by name`);
+}
 console.log('PASS');
