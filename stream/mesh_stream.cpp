@@ -506,23 +506,10 @@ std::vector<StreamBlock> MeshStreamEncoder::stream_blocks() const {
   const size_t base = level_at_start_, levels = pm_.levels.size();
   if (pm_.blocks.empty() || base + 1 >= levels) return out;  // a chain, or the base is whole
   out.resize(pm_.blocks.size());
-  // Each block's run of levels (the record is ordered by blocks, numbered in run order); the
-  // root's from the base on (its coarser levels are in the base); a block wholly in the base
-  // sends nothing, where the one before it ends.
-  std::vector<uint8_t> seen(out.size(), 0);
-  for (size_t r = base + 1; r < levels; ++r) {
-    StreamBlock& x = out[pm_.level_block[r - 1]];
-    if (!seen[pm_.level_block[r - 1]]) {
-      seen[pm_.level_block[r - 1]] = 1;
-      x.vertex_begin = pm_.levels[r - 1].vertex_end, x.face_begin = pm_.levels[r - 1].face_end;
-    }
-    x.vertex_end = pm_.levels[r].vertex_end, x.face_end = pm_.levels[r].face_end;
-  }
-  uint32_t vertex_at = pm_.levels[base].vertex_end, face_at = pm_.levels[base].face_end;
+  // Their stream ranges are left out: the package does not write them (the reader derives them
+  // from the parts, stream/format.h "Blocks").
   for (size_t k = 0; k < out.size(); ++k) {
     StreamBlock& x = out[k];
-    if (!seen[k]) x.vertex_begin = x.vertex_end = vertex_at, x.face_begin = x.face_end = face_at;
-    vertex_at = x.vertex_end, face_at = x.face_end;
     const ProgressiveBlock& pb = pm_.blocks[k];
     x.level = pb.level, x.error = pb.error;
     // On the grid, floored and ceiled (a box of nothing: empty at the origin).

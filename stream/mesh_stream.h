@@ -124,8 +124,9 @@ class MeshStreamEncoder {
   // coding of the same parts (contexts carried over), for comparison.
   void set_block_parts(bool on) { block_parts_ = on; }
   bool block_parts() const { return block_parts_; }
-  // The blocks' stream ranges and the rest of the table's entry (StreamBlock), from the record's
-  // block hierarchy and the base this encoder starts at; empty for a chain.
+  // The table's entry of each block (StreamBlock: level, error, box on the grid, dependencies;
+  // the ranges, which the reader derives from the parts, left 0) from the record's block
+  // hierarchy; empty for a chain or a base that is the whole mesh.
   std::vector<StreamBlock> stream_blocks() const;
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
