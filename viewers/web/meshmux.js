@@ -36,6 +36,8 @@ import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, shownTextures,
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
 import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
+import { BlockMeshState } from './block_view.js';
+import { ViewPlayer, viewCapacities } from './view_stream.js';
 
 export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, loadDecoder };
 export { addStreamLighting } from './lighting.js';
@@ -100,7 +102,12 @@ export class MeshmuxStream extends EventTarget {
   // ASTC/ETC on phones, RGBA where none, and uploaded compressed; default: beside this module),
   // ktx2Loader (a function giving a Promise of a three KTX2Loader, support detected, shared by
   // many streams; called only for a package with KTX2 textures; without it every stream of the
-  // page shares one, ktx2.js sharedKtx2Loader).
+  // page shares one, ktx2.js sharedKtx2Loader), triangleBudget (a block package, stream/format.h
+  // "Blocks", seen through `camera` with `adaptive` on: its blocks are chosen for the camera,
+  // fetched by range and dropped again when they left the view, with at most this many faces
+  // held over all meshes (view_stream.js; play() then runs until stop(), emitting 'settled'
+  // whenever the view is refined to one pixel of screen-space error or the budget is full);
+  // default Infinity: the stored order).
   constructor(url, options = {}) {
     super();
     this.url = String(url);
@@ -108,7 +115,7 @@ export class MeshmuxStream extends EventTarget {
       dracoDecoderPath: DRACO_DECODER_PATH, basisTranscoderPath: BASIS_TRANSCODER_PATH, ktx2Loader: null,
       camera: null, adaptive: true, firstBytes: null, worker: true, workers: null, limiter: null,
       probeBytes: PROBE_BYTES, dracoLoader: null, uploadBandBytes: 2 ** 18, builds: null, uploadsBeside: false,
-      display: null, ...options };
+      display: null, triangleBudget: Infinity, ...options };
     this.object = new THREE.Group();
     this.object.name = 'meshmux';
     this.table = null;   // the validated package table
@@ -149,6 +156,8 @@ export class MeshmuxStream extends EventTarget {
     this._ktx2Config = null;  // its workerConfig (the formats the GPU reads), once known
     this._levelGpuBytes = 0;  // GPU bytes of the last texture level applied (its maps and kept maps)
     this._gpuBytes = null;    // gpuBytes() as last computed (null: textures changed since)
+    this._viewCaps = null;    // played by view: per mesh, viewCapacities' entry
+    this._view = null;        // the ViewPlayer, once play() started by view
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -207,6 +216,7 @@ export class MeshmuxStream extends EventTarget {
       orderFollowed: this._followed || (this.order ? this.order.name : this.options.order),
       trianglesApplied: this._trianglesApplied, applySeconds: this._applySeconds, state: this._state,
       decoder: this._worker ? 'worker' : 'page',
+      ...(this._view ? this._view.stats() : {}),
     };
   }
 
@@ -270,13 +280,18 @@ export class MeshmuxStream extends EventTarget {
           throw this._fail(e.message);
         }
       }
+      // A block package seen through a camera under a triangle budget is played by view.
+      const o = this.options;
+      if (Number.isFinite(o.triangleBudget) && o.triangleBudget >= 0 && o.camera && o.adaptive && table.meshes.some((d) => d.blocks.length)) {
+        this._viewCaps = viewCapacities(table, o.triangleBudget);
+      }
       await nextTask();  // the base is built in tasks of its own (_buildBase), not in the fetch's
       const build = () => this._buildBase(table, base, draco);
       await (this.options.builds ? this.options.builds.run(build) : build());
       // The worker takes the bases (its WebAssembly decoder checks them) while the base shows:
       // the first picture does not wait for the module; the first mesh chunk does (_applyChunk).
       if (this._worker && this.meshes.length) {
-        this._setup = this._worker.setup(table.meshes, this.meshes)
+        this._setup = this._worker.setup(table.meshes, this.meshes, this._viewCaps)
           .catch((e) => { throw this._fail(`the base cannot be decoded (${e.message})`); });
         this._setup.catch(() => {});  // reported where it is awaited
       }
@@ -374,7 +389,9 @@ export class MeshmuxStream extends EventTarget {
     if (!table.base.whole) {
       for (const [i, d] of table.meshes.entries()) {
         await slice();
-        const mesh = new StreamMesh(d, i, { decoder: this._worker ? null : this._decoder, deferCommit: true });
+        const cap = this._viewCaps && this._viewCaps[i];
+        const mesh = new StreamMesh(cap ? { ...d, vertices: cap.capacityVertices, faces: cap.capacityFaces } : d, i,
+          { decoder: this._worker || cap ? null : this._decoder, deferCommit: true });
         for (const _ of mesh.commitPieces()) await slice();
         this.meshes.push(mesh);
       }
@@ -487,6 +504,17 @@ export class MeshmuxStream extends EventTarget {
     this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
     await slice();
     this._findKept(gltf.parser, [...materialFor].filter(([source]) => !streamed(source)).map(([, m]) => m));
+    // Played by view on the page (no worker): each block mesh's state takes blocks.
+    if (this._viewCaps && !this._worker) {
+      this.meshes.forEach((mesh, i) => {
+        const cap = this._viewCaps[i];
+        if (!cap || !mesh.base) return;
+        mesh.view = new BlockMeshState(this._decoder, table.meshes[i], i, mesh.base,
+          { quantized: mesh.quantized, origin: mesh.origin, step: mesh.step, ...cap });
+        mesh.base = null;
+        mesh.solid = mesh.view.solid;
+      });
+    }
     await slice();
     this.object.add(root);
     this.object.updateMatrixWorld(true);
@@ -684,7 +712,7 @@ export class MeshmuxStream extends EventTarget {
   play() {
     if (!this.table) return Promise.reject(this._fail('play() before open()'));
     if (this._state === 'error' || this._state === 'disposed') return Promise.reject(this._fail(`cannot play: the stream is in state ${this._state}`));
-    if (!this._playing) this._playing = this._run().finally(() => { this._playing = null; });
+    if (!this._playing) this._playing = (this._viewCaps ? this._runView() : this._run()).finally(() => { this._playing = null; });
     return this._playing;
   }
 
@@ -748,6 +776,78 @@ export class MeshmuxStream extends EventTarget {
     } finally {
       if (this._abort === abort) this._abort = null;
       for (const r of reads) r.then((d) => { if (d && d.release) d.release(); }, () => {});
+    }
+  }
+
+  // Plays by view (view_stream.js) until stop() or an error; resolves with the stats.
+  async _runView() {
+    const abort = this._abort = new AbortController(), signal = abort.signal;
+    this._state = 'streaming';
+    try {
+      if (!this._view) this._view = new ViewPlayer(this);
+      await this._view.run(signal);
+      if (this._state === 'disposed') return this.stats;
+      this._state = 'stopped';
+      this._emit('stopped');
+      return this.stats;
+    } catch (error) {
+      if (this._state === 'disposed') return this.stats;
+      if (error && error.name === 'AbortError' && signal.aborted) {
+        this._state = 'stopped';
+        this._emit('stopped');
+        return this.stats;
+      }
+      this._state = 'error';
+      this._emit('error', { error });
+      throw error;
+    } finally {
+      if (this._abort === abort) this._abort = null;
+    }
+  }
+
+  // Played by view: block `block` of mesh `i` (its part's bytes: `payload`, or HeldBytes of the
+  // worker's) applied where the stream decodes.
+  async _viewApply(i, block, payload) {
+    const mesh = this.meshes[i], t0 = performance.now();
+    try {
+      if (this._worker) {
+        await this._setup;
+        const { added, seconds } = await this._worker.applyBlock(mesh, i, block, payload);
+        this._trianglesApplied += added;
+        this._applySeconds += seconds;
+        return;
+      }
+      const c = mesh.view.apply(block, payload.slice());
+      mesh.applyChanges(c);
+      this._trianglesApplied += c.nf - c.f0;
+      this._applySeconds += (performance.now() - t0) / 1000;
+    } catch (e) {
+      throw this._fail(`mesh ${i} block ${block}: ${e.message}`);
+    }
+  }
+
+  // Played by view: mesh `i` decoded again holding only the blocks `keep` (the detail dropped).
+  async _viewRebuild(i, keep) {
+    const mesh = this.meshes[i], t0 = performance.now();
+    try {
+      if (this._worker) {
+        await this._setup;
+        this._applySeconds += (await this._worker.rebuildBlocks(mesh, i, keep)).seconds;
+        return;
+      }
+      mesh.replaceAll(mesh.view.rebuild(keep));
+      this._applySeconds += (performance.now() - t0) / 1000;
+    } catch (e) {
+      throw this._fail(`mesh ${i}: dropping blocks: ${e.message}`);
+    }
+  }
+
+  // Played by view: the parts of mesh chunk `index` for meshes that are not block meshes
+  // ([{part, offset}]; `data` holds the file's bytes from `start` on), applied in order.
+  async _viewChainParts(index, parts, start, data) {
+    for (const { part, offset } of parts) {
+      const payload = data.subarray(offset - start, offset - start + part.bytes);
+      await this._applyChunk(index, { kind: 'mesh', parts: [part] }, payload);
     }
   }
 
@@ -1011,7 +1111,7 @@ export class MeshmuxStream extends EventTarget {
       await this._setup;
       return this._worker.digests();
     }
-    return this.meshes.map((m) => m.state.digest());
+    return this.meshes.map((m) => (m.view || m.state).digest());
   }
 
   dispose() {

@@ -244,6 +244,28 @@ export class StreamMesh {
     g.setDrawRange(0, I.length);
   }
 
+  // Takes in a block mesh's whole state after detail was dropped (block_view.js
+  // BlockMeshState.rebuild: buffers sized to this mesh's capacities, vertices in slots): new
+  // buffers in place of the old ones (the old leave the GPU; the new go up with the next frame).
+  replaceAll(w) {
+    if (w.position.length !== this.position.length || w.indices.length !== this.indices.length) {
+      throw new Error(`mesh ${this.index}: whole buffers of ${w.position.length / 3} vertices and ${w.indices.length / 3} faces, the mesh holds ${this.capacityVertices} and ${this.capacityFaces}`);
+    }
+    const g = this.geometry;
+    g.dispose();
+    const attribute = (array, size) => new THREE.BufferAttribute(array, size).setUsage(THREE.DynamicDrawUsage);
+    g.setAttribute('position', this.positionAttribute = attribute(w.position, 3));
+    g.setAttribute('normal', this.normalAttribute = attribute(w.normal, 3));
+    g.setAttribute('uv', this.uvAttribute = attribute(w.uv, 2));
+    g.setIndex(this.indexAttribute = attribute(w.indices, 1));
+    this.position = w.position, this.normal = w.normal, this.uv = w.uv, this.indices = w.indices;
+    this._dirty.fill(0);
+    this.vertices = w.vertices;
+    this.faces = w.faces;
+    this.solid = w.solid;
+    g.setDrawRange(0, 3 * this.faces);
+  }
+
   _uploadVertices(v0, vn) {
     if (vn <= v0) return;
     this.positionAttribute.addUpdateRange(3 * v0, 3 * (vn - v0));
@@ -255,7 +277,8 @@ export class StreamMesh {
   dispose() {
     this.geometry.dispose();
     if (this.state) this.state.free();
-    this.state = null;
+    if (this.view) this.view.free();
+    this.state = this.view = null;
   }
 }
 

@@ -13,6 +13,13 @@
 //          "Blocks", its vertices placed from that stream number on); per mesh touched {mesh, v0, vn, f0, nf, solid, position,
 //          normal, uv (the new vertices' float attributes), appended (the new faces' indices),
 //          moved ([corner, vertex] pairs: corners of earlier faces the splits moved)}
+//   block  {mesh, block, payload} → {change, seconds}: a block mesh played by view (setup gave
+//          it `view`: {capacityVertices, capacityFaces, blocks}; block_view.js BlockMeshState)
+//          takes block `block`'s part, in any dependency-closed order; the change as a chunk's,
+//          its vertices in the page's slots
+//   rebuild {mesh, keep} → {whole, seconds}: that mesh decoded again holding only the blocks
+//          `keep`; its whole buffers ({replace, vertices, faces, solid, position, normal, uv,
+//          indices}, sized to the capacities)
 //   digests {} → {digests}: per mesh, stream/vsplit.h state_digest of what it holds (none
 //          before setup: a package whose base is whole streams no mesh)
 //   release {} → {}: the stream's states dropped (its MeshmuxStream was disposed)
@@ -33,6 +40,7 @@
 // Every reply carries the request's id; an Error becomes {type: 'error', id, message}. After
 // an error the states are not used again (the page fails the stream).
 import { fetchRange } from './package_reader.js';
+import { BlockMeshState } from './block_view.js';
 import { MeshDecoder, loadDecoder } from './stream_decoder.js';
 
 const streams = new Map();  // stream number → its meshes: [{state, origin, step, quantized}]
@@ -55,7 +63,7 @@ const decoderReady = loadDecoder();
 decoderReady.catch(() => {});
 
 function release(stream) {
-  for (const entry of streams.get(stream) || []) entry.state.free();
+  for (const entry of streams.get(stream) || []) (entry.view || entry.state).free();
   streams.delete(stream);
 }
 
@@ -65,6 +73,13 @@ async function setup(m) {
   const meshes = [];
   streams.set(m.stream, meshes);
   for (const [i, d] of m.meshes.entries()) {
+    if (d.view && d.base) {  // a block mesh played by view: block_view.js
+      const quantized = d.base.quantized;
+      const view = new BlockMeshState(decoder, { vertices: d.vertices, faces: d.faces, blocks: d.view.blocks }, i, d.base,
+        { quantized, origin: d.origin, step: d.step, capacityVertices: d.view.capacityVertices, capacityFaces: d.view.capacityFaces });
+      meshes.push({ view, state: null, origin: d.origin, step: d.step, quantized });
+      continue;
+    }
     const state = new MeshDecoder(decoder, d, i);
     meshes.push({ state, origin: d.origin, step: d.step, quantized: d.base ? d.base.quantized : true });
     if (d.base) {
@@ -72,7 +87,32 @@ async function setup(m) {
       for (const f of d.base.faces) state.appendFaces(f);
     }
   }
-  return { solid: meshes.map((e) => e.state.solid) };
+  return { solid: meshes.map((e) => (e.view || e.state).solid) };
+}
+
+// A block mesh's view state (setup with `view`), by the request's mesh number.
+function viewOf(m) {
+  const entry = meshesOf(m)[m.mesh];
+  if (!entry || !entry.view) throw new Error(`mesh ${m.mesh} is not a block mesh played by view`);
+  return entry.view;
+}
+
+// `block`: one block's part applied (its bytes kept to decode again); its changes in slots.
+function block(m, bytes) {
+  const t0 = performance.now();
+  const c = viewOf(m).apply(m.block, bytes.slice());
+  const seconds = (performance.now() - t0) / 1000;
+  return { reply: { change: { mesh: m.mesh, ...c }, seconds },
+    transfer: [c.position.buffer, c.normal.buffer, c.uv.buffer, c.appended.buffer, c.moved.buffer] };
+}
+
+// `rebuild`: the mesh decoded again from the base and the blocks kept; its whole buffers.
+function rebuild(m) {
+  const t0 = performance.now();
+  const w = viewOf(m).rebuild(m.keep);
+  const seconds = (performance.now() - t0) / 1000;
+  return { reply: { whole: { mesh: m.mesh, ...w }, seconds },
+    transfer: [w.position.buffer, w.normal.buffer, w.uv.buffer, w.indices.buffer] };
 }
 
 function meshesOf(m) {
@@ -89,6 +129,7 @@ function chunk(m, payload) {
   for (const [mesh, splits, faces, bytes, vertexBegin = -1] of m.parts) {
     const entry = meshes[mesh];
     if (!entry) throw new Error(`mesh chunk: part of mesh ${mesh}, the package has ${meshes.length}`);
+    if (entry.view) throw new Error(`mesh ${mesh} is played by view: it takes blocks, not chunks`);
     if (!touched.has(mesh)) {
       entry.state.beginChanges();
       touched.set(mesh, [entry.state.vertices, entry.state.faces]);
@@ -175,6 +216,11 @@ self.onmessage = (e) => {
     else if (m.type === 'chunk') {
       const payload = bytesOf(m, 'payload');
       inOrder(m, () => chunk(m, payload));
+    } else if (m.type === 'block') {
+      const bytes = bytesOf(m, 'payload');
+      inOrder(m, () => block(m, bytes));
+    } else if (m.type === 'rebuild') {
+      inOrder(m, () => rebuild(m));
     } else if (m.type === 'fetch') {
       const abort = new AbortController();
       fetches.set(m.id, abort);
@@ -206,7 +252,7 @@ self.onmessage = (e) => {
       for (const range of held.values()) count += range.stream === m.stream;
       self.postMessage({ type: 'held', id: m.id, count, ever: heldEver.get(m.stream) || 0 });
     } else if (m.type === 'digests') {
-      inOrder(m, () => ({ reply: { digests: (streams.get(m.stream) || []).map((x) => x.state.digest()) } }));
+      inOrder(m, () => ({ reply: { digests: (streams.get(m.stream) || []).map((x) => (x.view || x.state).digest()) } }));
     } else if (m.type === 'release') {
       heldEver.delete(m.stream);
       for (const [id, range] of held) if (range.stream === m.stream) held.delete(id);

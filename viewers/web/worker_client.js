@@ -183,7 +183,10 @@ export class StreamWorker {
   // Hands the worker the package's meshes (their table entries) with their bases, taken from
   // `meshes` (StreamMesh objects made with { local: false }, their bases set); the bases' copies
   // are released here. The worker's decoder checks every base face (an Error names the mesh).
-  async setup(descs, meshes) {
+  // `view` (optional): per mesh, null or {capacityVertices, capacityFaces} for a block mesh
+  // played by view (view_stream.js viewCapacities): its state is then a block_view.js
+  // BlockMeshState taking blocks (applyBlock, rebuildBlocks), not chunks.
+  async setup(descs, meshes, view = null) {
     const bases = meshes.map((m) => m.base);
     const transfer = [];
     for (const b of bases) {
@@ -192,7 +195,8 @@ export class StreamWorker {
     }
     meshes.forEach((m) => { m.base = null; });
     const reply = await this._request({ type: 'setup', meshes: descs.map((d, i) => ({
-      vertices: d.vertices, faces: d.faces, origin: meshes[i].origin, step: meshes[i].step, base: bases[i] })) }, transfer);
+      vertices: d.vertices, faces: d.faces, origin: meshes[i].origin, step: meshes[i].step, base: bases[i],
+      view: view && view[i] ? { ...view[i], blocks: d.blocks } : null })) }, transfer);
     // The decoder checked the bases' faces and counted the solid ones.
     reply.solid.forEach((n, i) => { meshes[i].solid = n; });
     return {};
@@ -213,6 +217,24 @@ export class StreamWorker {
       added += c.nf - c.f0;
     }
     return { added, seconds: reply.seconds };
+  }
+
+  // Applies block `block` of mesh `index` (a block mesh played by view) in the worker and takes
+  // its changes into `mesh` (its StreamMesh). `payload`: the block's part, or HeldBytes of this
+  // worker's. Resolves with { added, seconds }.
+  async applyBlock(mesh, index, block, payload) {
+    const reply = await this._request(...this._bytesMessage({ type: 'block', mesh: index, block }, 'payload', payload));
+    mesh.applyChanges(reply.change);
+    return { added: reply.change.nf - reply.change.f0, seconds: reply.seconds };
+  }
+
+  // Decodes mesh `index` (a block mesh played by view) again in the worker holding only the
+  // blocks `keep` (dependency-closed) and replaces `mesh`'s buffers with the result. Resolves
+  // with { seconds }.
+  async rebuildBlocks(mesh, index, keep) {
+    const reply = await this._request({ type: 'rebuild', mesh: index, keep });
+    mesh.replaceAll(reply.whole);
+    return { seconds: reply.seconds };
   }
 
   // A request's message and transfer list carrying `bytes` as `field`: HeldBytes by name, else

@@ -44,6 +44,7 @@ run('npm', ['install', '--offline', '--no-audit', '--no-fund', '--install-links'
 const installed = path.join(app, 'node_modules', 'meshmux-stream');
 for (const f of ['meshmux.js', 'meshmux.d.ts', 'gltf_plugins.js', 'lighting.js', 'materials.js', 'package_reader.js',
   'stream_mesh.js', 'stream_decoder.js', 'stream_decoder.wasm', 'stream_format.js', 'stream_worker.js', 'upload.js', 'view_plan.js', 'worker_client.js',
+  'block_view.js', 'view_stream.js',
   'world.js', 'world.d.ts', 'world_plan.js', 'package.json']) {
   if (!fs.existsSync(path.join(installed, f))) throw new Error(`the package lacks ${f}`);
 }
