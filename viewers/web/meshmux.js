@@ -164,6 +164,10 @@ export class MeshmuxStream extends EventTarget {
   _emit(type, extra) { this.dispatchEvent(new CustomEvent(type, { detail: { ...this.stats, ...extra } })); }
   _anisotropy() { return this.options.renderer ? Math.min(16, this.options.renderer.capabilities.getMaxAnisotropy()) : 1; }
 
+  // Played by view: the faces held at most (options.triangleBudget); lowering it drops detail
+  // at the stream's next look at the view.
+  get triangleBudget() { return this.options.triangleBudget; }
+  set triangleBudget(faces) { this.options.triangleBudget = Number(faces); }
   get budgetBytes() { return this.options.budgetBytes; }
   set budgetBytes(bytes) { this.options.budgetBytes = bytes; }
   // The canvas the order is planned for ([width, height] device pixels; null: the renderer's).
