@@ -47,6 +47,14 @@ export interface MeshmuxStreamOptions {
   /** false keeps the stored order whatever the camera and canvas (default true). */
   adaptive?: boolean;
   /**
+   * A big mesh's block package seen through `camera` (with `adaptive`) is played by view: the
+   * blocks the camera needs are fetched by range, detail that left the view is dropped again,
+   * and at most this many faces are held (settable). play() then runs until stop(), emitting
+   * 'settled' whenever the view is refined to a pixel of screen-space error or the budget is
+   * full. Default Infinity: the stored order.
+   */
+  triangleBudget?: number;
+  /**
    * The canvas the model is seen on, [width, height] device pixels: smaller than the package's
    * display (its table's view.display), the order is re-planned so that texture levels no pixel
    * of it resolves come last. Default: the renderer's drawing buffer, read at each re-plan.
@@ -130,6 +138,19 @@ export interface MeshmuxStats {
   state: MeshmuxState;
   /** Where mesh refinements are decoded. */
   decoder: 'worker' | 'page';
+  /** Played by view (triangleBudget): faces held now, the most ever, the budget. */
+  residentTriangles?: number;
+  peakResidentTriangles?: number;
+  triangleBudget?: number;
+  /** Played by view: blocks held, in the package, applied in all; times detail was dropped. */
+  blocksHeld?: number;
+  blockCount?: number;
+  blocksApplied?: number;
+  rebuilds?: number;
+  /** Played by view: the largest screen-space error (pixels) of a block in view not held. */
+  screenError?: number;
+  /** Played by view: nothing more is needed for this view (or the budget is full). */
+  settled?: boolean;
 }
 
 /** The view and shading the package's order was measured with (the table's "view"). */
@@ -149,8 +170,10 @@ export interface MeshmuxView {
 export interface MeshmuxEventMap {
   /** The base is built: `object` shows the model. */
   base: CustomEvent<MeshmuxStats>;
-  /** One chunk applied (render now to show it). */
-  chunk: CustomEvent<MeshmuxStats & { chunk: number; kind: 'mesh' | 'texture' }>;
+  /** One chunk applied (render now to show it); played by view, a block too (kind 'block'). */
+  chunk: CustomEvent<MeshmuxStats & { chunk?: number; kind: 'mesh' | 'texture' | 'block'; mesh?: number; block?: number }>;
+  /** Played by view: the view is refined (or the budget full) until the camera moves. */
+  settled: CustomEvent<MeshmuxStats>;
   /** Bytes received changed. */
   progress: CustomEvent<MeshmuxStats>;
   /** Budget reached or stop() called. */
@@ -169,6 +192,8 @@ export class MeshmuxStream extends EventTarget {
   /** Non-fatal findings about the package. */
   readonly notes: string[];
   budgetBytes: number;
+  /** Played by view: the faces held at most (lowering it drops detail). */
+  triangleBudget: number;
   /** The canvas the order is planned for ([width, height] device pixels), null: the renderer's. */
   display: [number, number] | null;
   /** The canvas size used: `display`, else the renderer's drawing buffer, else null. */

@@ -4,10 +4,12 @@
 // budget (fraction 0..1 of the file's bytes, default 1), autoplay (1/0, default 1), adaptive
 // (1/0, default 1: 0 plays the stored order as it is, never re-planned for the camera or the
 // canvas), display (WxH device pixels: the canvas size the order is re-planned for, default the
-// page's own canvas; a capture of another size is judged with it).
+// page's own canvas; a capture of another size is judged with it), triangles (a big mesh's block
+// package is played by view, refined where the camera looks and coarsened where it left, with at
+// most this many triangles held: default 2000000; 0 plays it in the stored order).
 //
 // Test hooks: document.body.dataset.state ("loading" → "base" → "streaming" → "complete" |
-// "stopped", or "error") and window.meshmuxViewer (stats, view, setView, capture, replay, setDisplay).
+// "stopped", or "error"; played by view: "streaming" ↔ "settled" as the camera moves) and window.meshmuxViewer (stats, view, setView, capture, replay, setDisplay).
 // Rendering happens on demand only: after applied chunks, camera changes and resizes.
 
 import * as THREE from 'three';
@@ -24,6 +26,7 @@ let orderName = params.get('order') || 'rate-distortion';
 let budgetFraction = clamp01(parseFloat(params.get('budget') ?? '1'), 1);
 const autoplay = !['0', 'false', 'no'].includes((params.get('autoplay') || '1').toLowerCase());
 const adaptive = !['0', 'false', 'no'].includes((params.get('adaptive') || '1').toLowerCase());
+const triangles = Math.max(0, Number(params.get('triangles') ?? '2000000')) || 0;
 
 // The display to plan for: null (the canvas) unless ?display=WxH names two positive integers.
 let display = displayParam(params.get('display'));
@@ -228,13 +231,20 @@ function load(order, fraction, play) {
   // The first load takes over the request index.html started for the package's first bytes.
   const early = window.meshmuxFirstBytes && window.meshmuxFirstBytes.src === src ? window.meshmuxFirstBytes.response : null;
   window.meshmuxFirstBytes = null;
-  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, adaptive, display, firstBytes: early });
+  const s = stream = new MeshmuxStream(src, { order, budgetBytes: Infinity, renderer, camera, adaptive, display, firstBytes: early,
+    triangleBudget: triangles > 0 ? triangles : Infinity });
   ui.message.textContent = '';
   delete document.body.dataset.error;
   setState('loading');
   // Render at once: the stream applies one chunk per animation frame, so the renderer's work
   // on this step is done before the next chunk is decoded (no competition for the CPU).
-  s.addEventListener('chunk', () => { if (s === stream) renderNow(); });
+  s.addEventListener('chunk', () => {
+    if (s !== stream) return;
+    if (document.body.dataset.state === 'settled') setState('streaming');
+    renderNow();
+  });
+  // Played by view: the view is refined (or the budget full) until the camera moves.
+  s.addEventListener('settled', () => { if (s === stream) { setState('settled'); renderNow(); } });
   // Bytes before the first picture (the table, the base): the panel shows them as they come.
   s.addEventListener('progress', () => { if (s === stream && s.state === 'opening') updatePanel(); });
   loading = (async () => {

@@ -143,7 +143,8 @@ try {
   page.on('requestfailed', (r) => { if (!r.url().endsWith('/corrupt.mmxp')) problems.push(`request failed: ${r.url()} ${r.failure()?.errorText}`); });
 
   async function load(query, states) {
-    await page.goto(url + query);
+    // The stored order (a block package is otherwise played by view: triangles=0).
+    await page.goto(url + query + `${query.includes('?') ? '&' : '?'}triangles=0`);
     await page.waitForFunction((s) => s.includes(document.body.dataset.state) || document.body.dataset.state === 'error',
       states, { timeout: 300000, polling: 100 });
     const state = await page.evaluate(() => document.body.dataset.state);
