@@ -11,6 +11,8 @@
 //      or what it is after --seconds.
 //   4. the budget halved there: detail dropped (the mesh decoded again from the blocks kept)
 //      until the faces held fit it.
+// --world: the package placed twice side by side in a MeshmuxWorld (world.js), which plays a
+// block package by view over both placements within its share of the world's budget.
 // Throughout: resident triangles (faces held, stats.residentTriangles) checked against the
 // budget at every event, and the page's main-thread tasks over 16 ms given to their owner
 // (main_thread.mjs: a trace with a sampling profile; the library's, the bench's frames, the
@@ -39,6 +41,8 @@ if (!meshmux || !dir || !work) {
 const budget = Number(opt('--budget', '2000000')), mbit = Number(opt('--mbit', '10')), seconds = Number(opt('--seconds', '10'));
 const close = Number(opt('--close', '0.17')), [W, H] = opt('--size', '960x540').split('x').map(Number);
 const timeout = Number(opt('--timeout', '300'));
+const worldMode = process.argv.includes('--world');
+const sceneBounds = JSON.parse(fs.readFileSync(path.join(dir, 'report.json'), 'utf8')).bounds;
 const check = process.argv.includes('--check'), chromiumPath = opt('--chromium', '/usr/bin/chromium');
 if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed`);
 if (!fs.existsSync(path.join(dir, 'model.mmxp'))) skip(`${dir} holds no model.mmxp`);
@@ -66,16 +70,37 @@ const gl = renderer.getContext(), px = new Uint8Array(4);
 function draw() { renderer.render(scene, camera); gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px); }
 let pending = false;
 const redraw = () => { if (!pending) { pending = true; requestAnimationFrame(() => { pending = false; draw(); }); } };
-const stream = new MeshmuxStream('model.mmxp', { renderer, camera, triangleBudget: budget });
+let stream, object, box;
 let peak = 0, over = 0, events = 0;
 const watch = (e) => { events++; const r = e.detail.residentTriangles; if (r > peak) peak = r; if (r > budget) over++; };
-for (const type of ['chunk', 'settled', 'base']) stream.addEventListener(type, (e) => { watch(e); redraw(); });
-const object = await stream.open();
-scene.add(object);
+if (${worldMode}) {
+  // Two placements of the package side by side in a MeshmuxWorld whose triangle budget gives
+  // the block package (half the world's, over its two placements) the budget asked for.
+  const { MeshmuxWorld } = await import('./viewer/world.js');
+  const { WORLD_VERSION } = await import('./viewer/stream_format.js');
+  const b = ${JSON.stringify(sceneBounds)}, shift = 1.2 * (b[3] - b[0]);
+  const world = new MeshmuxWorld({ meshmux_world: WORLD_VERSION, packages: [{ url: 'model.mmxp', bounds: b }],
+    placements: [{ package: 0, matrix: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1] }, { package: 0, matrix: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, shift, 0, 0, 1] }] },
+    { renderer, camera, budget: { triangles: 4 * budget, texels: 2 ** 28, gpuBytes: 2 ** 30 } });
+  scene.add(world.object);
+  await world.open();
+  stream = world.packages[0].stream;
+  if (!stream.byView) throw new Error('the world plays the package in its stored order');
+  object = world.object;
+  box = new THREE.Box3().setFromObject(object);
+  for (const type of ['chunk', 'settled']) stream.addEventListener(type, (e) => { watch(e); redraw(); });
+  world.play();
+} else {
+  stream = new MeshmuxStream('model.mmxp', { renderer, camera, triangleBudget: budget });
+  for (const type of ['chunk', 'settled', 'base']) stream.addEventListener(type, (e) => { watch(e); redraw(); });
+  object = await stream.open();
+  scene.add(object);
+  box = stream.worldBounds();
+}
 const baseReady = now();  // the first picture joined the scene
 const view = stream.table.view;
 addStreamLighting(view, scene, camera, renderer);
-const box = stream.worldBounds(), centre = box.getCenter(new THREE.Vector3()), diagonal = box.getSize(new THREE.Vector3()).length();
+const centre = box.getCenter(new THREE.Vector3()), diagonal = box.getSize(new THREE.Vector3()).length();
 const direction = new THREE.Vector3().fromArray(view.direction).normalize();
 const fit = (distance) => { camera.near = distance / 1000; camera.far = distance + 2 * diagonal; camera.updateProjectionMatrix(); };
 const home = () => {
@@ -195,7 +220,7 @@ try {
 fs.writeFileSync(path.join(work, 'view_blocks.json'), JSON.stringify(result, null, 1));
 const d = result.defaultView, c = result.closeView, lib = result.libraryTasks[0];
 const f = (x, n = 2) => (Number.isFinite(x) ? x.toFixed(n) : '–');
-console.log(`package ${(result.bytesTotal / 1e6).toFixed(2)} MB at ${mbit} Mbit/s, budget ${budget} triangles, ${W}x${H}`);
+console.log(`${worldMode ? 'in a world, placed twice: ' : ''}package ${(result.bytesTotal / 1e6).toFixed(2)} MB at ${mbit} Mbit/s, budget ${budget} triangles, ${W}x${H}`);
 console.log(`first picture: joined the scene ${f(result.baseReady)} s after navigation, first frame drawn ${f(result.firstPicture)} s (lighting and shaders on this GL)`);
 console.log(`default view: settled at ${f(d.at)} s, ${d.resident} triangles held, ${d.blocksHeld}/${d.blockCount} blocks, ${(d.bytes / 1e6).toFixed(2)} MB, screen error ${f(d.screenError)} px`);
 for (const [name, c] of [['close view', result.closeView], ['second close view', result.secondView]]) {

@@ -158,6 +158,8 @@ export class MeshmuxStream extends EventTarget {
     this._gpuBytes = null;    // gpuBytes() as last computed (null: textures changed since)
     this._viewCaps = null;    // played by view: per mesh, viewCapacities' entry
     this._view = null;        // the ViewPlayer, once play() started by view
+    this.viewRoots = null;    // played by view: the objects whose copies of the meshes count (a
+                              // world's placements); null: this.object
   }
 
   _fail(message) { return new Error(`meshmux: ${this.url}: ${message}`); }
@@ -190,6 +192,8 @@ export class MeshmuxStream extends EventTarget {
   }
   get state() { return this._state; }
   get playing() { return this._playing !== null; }
+  // Whether this stream is played by view (a block package under triangleBudget with a camera).
+  get byView() { return this._viewCaps !== null; }
   // uploadsBeside: the Promise of the texture level being uploaded (it resolves once that level
   // and every one before it are shown), or null when none is.
   get uploading() { return this._uploads; }

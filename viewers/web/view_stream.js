@@ -127,7 +127,7 @@ export class ViewPlayer {
     else this._ortho = 0, this._focal = height / (2 * Math.tan((camera.fov * Math.PI) / 360));
     this._diagonal = this.s.worldBounds().getSize(this._v).length();
     const matrices = this.s.meshes.map(() => []);
-    this.s.object.traverse((o) => {
+    for (const root of this.s.viewRoots || [this.s.object]) root.traverse((o) => {
       const i = this.s.meshes.findIndex((m) => m.geometry === o.geometry);
       if (i < 0 || !this.meshes[i]) return;
       if (o.isInstancedMesh) {

@@ -21,7 +21,12 @@
 // it does not bound the streams' own buffers (each holds its full mesh's capacity). A package
 // that fails (missing, corrupt) is reported by name ('error' event, stats.failed) and the rest
 // play on. The packages share one pool of decoding workers and one Draco decoder; their bases
-// are built two at a time, in arrival order.
+// are built two at a time, in arrival order. A big mesh's block package (stream/format.h
+// "Blocks") is played by view by its own stream (MeshmuxStream triangleBudget, view_stream.js:
+// blocks chosen by the error they remove on screen per byte, dropped again when they left the
+// view) from the world's camera over all its placements, its requests through the same limiter;
+// such packages share half the world's triangle budget (divided over their placements), the
+// other packages what is left.
 //
 // Events (CustomEvent; detail = a copy of `stats`, plus what is said): 'base' (+ package: a
 // package's base is in the scene), 'chunk' (+ package, chunk, kind), 'progress', 'waiting' (only
@@ -149,6 +154,7 @@ export class MeshmuxWorld extends EventTarget {
     const rate = this.packages.map((p) => this._share(p) / (p.headBytes > 0 ? p.headBytes : PROBE_BYTES));
     const order = this.packages.map((_, i) => i).sort((a, b) => rate[b] - rate[a] || a - b);
     await Promise.all(order.map((i) => this._openPackage(this.packages[i])));
+    this._shareBlocks();
     this._state = 'open';
     return this.object;
   }
@@ -158,9 +164,12 @@ export class MeshmuxWorld extends EventTarget {
     // The first request: the package's header, table and base exactly where world.json says
     // how long they are (a smaller package's base in one request of its own size).
     const probeBytes = p.headBytes > 0 ? p.headBytes : undefined;
+    // A block package's buffers are sized for at most half the world's triangles (its share is
+    // set once every package is open: _shareBlocks).
+    const triangleBudget = Math.floor(this.options.budget.triangles / 2 / p.placements.length);
     p.stream = new MeshmuxStream(p.url, { renderer: this.options.renderer, camera: this.options.camera, probeBytes,
       dracoLoader: () => this._draco(), builds: this.builds, uploadsBeside: true,
-      limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0 });
+      limiter: this.limiter, worker: this.options.worker, workers: this.workers, budgetBytes: 0, triangleBudget });
     p.stream.addEventListener('chunk', (e) => {
       this._emit('chunk', { package: p.name, chunk: e.detail.chunk, kind: e.detail.kind });
       this._emit('progress', { package: p.name });
@@ -181,6 +190,7 @@ export class MeshmuxWorld extends EventTarget {
       if (p.error || this._state === 'disposed') return;  // failed or disposed meanwhile
       for (const group of groups) this.object.add(group);
       this.object.updateMatrixWorld(true);
+      p.stream.viewRoots = groups;  // played by view: every placement seen
       this._emit('base', { package: p.name });
     } catch (error) {
       this._fail(p, error);
@@ -237,6 +247,16 @@ export class MeshmuxWorld extends EventTarget {
     return this._dracoPromise;
   }
 
+  // The packages played by view (block packages) share half the triangle budget, each
+  // placement alike.
+  _shareBlocks() {
+    const byView = this.packages.filter((p) => !p.error && p.stream && p.stream.byView);
+    const placements = byView.reduce((n, p) => n + p.placements.length, 0);
+    for (const p of byView) {
+      p.stream.triangleBudget = Math.min(p.stream.triangleBudget, Math.floor(this.options.budget.triangles / 2 / placements));
+    }
+  }
+
   // The placements' screen shares and view weights of a package from the current camera.
   _views(p) {
     const camera = this.options.camera;
@@ -262,7 +282,7 @@ export class MeshmuxWorld extends EventTarget {
     const offers = [];
     let offscreen = false;
     for (const p of this.packages) {
-      if (p.error || !p.stream || !p.stream.table || busy.has(p)) continue;
+      if (p.error || !p.stream || !p.stream.table || busy.has(p) || p.stream.byView) continue;
       const next = p.stream.nextChunk();
       if (!next) continue;
       if (next.chunk.kind === 'texture' && p.stream.uploading) continue;  // one level in memory beside the GPU's
@@ -342,6 +362,13 @@ export class MeshmuxWorld extends EventTarget {
     // GPU beside the next grants (MeshmuxStream uploadsBeside): its texels count until shown.
     const uploads = new Map();
     let waiting = false;
+    // Block packages play by view on their own until stop().
+    for (const p of this.packages) {
+      if (!p.error && p.stream && p.stream.byView && !p.stream.playing) {
+        p.stream.budgetBytes = Infinity;  // no grants: its own choice, within its triangles
+        p.stream.play().catch((error) => this._fail(p, error));
+      }
+    }
     // What is shown, plus what the chunks on their way will add (the budget counts both).
     const used = () => {
       const u = this.stats;
@@ -386,7 +413,7 @@ export class MeshmuxWorld extends EventTarget {
       this._state = 'streaming';
     }
     if (this._state === 'disposed') return this.stats;
-    const left = this.packages.some((p) => !p.error && p.stream && p.stream.nextChunk());
+    const left = this.packages.some((p) => !p.error && p.stream && !p.stream.byView && p.stream.nextChunk());
     this._state = this._stop || left ? 'stopped' : 'complete';
     this._emit(this._state);
     return this.stats;
