@@ -11,6 +11,7 @@
 #include "pipeline/convert.h"
 #include "pipeline/inputs.h"
 #include "pipeline/outputs.h"
+#include "simplify/memory_fit.h"
 
 namespace meshmux {
 
@@ -62,6 +63,8 @@ int cmd_convert(const std::vector<std::string>& args) {
   }
   auto upload = open_command_input(in, out, o.stream, u.upload, &u.import, u.max_memory_mb);
   if (!upload.ok()) return print_error(upload.status());
+  // The memory cap (--max-memory, or the input's default) chooses when and how small blocks are.
+  o.simplify = fit_simplify_to_memory(o.simplify, memory_limit_mb());
   Warnings warnings;
   StderrProgress progress(p->has("--quiet"), &warnings);
   progress.step("importing " + upload->display());

@@ -11,6 +11,7 @@
 
 #include "atlas/tiled.h"
 #include "clean/clean.h"
+#include "exporters/gltf.h"
 #include "importers/import.h"
 #include "stream/package.h"
 #include "test_util.h"
@@ -247,6 +248,33 @@ TEST(SampleCommand, WritesValidInstancedTexturedScene) {
   EXPECT_EQ(errors, 0);
   ASSERT_EQ(run_meshmux({"convert", dir.file("s.glb"), "-o", dir.file("out"), "-q"}).exit_code, 0);
   EXPECT_EQ(testing::gltf_validator_errors(dir.file("out/model.glb")), 0);
+}
+
+// --max-memory too small for the whole-mesh loop on a 360k-face mesh (300 MB holds it for 300k
+// faces) converts it as blocks, within the cap; without it the mesh stays one chain.
+TEST(ConvertMemory, SmallMaxMemoryBuildsBlocks) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  TempDir dir;
+  Scene s = testing::bumpy_sphere(300, 600);
+  GltfExportOptions g;
+  g.draco = false;
+  auto glb = export_glb_bytes(s, g, nullptr);
+  ASSERT_TRUE(glb.ok()) << glb.status().message();
+  const std::string in = dir.file("sphere.glb");
+  testing::write_file(in, *glb);
+  for (const char* mb : {"", "300"}) {
+    const std::string out = dir.file(std::string("out") + mb);
+    std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
+    if (*mb) args.insert(args.end(), {"--max-memory", mb});
+    auto r = run_meshmux(args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json report = json::parse(testing::read_file(out + "/report.json"));
+    if (*mb)
+      EXPECT_GT(report.value("blocks", json::array()).size(), 4u) << "blocks under 300 MB";
+    else
+      EXPECT_FALSE(report.contains("blocks")) << "one chain under the default cap";
+  }
 }
 
 TEST(Cli, HelpAndVersion) {
@@ -894,7 +922,8 @@ TEST(ConvertTextures, OtherValuesAreRefused) {
   ASSERT_EQ(run_meshmux({"sample", "-o", in}).exit_code, 0);
   const auto bogus = run_meshmux({"convert", in, "-o", dir.file("x.glb"), "--textures", "webp2"});
   EXPECT_EQ(bogus.exit_code, 1) << bogus.err;
-  EXPECT_NE(bogus.err.find("--textures needs ktx2, ktx2-uastc or default"), std::string::npos) << bogus.err;
+  EXPECT_NE(bogus.err.find("--textures needs ktx2, ktx2-uastc or default"), std::string::npos)
+      << bogus.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.glb")));
 }
 

@@ -10,6 +10,7 @@
 
 #include "image/encode.h"
 #include "scene/sample.h"
+#include "simplify/memory_fit.h"
 #include "stream/mesh_stream.h"
 #include "stream/package.h"
 #include "test_util.h"
@@ -644,6 +645,31 @@ TEST(Convert, BlockMeshReportsItsBlocks) {
   }
   for (size_t k = 1; k < layer_bytes.size(); ++k)
     EXPECT_EQ(layer_bytes[k], report["mesh_layer_bytes"][k].get<uint64_t>()) << "layer " << k;
+}
+
+// A memory cap too small for the whole-mesh loop on a mesh (here 30 MB for 36k faces, as 200 MB
+// would be for 200k) builds it as blocks and still converts; the default cap keeps it a chain.
+TEST(Convert, SmallMemoryCapBuildsBlocks) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  const Scene sphere = testing::bumpy_sphere(96, 192);
+  for (uint64_t mb : {uint64_t(2048), uint64_t(30)}) {
+    ConvertOptions o;
+    o.simplify = fit_simplify_to_memory(o.simplify, mb);
+    o.max_package_ratio = 0;  // every split sent (small blocks cost more than the bound allows)
+    Warnings warnings;
+    auto out = convert(sphere, o, &warnings, nullptr);
+    ASSERT_TRUE(out.ok()) << mb << " MB: " << out.status().message();
+    auto pkg = read_package(out->package);
+    ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+    if (mb == 2048) {
+      EXPECT_EQ(pkg->version, kPackageVersion);
+      EXPECT_TRUE(pkg->meshes[0].blocks.empty());
+    } else {
+      EXPECT_EQ(pkg->version, kBlockPackageVersion);
+      EXPECT_GT(pkg->meshes[0].blocks.size(), 4u) << "blocks of at most 3750 positions";
+    }
+  }
 }
 
 // A block mesh whose parts would pass the package's bound ends them in the completion, as a
