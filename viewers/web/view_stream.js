@@ -12,10 +12,14 @@
 import * as THREE from 'three';
 
 import { blockChildren, isEmptyBlock, planBlocks } from './block_view.js';
-import { pause } from './upload.js';
+import { nextTask, pause } from './upload.js';
 
 // How often a settled stream looks at the camera again (ms).
 const SETTLED_POLL_MS = 100;
+// Blocks fetched at once: their requests overlap the applying of the ones before.
+const IN_FLIGHT = 4;
+// Blocks applied without waiting for an animation frame, for this long (ms).
+const FRAME_EVERY_MS = 100;
 
 // The page's buffers for each block mesh under a budget of `budget` triangles: null for a mesh
 // that is not one; else {capacityVertices, capacityFaces}: the budget's faces (at least the
@@ -79,6 +83,7 @@ export class ViewPlayer {
     this.screenError = NaN;    // the largest projected error of a block in view not held (pixels)
     this.peakResident = this.resident();
     this.settled = false;
+    this._lastFrame = 0;
     this._frustum = new THREE.Frustum();
     this._matrix = new THREE.Matrix4();
     this._box = new THREE.Box3();
@@ -182,69 +187,108 @@ export class ViewPlayer {
     return (cw * ch * w * h) / 4;
   }
 
-  // Plays until the signal aborts: paced items as their bytes come due, blocks by view; when
-  // nothing in view needs more, waits for the camera, canvas or budget to change.
+  // Plays until the signal aborts: paced items as their bytes come due, blocks by view (up to
+  // IN_FLIGHT fetched at once, the next chosen as each one is applied, those on their way
+  // counted as held); when nothing in view needs more, waits for the camera, canvas or budget
+  // to change.
   async run(signal) {
     const s = this.s;
     let lastKey = null;
-    while (!signal.aborted) {
-      await this._takePaced(signal, false);
-      const key = this._viewKey();
-      this._prepare();
-      const budget = s.options.triangleBudget;
-      const plan = planBlocks(this.meshes.map((m, i) => (m ? { ...m, faces: s.meshes[i].faces, vertices: s.meshes[i].vertices } : null)),
-        this.resident(), budget, (i, k) => this.scale(i, k), { max: 4 });
-      this.screenError = plan.error;
-      const within = (n) => s.options.budgetBytes - s._bytes >= n;
-      const fetch = plan.fetch.filter((f) => within(this.meshes[f.mesh].range[f.block].size));
-      if (!fetch.length && !plan.evict.length) {
-        // Nothing more for this view: the paced items left, then wait for a change.
-        if (await this._takePaced(signal, true)) continue;
-        if (!this.settled || key !== lastKey) {
-          this.settled = true;
-          lastKey = key;
-          s._emit('settled');
-        }
-        while (!signal.aborted && this._viewKey() === key) await sleep(SETTLED_POLL_MS, signal);
-        continue;
-      }
-      this.settled = false;
-      for (const e of plan.evict) {
-        const m = this.meshes[e.mesh], drop = new Set(e.blocks);
-        const keep = [...m.held].filter((k) => !drop.has(k));
-        await s._viewRebuild(e.mesh, keep);
-        m.held = new Set(keep);
-        this.rebuilds++;
-        if (signal.aborted) return;
-      }
-      // The blocks' ranges, fetched side by side; applied in the plan's order (each one's
-      // dependencies were held before this round).
-      const reads = fetch.map((f) => {
-        const r = this.meshes[f.mesh].range[f.block];
-        const p = s._reader.read(r.offset, r.offset + r.size, signal, true);
-        p.catch(() => {});
-        return p;
-      });
-      try {
-        for (let i = 0; i < fetch.length; i++) {
-          const data = await reads[i];
-          if (signal.aborted) return;
-          try {
-            await s._viewApply(fetch[i].mesh, fetch[i].block, data);
-            this.meshes[fetch[i].mesh].held.add(fetch[i].block);
-          } finally {
-            if (data.release) data.release();
+    const inflight = [];  // [{mesh, block, faces, vertices, read}] in the order asked
+    try {
+      while (!signal.aborted) {
+        await this._takePaced(signal, false);
+        const key = this._viewKey();
+        let evicted = false;
+        if (inflight.length < IN_FLIGHT) {
+          const plan = this._plan(inflight, IN_FLIGHT - inflight.length);
+          if (plan.evict.length && !inflight.length) {
+            await this._drop(plan.evict, signal);  // then plans again with the room made
+            evicted = true;
+          } else if (!plan.evict.length) {
+            const within = (n) => s.options.budgetBytes - s._bytes - inflight.reduce((a, x) => a + x.size, 0) >= n;
+            for (const f of plan.fetch) {
+              const r = this.meshes[f.mesh].range[f.block], b = this.meshes[f.mesh].blocks[f.block];
+              if (!within(r.size)) break;
+              const read = s._reader.read(r.offset, r.offset + r.size, signal, true);
+              read.catch(() => {});
+              inflight.push({ ...f, size: r.size, faces: b.face_end - b.face_begin, vertices: b.vertex_end - b.vertex_begin, read });
+            }
           }
-          s._bytes += data.length;
-          this.blocksApplied++;
-          this.peakResident = Math.max(this.peakResident, this.resident());
-          s._emit('chunk', { kind: 'block', mesh: fetch[i].mesh, block: fetch[i].block });
-          s._emit('progress');
-          await pause();
         }
-      } finally {
-        for (const p of reads) p.then((d) => { if (d && d.release) d.release(); }, () => {});
+        if (evicted) continue;
+        if (!inflight.length) {
+          // Nothing more for this view: the paced items left, then wait for a change.
+          if (await this._takePaced(signal, true)) continue;
+          if (!this.settled || key !== lastKey) {
+            this.settled = true;
+            lastKey = key;
+            s._emit('settled');
+          }
+          while (!signal.aborted && this._viewKey() === key) await sleep(SETTLED_POLL_MS, signal);
+          continue;
+        }
+        this.settled = false;
+        const f = inflight[0];
+        const data = await f.read;
+        inflight.shift();
+        if (signal.aborted) { if (data.release) data.release(); return; }
+        try {
+          await s._viewApply(f.mesh, f.block, data);
+          this.meshes[f.mesh].held.add(f.block);
+        } finally {
+          if (data.release) data.release();
+        }
+        s._bytes += data.length;
+        this.blocksApplied++;
+        this.peakResident = Math.max(this.peakResident, this.resident());
+        s._emit('chunk', { kind: 'block', mesh: f.mesh, block: f.block });
+        s._emit('progress');
+        await this._yield();
       }
+    } finally {
+      for (const x of inflight) x.read.then((d) => { if (d && d.release) d.release(); }, () => {});
+    }
+  }
+
+  // Between two blocks: a task boundary, and an animation frame every FRAME_EVERY_MS (a block
+  // need not wait for a frame of its own: where frames are slow, a software GL drawing a million
+  // triangles, that would hold the refinement to one block per frame).
+  async _yield() {
+    const now = performance.now();
+    if (now - this._lastFrame < FRAME_EVERY_MS) { await nextTask(); return; }
+    await pause();
+    this._lastFrame = performance.now();
+  }
+
+  // planBlocks for the camera now, the blocks on their way (`inflight`) counted as held; at most
+  // `max` blocks.
+  _plan(inflight, max) {
+    const s = this.s;
+    this._prepare();
+    let resident = this.resident();
+    const views = this.meshes.map((m, i) => {
+      if (!m) return null;
+      const pending = new Set(), mine = inflight.filter((x) => x.mesh === i);
+      for (const x of mine) pending.add(x.block);
+      const faces = mine.reduce((a, x) => a + x.faces, 0), vertices = mine.reduce((a, x) => a + x.vertices, 0);
+      resident += faces;
+      return { ...m, pending, faces: s.meshes[i].faces + faces, vertices: s.meshes[i].vertices + vertices };
+    });
+    const plan = planBlocks(views, resident, s.options.triangleBudget, (i, k) => this.scale(i, k), { max });
+    this.screenError = plan.error;
+    return plan;
+  }
+
+  // Drops the blocks of `evict` ([{mesh, blocks}]): each mesh decoded again from the rest.
+  async _drop(evict, signal) {
+    for (const e of evict) {
+      const m = this.meshes[e.mesh], drop = new Set(e.blocks);
+      const keep = [...m.held].filter((k) => !drop.has(k));
+      await this.s._viewRebuild(e.mesh, keep);
+      m.held = new Set(keep);
+      this.rebuilds++;
+      if (signal.aborted) return;
     }
   }
 
