@@ -772,19 +772,25 @@ export class MeshmuxStream extends EventTarget {
       this._emit(this._state);
       return this.stats;
     } catch (error) {
-      if (this._state === 'disposed') return this.stats;
-      if (error && error.name === 'AbortError' && signal.aborted) {
-        this._state = 'stopped';
-        this._emit('stopped');
-        return this.stats;
-      }
-      this._state = 'error';
-      this._emit('error', { error });
-      throw error;
+      return this._playFailed(error, signal);
     } finally {
       if (this._abort === abort) this._abort = null;
       for (const r of reads) r.then((d) => { if (d && d.release) d.release(); }, () => {});
     }
+  }
+
+  // A play that threw: 'stopped' when `signal` was aborted (stop()), else 'error' and the error
+  // thrown on; once disposed, the stats.
+  _playFailed(error, signal) {
+    if (this._state === 'disposed') return this.stats;
+    if (error && error.name === 'AbortError' && signal.aborted) {
+      this._state = 'stopped';
+      this._emit('stopped');
+      return this.stats;
+    }
+    this._state = 'error';
+    this._emit('error', { error });
+    throw error;
   }
 
   // Plays by view (view_stream.js) until stop() or an error; resolves with the stats.
@@ -799,15 +805,7 @@ export class MeshmuxStream extends EventTarget {
       this._emit('stopped');
       return this.stats;
     } catch (error) {
-      if (this._state === 'disposed') return this.stats;
-      if (error && error.name === 'AbortError' && signal.aborted) {
-        this._state = 'stopped';
-        this._emit('stopped');
-        return this.stats;
-      }
-      this._state = 'error';
-      this._emit('error', { error });
-      throw error;
+      return this._playFailed(error, signal);
     } finally {
       if (this._abort === abort) this._abort = null;
     }
