@@ -11,6 +11,8 @@
 //      or what it is after --seconds.
 //   4. the budget halved there: detail dropped (the mesh decoded again from the blocks kept)
 //      until the faces held fit it.
+// --page-decoder: the blocks decoded on the page (MeshmuxStream worker: false) instead of in
+// the library's worker.
 // --world: the package placed twice side by side in a MeshmuxWorld (world.js), which plays a
 // block package by view over both placements within its share of the world's budget.
 // Throughout: resident triangles (faces held, stats.residentTriangles) checked against the
@@ -41,7 +43,7 @@ if (!meshmux || !dir || !work) {
 const budget = Number(opt('--budget', '2000000')), mbit = Number(opt('--mbit', '10')), seconds = Number(opt('--seconds', '10'));
 const close = Number(opt('--close', '0.17')), [W, H] = opt('--size', '960x540').split('x').map(Number);
 const timeout = Number(opt('--timeout', '300'));
-const worldMode = process.argv.includes('--world');
+const worldMode = process.argv.includes('--world'), pageDecoder = process.argv.includes('--page-decoder');
 const sceneBounds = JSON.parse(fs.readFileSync(path.join(dir, 'report.json'), 'utf8')).bounds;
 const check = process.argv.includes('--check'), chromiumPath = opt('--chromium', '/usr/bin/chromium');
 if (!fs.existsSync(chromiumPath)) skip(`${chromiumPath} not installed`);
@@ -95,7 +97,7 @@ if (${worldMode}) {
   for (const type of ['chunk', 'settled']) stream.addEventListener(type, (e) => { watch(e); redraw(); });
   world.play();
 } else {
-  stream = new MeshmuxStream('model.mmxp', { renderer, camera, triangleBudget: budget });
+  stream = new MeshmuxStream('model.mmxp', { renderer, camera, triangleBudget: budget, worker: ${!pageDecoder} });
   for (const type of ['chunk', 'settled', 'base']) stream.addEventListener(type, (e) => { watch(e); redraw(); });
   object = await stream.open();
   scene.add(object);
@@ -230,7 +232,7 @@ try {
 fs.writeFileSync(path.join(work, 'view_blocks.json'), JSON.stringify(result, null, 1));
 const d = result.defaultView, c = result.closeView, lib = result.libraryTasks[0];
 const f = (x, n = 2) => (Number.isFinite(x) ? x.toFixed(n) : '–');
-console.log(`${worldMode ? 'in a world, placed twice: ' : ''}package ${(result.bytesTotal / 1e6).toFixed(2)} MB at ${mbit} Mbit/s, budget ${budget} triangles, ${W}x${H}`);
+console.log(`${worldMode ? 'in a world, placed twice: ' : ''}${pageDecoder ? 'decoded on the page: ' : ''}package ${(result.bytesTotal / 1e6).toFixed(2)} MB at ${mbit} Mbit/s, budget ${budget} triangles, ${W}x${H}`);
 console.log(`first picture: joined the scene ${f(result.baseReady)} s after navigation, first frame drawn ${f(result.firstPicture)} s (lighting and shaders on this GL)`);
 console.log(`default view: settled at ${f(d.at)} s, ${d.resident} triangles held, ${d.blocksHeld}/${d.blockCount} blocks, ${(d.bytes / 1e6).toFixed(2)} MB, screen error ${f(d.screenError)} px`);
 for (const [name, c] of [['close view', result.closeView], ['second close view', result.secondView]]) {
