@@ -32,6 +32,18 @@ export function isEmptyBlock(b) {
 // block applied twice, the decoder's own message naming the split); after one, the state is not
 // used again. Memory: the decoder's (growing to the highest stream vertex placed), one int per
 // stream vertex (slots), and the coded bytes of the blocks held (kept to rebuild).
+// The blocks a client holds before any is applied: those that send nothing (wholly in the
+// base), except those after the last block a part sends (`sent`: per block, whether a part
+// carries it), which a completion cut off (their detail is in it): those stay wanted, so their
+// error counts on screen, and never come. A Set of block indices. O(blocks).
+export function heldFromStart(blocks, sent) {
+  let last = -1;
+  for (let k = 0; k < blocks.length; k++) if (sent[k]) last = k;
+  const held = new Set();
+  blocks.forEach((b, k) => { if (isEmptyBlock(b) && k < last) held.add(k); });
+  return held;
+}
+
 const EMPTY = new Uint8Array(0);
 
 export class BlockMeshState {
@@ -232,20 +244,21 @@ export function blockChildren(blocks) {
 // on are dropped, the least projected error first, as long as theirs is below the candidate's
 // (Nexus's cut: detail that left the view or went far makes room for detail in view).
 // Returns {fetch: [{mesh, block, pixels (its projected error)}], evict: [{mesh, blocks: [...]}],
-// error (the largest projected error of a block in view whose dependencies are held: the
-// screen-space error of what is drawn, at most the tolerance once the view is refined)}. O(blocks · log blocks) per call.
+// error (the largest projected error of a block in view whose dependencies are held, sent or
+// not: the screen-space error of what is drawn, at most the tolerance once the view is refined
+// as far as the package allows)}. O(blocks · log blocks) per call.
 export function planBlocks(meshes, resident, budget, scale, { tolerance = 1, max = 4, slack = 0.1 } = {}) {
   const candidates = [];
   let error = 0;
   meshes.forEach((m, mi) => {
     if (!m) return;
     m.blocks.forEach((b, k) => {
-      if (m.held.has(k) || m.pending.has(k) || !m.sent[k]) return;
+      if (m.held.has(k) || m.pending.has(k)) return;
       for (const d of b.deps) if (!m.held.has(d)) return;
       const s = scale(mi, k);
       const pixels = b.error * s.pixels;
-      if (pixels > error) error = pixels;
-      if (!(pixels > tolerance)) return;
+      if (pixels > error) error = pixels;  // a block no part sends (after a completion) counts too
+      if (!m.sent[k] || !(pixels > tolerance)) return;
       const drop = pixels - m.childError[k] * s.pixels;
       const faces = b.face_end - b.face_begin;
       candidates.push({ mesh: mi, block: k, pixels, faces, vertices: b.vertex_end - b.vertex_begin,

@@ -11,7 +11,7 @@
 
 import * as THREE from 'three';
 
-import { blockChildren, isEmptyBlock, planBlocks } from './block_view.js';
+import { blockChildren, heldFromStart, planBlocks } from './block_view.js';
 import { nextTask, pause } from './upload.js';
 
 // How often a settled stream looks at the camera again (ms).
@@ -43,7 +43,7 @@ export class ViewPlayer {
     this.meshes = table.meshes.map((d, i) => {
       if (!d.blocks.length) return null;
       const mesh = stream.meshes[i];
-      return { blocks: d.blocks, ...blockChildren(d.blocks), held: new Set(d.blocks.flatMap((b, k) => (isEmptyBlock(b) ? [k] : []))), pending: new Set(),
+      return { blocks: d.blocks, ...blockChildren(d.blocks), held: new Set(), pending: new Set(),
         sent: new Uint8Array(d.blocks.length), bytes: new Float64Array(d.blocks.length), range: d.blocks.map(() => null),
         faces: mesh.faces, vertices: mesh.vertices, capacityFaces: mesh.capacityFaces, capacityVertices: mesh.capacityVertices };
     });
@@ -77,6 +77,7 @@ export class ViewPlayer {
       }
       before += chunk.size;
     }
+    for (const m of this.meshes) if (m) m.held = heldFromStart(m.blocks, m.sent);
     this.pacedAt = 0;
     this.rebuilds = 0;         // times detail was dropped (a mesh decoded again)
     this.blocksApplied = 0;    // blocks applied in all (again after a drop included)

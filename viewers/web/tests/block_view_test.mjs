@@ -11,7 +11,8 @@
 //      naming the block, nothing applied;
 //   4. planBlocks for a moving point of interest under a budget: faces held never above the
 //      budget, every block after its dependencies, the region looked at refined to the
-//      tolerance, and detail left behind dropped to make room for the next region.
+//      tolerance, and detail left behind dropped to make room for the next region;
+//   5. blocks a completion cut off are not held from the start and their error counts.
 // usage: node block_view_test.mjs --meshmux BIN --work DIR --model FILE
 // Exit: 0 pass, 1 fail, 77 skipped (no renderer or WebAssembly decoder).
 import assert from 'node:assert/strict';
@@ -19,7 +20,7 @@ import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 
-import { BlockMeshState, blockChildren, isEmptyBlock, planBlocks } from '../block_view.js';
+import { BlockMeshState, blockChildren, heldFromStart, isEmptyBlock, planBlocks } from '../block_view.js';
 import { opt, skip } from './harness.mjs';
 import { decoder, freeStates, freshStates, readPackage } from './node_package.mjs';
 
@@ -245,5 +246,27 @@ for (const share of [0.15, 0.5, 1]) {
   const left = [...first].filter((k) => !held.has(k)).length;
   assert.ok(evictions > 0 && left > 0, 'detail left behind was dropped to make room');
   console.log(`choice under a budget of ${budget} faces (${desc.faces} in all): ${taken} blocks taken, ${evictions} dropped, peak ${peak} faces; both regions refined to ${tolerance} px`);
+}
+// 5. A completion that cut the parts short (stream/format.h "Blocks": the blocks after it are
+// sent by no part and end where they begin): those blocks are not held from the start, unlike
+// the ones wholly in the base, and their error still counts on screen, though none can come.
+{
+  const sentBlocks = blocks.flatMap((b, k) => (sent[k] ? [k] : []));
+  const cut = sentBlocks[Math.floor(sentBlocks.length / 2)];
+  const cutBlocks = blocks.map((b, k) => (k > cut ? { ...b, vertex_begin: b.vertex_end, face_begin: b.face_end } : b));
+  const cutSent = sent.map((x, k) => x && k <= cut);
+  const start = heldFromStart(cutBlocks, cutSent);
+  assert.deepEqual([...heldFromStart(blocks, sent)].sort((a, b) => a - b), empty, 'without a cut: the blocks wholly in the base');
+  for (let k = cut + 1; k < blocks.length; k++) assert.ok(!start.has(k), `block ${k}, cut off, is not held from the start`);
+  // Everything sent held: what is left is the cut blocks' error, not zero.
+  const held = new Set([...start, ...sentBlocks.filter((k) => k <= cut)]);
+  const { children, childError } = blockChildren(cutBlocks);
+  const plan = planBlocks([{ blocks: cutBlocks, children, childError, held, pending: new Set(), sent: cutSent, bytes: blocks.map(() => 1),
+    faces: desc.faces, vertices: desc.vertices, capacityFaces: desc.faces, capacityVertices: desc.vertices }], desc.faces, desc.faces,
+    () => ({ pixels: 1e5, area: 1 }));
+  assert.equal(plan.fetch.length, 0, 'nothing after the cut can be fetched');
+  const left = Math.max(...cutBlocks.filter((b, k) => k > cut && b.deps.every((d) => held.has(d))).map((b) => b.error * 1e5));
+  assert.ok(plan.error > 0 && plan.error === left, `the screen error left is the cut blocks' (${plan.error} px)`);
+  console.log(`a completion after block ${cut}: ${blocks.length - cut - 1} blocks cut off, not held; ${plan.error.toFixed(1)} px left on screen`);
 }
 console.log('PASS');
