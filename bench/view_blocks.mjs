@@ -103,6 +103,7 @@ if (${worldMode}) {
   scene.add(object);
   box = stream.worldBounds();
 }
+stream.addEventListener('error', (e) => console.error('stream error: ' + e.detail.error.message));
 const baseReady = now();  // the first picture joined the scene
 const view = stream.table.view;
 addStreamLighting(view, scene, camera, renderer);

@@ -246,9 +246,10 @@ export class StreamMesh {
 
   // Takes in a block mesh's whole state after detail was dropped (block_view.js
   // BlockMeshState.rebuild: buffers sized to this mesh's capacities, vertices in slots): new
-  // buffers in place of the old ones (the old leave the GPU; the new go up with the next frame).
+  // buffers in place of the old ones, the blocks' or a completion's (the old leave the GPU; the
+  // new go up with the next frame).
   replaceAll(w) {
-    if (w.position.length !== this.position.length || w.indices.length !== this.indices.length) {
+    if (w.position.length !== 3 * this.capacityVertices || w.indices.length !== 3 * this.capacityFaces) {
       throw new Error(`mesh ${this.index}: whole buffers of ${w.position.length / 3} vertices and ${w.indices.length / 3} faces, the mesh holds ${this.capacityVertices} and ${this.capacityFaces}`);
     }
     const g = this.geometry;
@@ -259,7 +260,8 @@ export class StreamMesh {
     g.setAttribute('uv', this.uvAttribute = attribute(w.uv, 2));
     g.setIndex(this.indexAttribute = attribute(w.indices, 1));
     this.position = w.position, this.normal = w.normal, this.uv = w.uv, this.indices = w.indices;
-    this._dirty.fill(0);
+    this._dirty = new Uint8Array(Math.ceil((3 * this.capacityFaces) / INDEX_BLOCK));
+    this.completed = false;  // a completion's buffers given back for the blocks'
     this.vertices = w.vertices;
     this.faces = w.faces;
     this.solid = w.solid;

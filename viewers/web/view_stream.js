@@ -5,8 +5,8 @@
 // decoded again from the blocks kept: block_view.js BlockMeshState.rebuild). Everything else in
 // the package (texture levels, the parts of meshes that are not block meshes) follows at the
 // pace of the stored order: an item is taken once the bytes received reach the bytes stored
-// before it. The completion is not taken where it would replace a block mesh (it is the whole
-// mesh). Used by meshmux.js; the state is held where the stream decodes (its worker, or the
+// before it. A block mesh's completion (its full detail, where the parts stopped) is taken when
+// the view wants more than the blocks sent give and the full mesh fits the budget. Used by meshmux.js; the state is held where the stream decodes (its worker, or the
 // page).
 
 import * as THREE from 'three';
@@ -72,12 +72,16 @@ export class ViewPlayer {
       } else if (chunk.kind === 'texture') {
         this.paced.push({ bytesBefore: before, index, chunk });
       } else if (chunk.kind === 'complete') {
-        if (chunk.meshes.some((e) => this.meshes[e.mesh])) stream.notes.push(`chunk ${index}: the completion of a block mesh is not taken when playing by view`);
+        if (chunk.meshes.some((e) => this.meshes[e.mesh])) this.completion = this._completionChunk = { index, chunk };
         else this.paced.push({ bytesBefore: before, index, chunk });
       }
       before += chunk.size;
     }
     for (const m of this.meshes) if (m) m.held = heldFromStart(m.blocks, m.sent);
+    // The completion of a block mesh (its full detail single-rate, where the parts stopped): taken
+    // once the view wants more than the blocks sent can give and the full mesh fits the budget.
+    this.completion = this.completion || null;
+    this.completed = new Map();  // block mesh → its view state, while it shows the completion
     this.pacedAt = 0;
     this.rebuilds = 0;         // times detail was dropped (a mesh decoded again)
     this.blocksApplied = 0;    // blocks applied in all (again after a drop included)
@@ -200,6 +204,7 @@ export class ViewPlayer {
       while (!signal.aborted) {
         await this._takePaced(signal, false);
         const key = this._viewKey();
+        if (!inflight.length && await this._uncomplete(signal)) continue;
         let evicted = false;
         if (inflight.length < IN_FLIGHT) {
           const plan = this._plan(inflight, IN_FLIGHT - inflight.length);
@@ -219,8 +224,10 @@ export class ViewPlayer {
         }
         if (evicted) continue;
         if (!inflight.length) {
-          // Nothing more for this view: the paced items left, then wait for a change.
+          // Nothing more for this view: the paced items left, the completion where it is wanted
+          // and fits, then wait for a change.
           if (await this._takePaced(signal, true)) continue;
+          if (await this._takeCompletion(signal)) continue;
           if (!this.settled || key !== lastKey) {
             this.settled = true;
             lastKey = key;
@@ -262,6 +269,23 @@ export class ViewPlayer {
     this._lastFrame = performance.now();
   }
 
+  // When the budget was lowered under what a completion holds: its meshes back to their blocks
+  // (decoded again from those held; the completion can be taken again later). Resolves with
+  // whether it gave one back.
+  async _uncomplete(signal) {
+    const s = this.s;
+    if (!this.completed.size || this.resident() <= s.options.triangleBudget) return false;
+    for (const [i, m] of this.completed) {
+      await s._viewRebuild(i, [...m.held]);
+      this.meshes[i] = m;
+      this.rebuilds++;
+      if (signal.aborted) break;
+    }
+    this.completion = this._completionChunk;
+    this.completed.clear();
+    return true;
+  }
+
   // planBlocks for the camera now, the blocks on their way (`inflight`) counted as held; at most
   // `max` blocks.
   _plan(inflight, max) {
@@ -291,6 +315,34 @@ export class ViewPlayer {
       this.rebuilds++;
       if (signal.aborted) return;
     }
+  }
+
+  // Takes the completion when the screen error left is over the tolerance (blocks it cut off
+  // are in view) and its meshes' full detail fits the budget; its block meshes are then whole
+  // (no longer chosen by view). Resolves with whether it took it.
+  async _takeCompletion(signal) {
+    const s = this.s, c = this.completion;
+    if (!c || !(this.screenError > 1)) return false;
+    let resident = this.resident();
+    for (const e of c.chunk.meshes) resident += e.faces - s.meshes[e.mesh].faces;
+    if (resident > s.options.triangleBudget || s._bytes + c.chunk.size > s.options.budgetBytes) return false;
+    const data = await s._reader.read(c.chunk.offset, c.chunk.offset + c.chunk.size, signal, true);
+    try {
+      await s._applyChunk(c.index, c.chunk, data);
+    } finally {
+      if (data.release) data.release();
+    }
+    s._bytes += c.chunk.size;
+    for (const e of c.chunk.meshes) {
+      this.completed.set(e.mesh, this.meshes[e.mesh]);
+      this.meshes[e.mesh] = null;
+    }
+    this.completion = null;
+    this.screenError = 0;
+    this.peakResident = Math.max(this.peakResident, this.resident());
+    s._emit('chunk', { chunk: c.index, kind: 'complete' });
+    s._emit('progress');
+    return true;
   }
 
   // Takes the paced items whose stored bytes are due (all that are left with `all`). Resolves
