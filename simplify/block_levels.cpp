@@ -25,6 +25,7 @@
 #include <unordered_map>
 
 #include "core/parallel.h"
+#include "core/release_pages.h"
 #include "simplify/simplifier.h"
 
 namespace meshmux::simplify_detail {
@@ -268,16 +269,22 @@ size_t Simplifier::run_block_level(size_t block_positions, size_t level,
   const size_t first_id = one_id ? blocks_.size() - 1 : blocks_.size() - blocks;
   collapse_block_.resize(collapses_.size(), 0);
   size_t made = 0;
-  // A block's lists are freed once its last collapse is merged, and the freed pages handed back
-  // every kTrimBytes: the history grows as the blocks' lists shrink, where holding both to the
-  // end was the conversion's peak (a 20M-triangle scan's first level: ~300 MB twice).
+  // The history grows as the blocks' lists shrink, where holding both to the end was the
+  // conversion's peak (a 20M-triangle scan's first level: ~330 MB twice). The merge reads every
+  // block's lists from the front at about the same pace (each block's errors rise as the
+  // level's do), so a list's pages read for the last time go back to the OS as it is read
+  // (SimplifyOptions::merge_release_bytes: release_pages), and a block's lists are freed once its
+  // last collapse is merged, the freed pages handed back every kTrimBytes.
   constexpr size_t kTrimBytes = size_t(32) << 20;
+  const size_t release_bytes = opt_.merge_release_bytes;
+  std::vector<size_t> released(blocks, 0);  // per block: collapses read when it last released
   size_t freed = 0;
   while (!heads.empty()) {
     const uint32_t b = heads.top().second;
     heads.pop();
     BlockResult& r = results[b];
-    Collapse c = r.collapses[next[b]++];
+    const Collapse c0 = r.collapses[next[b]++];
+    Collapse c = c0;
     const uint32_t first_map = uint32_t(maps_.size()), first_face = uint32_t(removed_faces_.size());
     maps_.insert(maps_.end(), r.maps.begin() + c.first_map,
                  r.maps.begin() + c.first_map + c.map_count);
@@ -290,6 +297,15 @@ size_t Simplifier::run_block_level(size_t block_positions, size_t level,
     collapse_block_.push_back(uint16_t(id));
     blocks_[id].error = std::max(blocks_[id].error, c.error);
     ++made;
+    if (release_bytes && (next[b] - released[b]) * sizeof(Collapse) >= release_bytes) {
+      // A block's collapses list their maps and faces in order (each block records its own):
+      // what this one and those before it use is read for the last time.
+      released[b] = next[b];
+      release_pages(r.collapses.data(), next[b] * sizeof(Collapse));
+      release_pages(r.maps.data(), (size_t(c0.first_map) + c0.map_count) * sizeof(r.maps[0]));
+      release_pages(r.removed_faces.data(),
+                    (size_t(c0.first_face) + c0.face_count) * sizeof(uint32_t));
+    }
     if (next[b] < r.collapses.size()) {
       heads.push({r.collapses[next[b]].queue_min, b});
       continue;

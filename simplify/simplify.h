@@ -61,6 +61,10 @@ struct SimplifyOptions {
   uint64_t block_above = 1000000;    // a submesh with more faces takes the block levels first
   uint32_t block_positions = 32768;  // positions per block (about half its faces)
   uint64_t block_until = 262144;     // block levels run while more faces than this are live
+  uint32_t merge_release_bytes = 65536;  // a level's merge hands back a block's lists' pages
+                                         // every this many bytes of its collapses read (they
+                                         // shrink as the merged history grows); 0: each list
+                                         // held whole until its block is merged
   std::string spill_dir;  // the first block level's quadrics wait in an unnamed file here (the
                           // output's folder): ~75 bytes per input face out of memory; empty:
                           // they stay in memory

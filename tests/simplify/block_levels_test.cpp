@@ -74,6 +74,25 @@ TEST(BlockLevels, RecordIsTheSameWhateverTheThreadCount) {
                      record_on_threads(s, block_options(), "3"));
 }
 
+// A level's merge hands back the pages of the blocks' lists it has read (a page at a time here,
+// where the default is every 64 KB of a block's collapses): it must never read one again, or the
+// record would take zeros for wedges and faces. The same record as with every list held whole.
+// Blocks of 4,096 positions on a sphere of 64k triangles: lists of several pages each.
+TEST(BlockLevels, MergeHandingPagesBackGivesTheSameRecord) {
+  Scene big;
+  Mesh m;
+  m.primitives.push_back(uv_sphere(128, 256));
+  big.meshes.push_back(m);
+  big.instances.push_back({0, Mat4::identity(), "sphere"});
+  const Scene s = clean(big, {});
+  SimplifyOptions every_page = block_options(), held = block_options();
+  every_page.block_positions = held.block_positions = 4096;
+  every_page.merge_release_bytes = 4096;
+  held.merge_release_bytes = 0;
+  expect_same_record(build_progressive(s, every_page).meshes[0],
+                     build_progressive(s, held).meshes[0]);
+}
+
 // The spilled quadrics are read back and placed into the mapped rest block by block on every
 // core (each block fills its own slots): one thread or three, the same record.
 TEST(BlockLevels, SpilledQuadricsPlacedOnEveryCoreGiveTheSameRecord) {
