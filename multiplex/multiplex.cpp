@@ -144,8 +144,7 @@ Status encode_layers(const ProgressiveScene& ps, const std::vector<LodSelection>
           if (!part.ok()) return part.status().with_prefix("multiplex");
           r.layer_parts[size_t(k)].push_back(part.take());
         }
-      r.layer_chunks[size_t(k)] = mesh_chunk_payload(r.layer_parts[size_t(k)]);
-      for (EncodedMeshPart& part : r.layer_parts[size_t(k)]) std::vector<uint8_t>().swap(part.data);
+      r.layer_chunks[size_t(k)] = take_chunk_payload(r.layer_parts[size_t(k)]);
       bytes = r.layer_chunks[size_t(k)].size();
     }
     r.mesh_bytes.push_back(bytes);

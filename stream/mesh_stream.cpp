@@ -19,6 +19,8 @@
 #include <map>
 #include <string>
 
+#include "core/release_pages.h"
+
 namespace meshmux {
 
 namespace {
@@ -101,7 +103,12 @@ MeshStreamEncoder::MeshStreamEncoder(const ProgressiveMesh& pm,
   }
   const ProgressiveLevel& b = pm.levels[base_level];
   sim_.reset(nv, nf);
-  sim_.reserve_capacities();  // the encoder reaches them: the whole record is coded
+  // The encoder reaches them (the whole record is coded); splits come from the positions of the
+  // vertices that have children (size_ > 1), or fewer where seams share one.
+  size_t parents = 0;
+  for (uint32_t v = 0; v < nv; ++v) parents += size_[v] > 1;
+  sim_.reserve_capacities(parents);
+  order_.reserve(nv);
   face_source_.reserve(nf);
   // The base's faces grouped by source primitive (the base .glb writes one glTF primitive per
   // group, in primitive order, with exactly these indices), each group in vertex-cache order,
@@ -530,8 +537,24 @@ std::vector<StreamBlock> MeshStreamEncoder::stream_blocks() const {
 }
 
 std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts) {
+  size_t bytes = 0;
+  for (const EncodedMeshPart& p : parts) bytes += p.data.size();
   std::vector<uint8_t> out;
+  out.reserve(bytes);
   for (const EncodedMeshPart& p : parts) out.insert(out.end(), p.data.begin(), p.data.end());
+  return out;
+}
+
+std::vector<uint8_t> take_chunk_payload(std::vector<EncodedMeshPart>& parts) {
+  size_t bytes = 0;
+  for (const EncodedMeshPart& p : parts) bytes += p.data.size();
+  std::vector<uint8_t> out;
+  out.reserve(bytes);
+  for (EncodedMeshPart& p : parts) {
+    out.insert(out.end(), p.data.begin(), p.data.end());
+    release_pages(p.data.data(), p.data.size());
+    std::vector<uint8_t>().swap(p.data);
+  }
   return out;
 }
 

@@ -24,13 +24,14 @@ void VsplitMesh::reset(uint32_t capacity_vertices, uint32_t capacity_faces) {
   capacity_vertices_ = capacity_vertices, capacity_faces_ = capacity_faces;
 }
 
-void VsplitMesh::reserve_capacities() {
+void VsplitMesh::reserve_capacities(size_t twin_positions) {
   vertices.reserve(capacity_vertices_), head.reserve(capacity_vertices_);
   twin_previous_.reserve(capacity_vertices_);
   indices.reserve(size_t(capacity_faces_) * 3), next.reserve(size_t(capacity_faces_) * 3);
-  // At most one twin position per vertex: the table never grows (a rehash holds both tables).
+  // Sized once for every position a split comes from: the table never grows (a rehash holds both
+  // tables).
   size_t slots = 16;
-  while (3 * slots < 4 * size_t(capacity_vertices_)) slots *= 2;
+  while (3 * slots < 4 * std::min<size_t>(twin_positions, capacity_vertices_)) slots *= 2;
   if (slots > twin_slots_.size()) twin_table_resize(slots);
 }
 

@@ -119,8 +119,11 @@ class VsplitMesh {
   // Allocates the capacities at once, for a side that knows it will reach them (the encoder
   // holds the whole record): grown by doubling, a 4M-triangle record's corner lists held up to
   // twice their size, and both copies while moving (~170 MB over 96 MB). Never on the decoding
-  // side, whose capacities come from the package.
-  void reserve_capacities();
+  // side, whose capacities come from the package. `twin_positions`: at most how many positions
+  // splits will come from (the twin table is sized for them, at most three quarters full: the
+  // parents' count; sized for every vertex, a scan's table held twice the slots, 67 MB more at
+  // 20M triangles); more positions than that only grow it.
+  void reserve_capacities(size_t twin_positions);
   uint32_t vertex_count() const { return uint32_t(vertices.size()); }
   uint32_t face_count() const { return uint32_t(indices.size() / 3); }
   uint32_t capacity_vertices() const { return capacity_vertices_; }

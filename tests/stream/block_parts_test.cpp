@@ -213,5 +213,22 @@ TEST(BlockParts, PartAppliedTwiceIsRefused) {
   EXPECT_NE(m.status().message().find("held already"), std::string::npos) << m.status().message();
 }
 
+// A layer's chunk is made from its parts as each part's bytes are let go (the multiplexer's
+// take_chunk_payload, so the chunk never sits beside all of them): the same bytes as the copy,
+// parts large and small (whole pages of a big one handed back), and the parts left empty.
+TEST(BlockParts, ChunkTakenFromItsPartsHasTheirBytes) {
+  std::vector<EncodedMeshPart> parts(3);
+  std::mt19937 rng(7);
+  const size_t sizes[3] = {300000, 17, 70000};
+  for (size_t i = 0; i < 3; ++i) {
+    parts[i].data.resize(sizes[i]);
+    for (uint8_t& b : parts[i].data) b = uint8_t(rng());
+  }
+  const std::vector<uint8_t> copied = mesh_chunk_payload(parts);
+  EXPECT_EQ(copied.size(), 300000u + 17u + 70000u);
+  EXPECT_EQ(take_chunk_payload(parts), copied);
+  for (const EncodedMeshPart& p : parts) EXPECT_TRUE(p.data.empty());
+}
+
 }  // namespace
 }  // namespace meshmux
