@@ -48,6 +48,9 @@ function pageMainThread(events) {
 // ends where one is missing), each { ms, owner, at (s after start), top (the library's busiest
 // functions, for a library task; cpuMs: the thread's own time in it, null where the trace has
 // none; samples and leaves: the profile's samples in it and their innermost frames) }, and per owner { tasks, over50, ms, longest }.
+// Trace events that only a rendering update (the browser's frame) runs.
+const FRAME_UPDATE = new Set(['PrePaint', 'Paint', 'Layerize', 'UpdateLayoutTree', 'Layout']);
+
 export function taskOwners(events, profile, { start, end, library, frameFunctions = [], overMs = 16 }) {
   const main = pageMainThread(events);
   if (!main) return { tasks: [], owners: {} };
@@ -93,8 +96,23 @@ export function taskOwners(events, profile, { start, end, library, frameFunction
     const leaves = [...leaf].sort((a, b) => b[1] - a[1]).slice(0, 4).map(([k, n]) => `${k} ${n}`);
     const ms = task.dur / 1000;
     // The thread's own time in the task (tdur): far under ms when the thread waited for a core.
-    const cpuMs = Number.isFinite(task.tdur) ? task.tdur / 1000 : null;
-    tasks.push({ ms, cpuMs, owner, at: (task.ts - from) / 1e6, top, samples: stacks.length, leaves });
+    let cpuMs = Number.isFinite(task.tdur) ? task.tdur / 1000 : null;
+    // A rendering update (the browser's frame: style, paint, the canvas handed to the
+    // compositor) runs the page's animation-frame callbacks first: a library task of that kind
+    // counts only its script (the callbacks, and any other script call not inside one), the rest
+    // being the browser's frame (on software GL, ~10-15 ms of thread time around a wait for it).
+    const within = onMain.filter((e) => e !== task && e.ts >= task.ts && e.ts + e.dur <= stop);
+    if (owner === 'library' && cpuMs !== null && within.some((e) => FRAME_UPDATE.has(e.name))) {
+      const callbacks = within.filter((e) => e.name === 'FireAnimationFrame');
+      const inCallback = (e) => callbacks.some((c) => e.ts >= c.ts && e.ts + e.dur <= c.ts + c.dur);
+      const script = [...callbacks, ...within.filter((e) => e.name === 'FunctionCall' && !inCallback(e))];
+      cpuMs = script.reduce((a, e) => a + (Number.isFinite(e.tdur) ? e.tdur : e.dur), 0) / 1000;
+    }
+    // The trace's events inside the task, longest first (their own thread time where the trace
+    // has it): where a task's native time went (a fetch started, a GL call, a message).
+    const inside = [...within].sort((a, b) => b.dur - a.dur).slice(0, 6)
+      .map((e) => `${e.name} ${(e.dur / 1000).toFixed(1)} ms${Number.isFinite(e.tdur) ? ` (thread ${(e.tdur / 1000).toFixed(1)})` : ''}`);
+    tasks.push({ ms, cpuMs, owner, at: (task.ts - from) / 1e6, top, samples: stacks.length, leaves, inside });
     const o = (owners[owner] ||= { tasks: 0, over50: 0, ms: 0, longest: 0, cpuOver: 0, cpuLongest: 0 });
     o.tasks++;
     if (ms > 50) o.over50++;
