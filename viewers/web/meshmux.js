@@ -31,7 +31,7 @@ import { TaskPerMesh, TexturesInWorker } from './gltf_plugins.js';
 import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStandardMaterial } from './materials.js';
 import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
 import { BLOCK_PACKAGE_VERSION, PACKAGE_HEADER_BYTES } from './stream_format.js';
-import { StreamMesh, applyMeshChunk, loadDecoder, textureOf } from './stream_mesh.js';
+import { StreamMesh, applyMeshChunk, checkCompletionFaces, loadDecoder, textureOf } from './stream_mesh.js';
 import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, shownTextures, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
 import { gpuIdle, nextTask, pause, taskSlicer, uploadInBands } from './upload.js';
 import { displayScale, planRemaining, sequenceDistortion, textureAxis, viewWeights } from './view_plan.js';
@@ -888,12 +888,14 @@ export class MeshmuxStream extends EventTarget {
     }
     try {
       if (this._state === 'disposed') return;
-      chunk.meshes.forEach((e, k) => {
+      for (const [k, e] of chunk.meshes.entries()) {
         const g = decoded[k], points = g.getAttribute('position'), faces = g.getIndex();
         if (!points || points.count !== e.vertices || !faces || faces.count !== 3 * e.faces) {
           throw new Error(`mesh ${e.mesh}: the completion decodes to ${points ? points.count : 0} points and ${faces ? faces.count / 3 : 0} faces, the table says ${e.vertices} and ${e.faces}`);
         }
-      });
+        await checkCompletionFaces(e.mesh, faces, points.count);
+      }
+      if (this._state === 'disposed') return;
       chunk.meshes.forEach((e, k) => {
         const mesh = this.meshes[e.mesh], before = mesh.solid;
         mesh.complete(decoded[k]);
