@@ -55,6 +55,7 @@ const std::vector<Flag> kFlags = [] {
       whole_flag("--crease", kConvert | kBatch, 0, 180, true),
       {"--max-package-ratio", nullptr, kConvert | kBatch, FlagValue::kNumber, 0, 100, false, false,
        true},
+      whole_flag("--blocks-above", kConvert | kBatch, 0, kHuge, true),
       switch_flag("--no-draco", kConvert | kBatch, true),
       switch_flag("--no-atlas", kConvert | kBatch, true),
       switch_flag("--no-report", kConvert | kBatch, true),

@@ -28,6 +28,10 @@ ConvertOptions convert_options(const ParsedArgs& p) {
   if (p.has("--no-draco")) o.gltf.draco = false;
   if (p.has("--no-atlas")) o.atlas = false;
   if (p.has("--no-report")) o.report = false;
+  if (p.has("--blocks-above")) {  // 0: never (unless the memory cap needs blocks)
+    const long long n = p.whole("--blocks-above", 0);
+    o.simplify.block_above = n == 0 ? UINT64_MAX : uint64_t(n);
+  }
   o.max_package_ratio = p.number("--max-package-ratio", o.max_package_ratio);
   return o;
 }

@@ -277,6 +277,36 @@ TEST(ConvertMemory, SmallMaxMemoryBuildsBlocks) {
   }
 }
 
+// --blocks-above sets the size from which a mesh streams as blocks: a 90k-face mesh takes the
+// block path over 50,000 and stays one chain with 0 (never) and by default (a million); a
+// negative size is a usage error.
+TEST(ConvertBlocks, BlocksAboveChoosesTheBlockPath) {
+  std::string why;
+  if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
+  TempDir dir;
+  Scene s = testing::bumpy_sphere(150, 300);
+  GltfExportOptions g;
+  g.draco = false;
+  auto glb = export_glb_bytes(s, g, nullptr);
+  ASSERT_TRUE(glb.ok()) << glb.status().message();
+  const std::string in = dir.file("sphere.glb");
+  testing::write_file(in, *glb);
+  for (const char* above : {"50000", "0", ""}) {
+    const std::string out = dir.file(std::string("out") + above);
+    std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
+    if (*above) args.insert(args.end(), {"--blocks-above", above});
+    auto r = run_meshmux(args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json report = json::parse(testing::read_file(out + "/report.json"));
+    if (std::string(above) == "50000")
+      EXPECT_GT(report.value("blocks", json::array()).size(), 1u) << "blocks over 50,000 faces";
+    else
+      EXPECT_FALSE(report.contains("blocks")) << "one chain with --blocks-above '" << above << "'";
+  }
+  EXPECT_EQ(run_meshmux({"convert", in, "-o", dir.file("bad"), "--blocks-above", "-1"}).exit_code,
+            1);
+}
+
 TEST(Cli, HelpAndVersion) {
   auto h = run_meshmux({"--help"});
   EXPECT_EQ(h.exit_code, 0);
