@@ -250,19 +250,24 @@ TEST(SampleCommand, WritesValidInstancedTexturedScene) {
   EXPECT_EQ(testing::gltf_validator_errors(dir.file("out/model.glb")), 0);
 }
 
+// A bumpy sphere of rows x columns x 2 faces written as a plain .glb in `dir`; its path.
+std::string write_bumpy_sphere(const TempDir& dir, int rows, int columns) {
+  GltfExportOptions g;
+  g.draco = false;
+  auto glb = export_glb_bytes(testing::bumpy_sphere(rows, columns), g, nullptr);
+  EXPECT_TRUE(glb.ok()) << glb.status().message();
+  const std::string in = dir.file("sphere.glb");
+  if (glb.ok()) testing::write_file(in, *glb);
+  return in;
+}
+
 // --max-memory too small for the whole-mesh loop on a 640k-face mesh (500 MB holds it for 500k
 // faces) converts it as blocks, within the cap; without it the mesh stays one chain.
 TEST(ConvertMemory, SmallMaxMemoryBuildsBlocks) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   TempDir dir;
-  Scene s = testing::bumpy_sphere(400, 800);
-  GltfExportOptions g;
-  g.draco = false;
-  auto glb = export_glb_bytes(s, g, nullptr);
-  ASSERT_TRUE(glb.ok()) << glb.status().message();
-  const std::string in = dir.file("sphere.glb");
-  testing::write_file(in, *glb);
+  const std::string in = write_bumpy_sphere(dir, 400, 800);
   for (const char* mb : {"", "500"}) {
     const std::string out = dir.file(std::string("out") + mb);
     std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
@@ -284,13 +289,7 @@ TEST(ConvertBlocks, BlocksAboveChoosesTheBlockPath) {
   std::string why;
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   TempDir dir;
-  Scene s = testing::bumpy_sphere(150, 300);
-  GltfExportOptions g;
-  g.draco = false;
-  auto glb = export_glb_bytes(s, g, nullptr);
-  ASSERT_TRUE(glb.ok()) << glb.status().message();
-  const std::string in = dir.file("sphere.glb");
-  testing::write_file(in, *glb);
+  const std::string in = write_bumpy_sphere(dir, 150, 300);
   for (const char* above : {"50000", "0", ""}) {
     const std::string out = dir.file(std::string("out") + above);
     std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
