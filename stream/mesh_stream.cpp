@@ -536,20 +536,27 @@ std::vector<StreamBlock> MeshStreamEncoder::stream_blocks() const {
   return out;
 }
 
-std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts) {
+namespace {
+
+// A chunk's payload sized for its parts' bytes, none in it yet.
+std::vector<uint8_t> payload_for(const std::vector<EncodedMeshPart>& parts) {
   size_t bytes = 0;
   for (const EncodedMeshPart& p : parts) bytes += p.data.size();
   std::vector<uint8_t> out;
   out.reserve(bytes);
+  return out;
+}
+
+}  // namespace
+
+std::vector<uint8_t> mesh_chunk_payload(const std::vector<EncodedMeshPart>& parts) {
+  std::vector<uint8_t> out = payload_for(parts);
   for (const EncodedMeshPart& p : parts) out.insert(out.end(), p.data.begin(), p.data.end());
   return out;
 }
 
 std::vector<uint8_t> take_chunk_payload(std::vector<EncodedMeshPart>& parts) {
-  size_t bytes = 0;
-  for (const EncodedMeshPart& p : parts) bytes += p.data.size();
-  std::vector<uint8_t> out;
-  out.reserve(bytes);
+  std::vector<uint8_t> out = payload_for(parts);
   for (EncodedMeshPart& p : parts) {
     out.insert(out.end(), p.data.begin(), p.data.end());
     release_pages(p.data.data(), p.data.size());
