@@ -220,23 +220,21 @@ export class StreamMesh {
     // are where their type fits, not copied (a 1.2M-triangle completion's copies held the page's
     // thread for tens of milliseconds).
     const take = (a, Type, n) => (a && !a.isInterleavedBufferAttribute && a.array instanceof Type && a.array.length === n ? a.array : null);
-    const P = take(pos, Float32Array, 3 * count) || Float32Array.from({ length: 3 * count }, (_, i) => pos.getComponent(Math.floor(i / 3), i % 3));
+    // An attribute's floats (size per point): taken, or read value by value, or `fill` where absent.
+    const floats = (a, size, fill) => {
+      const got = take(a, Float32Array, size * count);
+      if (got) return got;
+      const out = new Float32Array(size * count);
+      for (let i = 0; i < size * count; i++) out[i] = a ? a.getComponent(Math.floor(i / size), i % size) : fill(i % size);
+      return out;
+    };
+    const P = floats(pos, 3, () => 0);
     if (!this.quantized) {  // a base with float positions: stream vertices in mesh units
       const o = this.origin, s = this.step;
       for (let i = 0; i < 3 * count; i++) P[i] = o[i % 3] + P[i] * s;
     }
-    const nrm = decoded.getAttribute('normal'), uv = decoded.getAttribute('uv');
-    let N = take(nrm, Float32Array, 3 * count);
-    if (!N) {
-      N = new Float32Array(3 * count);
-      if (nrm) for (let i = 0; i < 3 * count; i++) N[i] = nrm.getComponent(Math.floor(i / 3), i % 3);
-      else for (let i = 0; i < count; i++) N[3 * i + 2] = 1;  // +Z, as the stream without normals
-    }
-    let T = take(uv, Float32Array, 2 * count);
-    if (!T) {
-      T = new Float32Array(2 * count);
-      if (uv) for (let i = 0; i < 2 * count; i++) T[i] = uv.getComponent(Math.floor(i / 2), i % 2);
-    }
+    const N = floats(decoded.getAttribute('normal'), 3, (k) => (k === 2 ? 1 : 0));  // +Z, as the stream without normals
+    const T = floats(decoded.getAttribute('uv'), 2, () => 0);
     const I = take(index, Uint32Array, index.count) || Uint32Array.from(index.array);
     const g = this.geometry;
     g.dispose();  // the grown buffers leave the GPU; the new ones go up with the next frame
