@@ -8,7 +8,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
-import { validateTable } from '../viewers/web/package_reader.js';
+import { rawTableOf, validateTable } from '../viewers/web/package_reader.js';
 import { layerChunks, pathArea, planRemaining, surface, viewWeights } from '../viewers/web/view_plan.js';
 
 const rows = [];
@@ -19,7 +19,7 @@ for (const out of process.argv.slice(2)) {
   if (!fs.existsSync(file)) { rows.push(`| ${name} | no package | | | | | |`); continue; }
   const bytes = fs.readFileSync(file);
   const tableSize = bytes.readUInt32LE(8);
-  const raw = JSON.parse(zlib.inflateSync(bytes.subarray(12, 12 + tableSize)).toString());
+  const { raw } = rawTableOf(bytes, zlib.inflateSync, (m) => new Error(`${name}: ${m}`));  // a block index merged in
   const table = validateTable(raw, { fileSize: bytes.length, dataStart: 12 + tableSize, fail: (m) => new Error(`${name}: ${m}`) });
   const vt = table.view_table;
   if (!vt) { rows.push(`| ${name} | no choice (${table.chunks.length} chunks of one kind or none) | | | | | |`); continue; }

@@ -53,9 +53,10 @@ struct ConvertOptions {
   // PackageBound): past it the chain of splits ends in the full mesh single-rate. 0: no bound.
   double max_package_ratio = 1.2;
   // ... and at most this (or max_package_ratio, the larger; 0 there: no bound) for a package whose
-  // meshes stream as block hierarchies (stream/format.h "Blocks": a block's part names its
-  // parents by stream numbers out of the chain's order, ~6% more bytes than the chain; the issue
-  // "Big content" bounds such packages at 1.3×), so that the base keeps the first picture's bytes.
+  // meshes stream as block hierarchies (stream/format.h "Blocks": block parts cost more than the
+  // chain, ~6% while they named parents by stream number, ~0.3% since format 17 codes them against
+  // the block's candidates; the issue "Big content" bounds such packages at 1.3×), so that the
+  // base keeps the first picture's bytes.
   double max_block_package_ratio = 1.3;
   // Observer (tests, tools): every image file and mesh part the conversion encodes is counted
   // here, where it is encoded; it overrides the stage options' own. Null: nothing counted.

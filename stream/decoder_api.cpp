@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "stream/format.h"
 #include "stream/quantize.h"
@@ -20,6 +21,8 @@
 
 struct MmxMesh {
   meshmux::VsplitMesh state;
+  uint32_t base_vertices = 0;                // mmx_set_base's count
+  std::vector<meshmux::StreamBlock> blocks;  // mmx_set_blocks: boxes, ranges, dependencies
 };
 
 namespace {
@@ -68,6 +71,7 @@ int mmx_set_base(MmxMesh* mesh, const uint16_t* p, const int8_t* n, const uint16
     return fail(std::to_string(count) + " base vertices exceed its capacity " +
                 std::to_string(s.capacity_vertices()));
   s.vertices.reserve(count);
+  mesh->base_vertices = count;
   for (uint32_t i = 0; i < count; ++i) {
     meshmux::QuantizedVertex q;
     for (int k = 0; k < 3; ++k) q.p[k] = p[3 * i + k], q.n[k] = n[3 * i + k];
@@ -111,11 +115,44 @@ int mmx_apply_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t spl
   return s ? 0 : fail(s.message());
 }
 
+MMX_EXPORT(mmx_set_blocks)
+int mmx_set_blocks(MmxMesh* mesh, const uint32_t* words, uint32_t count) {
+  std::vector<meshmux::StreamBlock> blocks;
+  for (uint32_t at = 0; at < count;) {
+    const std::string where = "block " + std::to_string(blocks.size());
+    if (count - at < 9) return fail(where + ": the table ends inside it");
+    meshmux::StreamBlock b;
+    for (int i = 0; i < 6; ++i) {
+      if (words[at + i] > 65535) return fail(where + ": box past the grid");
+      b.box[i] = uint16_t(words[at + i]);
+    }
+    b.vertex_begin = words[at + 6], b.vertex_end = words[at + 7];
+    const uint32_t deps = words[at + 8];
+    at += 9;
+    if (b.vertex_end < b.vertex_begin || b.vertex_end > mesh->state.capacity_vertices())
+      return fail(where + ": vertex range outside the mesh");
+    if (deps > count - at) return fail(where + ": the table ends inside its dependencies");
+    for (uint32_t i = 0; i < deps; ++i) {
+      const uint32_t d = words[at + i];
+      if (d >= blocks.size() || (i > 0 && d <= b.deps.back()))
+        return fail(where + ": dependency " + std::to_string(d) + " is not an earlier block");
+      b.deps.push_back(d);
+    }
+    at += deps;
+    blocks.push_back(std::move(b));
+  }
+  mesh->blocks = std::move(blocks);
+  return 0;
+}
+
 MMX_EXPORT(mmx_apply_block_part)
-int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t vertex_begin,
+int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t block,
                          uint32_t splits, uint32_t faces) {
-  meshmux::Status s =
-      meshmux::decode_vsplit_block_part(mesh->state, data, size, vertex_begin, splits, faces);
+  if (block >= mesh->blocks.size())
+    return fail("block " + std::to_string(block) + " of " + std::to_string(mesh->blocks.size()) +
+                " set");
+  meshmux::Status s = meshmux::decode_vsplit_block_part(mesh->state, data, size, mesh->blocks,
+                                                        mesh->base_vertices, block, splits, faces);
   return s ? 0 : fail(s.message());
 }
 

@@ -47,9 +47,18 @@ void mmx_begin_changes(MmxMesh* mesh);
 // faces (stream/vsplit.h decode_vsplit_part).
 int mmx_apply_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t splits,
                    uint32_t faces);
-// Applies one block part (stream/format.h "Blocks"; stream/vsplit.h decode_vsplit_block_part):
-// fresh contexts, its `splits` vertices placed at stream numbers vertex_begin on.
-int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t vertex_begin,
+// A block mesh's blocks (stream/format.h "Blocks"), which its block parts are decoded against:
+// `count` words, per block in table order its box on the grid (6: min x, y, z, max x, y, z),
+// its stream vertex range (2: begin, end, as the reader derives them from the parts), the
+// number d of its dependencies, then those d block indices (ascending, each an earlier block).
+// Checked as read (a box past 16 bits, a range past the capacity, a dependency on itself or a
+// later block are refused); replaces any blocks set before.
+int mmx_set_blocks(MmxMesh* mesh, const uint32_t* words, uint32_t count);
+// Applies the part of block `block` (of those mmx_set_blocks gave; stream/vsplit.h
+// decode_vsplit_block_part): fresh contexts, its `splits` vertices placed at the block's stream
+// numbers, its parents read against the block's candidates (the base as mmx_set_base gave it,
+// and its ancestors' vertices in its box).
+int mmx_apply_block_part(MmxMesh* mesh, const uint8_t* data, size_t size, uint32_t block,
                          uint32_t splits, uint32_t faces);
 
 uint32_t mmx_vertices(const MmxMesh* mesh);

@@ -13,7 +13,8 @@
 //   4   4  uint32 version (kPackageVersion)
 //   8   4  uint32 table length J (bytes)
 //   12  J  the JSON table (UTF-8), zlib-deflated (browsers: DecompressionStream("deflate"))
-//   12+J   the data: the base .glb (deflated when "deflated"), then each chunk, in table order
+//   12+J   the data: the base .glb (deflated when "deflated"), the block index (a package with
+//          blocks, see "Block index"), then each chunk, in table order
 // JSON table (keys in the order written; letters stand for values):
 // clang-format off
 //   {"version": 14,                                  // kPackageVersion
@@ -41,20 +42,25 @@
 //             "glb_size": G,                         // the .glb's own size
 //             "distortion": d0,                      // expected distortion of the base alone
 //             "whole": true},                        // optional, see below
+//    "index": {"offset": o, "size": s},              // version 17 only: see "Block index"
 //    "meshes": [{"vertices": V, "faces": F,          // full progressive mesh sizes
 //                "base_vertices": v0, "base_faces": f0,            // what the base holds
 //                "bounds": [minx, miny, minz, maxx, maxy, maxz],   // of every position, mesh
 //                                                                  // units (floats, shortest
 //                                                                  // decimals)
 //                "quantization": {"origin": [x, y, z], "step": s}, // the position grid
-//                "blocks": [[l, e, [x0, y0, z0, x1, y1, z1],       // optional (version 16),
-//                            [k, ...]], ...]                       // see "Blocks"
+//                "blocks": K                                       // optional (version 17): the
+//                                                                  // count; the list
+//                                                                  // [[l, e, [x0, y0, z0, x1, y1,
+//                                                                  // z1], [k, ...]], ...] is in
+//                                                                  // the index, see "Blocks"
 //               }, ...],
 //    "texture": {"width": W, "height": H} | null,    // full texture size
 //    "chunks": [
 //      {"kind": "mesh", "offset": o, "size": s, "distortion": d,
 //       "parts": [[m, b, e, n], ...]},               // see "Parts" below ([m, b, e, n, k]: a
-//                                                    // block's, see "Blocks")
+//                                                    // block's, see "Blocks"); version 17: in
+//                                                    // the index
 //      {"kind": "complete", "offset": o, "size": s, "distortion": d,
 //       "meshes": [[m, v, f, n], ...]},              // see "Completion" below
 //      {"kind": "texture", "offset": o, "size": s, "distortion": d,
@@ -72,7 +78,7 @@
 // Parts: [m, b, e, n] takes mesh m to vertex b and face e in n coded bytes (the parts' bytes sum
 // to the chunk's size), from where m stands (its base, then the parts before in file order):
 // vertex a, face c.
-// Blocks (version 16; a mesh whose record is a block hierarchy, simplify/block_dag.h: big meshes
+// Blocks (version 17; a mesh whose record is a block hierarchy, simplify/block_dag.h: big meshes
 // built as spatial blocks simplified with locked borders, after Ponchio and Dellepiane's Nexus):
 // the mesh's refinements are one part per block. Block k is [l, e, box, deps]: its level l in
 // the hierarchy (0 the finest; the root's pieces, the first blocks, the coarsest), the largest
@@ -84,9 +90,12 @@
 // block ends at the mesh's counts. A client may apply block k's part once the blocks in its deps
 // are applied (each an earlier block: the list order is a topological order, so no cycle can
 // be written), whatever other blocks it holds: its vertices take their stream numbers a..b-1
-// (stream/vsplit.h decode_vsplit_block_part: fresh contexts, vertices placed, not appended). In
+// (stream/vsplit.h decode_vsplit_block_part: fresh contexts, vertices placed, not appended, each
+// parent an index into the block's candidates: the base's vertices and its ancestors' in its
+// box, block_parent_candidates; so a client needs every block's range and box before it
+// decodes a part). In
 // stored order the parts come in block order, so a client playing the chunks in order applies
-// them as a chain. A package holds version 16 only when a mesh has blocks (15 otherwise, byte
+// them as a chain. A package holds version 17 only when a mesh has blocks (15 otherwise, byte
 // for byte as before). A completion may end a block mesh's parts, as it ends a chain's (where
 // the parts would pass the package's bound): the blocks after it are sent by no part, and the
 // last block sent need not end at the mesh's counts. Readers check: deps strictly ascending
@@ -95,6 +104,17 @@
 // and ≥ 0, each block in at most one part, the parts' ends not decreasing in block order and
 // the last block ending at the mesh's counts (without a completion), and every part after the
 // parts of the blocks it depends on.
+// Block index (version 17: exactly when a mesh has blocks): what a client needs of the blocks
+// before it applies a refinement, not before its first picture, so it comes after the base
+// (a 4M-triangle scan's 145 blocks and their parts were 4.7 of the table's 5.6 KB, and the first
+// picture waited for them). "index" gives its range, which begins where the base ends; the
+// chunks begin where it ends. It is a zlib-deflated JSON object {"blocks": [list | null, ...],
+// "parts": [[part, ...], ...]}: per mesh (in table order) its block list (null for a mesh
+// without blocks; a list exactly when the table's mesh has "blocks", of that count), and per mesh
+// chunk (in stored order) its "parts". A reader puts each where a table without an index holds
+// it and reads the table as one; the table's mesh chunks then carry no "parts". (A version 17
+// table without "index" that holds the lists itself reads the same; the writer always writes
+// the index.)
 // Completion (optional, at most one, after every mesh chunk in every order): the full mesh sent
 // single-rate where the vertex splits' tail would cost more (the package's bound, or a tail
 // dearer than the full mesh). [m, v, f, n]: mesh m's full detail as a Draco bitstream of n
@@ -174,8 +194,9 @@ namespace meshmux {
 // client reads exactly this version (PACKAGE_VERSION of viewers/web/stream_format.js, which the
 // build generates from this header: scripts/format_constants.mjs).
 constexpr uint32_t kPackageVersion = 15;
-// 16: a mesh may be a block hierarchy ("blocks", parts naming their block); written only then.
-constexpr uint32_t kBlockPackageVersion = 16;
+// 17: a mesh may be a block hierarchy ("blocks", parts naming their block); written only then.
+// (16 coded a block part's parents by stream number; its packages are not read.)
+constexpr uint32_t kBlockPackageVersion = 17;
 constexpr size_t kPackageHeaderBytes = 12;               // magic, version, table length
 constexpr uint64_t kMaxTableBytes = uint64_t(64) << 20;  // the JSON table, inflated
 constexpr uint64_t kMaxBaseBytes = uint64_t(1) << 31;    // the base .glb, inflated

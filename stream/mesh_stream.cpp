@@ -254,12 +254,31 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
     while (rank(v) >= prefix) v = pm_.parent[v];
     return v;
   };
+  // A block part's parents go by their index in its candidates (stream/vsplit.h "Z"): generation 0
+  // by the candidates' order, later ones by their own stream index (after every candidate).
+  std::vector<std::pair<uint32_t, uint32_t>> listed;  // (stream number, candidate index)
+  if (block_parts_ && level > 0) {
+    plan.block = int32_t(pm_.level_block[level - 1]);
+    if (Status s = block_candidates(uint32_t(plan.block), plan.candidates); !s) return s;
+    listed.reserve(plan.candidates.size());
+    for (uint32_t i = 0; i < plan.candidates.size(); ++i)
+      listed.emplace_back(plan.candidates[i], i);
+    std::sort(listed.begin(), listed.end());
+  }
+  const uint64_t unlisted = uint64_t(1) << 32;  // a parent outside the candidates: after them
+  auto key = [&](uint32_t parent) -> uint64_t {
+    const uint32_t r = rank(parent);
+    if (plan.block < 0 || r >= va) return r + (plan.block < 0 ? 0 : unlisted);
+    auto at = std::lower_bound(listed.begin(), listed.end(), std::make_pair(r, 0u));
+    return at != listed.end() && at->first == r ? at->second : unlisted + r;
+  };
   uint32_t id = va;
   for (auto& bucket : by_gen) {
-    std::stable_sort(bucket.begin(), bucket.end(), [&](uint32_t a, uint32_t b) {
-      return rank(pm_.parent[a]) < rank(pm_.parent[b]);
-    });
-    for (uint32_t x : bucket) ranks[x - va] = id++, plan.order.push_back(x);
+    std::vector<std::pair<uint64_t, uint32_t>> keyed(bucket.size());
+    for (size_t i = 0; i < bucket.size(); ++i) keyed[i] = {key(pm_.parent[bucket[i]]), bucket[i]};
+    std::stable_sort(keyed.begin(), keyed.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [k, x] : keyed) ranks[x - va] = id++, plan.order.push_back(x);
   }
   // Each new face appears at the split that first makes its three corners distinct; faces that
   // do not (none in a well-formed record) are sent whole after the splits.
@@ -315,6 +334,10 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
 
 void MeshStreamEncoder::adopt(PartPlan& plan) {
   for (uint32_t x = plan.va; x < plan.vb; ++x) rank_[x] = plan.ranks[x - plan.va];
+  if (plan.block >= 0 && size_t(plan.block) < blocks_.size()) {  // its range, for those after it
+    StreamBlock& b = blocks_[size_t(plan.block)];
+    b.vertex_begin = plan.va, b.vertex_end = plan.vb, b.face_begin = plan.fa, b.face_end = plan.fb;
+  }
   order_.insert(order_.end(), plan.order.begin(), plan.order.end());
   std::vector<uint32_t>().swap(plan.ranks);
   std::vector<uint32_t>().swap(plan.order);
@@ -329,6 +352,12 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   e.part = {mesh_, va, vb, fa, fb, 0, -1};
   if (block_parts_ && plan.level > 0) e.part.block = int32_t(pm_.level_block[plan.level - 1]);
   RangeEncoder out;
+  // A block part's parents are indices into its candidates: (stream number, index), sorted.
+  std::vector<std::pair<uint32_t, uint32_t>> listed(plan.candidates.size());
+  for (uint32_t i = 0; i < plan.candidates.size(); ++i) listed[i] = {plan.candidates[i], i};
+  std::sort(listed.begin(), listed.end());
+  const uint32_t candidates = uint32_t(plan.candidates.size());
+  std::vector<uint32_t>().swap(plan.candidates);
   if (block_parts_) sim_.contexts = VsplitContexts();
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
   auto field = [&](StreamField f) { out.count_bits(&e.field_bits[size_t(f)]); };
@@ -361,8 +390,25 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
         __builtin_prefetch(&sim_.next[size_t(c)]), __builtin_prefetch(&face_source_[size_t(c) / 3]);
     uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
     field(StreamField::kParent);
-    out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
-    previous = p;
+    if (block_parts_) {  // an index into the block's candidates, then its own vertices
+      uint32_t index = candidates + (vb - va);  // the escape
+      if (p >= va) {
+        index = candidates + (p - va);
+      } else if (auto at = std::lower_bound(listed.begin(), listed.end(), std::make_pair(p, 0u));
+                 at != listed.end() && at->first == p) {
+        index = at->second;
+      }
+      out.put_uint(x.parent, zigzag(int32_t(index) - int32_t(previous)));
+      if (index == candidates + (vb - va)) {
+        out.put_uint(x.escape, p);
+        ++escaped_parents_;
+      } else {
+        previous = index;
+      }
+    } else {
+      out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));
+      previous = p;
+    }
     sim_.add_vertex(QuantizedVertex{});
     // Which of p's corners (in list order) the new vertex takes: those whose full-mesh vertex
     // descends from it (every vertex between them and p is still to come, so the new vertex is
@@ -506,6 +552,22 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   level_ = plan.level;
   count(counts_, &EncodeCounts::mesh_parts);
   return e;
+}
+
+Status MeshStreamEncoder::block_candidates(uint32_t block, std::vector<uint32_t>& out) {
+  if (blocks_.empty()) blocks_ = stream_blocks();
+  const uint32_t adopted = uint32_t(order_.size());
+  auto position = [&](uint32_t v) {
+    const Vec3 p = pm_.positions[order_[v]];
+    const PositionQuantization& q = quantization_;
+    return std::array<uint16_t, 3>{quantize_coordinate(p.x, q.origin.x, q.step),
+                                   quantize_coordinate(p.y, q.origin.y, q.step),
+                                   quantize_coordinate(p.z, q.origin.z, q.step)};
+  };
+  const uint32_t base_vertices = pm_.levels[level_at_start_].vertex_end;
+  Status s = collect_block_candidates(
+      blocks_, base_vertices, block, [&](uint32_t v) { return v < adopted; }, position, out);
+  return s ? s : internal(mesh_, s.message());
 }
 
 std::vector<StreamBlock> MeshStreamEncoder::stream_blocks() const {

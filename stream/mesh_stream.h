@@ -104,6 +104,8 @@ class MeshStreamEncoder {
     std::vector<uint32_t> extras;                 // faces sent whole after the splits
     std::vector<uint32_t> order, ranks;           // its splits' pm vertices in stream order; per pm
                                                   // vertex of the part, its stream index
+    int32_t block = -1;                           // a block part's block, else -1
+    std::vector<uint32_t> candidates;             // a block part's (block_parent_candidates)
   };
   // The plan of the part from the last level planned to `level`. Reads the encoder's stream
   // indices and writes nothing the encoder reads, so it may run on another thread while
@@ -130,6 +132,9 @@ class MeshStreamEncoder {
   std::vector<StreamBlock> stream_blocks() const;
   size_t level() const { return level_; }
   const std::vector<uint32_t>& stream_order() const { return order_; }
+  // Block parts' parents sent by stream number (outside their block's candidates: stream/vsplit.h
+  // "Z"), over every part encoded; 0 when each block's box holds its parents (for tests).
+  uint64_t escaped_parents() const { return escaped_parents_; }
   // Whether the stream carries normals (MeshStreamBase::normals).
   bool normals() const { return normals_; }
   // The client's state as the encoder simulates it (for tests).
@@ -166,6 +171,14 @@ class MeshStreamEncoder {
   Status status_;
   std::vector<std::vector<uint32_t>> base_faces_;
   uint32_t rep(uint32_t pm_vertex, uint32_t prefix) const;  // its vertex in the first `prefix`
+  // Block parts: the table's blocks (stream_blocks) with the ranges of the parts adopted so far,
+  // and the parents sent by stream number.
+  std::vector<StreamBlock> blocks_;
+  uint64_t escaped_parents_ = 0;
+  // The candidates of block `block`'s parents (collect_block_candidates over the stream vertices
+  // adopted so far, their positions from the record: the client may be busy coding the part
+  // before).
+  Status block_candidates(uint32_t block, std::vector<uint32_t>& out);
 };
 
 // A mesh chunk's payload: its parts' bytes in order (empty without parts). O(total bytes).

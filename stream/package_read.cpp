@@ -605,6 +605,66 @@ Status read_orders(const Json& j, Package& pkg) {
   return Status::ok();
 }
 
+// The block index (stream/format.h "Block index", a package with blocks, when it has one): read
+// from right after the base and put where a package without one holds the same lists (each block
+// mesh's "blocks" for its count, each mesh chunk's "parts"), so the table is read as one from there
+// on. `end` moves past it.
+Status merge_index(const std::vector<uint8_t>& bytes, uint64_t data_start, const Package& pkg,
+                   Json& j, uint64_t& end) {
+  auto index = j.find("index");
+  if (pkg.version != kBlockPackageVersion) {
+    if (index != j.end())
+      return fail("\"index\" in a version " + std::to_string(pkg.version) + " package");
+    return Status::ok();
+  }
+  if (index == j.end()) return Status::ok();  // the lists in the table itself
+  if (!index->is_object()) return fail("\"index\" is not an object");
+  Status s;
+  uint64_t offset = 0, size = 0;
+  const uint64_t data_size = bytes.size() - data_start;
+  if (!(s = get_uint(*index, "offset", data_size, offset, "index")) ||
+      !(s = get_uint(*index, "size", data_size, size, "index")))
+    return s;
+  if (data_start + offset != end || size == 0 || size > data_size - offset)
+    return fail("index: not right after the base, empty, or past the end of the file");
+  auto inflated = inflate_bytes(bytes.data() + data_start + offset, size_t(size), kMaxTableBytes);
+  if (!inflated.ok()) return fail("index: " + inflated.status().message());
+  const uint8_t* text = inflated->data();
+  if (json_depth(text, inflated->size()) > kMaxJsonDepth) return fail("index nested too deeply");
+  Json x = Json::parse(text, text + inflated->size(), nullptr, /*allow_exceptions=*/false);
+  if (x.is_discarded() || !x.is_object()) return fail("index does not parse as an object");
+  auto blocks = x.find("blocks"), parts = x.find("parts");
+  auto meshes = j.find("meshes"), chunks = j.find("chunks");
+  if (blocks == x.end() || !blocks->is_array() || parts == x.end() || !parts->is_array())
+    return fail("index: \"blocks\" or \"parts\" missing or not an array");
+  if (meshes == j.end() || !meshes->is_array() || blocks->size() != meshes->size())
+    return fail("index: \"blocks\" does not hold one entry per mesh");
+  for (size_t i = 0; i < blocks->size(); ++i) {
+    Json& mesh = (*meshes)[i];
+    auto count = mesh.is_object() ? mesh.find("blocks") : mesh.end();
+    const Json& list = (*blocks)[i];
+    const bool listed = !list.is_null();
+    if (listed != (mesh.is_object() && count != mesh.end()) ||
+        (listed && (!count->is_number_unsigned() || !list.is_array() ||
+                    count->get<uint64_t>() != list.size())))
+      return fail("mesh " + std::to_string(i) +
+                  ": its \"blocks\" count and the index's list differ");
+    if (listed) *count = list;
+  }
+  if (chunks == j.end() || !chunks->is_array()) return fail("\"chunks\" missing or not an array");
+  size_t next = 0;
+  for (Json& c : *chunks) {
+    auto kind = c.is_object() ? c.find("kind") : c.end();
+    if (!c.is_object() || kind == c.end() || !kind->is_string() || *kind != "mesh") continue;
+    if (c.contains("parts")) return fail("index: a mesh chunk carries parts in the table too");
+    if (next >= parts->size()) return fail("index: fewer part lists than mesh chunks");
+    c["parts"] = (*parts)[next++];
+  }
+  if (next != parts->size()) return fail("index: more part lists than mesh chunks");
+  end = data_start + offset + size;
+  return Status::ok();
+}
+
 }  // namespace
 
 Result<Package> read_package(const std::vector<uint8_t>& bytes) {
@@ -661,6 +721,7 @@ Result<Package> read_package(const std::vector<uint8_t>& bytes) {
   if (base_d == base->end()) return fail("base: missing \"distortion\"");
   if (!(s = get_finite(*base_d, pkg.base_distortion, "base: \"distortion\""))) return s;
   uint64_t end = pkg.base_offset + pkg.base_size;
+  if (!(s = merge_index(bytes, data_start, pkg, j, end))) return s;
 
   if (!(s = read_meshes(j, pkg))) return s;
 
@@ -760,9 +821,10 @@ Status decode_part(const std::vector<uint8_t>& bytes, const Package& package,
           !mesh.has_vertex(blocks[d].vertex_begin))
         return fail(where + ": block " + std::to_string(p.block) + " needs block " +
                     std::to_string(d) + ", not applied");
-    Status s = decode_vsplit_block_part(mesh, bytes.data() + chunk.offset + offset, size_t(p.bytes),
-                                        p.vertex_begin, p.vertex_end - p.vertex_begin,
-                                        p.face_end - p.face_begin);
+    Status s =
+        decode_vsplit_block_part(mesh, bytes.data() + chunk.offset + offset, size_t(p.bytes),
+                                 blocks, package.meshes[p.mesh].base_vertices, uint32_t(p.block),
+                                 p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
     if (!s) return fail(where + ": " + s.message());
     return Status::ok();
   }

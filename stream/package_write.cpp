@@ -217,11 +217,47 @@ uint32_t package_version(const PackageInput& in) {
   return kPackageVersion;
 }
 
+OrderedJson blocks_json(const MeshStreamBase& b) {
+  OrderedJson blocks = OrderedJson::array();
+  for (const StreamBlock& x : b.blocks)
+    blocks.push_back({x.level,
+                      short_float(float(x.error)),
+                      {x.box[0], x.box[1], x.box[2], x.box[3], x.box[4], x.box[5]},
+                      x.deps});
+  return blocks;
+}
+
+OrderedJson parts_json(const Chunk& c) {
+  OrderedJson parts = OrderedJson::array();
+  for (const PackagePart& p : c.parts)
+    if (p.block >= 0)
+      parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes, p.block});
+    else
+      parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
+  return parts;
+}
+
+// The block index (stream/format.h "Block index"): every mesh's blocks (null for a chain) and
+// every mesh chunk's parts, in stored order.
+std::string index_json(const PackageInput& in, const std::vector<Chunk>& chunks) {
+  OrderedJson j, blocks = OrderedJson::array(), parts = OrderedJson::array();
+  for (const MeshStreamBase& b : in.meshes)
+    blocks.push_back(b.blocks.empty() ? OrderedJson(nullptr) : blocks_json(b));
+  for (const Chunk& c : chunks)
+    if (c.kind == StreamStep::kMesh) parts.push_back(parts_json(c));
+  j["blocks"] = std::move(blocks);
+  j["parts"] = std::move(parts);
+  return j.dump();
+}
+
 // The JSON table. Offsets count from the end of the table (the data start), so the table does
-// not depend on its own compressed length. `base_stored`: the base's bytes as stored.
+// not depend on its own compressed length. `base_stored`: the base's bytes as stored;
+// `index_stored`: the block index's (a package with blocks: the blocks and the mesh chunks'
+// parts are there, not here), else 0.
 std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                        const std::vector<StreamOrder>& orders, uint64_t base_stored,
-                       bool base_deflated) {
+                       bool base_deflated, uint64_t index_stored) {
+  const bool indexed = package_version(in) == kBlockPackageVersion;
   const uint64_t data_start = 0;
   OrderedJson j;
   j["version"] = package_version(in);
@@ -235,8 +271,9 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
                {"glb_size", uint64_t(in.base_glb.size())},
                {"distortion", in.base_distortion}};
   if (in.base_whole) j["base"]["whole"] = true;
+  if (indexed) j["index"] = {{"offset", data_start + base_stored}, {"size", index_stored}};
   OrderedJson ms = OrderedJson::array();
-  uint64_t offset = data_start + base_stored;
+  uint64_t offset = data_start + base_stored + (indexed ? index_stored : 0);
   for (const MeshStreamBase& b : in.meshes) {
     const Bounds& box = b.bounds;
     OrderedJson e;
@@ -247,15 +284,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
     const PositionQuantization& q = b.quantization;
     e["quantization"] = {{"origin", {double(q.origin.x), double(q.origin.y), double(q.origin.z)}},
                          {"step", q.step}};
-    if (!b.blocks.empty()) {
-      OrderedJson blocks = OrderedJson::array();
-      for (const StreamBlock& x : b.blocks)
-        blocks.push_back({x.level,
-                          short_float(float(x.error)),
-                          {x.box[0], x.box[1], x.box[2], x.box[3], x.box[4], x.box[5]},
-                          x.deps});
-      e["blocks"] = std::move(blocks);
-    }
+    if (!b.blocks.empty()) e["blocks"] = b.blocks.size();  // the list: in the index
     ms.push_back(std::move(e));
   }
   j["meshes"] = std::move(ms);
@@ -277,13 +306,7 @@ std::string table_json(const PackageInput& in, const std::vector<Chunk>& chunks,
         meshes.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
       e["meshes"] = std::move(meshes);
     } else if (c.kind == StreamStep::kMesh) {
-      OrderedJson parts = OrderedJson::array();
-      for (const PackagePart& p : c.parts)
-        if (p.block >= 0)
-          parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes, p.block});
-        else
-          parts.push_back({p.mesh, p.vertex_end, p.face_end, p.bytes});
-      e["parts"] = std::move(parts);
+      if (!indexed) e["parts"] = parts_json(c);
     } else {
       e["width"] = c.texture->width, e["height"] = c.texture->height;
       OrderedJson maps = OrderedJson::array();
@@ -366,16 +389,21 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   std::vector<uint8_t> deflated_base = deflate_bytes(in.base_glb);
   const bool base_deflated = deflated_base.size() < in.base_glb.size();
   const std::vector<uint8_t>& base = base_deflated ? deflated_base : in.base_glb;
-  std::vector<uint8_t> table;
+  std::vector<uint8_t> table, index;
   try {
-    const std::string text = table_json(in, *chunks, *orders, base.size(), base_deflated);
+    if (package_version(in) == kBlockPackageVersion) {
+      const std::string text = index_json(in, *chunks);
+      index = deflate_bytes(std::vector<uint8_t>(text.begin(), text.end()));
+    }
+    const std::string text =
+        table_json(in, *chunks, *orders, base.size(), base_deflated, index.size());
     table = deflate_bytes(std::vector<uint8_t>(text.begin(), text.end()));
   } catch (const std::exception& e) {
     return fail(std::string("JSON table: ") + e.what());
   }
   if (table.size() > 0xffffffffu) return fail("JSON table too large");
 
-  uint64_t total = kPackageHeaderBytes + table.size() + base.size();
+  uint64_t total = kPackageHeaderBytes + table.size() + base.size() + index.size();
   for (const Chunk& c : *chunks) total += c.payload.size();
   std::vector<uint8_t> out;
   out.reserve(size_t(total));
@@ -385,6 +413,7 @@ Result<std::vector<uint8_t>> write_package(const PackageInput& in) {
   put_u32(out, 8, uint32_t(table.size()));
   out.insert(out.end(), table.begin(), table.end());
   out.insert(out.end(), base.begin(), base.end());
+  out.insert(out.end(), index.begin(), index.end());
   for (const Chunk& c : *chunks) out.insert(out.end(), c.payload.begin(), c.payload.end());
   return out;
 }

@@ -365,25 +365,42 @@ bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces) {
 }
 
 Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t placed,
-                     uint32_t splits, uint32_t faces);
+                     uint32_t splits, uint32_t faces, const std::vector<uint32_t>* candidates);
 
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces) {
-  return decode_vsplit(mesh, data, size, UINT32_MAX, splits, faces);
+  return decode_vsplit(mesh, data, size, UINT32_MAX, splits, faces, nullptr);
+}
+
+Status block_parent_candidates(const VsplitMesh& mesh, const std::vector<StreamBlock>& blocks,
+                               uint32_t base_vertices, uint32_t block, std::vector<uint32_t>& out) {
+  return collect_block_candidates(
+      blocks, base_vertices, block, [&](uint32_t v) { return mesh.has_vertex(v); },
+      [&](uint32_t v) {
+        const uint16_t* p = mesh.vertices[v].p;
+        return std::array<uint16_t, 3>{p[0], p[1], p[2]};
+      },
+      out);
 }
 
 Status decode_vsplit_block_part(VsplitMesh& mesh, const uint8_t* data, size_t size,
-                                uint32_t vertex_begin, uint32_t splits, uint32_t faces) {
+                                const std::vector<StreamBlock>& blocks, uint32_t base_vertices,
+                                uint32_t block, uint32_t splits, uint32_t faces) {
+  std::vector<uint32_t> candidates;
+  if (Status s = block_parent_candidates(mesh, blocks, base_vertices, block, candidates); !s)
+    return s;
+  const uint32_t vertex_begin = blocks[block].vertex_begin;
   if (vertex_begin == UINT32_MAX)
     return Status::error("block part at vertex 2^32 - 1", ErrorKind::kInput);
   mesh.contexts = VsplitContexts();
-  return decode_vsplit(mesh, data, size, vertex_begin, splits, faces);
+  return decode_vsplit(mesh, data, size, vertex_begin, splits, faces, &candidates);
 }
 
-// Both decoders: `placed` is the first vertex's stream number (a block part), or UINT32_MAX
-// (appended: a part in stream order).
+// Both decoders: `placed` is the first vertex's stream number (a block part, whose parents are
+// indices into `candidates` then its own vertices), or UINT32_MAX (appended: a part in stream
+// order, its parents stream numbers).
 Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t placed,
-                     uint32_t splits, uint32_t faces) {
+                     uint32_t splits, uint32_t faces, const std::vector<uint32_t>* candidates) {
   if (!part_size_plausible(size, splits, faces))
     return Status::error(std::to_string(size) + " bytes cannot hold " + std::to_string(splits) +
                              " splits and " + std::to_string(faces) + " faces",
@@ -409,13 +426,24 @@ Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_
   for (uint32_t i = 0; i < splits; ++i) {
     if (in.failed()) return fail(i, "the part's bytes end early");
     int64_t parent = int64_t(previous) + unzigzag(in.get_uint(x.parent));
+    if (candidates) {  // an index into the block's candidates, then its own vertices
+      const int64_t listed = int64_t(candidates->size());
+      if (parent < 0 || parent > listed + splits ||
+          (parent >= listed + i && parent < listed + splits))
+        return fail(i, "parent index " + std::to_string(parent) + " of " +
+                           std::to_string(listed + i) + " candidates");
+      if (parent < listed + splits) previous = uint32_t(parent);  // an escape leaves it
+      parent = parent < listed            ? int64_t((*candidates)[size_t(parent)])
+               : parent < listed + splits ? int64_t(first) + (parent - listed)
+                                          : int64_t(in.get_uint(x.escape));
+    }
     if (parent < 0 || parent >= int64_t(mesh.vertex_count()) || !mesh.has_vertex(uint32_t(parent)))
       return fail(
           i, "parent " + std::to_string(parent) + " of " + std::to_string(mesh.vertex_count()) +
                  " vertices" +
                  (parent >= 0 && parent < int64_t(mesh.vertex_count()) ? ", not held" : ""));
     const uint32_t p = uint32_t(parent);
-    previous = p;
+    if (!candidates) previous = p;
     const bool fan_mode = in.get_bit(x.mode[previous_mode]) != 0;
     previous_mode = fan_mode;
     uint32_t k = 2, vl = 0, vr = 0;

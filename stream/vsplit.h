@@ -28,7 +28,12 @@
 //           viewers derive face normals) gives every new vertex +Z (0, 0, 127); one without
 //           texture coordinates gives (0, 0).
 //   per split, with d the parent's corner count before the split:
-//   Z   uint(parent): zigzag(parent - previous parent) (previous starts at 0 per part).
+//   Z   uint(parent): zigzag(parent - previous parent) (previous starts at 0 per part). In a
+//       block part (decode_vsplit_block_part) the parent is an index into the block's list: its
+//       candidates (block_parent_candidates, in Morton order), C of them, then the part's own
+//       vertices (C + i for its i-th); index C + splits escapes, followed by uint(escape) the
+//       stream number of a held vertex (a parent outside the box's bounds). A block part's
+//       splits are ordered by generation, then by that index.
 //   M   bit(mode[previous split's mode]): 1 = a fan split (Hoppe's vsplit, fan()); the previous
 //       mode starts at 1 per part.
 //   fan:  tree5(fan_start[min(d, kFanLimit)]) the list position of vl's corner, then
@@ -63,10 +68,15 @@
 // kPositionBits, normals int8, uv kUvBits.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "core/status.h"
+#include "stream/format.h"
 #include "stream/range_coder.h"
 
 namespace meshmux {
@@ -211,7 +221,8 @@ class VsplitMesh {
   uint32_t capacity_vertices_ = 0, capacity_faces_ = 0;
   std::vector<uint8_t> holes_;  // per vertex: 1 where a block's vertex has not arrived; empty:
                                 // none ever (parts applied in stream order)
-  friend Status decode_vsplit(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t, uint32_t);
+  friend Status decode_vsplit(VsplitMesh&, const uint8_t*, size_t, uint32_t, uint32_t, uint32_t,
+                              const std::vector<uint32_t>*);
 };
 
 // The order a new vertex's position axes are coded in (stream/vsplit.h "P"): the two axes
@@ -236,16 +247,106 @@ bool part_size_plausible(uint64_t bytes, uint64_t splits, uint64_t faces);
 Status decode_vsplit_part(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_t splits,
                           uint32_t faces);
 
+// The vertices a part of block `block` may split, as its parents are coded (stream/format.h
+// "Blocks", "Z" of a block part): the base's [0, base_vertices), then the vertex ranges of the
+// block's ancestors (its dependencies, theirs, and so on) whose boxes meet its box, keeping those
+// whose position lies in its box (bounds included), in Morton order of their position within the
+// box (block_candidate_key; ties by stream number): a block's parents lie in its own part of
+// the box, so they come in runs and cost what a chain's do, where in stream numbers they were
+// spread among the box's other vertices. Every ancestor is applied before the block, so each
+// vertex of those ranges must be held (a hole means a dependency is missing: an error naming
+// both blocks). `blocks` carries the ranges (the reader derives them from the parts). Into `out`
+// (cleared). O(blocks + dependencies + the vertices of the ranges scanned + c log c for the c
+// listed).
+Status block_parent_candidates(const VsplitMesh& mesh, const std::vector<StreamBlock>& blocks,
+                               uint32_t base_vertices, uint32_t block, std::vector<uint32_t>& out);
+
+// The same list where the positions are not held in a VsplitMesh (the encoder plans a part while
+// its client is busy): `held(v)` whether stream vertex v is held, `position(v)` its position on
+// the grid (std::array<uint16_t, 3>).
+template <class Held, class Position>
+Status collect_block_candidates(const std::vector<StreamBlock>& blocks, uint32_t base_vertices,
+                                uint32_t block, Held held, Position position,
+                                std::vector<uint32_t>& out);
+
+// The Morton order key of grid position p within `box` (min x, y, z, max x, y, z): the bits of
+// p - min interleaved, x lowest. p inside the box.
+inline uint64_t block_candidate_key(const uint16_t p[3], const uint16_t box[6]) {
+  auto spread = [](uint64_t x) {  // 16 bits to every third of 48
+    x = (x | x << 16) & 0x0000FF0000FFull;
+    x = (x | x << 8) & 0x00F00F00F00Full;
+    x = (x | x << 4) & 0x0C30C30C30C3ull;
+    return (x | x << 2) & 0x249249249249ull;
+  };
+  return spread(uint16_t(p[0] - box[0])) | spread(uint16_t(p[1] - box[1])) << 1 |
+         spread(uint16_t(p[2] - box[2])) << 2;
+}
+
+template <class Held, class Position>
+Status collect_block_candidates(const std::vector<StreamBlock>& blocks, uint32_t base_vertices,
+                                uint32_t block, Held held, Position position,
+                                std::vector<uint32_t>& out) {
+  out.clear();
+  if (block >= blocks.size())
+    return Status::error("block " + std::to_string(block) + " of " + std::to_string(blocks.size()),
+                         ErrorKind::kInput);
+  const uint16_t* box = blocks[block].box;
+  auto meets = [&](const uint16_t* b) {
+    for (int i = 0; i < 3; ++i)
+      if (b[i] > box[3 + i] || box[i] > b[3 + i]) return false;
+    return true;
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> keyed;  // (Morton key, stream number)
+  auto scan = [&](uint32_t begin, uint32_t end, int64_t from) -> Status {
+    for (uint32_t v = begin; v < end; ++v) {
+      if (!held(v))
+        return Status::error("block " + std::to_string(block) + ": vertex " + std::to_string(v) +
+                                 (from < 0 ? " of the base" : " of block " + std::to_string(from)) +
+                                 " (a dependency) is not held",
+                             ErrorKind::kInput);
+      const std::array<uint16_t, 3> p = position(v);
+      if (p[0] >= box[0] && p[0] <= box[3] && p[1] >= box[1] && p[1] <= box[4] && p[2] >= box[2] &&
+          p[2] <= box[5])
+        keyed.emplace_back(block_candidate_key(p.data(), box), v);
+    }
+    return Status::ok();
+  };
+  if (Status s = scan(0, base_vertices, -1); !s) return s;
+  // Ancestors: every dependency is an earlier block, so one pass down from the block marks them.
+  std::vector<uint8_t> ancestor(size_t(block) + 1, 0);
+  ancestor[block] = 1;
+  for (size_t j = block + 1; j-- > 0;) {
+    if (!ancestor[j]) continue;
+    for (uint32_t d : blocks[j].deps)
+      if (d < j) ancestor[d] = 1;
+  }
+  for (uint32_t j = 0; j < block; ++j) {
+    const StreamBlock& b = blocks[j];
+    if (!ancestor[j] || b.vertex_end <= b.vertex_begin || !meets(b.box)) continue;
+    if (b.vertex_begin < base_vertices)
+      return Status::error("block " + std::to_string(j) + " begins inside the base",
+                           ErrorKind::kInput);
+    if (Status s = scan(b.vertex_begin, b.vertex_end, j); !s) return s;
+  }
+  std::sort(keyed.begin(), keyed.end());
+  out.resize(keyed.size());
+  for (size_t i = 0; i < keyed.size(); ++i) out[i] = keyed[i].second;
+  return Status::ok();
+}
+
 // A block part (the stream of a big mesh's block hierarchy, simplify/block_dag.h): the splits
-// of one block, which a client applies once the blocks it depends on are, in any order among
-// the others. Its coding is decode_vsplit_part's with two differences: the contexts start
-// fresh with the part (they do not carry over from whatever part came before), and its
-// vertices are placed at their stream numbers [vertex_begin, vertex_begin + splits) rather than
-// appended, so a parent, a face's vertex or an extra face names a vertex by the stream's number
-// whatever blocks the client holds (each must be held: one missing means a dependency was not
-// applied). Faces are appended. Errors as decode_vsplit_part's.
+// of block `block`, which a client applies once the blocks it depends on are, in any order
+// among the others. Its coding is decode_vsplit_part's with three differences: the contexts
+// start fresh with the part (they do not carry over from whatever part came before); its
+// vertices are placed at their stream numbers [vertex_begin, vertex_begin + splits) of the
+// block rather than appended, so a face's vertex or an extra face names a vertex by the
+// stream's number whatever blocks the client holds (each must be held: one missing means a
+// dependency was not applied); and a parent is coded as its index in the block's candidates
+// (block_parent_candidates, then the part's own vertices) rather than its stream number. Faces
+// are appended. Errors as decode_vsplit_part's, and block_parent_candidates'.
 Status decode_vsplit_block_part(VsplitMesh& mesh, const uint8_t* data, size_t size,
-                                uint32_t vertex_begin, uint32_t splits, uint32_t faces);
+                                const std::vector<StreamBlock>& blocks, uint32_t base_vertices,
+                                uint32_t block, uint32_t splits, uint32_t faces);
 
 // FNV-1a (32-bit) over a client state: per vertex its position (3 little-endian u16), normal
 // (3 i8) and uv (2 little-endian u16), then every index (little-endian u32). What a client that

@@ -608,7 +608,7 @@ TEST(Convert, KeptImagesComeWithTheTextureLevels) {
 }
 
 // A mesh over the block threshold (lowered here: a scan-like bumpy sphere of 36k triangles in
-// ~120 blocks) streams as a block hierarchy: a version 16 package whose every part names its
+// ~120 blocks) streams as a block hierarchy: a version 17 package whose every part names its
 // block, and report.json lists each block part with the mesh layer that ships it, its bytes
 // (summing to that layer's), its level and error.
 TEST(Convert, BlockMeshReportsItsBlocks) {

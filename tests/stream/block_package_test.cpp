@@ -1,4 +1,4 @@
-// A package whose mesh is a block hierarchy (stream/format.h "Blocks", version 16): written
+// A package whose mesh is a block hierarchy (stream/format.h "Blocks", version 17): written
 // from a block-built record (a scan-like bumpy sphere forced into ~120 blocks), read back with
 // its blocks' dependencies, boxes and ranges; its parts decode in stored order to the encoder's
 // state and, block by block, in any order the dependencies allow; damaged tables (a dependency
@@ -103,7 +103,7 @@ Result<VsplitMesh> base_state(const Package& pkg) {
   return decode_base(pkg, 0, fixture().base_vertices, fixture().base_faces);
 }
 
-// The table says what the record's hierarchy is: version 16, every block with its
+// The table says what the record's hierarchy is: version 17, every block with its
 // dependencies (earlier blocks), box and contiguous ranges, every part naming its block.
 TEST(BlockPackage, TableCarriesTheHierarchy) {
   const Fixture& f = fixture();
@@ -234,6 +234,26 @@ nlohmann::json table_of(const std::vector<uint8_t>& package) {
   Result<std::vector<uint8_t>> text = inflate_bytes(package.data() + 12, size, 1u << 26);
   return text.ok() ? nlohmann::json::parse(text->begin(), text->end()) : nlohmann::json();
 }
+// The table with the block index's lists put in it (stream/format.h "Block index": a table
+// that holds them itself, without "index", reads the same), so that a case edits them there.
+nlohmann::json merged_table_of(const std::vector<uint8_t>& package) {
+  nlohmann::json j = table_of(package);
+  if (!j.is_object() || !j.contains("index")) return j;
+  const uint32_t size = uint32_t(package[8]) | uint32_t(package[9]) << 8 |
+                        uint32_t(package[10]) << 16 | uint32_t(package[11]) << 24;
+  const size_t at = 12 + size + j["index"]["offset"].get<size_t>();
+  Result<std::vector<uint8_t>> text =
+      inflate_bytes(package.data() + at, j["index"]["size"].get<size_t>(), 1u << 26);
+  if (!text.ok()) return nlohmann::json();
+  const nlohmann::json index = nlohmann::json::parse(text->begin(), text->end());
+  for (size_t i = 0; i < j["meshes"].size(); ++i)
+    if (!index["blocks"][i].is_null()) j["meshes"][i]["blocks"] = index["blocks"][i];
+  size_t next = 0;
+  for (auto& c : j["chunks"])
+    if (c["kind"] == "mesh") c["parts"] = index["parts"][next++];
+  j.erase("index");
+  return j;
+}
 std::vector<uint8_t> with_table(const std::vector<uint8_t>& package, const nlohmann::json& j) {
   const std::string s = j.dump();
   const std::vector<uint8_t> text = deflate_bytes(std::vector<uint8_t>(s.begin(), s.end()));
@@ -246,10 +266,65 @@ std::vector<uint8_t> with_table(const std::vector<uint8_t>& package, const nlohm
   return out;
 }
 
+// The block lists and the parts wait after the base (stream/format.h "Block index"): the table
+// the first picture needs holds the blocks' count and no part, the index begins where the base
+// ends and the chunks where it ends, and the reader gives back what the writer was given.
+TEST(BlockPackage, BlockListsComeAfterTheBase) {
+  const Fixture& f = fixture();
+  const nlohmann::json table = table_of(f.package);
+  ASSERT_TRUE(table.is_object());
+  ASSERT_TRUE(table.contains("index"));
+  EXPECT_EQ(table["index"]["offset"], table["base"]["size"]);
+  EXPECT_EQ(table["meshes"][0]["blocks"], f.input.meshes[0].blocks.size());
+  for (const auto& c : table["chunks"]) EXPECT_FALSE(c.contains("parts"));
+  EXPECT_EQ(table["chunks"][0]["offset"].get<uint64_t>(),
+            table["index"]["offset"].get<uint64_t>() + table["index"]["size"].get<uint64_t>());
+  Result<Package> pkg = read_package(f.package);
+  ASSERT_TRUE(pkg.ok()) << pkg.status().message();
+  ASSERT_EQ(pkg->meshes[0].blocks.size(), f.input.meshes[0].blocks.size());
+  for (size_t k = 0; k < pkg->meshes[0].blocks.size(); ++k)
+    EXPECT_EQ(pkg->meshes[0].blocks[k].deps, f.input.meshes[0].blocks[k].deps) << "block " << k;
+  size_t parts = 0;
+  for (const PackageChunk& c : pkg->chunks) parts += c.parts.size();
+  EXPECT_GT(parts, 16u);
+  // The index is only the bytes after the base: its lists in the table read the same.
+  Result<Package> inline_lists = read_package(with_table(f.package, merged_table_of(f.package)));
+  ASSERT_TRUE(inline_lists.ok()) << inline_lists.status().message();
+  EXPECT_EQ(inline_lists->meshes[0].blocks.size(), pkg->meshes[0].blocks.size());
+}
+
+// A damaged block index is refused by name: bytes that do not inflate, a range that does not
+// follow the base, a count that differs from its list.
+TEST(BlockPackage, DamagedIndexIsRefusedByName) {
+  const Fixture& f = fixture();
+  const nlohmann::json table = table_of(f.package);
+  ASSERT_TRUE(table.is_object() && table.contains("index"));
+  const uint32_t size = uint32_t(f.package[8]) | uint32_t(f.package[9]) << 8 |
+                        uint32_t(f.package[10]) << 16 | uint32_t(f.package[11]) << 24;
+  std::vector<uint8_t> garbled = f.package;
+  const size_t at = 12 + size + table["index"]["offset"].get<size_t>();
+  for (size_t i = 2; i < 10; ++i) garbled[at + i] ^= 0x5a;
+  Result<Package> pkg = read_package(garbled);
+  ASSERT_FALSE(pkg.ok());
+  EXPECT_NE(pkg.status().message().find("index"), std::string::npos) << pkg.status().message();
+  nlohmann::json moved = table;
+  moved["index"]["offset"] = 1;
+  pkg = read_package(with_table(f.package, moved));
+  ASSERT_FALSE(pkg.ok());
+  EXPECT_NE(pkg.status().message().find("not right after the base"), std::string::npos)
+      << pkg.status().message();
+  nlohmann::json recount = table;
+  recount["meshes"][0]["blocks"] = table["meshes"][0]["blocks"].get<size_t>() + 1;
+  pkg = read_package(with_table(f.package, recount));
+  ASSERT_FALSE(pkg.ok());
+  EXPECT_NE(pkg.status().message().find("count and the index's list differ"), std::string::npos)
+      << pkg.status().message();
+}
+
 // Damaged tables are refused by name: the reader checks the DAG before anything is used.
 TEST(BlockPackage, DamagedHierarchiesAreRefusedByName) {
   const Fixture& f = fixture();
-  const nlohmann::json table = table_of(f.package);
+  const nlohmann::json table = merged_table_of(f.package);
   ASSERT_TRUE(table.is_object());
   ASSERT_TRUE(read_package(with_table(f.package, table)).ok());  // the rewrite itself is sound
   const size_t n = table["meshes"][0]["blocks"].size(), k = n / 2;

@@ -107,7 +107,7 @@ export class BlockMeshState {
     }
     const s0 = this.slots, f0 = this.state.faces;
     this.state.beginChanges();
-    this.state.applyBlockSplits(bytes, 0, bytes.length, b.vertex_begin, splits, faces);
+    this.state.applyBlockSplits(bytes, 0, bytes.length, k, splits, faces);
     for (let v = b.vertex_begin; v < b.vertex_end; v++) this.slotOf[v] = this.slots++;
     this.held.set(k, bytes);
     this.order.push(k);
@@ -146,7 +146,7 @@ export class BlockMeshState {
       const b = this.desc.blocks[k], part = bytes.get(k);
       if (isEmptyBlock(b)) continue;  // held from the start
       this.state.beginChanges();
-      this.state.applyBlockSplits(part, 0, part.length, b.vertex_begin, b.vertex_end - b.vertex_begin, b.face_end - b.face_begin);
+      this.state.applyBlockSplits(part, 0, part.length, k, b.vertex_end - b.vertex_begin, b.face_end - b.face_begin);
       for (let v = b.vertex_begin; v < b.vertex_end; v++) this.slotOf[v] = this.slots++;
       this.held.set(k, part);
       this.order.push(k);

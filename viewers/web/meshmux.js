@@ -29,7 +29,7 @@ import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
 
 import { TaskPerMesh, TexturesInWorker } from './gltf_plugins.js';
 import { CHANNEL_SLOTS, configureMap, configureTexture, makeMaterial, makeStandardMaterial } from './materials.js';
-import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, validateTable } from './package_reader.js';
+import { MAX_TABLE_BYTES, PACKAGE_VERSION, RangeReader, RequestLimiter, inflate, mergeIndex, validateTable } from './package_reader.js';
 import { BLOCK_PACKAGE_VERSION, PACKAGE_HEADER_BYTES } from './stream_format.js';
 import { StreamMesh, applyMeshChunk, checkCompletionFaces, loadDecoder, textureOf } from './stream_mesh.js';
 import { Ktx2Image, compressedLike, gpuBytesOf, sharedKtx2Loader, shownTextures, texelGpuBytes, textureSource, usesBasisu } from './ktx2.js';
@@ -39,7 +39,7 @@ import { PixelImage, StreamWorker, WorkerPool } from './worker_client.js';
 import { BlockMeshState } from './block_view.js';
 import { ViewPlayer, viewCapacities } from './view_stream.js';
 
-export { PACKAGE_VERSION, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, loadDecoder };
+export { PACKAGE_VERSION, mergeIndex, validateTable, RequestLimiter, StreamMesh, StreamWorker, WorkerPool, applyMeshChunk, inflate, loadDecoder };
 export { addStreamLighting } from './lighting.js';
 export { nextTask, uploadInBands };
 const HEADER_BYTES = PACKAGE_HEADER_BYTES;
@@ -148,6 +148,7 @@ export class MeshmuxStream extends EventTarget {
     this._worker = null;  // the StreamWorker decoding the mesh chunks, or null: on the page
     this._decoder = null;  // decoding on the page: the WebAssembly decoder (stream_decoder.js)
     this._setup = null;    // the worker's setup of the meshes (a Promise), awaited by mesh chunks
+    this._indexed = null;  // the block index read and the decoders set up (a Promise; play awaits it)
     this._workerStart = null;  // the Promise of it while it starts
     this._uploads = null;  // uploadsBeside: the Promise of the last texture level's upload and swap
     this._bounds = null;   // worldBounds() as last computed, and the object's matrix then
@@ -290,18 +291,21 @@ export class MeshmuxStream extends EventTarget {
       }
       // A block package seen through a camera under a triangle budget is played by view.
       const o = this.options;
-      if (Number.isFinite(o.triangleBudget) && o.triangleBudget >= 0 && o.camera && o.adaptive && table.meshes.some((d) => d.blocks.length)) {
+      if (Number.isFinite(o.triangleBudget) && o.triangleBudget >= 0 && o.camera && o.adaptive && table.meshes.some((d) => d.blockCount)) {
         this._viewCaps = viewCapacities(table, o.triangleBudget);
       }
       await nextTask();  // the base is built in tasks of its own (_buildBase), not in the fetch's
       const build = () => this._buildBase(table, base, draco);
       await (this.options.builds ? this.options.builds.run(build) : build());
-      // The worker takes the bases (its WebAssembly decoder checks them) while the base shows:
-      // the first picture does not wait for the module; the first mesh chunk does (_applyChunk).
-      if (this._worker && this.meshes.length) {
-        this._setup = this._worker.setup(table.meshes, this.meshes, this._viewCaps)
-          .catch((e) => { throw this._fail(`the base cannot be decoded (${e.message})`); });
-        this._setup.catch(() => {});  // reported where it is awaited
+      // The decoders take the bases (the worker's WebAssembly decoder checks them) while the base
+      // shows: the first picture does not wait for the module, nor for a block index (read after
+      // the base: what refinements need, not the first picture); the first mesh chunk does.
+      if (table.indexPending) {
+        this._indexed = this._readIndex(table, raw, dataStart, signal);
+        this._indexed.catch(() => {});  // reported where it is awaited (play)
+      } else {
+        this._startDecoders(table);
+        this._indexed = Promise.resolve();
       }
       this.table = table;
       this.order = order;
@@ -323,6 +327,53 @@ export class MeshmuxStream extends EventTarget {
     } finally {
       this._abort = null;
     }
+  }
+
+  // The decoders set up with the bases (and, for block meshes, their blocks): the worker's
+  // (this._setup, awaited by mesh chunks), or on the page the block meshes' blocks and, played by
+  // view, their BlockMeshStates.
+  _startDecoders(table) {
+    if (this._worker && this.meshes.length) {
+      this._setup = this._worker.setup(table.meshes, this.meshes, this._viewCaps)
+        .catch((e) => { throw this._fail(`the base cannot be decoded (${e.message})`); });
+      this._setup.catch(() => {});  // reported where it is awaited
+      return;
+    }
+    this.meshes.forEach((mesh, i) => {
+      const d = table.meshes[i], cap = this._viewCaps && this._viewCaps[i];
+      if (cap && mesh.base) {  // played by view on the page: the state takes blocks
+        mesh.view = new BlockMeshState(this._decoder, d, i, mesh.base,
+          { quantized: mesh.quantized, origin: mesh.origin, step: mesh.step, ...cap });
+        mesh.base = null;
+        mesh.solid = mesh.view.solid;
+      } else if (mesh.state && d.blocks.length) {
+        mesh.state.setBlocks(d.blocks);
+      }
+    });
+  }
+
+  // The block index (stream/format.h "Block index"), fetched after the base: merged into the
+  // table (`raw`, as parsed), validated whole, its block lists and parts put in `table` (the one
+  // this.table holds); its bytes counted as received; then the decoders set up.
+  async _readIndex(table, raw, dataStart, signal) {
+    const { offset, size } = table.index;
+    const stored = await this._reader.read(offset, offset + size, signal);
+    let index;
+    try {
+      index = JSON.parse(new TextDecoder('utf-8', { fatal: true }).decode(await inflate(stored, MAX_TABLE_BYTES)));
+    } catch (e) {
+      throw this._fail(`the block index cannot be read (${e.message})`);
+    }
+    const fail = (m) => this._fail(m);
+    const whole = validateTable(mergeIndex(raw, index, fail), { fileSize: Number.isFinite(this._reader.size) ? this._reader.size : Infinity, dataStart, fail });
+    table.meshes.forEach((d, i) => { d.blocks = whole.meshes[i].blocks; });
+    table.chunks.forEach((c, i) => { c.parts = whole.chunks[i].parts; });
+    table.notes = whole.notes;
+    table.indexPending = false;
+    this.notes.push(...whole.notes);
+    this._bytes += size;
+    this._emit('progress');
+    this._startDecoders(table);
   }
 
   // Parses the base .glb; swaps in the streaming geometries and the shared shading.
@@ -512,17 +563,6 @@ export class MeshmuxStream extends EventTarget {
     this._streamedMaterials = [...materialFor].filter(([source]) => streamed(source)).map(([, m]) => m);
     await slice();
     this._findKept(gltf.parser, [...materialFor].filter(([source]) => !streamed(source)).map(([, m]) => m));
-    // Played by view on the page (no worker): each block mesh's state takes blocks.
-    if (this._viewCaps && !this._worker) {
-      this.meshes.forEach((mesh, i) => {
-        const cap = this._viewCaps[i];
-        if (!cap || !mesh.base) return;
-        mesh.view = new BlockMeshState(this._decoder, table.meshes[i], i, mesh.base,
-          { quantized: mesh.quantized, origin: mesh.origin, step: mesh.step, ...cap });
-        mesh.base = null;
-        mesh.solid = mesh.view.solid;
-      });
-    }
     await slice();
     this.object.add(root);
     this.object.updateMatrixWorld(true);
@@ -720,7 +760,18 @@ export class MeshmuxStream extends EventTarget {
   play() {
     if (!this.table) return Promise.reject(this._fail('play() before open()'));
     if (this._state === 'error' || this._state === 'disposed') return Promise.reject(this._fail(`cannot play: the stream is in state ${this._state}`));
-    if (!this._playing) this._playing = (this._viewCaps ? this._runView() : this._run()).finally(() => { this._playing = null; });
+    // A block index still on its way comes first (the refinements are read against it).
+    const run = async () => {
+      try {
+        await this._indexed;
+      } catch (error) {
+        this._state = 'error';
+        this._emit('error', { error });
+        throw error;
+      }
+      return this._viewCaps ? this._runView() : this._run();
+    };
+    if (!this._playing) this._playing = run().finally(() => { this._playing = null; });
     return this._playing;
   }
 
@@ -1115,6 +1166,7 @@ export class MeshmuxStream extends EventTarget {
   // Per package mesh, the digest of the state its decoder holds (stream/vsplit.h state_digest;
   // report.json's "stream_digests" once the stream is complete). For tests and tools.
   async stateDigests() {
+    await this._indexed;
     if (this._worker) {
       await this._setup;
       return this._worker.digests();

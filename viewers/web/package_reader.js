@@ -52,9 +52,53 @@ export async function inflate(bytes, limit, format = 'deflate') {
 
 // ---- The package table -----------------------------------------------------------------------
 
+// The block index's lists (stream/format.h "Block index": {blocks, parts}, parsed) put where a
+// table without an index holds them: each block mesh's "blocks" (the table gives its count), each
+// mesh chunk's "parts". Returns a new table object; throws fail(message) where they do not fit.
+export function mergeIndex(t, index, fail) {
+  const need = (ok, message) => { if (!ok) throw fail(message); };
+  need(index && typeof index === 'object' && Array.isArray(index.blocks) && Array.isArray(index.parts),
+    'the block index must be {"blocks": [...], "parts": [...]}');
+  need(Array.isArray(t.meshes) && index.blocks.length === t.meshes.length, 'the block index does not hold one entry per mesh');
+  const meshes = t.meshes.map((m, i) => {
+    const list = index.blocks[i], listed = list !== null;
+    need(listed === (m !== null && typeof m === 'object' && m.blocks !== undefined)
+      && (!listed || (Array.isArray(list) && m.blocks === list.length)), `meshes[${i}]: its "blocks" count and the index's list differ`);
+    return listed ? { ...m, blocks: list } : m;
+  });
+  need(Array.isArray(t.chunks), 'chunks must be an array');
+  let next = 0;
+  const chunks = t.chunks.map((c) => {
+    if (!c || c.kind !== 'mesh') return c;
+    need(c.parts === undefined, 'a mesh chunk carries parts in the table and in the block index');
+    need(next < index.parts.length, 'the block index holds fewer part lists than mesh chunks');
+    return { ...c, parts: index.parts[next++] };
+  });
+  need(next === index.parts.length, 'the block index holds more part lists than mesh chunks');
+  return { ...t, meshes, chunks, merged: true };
+}
+
+// A whole package's table as parsed, its block index merged in (mergeIndex), for tools that hold
+// the file (`bytes`) and a synchronous inflater (`inflateSync(bytes)` → bytes, node's
+// zlib.inflateSync): {raw, dataStart}, to validate with validateTable.
+export function rawTableOf(bytes, inflateSync, fail = (m) => new Error(m)) {
+  const J = new DataView(bytes.buffer, bytes.byteOffset).getUint32(8, true), dataStart = 12 + J;
+  const parse = (b) => JSON.parse(new TextDecoder('utf-8').decode(inflateSync(b)));
+  let raw = parse(bytes.subarray(12, dataStart));
+  if (raw && raw.index && Number.isSafeInteger(raw.index.offset) && Number.isSafeInteger(raw.index.size)) {
+    const at = dataStart + raw.index.offset;
+    raw = mergeIndex(raw, parse(bytes.subarray(at, at + raw.index.size)), fail);
+  }
+  return { raw, dataStart };
+}
+
 // Validates the parsed JSON table against the file and returns it normalized (numbers checked,
 // mesh parts contiguous, orders complete; offsets, which count from the data start, made
-// absolute). `fail(message)` makes the Error to throw.
+// absolute). `fail(message)` makes the Error to throw. A package with blocks keeps its block
+// lists and parts in the block index (stream/format.h): its table alone (not mergeIndex's) is
+// read as far as the first picture needs, its block meshes' blocks and its mesh chunks' parts
+// left empty (each mesh's blockCount says how many blocks it has) and `indexPending` true;
+// validated again once merged, it is whole.
 export function validateTable(t, { fileSize, dataStart, fail }) {
   const need = (ok, message) => { if (!ok) throw fail(message); };
   const obj = (v, what) => { need(v && typeof v === 'object' && !Array.isArray(v), `${what} must be an object`); return v; };
@@ -118,6 +162,11 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   // Optional: the base is the whole model (Draco-coded, no mesh chunk follows).
   need(t.base.whole === undefined || typeof t.base.whole === 'boolean', 'base.whole must be true or false');
   base.whole = t.base.whole === true;
+  // The block index (version 17): right after the base; the table alone waits for it.
+  const index = t.version === BLOCK_PACKAGE_VERSION && t.index !== undefined ? range(obj(t.index, 'index'), 'index') : null;
+  need(t.version === BLOCK_PACKAGE_VERSION || t.index === undefined, `index in a version ${t.version} package`);
+  need(!index || (index.offset === base.offset + base.size && index.size > 0), 'index must follow the base, not empty');
+  const pending = index !== null && t.merged !== true;
   need(base.deflated || base.glbSize === base.size, `base.glb_size ${base.glbSize} differs from its stored size ${base.size}`);
   need(base.glbSize >= 20, `the base .glb is ${base.glbSize} bytes, too small for a glb`);
   const meshes = arr(t.meshes, 'meshes').map((m, i) => {
@@ -130,7 +179,14 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
     };
     need(d.bounds.length === 6 && d.bounds.every(Number.isFinite), `${w}.bounds must be 6 finite numbers`);
     d.quantization = { origin: vec3(d.quantization.origin, `${w}.quantization.origin`), step: num(d.quantization.step, `${w}.quantization.step`, Number.MIN_VALUE) };
-    d.blocks = m.blocks === undefined ? [] : readBlocks(m.blocks, d, w);
+    if (pending && m.blocks !== undefined) {  // the count; the list is in the index
+      d.blocks = [];
+      d.blockCount = int(m.blocks, `${w}.blocks (count)`, 65535);
+      need(d.blockCount > 0, `${w}.blocks: a block mesh has no blocks`);
+    } else {
+      d.blocks = m.blocks === undefined ? [] : readBlocks(m.blocks, d, w);
+      d.blockCount = d.blocks.length;
+    }
     return d;
   });
   // A mesh's block hierarchy (stream/format.h "Blocks"): [level, error, box, deps] each, the
@@ -263,6 +319,11 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
       chunk.parts = [];
       return chunk;
     }
+    if (pending) {  // its parts are in the index
+      need(c.parts === undefined, `${w}: parts in the table of a package with a block index`);
+      chunk.parts = [];
+      return chunk;
+    }
     let bytes = 0;
     chunk.parts = arr(c.parts, `${w}.parts`).map((p, j) => {
       // [mesh, vertex_end, face_end, bytes], starting where its mesh stands; a block mesh's
@@ -308,6 +369,7 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   const n = chunks.length;
   meshes.forEach((m, i) => m.blocks.forEach((b, k) => need(sent[i][k] || (b.vertex_end === b.vertex_begin && b.face_end === b.face_begin),
     `meshes[${i}].blocks[${k}] is in no part`)));
+  need(pending || meshes.every((m) => m.blockCount === m.blocks.length), 'a block mesh without its block list');
 
   // Orders: permutations of the chunks that keep the mesh chunks' relative order.
   const orders = (t.orders === undefined ? [{ name: 'rate-distortion', chunks: chunks.map((_, i) => i) }] : arr(t.orders, 'orders')).map((o, k) => {
@@ -371,9 +433,9 @@ export function validateTable(t, { fileSize, dataStart, fail }) {
   }
 
   // Not fatal: a complete stream should end on the full mesh sizes.
-  const notes = held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
+  const notes = pending ? [] : held.flatMap((h, i) => (h.vertices === meshes[i].vertices && h.faces === meshes[i].faces ? []
     : [`mesh ${i}: the stream ends at ${h.vertices} vertices / ${h.faces} faces, the table says ${meshes[i].vertices} / ${meshes[i].faces}`]));
-  return { version: t.version, view, base, meshes, texture, chunks, orders, view_table: viewTable, notes };
+  return { version: t.version, view, base, index, indexPending: pending, meshes, texture, chunks, orders, view_table: viewTable, notes };
 }
 
 // ---- HTTP ranges -----------------------------------------------------------------------------

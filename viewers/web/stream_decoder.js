@@ -80,7 +80,8 @@ export class Decoder {
 }
 
 // Package mesh `index` as the decoder holds it (stream/vsplit.h VsplitMesh in the module's
-// memory) with the table's full counts (`desc`: {vertices, faces}) as capacities. Every call
+// memory) with the table's full counts (`desc`: {vertices, faces}) as capacities, and its blocks
+// (desc.blocks with their ranges, when it has any) for block parts. Every call
 // that fails throws an Error "mesh <index>: <what>" (the decoder's message, which names the
 // split); a state whose call failed is not used again. free() gives its memory back.
 export class MeshDecoder {
@@ -89,6 +90,18 @@ export class MeshDecoder {
     this.index = index;
     this.handle = this._call(() => decoder.x.mmx_mesh_new(desc.vertices, desc.faces)) >>> 0;
     if (!this.handle) throw this._fail(decoder.error());
+    if (desc.blocks && desc.blocks.length) this.setBlocks(desc.blocks);
+  }
+
+  // The mesh's blocks (stream/format.h "Blocks": box, deps; the ranges package_reader.js
+  // derived), which its block parts' parents are read against (stream/decoder_api.h
+  // mmx_set_blocks).
+  setBlocks(blocks) {
+    const words = [];
+    for (const b of blocks) words.push(...b.box, b.vertex_begin, b.vertex_end, b.deps.length, ...b.deps);
+    const u32 = Uint32Array.from(words);
+    const at = this.decoder.input(new Uint8Array(u32.buffer));
+    this._check(this._call(() => this.decoder.x.mmx_set_blocks(this.handle, at, u32.length)));
   }
 
   _fail(message) { return new Error(`mesh ${this.index}: ${message}`); }
@@ -145,11 +158,11 @@ export class MeshDecoder {
     this._check(this._call(() => this.decoder.x.mmx_apply_part(this.handle, at, end - begin, splits, faces)));
   }
 
-  // Applies one block part (stream/format.h "Blocks"): its contexts fresh, its `splits` vertices
-  // placed at stream numbers vertexBegin on.
-  applyBlockSplits(d, begin, end, vertexBegin, splits, faces) {
+  // Applies the part of block `block` (stream/format.h "Blocks"): its contexts fresh, its
+  // `splits` vertices placed at the block's stream numbers.
+  applyBlockSplits(d, begin, end, block, splits, faces) {
     const at = this.decoder.input(d.subarray(begin, end));
-    this._check(this._call(() => this.decoder.x.mmx_apply_block_part(this.handle, at, end - begin, vertexBegin, splits, faces)));
+    this._check(this._call(() => this.decoder.x.mmx_apply_block_part(this.handle, at, end - begin, block, splits, faces)));
   }
 
   // What changed since vertex v0 and face f0 (the counts at beginChanges): {v0, vn, f0, nf,

@@ -162,12 +162,12 @@ export class StreamMesh {
   // Applies one part on the page (its coded bytes d[begin, end)): `splits` vertex splits and
   // `faces` new faces (stream/vsplit.h, in the page's WebAssembly decoder), then takes in what
   // changed as a worker's changes are; an Error names the split and the problem.
-  // vertexBegin: a block part's first vertex (stream/format.h "Blocks"), or -1.
-  applySplits(d, begin, end, splits, faces, vertexBegin = -1) {
+  // block: a block part's block (stream/format.h "Blocks"), or -1.
+  applySplits(d, begin, end, splits, faces, block = -1) {
     if (!this.state) throw new Error(`mesh ${this.index}: decoded in a worker, not on the page`);
     const v0 = this.vertices, f0 = this.faces;
     this.state.beginChanges();
-    if (vertexBegin >= 0) this.state.applyBlockSplits(d, begin, end, vertexBegin, splits, faces);
+    if (block >= 0) this.state.applyBlockSplits(d, begin, end, block, splits, faces);
     else this.state.applySplits(d, begin, end, splits, faces);
     this.applyChanges(this.state.changes(v0, f0, this.quantized, this.origin, this.step));
   }
@@ -314,7 +314,7 @@ export async function applyMeshChunk(meshes, chunk, payload) {
   for (const part of chunk.parts) {
     const faces = part.face_end - part.face_begin;
     meshes[part.mesh].applySplits(payload, at, at + part.bytes, part.vertex_end - part.vertex_begin, faces,
-      part.block >= 0 ? part.vertex_begin : -1);
+      part.block >= 0 ? part.block : -1);
     at += part.bytes;
     added += faces;
   }

@@ -6,11 +6,12 @@
 // base) and answers (setup, chunk, digests and release in the order asked; fetch and image once
 // their work is done, so they may overtake):
 //   setup  {meshes: [{vertices, faces, origin, step, base: {qp, qn, qt, count, quantized,
-//          faces: [Uint32Array]} | null}]} → {solid: [per mesh]}: the meshes with their bases
-//          (the decoder checks every base face)
-//   chunk  {parts: [[mesh, splits, faces, bytes, vertexBegin]], payload} → {changes, seconds}:
-//          the chunk's parts applied in order (vertexBegin ≥ 0: a block part, stream/format.h
-//          "Blocks", its vertices placed from that stream number on); per mesh touched {mesh, v0, vn, f0, nf, solid, position,
+//          faces: [Uint32Array]} | null, blocks: [...] | null}]} → {solid: [per mesh]}: the
+//          meshes with their bases (the decoder checks every base face) and blocks (the table's,
+//          with their ranges: a block mesh's parts are read against them)
+//   chunk  {parts: [[mesh, splits, faces, bytes, block]], payload} → {changes, seconds}:
+//          the chunk's parts applied in order (block ≥ 0: a block part, stream/format.h
+//          "Blocks", its vertices placed at that block's stream numbers); per mesh touched {mesh, v0, vn, f0, nf, solid, position,
 //          normal, uv (the new vertices' float attributes), appended (the new faces' indices),
 //          moved ([corner, vertex] pairs: corners of earlier faces the splits moved)}
 //   block  {mesh, block, payload} → {change, seconds}: a block mesh played by view (setup gave
@@ -126,7 +127,7 @@ function chunk(m, payload) {
   const t0 = performance.now();
   const touched = new Map();  // mesh → where it stood before this chunk
   let at = 0;
-  for (const [mesh, splits, faces, bytes, vertexBegin = -1] of m.parts) {
+  for (const [mesh, splits, faces, bytes, block = -1] of m.parts) {
     const entry = meshes[mesh];
     if (!entry) throw new Error(`mesh chunk: part of mesh ${mesh}, the package has ${meshes.length}`);
     if (entry.view) throw new Error(`mesh ${mesh} is played by view: it takes blocks, not chunks`);
@@ -135,7 +136,7 @@ function chunk(m, payload) {
       touched.set(mesh, [entry.state.vertices, entry.state.faces]);
     }
     if (!(at + bytes <= payload.length)) throw new Error(`mesh ${mesh}: its part runs past the chunk's ${payload.length} bytes`);
-    if (vertexBegin >= 0) entry.state.applyBlockSplits(payload, at, at + bytes, vertexBegin, splits, faces);
+    if (block >= 0) entry.state.applyBlockSplits(payload, at, at + bytes, block, splits, faces);
     else entry.state.applySplits(payload, at, at + bytes, splits, faces);
     at += bytes;
   }

@@ -27,7 +27,7 @@ const FRAME_EVERY_MS = 100;
 // face), never more than the mesh has.
 export function viewCapacities(table, budget) {
   return table.meshes.map((d) => {
-    if (!d.blocks.length) return null;
+    if (!d.blockCount) return null;
     const faces = Math.min(d.faces, Math.max(Math.floor(budget), d.base_faces));
     return { capacityFaces: faces, capacityVertices: Math.min(d.vertices, d.base_vertices + faces) };
   });

@@ -196,6 +196,7 @@ export class StreamWorker {
     meshes.forEach((m) => { m.base = null; });
     const reply = await this._request({ type: 'setup', meshes: descs.map((d, i) => ({
       vertices: d.vertices, faces: d.faces, origin: meshes[i].origin, step: meshes[i].step, base: bases[i],
+      blocks: d.blocks && d.blocks.length ? d.blocks : null,
       view: view && view[i] ? { ...view[i], blocks: d.blocks } : null })) }, transfer);
     // The decoder checked the bases' faces and counted the solid ones.
     reply.solid.forEach((n, i) => { meshes[i].solid = n; });
@@ -207,9 +208,9 @@ export class StreamWorker {
   // `payload`: the chunk's bytes, or HeldBytes of this worker's.
   async applyChunk(meshes, chunk, payload) {
     checkParts(meshes, chunk, payload);
-    // A block part (stream/format.h "Blocks") carries its first vertex's stream number.
+    // A block part (stream/format.h "Blocks") carries its block.
     const parts = chunk.parts.map((p) => [p.mesh, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin, p.bytes,
-      p.block >= 0 ? p.vertex_begin : -1]);
+      p.block >= 0 ? p.block : -1]);
     const reply = await this._request(...this._bytesMessage({ type: 'chunk', parts }, 'payload', payload));
     let added = 0;
     for (const c of reply.changes) {

@@ -116,7 +116,7 @@ function plain(set) {
   const [s] = freshStates({ meshes: [desc] }, [base]);
   for (const k of [...set].sort((a, b) => a - b)) {
     const b = blocks[k], part = partOf.get(k);
-    s.applyBlockSplits(part, 0, part.length, b.vertex_begin, b.vertex_end - b.vertex_begin, b.face_end - b.face_begin);
+    s.applyBlockSplits(part, 0, part.length, k, b.vertex_end - b.vertex_begin, b.face_end - b.face_begin);
   }
   const position = new Float32Array(3 * s.vertices);
   const c = s.changes(0, 0, true, [0, 0, 0], 1);

@@ -9,7 +9,7 @@ import path from 'node:path';
 import zlib from 'node:zlib';
 import { fileURLToPath } from 'node:url';
 
-import { validateTable } from '../package_reader.js';
+import { rawTableOf, validateTable } from '../package_reader.js';
 import { MeshDecoder, loadDecoder } from '../stream_decoder.js';
 import { POSITION_MAX, UV_MAX } from '../stream_format.js';
 
@@ -107,9 +107,8 @@ export function readBase(glb, table) {
 // whole model). Throws an Error naming what is wrong.
 export function readPackage(file) {
   const bytes = new Uint8Array(fs.readFileSync(file));
-  const J = new DataView(bytes.buffer).getUint32(8, true), dataStart = 12 + J;
-  const table = validateTable(JSON.parse(zlib.inflateSync(bytes.subarray(12, dataStart)).toString('utf8')),
-    { fileSize: bytes.length, dataStart, fail: (m) => new Error(m) });
+  const { raw, dataStart } = rawTableOf(bytes, zlib.inflateSync);
+  const table = validateTable(raw, { fileSize: bytes.length, dataStart, fail: (m) => new Error(m) });
   if (table.base.whole) return { bytes, table, bases: null };
   const stored = bytes.subarray(table.base.offset, table.base.offset + table.base.size);  // validated offsets are absolute
   const glb = parseGlb(table.base.deflated ? new Uint8Array(zlib.inflateSync(stored)) : stored);
@@ -134,8 +133,8 @@ export function freeStates(states) {
 export function applyChunk(states, bytes, c) {
   let at = c.offset;
   for (const p of c.parts) {
-    // A block part (stream/format.h "Blocks"): its vertices placed at their stream numbers.
-    if (p.block >= 0) states[p.mesh].applyBlockSplits(bytes, at, at + p.bytes, p.vertex_begin, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
+    // A block part (stream/format.h "Blocks"): its vertices placed at its block's stream numbers.
+    if (p.block >= 0) states[p.mesh].applyBlockSplits(bytes, at, at + p.bytes, p.block, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
     else states[p.mesh].applySplits(bytes, at, at + p.bytes, p.vertex_end - p.vertex_begin, p.face_end - p.face_begin);
     at += p.bytes;
   }

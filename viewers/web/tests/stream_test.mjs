@@ -34,6 +34,7 @@ import { spawnSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
+import { rawTableOf } from '../package_reader.js';
 import { launch, opt, serve, skip } from './harness.mjs';
 
 const args = process.argv.slice(2);
@@ -114,7 +115,7 @@ const packageBytes = fs.statSync(path.join(out, 'model.mmxp')).size;
 // and the stream fail naming the chunk (none for a package without mesh chunks).
 const corruptChunk = (() => {
   const bytes = fs.readFileSync(path.join(out, 'model.mmxp'));
-  const J = bytes.readUInt32LE(8), table = JSON.parse(zlib.inflateSync(bytes.subarray(12, 12 + J)).toString('utf8'));
+  const { raw: table, dataStart } = rawTableOf(bytes, zlib.inflateSync), J = dataStart - 12;  // a block index merged in
   const index = table.chunks.findIndex((c) => c.kind === 'mesh' && c.parts.length && c.parts[0][3] >= 64);
   if (index < 0) return null;
   const at = 12 + J + table.chunks[index].offset + Math.floor(table.chunks[index].parts[0][3] / 2) - 8;
@@ -288,15 +289,20 @@ try {
   // refinement to time or digest.
   const wholeBase = await page.evaluate(() => window.meshmuxViewer?.stream?.table?.base?.whole ?? null);
   const bench = wholeBase ? null : await page.evaluate(async () => {
-    const { StreamMesh, applyMeshChunk, validateTable, inflate, loadDecoder } = await import('./viewer/meshmux.js');
+    const { StreamMesh, applyMeshChunk, mergeIndex, validateTable, inflate, loadDecoder } = await import('./viewer/meshmux.js');
     const decoder = await loadDecoder();  // the WebAssembly decoder, here on the page
     const { MeshoptDecoder } = await import('three/addons/libs/meshopt_decoder.module.js');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
     await MeshoptDecoder.ready;
     const bytes = new Uint8Array(await (await fetch('model.mmxp')).arrayBuffer());
     const J = new DataView(bytes.buffer).getUint32(8, true);
-    const table = validateTable(JSON.parse(new TextDecoder().decode(await inflate(bytes.subarray(12, 12 + J), 64 << 20))),
-      { fileSize: bytes.length, dataStart: 12 + J, fail: (m) => new Error(m) });
+    const parse = async (b) => JSON.parse(new TextDecoder().decode(await inflate(b, 64 << 20)));
+    let raw = await parse(bytes.subarray(12, 12 + J));
+    if (raw.index) {  // a package with blocks: its block index merged in (stream/format.h)
+      const at = 12 + J + raw.index.offset;
+      raw = mergeIndex(raw, await parse(bytes.subarray(at, at + raw.index.size)), (m) => new Error(m));
+    }
+    const table = validateTable(raw, { fileSize: bytes.length, dataStart: 12 + J, fail: (m) => new Error(m) });
     const chunks = table.chunks.filter((c) => c.kind === 'mesh' && c.parts.length);
     let faces = 0, splits = 0, best = Infinity, digests = [];
     for (const c of chunks) for (const p of c.parts) faces += p.face_end - p.face_begin, splits += p.vertex_end - p.vertex_begin;
