@@ -270,8 +270,24 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
     const uint32_t r = rank(parent);
     if (plan.block < 0 || r >= va) return r + (plan.block < 0 ? 0 : unlisted);
     auto at = std::lower_bound(listed.begin(), listed.end(), std::make_pair(r, 0u));
-    return at != listed.end() && at->first == r ? at->second : unlisted + r;
+    if (at == listed.end() || at->first != r) return unlisted + r;
+    return plan.morton ? at->second : uint32_t(at - listed.begin());
   };
+  // The candidates' order the part's first-generation parents cost less in (their sorted
+  // indices' gaps, each ~2 log2(gap + 1) + 1 bits as an adaptive coder of small integers spends).
+  if (plan.block >= 0 && !by_gen.empty()) {
+    double bits[2] = {0, 0};
+    for (int morton = 0; morton < 2; ++morton) {
+      plan.morton = morton != 0;
+      std::vector<uint64_t> keys;
+      for (uint32_t x : by_gen[0]) keys.push_back(key(pm_.parent[x]));
+      std::sort(keys.begin(), keys.end());
+      uint64_t previous = 0;
+      for (uint64_t k : keys)
+        bits[morton] += 2 * std::log2(double(k - previous) + 1) + 1, previous = k;
+    }
+    plan.morton = bits[1] <= bits[0];
+  }
   uint32_t id = va;
   for (auto& bucket : by_gen) {
     std::vector<std::pair<uint64_t, uint32_t>> keyed(bucket.size());
@@ -352,10 +368,13 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   e.part = {mesh_, va, vb, fa, fb, 0, -1};
   if (block_parts_ && plan.level > 0) e.part.block = int32_t(pm_.level_block[plan.level - 1]);
   RangeEncoder out;
-  // A block part's parents are indices into its candidates: (stream number, index), sorted.
+  // A block part's parents are indices into its candidates, in Morton order or in stream numbers
+  // (plan.morton): (stream number, index), sorted.
   std::vector<std::pair<uint32_t, uint32_t>> listed(plan.candidates.size());
   for (uint32_t i = 0; i < plan.candidates.size(); ++i) listed[i] = {plan.candidates[i], i};
   std::sort(listed.begin(), listed.end());
+  if (!plan.morton)
+    for (uint32_t i = 0; i < listed.size(); ++i) listed[i].second = i;
   const uint32_t candidates = uint32_t(plan.candidates.size());
   std::vector<uint32_t>().swap(plan.candidates);
   if (block_parts_) sim_.contexts = VsplitContexts();
@@ -364,6 +383,7 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   field(StreamField::kOther);
   out.put_direct(normals_ ? 1 : 0, 1);
   out.put_direct(uvs_ ? 1 : 0, 1);
+  if (block_parts_) out.put_direct(plan.morton ? 1 : 0, 1);
   std::vector<uint8_t> takes, moved;  // per corner of the parent: taken by the new vertex
   std::vector<uint32_t> ring;
   struct NewFace {

@@ -106,6 +106,7 @@ class MeshStreamEncoder {
                                                   // vertex of the part, its stream index
     int32_t block = -1;                           // a block part's block, else -1
     std::vector<uint32_t> candidates;             // a block part's (block_parent_candidates)
+    bool morton = true;  // its parents index the candidates in Morton order, else stream numbers
   };
   // The plan of the part from the last level planned to `level`. Reads the encoder's stream
   // indices and writes nothing the encoder reads, so it may run on another thread while

@@ -416,6 +416,12 @@ Status decode_vsplit(VsplitMesh& mesh, const uint8_t* data, size_t size, uint32_
   RangeDecoder in(data, size);
   VsplitContexts& x = mesh.contexts;
   const bool normals = in.get_direct(1) != 0, uvs = in.get_direct(1) != 0;
+  std::vector<uint32_t> by_number;  // a block part's candidates in stream numbers
+  if (candidates && in.get_direct(1) == 0) {
+    by_number = *candidates;
+    std::sort(by_number.begin(), by_number.end());
+    candidates = &by_number;
+  }
   const uint32_t face_goal = mesh.face_count() + faces;
   uint32_t previous = 0, previous_mode = 1;
   std::vector<uint32_t> ring;

@@ -24,13 +24,15 @@
 // stream order. In decoding
 // order ("uint" is RangeDecoder::get_uint, "tree" get_tree, each through the named contexts):
 //   header  two direct bits: 1 when the mesh carries normals, 1 when it carries texture
-//           coordinates. A mesh without normals (its sources are flat-shaded, glTF 3.7.2.1:
-//           viewers derive face normals) gives every new vertex +Z (0, 0, 127); one without
-//           texture coordinates gives (0, 0).
+//           coordinates; a block part a third: 1 when its candidates go in Morton order, 0 in
+//           stream numbers (the encoder takes the order its parents cost less in). A mesh without
+//           normals (its sources are flat-shaded, glTF 3.7.2.1: viewers derive face normals) gives
+//           every new vertex +Z (0, 0, 127); one without texture coordinates gives (0, 0).
 //   per split, with d the parent's corner count before the split:
 //   Z   uint(parent): zigzag(parent - previous parent) (previous starts at 0 per part). In a
 //       block part (decode_vsplit_block_part) the parent is an index into the block's list: its
-//       candidates (block_parent_candidates, in Morton order), C of them, then the part's own
+//       candidates (block_parent_candidates, in Morton order or sorted by stream number as the
+//       header says), C of them, then the part's own
 //       vertices (C + i for its i-th); index C + splits escapes, followed by uint(escape) the
 //       stream number of a held vertex (a parent outside the box's bounds). A block part's
 //       splits are ordered by generation, then by that index.
