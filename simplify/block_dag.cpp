@@ -338,13 +338,14 @@ Status order_by_blocks(ProgressiveMesh& pm) {
     return fail("the record has no block hierarchy");
   for (uint16_t b : pm.level_block)
     if (b >= blocks) return fail("a level's block " + std::to_string(b) + " does not exist");
-  // The new order of the levels 1..m: by block (the root's level is the highest), then as
-  // recorded.
+  // The new order of the levels 1..m: by block (the root's level is the highest; within a level,
+  // the blocks of larger error first, as a greedy simplifier's chain would refine them: a level's
+  // blocks never depend on each other), then as recorded.
   std::vector<uint32_t> order(levels - 1);
   for (size_t r = 1; r < levels; ++r) order[r - 1] = uint32_t(r);
   auto rank = [&](uint32_t r) {
     const ProgressiveBlock& b = pm.blocks[pm.level_block[r - 1]];
-    return std::make_tuple(-int(b.level), b.block, r);
+    return std::make_tuple(-int(b.level), -b.error, b.block, r);
   };
   std::stable_sort(order.begin(), order.end(),
                    [&](uint32_t a, uint32_t b) { return rank(a) < rank(b); });

@@ -57,13 +57,13 @@ struct BlockDag {
 Result<BlockDag> block_dag(const ProgressiveMesh& pm);
 
 // Renumbers a record with a block hierarchy so that each block's levels are contiguous: the
-// root's first, then the blocks from the coarsest level to the finest (by index within a
-// level), each block's levels in their record order. A block depends only on coarser ones
-// (block_dag.h: its locked borders keep a level's blocks apart), so this is a topological order
-// of the DAG, and every split keeps its parent, its faces and the neighbourhood it reads: the
-// same progressive mesh, its vertices and faces renumbered (block_dag() of the result, or a
-// stream's decoding, fails where that would not hold). The root's levels keep their errors;
-// past them, a level's error becomes the largest error of the blocks not yet fully applied
+// root's first, then the blocks from the coarsest level to the finest (within a level, larger
+// error first, then by index), each block's levels in their record order. A block depends only on
+// coarser ones (block_dag.h: its locked borders keep a level's blocks apart), so this is a
+// topological order of the DAG, and every split keeps its parent, its faces and the neighbourhood
+// it reads: the same progressive mesh, its vertices and faces renumbered (block_dag() of the
+// result, or a stream's decoding, fails where that would not hold). The root's levels keep their
+// errors; past them, a level's error becomes the largest error of the blocks not yet fully applied
 // (ProgressiveBlock::error: never below the true one, never increasing with detail); the base
 // level stays where it was when the root holds it, else it becomes the root's last level. The
 // root (the whole-unit loop's chain) becomes pieces of a quarter more triangles each from the
