@@ -29,6 +29,47 @@ Status internal(uint32_t mesh, const std::string& what) {
   return Status::error("package: mesh " + std::to_string(mesh) + ": " + what, ErrorKind::kInternal);
 }
 
+// A block part's parents as indices into its candidates (stream/vsplit.h "Z"): the candidates
+// in Morton order (block_parent_candidates) or in stream numbers (`morton` false).
+class CandidateIndex {
+ public:
+  CandidateIndex() = default;
+  explicit CandidateIndex(const std::vector<uint32_t>& candidates) : size_(candidates.size()) {
+    listed_.reserve(candidates.size());
+    for (uint32_t i = 0; i < candidates.size(); ++i) listed_.emplace_back(candidates[i], i);
+    std::sort(listed_.begin(), listed_.end());
+  }
+  bool morton = true;
+  uint32_t size() const { return uint32_t(size_); }
+  // The index of stream vertex v in the chosen order, or -1 when it is no candidate.
+  int64_t find(uint32_t v) const {
+    auto at = std::lower_bound(listed_.begin(), listed_.end(), std::make_pair(v, 0u));
+    if (at == listed_.end() || at->first != v) return -1;
+    return morton ? at->second : int64_t(at - listed_.begin());
+  }
+  // Sets `morton` to the order in which `parents` (stream numbers, candidates) cost less: their
+  // sorted indices' gaps, each ~2 log2(gap + 1) + 1 bits as an adaptive coder of small integers
+  // spends.
+  void choose(const std::vector<uint32_t>& parents) {
+    double bits[2] = {0, 0};
+    for (int order = 0; order < 2; ++order) {
+      morton = order != 0;
+      std::vector<int64_t> keys;
+      for (uint32_t p : parents)
+        if (int64_t k = find(p); k >= 0) keys.push_back(k);
+      std::sort(keys.begin(), keys.end());
+      int64_t previous = 0;
+      for (int64_t k : keys)
+        bits[order] += 2 * std::log2(double(k - previous) + 1) + 1, previous = k;
+    }
+    morton = bits[1] <= bits[0];
+  }
+
+ private:
+  size_t size_ = 0;
+  std::vector<std::pair<uint32_t, uint32_t>> listed_;  // (stream number, Morton index), by number
+};
+
 // The encoder's own checks on a progressive mesh: what the package reader will demand.
 Status check_mesh(const ProgressiveMesh& pm, uint32_t m) {
   if (pm.vertex_count() > kMaxStreamElements || pm.face_count() > kMaxStreamElements)
@@ -255,39 +296,26 @@ Result<MeshStreamEncoder::PartPlan> MeshStreamEncoder::prepare(size_t level) {
     return v;
   };
   // A block part's parents go by their index in its candidates (stream/vsplit.h "Z"): generation 0
-  // by the candidates' order, later ones by their own stream index (after every candidate).
-  std::vector<std::pair<uint32_t, uint32_t>> listed;  // (stream number, candidate index)
+  // in the candidates' cheaper order, later ones by their own stream index (after every
+  // candidate); a parent outside the candidates after them.
+  CandidateIndex index;
   if (block_parts_ && level > 0) {
     plan.block = int32_t(pm_.level_block[level - 1]);
     if (Status s = block_candidates(uint32_t(plan.block), plan.candidates); !s) return s;
-    listed.reserve(plan.candidates.size());
-    for (uint32_t i = 0; i < plan.candidates.size(); ++i)
-      listed.emplace_back(plan.candidates[i], i);
-    std::sort(listed.begin(), listed.end());
+    index = CandidateIndex(plan.candidates);
+    std::vector<uint32_t> parents;
+    if (!by_gen.empty())
+      for (uint32_t x : by_gen[0]) parents.push_back(rank(pm_.parent[x]));
+    index.choose(parents);
+    plan.morton = index.morton;
   }
-  const uint64_t unlisted = uint64_t(1) << 32;  // a parent outside the candidates: after them
+  const uint64_t unlisted = uint64_t(1) << 32;
   auto key = [&](uint32_t parent) -> uint64_t {
     const uint32_t r = rank(parent);
-    if (plan.block < 0 || r >= va) return r + (plan.block < 0 ? 0 : unlisted);
-    auto at = std::lower_bound(listed.begin(), listed.end(), std::make_pair(r, 0u));
-    if (at == listed.end() || at->first != r) return unlisted + r;
-    return plan.morton ? at->second : uint32_t(at - listed.begin());
+    if (plan.block < 0) return r;
+    const int64_t k = r < va ? index.find(r) : -1;
+    return k >= 0 ? uint64_t(k) : unlisted + r;
   };
-  // The candidates' order the part's first-generation parents cost less in (their sorted
-  // indices' gaps, each ~2 log2(gap + 1) + 1 bits as an adaptive coder of small integers spends).
-  if (plan.block >= 0 && !by_gen.empty()) {
-    double bits[2] = {0, 0};
-    for (int morton = 0; morton < 2; ++morton) {
-      plan.morton = morton != 0;
-      std::vector<uint64_t> keys;
-      for (uint32_t x : by_gen[0]) keys.push_back(key(pm_.parent[x]));
-      std::sort(keys.begin(), keys.end());
-      uint64_t previous = 0;
-      for (uint64_t k : keys)
-        bits[morton] += 2 * std::log2(double(k - previous) + 1) + 1, previous = k;
-    }
-    plan.morton = bits[1] <= bits[0];
-  }
   uint32_t id = va;
   for (auto& bucket : by_gen) {
     std::vector<std::pair<uint64_t, uint32_t>> keyed(bucket.size());
@@ -368,14 +396,9 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
   e.part = {mesh_, va, vb, fa, fb, 0, -1};
   if (block_parts_ && plan.level > 0) e.part.block = int32_t(pm_.level_block[plan.level - 1]);
   RangeEncoder out;
-  // A block part's parents are indices into its candidates, in Morton order or in stream numbers
-  // (plan.morton): (stream number, index), sorted.
-  std::vector<std::pair<uint32_t, uint32_t>> listed(plan.candidates.size());
-  for (uint32_t i = 0; i < plan.candidates.size(); ++i) listed[i] = {plan.candidates[i], i};
-  std::sort(listed.begin(), listed.end());
-  if (!plan.morton)
-    for (uint32_t i = 0; i < listed.size(); ++i) listed[i].second = i;
-  const uint32_t candidates = uint32_t(plan.candidates.size());
+  CandidateIndex index(plan.candidates);  // a block part's parents are indices into these
+  index.morton = plan.morton;
+  const uint32_t candidates = index.size();
   std::vector<uint32_t>().swap(plan.candidates);
   if (block_parts_) sim_.contexts = VsplitContexts();
   VsplitContexts& x = sim_.contexts;  // carried over from the mesh's previous part
@@ -411,19 +434,15 @@ Result<EncodedMeshPart> MeshStreamEncoder::encode(PartPlan plan) {
     uint32_t xv = order_[v], p = rank_[pm_.parent[xv]];
     field(StreamField::kParent);
     if (block_parts_) {  // an index into the block's candidates, then its own vertices
-      uint32_t index = candidates + (vb - va);  // the escape
-      if (p >= va) {
-        index = candidates + (p - va);
-      } else if (auto at = std::lower_bound(listed.begin(), listed.end(), std::make_pair(p, 0u));
-                 at != listed.end() && at->first == p) {
-        index = at->second;
-      }
-      out.put_uint(x.parent, zigzag(int32_t(index) - int32_t(previous)));
-      if (index == candidates + (vb - va)) {
+      const int64_t listed = p < va ? index.find(p) : -1;
+      const uint32_t escape = candidates + (vb - va);
+      const uint32_t at = p >= va ? candidates + (p - va) : listed >= 0 ? uint32_t(listed) : escape;
+      out.put_uint(x.parent, zigzag(int32_t(at) - int32_t(previous)));
+      if (at == escape) {
         out.put_uint(x.escape, p);
         ++escaped_parents_;
       } else {
-        previous = index;
+        previous = at;
       }
     } else {
       out.put_uint(x.parent, zigzag(int32_t(p) - int32_t(previous)));

@@ -71,7 +71,7 @@ struct PackageMesh {
   uint32_t vertices = 0, faces = 0, base_vertices = 0, base_faces = 0;
   float bounds[6] = {0, 0, 0, 0, 0, 0};
   double origin[3] = {0, 0, 0}, step = 1;  // the position grid (stream/quantize.h)
-  std::vector<StreamBlock> blocks;         // a block hierarchy (version 16), else empty
+  std::vector<StreamBlock> blocks;         // a block hierarchy (version 17), else empty
 };
 struct PackageOrder {
   std::string name;
@@ -93,6 +93,12 @@ struct Package {
 };
 
 Result<Package> read_package(const std::vector<uint8_t>& bytes);
+
+// The checks a part passes against the table (read_package's, again in decode_part): its ranges
+// inside its mesh (at most kMaxStreamElements vertices and faces), its counts plausible for the
+// bytes that carry them (stream/vsplit.h part_size_plausible). Errors name `where`.
+Status check_part(const PackagePart& p, const std::vector<PackageMesh>& meshes,
+                  const std::string& where);
 
 // The base .glb of a package read from `bytes` (inflated when stored deflated).
 Result<std::vector<uint8_t>> package_base_glb(const std::vector<uint8_t>& bytes,
