@@ -31,6 +31,10 @@ cp "$seeds/out/model.mmxp" "$seeds/package/sample.mmxp"
 # a base of three vertices and one face, then a short part to mutate.
 printf '\x08\0\0\0\x08\0\0\0\x03\0\x03\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\x7f\0\0\x7f\0\0\x7f\0\0\0\0\x01\0\0\0\x02\0\0\0\x01\0\x02\0\x06\0\xc0\0\0\0\0\0' \
   >"$seeds/decoder_api/triangle.bin"
+# The same base, a block table of one block (the whole grid, vertices 3 to 4, no dependency) and
+# a part of that block to mutate.
+printf '\x08\0\0\0\x08\0\0\0\x03\0\x03\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\x10\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\x7f\0\0\x7f\0\0\x7f\0\0\0\0\x01\0\0\0\x02\0\0\0\xff\xff\x09\0\0\0\0\0\0\0\0\0\0\0\0\0\xff\xff\0\0\xff\xff\0\0\xff\xff\0\0\x03\0\0\0\x04\0\0\0\0\0\0\0\xfe\xff\0\0\x01\0\x02\0\x06\0\xe0\0\0\0\0\0' \
+  >"$seeds/decoder_api/block.bin"
 # One triangle with a data: buffer; the same with an instancing extension and a texture.
 buf=$(printf '\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x01\x00\x02\x00\x00\x00' | base64 -w0)
 cat > "$seeds/gltf/triangle.gltf" <<JSON
