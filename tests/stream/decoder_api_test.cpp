@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "clean/clean.h"
 #include "simplify/simplify.h"
@@ -111,6 +112,46 @@ TEST(DecoderApi, BadInputIsRefusedWithAMessage) {
   const uint8_t bytes[4] = {1, 2, 3, 4};
   EXPECT_EQ(mmx_apply_part(mesh, bytes, 4, 1, 0), 1);
   EXPECT_EQ(error_text(), "4 bytes cannot hold 1 splits and 0 faces");
+  mmx_mesh_free(mesh);
+}
+
+// A block table the client hands the module is checked as it is read (a box past the grid, a
+// range past the capacity, a dependency on a later block, a table cut inside a block), and a
+// block part needs a table that has its block: each refused with a message, nothing decoded.
+TEST(DecoderApi, BlockTableIsCheckedAsRead) {
+  MmxMesh* mesh = mmx_mesh_new(8, 8);
+  const uint16_t p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const int8_t n[9] = {0, 0, 127, 0, 0, 127, 0, 0, 127};
+  const uint16_t t[6] = {};
+  ASSERT_EQ(mmx_set_base(mesh, p, n, t, 3), 0);
+  const uint8_t bytes[8] = {};
+  EXPECT_EQ(mmx_apply_block_part(mesh, bytes, 8, 0, 1, 2), 1);
+  EXPECT_EQ(error_text(), "block 0 of 0 set");
+  // Two blocks: the grid, vertices 3..5 and 5..8, the second depending on the first.
+  std::vector<uint32_t> good = {0, 0, 0,     65535, 65535, 65535, 3, 5, 0, 0,
+                                0, 0, 65535, 65535, 65535, 5,     8, 1, 0};
+  ASSERT_EQ(mmx_set_blocks(mesh, good.data(), uint32_t(good.size())), 0) << error_text();
+  std::vector<uint32_t> box = good;
+  box[3] = 65536;
+  EXPECT_EQ(mmx_set_blocks(mesh, box.data(), uint32_t(box.size())), 1);
+  EXPECT_EQ(error_text(), "block 0: box past the grid");
+  std::vector<uint32_t> range = good;
+  range[16] = 9;
+  EXPECT_EQ(mmx_set_blocks(mesh, range.data(), uint32_t(range.size())), 1);
+  EXPECT_EQ(error_text(), "block 1: vertex range outside the mesh");
+  std::vector<uint32_t> later = good;
+  later[18] = 1;
+  EXPECT_EQ(mmx_set_blocks(mesh, later.data(), uint32_t(later.size())), 1);
+  EXPECT_EQ(error_text(), "block 1: dependency 1 is not an earlier block");
+  EXPECT_EQ(mmx_set_blocks(mesh, good.data(), 12), 1);
+  EXPECT_EQ(error_text(), "block 1: the table ends inside it");
+  // The second block's part before the first: its ancestor's vertices are not held.
+  ASSERT_EQ(mmx_set_blocks(mesh, good.data(), uint32_t(good.size())), 0);
+  EXPECT_EQ(mmx_apply_block_part(mesh, bytes, 8, 1, 3, 0), 1);
+  EXPECT_NE(error_text().find("block 1: vertex 3 of block 0 (a dependency) is not held"),
+            std::string::npos)
+      << error_text();
+  EXPECT_EQ(mmx_vertices(mesh), 3u);
   mmx_mesh_free(mesh);
 }
 
