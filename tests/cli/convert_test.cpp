@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "atlas/tiled.h"
 #include "clean/clean.h"
@@ -261,6 +262,22 @@ std::string write_bumpy_sphere(const TempDir& dir, int rows, int columns) {
   return in;
 }
 
+// `meshmux convert in` into dir/out<value>, with `flag value` when value is not empty: the
+// report's block count, or none when the report has no "blocks" (one chain); a failed conversion
+// fails the test.
+std::optional<size_t> converted_blocks(const TempDir& dir, const std::string& in, const char* flag,
+                                       const char* value) {
+  const std::string out = dir.file(std::string("out") + value);
+  std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
+  if (*value) args.insert(args.end(), {flag, value});
+  auto r = run_meshmux(args);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  if (r.exit_code != 0) return std::nullopt;
+  const json report = json::parse(testing::read_file(out + "/report.json"));
+  if (!report.contains("blocks")) return std::nullopt;
+  return report["blocks"].size();
+}
+
 // --max-memory too small for the whole-mesh loop on a 640k-face mesh (500 MB holds it for 500k
 // faces) converts it as blocks, within the cap; without it the mesh stays one chain.
 TEST(ConvertMemory, SmallMaxMemoryBuildsBlocks) {
@@ -268,18 +285,9 @@ TEST(ConvertMemory, SmallMaxMemoryBuildsBlocks) {
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   TempDir dir;
   const std::string in = write_bumpy_sphere(dir, 400, 800);
-  for (const char* mb : {"", "500"}) {
-    const std::string out = dir.file(std::string("out") + mb);
-    std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
-    if (*mb) args.insert(args.end(), {"--max-memory", mb});
-    auto r = run_meshmux(args);
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const json report = json::parse(testing::read_file(out + "/report.json"));
-    if (*mb)
-      EXPECT_GT(report.value("blocks", json::array()).size(), 4u) << "blocks under 500 MB";
-    else
-      EXPECT_FALSE(report.contains("blocks")) << "one chain under the default cap";
-  }
+  EXPECT_GT(converted_blocks(dir, in, "--max-memory", "500").value_or(0), 4u)
+      << "blocks under 500 MB";
+  EXPECT_FALSE(converted_blocks(dir, in, "--max-memory", "")) << "one chain under the default cap";
 }
 
 // --blocks-above sets the size from which a mesh streams as blocks: a 90k-face mesh takes the
@@ -290,18 +298,11 @@ TEST(ConvertBlocks, BlocksAboveChoosesTheBlockPath) {
   if (!testing::renderer_available(&why)) GTEST_SKIP() << why;
   TempDir dir;
   const std::string in = write_bumpy_sphere(dir, 150, 300);
-  for (const char* above : {"50000", "0", ""}) {
-    const std::string out = dir.file(std::string("out") + above);
-    std::vector<std::string> args = {"convert", in, "-o", out, "-q"};
-    if (*above) args.insert(args.end(), {"--blocks-above", above});
-    auto r = run_meshmux(args);
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    const json report = json::parse(testing::read_file(out + "/report.json"));
-    if (std::string(above) == "50000")
-      EXPECT_GT(report.value("blocks", json::array()).size(), 1u) << "blocks over 50,000 faces";
-    else
-      EXPECT_FALSE(report.contains("blocks")) << "one chain with --blocks-above '" << above << "'";
-  }
+  EXPECT_GT(converted_blocks(dir, in, "--blocks-above", "50000").value_or(0), 1u)
+      << "blocks over 50,000 faces";
+  for (const char* above : {"0", ""})
+    EXPECT_FALSE(converted_blocks(dir, in, "--blocks-above", above))
+        << "one chain with --blocks-above '" << above << "'";
   EXPECT_EQ(run_meshmux({"convert", in, "-o", dir.file("bad"), "--blocks-above", "-1"}).exit_code,
             1);
 }
